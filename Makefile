@@ -1,0 +1,36 @@
+# Two entry points for a newcomer: `make demo` and `make test`.
+# Each creates .venv if missing (Python 3.11 + pip only), installs the project with every extra, and runs.
+PYTHON ?= python3.11
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+# DDS never leaves loopback on these machines; rclpy needs a writable log dir.
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export ROS_LOG_DIR ?= $(CURDIR)/.ros-log
+
+.PHONY: demo test venv lint bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev]"
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/drs demo
+
+test: $(STAMP)
+	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check drs_model drs_ros tests benchmarks
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/work_precision.py
+
+clean:
+	rm -rf $(VENV) .ros-log .pytest_cache

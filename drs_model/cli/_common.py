@@ -1,0 +1,114 @@
+"""Shared pieces of the ``drs`` subcommands: parameter loading, JSON and table output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+from ..params import DRSParams, from_dict, from_file
+
+
+@dataclass
+class Output:
+    """What a subcommand returns: machine-readable ``data`` and a human ``text`` rendering."""
+
+    data: dict[str, Any]
+    text: str
+
+
+def add_common(parser: argparse.ArgumentParser) -> None:
+    """``--json``, ``--params FILE`` and ``--set NAME=VALUE`` for every subcommand."""
+    parser.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    parser.add_argument("--params", metavar="FILE", help="TOML/YAML file of DRSParams overrides")
+    parser.add_argument(
+        "--set",
+        metavar="NAME=VALUE",
+        action="append",
+        default=[],
+        help="override one DRSParams value (repeatable), e.g. --set Iz_wing=0.08",
+    )
+
+
+def load_params(args: argparse.Namespace) -> DRSParams:
+    base = from_file(args.params) if getattr(args, "params", None) else DRSParams()
+    overrides: dict[str, Any] = {}
+    for item in getattr(args, "set", []) or []:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ParameterError(f"--set expects NAME=VALUE, got {item!r}")
+        try:
+            overrides[name.strip()] = float(value)
+        except ValueError:
+            raise ParameterError(f"--set {name}: {value!r} is not a number") from None
+    return base.replace(**overrides) if overrides else base
+
+
+def float_list(text: str) -> list[float]:
+    """Parse ``"0.001,0.002"`` into floats (argparse ``type=``)."""
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError("expected at least one number")
+    return values
+
+
+def finite(name: str, value: float) -> float:
+    if not math.isfinite(value):
+        raise InputError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+def jsonable(obj: Any) -> Any:
+    """numpy arrays/scalars to lists/floats; NaN/inf to None (strict JSON)."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+def dumps(data: dict[str, Any]) -> str:
+    return json.dumps(jsonable(data), indent=2, allow_nan=False)
+
+
+def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = "{:.9g}") -> str:
+    """A plain aligned text table."""
+
+    def cell(v: Any) -> str:
+        if isinstance(v, (float, np.floating)):
+            return fmt.format(float(v))
+        return str(v)
+
+    body = [[cell(v) for v in row] for row in rows]
+    widths = [max(len(h), *(len(r[i]) for r in body)) if body else len(h) for i, h in enumerate(headers)]
+    line = "  ".join(h.rjust(w) for h, w in zip(headers, widths, strict=True))
+    sep = "  ".join("-" * w for w in widths)
+    out = [line, sep] + ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in body]
+    return "\n".join(out)
+
+
+def key_values(pairs: Sequence[tuple[str, Any, str]]) -> str:
+    """``name  value  unit`` lines."""
+    rows = [(k, v, u) for k, v, u in pairs]
+    return table(("quantity", "value", "unit"), rows)
+
+
+Runner = Callable[[argparse.Namespace], Output]

@@ -1,0 +1,43 @@
+"""Exception types of drs_model.
+
+Every public failure raises a subclass of :class:`DRSError`, so a caller can catch the whole family
+(as mcap roots its errors in ``McapError``). Messages name the bad value and the valid range.
+"""
+
+from __future__ import annotations
+
+
+class DRSError(Exception):
+    """Root of every error raised by drs_model."""
+
+
+class ParameterError(DRSError, ValueError):
+    """A model parameter is invalid (non-positive length, NaN, unknown name, unreachable geometry)."""
+
+
+class InputError(DRSError, ValueError):
+    """An argument of a function is invalid (NaN, wrong shape, non-positive duration...)."""
+
+
+class StrokeRangeError(InputError):
+    """A stroke (or gap, or flap angle) lies outside the admissible range."""
+
+
+class AssemblyError(DRSError, ValueError):
+    """The loop cannot be closed: no real position solution exists for this input."""
+
+
+class SingularConfigurationError(DRSError, ArithmeticError):
+    """The chosen independent coordinate is singular here (det of the dependent Jacobian ~ 0)."""
+
+
+class ConvergenceError(DRSError, ArithmeticError):
+    """An iterative solver (Newton, root finder, integrator) did not converge."""
+
+
+class IntegrationError(DRSError, ArithmeticError):
+    """Forward dynamics failed: step size collapsed, NaN, or the constraint residual grew past a bound."""
+
+
+class ConstraintDriftError(IntegrationError):
+    """The constraint residual of a forward-dynamics solution grew past the allowed bound."""

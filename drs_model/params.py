@@ -1,0 +1,342 @@
+"""Parameters of the DRS mechanism: every datum of seed 003 as the documented default.
+
+Frames and points (seed 003, "Reference frames and points"), all planar, SI units:
+
+* ground: x to the rear (along the main wing chord), y up.
+* RF0 = translate(x_A, y_A): piston base at A. The piston rod slides along +y of RF0 by the stroke s.
+* RF1 = RF0 . translate(0, s + L1) . rotate(psi1): B = origin, the pin between piston and link.
+* RF2 = RF1 . translate(0, L2): C = origin, the link's other end.
+* RF3 = translate(x_D, y_D) . rotate(psi3): the flap pivots at D; C3 = RF3 (-L3, 0) is the flap's pin.
+* RF_flap_wing = RF3 . translate(-L_wing + d_tip, 0): T = origin, the flap tip; the flap outline is
+  given in this frame.
+* RF_main_wing = translate(d_wing, 0) . rotate(gamma): the main-wing outline and R = (x_R, y_R).
+
+Angles are absolute (measured from ground x, counter-clockwise positive), in radians.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import ParameterError
+
+MAIN_WING_OUTLINE: tuple[tuple[float, float], ...] = (
+    (0.29, 0.0228114),
+    (0.2755, 0.0198824),
+    (0.261, 0.016965),
+    (0.232, 0.012093),
+    (0.203, 0.0081548),
+    (0.174, 0.0047473),
+    (0.1595, 0.0032915),
+    (0.145, 0.0020851),
+    (0.1305, 0.0009947),
+    (0.116, 0.0003886),
+    (0.1015, 0.0001044),
+    (0.087, 0.0),
+    (0.0725, 0.0001131),
+    (0.058, 0.0008381),
+    (0.0435, 0.0023722),
+    (0.029, 0.0049967),
+    (0.02175, 0.0069571),
+    (0.0145, 0.0095352),
+    (0.00725, 0.0130123),
+    (0.00435, 0.0148335),
+    (0.0029, 0.0160254),
+    (0.0, 0.0198795),
+    (0.0029, 0.0224054),
+    (0.00435, 0.0227708),
+    (0.00725, 0.023113),
+    (0.0145, 0.0235567),
+    (0.02175, 0.0235654),
+    (0.029, 0.0234117),
+    (0.0435, 0.0227128),
+    (0.058, 0.0219095),
+    (0.0725, 0.0212106),
+    (0.087, 0.0205262),
+    (0.1015, 0.0197664),
+    (0.116, 0.0188761),
+    (0.1305, 0.0182091),
+    (0.145, 0.0177045),
+    (0.1595, 0.017371),
+    (0.174, 0.0173913),
+    (0.203, 0.017951),
+    (0.232, 0.0192386),
+    (0.261, 0.021083),
+    (0.2755, 0.0221995),
+    (0.29, 0.0235654),
+)
+
+FLAP_WING_OUTLINE: tuple[tuple[float, float], ...] = (
+    (0.1200126, 0.00018864),
+    (0.11954484, 0.00030264),
+    (0.1181484, 0.00063936),
+    (0.11584368, 0.0011832),
+    (0.11266452, 0.00190956),
+    (0.10865784, 0.002787),
+    (0.10388352, 0.0037794),
+    (0.09841368, 0.00484752),
+    (0.09233172, 0.0059514),
+    (0.08573112, 0.00705012),
+    (0.07871448, 0.00810336),
+    (0.07139184, 0.00907056),
+    (0.06387876, 0.00991224),
+    (0.05629524, 0.01058988),
+    (0.0487632, 0.01106808),
+    (0.04133724, 0.0112908),
+    (0.0341994, 0.01120224),
+    (0.02748, 0.01079928),
+    (0.0212946, 0.01009392),
+    (0.01574868, 0.00911316),
+    (0.01093464, 0.00789648),
+    (0.0069306, 0.00649284),
+    (0.00379812, 0.00495492),
+    (0.00158256, 0.00333348),
+    (0.00031224, 0.00167172),
+    (0.0, 0.0),
+    (0.00063396, -0.00157764),
+    (0.00218748, -0.00296388),
+    (0.00462864, -0.00414924),
+    (0.00791256, -0.00512328),
+    (0.01198332, -0.00587832),
+    (0.01677516, -0.00641172),
+    (0.02221452, -0.006729),
+    (0.02822076, -0.00684516),
+    (0.034707, -0.00678456),
+    (0.04158072, -0.00657996),
+    (0.04875108, -0.00626868),
+    (0.05616996, -0.00585264),
+    (0.06365604, -0.0053424),
+    (0.07109388, -0.00477084),
+    (0.07836756, -0.004167),
+    (0.08536236, -0.00355548),
+    (0.09196752, -0.0029562),
+)
+
+PYLON_OUTLINE: tuple[tuple[float, float], ...] = ((0.26, 0.0), (0.26, 0.05), (0.28, 0.05), (0.28, 0.0))
+
+
+def _tuple_points(value: Any, name: str) -> tuple[tuple[float, float], ...]:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a sequence of (x, y) points, got {value!r}") from exc
+    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 3:
+        raise ParameterError(f"{name} must have shape (n >= 3, 2), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ParameterError(f"{name} holds a non-finite coordinate")
+    return tuple((float(x), float(y)) for x, y in arr)
+
+
+@dataclass(frozen=True)
+class DRSParams:
+    """Geometry, masses, loads and manoeuvre of the DRS actuator (seed 003 values by default).
+
+    Lengths in m, angles in rad, masses in kg, inertias in kg m^2 (about each body's centre of
+    mass), forces in N, times in s.
+
+    ``Iz_link`` defaults to ``m_link * L2**2 / 12`` (a slender rod) and ``Iz_wing`` to
+    ``m_wing * L_wing**2 / 3``. The seed's line for ``Iz_wing`` is OCR-garbled; its plotted piston
+    force (axis to 1.2e5 N) is what the dimensionally wrong ``m_wing * L_wing / 3 = 0.08`` gives. Pass
+    ``Iz_wing=SEED_LITERAL_IZ_WING`` to reproduce that.
+    """
+
+    # FIA regulation box and the gap rule
+    box_height: float = 0.220
+    box_width: float = 0.350
+    gap_closed: float = 0.010  # seed: min_dist
+    gap_open: float = 0.050  # seed: max_dist
+    # fixed points
+    x_A: float = 0.280
+    y_A: float = 0.000
+    x_D: float = 0.335
+    y_D: float = 0.154
+    x_R: float = 0.280  # in the main-wing frame
+    y_R: float = 0.0223
+    # fixed lengths
+    L1: float = 0.016
+    L2: float = 0.050
+    L3: float = 0.100
+    L_wing: float = 0.120
+    wing_span: float = 1.010  # seed: W_wing = 1010 (mm); not used by the planar model
+    d_wing: float = 0.0060  # main wing offset along x
+    d_tip: float = 0.0100  # flap tip offset allowed by the FIA regulation
+    gamma: float = 5.0 * math.pi / 180.0  # main wing inclination
+    # manoeuvre times
+    T_opening: float = 0.010
+    T_still: float = 0.030
+    T_closing: float = 0.010
+    # masses
+    m_pist: float = 0.0800
+    m_link: float = 0.0375  # = L2 * rho_steel
+    m_wing: float = 2.0000
+    rho_steel: float = 0.75  # kg/m, linear density of a 1 cm steel bar
+    g: float = 9.81
+    # inertias about the centres of mass; None selects the documented default
+    Iz_pist: float = 0.0
+    Iz_link: float | None = None
+    Iz_wing: float | None = None
+    # air loads (seed: "values from paper"), interpolated linearly in psi3 between closed and open
+    F_drag_closed: float = 145.51319
+    F_drag_open: float = 51.32626
+    F_down_closed: float = 819.11694
+    F_down_open: float = 745.62411
+    # outlines (flap in RF_flap_wing, main wing in RF_main_wing, pylon in ground)
+    flap_outline: tuple[tuple[float, float], ...] = field(default=FLAP_WING_OUTLINE, repr=False)
+    main_wing_outline: tuple[tuple[float, float], ...] = field(
+        default=MAIN_WING_OUTLINE, repr=False
+    )
+    pylon_outline: tuple[tuple[float, float], ...] = field(default=PYLON_OUTLINE, repr=False)
+
+    _LENGTHS = ("L1", "L2", "L3", "L_wing", "box_height", "box_width", "wing_span")
+    _POSITIVE = ("T_opening", "T_closing", "m_pist", "m_link", "m_wing", "g", "rho_steel")
+    _NON_NEGATIVE = ("T_still", "Iz_pist", "Iz_link", "Iz_wing", "d_tip")
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name.endswith("_outline"):
+                object.__setattr__(self, f.name, _tuple_points(value, f.name))
+                continue
+            if value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+                raise ParameterError(f"{f.name} must be a real number, got {value!r}")
+            value = float(value)
+            if not math.isfinite(value):
+                raise ParameterError(f"{f.name} must be finite, got {value!r}")
+            object.__setattr__(self, f.name, value)
+        if self.Iz_link is None:
+            object.__setattr__(self, "Iz_link", self.m_link * self.L2**2 / 12.0)
+        if self.Iz_wing is None:
+            object.__setattr__(self, "Iz_wing", self.m_wing * self.L_wing**2 / 3.0)
+        for name in self._LENGTHS:
+            if getattr(self, name) <= 0.0:
+                raise ParameterError(f"{name} must be > 0 m, got {getattr(self, name)!r}")
+        for name in self._POSITIVE:
+            if getattr(self, name) <= 0.0:
+                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        for name in self._NON_NEGATIVE:
+            if getattr(self, name) < 0.0:
+                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if not 0.0 < self.gap_closed < self.gap_open:
+            raise ParameterError(
+                f"gaps must satisfy 0 < gap_closed < gap_open, got gap_closed={self.gap_closed!r}, "
+                f"gap_open={self.gap_open!r}"
+            )
+        if self.d_tip >= self.L_wing:
+            raise ParameterError(
+                f"d_tip must be < L_wing = {self.L_wing!r} m, got d_tip={self.d_tip!r}"
+            )
+        # Geometry reachability (both gaps assemble on branch 1) is checked by
+        # kinematics.check_geometry(), which the constructors below call.
+
+    # ---- derived quantities -------------------------------------------------------------------
+    @property
+    def T_total(self) -> float:
+        """Duration of the open-hold-close manoeuvre [s]."""
+        return self.T_opening + self.T_still + self.T_closing
+
+    @property
+    def tip_arm(self) -> float:
+        """Distance D -> T along the flap frame's -x [m] (= L_wing - d_tip)."""
+        return self.L_wing - self.d_tip
+
+    @property
+    def flap_com_local(self) -> tuple[float, float]:
+        """G3 in RF_flap_wing [m]: the mean of the flap outline points (the seed's ``getCoM``)."""
+        arr = np.asarray(self.flap_outline)
+        return float(arr[:, 0].mean()), float(arr[:, 1].mean())
+
+    @property
+    def reference_point(self) -> tuple[float, float]:
+        """R in ground [m]: (x_R, y_R) of the main-wing frame."""
+        c, s = math.cos(self.gamma), math.sin(self.gamma)
+        return self.d_wing + c * self.x_R - s * self.y_R, s * self.x_R + c * self.y_R
+
+    # ---- construction -------------------------------------------------------------------------
+    def replace(self, **overrides: Any) -> DRSParams:
+        """A copy with ``overrides`` applied (validated like the constructor)."""
+        return from_dict(overrides, base=self)
+
+    def to_dict(self, outlines: bool = False) -> dict[str, Any]:
+        """Plain dict of the parameters (outlines as lists when ``outlines``)."""
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name.endswith("_outline"):
+                if outlines:
+                    out[f.name] = [list(p) for p in value]
+                continue
+            out[f.name] = value
+        return out
+
+
+#: The seed's literal (dimensionally inconsistent) ``m_wing * L_wing / 3`` [kg m] for Iz_wing.
+SEED_LITERAL_IZ_WING = 2.0 * 0.120 / 3.0
+
+_FIELD_NAMES = frozenset(f.name for f in dataclasses.fields(DRSParams))
+
+
+def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DRSParams:
+    """Build validated parameters from ``base`` (default: the seed) with ``overrides`` applied.
+
+    Raises :class:`ParameterError` for an unknown name or a bad value, and for a geometry that
+    cannot assemble at the closed and open gaps.
+    """
+    from .kinematics import check_geometry  # local: kinematics imports params
+
+    if not isinstance(overrides, Mapping):
+        raise ParameterError(f"parameter overrides must be a mapping, got {type(overrides).__name__}")
+    unknown = sorted(set(overrides) - _FIELD_NAMES)
+    if unknown:
+        raise ParameterError(
+            f"unknown parameter(s) {unknown}; valid names: {sorted(_FIELD_NAMES)}"
+        )
+    base = base if base is not None else DRSParams()
+    try:
+        params = dataclasses.replace(base, **dict(overrides))
+    except TypeError as exc:  # pragma: no cover - dataclasses only raises for unknown names
+        raise ParameterError(str(exc)) from exc
+    check_geometry(params)
+    return params
+
+
+def from_file(path: str | Path) -> DRSParams:
+    """Read overrides from a TOML (``.toml``) or YAML (``.yaml``/``.yml``) file.
+
+    The file holds ``name = value`` pairs at top level or under a ``[drs]`` table.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ParameterError(f"cannot read parameter file {str(path)!r}: {exc}") from exc
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".toml":
+            data = tomllib.loads(text)
+        elif suffix in (".yaml", ".yml"):
+            import yaml  # optional: installed with the ros extra
+
+            data = yaml.safe_load(text) or {}
+        else:
+            raise ParameterError(
+                f"parameter file {str(path)!r} must end in .toml, .yaml or .yml"
+            )
+    except ParameterError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any parser error becomes a ParameterError
+        raise ParameterError(f"cannot parse parameter file {str(path)!r}: {exc}") from exc
+    if isinstance(data, Mapping) and "drs" in data and isinstance(data["drs"], Mapping):
+        data = data["drs"]
+    if not isinstance(data, Mapping):
+        raise ParameterError(f"parameter file {str(path)!r} must hold a table of name = value")
+    return from_dict(data)
