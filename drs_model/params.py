@@ -301,8 +301,16 @@ def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DR
             f"unknown parameter(s) {unknown}; valid names: {sorted(_FIELD_NAMES)}"
         )
     base = base if base is not None else DRSParams()
+    overrides = dict(overrides)
+    # a derived inertia follows its mass and length unless it was set explicitly
+    for name, default in (
+        ("Iz_link", base.m_link * base.L2**2 / 12.0),
+        ("Iz_wing", base.m_wing * base.L_wing**2 / 3.0),
+    ):
+        if name not in overrides and getattr(base, name) == default:
+            overrides[name] = None
     try:
-        params = dataclasses.replace(base, **dict(overrides))
+        params = dataclasses.replace(base, **overrides)
     except TypeError as exc:  # pragma: no cover - dataclasses only raises for unknown names
         raise ParameterError(str(exc)) from exc
     check_geometry(params)

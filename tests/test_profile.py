@@ -1,0 +1,114 @@
+"""Quintic segments and the open-hold-close manoeuvre against the seed and the boundary rules."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from drs_model.errors import InputError, StrokeRangeError
+from drs_model.kinematics import stroke_limits
+from drs_model.profile import QuinticSegment, drs_manoeuvre, quintic_coefficients, quintic_move
+
+SEED_S_MIN, SEED_S_MAX = 0.000198939129915359, 0.0460748980054946
+# seed (2.6.3) and (2.6.7), absolute-time coefficients a0..a5
+SEED_OPENING = [0.0001989391299, 0.0, 0.0, 458759.5888, -6.881393831e7, 2.752557533e9]
+SEED_CLOSING = [487.4322620, -55051.15065, 2.477301779e6, -5.550991024e7, 6.193254448e8,
+                -2.752557533e9]
+
+
+def test_coefficients_match_the_seed_when_built_on_its_limits(params):
+    m = drs_manoeuvre(params, SEED_S_MIN, SEED_S_MAX)
+    # the seed prints 10 significant digits
+    np.testing.assert_allclose(m.opening.absolute_coefficients(), SEED_OPENING, rtol=5e-10, atol=0)
+    np.testing.assert_allclose(m.closing.absolute_coefficients(), SEED_CLOSING, rtol=5e-10)
+
+
+def _poly_derivs(coeffs, tau):
+    c = np.polynomial.Polynomial(coeffs)
+    return c(tau), c.deriv(1)(tau), c.deriv(2)(tau)
+
+
+@given(
+    st.floats(1e-3, 1.0), st.floats(-0.1, 0.1), st.floats(-0.1, 0.1),
+    st.floats(-5, 5), st.floats(-5, 5), st.floats(-100, 100), st.floats(-100, 100),
+)
+@settings(max_examples=80, deadline=None)
+def test_quintic_meets_its_six_conditions(T, s0, s1, v0, v1, a0, a1):
+    c = quintic_coefficients(T, s0, s1, v0, v1, a0, a1)
+    start, end = _poly_derivs(c, 0.0), _poly_derivs(c, T)
+    scale = 1 + abs(s0) + abs(s1) + abs(v0) * T + abs(v1) * T + (abs(a0) + abs(a1)) * T * T
+    np.testing.assert_allclose(start, (s0, v0, a0), atol=1e-9 * scale / min(T, 1) ** 2)
+    np.testing.assert_allclose(end, (s1, v1, a1), atol=1e-9 * scale / min(T, 1) ** 2)
+
+
+def test_manoeuvre_shape(params):
+    m = drs_manoeuvre(params)
+    s_min, s_max = stroke_limits(params)
+    t = np.array([-1.0, 0.0, 0.005, 0.01, 0.025, 0.04, 0.045, 0.05, 1.0])
+    s, v, a = m.evaluate(t)
+    np.testing.assert_allclose(s[[0, 1, 7, 8]], s_min, atol=1e-15)
+    np.testing.assert_allclose(s[[3, 4, 5]], s_max, atol=1e-15)
+    assert s[2] == pytest.approx(0.5 * (s_min + s_max), abs=1e-15)  # symmetric quintic
+    assert s[6] == pytest.approx(0.5 * (s_min + s_max), abs=1e-15)
+    # peak speed of a rest-to-rest quintic: 15/8 h/T
+    assert v[2] == pytest.approx(15 / 8 * (s_max - s_min) / params.T_opening, rel=1e-12)
+    assert v[6] == pytest.approx(-v[2], rel=1e-12)
+    np.testing.assert_array_equal(v[[0, 4, 8]], 0.0)
+    np.testing.assert_array_equal(a[[0, 4, 8]], 0.0)
+
+
+def test_rates_against_finite_differences(params):
+    m = drs_manoeuvre(params)
+    t = np.linspace(0.0, params.T_total, 401)[1:-1]
+    h = 1e-8
+    s, v, a = m.evaluate(t)
+    sp, vp, _ = m.evaluate(t + h)
+    sm, vm, _ = m.evaluate(t - h)
+    np.testing.assert_allclose(v, (sp - sm) / (2 * h), atol=1e-5)
+    np.testing.assert_allclose(a, (vp - vm) / (2 * h), atol=1e-2 * np.abs(a).max() * 1e-3 + 1e-3)
+
+
+def test_continuity_at_the_joints(params):
+    m = drs_manoeuvre(params)
+    eps = 1e-12
+    for tk in m.kinks:
+        before = np.array(m.evaluate(tk - eps))
+        after = np.array(m.evaluate(tk + eps))
+        # s, s', s'' continuous; tolerances = what 2e-12 s of motion can change them by
+        assert abs(before[0] - after[0]) < 1e-15
+        assert abs(before[1] - after[1]) < 1e-8
+        assert abs(before[2] - after[2]) < 1e-2
+
+
+def test_quintic_move_from_a_moving_state(params):
+    s_min, s_max = stroke_limits(params)
+    seg = quintic_move(params, s_target=0.03, duration=0.02, s0=0.01, v0=1.5, a0=-20.0, t0=1.0)
+    s, v, a = seg.evaluate(np.array([1.0, 1.02, 2.0]))
+    np.testing.assert_allclose([s[0], v[0], a[0]], [0.01, 1.5, -20.0], atol=1e-9)
+    np.testing.assert_allclose([s[1], v[1], a[1]], [0.03, 0.0, 0.0], atol=1e-9)
+    assert s[2] == pytest.approx(0.03, abs=1e-15)
+    assert v[2] == pytest.approx(0.0, abs=1e-12) and a[2] == pytest.approx(0.0, abs=1e-9)
+    assert isinstance(seg, QuinticSegment) and seg.t1 == pytest.approx(1.02)
+    assert s_min < 0.03 < s_max
+
+
+def test_bad_moves(params):
+    s_min, s_max = stroke_limits(params)
+    with pytest.raises(StrokeRangeError, match=r"target stroke 0\.1 m is outside \[s_min, s_max\]"):
+        quintic_move(params, 0.1, 0.01, s0=0.01)
+    with pytest.raises(StrokeRangeError, match=r"target stroke -0\.001 m is outside"):
+        quintic_move(params, -0.001, 0.01, s0=0.01)
+    with pytest.raises(InputError, match=r"duration must be a finite number > 0 s, got 0\.0"):
+        quintic_move(params, 0.02, 0.0, s0=0.01)
+    with pytest.raises(InputError, match=r"duration must be a finite number > 0 s, got -1"):
+        quintic_coefficients(-1, 0.0, 1.0)
+    with pytest.raises(InputError, match=r"s_target must be finite, got nan"):
+        quintic_move(params, math.nan, 0.01, s0=0.01)
+    with pytest.raises(InputError, match=r"time must be finite"):
+        drs_manoeuvre(params).evaluate(np.array([0.0, math.inf]))
+    # the limits themselves are accepted
+    quintic_move(params, s_max, 0.01, s0=s_min)
