@@ -33,6 +33,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time", type=float_list, required=True, metavar="T[,T...]", help="times [s]")
     p.set_defaults(func=run_profile)
 
+    p = sub.add_parser("draw", help="draw the mechanism at some strokes into a PNG")
+    add_common(p)
+    p.add_argument("--stroke", type=float_list, metavar="S[,S...]", help="strokes [m] (default: "
+                   "closed, half-way, open)")
+    p.add_argument("--out", default="mechanism.png", help="PNG path")
+    p.set_defaults(func=run_draw)
+
     p = sub.add_parser("demo", help="the manoeuvre end to end, model only (limits + table)")
     add_common(p)
     p.add_argument("--samples", type=int, default=11, help="rows of the manoeuvre table")
@@ -150,3 +157,13 @@ def run_demo(args) -> Output:
     tab = table(("t [ms]", "s [mm]", "s' [m/s]", "s'' [m/s^2]", "psi3 [deg]", "gap [mm]"), rows)
     d = {"limits": lim.data, "t": t, "s": s, "s_dot": v, "s_ddot": a, "psi3": q[:, 2], "gap": g}
     return Output(d, "DRS limits\n" + lim.text + "\n\nOpen-hold-close manoeuvre\n" + tab)
+
+
+def run_draw(args) -> Output:
+    from ..plotting import mechanism_figure
+
+    params = load_params(args)
+    lo, hi = kin.stroke_limits(params)
+    strokes = args.stroke if args.stroke else [lo, 0.5 * (lo + hi), hi]
+    path = mechanism_figure(params, strokes, args.out)
+    return Output({"path": str(path), "strokes": strokes}, f"wrote {path}")
