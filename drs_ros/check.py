@@ -1,0 +1,533 @@
+"""``drs-check BAG``: recompute what the model says from a recorded bag and report discrepancies.
+
+Reads an MCAP file (a rosbag2 bag directory or a ``.mcap`` file) with ``mcap`` and
+``mcap_ros2`` decoding; no rclpy. Checks, each reported as the largest discrepancy per topic:
+
+* ``/joint_states`` positions ``q = [s, psi1, psi3]`` satisfy the loop constraint:
+  ``max |Phi(q)|`` [m] (:func:`drs_model.constraints.constraint`);
+* its velocities satisfy ``Phi_q qd = 0``: ``max |Phi_q qd|`` [m/s];
+* ``/drs/flap_gap`` equals :func:`drs_model.kinematics.gap` of the joint state nearest in time [m];
+* ``/drs/piston_force`` equals the joint state's ``effort[0]`` at the same time [N];
+* the piston force of the logged motion from the dynamics model, through a hook: a callable
+  ``piston_force(q, qd, qdd, params) -> (n,) [N]``, by default from ``drs_model.dynamics``
+  (imported lazily; the check is skipped with a note when it is absent; see
+  :func:`load_force_model`) or ``--force-model module:function``. ``qdd`` is the finite
+  difference of the logged ``qd`` over the stamps, so this check only reports (status ``info``)
+  unless ``--force-model-tol`` is given.
+
+Exit status: 0 all checks within tolerance, 1 a check failed, 2 the file cannot be read (a
+truncated or corrupt file: one line on stderr; ``--recover`` salvages the readable prefix with
+``mcap.stream_reader.StreamReader``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import struct
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from drs_model.constraints import constraint, constraint_velocity_term
+from drs_model.errors import DRSError
+from drs_model.kinematics import gap as model_gap
+from drs_model.params import DRSParams, from_file
+
+DEFAULT_TOPICS = {
+    "joint_states": "/joint_states",
+    "piston_force": "/drs/piston_force",
+    "flap_gap": "/drs/flap_gap",
+    "stroke_cmd": "/drs/stroke_cmd",
+    "force_cmd": "/drs/force_cmd",
+    "diagnostics": "/diagnostics",
+}
+DEFAULT_JOINT_NAMES = ("drs_piston", "drs_link", "drs_flap")
+
+
+class BagReadError(DRSError):
+    """The bag cannot be read (missing, not MCAP, truncated or corrupt)."""
+
+
+class ForceModelError(DRSError):
+    """The piston-force hook cannot be loaded or fails on the logged motion."""
+
+
+# ---- reading ------------------------------------------------------------------------------------
+@dataclass
+class BagData:
+    """Decoded messages of the topics of interest.
+
+    Attributes
+    ----------
+    path : Path
+        The ``.mcap`` file read.
+    messages : dict
+        topic -> list of ``(log_time_ns, decoded message)`` in file order.
+    counts : dict
+        topic -> number of messages (every topic of the file).
+    recovered : bool
+        Read with the streaming reader (``--recover``).
+    notes : list of str
+        What the reader had to say (truncation point...).
+    """
+
+    path: Path
+    messages: dict[str, list] = field(default_factory=dict)
+    counts: dict[str, int] = field(default_factory=dict)
+    recovered: bool = False
+    notes: list[str] = field(default_factory=list)
+
+
+def resolve_mcap(path: str | Path) -> Path:
+    """The ``.mcap`` file of a bag directory (first of its ``*.mcap``) or the file itself."""
+    path = Path(path)
+    if path.is_dir():
+        files = sorted(path.glob("*.mcap"))
+        if not files:
+            raise BagReadError(f"{str(path)!r}: bag directory holds no .mcap file")
+        return files[0]
+    if not path.is_file():
+        raise BagReadError(f"{str(path)!r}: no such bag file or directory")
+    return path
+
+
+def _decoder_factory():
+    from mcap_ros2.decoder import DecoderFactory
+
+    return DecoderFactory()
+
+
+_READ_ERRORS = (ValueError, EOFError, OSError, struct.error, KeyError, IndexError, TypeError)
+
+
+def _mcap_errors() -> tuple[type[BaseException], ...]:
+    from mcap.exceptions import McapError
+
+    return (McapError, *_READ_ERRORS)
+
+
+def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> BagData:
+    """Decode the messages of ``topics`` from a bag.
+
+    Parameters
+    ----------
+    path : str or Path
+        Bag directory or ``.mcap`` file.
+    topics : sequence of str
+        Topics to decode (the others are only counted).
+    recover : bool
+        Read sequentially with ``StreamReader`` and keep everything before a truncation instead of
+        failing.
+
+    Raises
+    ------
+    BagReadError
+        The file is missing, not MCAP, or (without ``recover``) truncated or corrupt.
+    """
+    mcap_path = resolve_mcap(path)
+    data = BagData(mcap_path, {t: [] for t in topics}, recovered=recover)
+    if recover:
+        _read_stream(mcap_path, set(topics), data)
+    else:
+        _read_indexed(mcap_path, set(topics), data)
+    return data
+
+
+def _read_indexed(path: Path, topics: set[str], data: BagData) -> None:
+    from mcap.reader import make_reader
+
+    errors = _mcap_errors()
+    try:
+        with open(path, "rb") as f:
+            reader = make_reader(f, decoder_factories=[_decoder_factory()])
+            summary = reader.get_summary()
+            if summary is None:
+                raise BagReadError(
+                    f"{str(path)!r}: truncated or unfinished MCAP file (no summary/footer); "
+                    "use --recover to salvage the readable prefix"
+                )
+            for _schema, channel, message, decoded in reader.iter_decoded_messages(
+                topics=sorted(topics), log_time_order=False
+            ):
+                data.messages[channel.topic].append((message.log_time, decoded))
+            for cid, n in summary.statistics.channel_message_counts.items():
+                data.counts[summary.channels[cid].topic] = n
+    except BagReadError:
+        raise
+    except errors as exc:
+        raise BagReadError(
+            f"{str(path)!r}: truncated or corrupt MCAP file ({type(exc).__name__}: {exc}); "
+            "use --recover to salvage the readable prefix"
+        ) from exc
+
+
+def _read_stream(path: Path, topics: set[str], data: BagData) -> None:
+    from mcap.records import Channel, Footer, Message, Schema
+    from mcap.stream_reader import StreamReader
+
+    errors = _mcap_errors()
+    factory = _decoder_factory()
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    decoders: dict[int, Callable] = {}
+    complete = False
+    try:
+        with open(path, "rb") as f:
+            for record in StreamReader(f, validate_crcs=True).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Message):
+                    channel = channels[record.channel_id]
+                    data.counts[channel.topic] = data.counts.get(channel.topic, 0) + 1
+                    if channel.topic not in topics:
+                        continue
+                    decoder = decoders.get(channel.id)
+                    if decoder is None:
+                        decoder = factory.decoder_for(
+                            channel.message_encoding, schemas.get(channel.schema_id)
+                        )
+                        decoders[channel.id] = decoder
+                    data.messages[channel.topic].append((record.log_time, decoder(record.data)))
+                elif isinstance(record, Footer):
+                    complete = True
+    except errors as exc:
+        n = sum(data.counts.values())
+        reason = f"{type(exc).__name__}: {str(exc) or 'end of file'}"
+        if n == 0:
+            raise BagReadError(
+                f"{str(path)!r}: nothing recoverable: no complete chunk of messages before the "
+                f"file ends or breaks ({reason})"
+            ) from exc
+        data.notes.append(f"recovered {n} messages before the file ends or breaks ({reason})")
+        return
+    if complete:
+        data.notes.append("the file is complete (footer read)")
+
+
+# ---- checks -------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CheckResult:
+    """Largest discrepancy of one check on one topic (``status``: ok, FAIL, skipped or info)."""
+
+    name: str
+    topic: str
+    unit: str
+    samples: int
+    max_error: float
+    at_time_s: float
+    tol: float
+    status: str
+    note: str = ""
+
+
+def _stamp_s(log_ns: int, msg) -> float:
+    header = getattr(msg, "header", None)
+    stamp = getattr(header, "stamp", None)
+    if stamp is not None and (stamp.sec or stamp.nanosec):
+        return stamp.sec + stamp.nanosec * 1e-9
+    return log_ns * 1e-9
+
+
+def joint_arrays(
+    messages: list, joint_names: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """Stack JointState messages: times [s], log times [ns], q, qd, effort[0], messages skipped.
+
+    Values are ordered by ``joint_names`` when a message carries names; NaN where absent.
+    """
+    t, log, q, qd, f = [], [], [], [], []
+    skipped = 0
+    for log_ns, msg in messages:
+        names = list(msg.name)
+        if names:
+            try:
+                order = [names.index(n) for n in joint_names]
+            except ValueError:
+                skipped += 1
+                continue
+        else:
+            order = [0, 1, 2]
+
+        def pick(values, order=order):
+            values = list(values)
+            return [values[i] if i < len(values) else math.nan for i in order]
+
+        pos = pick(msg.position)
+        if len(msg.position) < 3:
+            skipped += 1
+            continue
+        t.append(_stamp_s(log_ns, msg))
+        log.append(log_ns)
+        q.append(pos)
+        qd.append(pick(msg.velocity))
+        eff = list(msg.effort)
+        f.append(eff[order[0]] if len(eff) > order[0] else math.nan)
+    return (
+        np.array(t, dtype=float),
+        np.array(log, dtype=np.int64),
+        np.array(q, dtype=float).reshape(-1, 3),
+        np.array(qd, dtype=float).reshape(-1, 3),
+        np.array(f, dtype=float),
+        skipped,
+    )
+
+
+def _worst(err: np.ndarray, t: np.ndarray) -> tuple[float, float, int]:
+    ok = np.isfinite(err)
+    if not np.any(ok):
+        return math.nan, math.nan, 0
+    i = int(np.argmax(np.where(ok, err, -np.inf)))
+    return float(err[i]), float(t[i]), int(ok.sum())
+
+
+def _result(name, topic, unit, err, t, tol, note="") -> CheckResult:
+    worst, at, n = _worst(np.asarray(err, dtype=float), t)
+    if n == 0:
+        return CheckResult(name, topic, unit, 0, math.nan, math.nan, tol, "skipped",
+                           note or "no samples")
+    return CheckResult(name, topic, unit, n, worst, at, tol, "ok" if worst <= tol else "FAIL", note)
+
+
+def _nearest(log_ref: np.ndarray, log_query: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index into sorted-by-time ``log_ref`` of the sample nearest each query, and |dt| [ns]."""
+    order = np.argsort(log_ref, kind="stable")
+    ref = log_ref[order]
+    j = np.clip(np.searchsorted(ref, log_query), 1, max(len(ref) - 1, 1))
+    left = ref[j - 1]
+    right = ref[np.minimum(j, len(ref) - 1)]
+    pick = np.where(np.abs(log_query - left) <= np.abs(right - log_query), j - 1, j)
+    pick = np.minimum(pick, len(ref) - 1)
+    return order[pick], np.abs(ref[pick] - log_query)
+
+
+def load_force_model(spec: str | None = None) -> tuple[Callable | None, str]:
+    """The piston-force hook ``f(q, qd, qdd, params) -> (n,) [N]`` and a note.
+
+    ``spec`` is ``"module:function"``. By default (None) the hook is
+    ``drs_model.dynamics.piston_force`` if it exists, else an adapter of
+    ``drs_model.dynamics.inverse_dynamics((q, qd, qdd), params).piston_force``; ``(None, reason)``
+    when neither exists (yet). An explicit ``spec`` that cannot be loaded raises
+    :class:`ForceModelError`.
+    """
+    if spec is not None:
+        module_name, _, func_name = spec.partition(":")
+        try:
+            func = getattr(importlib.import_module(module_name), func_name)
+        except (ImportError, AttributeError, ValueError) as exc:
+            raise ForceModelError(f"cannot load force model {spec!r}: {exc}") from exc
+        if not callable(func):
+            raise ForceModelError(f"force model {spec!r} is not callable")
+        return func, f"model {spec}"
+    try:
+        dynamics = importlib.import_module("drs_model.dynamics")
+    except ImportError as exc:
+        return None, f"skipped: drs_model.dynamics is not available yet ({exc})"
+    func = getattr(dynamics, "piston_force", None)
+    if callable(func):
+        return func, "model drs_model.dynamics.piston_force"
+    inverse = getattr(dynamics, "inverse_dynamics", None)
+    if callable(inverse):
+
+        def piston_force(q, qd, qdd, p):
+            return inverse((q, qd, qdd), p).piston_force
+
+        return piston_force, "model drs_model.dynamics.inverse_dynamics"
+    return None, "skipped: drs_model.dynamics has neither piston_force nor inverse_dynamics"
+
+
+def check_bag(
+    data: BagData,
+    params: DRSParams | None = None,
+    *,
+    tol: float = 1e-6,
+    force_tol: float = 1.0,
+    topics: dict[str, str] | None = None,
+    joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
+    force_model: Callable | None = None,
+    force_note: str = "",
+    max_match_s: float = 1e-3,
+    force_model_tol: float | None = None,
+) -> list[CheckResult]:
+    """Run every check on decoded bag data.
+
+    Parameters
+    ----------
+    data : BagData
+        From :func:`read_bag`.
+    params : DRSParams, optional
+        Model parameters (the seed by default).
+    tol : float
+        Tolerance of the kinematic checks [m, m/s].
+    force_tol : float
+        Tolerance of the force checks [N].
+    topics : dict, optional
+        Overrides of :data:`DEFAULT_TOPICS`.
+    joint_names : sequence of str
+        Joint names of ``[s, psi1, psi3]``.
+    force_model : callable, optional
+        ``f(q, qd, qdd, params) -> (n,)`` [N]; None skips the model force check (with
+        ``force_note`` as the reason).
+    max_match_s : float
+        Largest time offset [s] at which a Float64 sample is paired with a joint state.
+    force_model_tol : float, optional
+        Tolerance [N] of the model force check. None (default) reports it as ``info`` without
+        failing: ``qdd`` comes from finite differences of the logged ``qd``, which near the
+        manoeuvre's jerk discontinuities is off by several % of the peak force even at 1 kHz.
+    """
+    p = params if params is not None else DRSParams()
+    tp = {**DEFAULT_TOPICS, **(topics or {})}
+    js_topic = tp["joint_states"]
+    t, log, q, qd, effort, skipped = joint_arrays(data.messages.get(js_topic, []), joint_names)
+    note = f"{skipped} message(s) without the joints {list(joint_names)}" if skipped else ""
+    out = [
+        _result("loop constraint |Phi(q)|", js_topic, "m",
+                np.max(np.abs(constraint(q, p)), axis=-1) if len(q) else [], t, tol, note),
+        _result("velocity constraint |Phi_q qd|", js_topic, "m/s",
+                np.max(np.abs(constraint_velocity_term(q, qd, p)), axis=-1) if len(q) else [],
+                t, tol, note),
+    ]
+    max_ns = max_match_s * 1e9
+
+    def scalar_topic(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        msgs = data.messages.get(tp[key], [])
+        vals = np.array([m.data for _, m in msgs], dtype=float)
+        logs = np.array([ln for ln, _ in msgs], dtype=np.int64)
+        if not len(q) or not len(vals):
+            return vals, np.zeros(0, dtype=int), np.zeros(len(vals), dtype=bool)
+        idx, dt = _nearest(log, logs)
+        return vals, idx, dt <= max_ns
+
+    vals, idx, ok = scalar_topic("flap_gap")
+    err = np.where(ok, np.abs(vals - model_gap(q[idx], p)), np.nan) if ok.any() else []
+    out.append(_result("gap vs kinematics.gap(q)", tp["flap_gap"], "m", err,
+                       t[idx] if len(idx) else [], tol))
+    vals, idx, ok = scalar_topic("piston_force")
+    err = np.where(ok, np.abs(vals - effort[idx]), np.nan) if ok.any() else []
+    out.append(_result("piston force vs effort[0]", tp["piston_force"], "N", err,
+                       t[idx] if len(idx) else [], force_tol))
+    if force_model is None:
+        out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
+                               force_tol, "skipped", force_note or "skipped: no force model"))
+    elif len(q) < 3:
+        out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
+                               force_tol, "skipped", "fewer than 3 joint states"))
+    else:
+        order = np.argsort(t, kind="stable")
+        ts, qs, qds, fs = t[order], q[order], qd[order], effort[order]
+        qdd = np.gradient(qds, ts, axis=0)
+        try:
+            model = np.asarray(force_model(qs, qds, qdd, p), dtype=float).reshape(-1)
+        except DRSError as exc:
+            raise ForceModelError(f"force model failed on the logged motion: {exc}") from exc
+        note = (f"{force_note}; qdd by finite differences of the logged qd, peak |F| "
+                f"{np.nanmax(np.abs(model)):.4g} N")
+        if force_model_tol is None:
+            res = _result("piston force vs model", js_topic, "N", np.abs(fs - model), ts, math.inf,
+                          note + "; informational, set a tolerance to enforce")
+            out.append(CheckResult(**{**asdict(res), "tol": math.nan,
+                                      "status": "info" if res.samples else res.status}))
+        else:
+            out.append(_result("piston force vs model", js_topic, "N", np.abs(fs - model), ts,
+                               force_model_tol, note))
+    return out
+
+
+# ---- reporting ----------------------------------------------------------------------------------
+def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
+    """A plain-text report: counts per topic, then one row per check."""
+    lines = [f"bag: {data.path}" + ("  (recovered prefix)" if data.recovered else "")]
+    lines += [f"note: {n}" for n in data.notes]
+    for topic, n in sorted(data.counts.items()):
+        lines.append(f"  {topic:<28} {n:>8} messages")
+    head = f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t [s]':>12} " \
+           f"{'tol':>9}  status"
+    lines += ["", head, "-" * len(head)]
+    for r in results:
+        err = "-" if math.isnan(r.max_error) else f"{r.max_error:.3e}"
+        at = "-" if math.isnan(r.at_time_s) else f"{r.at_time_s:.6f}"
+        row = (f"{r.name + ' [' + r.unit + ']':<38} {r.topic:<20} {r.samples:>7} {err:>11} "
+               f"{at:>12} {r.tol:>9.2g}  {r.status}")
+        lines.append(row + (f"  ({r.note})" if r.note else ""))
+    return "\n".join(lines)
+
+
+def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
+    """The report as JSON (NaN written as null)."""
+
+    def clean(value):
+        return None if isinstance(value, float) and math.isnan(value) else value
+
+    return json.dumps(
+        {
+            "bag": str(data.path),
+            "recovered": data.recovered,
+            "notes": data.notes,
+            "messages": data.counts,
+            "checks": [{k: clean(v) for k, v in asdict(r).items()} for r in results],
+            "ok": not any(r.status == "FAIL" for r in results),
+        },
+        indent=2,
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``drs-check`` argument parser."""
+    ap = argparse.ArgumentParser(
+        prog="drs-check", description="Check a recorded DRS bag against the model."
+    )
+    ap.add_argument("bag", help="bag directory or .mcap file")
+    ap.add_argument("--tol", type=float, default=1e-6,
+                    help="tolerance of the kinematic checks [m, m/s] (default 1e-6)")
+    ap.add_argument("--force-tol", type=float, default=1.0,
+                    help="tolerance of the force checks [N] (default 1)")
+    ap.add_argument("--json", action="store_true", help="print the report as JSON")
+    ap.add_argument("--recover", action="store_true",
+                    help="salvage the readable prefix of a truncated file (StreamReader)")
+    ap.add_argument("--params", help="parameter file (.toml/.yaml) of the recorded run")
+    ap.add_argument("--force-model", default=None,
+                    help="piston force hook module:function f(q, qd, qdd, params) [N] "
+                    "(default: drs_model.dynamics)")
+    ap.add_argument("--force-model-tol", type=float, default=None,
+                    help="tolerance [N] of the model force check (default: report only)")
+    ap.add_argument("--joint-names", default=",".join(DEFAULT_JOINT_NAMES),
+                    help="joint names of [s, psi1, psi3], comma-separated")
+    ap.add_argument("--max-match", type=float, default=1e-3,
+                    help="largest time offset [s] pairing a scalar topic with a joint state")
+    for key, default in DEFAULT_TOPICS.items():
+        ap.add_argument(f"--{key.replace('_', '-')}-topic", dest=f"topic_{key}", default=default,
+                        help=f"(default {default})")
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``drs-check``; returns the exit status (0 ok, 1 failed check, 2 error)."""
+    args = build_parser().parse_args(argv)
+    topics = {key: getattr(args, f"topic_{key}") for key in DEFAULT_TOPICS}
+    names = tuple(n.strip() for n in args.joint_names.split(",") if n.strip())
+    try:
+        if len(names) != 3:
+            raise BagReadError(f"--joint-names needs 3 names (s, psi1, psi3), got {list(names)}")
+        params = from_file(args.params) if args.params else DRSParams()
+        force_model, force_note = load_force_model(args.force_model)
+        data = read_bag(args.bag, [topics["joint_states"], topics["piston_force"],
+                                   topics["flap_gap"]], recover=args.recover)
+        results = check_bag(data, params, tol=args.tol, force_tol=args.force_tol, topics=topics,
+                            joint_names=names, force_model=force_model, force_note=force_note,
+                            max_match_s=args.max_match, force_model_tol=args.force_model_tol)
+    except DRSError as exc:
+        print(f"drs-check: error: {exc}", file=sys.stderr)
+        return 2
+    print(to_json(data, results) if args.json else format_table(data, results))
+    return 1 if any(r.status == "FAIL" for r in results) else 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,557 @@
+"""A rosbag2-compatible MCAP recorder (``ros2`` profile, ``ros2msg`` schemas, ``cdr`` channels).
+
+What rosbag2 (Jazzy, ``rosbag2_storage_mcap``) writes, and this module reproduces:
+
+* header profile ``ros2``;
+* one schema per message type: name ``pkg/msg/Type``, encoding ``ros2msg``, data the full
+  definition text (:func:`drs_ros.msgdefs.full_definition`);
+* one channel per topic: message encoding ``cdr``, metadata ``offered_qos_profiles`` (a YAML
+  string, the version-9 form with policy names) and ``topic_type_hash`` (``RIHS01_...``);
+* messages serialised with ``rclpy.serialization.serialize_message``, ``log_time`` (receive) and
+  ``publish_time`` (send) in integer nanoseconds;
+* on finish, a metadata record ``rosbag2`` holding ``serialized_metadata`` (the bag metadata as
+  YAML) and ``metadata.yaml`` (version 9, key ``rosbag2_bagfile_information``) beside the file.
+
+A bag is a directory: ``McapRecorder("bags/demo")`` writes ``bags/demo/demo_0.mcap`` and, on
+:meth:`McapRecorder.finish`, ``bags/demo/metadata.yaml``.
+
+Crash safety: the MCAP writer buffers a chunk (1 MiB by default) in memory, so a process killed
+with SIGKILL before its first chunk completes leaves a file holding only the header. The recorder
+therefore closes the chunk in progress and hands it to the OS (``mcap.writer.Writer.flush``)
+every ``flush_period`` seconds and every ``flush_messages`` messages, from :meth:`write` and from
+a background thread (so a recorder whose writes stop is flushed too). A SIGKILL then loses at most
+the last period; the flushed prefix is readable with ``mcap.stream_reader.StreamReader`` (see
+``drs-check --recover``). A seeking reader needs the summary, which only :meth:`finish` writes:
+the node must finish the recorder on SIGINT/SIGTERM.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import os
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+from mcap import __version__ as _mcap_version
+from mcap.writer import CompressionType, Writer
+
+from drs_model.errors import DRSError
+
+from . import msgdefs
+
+#: rosbag2 metadata version of ROS 2 Jazzy.
+ROSBAG2_METADATA_VERSION = 9
+#: ``RMW_DURATION_INFINITE`` as rosbag2 serialises it.
+INFINITE_DURATION = {"sec": 9223372036, "nsec": 854775807}
+_COMPRESSION = {
+    "none": CompressionType.NONE, "lz4": CompressionType.LZ4, "zstd": CompressionType.ZSTD
+}
+_LIBRARY = f"drs_ros.recording (mcap-python {_mcap_version})"
+
+
+class RecordingError(DRSError):
+    """The recorder cannot do what was asked (unknown topic, wrong type, finished, bad path...)."""
+
+
+# ---- QoS ----------------------------------------------------------------------------------------
+def _policy(value: Any, resolved: str) -> str:
+    """Lower-case policy name; ``system_default`` resolved to what Fast DDS offers."""
+    name = getattr(value, "name", str(value)).lower()
+    return resolved if name == "system_default" else name
+
+
+def _duration(value: Any) -> dict[str, int]:
+    ns = int(getattr(value, "nanoseconds", value))
+    if ns <= 0 or ns >= 2**63 - 1:  # unspecified (0) is infinite on the wire
+        return dict(INFINITE_DURATION)
+    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+
+
+def qos_dict(qos: Any = None) -> dict[str, Any]:
+    """A QoS profile as rosbag2 (metadata version 9) serialises an offered profile.
+
+    Parameters
+    ----------
+    qos : rclpy.qos.QoSProfile or int or None
+        The publisher's profile; an int is a KEEP_LAST depth; None means ``QoSProfile(depth=10)``.
+
+    Returns
+    -------
+    dict
+        ``history``, ``depth``, ``reliability``, ``durability``, ``deadline``, ``lifespan``,
+        ``liveliness``, ``liveliness_lease_duration``, ``avoid_ros_namespace_conventions``.
+        ``system_default`` policies and unspecified durations are resolved as the Fast DDS graph
+        reports them to ``ros2 bag record`` (reliable, volatile, automatic, infinite).
+    """
+    if qos is None or isinstance(qos, int):
+        from rclpy.qos import QoSProfile
+
+        depth = 10 if qos is None else qos
+        if isinstance(depth, bool) or depth < 0:
+            raise RecordingError(f"QoS depth must be an int >= 0, got {qos!r}")
+        qos = QoSProfile(depth=depth)
+    try:
+        return {
+            "history": _policy(qos.history, "keep_last"),
+            "depth": int(qos.depth),
+            "reliability": _policy(qos.reliability, "reliable"),
+            "durability": _policy(qos.durability, "volatile"),
+            "deadline": _duration(qos.deadline),
+            "lifespan": _duration(qos.lifespan),
+            "liveliness": _policy(qos.liveliness, "automatic"),
+            "liveliness_lease_duration": _duration(qos.liveliness_lease_duration),
+            "avoid_ros_namespace_conventions": bool(qos.avoid_ros_namespace_conventions),
+        }
+    except AttributeError as exc:
+        raise RecordingError(f"expected an rclpy QoSProfile, a depth or None, got {qos!r}") from exc
+
+
+def qos_yaml(profiles: list[dict[str, Any]]) -> str:
+    """The ``offered_qos_profiles`` channel metadata (yaml-cpp block style, no final newline)."""
+    lines = []
+    for prof in profiles:
+        first = True
+        for key, value in prof.items():
+            lead = "- " if first else "  "
+            first = False
+            if isinstance(value, dict):
+                lines.append(f"{lead}{key}:")
+                lines += [f"    {k}: {v}" for k, v in value.items()]
+            elif isinstance(value, bool):
+                lines.append(f"{lead}{key}: {'true' if value else 'false'}")
+            else:
+                lines.append(f"{lead}{key}: {value}")
+    return "\n".join(lines)
+
+
+# ---- records ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TopicInfo:
+    """A registered topic: name, ``pkg/msg/Type``, message class, channel id, QoS, type hash."""
+
+    name: str
+    type_name: str
+    msg_class: type = field(repr=False)
+    channel_id: int
+    qos_profiles: tuple[dict[str, Any], ...] = field(repr=False)
+    type_hash: str
+
+
+@dataclass(frozen=True)
+class RecorderStats:
+    """Counters for diagnostics (a snapshot).
+
+    Attributes
+    ----------
+    messages : dict
+        Messages written per topic.
+    message_count : int
+        Total messages written.
+    bytes_written : int
+        Total serialised payload [bytes].
+    file_bytes : int
+        Bytes handed to the OS so far (file size up to the last flush) [bytes].
+    flush_count : int
+        Chunk flushes so far.
+    messages_flushed : int
+        Messages safely in the file at the last flush (what a SIGKILL would keep).
+    seconds_since_flush : float
+        Age of the last flush (or of the start) [s].
+    finished : bool
+        Whether :meth:`McapRecorder.finish` ran.
+    """
+
+    messages: dict[str, int]
+    message_count: int
+    bytes_written: int
+    file_bytes: int
+    flush_count: int
+    messages_flushed: int
+    seconds_since_flush: float
+    finished: bool
+
+
+class McapRecorder:
+    """Record ROS 2 messages into a rosbag2-compatible MCAP bag directory.
+
+    Parameters
+    ----------
+    bag_dir : str or Path
+        Bag directory to create; the file is ``<bag_dir>/<name>_0.mcap``.
+    overwrite : bool
+        Replace an existing non-empty bag directory's files (otherwise :class:`RecordingError`).
+    flush_period : float
+        Maximum time between chunk flushes [s] (> 0; 0.5 by default).
+    flush_messages : int or None
+        Also flush after this many messages since the last flush (None: time only).
+    chunk_size : int
+        Chunk size bound [bytes] (a chunk is also closed at each flush).
+    compression : {"none", "lz4", "zstd"}
+        Chunk compression.
+    flush_thread : bool
+        Run a daemon thread that flushes when writes stop for longer than ``flush_period``.
+    ros_distro : str
+        Written into the metadata.
+    custom_data : mapping of str to str, optional
+        rosbag2's ``custom_data`` (e.g. the parameter set).
+
+    Examples
+    --------
+    >>> with McapRecorder("bags/demo") as rec:                      # doctest: +SKIP
+    ...     rec.register_topic("/joint_states", JointState, qos=10)
+    ...     rec.write("/joint_states", msg, log_time_ns=t_ns)
+    """
+
+    def __init__(
+        self,
+        bag_dir: str | os.PathLike,
+        *,
+        overwrite: bool = False,
+        flush_period: float = 0.5,
+        flush_messages: int | None = None,
+        chunk_size: int = 1024 * 1024,
+        compression: str = "none",
+        flush_thread: bool = True,
+        ros_distro: str = "jazzy",
+        custom_data: Mapping[str, str] | None = None,
+    ) -> None:
+        if not (isinstance(flush_period, (int, float)) and math.isfinite(flush_period)
+                and flush_period > 0):
+            raise RecordingError(
+                f"flush_period must be a finite number > 0 s, got {flush_period!r}"
+            )
+        if flush_messages is not None and (
+            isinstance(flush_messages, bool) or not isinstance(flush_messages, int)
+            or flush_messages < 1
+        ):
+            raise RecordingError(
+                f"flush_messages must be an int >= 1 or None, got {flush_messages!r}"
+            )
+        if compression not in _COMPRESSION:
+            raise RecordingError(
+                f"compression must be one of {sorted(_COMPRESSION)}, got {compression!r}"
+            )
+        self._serialize = _serializer()
+        self.bag_dir = Path(bag_dir)
+        if not self.bag_dir.name:
+            raise RecordingError(f"bag_dir must name a directory, got {str(bag_dir)!r}")
+        self.path = self.bag_dir / f"{self.bag_dir.name}_0.mcap"
+        self.metadata_path = self.bag_dir / "metadata.yaml"
+        if self.bag_dir.exists() and not self.bag_dir.is_dir():
+            raise RecordingError(f"bag directory {str(self.bag_dir)!r} exists and is a file")
+        if self.bag_dir.is_dir() and any(self.bag_dir.iterdir()) and not overwrite:
+            raise RecordingError(
+                f"bag directory {str(self.bag_dir)!r} already holds files; pass overwrite=True "
+                "or choose a new name"
+            )
+        self.flush_period = float(flush_period)
+        self.flush_messages = flush_messages
+        self.ros_distro = ros_distro
+        self.custom_data = dict(custom_data or {})
+        try:
+            self.bag_dir.mkdir(parents=True, exist_ok=True)
+            for stale in (self.path, self.metadata_path):
+                stale.unlink(missing_ok=True)
+            self._stream = open(self.path, "wb")  # noqa: SIM115 - closed in finish()
+        except OSError as exc:
+            raise RecordingError(f"cannot create bag {str(self.path)!r}: {exc}") from exc
+        self._writer = Writer(
+            self._stream,
+            chunk_size=int(chunk_size),
+            compression=_COMPRESSION[compression],
+        )
+        self._writer.start(profile="ros2", library=_LIBRARY)
+        self._lock = threading.Lock()
+        self._topics: dict[str, TopicInfo] = {}
+        self._schemas: dict[str, int] = {}
+        self._counts: dict[str, int] = {}
+        self._sequence: dict[str, int] = {}
+        self._message_count = 0
+        self._bytes = 0
+        self._t_min: int | None = None
+        self._t_max: int | None = None
+        self._flush_count = 0
+        self._messages_flushed = 0
+        self._since_flush = 0
+        self._last_flush = time.monotonic()
+        self._file_bytes = self._stream.tell()
+        self._finished = False
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        if flush_thread:
+            self._thread = threading.Thread(
+                target=self._flush_loop, name="mcap-recorder-flush", daemon=True
+            )
+            self._thread.start()
+
+    # ---- context manager --------------------------------------------------------------------
+    def __enter__(self) -> McapRecorder:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.finish()
+
+    # ---- topics -----------------------------------------------------------------------------
+    def register_topic(self, topic: str, msg_type, qos: Any = None) -> TopicInfo:
+        """Declare a topic (schema + channel); registering the same topic again is a no-op.
+
+        Parameters
+        ----------
+        topic : str
+            Absolute topic name, e.g. ``"/joint_states"``.
+        msg_type : type or str
+            Message class or ``pkg/msg/Type``.
+        qos : rclpy.qos.QoSProfile or int or None
+            Offered QoS (see :func:`qos_dict`); a list of profiles is accepted too.
+
+        Returns
+        -------
+        TopicInfo
+        """
+        if not isinstance(topic, str) or not topic.startswith("/"):
+            raise RecordingError(f"topic must be an absolute name starting with '/', got {topic!r}")
+        name = msgdefs.type_name(msg_type)
+        cls = msgdefs.message_class(msg_type)
+        profiles = tuple(qos_dict(q) for q in (qos if isinstance(qos, (list, tuple)) else [qos]))
+        definition = msgdefs.full_definition(name)
+        type_hash = msgdefs.type_hash(name)
+        with self._lock:
+            self._check_open()
+            known = self._topics.get(topic)
+            if known is not None:
+                if known.type_name != name:
+                    raise RecordingError(
+                        f"topic {topic!r} is registered with type {known.type_name}, not {name}"
+                    )
+                return known
+            schema_id = self._schemas.get(name)
+            if schema_id is None:
+                schema_id = self._writer.register_schema(name, "ros2msg", definition.encode())
+                self._schemas[name] = schema_id
+            channel_id = self._writer.register_channel(
+                topic,
+                "cdr",
+                schema_id,
+                {"offered_qos_profiles": qos_yaml(list(profiles)), "topic_type_hash": type_hash},
+            )
+            info = TopicInfo(topic, name, cls, channel_id, profiles, type_hash)
+            self._topics[topic] = info
+            self._counts[topic] = 0
+            self._sequence[topic] = 0
+            return info
+
+    @property
+    def topics(self) -> dict[str, TopicInfo]:
+        """Registered topics by name (a copy)."""
+        with self._lock:
+            return dict(self._topics)
+
+    # ---- writing ----------------------------------------------------------------------------
+    def write(self, topic: str, msg, log_time_ns: int, publish_time_ns: int | None = None) -> None:
+        """Serialise and append one message (thread-safe).
+
+        Parameters
+        ----------
+        topic : str
+            A registered topic.
+        msg : ROS message or bytes
+            A message of the topic's type, or its CDR bytes already serialised.
+        log_time_ns : int
+            Receive/record time [ns].
+        publish_time_ns : int, optional
+            Send time [ns]; ``log_time_ns`` when None.
+        """
+        info = self._topics.get(topic)
+        if info is None:
+            raise RecordingError(
+                f"topic {topic!r} is not registered; registered: {sorted(self._topics)}"
+            )
+        if isinstance(msg, (bytes, bytearray, memoryview)):
+            data = bytes(msg)
+        elif type(msg) is info.msg_class:
+            data = self._serialize(msg)
+        else:
+            raise RecordingError(
+                f"topic {topic!r} carries {info.type_name}, got {type(msg).__module__}."
+                f"{type(msg).__name__}"
+            )
+        log_ns = _time_ns(log_time_ns, "log_time_ns")
+        pub_ns = log_ns if publish_time_ns is None else _time_ns(publish_time_ns, "publish_time_ns")
+        with self._lock:
+            self._check_open()
+            seq = self._sequence[topic] = self._sequence[topic] + 1
+            self._writer.add_message(info.channel_id, log_ns, data, pub_ns, sequence=seq)
+            self._counts[topic] += 1
+            self._message_count += 1
+            self._since_flush += 1
+            self._bytes += len(data)
+            self._t_min = log_ns if self._t_min is None else min(self._t_min, log_ns)
+            self._t_max = log_ns if self._t_max is None else max(self._t_max, log_ns)
+            if (self.flush_messages is not None and self._since_flush >= self.flush_messages) or (
+                time.monotonic() - self._last_flush >= self.flush_period
+            ):
+                self._flush_locked()
+
+    def flush(self) -> None:
+        """Close the chunk in progress and hand everything to the OS (no fsync)."""
+        with self._lock:
+            if not self._finished:
+                self._flush_locked()
+
+    def _flush_locked(self) -> None:
+        self._writer.flush()
+        self._file_bytes = self._stream.tell()
+        self._flush_count += 1
+        self._messages_flushed = self._message_count
+        self._since_flush = 0
+        self._last_flush = time.monotonic()
+
+    def _flush_loop(self) -> None:
+        while not self._stop.wait(self.flush_period / 2.0):
+            with self._lock:
+                if self._finished:
+                    return
+                if self._since_flush and time.monotonic() - self._last_flush >= self.flush_period:
+                    self._flush_locked()
+
+    def _check_open(self) -> None:
+        if self._finished:
+            raise RecordingError(f"the recorder of {str(self.path)!r} is finished")
+
+    # ---- statistics -------------------------------------------------------------------------
+    def stats(self) -> RecorderStats:
+        """A snapshot of the counters (see :class:`RecorderStats`)."""
+        with self._lock:
+            return RecorderStats(
+                messages=dict(self._counts),
+                message_count=self._message_count,
+                bytes_written=self._bytes,
+                file_bytes=self._file_bytes,
+                flush_count=self._flush_count,
+                messages_flushed=self._messages_flushed,
+                seconds_since_flush=time.monotonic() - self._last_flush,
+                finished=self._finished,
+            )
+
+    def bag_metadata(self) -> dict[str, Any]:
+        """rosbag2's ``BagMetadata`` (version 9) of what was written so far, as a dict."""
+        with self._lock:
+            return self._bag_metadata_locked()
+
+    def _bag_metadata_locked(self) -> dict[str, Any]:
+        start = self._t_min or 0
+        duration = (self._t_max - self._t_min) if self._t_min is not None else 0
+        topics = [
+            {
+                "topic_metadata": {
+                    "name": info.name,
+                    "type": info.type_name,
+                    "serialization_format": "cdr",
+                    "offered_qos_profiles": [dict(p) for p in info.qos_profiles],
+                    "type_description_hash": info.type_hash,
+                },
+                "message_count": self._counts[info.name],
+            }
+            for info in self._topics.values()
+        ]
+        return {
+            "version": ROSBAG2_METADATA_VERSION,
+            "storage_identifier": "mcap",
+            "duration": {"nanoseconds": duration},
+            "starting_time": {"nanoseconds_since_epoch": start},
+            "message_count": self._message_count,
+            "topics_with_message_count": topics,
+            "compression_format": "",
+            "compression_mode": "",
+            "relative_file_paths": [self.path.name],
+            "files": [
+                {
+                    "path": self.path.name,
+                    "starting_time": {"nanoseconds_since_epoch": start},
+                    "duration": {"nanoseconds": duration},
+                    "message_count": self._message_count,
+                }
+            ],
+            "custom_data": dict(self.custom_data) or None,
+            "ros_distro": self.ros_distro,
+        }
+
+    # ---- finish -----------------------------------------------------------------------------
+    def finish(self) -> Path:
+        """Write the metadata record, summary and footer, close the file, write ``metadata.yaml``.
+
+        Idempotent: later calls do nothing. Returns the bag directory.
+        """
+        with self._lock:
+            if self._finished:
+                return self.bag_dir
+            self._finished = True
+            self._stop.set()
+            try:
+                self._writer.flush()
+                meta = self._bag_metadata_locked()
+                self._writer.add_metadata(
+                    "rosbag2", {"serialized_metadata": yaml.safe_dump(meta, sort_keys=False)}
+                )
+                self._writer.finish()
+                self._file_bytes = self._stream.tell()
+            finally:
+                self._stream.close()
+            try:
+                self.metadata_path.write_text(
+                    yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
+                )
+            except OSError as exc:
+                raise RecordingError(
+                    f"cannot write {str(self.metadata_path)!r}: {exc}"
+                ) from exc
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=5.0)
+        return self.bag_dir
+
+
+def _time_ns(value, name: str) -> int:
+    if isinstance(value, bool):
+        raise RecordingError(f"{name} must be an int [ns], got {value!r}")
+    try:
+        value = operator.index(value)  # int and numpy integers
+    except TypeError:
+        raise RecordingError(f"{name} must be an int [ns], got {value!r}") from None
+    if not 0 <= value < 2**64:
+        raise RecordingError(f"{name} must lie in [0, 2**64) ns, got {value!r}")
+    return value
+
+
+def _serializer():
+    from rclpy.serialization import serialize_message  # rclpy only for serialisation
+
+    return serialize_message
+
+
+def read_bag_metadata(bag_dir: str | os.PathLike) -> dict[str, Any]:
+    """Parse ``<bag_dir>/metadata.yaml`` and return its ``rosbag2_bagfile_information``."""
+    path = Path(bag_dir) / "metadata.yaml"
+    try:
+        data = yaml.safe_load(path.read_text())
+        return data["rosbag2_bagfile_information"]
+    except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
+        raise RecordingError(f"cannot read rosbag2 metadata {str(path)!r}: {exc}") from exc
+
+
+__all__ = [
+    "INFINITE_DURATION",
+    "ROSBAG2_METADATA_VERSION",
+    "McapRecorder",
+    "RecorderStats",
+    "RecordingError",
+    "TopicInfo",
+    "qos_dict",
+    "qos_yaml",
+    "read_bag_metadata",
+]

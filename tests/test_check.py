@@ -1,0 +1,124 @@
+"""drs-check: consistent bags pass, corrupted states fail, broken files get a clear message."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from ros_support import require_rclpy, write_drs_bag
+
+from drs_ros import check
+
+pytestmark = pytest.mark.ros
+
+
+@pytest.fixture
+def good_bag(tmp_path, params):
+    require_rclpy()
+    rec, *_ = write_drs_bag(tmp_path / "good", params, n=150)
+    return rec
+
+
+def test_consistent_bag_passes(good_bag, capsys):
+    assert check.main([str(good_bag.bag_dir), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["ok"] and not report["recovered"]
+    assert report["messages"]["/joint_states"] == 150
+    by_name = {c["name"]: c for c in report["checks"]}
+    assert by_name["loop constraint |Phi(q)|"]["max_error"] < 1e-9
+    assert by_name["velocity constraint |Phi_q qd|"]["samples"] == 150
+    assert by_name["gap vs kinematics.gap(q)"]["status"] == "ok"
+    assert by_name["piston force vs effort[0]"]["max_error"] == 0.0
+    model = by_name["piston force vs model"]
+    hook, _ = check.load_force_model()
+    if hook is None:
+        assert model["status"] == "skipped" and "skipped" in model["note"]
+    else:  # reported, not enforced without --force-model-tol
+        assert model["status"] == "info" and model["samples"] == 150
+
+
+def test_corrupted_joint_state_fails_with_the_discrepancy(tmp_path, params, capsys):
+    require_rclpy()
+    delta = 2e-4
+    rec, t, q, *_ = write_drs_bag(tmp_path / "bad", params, n=150, corrupt=(37, 2, delta))
+    assert check.main([str(rec.path), "--tol", "1e-6"]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL" in out
+    data = check.read_bag(rec.path, ["/joint_states", "/drs/piston_force", "/drs/flap_gap"])
+    results = {r.name: r for r in check.check_bag(data, params, tol=1e-6)}
+    loop = results["loop constraint |Phi(q)|"]
+    assert loop.status == "FAIL"
+    assert loop.at_time_s == pytest.approx(1.7e9 + t[37], abs=1e-6)
+    # a flap-angle error delta moves C3 by L3 delta (-sin psi3, cos psi3) to first order
+    psi3 = q[37, 2]
+    first_order = params.L3 * delta * max(abs(np.sin(psi3)), abs(np.cos(psi3)))
+    assert loop.max_error == pytest.approx(first_order, rel=1e-2)
+    gap = results["gap vs kinematics.gap(q)"]
+    assert gap.status == "FAIL"
+    assert gap.max_error == pytest.approx(params.tip_arm * delta * abs(np.cos(psi3)), rel=1e-2)
+
+
+def test_custom_topics_and_force_hook(tmp_path, params):
+    require_rclpy()
+    rec, t, q, qd, force = write_drs_bag(tmp_path / "hook", params, n=60)
+    data = check.read_bag(rec.bag_dir, ["/joint_states"])
+
+    def fake_model(q, qd, qdd, p):
+        return np.zeros(len(q))
+
+    results = check.check_bag(data, params, force_model=fake_model, force_model_tol=1.0)
+    model = next(r for r in results if r.name == "piston force vs model")
+    assert model.status == "FAIL" and model.max_error == pytest.approx(np.max(np.abs(force)))
+    with pytest.raises(check.ForceModelError, match="cannot load force model"):
+        check.load_force_model("drs_model:no_such_function")
+
+
+def test_truncated_file_message_and_recover(good_bag, capsys):
+    raw = good_bag.path.read_bytes()
+    cut = good_bag.path.parent / "cut.mcap"
+    cut.write_bytes(raw[: int(len(raw) * 0.6)])
+    assert check.main([str(cut)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "truncated or" in err and "--recover" in err
+    with pytest.raises(check.BagReadError, match="truncated or"):
+        check.read_bag(cut, ["/joint_states"])
+    # this bag is one chunk (no flush before finish): its cut leaves no complete chunk
+    assert check.main([str(cut), "--recover"]) == 2
+    assert "nothing recoverable" in capsys.readouterr().err
+
+
+def test_recover_reads_the_prefix_of_a_chunked_bag(tmp_path, params, capsys):
+    require_rclpy()
+    rec, t, q, *_ = write_drs_bag(tmp_path / "chunks", params, n=200,
+                                  recorder_kwargs={"flush_messages": 60})
+    raw = rec.path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(raw[: len(raw) // 2])
+    data = check.read_bag(cut, ["/joint_states"], recover=True)
+    js = data.messages["/joint_states"]
+    assert 0 < len(js) < 200
+    np.testing.assert_array_equal(np.array([m.position for _, m in js]), q[: len(js)])
+    results = check.check_bag(data, params)
+    assert results[0].status == "ok" and results[0].samples == len(js)
+    assert check.main([str(cut), "--recover", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["recovered"] and report["messages"]["/joint_states"] == len(js)
+    assert any(note.startswith("recovered") for note in report["notes"])
+
+
+def test_garbage_and_missing_files(tmp_path, capsys):
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"this is not an mcap file at all" * 10)
+    assert check.main([str(junk)]) == 2
+    assert "truncated or corrupt" in capsys.readouterr().err
+    assert check.main([str(junk), "--recover"]) == 2
+    assert "nothing recoverable" in capsys.readouterr().err
+    with pytest.raises(check.BagReadError, match="no such bag file or directory"):
+        check.read_bag(tmp_path / "nope", ["/joint_states"])
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(check.BagReadError, match="holds no .mcap file"):
+        check.read_bag(tmp_path / "empty", ["/joint_states"])
+    assert check.main([str(junk), "--joint-names", "a,b"]) == 2
+    assert "--joint-names needs 3 names" in capsys.readouterr().err
