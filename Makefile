@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 venv: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/drs demo
+	$(BIN)/drs-demo
 
 test: $(STAMP)
 	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest

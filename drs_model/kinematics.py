@@ -508,3 +508,52 @@ def check_geometry(p: DRSParams) -> None:
         raise ParameterError(
             "unreachable geometry: the gap rule's flap angles are not on assembly branch 1"
         )
+
+
+# ---- scalar fast paths (math only; for per-step use in a real-time loop) -------------------------
+def kinematic_state_scalar(
+    s: float, sd: float, sdd: float, p: DRSParams
+) -> tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]:
+    """:func:`kinematic_state` for one sample on branch 1 with ``math`` only (no numpy overhead).
+
+    Returns ``(q, qd, qdd)`` as tuples. Raises like the vectorised version.
+    """
+    if not (math.isfinite(s) and math.isfinite(sd) and math.isfinite(sdd)):
+        raise InputError(f"stroke, rate and acceleration must be finite, got {(s, sd, sdd)!r}")
+    L2, L3 = p.L2, p.L3
+    bx, by = p.x_A, p.y_A + p.L1 + s
+    dx, dy = p.x_D - bx, p.y_D - by
+    rho = math.hypot(dx, dy)
+    c = (rho * rho + L3 * L3 - L2 * L2) / (2.0 * L3 * rho)
+    if abs(c) > 1.0 + 1e-12:
+        solve_position(s, p)  # raises the AssemblyError with the admissible range
+    psi3 = math.atan2(dy, dx) - math.acos(max(-1.0, min(1.0, c)))
+    s3, c3 = math.sin(psi3), math.cos(psi3)
+    cx, cy = p.x_D - L3 * c3, p.y_D - L3 * s3
+    psi1 = math.atan2(bx - cx, cy - by)
+    s1, c1 = math.sin(psi1), math.cos(psi1)
+    det = -L2 * L3 * (c1 * c3 + s1 * s3)
+    if abs(det) < SINGULAR_TOL * L2 * L3:
+        _check_regular(np.array([s, psi1, psi3]), p, "s")
+    # J_D [psi1, psi3]' = rhs with J_D = [[L2 c1, L3 s3], [L2 s1, -L3 c3]] (Cramer's rule)
+    w1 = (-L3 * s3 * sd) / det
+    w3 = (L2 * c1 * sd) / det
+    g0 = L2 * s1 * w1 * w1 - L3 * c3 * w3 * w3
+    g1 = -L2 * c1 * w1 * w1 - L3 * s3 * w3 * w3 + sdd
+    a1 = (-L3 * c3 * g0 - L3 * s3 * g1) / det
+    a3 = (L2 * c1 * g1 - L2 * s1 * g0) / det
+    return (s, psi1, psi3), (sd, w1, w3), (sdd, a1, a3)
+
+
+def accelerations_from_flap_scalar(q, qd, psi3dd: float, p: DRSParams) -> tuple[float, float, float]:
+    """``qdd`` for one sample given the flap acceleration [rad/s^2] (``psi3`` independent)."""
+    _, psi1, psi3 = q
+    _, w1, w3 = qd
+    s1, c1 = math.sin(psi1), math.cos(psi1)
+    s3, c3 = math.sin(psi3), math.cos(psi3)
+    L2, L3 = p.L2, p.L3
+    # rows of Phi_q qdd = gamma with qdd_psi3 known: [0, L2 c1] and [-1, L2 s1] on [s, psi1]
+    g0 = L2 * s1 * w1 * w1 - L3 * c3 * w3 * w3 - L3 * s3 * psi3dd
+    g1 = -L2 * c1 * w1 * w1 - L3 * s3 * w3 * w3 + L3 * c3 * psi3dd
+    a1 = g0 / (L2 * c1)
+    return (L2 * s1 * a1 - g1, a1, psi3dd)

@@ -1,0 +1,61 @@
+"""Fixtures for node tests: one rclpy context and one DDS domain per test, spinning helpers."""
+
+from __future__ import annotations
+
+import os
+import time
+import zlib
+from collections.abc import Callable
+
+import pytest
+
+from ros_support import require_rclpy
+
+
+def domain_for(nodeid: str) -> int:
+    """A domain id in 1..100 derived from the test id (tests never hear each other)."""
+    return 1 + zlib.crc32(nodeid.encode()) % 100
+
+
+@pytest.fixture
+def ros_context(request, tmp_path, monkeypatch):
+    rclpy = require_rclpy()
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_PYTHON_CHECK_FIELDS", "1")
+    monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "ros-log"))
+    from rclpy.context import Context
+
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=domain_for(request.node.nodeid))
+    yield ctx
+    rclpy.try_shutdown(context=ctx)
+
+
+def spin_until(executor, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
+    """Spin ``executor`` until ``predicate()`` or ``timeout`` [s] of wall time."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.01)
+        if predicate():
+            return True
+    return predicate()
+
+
+def spin_for(executor, seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.005)
+
+
+def node_env(tmp_path, domain: int) -> dict[str, str]:
+    """Environment for a node subprocess: the whole parent environment (the ROS wheels re-exec
+    with LD_LIBRARY_PATH) plus loopback-only DDS and our domain."""
+    env = dict(os.environ)
+    env.update(
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        ROS_DOMAIN_ID=str(domain),
+        ROS_LOG_DIR=str(tmp_path / "ros-log"),
+        ROS_PYTHON_CHECK_FIELDS="1",
+        PYTHONUNBUFFERED="1",
+    )
+    return env

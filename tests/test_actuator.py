@@ -1,0 +1,137 @@
+"""The actuator simulation (model only): modes, commands, end stops, scalar kinematics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from drs_model import kinematics as kin
+from drs_model.actuator import ActuatorSim
+from drs_model.constraints import constraint
+from drs_model.dynamics import inverse_dynamics
+from drs_model.errors import InputError, StrokeRangeError
+from drs_model.forward import as_force  # noqa: F401 - the public force inputs exist
+from drs_model.profile import drs_manoeuvre
+
+
+def lagrange_force(params, s, sd=0.0, sdd=0.0):
+    st_ = kin.kinematic_state(np.atleast_1d(s), np.atleast_1d(sd), np.atleast_1d(sdd), params)
+    return float(inverse_dynamics(st_, params, method="lagrange").piston_force[0])
+
+
+def test_starts_closed_at_rest_holding_the_static_force(params):
+    a = ActuatorSim(params)
+    s_min, _ = kin.stroke_limits(params)
+    st_ = a.state
+    assert st_.mode == "hold" and st_.q[0] == s_min and st_.gap == pytest.approx(0.01, abs=1e-15)
+    assert st_.piston_force == pytest.approx(lagrange_force(params, s_min), rel=1e-10)
+    assert st_.dead_centre_distance == pytest.approx(s_min - kin.dead_centre(params), abs=1e-15)
+
+
+def test_open_follows_the_seed_opening_and_its_force(params):
+    a = ActuatorSim(params, dt=1e-3)
+    a.command_drs(True)
+    m = drs_manoeuvre(params)
+    for k in range(1, 11):
+        st_ = a.step()
+        s, v, acc = m.evaluate(k * 1e-3)
+        assert st_.q[0] == pytest.approx(float(s), abs=1e-15)
+        assert st_.piston_force == pytest.approx(lagrange_force(params, s, v, acc), rel=1e-9)
+        assert np.abs(constraint(st_.q, params)).max() < 1e-15
+    assert st_.gap == pytest.approx(0.05, abs=1e-12) and st_.t == pytest.approx(0.01, abs=0)
+    a.command_drs(False)
+    a.advance_to(0.02 + 1e-12)
+    assert a.state.gap == pytest.approx(0.01, abs=1e-12)
+
+
+def test_stroke_commands_validate_at_the_boundary(params):
+    a = ActuatorSim(params)
+    with pytest.raises(StrokeRangeError, match=r"target stroke 0\.1 m is outside \[s_min, s_max\]"):
+        a.command_stroke(0.1)
+    with pytest.raises(InputError, match=r"stroke command must be finite, got nan"):
+        a.command_stroke(math.nan)
+    a.command_drs(True)
+    a.advance_to(0.008)  # near the open end, still at 3.5 m/s
+    s_now = a.state.q[0]
+    # "stop here" over 10 ms from 3.5 m/s would carry the rod past s_max before it comes back
+    with pytest.raises(StrokeRangeError, match=r"would leave \[s_min, s_max\]"):
+        a.command_stroke(s_now, duration=0.01)
+    assert a.state.q[0] == s_now and a.mode == "stroke"  # unchanged by the refusal
+
+
+def test_force_commands_and_end_stops(params):
+    a = ActuatorSim(params, dt=1e-4)
+    s_min, s_max = kin.stroke_limits(params)
+    with pytest.raises(InputError, match=r"force command nan must be finite|must be finite"):
+        a.command_force(math.nan)
+    with pytest.raises(InputError, match=r"force command 50000\.0 N is outside \[-20000, 20000\] N"):
+        a.command_force(5e4)
+    # below the static holding force the flap stays on the closed stop
+    a.command_force(0.9 * lagrange_force(params, s_min))
+    a.advance_to(0.01)
+    assert a.state.at_stop == "closed" and a.state.q[0] == s_min
+    # a large force opens it onto the open stop, where it stays
+    a.command_force(3000.0)
+    a.advance_to(0.05)
+    st_ = a.state
+    assert st_.at_stop == "open" and st_.q[0] == s_max and st_.piston_force == 3000.0
+    assert np.all(st_.qd == 0.0)
+    # between the two static forces the flap would leave the open stop only if it pulls back
+    a.command_force(0.0)
+    a.advance_to(0.1)
+    assert a.state.at_stop == "closed"
+
+
+def test_free_flight_matches_the_forward_integrator(params):
+    """Away from the stops the force mode is the fixed-step integrator of drs_model.integrators,
+    checked here against an independent tight solve_ivp run."""
+    from scipy.integrate import solve_ivp
+
+    from drs_model.bodies import applied_forces, mass_matrix, velocity_forces
+    from drs_model.constraints import constraint_gamma, constraint_jacobian
+
+    a = ActuatorSim(params, dt=1e-5)
+    a.command_stroke(0.02)
+    a.advance_to(0.02)  # at rest at 20 mm
+    f = lagrange_force(params, 0.02) * 1.05  # 5 % more than holding: opens slowly
+    a.command_force(f)
+    t0, q0 = a.t, a.state.q
+
+    def rhs(t, y):  # index-1 full coordinates, written here from bodies + constraints
+        q, qd = y[:3], y[3:]
+        m = mass_matrix(q, params)
+        jac = constraint_jacobian(q, params)
+        kkt = np.block([[m, jac.T], [jac, np.zeros((2, 2))]])
+        r = np.concatenate([applied_forces(q, f, params) - velocity_forces(q, qd, params),
+                            constraint_gamma(q, qd, params)])
+        return np.concatenate([qd, np.linalg.solve(kkt, r)[:3]])
+
+    ref = solve_ivp(rhs, (0, 0.004), np.concatenate([q0, np.zeros(3)]), method="DOP853",
+                    rtol=1e-12, atol=1e-14)
+    a.advance_to(t0 + 0.004)
+    assert a.state.at_stop is None
+    assert a.state.q[0] == pytest.approx(ref.y[0, -1], abs=1e-9)
+    assert a.state.q[2] == pytest.approx(ref.y[2, -1], abs=1e-8)
+
+
+@given(st.floats(0.0, 0.05), st.floats(-10, 10), st.floats(-1e5, 1e5))
+@settings(max_examples=60, deadline=None)
+def test_scalar_kinematics_equal_the_vectorised(params, s, sd, sdd):
+    q, qd, qdd = kin.kinematic_state_scalar(s, sd, sdd, params)
+    ref = kin.kinematic_state(s, sd, sdd, params)
+    np.testing.assert_allclose(q, ref.q, atol=1e-14)
+    np.testing.assert_allclose(qd, ref.qd, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(qdd, ref.qdd, rtol=1e-10, atol=1e-6)
+    back = kin.accelerations_from_flap_scalar(q, qd, qdd[2], params)
+    np.testing.assert_allclose(back, ref.qdd, rtol=1e-9, atol=1e-5)
+
+
+def test_bad_construction(params):
+    with pytest.raises(InputError, match=r"dt must be a finite number in \(0, 0\.01\] s, got 0"):
+        ActuatorSim(params, dt=0)
+    with pytest.raises(Exception, match=r"bogus"):
+        ActuatorSim(params, force_method="bogus")
