@@ -447,12 +447,15 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     lines += [f"note: {n}" for n in data.notes]
     for topic, n in sorted(data.counts.items()):
         lines.append(f"  {topic:<28} {n:>8} messages")
-    head = f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t [s]':>12} " \
+    # times are shown from the first logged joint state (stamps are epoch seconds)
+    starts = [msg_list[0][0] for msg_list in data.messages.values() if msg_list]
+    t0 = min(starts) * 1e-9 if starts else 0.0
+    head = f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} " \
            f"{'tol':>9}  status"
     lines += ["", head, "-" * len(head)]
     for r in results:
         err = "-" if math.isnan(r.max_error) else f"{r.max_error:.3e}"
-        at = "-" if math.isnan(r.at_time_s) else f"{r.at_time_s:.6f}"
+        at = "-" if math.isnan(r.at_time_s) else f"{r.at_time_s - t0:.6f}"
         row = (f"{r.name + ' [' + r.unit + ']':<38} {r.topic:<20} {r.samples:>7} {err:>11} "
                f"{at:>12} {r.tol:>9.2g}  {r.status}")
         lines.append(row + (f"  ({r.note})" if r.note else ""))
