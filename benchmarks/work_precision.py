@@ -1,0 +1,559 @@
+"""Work-precision benchmark of the forward dynamics on the seed manoeuvre.
+
+Problem: the open-hold-close manoeuvre (0-50 ms) driven by its own inverse-dynamics piston force
+(:class:`drs_model.forward.ManoeuvreForce`, exact to rounding). The exact solution of the forward
+problem is then the profile itself, so the reference is the profile ``s(t)`` (and ``psi3(s(t))``
+in closed form), not a tight numerical run: it carries no integration error of its own. A DOP853
+run at rtol 1e-13 on formulation (a) is recorded against it as a check (its deviation bounds what
+the rounding of the force, amplified by the open-loop instability, leaves).
+
+For every formulation x adaptive method x rtol (and every fixed-step method x dt) it records the
+errors ``max |s - s_ref|``, ``max |psi3 - psi3_ref|`` over a 0.1 ms grid, the constraint residual
+(full coordinates), the CPU time (``time.process_time``, median of repeats), the function
+evaluations, or the failure (type and message). The baseline a user would otherwise take - the
+sympy.physics.mechanics index-1 right-hand side of ``benchmarks/sympy_baseline.py`` with
+solve_ivp (RK45, DOP853, Radau, LSODA; same segments and force) - runs in the same process.
+
+Outputs ``benchmarks/results/work_precision.json`` and ``docs/img/work_precision.png``; prints the
+target ratios. ``--quick`` runs a subset in ~30 s. Importable: :func:`run` returns the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # pragma: no cover - running as a script
+    sys.path.insert(0, str(ROOT))
+
+from drs_model import forward as fw  # noqa: E402
+from drs_model.errors import DRSError  # noqa: E402
+from drs_model.integrators import (  # noqa: E402
+    FixedStepIntegrator,
+    simulate,
+)
+from drs_model.kinematics import (  # noqa: E402
+    dead_centre,
+    solve_position,
+    stroke_limits,
+)
+from drs_model.params import DRSParams  # noqa: E402
+
+FORMULATIONS = ("psi3", "s", "index1", "baumgarte", "projection")
+METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+RTOLS = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
+FIXED = ("rk4", "rk2", "semi-implicit-euler")
+DTS = (1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5)
+BASELINE_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
+TARGETS = (1e-6, 1e-9)  # max |s err| [m]
+
+QUICK = {
+    "formulations": ("psi3", "s", "index1", "projection"),
+    "methods": ("RK45", "DOP853", "LSODA"),
+    "rtols": (1e-6, 1e-9, 1e-11),
+    "fixed": ("rk4",),
+    "dts": (1e-3, 1e-4, 1e-5),
+    "baseline_methods": ("DOP853", "LSODA"),
+}
+
+
+def _cpu(fn, repeats: int):
+    """(median CPU seconds, last result) of ``repeats`` calls of ``fn``."""
+    times, out = [], None
+    for _ in range(repeats):
+        t0 = time.process_time()
+        out = fn()
+        times.append(time.process_time() - t0)
+    return statistics.median(times), out
+
+
+class Problem:
+    """The manoeuvre, its force, the grid and the exact reference."""
+
+    def __init__(self, p: DRSParams, n_grid: int = 501) -> None:
+        self.p = p
+        self.force = fw.ManoeuvreForce(p)
+        self.t_end = p.T_total
+        self.grid = np.linspace(0.0, self.t_end, n_grid)
+        s, _, _ = self.force.profile(self.grid)
+        self.s_ref = s
+        self.psi3_ref = solve_position(s, p)[:, 2]
+
+    def errors(self, t, s, psi3) -> tuple[float, float]:
+        s_ref, _, _ = self.force.profile(t)
+        psi_ref = solve_position(s_ref, self.p)[:, 2]
+        return float(np.max(np.abs(s - s_ref))), float(np.max(np.abs(psi3 - psi_ref)))
+
+
+def adaptive_case(prob: Problem, form: str, method: str, rtol: float, repeats: int) -> dict:
+    options = {"drift_bound": 1e-3} if form in ("index1", "baumgarte", "projection") else {}
+    rec = {"kind": "adaptive", "formulation": form, "method": method, "rtol": rtol}
+
+    def go():
+        return simulate(
+            form, prob.force, (0.0, prob.t_end), params=prob.p, method=method, rtol=rtol,
+            t_eval=prob.grid, **options,
+        )  # fmt: skip
+
+    try:
+        cpu, sol = _cpu(go, repeats)
+    except DRSError as exc:
+        rec.update(ok=False, error=type(exc).__name__, message=str(exc)[:300])
+        return rec
+    es, ep = prob.errors(sol.t, sol.s, sol.psi3)
+    rec.update(
+        ok=True, cpu=cpu, nfev=sol.nfev, njev=sol.njev, nlu=sol.nlu, nsteps=sol.nsteps,
+        err_s=es, err_psi3=ep, residual=float(np.max(sol.residual)),
+        velocity_residual=float(np.max(sol.velocity_residual)),
+    )  # fmt: skip
+    return rec
+
+
+def fixed_case(prob: Problem, method: str, dt: float, repeats: int) -> dict:
+    n = int(round(prob.t_end / dt))
+    rec = {"kind": "fixed", "formulation": "psi3", "method": method, "dt": dt, "steps": n}
+    integ = FixedStepIntegrator(prob.p, dt, method=method, stroke_margin=1e-3)
+    force = prob.force
+
+    def go():
+        integ.reset()
+        out = np.empty((n, 3))
+        step = integ.step
+        for i in range(n):
+            st = step(force)
+            out[i] = st.t, st.s, st.psi3
+        return out
+
+    try:
+        cpu, out = _cpu(go, repeats)
+    except DRSError as exc:
+        rec.update(ok=False, error=type(exc).__name__, message=str(exc)[:300])
+        return rec
+    es, ep = prob.errors(out[:, 0], out[:, 1], out[:, 2])
+    evals = {"rk4": 4, "rk2": 2}.get(method, 1)
+    rec.update(
+        ok=True, cpu=cpu, nfev=evals * n, err_s=es, err_psi3=ep, residual=0.0,
+        us_per_step=cpu / n * 1e6,
+    )  # fmt: skip
+    return rec
+
+
+def realtime_step_cost(p: DRSParams, dt: float, n: int = 20000, repeats: int = 5) -> dict:
+    """CPU per ``step(F)`` with a float force held over the step (the node's use), us."""
+    force = fw.ManoeuvreForce(p)
+    integ = FixedStepIntegrator(p, dt, method="rk4", stroke_margin=1e-3)
+    n_man = int(round(p.T_total / dt))
+    forces = [force(k * dt) for k in range(n_man)]
+    costs = []
+    for _ in range(repeats):
+        done = 0
+        t0 = time.process_time()
+        while done < n:
+            integ.reset()
+            step = integ.step
+            for f in forces:
+                try:
+                    step(f)
+                except DRSError:
+                    break  # ZOH of a 10 ms move at 1 kHz may overrun the stroke: restart
+                done += 1
+        costs.append((time.process_time() - t0) / done * 1e6)
+    return {"dt": dt, "method": "rk4", "formulation": "psi3", "us_per_step": min(costs),
+            "us_per_step_median": statistics.median(costs), "steps": n}  # fmt: skip
+
+
+def baseline_case(prob: Problem, bl, method: str, rtol: float, repeats: int) -> dict:
+    rec = {"kind": "baseline", "formulation": "sympy-index1", "method": method, "rtol": rtol}
+    bps = [0.0, *prob.force.breakpoints[1:-1], prob.t_end]
+    q0 = solve_position(stroke_limits(prob.p)[0], prob.p)
+    y0 = np.concatenate([q0, np.zeros(3)])
+    atol = rtol * np.array([0.05, 1.0, 1.0, 10.0, 100.0, 100.0])
+
+    def go():
+        y, ts, ss, ps, nfev = y0, [], [], [], 0
+        for k, (a, b) in enumerate(zip(bps[:-1], bps[1:], strict=True)):
+            piece = prob.force.segment(a, b)
+            mask = (prob.grid >= a if k == 0 else prob.grid > a) & (prob.grid <= b)
+            sol = solve_ivp(
+                lambda t, yy, f=piece: bl.rhs(t, yy, f), (a, b), y, method=method,
+                t_eval=prob.grid[mask], rtol=rtol, atol=atol,
+            )  # fmt: skip
+            if sol.status != 0:
+                raise RuntimeError(sol.message)
+            nfev += sol.nfev
+            ts.append(sol.t)
+            ss.append(sol.y[0])
+            ps.append(sol.y[2])
+            y = sol.y[:, -1]
+        return np.concatenate(ts), np.concatenate(ss), np.concatenate(ps), nfev
+
+    try:
+        cpu, (t, s, psi3, nfev) = _cpu(go, repeats)
+    except (RuntimeError, ArithmeticError, ValueError) as exc:
+        rec.update(ok=False, error=type(exc).__name__, message=str(exc)[:300])
+        return rec
+    es, ep = prob.errors(t, s, psi3)
+    rec.update(ok=True, cpu=cpu, nfev=nfev, err_s=es, err_psi3=ep)
+    return rec
+
+
+# ---- stability study ----------------------------------------------------------------------------
+def _outcome(fn) -> dict:
+    try:
+        out = fn()
+    except DRSError as exc:
+        return {"ok": False, "error": type(exc).__name__, "message": str(exc)[:300]}
+    return {"ok": True, **out}
+
+
+def stability_study(p: DRSParams, quick: bool) -> list[dict]:
+    rows = []
+    force = fw.ManoeuvreForce(p)
+    s_min, s_max = stroke_limits(p)
+    s_dead = dead_centre(p)
+    hold_closed = force(0.0)
+    # 1. near the dead centre: 20 % less than the closed holding force lets the flap close further
+    low = 0.8 * hold_closed
+    for form in ("s", "psi3"):
+
+        def go(form=form):
+            sol = simulate(form, low, (0.0, 0.03), params=p, method="DOP853", rtol=1e-9)
+            i = int(np.argmin(sol.s))
+            return {"min_s": float(sol.s[i]), "t_min_s": float(sol.t[i]),
+                    "psi3_at_min_s": float(sol.psi3[i])}  # fmt: skip
+
+        rows.append({"study": "dead centre", "case": f"{form}, F = 0.8 F_hold(closed)",
+                     "s_dead": s_dead, **_outcome(go)})  # fmt: skip
+
+    def go_fixed_dead():
+        integ = FixedStepIntegrator(p, 1e-4)
+        for _ in range(500):
+            integ.step(low)
+        return {"t": integ.t}
+
+    rows.append({"study": "dead centre", "case": "fixed rk4 dt=0.1 ms, F = 0.8 F_hold(closed)",
+                 **_outcome(go_fixed_dead)})  # fmt: skip
+    # 2. fixed step too large on the manoeuvre
+    for dt in (2e-3, 5e-3) if quick else (1e-3, 2e-3, 5e-3, 1e-2):
+        for method in ("rk4",) if quick else ("rk4", "rk2", "semi-implicit-euler"):
+
+            def go(dt=dt, method=method):
+                integ = FixedStepIntegrator(p, dt, method=method, stroke_margin=1e-3)
+                n = int(round(p.T_total / dt))
+                errs = []
+                for _ in range(n):
+                    st = integ.step(force)
+                    errs.append(abs(st.s - float(force.profile(st.t)[0])))
+                return {"err_s": max(errs)}
+
+            rows.append({"study": "fixed step", "case": f"{method} dt={dt * 1e3:g} ms",
+                         **_outcome(go)})  # fmt: skip
+    # 3. Baumgarte gains (RK45 and Radau at rtol 1e-6)
+    gains = (0.0, 50.0, 1e3, 1e5) if quick else (0.0, 10.0, 50.0, 200.0, 1e3, 1e4, 1e5)
+    for method in ("RK45",) if quick else ("RK45", "Radau"):
+        for k in gains:
+
+            def go(k=k, method=method):
+                t0 = time.process_time()
+                sol = simulate(
+                    "index1" if k == 0 else "baumgarte", force, (0.0, p.T_total), params=p,
+                    method=method, rtol=1e-6, drift_bound=1e-3,
+                    **({} if k == 0 else {"alpha": k, "beta": k}),
+                )  # fmt: skip
+                cpu = time.process_time() - t0
+                s_ref = force.profile(sol.t)[0]
+                return {"nfev": sol.nfev, "cpu": cpu, "err_s": float(np.max(np.abs(sol.s - s_ref))),
+                        "residual": float(np.max(sol.residual))}  # fmt: skip
+
+            rows.append({"study": "Baumgarte gains", "case": f"{method} alpha=beta={k:g} 1/s",
+                         **_outcome(go)})  # fmt: skip
+    # 4. drift over a long run: five manoeuvres back to back (0.25 s), RK45 at rtol 1e-8
+    periodic = Periodic(force, 5)
+    for form in ("index1", "baumgarte", "projection", "psi3"):
+
+        def go(form=form):
+            t_end = 5 * p.T_total
+            grid = np.linspace(0.0, t_end, 6)
+            sol = simulate(
+                form,
+                periodic,
+                (0.0, t_end),
+                params=p,
+                method="RK45",
+                rtol=1e-8,
+                t_eval=grid,
+                **({} if form == "psi3" else {"drift_bound": 1.0}),
+            )
+            s_ref = force.profile(np.mod(grid, p.T_total))[0]
+            return {"residual_after_1": float(sol.residual[1]),
+                    "residual_after_5": float(sol.residual[-1]),
+                    "err_s_after_5": float(abs(sol.s[-1] - s_ref[-1])),
+                    "nfev": sol.nfev}  # fmt: skip
+
+        rows.append({"study": "drift, 5 manoeuvres (0.25 s)", "case": f"{form} RK45 rtol 1e-8",
+                     **_outcome(go)})  # fmt: skip
+
+    # 5. index-1 with a tight drift bound at loose tolerance: the drift error is raised
+    def go_drift():
+        sol = simulate(
+            "index1", force, (0.0, p.T_total), params=p, method="RK45", rtol=1e-3, drift_bound=1e-7
+        )
+        return {"residual": float(np.max(sol.residual))}
+
+    rows.append({"study": "drift bound", "case": "index1 RK45 rtol 1e-3, drift_bound 1e-7 m",
+                 **_outcome(go_drift)})  # fmt: skip
+    return rows
+
+
+class Periodic:
+    """The manoeuvre force repeated ``n`` times (the force protocol of drs_model.forward)."""
+
+    def __init__(self, force: fw.ManoeuvreForce, n: int) -> None:
+        self.force, self.period = force, force.p.T_total
+        self.breakpoints = tuple(k * self.period + b for k in range(n) for b in force.breakpoints)
+
+    def __call__(self, t: float) -> float:
+        return self.force(t % self.period)
+
+    def segment(self, a: float, b: float):
+        k = math.floor(0.5 * (a + b) / self.period)
+        shift = k * self.period
+        piece = self.force.segment(a - shift, b - shift)
+        return lambda t: piece(t - shift)
+
+
+def growth_rates(p: DRSParams) -> dict:
+    """Open-loop growth rate sqrt(d psi3''/d psi3) [1/s] at rest at both ends (hold force)."""
+    force = fw.ManoeuvreForce(p)
+    f = fw.Psi3Minimal(p)
+    out = {}
+    for name, s, F in (("closed", stroke_limits(p)[0], force(0.0)),
+                       ("open", stroke_limits(p)[1], force(0.025))):  # fmt: skip
+        b = float(solve_position(s, p)[2])
+        h = 1e-7
+        k = (f.accel(b + h, 0.0, F) - f.accel(b - h, 0.0, F)) / (2 * h)
+        out[name] = math.sqrt(k) if k > 0 else -math.sqrt(-k)
+    return out
+
+
+# ---- summary, chart -----------------------------------------------------------------------------
+def _best(records, target):
+    ok = [r for r in records if r.get("ok") and r["err_s"] <= target]
+    return min(ok, key=lambda r: r["cpu"]) if ok else None
+
+
+def summarise(results: dict) -> dict:
+    ours = [r for r in results["adaptive"] + results["fixed"] if r.get("ok")]
+    base = [r for r in results["baseline"] if r.get("ok")]
+    out = {}
+    for target in TARGETS:
+        b_ours, b_base = _best(ours, target), _best(base, target)
+        entry = {"target_err_s": target, "ours": b_ours, "baseline": b_base}
+        if b_ours and b_base:
+            entry["cpu_ratio"] = b_base["cpu"] / b_ours["cpu"]
+            entry["meets_20x"] = entry["cpu_ratio"] >= 20.0
+        out[f"{target:g}"] = entry
+    return out
+
+
+def plot(results: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 6.5))
+    groups: dict[str, list] = {}
+    for r in results["adaptive"] + results["fixed"] + results["baseline"]:
+        if not r.get("ok"):
+            continue
+        key = f"{r['formulation']} {r['method']}"
+        groups.setdefault(key, []).append(r)
+    cmap = plt.get_cmap("tab20")
+    for i, (key, recs) in enumerate(sorted(groups.items())):
+        recs = sorted(recs, key=lambda r: r["cpu"])
+        style = "--" if key.startswith("sympy") else (":" if recs[0]["kind"] == "fixed" else "-")
+        lw = 2.5 if key.startswith("sympy") else 1.2
+        ax.loglog([r["cpu"] for r in recs], [max(r["err_s"], 1e-16) for r in recs], style,
+                  marker="o", ms=3, lw=lw, color="k" if key.startswith("sympy") else cmap(i % 20),
+                  label=key)  # fmt: skip
+    for target in TARGETS:
+        ax.axhline(target, color="grey", lw=0.6)
+    ax.set_xlabel("CPU time [s] (median of repeats)")
+    ax.set_ylabel("max |s - s_ref| [m] over the 0.1 ms grid")
+    ax.set_title("Forward dynamics on the seed manoeuvre: work-precision")
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(fontsize=6.5, ncol=2, loc="upper right")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(
+    quick: bool = False,
+    json_path: Path | str | None = ROOT / "benchmarks" / "results" / "work_precision.json",
+    png_path: Path | str | None = ROOT / "docs" / "img" / "work_precision.png",
+    repeats: int | None = None,
+    log=print,
+) -> dict:
+    """Run the benchmark, write the JSON and the chart (unless a path is None), return the
+    figures."""
+    t_start = time.perf_counter()
+    p = DRSParams()
+    prob = Problem(p)
+    cfg = QUICK if quick else {
+        "formulations": FORMULATIONS, "methods": METHODS, "rtols": RTOLS, "fixed": FIXED,
+        "dts": DTS, "baseline_methods": BASELINE_METHODS,
+    }  # fmt: skip
+    repeats = (1 if quick else 3) if repeats is None else repeats
+    results: dict = {"quick": quick, "repeats": repeats, "reference": "exact profile s(t)"}
+
+    # the reference and the force, checked
+    sol = simulate("psi3", prob.force, (0, prob.t_end), params=p, method="DOP853", rtol=1e-13,
+                   t_eval=prob.grid)  # fmt: skip
+    es, ep = prob.errors(sol.t, sol.s, sol.psi3)
+    results["reference_check"] = {"dop853_rtol1e-13_vs_profile_err_s": es,
+                                  "dop853_rtol1e-13_vs_profile_err_psi3": ep}  # fmt: skip
+    f_ours = np.array([prob.force(t) for t in prob.grid])
+    try:
+        from drs_model.dynamics import manoeuvre_force
+
+        results["force_check_vs_dynamics"] = float(
+            np.max(np.abs(manoeuvre_force(prob.grid, p) - f_ours))
+        )
+    except ImportError:  # pragma: no cover
+        results["force_check_vs_dynamics"] = None
+    results["growth_rate_per_s"] = growth_rates(p)
+    t0 = time.perf_counter()
+    results["force_us_per_call"] = (
+        _cpu(lambda: [prob.force(t) for t in prob.grid], 3)[0] / prob.grid.size * 1e6
+    )
+    log(f"reference check: DOP853 rtol 1e-13 vs profile: max|ds| = {es:.2e} m; "
+        f"growth rates {results['growth_rate_per_s']}")  # fmt: skip
+
+    results["adaptive"] = []
+    for form in cfg["formulations"]:
+        for method in cfg["methods"]:
+            for rtol in cfg["rtols"]:
+                if method in ("Radau", "BDF") and rtol < 1e-11:
+                    continue  # minutes of CPU, nothing to learn
+                rec = adaptive_case(prob, form, method, rtol, repeats)
+                results["adaptive"].append(rec)
+    log(f"adaptive: {len(results['adaptive'])} runs in {time.perf_counter() - t0:.1f} s")
+    t0 = time.perf_counter()
+    results["fixed"] = [fixed_case(prob, m, dt, repeats) for m in cfg["fixed"] for dt in cfg["dts"]]
+    results["realtime"] = [realtime_step_cost(p, dt, n=5000 if quick else 20000)
+                           for dt in (1e-3, 1e-4)]  # fmt: skip
+    log(f"fixed step: {time.perf_counter() - t0:.1f} s")
+
+    t0 = time.perf_counter()
+    results["baseline"] = []
+    try:
+        from benchmarks.sympy_baseline import build_baseline
+    except ImportError:  # pragma: no cover - run from benchmarks/
+        from sympy_baseline import build_baseline  # type: ignore[no-redef]
+    bl = build_baseline(p)
+    results["baseline_build_time"] = bl.build_time
+    q = solve_position(prob.s_ref[::50], p)
+    results["force_check_vs_baseline"] = float(np.max(np.abs(
+        bl.inverse_force(*_kin(prob, q)) - f_ours[::50])))  # fmt: skip
+    for method in cfg["baseline_methods"]:
+        for rtol in cfg["rtols"]:
+            if method == "Radau" and rtol < 1e-9:
+                continue
+            results["baseline"].append(baseline_case(prob, bl, method, rtol, repeats))
+    log(f"baseline: {time.perf_counter() - t0:.1f} s (derivation {bl.build_time:.2f} s)")
+
+    t0 = time.perf_counter()
+    results["stability"] = stability_study(p, quick)
+    log(f"stability study: {time.perf_counter() - t0:.1f} s")
+    results["summary"] = summarise(results)
+    results["wall_time"] = time.perf_counter() - t_start
+    if json_path is not None:
+        json_path = Path(json_path)
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(_clean(results), indent=1))
+    if png_path is not None:
+        plot(results, Path(png_path))
+    return results
+
+
+def _kin(prob: Problem, q):
+    """(q, qd, qdd) of the profile at the grid points used for the force check."""
+    from drs_model.kinematics import kinematic_state
+
+    s, sd, sdd = prob.force.profile(prob.grid[::50])
+    st = kinematic_state(s, sd, sdd, prob.p)
+    return st.q, st.qd, st.qdd
+
+
+def _clean(obj):
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
+def report(results: dict) -> str:
+    """The human summary: target ratios, fixed-step cost, stability study."""
+    lines = []
+    for key, e in results["summary"].items():
+        o, b = e["ours"], e["baseline"]
+        if o is None or b is None:
+            lines.append(f"max|s err| <= {key} m: ours {o and o['cpu']}, baseline {b and b['cpu']}")
+            continue
+        setting = f"rtol {o['rtol']:g}" if "rtol" in o else f"dt {o['dt']:g}"
+        lines.append(
+            f"max|s err| <= {key} m: ours {o['formulation']}/{o['method']} "
+            f"({setting}) {o['cpu'] * 1e3:.2f} ms, "
+            f"baseline sympy/{b['method']} (rtol {b['rtol']:g}) {b['cpu'] * 1e3:.2f} ms: "
+            f"ratio {e['cpu_ratio']:.1f}x ({'meets' if e['meets_20x'] else 'misses'} 20x)"
+        )
+    for r in results["realtime"]:
+        lines.append(
+            f"fixed step rk4/psi3 dt = {r['dt'] * 1e3:g} ms: {r['us_per_step']:.2f} us per step "
+            f"(median {r['us_per_step_median']:.2f}; target <= 20 us)"
+        )
+    lines.append(f"force evaluation: {results['force_us_per_call']:.2f} us per call")
+    lines.append("stability study:")
+    for r in results["stability"]:
+        what = r.get("error", "ok")
+        detail = (
+            r.get("message", "")
+            if not r["ok"]
+            else ", ".join(
+                f"{k}={v:.3g}" for k, v in r.items() if isinstance(v, float) and k != "s_dead"
+            )
+        )
+        lines.append(f"  [{r['study']}] {r['case']}: {what} {detail[:160]}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="a ~30 s subset")
+    ap.add_argument("--repeats", type=int, default=None)
+    args = ap.parse_args(argv)
+    results = run(quick=args.quick, repeats=args.repeats)
+    print(report(results))
+    print(f"wall time {results['wall_time']:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
