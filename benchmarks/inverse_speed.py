@@ -1,0 +1,118 @@
+"""CPU per sample of the inverse dynamics: drs_model vs the lambdified sympy baseline.
+
+Both paths go from time to piston force: profile -> kinematics -> force.
+
+* ours, vectorised: :func:`drs_model.dynamics.manoeuvre_force` (default ``"virtual-work"``: the
+  fused closed form) and, for reference, the Newton-Euler route through ``kinematic_state``;
+* ours, one sample: :meth:`FusedInverseDynamics.force_at` (``math`` only, built once);
+* baseline: the seed's profile (drs_model's, shared), the baseline's own Newton kinematics on its
+  lambdified constraints, then its lambdified ``inverse_force``; one sample = the same call on an
+  array of one.
+
+Medians of repeats of ``time.process_time`` (``time.perf_counter`` for the single-sample loops,
+where process_time's resolution is too coarse).
+
+Run: ``.venv/bin/python benchmarks/inverse_speed.py``.
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from sympy_baseline import build_baseline  # noqa: E402
+
+from drs_model.dynamics import FusedInverseDynamics, manoeuvre_force  # noqa: E402
+from drs_model.params import DRSParams  # noqa: E402
+from drs_model.profile import drs_manoeuvre  # noqa: E402
+
+
+def median_cpu(fn, repeats: int, clock=time.process_time) -> float:
+    """Median time [s] of one call of ``fn`` over ``repeats`` runs."""
+    out = []
+    for _ in range(repeats):
+        t0 = clock()
+        fn()
+        out.append(clock() - t0)
+    return statistics.median(out)
+
+
+def per_call(fn, calls: int, repeats: int = 5) -> float:
+    """Median time [s] per call of ``fn`` in loops of ``calls`` calls."""
+
+    def loop() -> None:
+        for _ in range(calls):
+            fn()
+
+    return median_cpu(loop, repeats, time.perf_counter) / calls
+
+
+def main() -> None:
+    p = DRSParams()
+    t_build = time.perf_counter()
+    baseline = build_baseline(p)
+    print(f"sympy baseline: derivation + lambdify {baseline.build_time:.3f} s "
+          f"(build_baseline call {time.perf_counter() - t_build:.3f} s)")
+    man = drs_manoeuvre(p)
+    fused = FusedInverseDynamics.from_params(p)
+
+    def base_force(t: np.ndarray) -> np.ndarray:
+        s, sd, sdd = man.evaluate(t)
+        return baseline.inverse_force(*baseline.kinematics(s, sd, sdd))
+
+    # same numbers first
+    t = np.linspace(0.0, p.T_total, 1001)
+    ref = manoeuvre_force(t, p)
+    err = np.max(np.abs(base_force(t) - ref)) / np.max(np.abs(ref))
+    print(f"max |F_baseline - F_ours| / max |F| over 1001 samples: {err:.2e}\n")
+
+    header = (
+        f"{'samples':>8}  {'ours [us/sample]':>17}  {'ours NE [us/sample]':>20}  "
+        f"{'baseline [us/sample]':>21}  {'baseline/ours':>13}"
+    )
+    print(header)
+    print("-" * len(header))
+    for n in (1, 1000, 100_000):
+        t = np.linspace(0.0, p.T_total, n) if n > 1 else np.array([0.0042])
+        reps = 7 if n == 100_000 else 31
+        if n == 1:
+            ours = per_call(lambda: fused.force_at(0.0042), 20_000)
+            ours_ne = per_call(lambda t=t: manoeuvre_force(t, p, "newton-euler"), 300)
+            base = per_call(lambda t=t: base_force(t), 300)
+        else:
+            clock_reps = max(1, 100_000 // n // 10)
+
+            def run_ours(t=t, k=clock_reps) -> None:
+                for _ in range(k):
+                    manoeuvre_force(t, p)
+
+            def run_ne(t=t, k=clock_reps) -> None:
+                for _ in range(k):
+                    manoeuvre_force(t, p, "newton-euler")
+
+            def run_base(t=t, k=clock_reps) -> None:
+                for _ in range(k):
+                    base_force(t)
+
+            ours = median_cpu(run_ours, reps) / (n * clock_reps)
+            ours_ne = median_cpu(run_ne, reps) / (n * clock_reps)
+            base = median_cpu(run_base, reps) / (n * clock_reps)
+        print(
+            f"{n:>8}  {ours * 1e6:>17.4g}  {ours_ne * 1e6:>20.4g}  {base * 1e6:>21.4g}  "
+            f"{base / ours:>13.1f}"
+        )
+    print(
+        "\nours at n = 1: FusedInverseDynamics.force_at (math, prebuilt); "
+        "at n > 1: manoeuvre_force(t, p) (fused numpy, blocks of 4096).\n"
+        "ours NE: manoeuvre_force(t, p, 'newton-euler') (kinematic_state + closed-form NE)."
+    )
+
+
+if __name__ == "__main__":
+    main()

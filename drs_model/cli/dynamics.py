@@ -1,0 +1,103 @@
+"""``drs inverse`` (piston force and reactions at given times) and ``drs peak`` (peak force)."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..constraints import PSI3, S
+from ..dynamics import (
+    METHODS,
+    REACTION_NAMES,
+    air_load_magnitude,
+    inverse_dynamics,
+    manoeuvre_state,
+    peak_force,
+    static_force_ratio,
+)
+from ..errors import InputError
+from ..kinematics import stroke_limits
+from ..params import SEED_LITERAL_IZ_WING
+from ._common import Output, add_common, float_list, key_values, load_params, table
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("inverse", help="piston force (and joint reactions) along the manoeuvre")
+    add_common(p)
+    p.add_argument("--method", choices=sorted(METHODS), default="newton-euler")
+    p.add_argument("--time", type=float_list, required=True, metavar="T[,T...]", help="times [s]")
+    p.set_defaults(func=run_inverse)
+
+    p = sub.add_parser("peak", help="peak piston force, its time and stroke, force ratio range")
+    add_common(p)
+    p.add_argument("--method", choices=sorted(METHODS), default="virtual-work")
+    p.add_argument("--samples", type=int, default=5001, help="grid before the Brent refinement")
+    p.set_defaults(func=run_peak)
+
+
+def run_inverse(args) -> Output:
+    params = load_params(args)
+    t = np.asarray(args.time, dtype=float)
+    if not np.all(np.isfinite(t)):
+        raise InputError("time must be finite")
+    _, state = manoeuvre_state(t, params)
+    res = inverse_dynamics(state, params, args.method)
+    d = {
+        "method": res.method,
+        "t": t,
+        "s": state.q[:, S],
+        "psi3": state.q[:, PSI3],
+        "piston_force": res.piston_force,
+    }
+    headers = ["t [s]", "s [m]", "psi3 [rad]", "F [N]"]
+    cols = [t, state.q[:, S], state.q[:, PSI3], res.piston_force]
+    if res.reactions is not None:
+        d["reactions"] = dict(res.reactions)
+        headers += [f"{k} [{'N m' if k == 'Tp' else 'N'}]" for k in REACTION_NAMES]
+        cols += [res.reactions[k] for k in REACTION_NAMES]
+    if res.multipliers is not None:
+        d["multipliers"] = res.multipliers
+        headers += ["lambda1 [N]", "lambda2 [N]"]
+        cols += [res.multipliers[:, 0], res.multipliers[:, 1]]
+    rows = list(zip(*cols, strict=True))
+    return Output(d, f"inverse dynamics ({res.method})\n" + table(headers, rows))
+
+
+def run_peak(args) -> Output:
+    params = load_params(args)
+    pk = peak_force(params, args.method, n=args.samples)
+    t = np.linspace(0.0, params.T_total, max(3, int(args.samples)))
+    _, state = manoeuvre_state(t, params)
+    force = inverse_dynamics(state, params, args.method).piston_force
+    ratio = force / air_load_magnitude(state.q[:, PSI3], params)
+    s_min, s_max = stroke_limits(params)
+    static = static_force_ratio(np.linspace(s_min, s_max, 201), params)
+    d = {
+        "method": args.method,
+        "Iz_wing": params.Iz_wing,
+        "seed_literal_Iz_wing": bool(np.isclose(params.Iz_wing, SEED_LITERAL_IZ_WING)),
+        "peak_force": pk.force,
+        "peak_time": pk.time,
+        "peak_stroke": pk.stroke,
+        "peak_psi3": pk.psi3,
+        "force_min": float(force.min()),
+        "force_ratio_min": float(ratio.min()),
+        "force_ratio_max": float(ratio.max()),
+        "static_force_ratio_min": float(static.min()),
+        "static_force_ratio_max": float(static.max()),
+    }
+    text = key_values(
+        [
+            ("Iz_wing", params.Iz_wing, "kg m^2"),
+            ("peak piston force", pk.force, "N"),
+            ("  at time", pk.time, "s"),
+            ("  at stroke", pk.stroke, "m"),
+            ("  at psi3", pk.psi3, "rad"),
+            ("lowest piston force", d["force_min"], "N"),
+            ("F/|F_air| along the manoeuvre", f"{ratio.min():.6g} .. {ratio.max():.6g}", "-"),
+            ("F/|F_air| static, along the stroke", f"{static.min():.6g} .. {static.max():.6g}", ""),
+        ]
+    )
+    title = f"peak piston force ({args.method}; --set Iz_wing=0.08 for the seed's literal)"
+    return Output(d, title + "\n" + text)
