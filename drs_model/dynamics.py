@@ -30,7 +30,7 @@ then read
     (C - B) \times r_{j2} = I_2 \ddot\psi_1 - (B - G_2) \times K_2, \qquad
     (D - C) \times r_{j2} = I_3 \ddot\psi_3 - (D - G_3) \times K_3,
 
-a 2 x 2 system of determinant ``(C - B) x (D - C) = L2 L3 sin(psi3 - psi1 ...)`` (zero where B, C,
+a 2 x 2 system of determinant ``(C - B) x (D - C) = -L2 L3 cos(psi1 - psi3)`` (zero where B, C,
 D align: the dead centre, where no finite piston force moves the flap). Then the piston:
 ``Np = m1 a_G1x - rj1x``, ``F = m1 (a_G1y + g) - rj1y``,
 ``Tp = I1 * 0 - (P - G1) x (Np, 0) - (B - G1) x rj1``.

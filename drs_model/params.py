@@ -235,8 +235,10 @@ class DRSParams:
             raise ParameterError(
                 f"d_tip must be < L_wing = {self.L_wing!r} m, got d_tip={self.d_tip!r}"
             )
-        # Geometry reachability (both gaps assemble on branch 1) is checked by
-        # kinematics.check_geometry(), which the constructors below call.
+        # the mechanism must assemble over the whole working stroke (both gaps on branch 1)
+        from .kinematics import check_geometry  # local: kinematics imports params
+
+        check_geometry(self)
 
     # ---- derived quantities -------------------------------------------------------------------
     @property
@@ -291,8 +293,6 @@ def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DR
     Raises :class:`ParameterError` for an unknown name or a bad value, and for a geometry that
     cannot assemble at the closed and open gaps.
     """
-    from .kinematics import check_geometry  # local: kinematics imports params
-
     if not isinstance(overrides, Mapping):
         raise ParameterError(f"parameter overrides must be a mapping, got {type(overrides).__name__}")
     unknown = sorted(set(overrides) - _FIELD_NAMES)
@@ -310,11 +310,9 @@ def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DR
         if name not in overrides and getattr(base, name) == default:
             overrides[name] = None
     try:
-        params = dataclasses.replace(base, **overrides)
+        return dataclasses.replace(base, **overrides)  # validated by __post_init__
     except TypeError as exc:  # pragma: no cover - dataclasses only raises for unknown names
         raise ParameterError(str(exc)) from exc
-    check_geometry(params)
-    return params
 
 
 def from_file(path: str | Path) -> DRSParams:

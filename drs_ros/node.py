@@ -23,6 +23,7 @@ Every command received is recorded, accepted or refused.
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
 import os
@@ -111,6 +112,7 @@ class DRSNode(Node):
         self.refused = 0
         self.accepted = 0
         self.last_refusal = ""
+        self.refusals: collections.deque[str] = collections.deque(maxlen=100)
         self.missed_deadlines = 0
         self.dropped_steps = 0
         self.ticks = 0
@@ -214,7 +216,7 @@ class DRSNode(Node):
             from .recording import McapRecorder
 
             self.recorder = McapRecorder(
-                bag, overwrite=True, flush_period=self.get_parameter("flush_period").value
+                bag, overwrite=False, flush_period=self.get_parameter("flush_period").value
             )
             ns = self.get_fully_qualified_name()
             for topic, typ in (
@@ -271,6 +273,7 @@ class DRSNode(Node):
     def _refuse(self, what: str, value, reason: str) -> str:
         self.refused += 1
         self.last_refusal = f"{what} {value!r} refused: {reason}"
+        self.refusals.append(self.last_refusal)
         self.get_logger().warning(self.last_refusal, throttle_duration_sec=1.0)
         return self.last_refusal
 

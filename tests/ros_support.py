@@ -14,6 +14,18 @@ import pytest
 JOINT_NAMES = ("drs_piston", "drs_link", "drs_flap")
 
 
+def require_module(name: str):
+    """Import ``name`` (installed by ``make test``), or skip outside CI / fail under CI."""
+    import importlib
+
+    try:
+        return importlib.import_module(name)
+    except ImportError as exc:
+        if os.environ.get("CI"):
+            pytest.fail(f"{name} is required under CI but cannot be imported: {exc}")
+        pytest.skip(f"{name} is not installed: {exc}", allow_module_level=True)
+
+
 def require_rclpy():
     """Import rclpy, or skip (outside CI) / fail (under CI) the calling test."""
     try:
@@ -22,7 +34,7 @@ def require_rclpy():
     except ImportError as exc:
         if os.environ.get("CI"):
             pytest.fail(f"rclpy is required under CI but cannot be imported: {exc}")
-        pytest.skip(f"rclpy is not installed: {exc}")
+        pytest.skip(f"rclpy is not installed: {exc}", allow_module_level=True)
     return rclpy
 
 

@@ -6,6 +6,8 @@ derivations written out in the tests, never from this package's output.
 
 from __future__ import annotations
 
+from ros_support import require_module
+
 import json
 import math
 
@@ -429,7 +431,7 @@ def dataclasses_frozen_error():
 
 
 def test_plot_errors(tmp_path):
-    pytest.importorskip("matplotlib")
+    require_module("matplotlib")
     not_a_dir = tmp_path / "file.png"
     not_a_dir.write_bytes(b"x")
     with pytest.raises(InputError, match=r"plot directory '.*file\.png' exists and is not a dir"):
@@ -499,7 +501,7 @@ def _assert_png(path):
 
 
 def test_cli_plot_writes_pngs(tmp_path, capsys):
-    pytest.importorskip("matplotlib")
+    require_module("matplotlib")
     d = _run_json(capsys, "collar", "--plot", str(tmp_path / "maps"), "--dpi", "40")
     names = sorted(p.rsplit("/", 1)[-1] for p in d["plots"])
     assert names == ["collar_ax.png", "collar_ay.png", "collar_vx.png", "collar_vy.png"]

@@ -30,7 +30,9 @@ def test_rosbags_reads_the_example_bag(params):
         )
     assert len(q) > 500
     assert np.abs(constraint(q, params)).max() < 1e-12
-    assert q[:, 0].max() == pytest.approx(0.0460742632, abs=1e-9)  # it opened fully
+    from drs_model.kinematics import stroke_limits
+
+    assert q[:, 0].max() == pytest.approx(stroke_limits(params)[1], abs=1e-12)  # opened fully
 
 
 def test_drs_check_passes_on_the_example(capsys):

@@ -84,10 +84,18 @@ def test_stroke_limits_solve_the_gap_rule_exactly(params):
             0.0, 0.27, xtol=1e-16, rtol=1e-15,
         )
         assert root == pytest.approx(ours, abs=1e-14)
-    # the seed's NLPSolve limits miss the rule: 10.0007 mm and 50.0005 mm (see README)
+    # the seed's NLPSolve limits miss the rule (README: 10.0007 mm and 50.0005 mm). First order
+    # from the exact limits: dgap/ds = -(L_wing - d_tip) cos(psi3) dpsi3/ds, with the seed's
+    # printed velocity ratio tau3 = -cos(psi1) / (L3 cos(psi1 - psi3)) (2.4.1.1)
     seed_gaps = kin.gap(kin.solve_position(np.array([SEED_S_MIN, SEED_S_MAX]), params), params)
-    assert seed_gaps[0] == pytest.approx(0.0100007, abs=1e-7)
-    assert seed_gaps[1] == pytest.approx(0.0500005, abs=1e-7)
+    for k, (exact_s, seed_s, target) in enumerate(
+        ((s_min, SEED_S_MIN, 0.01), (s_max, SEED_S_MAX, 0.05))
+    ):
+        _, psi1, psi3 = kin.solve_position(exact_s, params)
+        tau3 = -math.cos(psi1) / (params.L3 * math.cos(psi1 - psi3))
+        predicted = target - params.tip_arm * math.cos(psi3) * tau3 * (seed_s - exact_s)
+        assert seed_gaps[k] == pytest.approx(predicted, abs=2e-9)
+        assert abs(seed_gaps[k] - target) > 4e-7  # the seed's limits are off by > 0.4 um
     assert s_min == pytest.approx(SEED_S_MIN, abs=1e-6)
     assert s_max == pytest.approx(SEED_S_MAX, abs=1e-6)
 
@@ -107,9 +115,15 @@ def test_velocity_ratio_near_the_dead_centre(params):
     """dpsi3/ds ~ -32 rad/m closed and ~ -8 rad/m open (the closed position is 1.75 mm from
     the dead centre)."""
     s_min, s_max = kin.stroke_limits(params)
-    tau = kin.velocity_ratio(kin.solve_position(np.array([s_min, s_max]), params), params)
-    assert tau[0, 2] == pytest.approx(-32.0, abs=0.1)
-    assert tau[1, 2] == pytest.approx(-8.0, abs=0.1)
+    q = kin.solve_position(np.array([s_min, s_max]), params)
+    tau = kin.velocity_ratio(q, params)
+    # the seed's printed velocity ratio (2.4.1.1), evaluated independently
+    psi1, psi3 = q[:, 1], q[:, 2]
+    seed_tau1 = np.sin(psi3) / (params.L2 * np.cos(psi1 - psi3))
+    seed_tau3 = -np.cos(psi1) / (params.L3 * np.cos(psi1 - psi3))
+    np.testing.assert_allclose(tau[:, 1], seed_tau1, rtol=1e-12)
+    np.testing.assert_allclose(tau[:, 2], seed_tau3, rtol=1e-12)
+    assert round(tau[0, 2]) == -32 and round(tau[1, 2]) == -8  # the design note's figures
     assert s_min - kin.dead_centre(params) == pytest.approx(0.00175, abs=1e-5)
 
 

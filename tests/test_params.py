@@ -43,6 +43,24 @@ def test_flap_com_matches_seed_moment_arms(params):
     assert params.y_D - g3[1] == pytest.approx(0.05085213524, abs=1e-11)
 
 
+def test_direct_construction_checks_the_geometry():
+    with pytest.raises(ParameterError, match=r"unreachable geometry"):
+        DRSParams(L3=0.03)
+
+
+def test_bad_outlines_and_mappings(tmp_path):
+    with pytest.raises(ParameterError, match=r"flap_outline must have shape \(n >= 3, 2\)"):
+        DRSParams(flap_outline=((0.0, 0.0), (1.0, 1.0)))
+    with pytest.raises(ParameterError, match=r"main_wing_outline holds a non-finite coordinate"):
+        DRSParams(main_wing_outline=((0.0, 0.0), (1.0, float("nan")), (2.0, 0.0)))
+    with pytest.raises(ParameterError, match=r"parameter overrides must be a mapping, got list"):
+        from_dict([("L1", 0.01)])
+    f = tmp_path / "list.yaml"
+    f.write_text("- 1\n- 2\n")
+    with pytest.raises(ParameterError, match=r"must hold a table of name = value"):
+        from_file(f)
+
+
 def test_overrides_and_replace():
     p = from_dict({"m_wing": 3.0})
     assert p.m_wing == 3.0 and p.Iz_wing == pytest.approx(3.0 * 0.12**2 / 3)

@@ -7,9 +7,9 @@ from collections import Counter
 import numpy as np
 import pytest
 
-rr = pytest.importorskip("rerun")
+from ros_support import manoeuvre_states, require_module  # noqa: E402
 
-from ros_support import manoeuvre_states  # noqa: E402
+rr = require_module("rerun")
 
 from drs_model.errors import InputError  # noqa: E402
 from drs_ros.rerun_log import DRAWINGS, SERIES, RerunLogError, RerunRecorder  # noqa: E402
