@@ -4,7 +4,8 @@ The actuator is in one of three modes:
 
 ``stroke``
     The piston follows a quintic from its current state ``(s, s', s'')`` to a target stroke
-    (``command_stroke``, or ``command_drs`` for the seed's open/close with its manoeuvre times), then
+    (``command_stroke``, or ``command_drs`` for the seed's open/close with its manoeuvre
+    times), then
     holds it. Kinematics come from the profile; the piston force is the inverse dynamics of that
     motion.
 ``force``
@@ -32,7 +33,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import kinematics as kin
-from .constraints import singularity_measure
 from .errors import InputError, StrokeRangeError
 from .params import DRSParams
 from .profile import QuinticSegment, quintic_move
@@ -128,16 +128,16 @@ class ActuatorSim:
 
     def _inverse_force(self) -> float:
         if self._scalar_force is not None:
-            return self._scalar_force.force(float(self._q[0]), float(self._qd[0]), float(self._qdd[0]))
+            return self._scalar_force.force(
+                float(self._q[0]), float(self._qd[0]), float(self._qdd[0])
+            )
         from .dynamics import inverse_dynamics
 
         res = inverse_dynamics(self._arrays(), self.p, method=self.force_method)
         return float(np.asarray(res.piston_force).ravel()[0])
 
     def _arrays(self) -> kin.KinematicState:
-        return kin.KinematicState(
-            np.array([self._q]), np.array([self._qd]), np.array([self._qdd])
-        )
+        return kin.KinematicState(np.array([self._q]), np.array([self._qd]), np.array([self._qdd]))
 
     @property
     def state(self) -> ActuatorState:
@@ -196,7 +196,8 @@ class ActuatorSim:
             raise InputError(f"force command must be finite, got {force!r}")
         if abs(force) > self.force_limit:
             raise InputError(
-                f"force command {force!r} N is outside [-{self.force_limit:g}, {self.force_limit:g}] N"
+                f"force command {force!r} N is outside "
+                f"[-{self.force_limit:g}, {self.force_limit:g}] N"
             )
         stepper = self._ensure_stepper()
         if self.mode != "force" or self._at_stop is None:

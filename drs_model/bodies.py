@@ -2,7 +2,8 @@ r"""Bodies, mass properties and applied forces of the DRS mechanism (seed 003, "
 
 Three rigid bodies in the full coordinates ``q = [s, psi1, psi3]``:
 
-* piston: mass ``m_pist`` at G1 (RF0a (0, -4/5 L1), i.e. L1/5 above P), translates along y, ``Iz_pist``;
+* piston: mass ``m_pist`` at G1 (RF0a (0, -4/5 L1), i.e. L1/5 above P), translates along y,
+  ``Iz_pist``;
 * link: mass ``m_link`` at G2 (mid-link), angle psi1, ``Iz_link`` about G2;
 * flap wing: mass ``m_wing`` at G3 (mean of the flap outline points, the seed's ``getCoM``), turning
   about the fixed pivot D with angle psi3, ``Iz_wing`` about G3.
@@ -18,9 +19,9 @@ so that the equations of motion read ``M qdd + h = Q(q, F) + Phi_q^T lambda``. O
 velocity term (the flap turns about a fixed point and the piston translates): ``h = -m_link J_G2^T
 psi1'^2 r_G2`` with ``r_G2 = G2 - B``.
 
-Applied forces ``Q``: gravity ``(0, -m g)`` at each centre of mass; the piston force ``F`` along y of
-RF0 at P (generalised force ``F e_s``); the air force ``(F_drag, -F_down)`` at G3, each linear in psi3
-between its closed and open values (the seed's ``air_forces_law``).
+Applied forces ``Q``: gravity ``(0, -m g)`` at each centre of mass; the piston force ``F`` along
+y of RF0 at P (generalised force ``F e_s``); the air force ``(F_drag, -F_down)`` at G3, each
+linear in psi3 between its closed and open values (the seed's ``air_forces_law``).
 """
 
 from __future__ import annotations
@@ -103,7 +104,8 @@ def air_forces(psi3, p: DRSParams, flap_limits: tuple[float, float] | None = Non
 def applied_forces(
     q, piston_force, p: DRSParams, flap_limits: tuple[float, float] | None = None
 ) -> np.ndarray:
-    """Generalised applied forces ``Q`` [N, N m] of gravity, piston force [N] and air, ``(..., 3)``."""
+    """Generalised applied forces ``Q`` [N, N m] of gravity, piston force [N] and air,
+    shape ``(..., 3)``."""
     q = np.asarray(q, dtype=float)
     f = np.asarray(piston_force, dtype=float)
     shape = np.broadcast_shapes(q.shape[:-1], f.shape) + (3,)

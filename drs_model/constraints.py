@@ -1,7 +1,7 @@
 r"""Constraint equations of the DRS loop and their derivatives (seed 003, "Constraints").
 
-Coordinates ``q = [s, psi1, psi3]`` (stroke [m], link angle [rad], flap angle [rad]). The loop closes
-at C: the link's end ``C = B + L2 (-sin psi1, cos psi1)`` and the flap's pin
+Coordinates ``q = [s, psi1, psi3]`` (stroke [m], link angle [rad], flap angle [rad]). The loop
+closes at C: the link's end ``C = B + L2 (-sin psi1, cos psi1)`` and the flap's pin
 ``C3 = D - L3 (cos psi3, sin psi3)`` coincide. As in the seed, ``Phi = r_C3 - r_C``:
 
 .. math::

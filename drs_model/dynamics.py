@@ -76,7 +76,7 @@ from scipy.optimize import minimize_scalar
 
 from .bodies import air_forces, applied_forces, mass_matrix, velocity_forces
 from .constraints import PSI1, PSI3, S, constraint_jacobian, singularity_measure
-from .errors import InputError, SingularConfigurationError, StrokeRangeError
+from .errors import AssemblyError, InputError, SingularConfigurationError
 from .kinematics import (
     SINGULAR_TOL,
     KinematicState,
@@ -606,7 +606,7 @@ class FusedInverseDynamics:
         ------
         InputError
             A non-finite input.
-        StrokeRangeError
+        AssemblyError
             The loop cannot close at ``s``.
         SingularConfigurationError
             ``s`` at the dead centre.
@@ -671,6 +671,14 @@ def _manoeuvre_profile(t, c, ops: _Ops):
     return s, sd, sdd
 
 
+def _first(values, mask) -> float:
+    """The first value where ``mask`` holds (scalar or array), for error messages."""
+    arr = np.asarray(values, dtype=float)
+    if not arr.ndim:
+        return float(arr)
+    return float(arr[np.broadcast_to(np.asarray(mask), arr.shape)].ravel()[0])
+
+
 def _fused_force(s, sd, sdd, c, ops: _Ops):
     """Closed-form position, velocity ratio, accelerations and d'Alembert force (``u = dq/ds``)."""
     xa, yb0, xd, yd, l2, l3, gx, gy, m1, m2, m3, i2, i3, g, d0, d1, n0, n1, po = c
@@ -682,7 +690,10 @@ def _fused_force(s, sd, sdd, c, ops: _Ops):
     a = 0.5 * (rho2 + l2 * l2 - l3 * l3) * inv_rho
     h2 = l2 * l2 - a * a
     if ops.any(h2 < -1e-12 * l2 * l2):
-        raise StrokeRangeError(f"the loop cannot close at stroke {s!r} m")
+        raise AssemblyError(
+            f"the loop cannot close at stroke {_first(s, h2 < -1e-12 * l2 * l2)!r} m: it lies "
+            "beyond a singular stroke (see `drs limits`)"
+        )
     h = ops.sqrt(ops.clip(h2, 0.0, math.inf)) * inv_rho  # rounding at the dead centre
     a = a * inv_rho
     cx = xa + a * dx - h * dy
@@ -693,7 +704,10 @@ def _fused_force(s, sd, sdd, c, ops: _Ops):
     psi3 = ops.atan2(s3, c3)
     det = -l2 * l3 * (c1 * c3 + s1 * s3)
     if ops.any(ops.abs(det) < SINGULAR_TOL * l2 * l3):
-        raise SingularConfigurationError(f"stroke {s!r} m is the dead centre: no finite force")
+        raise SingularConfigurationError(
+            f"stroke {_first(s, ops.abs(det) < SINGULAR_TOL * l2 * l3)!r} m is a singular stroke "
+            "(dead centre): no finite piston force moves the flap there"
+        )
     tau1, tau3 = -l3 * s3 / det, l2 * c1 / det  # dpsi1/ds, dpsi3/ds
     w1, w3 = tau1 * sd, tau3 * sd
     r0 = l2 * s1 * w1 * w1 - l3 * c3 * w3 * w3

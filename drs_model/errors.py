@@ -12,7 +12,8 @@ class DRSError(Exception):
 
 
 class ParameterError(DRSError, ValueError):
-    """A model parameter is invalid (non-positive length, NaN, unknown name, unreachable geometry)."""
+    """A model parameter is invalid (non-positive length, NaN, unknown name, unreachable
+    geometry)."""
 
 
 class InputError(DRSError, ValueError):
@@ -36,7 +37,8 @@ class ConvergenceError(DRSError, ArithmeticError):
 
 
 class IntegrationError(DRSError, ArithmeticError):
-    """Forward dynamics failed: step size collapsed, NaN, or the constraint residual grew past a bound."""
+    """Forward dynamics failed: step size collapsed, NaN, or the constraint residual grew past a
+    bound."""
 
 
 class ConstraintDriftError(IntegrationError):

@@ -172,7 +172,8 @@ def solve_position_newton(s, q_guess, p: DRSParams, tol: float = 1e-13) -> np.nd
     out = newton_position(q0, p, "s", tol=tol)
     if not out.converged:
         raise ConvergenceError(
-            f"Newton position solve failed at s={s!r} m: {out.message} (|Phi| = {out.residual:.3g} m)"
+            f"Newton position solve failed at s={s!r} m: {out.message} "
+            f"(|Phi| = {out.residual:.3g} m)"
         )
     return out.q
 
@@ -246,9 +247,7 @@ def solve_velocity(q, qd_independent, p: DRSParams, independent: str = "s") -> n
     return velocity_ratio(q, p, independent) * qd_i[..., None]
 
 
-def solve_acceleration(
-    q, qd, qdd_independent, p: DRSParams, independent: str = "s"
-) -> np.ndarray:
+def solve_acceleration(q, qd, qdd_independent, p: DRSParams, independent: str = "s") -> np.ndarray:
     """Full ``qdd`` from ``Phi_q qdd = gamma`` and the independent acceleration, ``(..., 3)``."""
     q = np.asarray(q, dtype=float)
     qdd_i = _finite("independent acceleration", qdd_independent)
@@ -440,7 +439,9 @@ def flap_angle_for_gap(gap_m, p: DRSParams) -> np.ndarray:
         bad = float(g[np.abs(sin3) > 1.0].ravel()[0])
         lo = p.y_D - p.reference_point[1] - p.tip_arm
         hi = p.y_D - p.reference_point[1] + p.tip_arm
-        raise StrokeRangeError(f"gap {bad!r} m is unreachable: the flap tip spans {lo:.6g}..{hi:.6g} m")
+        raise StrokeRangeError(
+            f"gap {bad!r} m is unreachable: the flap tip spans {lo:.6g}..{hi:.6g} m"
+        )
     return np.arcsin(sin3)
 
 
@@ -468,7 +469,8 @@ def check_stroke(s, p: DRSParams, tol: float = 1e-12) -> np.ndarray:
     bad = (s < lo - tol) | (s > hi + tol)
     if np.any(bad):
         raise StrokeRangeError(
-            f"stroke {float(s[bad].ravel()[0])!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
+            f"stroke {float(s[bad].ravel()[0])!r} m is outside "
+            f"[s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
         )
     return s
 
@@ -500,7 +502,8 @@ def check_geometry(p: DRSParams) -> None:
     inside = sing[(sing > lo) & (sing < hi)]
     if inside.size:
         raise ParameterError(
-            f"unreachable geometry: singular stroke {inside[0]:.6g} m lies inside [{lo:.6g}, {hi:.6g}]"
+            f"unreachable geometry: singular stroke {inside[0]:.6g} m lies inside "
+            f"[{lo:.6g}, {hi:.6g}]"
         )
     # the closed-form psi3 branch must agree with the s-branch 1 solution at both ends
     q_psi = solve_position_from_flap_angle(np.array(flap_angle_limits(p)), p)
@@ -545,7 +548,9 @@ def kinematic_state_scalar(
     return (s, psi1, psi3), (sd, w1, w3), (sdd, a1, a3)
 
 
-def accelerations_from_flap_scalar(q, qd, psi3dd: float, p: DRSParams) -> tuple[float, float, float]:
+def accelerations_from_flap_scalar(
+    q, qd, psi3dd: float, p: DRSParams
+) -> tuple[float, float, float]:
     """``qdd`` for one sample given the flap acceleration [rad/s^2] (``psi3`` independent)."""
     _, psi1, psi3 = q
     _, w1, w3 = qd

@@ -3,10 +3,12 @@
 Frames and points (seed 003, "Reference frames and points"), all planar, SI units:
 
 * ground: x to the rear (along the main wing chord), y up.
-* RF0 = translate(x_A, y_A): piston base at A. The piston rod slides along +y of RF0 by the stroke s.
+* RF0 = translate(x_A, y_A): piston base at A. The piston rod slides along +y of RF0 by the
+  stroke s.
 * RF1 = RF0 . translate(0, s + L1) . rotate(psi1): B = origin, the pin between piston and link.
 * RF2 = RF1 . translate(0, L2): C = origin, the link's other end.
-* RF3 = translate(x_D, y_D) . rotate(psi3): the flap pivots at D; C3 = RF3 (-L3, 0) is the flap's pin.
+* RF3 = translate(x_D, y_D) . rotate(psi3): the flap pivots at D; C3 = RF3 (-L3, 0) is the
+  flap's pin.
 * RF_flap_wing = RF3 . translate(-L_wing + d_tip, 0): T = origin, the flap tip; the flap outline is
   given in this frame.
 * RF_main_wing = translate(d_wing, 0) . rotate(gamma): the main-wing outline and R = (x_R, y_R).
@@ -120,7 +122,12 @@ FLAP_WING_OUTLINE: tuple[tuple[float, float], ...] = (
     (0.09196752, -0.0029562),
 )
 
-PYLON_OUTLINE: tuple[tuple[float, float], ...] = ((0.26, 0.0), (0.26, 0.05), (0.28, 0.05), (0.28, 0.0))
+PYLON_OUTLINE: tuple[tuple[float, float], ...] = (
+    (0.26, 0.0),
+    (0.26, 0.05),
+    (0.28, 0.05),
+    (0.28, 0.0),
+)
 
 
 def _tuple_points(value: Any, name: str) -> tuple[tuple[float, float], ...]:
@@ -144,8 +151,8 @@ class DRSParams:
 
     ``Iz_link`` defaults to ``m_link * L2**2 / 12`` (a slender rod) and ``Iz_wing`` to
     ``m_wing * L_wing**2 / 3``. The seed's line for ``Iz_wing`` is OCR-garbled; its plotted piston
-    force (axis to 1.2e5 N) is what the dimensionally wrong ``m_wing * L_wing / 3 = 0.08`` gives. Pass
-    ``Iz_wing=SEED_LITERAL_IZ_WING`` to reproduce that.
+    force (axis to 1.2e5 N) is what the dimensionally wrong ``m_wing * L_wing / 3 = 0.08`` gives.
+    Pass ``Iz_wing=SEED_LITERAL_IZ_WING`` to reproduce that.
     """
 
     # FIA regulation box and the gap rule
@@ -294,12 +301,12 @@ def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DR
     cannot assemble at the closed and open gaps.
     """
     if not isinstance(overrides, Mapping):
-        raise ParameterError(f"parameter overrides must be a mapping, got {type(overrides).__name__}")
+        raise ParameterError(
+            f"parameter overrides must be a mapping, got {type(overrides).__name__}"
+        )
     unknown = sorted(set(overrides) - _FIELD_NAMES)
     if unknown:
-        raise ParameterError(
-            f"unknown parameter(s) {unknown}; valid names: {sorted(_FIELD_NAMES)}"
-        )
+        raise ParameterError(f"unknown parameter(s) {unknown}; valid names: {sorted(_FIELD_NAMES)}")
     base = base if base is not None else DRSParams()
     overrides = dict(overrides)
     # a derived inertia follows its mass and length unless it was set explicitly
@@ -334,9 +341,7 @@ def from_file(path: str | Path) -> DRSParams:
 
             data = yaml.safe_load(text) or {}
         else:
-            raise ParameterError(
-                f"parameter file {str(path)!r} must end in .toml, .yaml or .yml"
-            )
+            raise ParameterError(f"parameter file {str(path)!r} must end in .toml, .yaml or .yml")
     except ParameterError:
         raise
     except Exception as exc:  # noqa: BLE001 - any parser error becomes a ParameterError

@@ -25,8 +25,15 @@ def mechanism_figure(p: DRSParams, strokes, path: str | Path, title: str | None 
     q = kin.solve_position(strokes, p)
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
     ax.add_patch(
-        plt.Rectangle((0, 0), p.box_width, p.box_height, fill=False, ls="--", color="0.6",
-                      label=f"FIA box {p.box_width:g} x {p.box_height:g} m")
+        plt.Rectangle(
+            (0, 0),
+            p.box_width,
+            p.box_height,
+            fill=False,
+            ls="--",
+            color="0.6",
+            label=f"FIA box {p.box_width:g} x {p.box_height:g} m",
+        )
     )
     pylon = np.asarray(p.pylon_outline)
     ax.fill(pylon[:, 0], pylon[:, 1], color="0.85", label="pylon")
@@ -47,8 +54,14 @@ def mechanism_figure(p: DRSParams, strokes, path: str | Path, title: str | None 
         ax.plot([pts["T"][0]] * 2, [pts["R"][1], pts["T"][1]], "-", color="g", lw=1)
         ax.plot(*pts["T"], "o", color="g", ms=4)
         ax.plot(*pts["G3"], "m.", ms=6)
-        ax.annotate(f"s = {1e3 * qi[0]:.2f} mm, gap {gap_mm:.1f} mm", pts["T"],
-                    textcoords="offset points", xytext=(-150, 6), fontsize=8, color=col)
+        ax.annotate(
+            f"s = {1e3 * qi[0]:.2f} mm, gap {gap_mm:.1f} mm",
+            pts["T"],
+            textcoords="offset points",
+            xytext=(-150, 6),
+            fontsize=8,
+            color=col,
+        )
     pts = kin.point_positions(q[0], p)
     for name in ("A", "D", "R"):
         ax.plot(*pts[name], "s" if name != "R" else "o", color="b" if name != "R" else "g", ms=6)

@@ -38,13 +38,13 @@ def _say(text: str) -> None:
 def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
     """Run the scripted scenario against a running node; returns what the driver observed."""
     import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
     from std_srvs.srv import SetBool
-    from diagnostic_msgs.msg import DiagnosticArray
 
     ctx = Context()
     rclpy.init(context=ctx, domain_id=domain)
@@ -89,8 +89,9 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
         if not client.wait_for_service(timeout_sec=timeout):
             raise RuntimeError(f"the node's ~/drs service did not appear within {timeout} s")
         end = time.monotonic() + timeout
-        while (stroke.get_subscription_count() == 0 or force.get_subscription_count() == 0) and \
-                time.monotonic() < end:
+        while (
+            stroke.get_subscription_count() == 0 or force.get_subscription_count() == 0
+        ) and time.monotonic() < end:
             spin(0.05)
         spin(0.3)
         _say(f"open   -> {call(True)}")
@@ -147,13 +148,23 @@ def main(argv: list[str] | None = None) -> int:
     env = _env(args.domain, log_dir)
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_LOG_DIR")})
     cmd = [
-        sys.executable, "-m", "drs_ros", "--ros-args",
-        "-p", f"bag_path:={bag}", "-p", f"rrd_path:={rrd}",
-        "-p", f"publish_rate_hz:={args.publish_rate}", "-p", "flush_period:=0.2",
+        sys.executable,
+        "-m",
+        "drs_ros",
+        "--ros-args",
+        "-p",
+        f"bag_path:={bag}",
+        "-p",
+        f"rrd_path:={rrd}",
+        "-p",
+        f"publish_rate_hz:={args.publish_rate}",
+        "-p",
+        "flush_period:=0.2",
     ]
     _say("starting drs-node: " + " ".join(cmd[1:]))
-    node = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+    node = subprocess.Popen(
+        cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
     try:
         seen = drive(args.domain)
     except Exception as exc:  # noqa: BLE001 - stop the node, then report
@@ -185,7 +196,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  largest |piston force| seen         : {float(seen['force_max']):.1f} N")
     print(f"  refused commands (diagnostics)      : {diag.get('refused_commands', '?')}")
     print(f"  missed deadlines (diagnostics)      : {diag.get('missed_deadlines', '?')}")
-    print(f"  bag                                 : {bag} ({(bag / 'metadata.yaml').exists() and 'metadata.yaml ok'})")
+    print(
+        f"  bag                                 : {bag} "
+        f"({'metadata.yaml ok' if (bag / 'metadata.yaml').exists() else 'NO metadata.yaml'})"
+    )
     print(f"  rerun recording                     : {rrd} ({rows} scalar rows)")
     print(f"  drs-check                           : {'PASS' if rc_check == 0 else 'FAIL'}")
     ok = node.returncode == 0 and rc_check == 0 and rows > 0 and refusals

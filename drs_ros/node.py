@@ -2,18 +2,13 @@
 
 Topics (``~`` is the node namespace, ``/drs/...`` by default):
 
-========================  ==================================  ==========================================
-name                      type                                meaning
-========================  ==================================  ==========================================
-``~/stroke_cmd`` (in)     std_msgs/Float64                    move smoothly to this stroke [m]
-``~/force_cmd`` (in)      std_msgs/Float64                    apply this piston force [N] from now on
-``~/drs`` (service)       std_srvs/SetBool                    true opens, false closes (seed's times)
-``/joint_states``         sensor_msgs/JointState              piston [m, m/s, N], link and flap [rad]
-``~/piston_force``        std_msgs/Float64                    piston force [N]
-``~/flap_gap``            std_msgs/Float64                    gap [m]
-``~/joint_reactions``     sensor_msgs/JointState              reactions by name (only while subscribed)
-``/diagnostics``          diagnostic_msgs/DiagnosticArray     ~1 Hz: mode, dead centre, refusals, ...
-========================  ==================================  ==========================================
+* ``~/stroke_cmd`` (in, std_msgs/Float64): move smoothly to this stroke [m];
+* ``~/force_cmd`` (in, std_msgs/Float64): apply this piston force [N] from now on;
+* ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times);
+* ``/joint_states`` (sensor_msgs/JointState): piston [m, m/s, N], link and flap [rad, rad/s];
+* ``~/piston_force``, ``~/flap_gap`` (std_msgs/Float64): [N], [m];
+* ``~/joint_reactions`` (sensor_msgs/JointState): reactions by name, only while subscribed;
+* ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, ~1 Hz): mode, dead centre, refusals...
 
 The physics runs on a fixed simulated step (``physics_rate_hz``); one timer at ``publish_rate_hz``
 catches the simulation up with the node clock (wall or ``/clock`` with ``use_sim_time``) and
@@ -64,9 +59,7 @@ def _float_range(lo: float, hi: float) -> list[FloatingPointRange]:
 
 
 def _model_fields() -> list[dataclasses.Field]:
-    return [
-        f for f in dataclasses.fields(DRSParams) if not f.name.endswith("_outline")
-    ]
+    return [f for f in dataclasses.fields(DRSParams) if not f.name.endswith("_outline")]
 
 
 class DRSNode(Node):
@@ -137,42 +130,67 @@ class DRSNode(Node):
     def _declare_parameters(self) -> None:
         d = ParameterDescriptor
         self.declare_parameter(
-            "physics_rate_hz", 1000.0,
-            d(description="fixed physics step rate [Hz]", read_only=True,
-              floating_point_range=_float_range(100.0, 20000.0)),
+            "physics_rate_hz",
+            1000.0,
+            d(
+                description="fixed physics step rate [Hz]",
+                read_only=True,
+                floating_point_range=_float_range(100.0, 20000.0),
+            ),
         )
         self.declare_parameter(
-            "publish_rate_hz", 250.0,
-            d(description="joint-state publish rate [Hz]", read_only=True,
-              floating_point_range=_float_range(1.0, 2000.0)),
+            "publish_rate_hz",
+            250.0,
+            d(
+                description="joint-state publish rate [Hz]",
+                read_only=True,
+                floating_point_range=_float_range(1.0, 2000.0),
+            ),
         )
         self.declare_parameter(
-            "joint_names", list(DEFAULT_JOINT_NAMES),
+            "joint_names",
+            list(DEFAULT_JOINT_NAMES),
             d(description="JointState names: piston, link, flap", read_only=True),
         )
         self.declare_parameter(
-            "integrator", "rk4",
+            "integrator",
+            "rk4",
             d(description="fixed-step method of force mode", read_only=True),
         )
         self.declare_parameter(
-            "force_method", "virtual-work",
-            d(description="inverse-dynamics formulation: newton-euler, lagrange, virtual-work",
-              read_only=True),
+            "force_method",
+            "virtual-work",
+            d(
+                description="inverse-dynamics formulation: newton-euler, lagrange, virtual-work",
+                read_only=True,
+            ),
         )
         self.declare_parameter(
-            "force_limit", 2.0e4,
-            d(description="largest accepted |force command| [N]", read_only=True,
-              floating_point_range=_float_range(1.0, 1.0e6)),
+            "force_limit",
+            2.0e4,
+            d(
+                description="largest accepted |force command| [N]",
+                read_only=True,
+                floating_point_range=_float_range(1.0, 1.0e6),
+            ),
         )
         self.declare_parameter(
-            "max_command_rate_hz", 1000.0,
-            d(description="commands per topic beyond this rate are refused [Hz]", read_only=True,
-              floating_point_range=_float_range(1.0, 1.0e5)),
+            "max_command_rate_hz",
+            1000.0,
+            d(
+                description="commands per topic beyond this rate are refused [Hz]",
+                read_only=True,
+                floating_point_range=_float_range(1.0, 1.0e5),
+            ),
         )
         self.declare_parameter(
-            "max_catch_up_steps", 200,
-            d(description="physics steps per tick before the simulation drops time",
-              read_only=True, integer_range=[IntegerRange(from_value=1, to_value=100000, step=1)]),
+            "max_catch_up_steps",
+            200,
+            d(
+                description="physics steps per tick before the simulation drops time",
+                read_only=True,
+                integer_range=[IntegerRange(from_value=1, to_value=100000, step=1)],
+            ),
         )
         self.declare_parameter(
             "bag_path", "", d(description="MCAP bag directory ('' = no bag)", read_only=True)
@@ -181,19 +199,25 @@ class DRSNode(Node):
             "rrd_path", "", d(description="rerun .rrd file ('' = none)", read_only=True)
         )
         self.declare_parameter(
-            "flush_period", 0.5,
-            d(description="MCAP flush period [s]", read_only=True,
-              floating_point_range=_float_range(0.01, 10.0)),
+            "flush_period",
+            0.5,
+            d(
+                description="MCAP flush period [s]",
+                read_only=True,
+                floating_point_range=_float_range(0.01, 10.0),
+            ),
         )
         self.declare_parameter(
-            "model_params_file", "",
+            "model_params_file",
+            "",
             d(description="TOML/YAML file of DRSParams overrides", read_only=True),
         )
         defaults = DRSParams()
         for f in _model_fields():
             value = getattr(defaults, f.name)
             self.declare_parameter(
-                f"model.{f.name}", float(value),
+                f"model.{f.name}",
+                float(value),
                 d(description=f"DRSParams.{f.name} (SI)", read_only=True),
             )
 
@@ -318,7 +342,10 @@ class DRSNode(Node):
             return
         if self._t0_ns is None:
             self._t0_ns = now - int(round(self.sim.t * 1e9))
-        if self._last_tick_ns is not None and now - self._last_tick_ns > 1.5e9 * self.publish_period:
+        if (
+            self._last_tick_ns is not None
+            and now - self._last_tick_ns > 1.5e9 * self.publish_period
+        ):
             self.missed_deadlines += 1
         self._last_tick_ns = now
         self.ticks += 1
@@ -336,8 +363,9 @@ class DRSNode(Node):
                 self.sim.step()
         except DRSError as exc:  # the model refuses to go on: hold where it is and say why
             self._refuse("step", self.sim.mode, str(exc))
-            self.sim.reset(self.sim.t, float(min(max(self.sim.state.q[0], self.sim.s_min),
-                                                 self.sim.s_max)))
+            self.sim.reset(
+                self.sim.t, float(min(max(self.sim.state.q[0], self.sim.s_min), self.sim.s_max))
+            )
         self._cpu["model"] += time.process_time() - t
         if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)
             self._publish(now)
@@ -354,7 +382,11 @@ class DRSNode(Node):
         ]
         if self.pub_reactions.get_subscription_count() > 0:
             out.append(
-                (self.pub_reactions, f"{ns}/joint_reactions", reactions_msg(self.sim.reactions(), stamp))
+                (
+                    self.pub_reactions,
+                    f"{ns}/joint_reactions",
+                    reactions_msg(self.sim.reactions(), stamp),
+                )
             )
         for pub, _, msg in out:
             pub.publish(msg)

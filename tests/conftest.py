@@ -10,6 +10,8 @@ import pytest
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_PYTHON_CHECK_FIELDS", "1")
 
+from node_support import ros_context  # noqa: E402, F401 - fixture for the node tests
+
 from drs_model.params import DRSParams  # noqa: E402
 
 

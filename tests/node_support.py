@@ -8,7 +8,6 @@ import zlib
 from collections.abc import Callable
 
 import pytest
-
 from ros_support import require_rclpy
 
 

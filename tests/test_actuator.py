@@ -68,7 +68,9 @@ def test_force_commands_and_end_stops(params):
     s_min, s_max = kin.stroke_limits(params)
     with pytest.raises(InputError, match=r"force command must be finite, got nan"):
         a.command_force(math.nan)
-    with pytest.raises(InputError, match=r"force command 50000\.0 N is outside \[-20000, 20000\] N"):
+    with pytest.raises(
+        InputError, match=r"force command 50000\.0 N is outside \[-20000, 20000\] N"
+    ):
         a.command_force(5e4)
     # below the static holding force the flap stays on the closed stop
     a.command_force(0.9 * lagrange_force(params, s_min))
@@ -106,12 +108,17 @@ def test_free_flight_matches_the_forward_integrator(params):
         m = mass_matrix(q, params)
         jac = constraint_jacobian(q, params)
         kkt = np.block([[m, jac.T], [jac, np.zeros((2, 2))]])
-        r = np.concatenate([applied_forces(q, f, params) - velocity_forces(q, qd, params),
-                            constraint_gamma(q, qd, params)])
+        r = np.concatenate(
+            [
+                applied_forces(q, f, params) - velocity_forces(q, qd, params),
+                constraint_gamma(q, qd, params),
+            ]
+        )
         return np.concatenate([qd, np.linalg.solve(kkt, r)[:3]])
 
-    ref = solve_ivp(rhs, (0, 0.004), np.concatenate([q0, np.zeros(3)]), method="DOP853",
-                    rtol=1e-12, atol=1e-14)
+    ref = solve_ivp(
+        rhs, (0, 0.004), np.concatenate([q0, np.zeros(3)]), method="DOP853", rtol=1e-12, atol=1e-14
+    )
     a.advance_to(t0 + 0.004)
     assert a.state.at_stop is None
     assert a.state.q[0] == pytest.approx(ref.y[0, -1], abs=1e-9)

@@ -75,6 +75,8 @@ def test_errors_exit_2_with_one_line(capsys, argv, match):
 def test_console_script_runs():
     out = subprocess.run(
         [sys.executable, "-m", "drs_model.cli", "limits", "--json"],
-        capture_output=True, text=True, check=True,
+        capture_output=True,
+        text=True,
+        check=True,
     )
     assert json.loads(out.stdout)["gap_open"] == 0.05

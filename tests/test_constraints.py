@@ -19,9 +19,9 @@ from drs_model.constraints import (
 from drs_model.errors import InputError
 from drs_model.kinematics import point_positions
 
-coords = st.tuples(
-    st.floats(-0.05, 0.3), st.floats(-np.pi, np.pi), st.floats(-np.pi, np.pi)
-).map(np.array)
+coords = st.tuples(st.floats(-0.05, 0.3), st.floats(-np.pi, np.pi), st.floats(-np.pi, np.pi)).map(
+    np.array
+)
 
 
 def test_seed_printed_residual(params):
@@ -43,14 +43,20 @@ def test_constraint_is_c3_minus_c(params, q):
 def test_jacobian_against_central_differences(params, q):
     h = 1e-6
     fd = np.stack(
-        [(constraint(q + h * e, params) - constraint(q - h * e, params)) / (2 * h) for e in np.eye(3)],
+        [
+            (constraint(q + h * e, params) - constraint(q - h * e, params)) / (2 * h)
+            for e in np.eye(3)
+        ],
         axis=-1,
     )
     np.testing.assert_allclose(constraint_jacobian(q, params), fd, atol=1e-9)
 
 
-@given(coords, st.tuples(*[st.floats(-50, 50)] * 3).map(np.array),
-       st.tuples(*[st.floats(-1e3, 1e3)] * 3).map(np.array))
+@given(
+    coords,
+    st.tuples(*[st.floats(-50, 50)] * 3).map(np.array),
+    st.tuples(*[st.floats(-1e3, 1e3)] * 3).map(np.array),
+)
 @settings(max_examples=60, deadline=None)
 def test_gamma_is_minus_the_convective_term(params, q, qd, qdd):
     """Along q(t) = q + qd t + qdd t^2/2: d^2 Phi/dt^2 at 0 = Phi_q qdd - gamma (2nd difference)."""
@@ -66,9 +72,7 @@ def test_gamma_is_minus_the_convective_term(params, q, qd, qdd):
 def test_dependent_determinants(params, q):
     for name in ("s", "psi3"):
         _, jd = jacobian_blocks(q, params, name)
-        assert dependent_determinant(q, params, name) == pytest.approx(
-            np.linalg.det(jd), abs=1e-15
-        )
+        assert dependent_determinant(q, params, name) == pytest.approx(np.linalg.det(jd), abs=1e-15)
         assert 0.0 <= singularity_measure(q, params, name) <= 1.0 + 1e-15
 
 

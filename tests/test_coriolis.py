@@ -6,8 +6,6 @@ derivations written out in the tests, never from this package's output.
 
 from __future__ import annotations
 
-from ros_support import require_module
-
 import json
 import math
 
@@ -15,6 +13,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from ros_support import require_module
 
 from drs_model import AssemblyError, DRSError, InputError, ParameterError
 from drs_model import coriolis as cor

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from ros_support import require_rclpy
 
 BAGS = Path(__file__).resolve().parent.parent / "bags"
@@ -25,8 +24,10 @@ def test_rosbags_reads_the_example_bag(params):
         assert topics["/drs/stroke_cmd"] == "std_msgs/msg/Float64"
         conns = [c for c in reader.connections if c.topic == "/joint_states"]
         q = np.array(
-            [reader.deserialize(raw, c.msgtype).position
-             for c, _, raw in reader.messages(connections=conns)]
+            [
+                reader.deserialize(raw, c.msgtype).position
+                for c, _, raw in reader.messages(connections=conns)
+            ]
         )
     assert len(q) > 500
     assert np.abs(constraint(q, params)).max() < 1e-12

@@ -81,7 +81,10 @@ def test_stroke_limits_solve_the_gap_rule_exactly(params):
     for target, ours in ((0.01, s_min), (0.05, s_max)):
         root = brentq(
             lambda s, g=target: kin.gap(kin.solve_position(s, params), params) - g,
-            0.0, 0.27, xtol=1e-16, rtol=1e-15,
+            0.0,
+            0.27,
+            xtol=1e-16,
+            rtol=1e-15,
         )
         assert root == pytest.approx(ours, abs=1e-14)
     # the seed's NLPSolve limits miss the rule (README: 10.0007 mm and 50.0005 mm). First order
@@ -139,8 +142,9 @@ def test_both_branches_satisfy_phi(params, s, branch):
 def test_velocity_ratio_against_finite_differences(params, s):
     h = 1e-7
     fd = (kin.solve_position(s + h, params) - kin.solve_position(s - h, params)) / (2 * h)
-    np.testing.assert_allclose(kin.velocity_ratio(kin.solve_position(s, params), params), fd,
-                               rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(
+        kin.velocity_ratio(kin.solve_position(s, params), params), fd, rtol=1e-6, atol=1e-6
+    )
 
 
 @given(st.floats(0.5, 1.1))
@@ -204,8 +208,11 @@ def test_point_jacobians_against_central_differences(params, q):
     for name in ("P", "G1", "B", "G2", "C", "T", "G3"):
         fd = np.stack(
             [
-                (kin.point_positions(q + h * e, params, (name,))[name]
-                 - kin.point_positions(q - h * e, params, (name,))[name]) / (2 * h)
+                (
+                    kin.point_positions(q + h * e, params, (name,))[name]
+                    - kin.point_positions(q - h * e, params, (name,))[name]
+                )
+                / (2 * h)
                 for e in np.eye(3)
             ],
             axis=-1,
@@ -229,8 +236,11 @@ def test_newton_solver_converges_to_the_nearest_branch(params):
 def test_newton_reports_failure_instead_of_raising(params):
     out = kin.newton_position(np.array([0.5, 0.0, 0.0]), params, maxiter=30)  # beyond assembly
     assert not out.converged
-    assert out.message in ("maximum iterations reached", "singular dependent Jacobian",
-                           "diverged (non-finite iterate)")
+    assert out.message in (
+        "maximum iterations reached",
+        "singular dependent Jacobian",
+        "diverged (non-finite iterate)",
+    )
     from drs_model.errors import ConvergenceError
 
     with pytest.raises(ConvergenceError, match=r"Newton position solve failed at s=0\.5 m"):

@@ -6,8 +6,7 @@ import math
 
 import numpy as np
 import pytest
-
-from node_support import ros_context, spin_for, spin_until  # noqa: F401 - fixture
+from node_support import spin_for, spin_until
 from ros_support import require_rclpy
 
 pytestmark = pytest.mark.ros
@@ -43,7 +42,9 @@ class Harness:
         self.reactions: list[JointState] = []
         c = self.client
         c.create_subscription(JointState, "/joint_states", self.joints.append, 100)
-        c.create_subscription(Float64, "/drs/piston_force", lambda m: self.forces.append(m.data), 100)
+        c.create_subscription(
+            Float64, "/drs/piston_force", lambda m: self.forces.append(m.data), 100
+        )
         c.create_subscription(Float64, "/drs/flap_gap", lambda m: self.gaps.append(m.data), 100)
         self.stroke_pub = c.create_publisher(Float64, "/drs/stroke_cmd", 1000)
         self.force_pub = c.create_publisher(Float64, "/drs/force_cmd", 1000)
@@ -53,8 +54,10 @@ class Harness:
         assert spin_until(self.exec, lambda: len(self.joints) > 3, 10.0), "no /joint_states"
         assert spin_until(
             self.exec,
-            lambda: self.node.sub_stroke.get_publisher_count() > 0
-            and self.node.sub_force.get_publisher_count() > 0,
+            lambda: (
+                self.node.sub_stroke.get_publisher_count() > 0
+                and self.node.sub_force.get_publisher_count() > 0
+            ),
             5.0,
         )
         assert self.drs.wait_for_service(timeout_sec=5.0)
@@ -108,7 +111,9 @@ def test_service_opens_and_closes_with_the_seed_times(harness, params):
     assert harness.joints[-1].position[0] == pytest.approx(s_max, abs=1e-12)
     # the opening took T_opening of simulated time (stamps = t0 + simulated time): the last
     # closed sample and the first open one bracket it within a publish period
-    st = [(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.position[0]) for m in harness.joints]
+    st = [
+        (m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.position[0]) for m in harness.joints
+    ]
     last_closed = max(t for t, s in st if s <= s_min + 1e-12)
     first_open = min(t for t, s in st if s >= s_max - 1e-12)
     period = harness.node.publish_period
@@ -121,9 +126,7 @@ def test_service_opens_and_closes_with_the_seed_times(harness, params):
 def test_stroke_command_moves_smoothly_and_reactions_on_demand(harness, params):
     harness.wait_connected()
     harness.stroke_pub.publish(Float64(data=0.02))
-    assert spin_until(
-        harness.exec, lambda: abs(harness.joints[-1].position[0] - 0.02) < 1e-12, 3.0
-    )
+    assert spin_until(harness.exec, lambda: abs(harness.joints[-1].position[0] - 0.02) < 1e-12, 3.0)
     s = np.array([m.position[0] for m in harness.joints])
     assert np.all(np.diff(s) >= -1e-15)  # monotonic move, no overshoot
     assert s.max() <= 0.02 + 1e-12
@@ -217,8 +220,10 @@ def test_parameters_are_declared_with_ranges(ros_context):
         DRSNode(context=ros_context, parameter_overrides=[Parameter("physics_rate_hz", value=1e6)])
     node = DRSNode(
         context=ros_context,
-        parameter_overrides=[Parameter("physics_rate_hz", value=2000.0),
-                             Parameter("model.m_wing", value=3.0)],
+        parameter_overrides=[
+            Parameter("physics_rate_hz", value=2000.0),
+            Parameter("model.m_wing", value=3.0),
+        ],
     )
     try:
         assert node.physics_dt == pytest.approx(5e-4)

@@ -9,7 +9,6 @@ import sys
 import time
 
 import pytest
-
 from node_support import domain_for, node_env
 from ros_support import require_rclpy
 
@@ -43,8 +42,9 @@ def wait_for_file_growth(path, timeout=20.0, min_size=1):
 def test_clean_exit_on_signal_finishes_the_recordings(tmp_path, request, sig):
     bag = tmp_path / "bag"
     rrd = tmp_path / "run.rrd"
-    proc = start_node(tmp_path, request, f"bag_path:={bag}", f"rrd_path:={rrd}",
-                      "flush_period:=0.2")
+    proc = start_node(
+        tmp_path, request, f"bag_path:={bag}", f"rrd_path:={rrd}", "flush_period:=0.2"
+    )
     try:
         assert wait_for_file_growth(bag / "bag_0.mcap", min_size=2000), proc.stdout
         time.sleep(1.0)
@@ -76,8 +76,8 @@ def test_sigkill_leaves_a_recoverable_bag(tmp_path, request):
     finally:
         if proc.poll() is None:
             proc.kill()
-    from mcap.stream_reader import StreamReader
     from mcap.records import Message
+    from mcap.stream_reader import StreamReader
 
     count = 0
     with open(bag / "bag_0.mcap", "rb") as f:
@@ -90,7 +90,9 @@ def test_sigkill_leaves_a_recoverable_bag(tmp_path, request):
     # drs-check reports the truncation and recovers the prefix
     res = subprocess.run(
         [sys.executable, "-m", "drs_ros.check", str(bag), "--recover"],
-        capture_output=True, text=True, env=node_env(tmp_path, 0),
+        capture_output=True,
+        text=True,
+        env=node_env(tmp_path, 0),
     )
     assert res.returncode == 0, res.stdout + res.stderr
     assert "recovered prefix" in res.stdout

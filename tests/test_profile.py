@@ -16,8 +16,14 @@ from drs_model.profile import QuinticSegment, drs_manoeuvre, quintic_coefficient
 SEED_S_MIN, SEED_S_MAX = 0.000198939129915359, 0.0460748980054946
 # seed (2.6.3) and (2.6.7), absolute-time coefficients a0..a5
 SEED_OPENING = [0.0001989391299, 0.0, 0.0, 458759.5888, -6.881393831e7, 2.752557533e9]
-SEED_CLOSING = [487.4322620, -55051.15065, 2.477301779e6, -5.550991024e7, 6.193254448e8,
-                -2.752557533e9]
+SEED_CLOSING = [
+    487.4322620,
+    -55051.15065,
+    2.477301779e6,
+    -5.550991024e7,
+    6.193254448e8,
+    -2.752557533e9,
+]
 
 
 def test_coefficients_match_the_seed_when_built_on_its_limits(params):
@@ -33,8 +39,13 @@ def _poly_derivs(coeffs, tau):
 
 
 @given(
-    st.floats(1e-3, 1.0), st.floats(-0.1, 0.1), st.floats(-0.1, 0.1),
-    st.floats(-5, 5), st.floats(-5, 5), st.floats(-100, 100), st.floats(-100, 100),
+    st.floats(1e-3, 1.0),
+    st.floats(-0.1, 0.1),
+    st.floats(-0.1, 0.1),
+    st.floats(-5, 5),
+    st.floats(-5, 5),
+    st.floats(-100, 100),
+    st.floats(-100, 100),
 )
 @settings(max_examples=80, deadline=None)
 def test_quintic_meets_its_six_conditions(T, s0, s1, v0, v1, a0, a1):

@@ -6,7 +6,6 @@ from collections import Counter
 
 import numpy as np
 import pytest
-
 from ros_support import manoeuvre_states, require_module  # noqa: E402
 
 rr = require_module("rerun")

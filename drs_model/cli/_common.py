@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError, ParameterError
-from ..params import DRSParams, from_dict, from_file
+from ..params import DRSParams, from_file
 
 
 @dataclass
@@ -55,7 +55,9 @@ def float_list(text: str) -> list[float]:
     try:
         values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated numbers, got {text!r}"
+        ) from None
     if not values:
         raise argparse.ArgumentTypeError("expected at least one number")
     return values
@@ -98,10 +100,14 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = "{:.
         return str(v)
 
     body = [[cell(v) for v in row] for row in rows]
-    widths = [max(len(h), *(len(r[i]) for r in body)) if body else len(h) for i, h in enumerate(headers)]
+    widths = [
+        max(len(h), *(len(r[i]) for r in body)) if body else len(h) for i, h in enumerate(headers)
+    ]
     line = "  ".join(h.rjust(w) for h, w in zip(headers, widths, strict=True))
     sep = "  ".join("-" * w for w in widths)
-    out = [line, sep] + ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in body]
+    out = [line, sep] + [
+        "  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in body
+    ]
     return "\n".join(out)
 
 

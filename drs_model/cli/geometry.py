@@ -35,8 +35,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("draw", help="draw the mechanism at some strokes into a PNG")
     add_common(p)
-    p.add_argument("--stroke", type=float_list, metavar="S[,S...]", help="strokes [m] (default: "
-                   "closed, half-way, open)")
+    p.add_argument(
+        "--stroke",
+        type=float_list,
+        metavar="S[,S...]",
+        help="strokes [m] (default: closed, half-way, open)",
+    )
     p.add_argument("--out", default="mechanism.png", help="PNG path")
     p.set_defaults(func=run_draw)
 
