@@ -21,6 +21,8 @@ Every function is vectorised: ``q`` has shape ``(..., 3)``.
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import numpy as np
 
 from .params import DRSParams
@@ -28,7 +30,7 @@ from .params import DRSParams
 #: Index of each coordinate in q.
 S, PSI1, PSI3 = 0, 1, 2
 #: Independent-coordinate choices: name -> (independent index, dependent indices).
-PARTITIONS = {"s": (S, (PSI1, PSI3)), "psi3": (PSI3, (S, PSI1))}
+PARTITIONS = MappingProxyType({"s": (S, (PSI1, PSI3)), "psi3": (PSI3, (S, PSI1))})
 
 
 def _split(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

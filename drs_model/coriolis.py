@@ -75,6 +75,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
@@ -511,7 +512,9 @@ def slotted_link_closure(theta, omega=10.0, alpha=2.0, r=0.25, d=1.0) -> Slotted
 
 
 #: Solvers of the slotted link, one result type.
-SLOTTED_LINK_METHODS = {"closure": slotted_link_closure, "closed-form": slotted_link_closed_form}
+SLOTTED_LINK_METHODS = MappingProxyType(
+    {"closure": slotted_link_closure, "closed-form": slotted_link_closed_form}
+)
 
 
 def to_seed_convention(motion: SlottedLinkMotion) -> dict[str, np.ndarray]:

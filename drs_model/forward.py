@@ -69,8 +69,9 @@ smooth piece valid on a segment (``segment(a, b)``), so that no stage straddles 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
@@ -794,7 +795,7 @@ class Projected(FullCoordinates):
 
 
 #: Registry of formulations: name -> constructor ``(p, **options)``.
-FORMULATIONS: dict[str, Callable[..., Formulation]] = {
+FORMULATIONS: Mapping[str, Callable[..., Formulation]] = MappingProxyType({
     "psi3": Psi3Minimal,
     "s": StrokeMinimal,
     "index1": lambda p, **kw: FullCoordinates(p, **kw),
@@ -802,7 +803,7 @@ FORMULATIONS: dict[str, Callable[..., Formulation]] = {
         p, alpha=alpha, beta=beta, **kw
     ),
     "projection": Projected,
-}
+})
 
 
 def get_formulation(formulation, p: DRSParams, **options) -> Formulation:

@@ -31,6 +31,7 @@ import sys
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -39,14 +40,14 @@ from drs_model.errors import DRSError
 from drs_model.kinematics import gap as model_gap
 from drs_model.params import DRSParams, from_file
 
-DEFAULT_TOPICS = {
+DEFAULT_TOPICS = MappingProxyType({
     "joint_states": "/joint_states",
     "piston_force": "/drs/piston_force",
     "flap_gap": "/drs/flap_gap",
     "stroke_cmd": "/drs/stroke_cmd",
     "force_cmd": "/drs/force_cmd",
     "diagnostics": "/diagnostics",
-}
+})
 DEFAULT_JOINT_NAMES = ("drs_piston", "drs_link", "drs_flap")
 
 

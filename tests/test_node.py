@@ -286,3 +286,40 @@ def test_an_existing_recording_is_never_overwritten(ros_context, tmp_path):
     with pytest.raises(RecordingError, match=r"already holds files"):
         DRSNode(context=ros_context, parameter_overrides=[Parameter("bag_path", value=str(bag))])
     assert (bag / "bag_0.mcap").read_bytes() == b"an earlier run"
+
+
+def test_a_failing_recorder_stops_recording_not_the_actuator(ros_context, tmp_path, params):
+    from rclpy.executors import SingleThreadedExecutor as Exec
+
+    node = DRSNode(
+        context=ros_context, parameter_overrides=[Parameter("bag_path", value=str(tmp_path / "b"))]
+    )
+    ex = Exec(context=ros_context)
+    ex.add_node(node)
+
+    def disk_full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    try:
+        spin_until(ex, lambda: node.ticks > 5, 5.0)
+        node.recorder.write = disk_full
+        node.sim.command_drs(True)
+        ticks = node.ticks
+        spin_until(ex, lambda: node.ticks > ticks + 10, 5.0)
+        assert "No space left on device" in node.recording_error
+        assert node.diagnostics_values()["recording"].startswith("error: OSError")
+        assert node.ticks > ticks + 10  # the actuator kept running
+        assert node.sim.state.gap == pytest.approx(0.05, abs=1e-9)  # and opened
+    finally:
+        ex.shutdown()
+        node.close_recordings()
+        node.destroy_node()
+
+
+def test_joint_names_must_name_three_joints(ros_context):
+    from rclpy.exceptions import ParameterException
+
+    with pytest.raises(ParameterException, match=r"joint_names must hold 3 names"):
+        DRSNode(
+            context=ros_context, parameter_overrides=[Parameter("joint_names", value=["a", "b"])]
+        )
