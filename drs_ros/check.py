@@ -395,6 +395,13 @@ def check_bag(
                 np.max(np.abs(constraint_velocity_term(q, qd, p)), axis=-1) if len(q) else [],
                 t, tol, note),
     ]
+    if len(q):
+        finite = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1)
+        n_bad = int((~finite).sum())
+        out.append(CheckResult(
+            "finite joint states", js_topic, "count", len(q), float(n_bad),
+            float(t[~finite][0]) if n_bad else math.nan, 0.0, "FAIL" if n_bad else "ok",
+            f"{n_bad} joint states hold NaN/inf" if n_bad else ""))
     max_ns = max_match_s * 1e9
 
     def scalar_topic(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -414,6 +421,7 @@ def check_bag(
     err = np.where(ok, np.abs(vals - effort[idx]), np.nan) if ok.any() else []
     out.append(_result("piston force vs effort[0]", tp["piston_force"], "N", err,
                        t[idx] if len(idx) else [], force_tol))
+    model = None
     if force_model is None:
         out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
                                force_tol, "skipped", force_note or "skipped: no force model"))
@@ -423,11 +431,22 @@ def check_bag(
     else:
         order = np.argsort(t, kind="stable")
         ts, qs, qds, fs = t[order], q[order], qd[order], effort[order]
-        qdd = np.gradient(qds, ts, axis=0)
-        try:
-            model = np.asarray(force_model(qs, qds, qdd, p), dtype=float).reshape(-1)
-        except DRSError as exc:
-            raise ForceModelError(f"force model failed on the logged motion: {exc}") from exc
+        # only finite samples with strictly increasing stamps can be differentiated
+        good = np.all(np.isfinite(qs), axis=1) & np.all(np.isfinite(qds), axis=1)
+        good &= np.concatenate([[True], np.diff(ts) > 0])
+        ts, qs, qds, fs = ts[good], qs[good], qds[good], fs[good]
+        if len(ts) >= 3:
+            qdd = np.gradient(qds, ts, axis=0)
+            try:
+                model = np.asarray(force_model(qs, qds, qdd, p), dtype=float).reshape(-1)
+            except DRSError as exc:
+                out.append(CheckResult("piston force vs model", js_topic, "N", len(ts), math.inf,
+                                       math.nan, force_tol, "FAIL",
+                                       f"the force model refuses the logged motion: {exc}"))
+        elif force_model is not None:
+            out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
+                                   force_tol, "skipped", "fewer than 3 usable joint states"))
+    if force_model is not None and model is not None:
         note = (f"{force_note}; qdd by finite differences of the logged qd, peak |F| "
                 f"{np.nanmax(np.abs(model)):.4g} N")
         if force_model_tol is None:

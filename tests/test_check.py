@@ -121,3 +121,15 @@ def test_garbage_and_missing_files(tmp_path, capsys):
         check.read_bag(tmp_path / "empty", ["/joint_states"])
     assert check.main([str(junk), "--joint-names", "a,b"]) == 2
     assert "--joint-names needs 3 names" in capsys.readouterr().err
+
+
+def test_a_nan_joint_state_fails_its_row_and_the_rest_is_still_checked(tmp_path, params, capsys):
+    require_rclpy()
+    write_drs_bag(tmp_path / "nan", params, n=60, corrupt=(30, 2, float("nan")))
+    assert check.main([str(tmp_path / "nan"), "--json"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    rows = {c["name"]: c for c in report["checks"]}
+    assert rows["finite joint states"]["status"] == "FAIL"
+    assert rows["finite joint states"]["max_error"] == 1.0
+    assert rows["gap vs kinematics.gap(q)"]["samples"] >= 59  # the other samples still checked
+    assert rows["piston force vs model"]["status"] == "info"
