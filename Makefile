@@ -15,7 +15,7 @@ $(BIN)/python:
 
 $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev]"
+	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev,fast]"
 	touch $(STAMP)
 
 venv: $(STAMP)

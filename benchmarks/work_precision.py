@@ -14,8 +14,14 @@ evaluations, or the failure (type and message). The baseline a user would otherw
 sympy.physics.mechanics index-1 right-hand side of ``benchmarks/sympy_baseline.py`` with
 solve_ivp (RK45, DOP853, Radau, LSODA; same segments and force) - runs in the same process.
 
-Outputs ``benchmarks/results/work_precision.json`` and ``docs/img/work_precision.png``; prints the
-target ratios. ``--quick`` runs a subset in ~30 s. Importable: :func:`run` returns the figures.
+The compiled methods of :mod:`drs_model.compiled` (``dopri5-numba``, ``dop853-numba`` on formulation
+(a), numba) run as further rows when numba is installed: warmed first (compiled, or loaded from
+numba's cache), each timed over a batch of calls; their one-off start-up cost is measured apart, in
+fresh interpreters, without and with numba's on-disk cache (``compiled`` in the JSON).
+
+Outputs ``benchmarks/results/work_precision.json`` and ``docs/img/work_precision.png`` (left: the
+baseline and our best few; right: every row); prints the target ratios. ``--quick`` runs a subset
+in ~30 s. Importable: :func:`run` returns the figures.
 """
 
 from __future__ import annotations
@@ -23,8 +29,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -54,6 +63,9 @@ RTOLS = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
 FIXED = ("rk4", "rk2", "semi-implicit-euler")
 DTS = (1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5, 1e-5)
 BASELINE_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
+COMPILED = ("dopri5-numba", "dop853-numba")  # formulation (a) only
+COMPILED_RTOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
+COMPILED_INNER = 20  # calls per timing sample (one call takes ~0.1-0.5 ms)
 TARGETS = (1e-6, 1e-9)  # max |s err| [m]
 
 QUICK = {
@@ -63,16 +75,18 @@ QUICK = {
     "fixed": ("rk4",),
     "dts": (1e-3, 1e-4, 1e-5),
     "baseline_methods": ("DOP853", "LSODA"),
+    "compiled_rtols": (1e-6, 1e-9, 1e-11),
 }
 
 
-def _cpu(fn, repeats: int):
-    """(median CPU seconds, last result) of ``repeats`` calls of ``fn``."""
+def _cpu(fn, repeats: int, inner: int = 1):
+    """(median CPU seconds per call, last result) of ``repeats`` samples of ``inner`` calls."""
     times, out = [], None
     for _ in range(repeats):
         t0 = time.process_time()
-        out = fn()
-        times.append(time.process_time() - t0)
+        for _ in range(inner):
+            out = fn()
+        times.append((time.process_time() - t0) / inner)
     return statistics.median(times), out
 
 
@@ -94,9 +108,12 @@ class Problem:
         return float(np.max(np.abs(s - s_ref))), float(np.max(np.abs(psi3 - psi_ref)))
 
 
-def adaptive_case(prob: Problem, form: str, method: str, rtol: float, repeats: int) -> dict:
+def adaptive_case(
+    prob: Problem, form: str, method: str, rtol: float, repeats: int, inner: int = 1
+) -> dict:
     options = {"drift_bound": 1e-3} if form in ("index1", "baumgarte", "projection") else {}
-    rec = {"kind": "adaptive", "formulation": form, "method": method, "rtol": rtol}
+    kind = "compiled" if method in COMPILED else "adaptive"
+    rec = {"kind": kind, "formulation": form, "method": method, "rtol": rtol}
 
     def go():
         return simulate(
@@ -105,13 +122,14 @@ def adaptive_case(prob: Problem, form: str, method: str, rtol: float, repeats: i
         )  # fmt: skip
 
     try:
-        cpu, sol = _cpu(go, repeats)
+        cpu, sol = _cpu(go, repeats, inner)
     except DRSError as exc:
         rec.update(ok=False, error=type(exc).__name__, message=str(exc)[:300])
         return rec
     es, ep = prob.errors(sol.t, sol.s, sol.psi3)
     rec.update(
         ok=True, cpu=cpu, nfev=sol.nfev, njev=sol.njev, nlu=sol.nlu, nsteps=sol.nsteps,
+        nrejected=sol.nrejected,
         err_s=es, err_psi3=ep, residual=float(np.max(sol.residual)),
         velocity_residual=float(np.max(sol.velocity_residual)),
     )  # fmt: skip
@@ -352,17 +370,78 @@ def _best(records, target):
 
 
 def summarise(results: dict) -> dict:
-    ours = [r for r in results["adaptive"] + results["fixed"] if r.get("ok")]
+    """Per target: the fastest of ours (every row, compiled included), the fastest pure-Python
+    row, the fastest baseline row, and the ratios."""
+    python = [r for r in results["adaptive"] + results["fixed"] if r.get("ok")]
+    ours = python + [r for r in results.get("compiled_rows", []) if r.get("ok")]
     base = [r for r in results["baseline"] if r.get("ok")]
     out = {}
     for target in TARGETS:
-        b_ours, b_base = _best(ours, target), _best(base, target)
-        entry = {"target_err_s": target, "ours": b_ours, "baseline": b_base}
+        b_ours, b_py, b_base = _best(ours, target), _best(python, target), _best(base, target)
+        entry = {"target_err_s": target, "ours": b_ours, "ours_python": b_py, "baseline": b_base}
         if b_ours and b_base:
             entry["cpu_ratio"] = b_base["cpu"] / b_ours["cpu"]
             entry["meets_20x"] = entry["cpu_ratio"] >= 20.0
+        if b_py and b_base:
+            entry["cpu_ratio_python"] = b_base["cpu"] / b_py["cpu"]
         out[f"{target:g}"] = entry
     return out
+
+
+def _label(r: dict) -> str:
+    setting = f"rtol {r['rtol']:g}" if "rtol" in r else f"dt {r['dt']:g}"
+    return f"{r['formulation']}/{r['method']} {setting}"
+
+
+# ---- start-up cost of the compiled path ---------------------------------------------------------
+_STARTUP = r"""
+import json, time
+t0 = time.perf_counter()
+import numba
+t_numba = time.perf_counter() - t0
+from drs_model import compiled
+t1 = time.perf_counter()
+compiled.warm_up()
+t_warm = time.perf_counter() - t1
+print(json.dumps({"import_numba_s": t_numba, "compile_or_load_s": t_warm,
+                  "numba": numba.__version__}))
+"""
+
+
+def compiled_startup() -> dict:
+    """One-off cost of the compiled path in a fresh interpreter [s, wall]: import numba, then
+    compile every kernel and run both methods (``warm_up``), first with an empty numba cache
+    (cold: compile and write the cache), then again with that cache (what every later start
+    pays, e.g. the second CI test session or node start on the same checkout)."""
+    out = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
+        for key in ("cold", "cached"):
+            proc = subprocess.run(
+                [sys.executable, "-c", _STARTUP], env=env, capture_output=True, text=True,
+                timeout=600, check=True,
+            )  # fmt: skip
+            out[key] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return out
+
+
+def _groups(records) -> dict[str, list]:
+    groups: dict[str, list] = {}
+    for r in records:
+        if r.get("ok"):
+            groups.setdefault(f"{r['formulation']} {r['method']}", []).append(r)
+    return {k: sorted(v, key=lambda r: r["cpu"]) for k, v in sorted(groups.items())}
+
+
+def _highlights(results: dict) -> set[str]:
+    """The baseline's best method and our fastest few groups at the targets."""
+    keys = set()
+    for e in results["summary"].values():
+        for who in ("ours", "ours_python", "baseline"):
+            if e.get(who):
+                keys.add(f"{e[who]['formulation']} {e[who]['method']}")
+    keys |= {f"psi3 {m}" for m in COMPILED} | {"psi3 DOP853", "psi3 LSODA"}
+    return keys
 
 
 def plot(results: dict, path: Path) -> None:
@@ -371,31 +450,49 @@ def plot(results: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(9, 6.5))
-    groups: dict[str, list] = {}
-    for r in results["adaptive"] + results["fixed"] + results["baseline"]:
-        if not r.get("ok"):
-            continue
-        key = f"{r['formulation']} {r['method']}"
-        groups.setdefault(key, []).append(r)
+    records = (
+        results["adaptive"] + results.get("compiled_rows", []) + results["fixed"]
+        + results["baseline"]
+    )  # fmt: skip
+    groups = _groups(records)
+    keep = _highlights(results)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(15, 6.5), sharey=True)
     cmap = plt.get_cmap("tab20")
-    for i, (key, recs) in enumerate(sorted(groups.items())):
-        recs = sorted(recs, key=lambda r: r["cpu"])
-        style = "--" if key.startswith("sympy") else (":" if recs[0]["kind"] == "fixed" else "-")
-        lw = 2.5 if key.startswith("sympy") else 1.2
-        ax.loglog([r["cpu"] for r in recs], [max(r["err_s"], 1e-16) for r in recs], style,
-                  marker="o", ms=3, lw=lw, color="k" if key.startswith("sympy") else cmap(i % 20),
-                  label=key)  # fmt: skip
-    for target in TARGETS:
-        ax.axhline(target, color="grey", lw=0.6)
-    ax.set_xlabel("CPU time [s] (median of repeats)")
-    ax.set_ylabel("max |s - s_ref| [m] over the 0.1 ms grid")
-    ax.set_title("Forward dynamics on the seed manoeuvre: work-precision")
-    ax.grid(True, which="both", lw=0.3)
-    ax.legend(fontsize=6.5, ncol=2, loc="upper right")
+
+    def draw(ax, items, lw_scale):
+        for i, (key, recs) in enumerate(items):
+            base = key.startswith("sympy")
+            comp = recs[0]["kind"] == "compiled"
+            style = "--" if base else (":" if recs[0]["kind"] == "fixed" else "-")
+            color = "k" if base else ("tab:red" if "dop853-numba" in key else
+                                      "tab:orange" if comp else cmap(i % 20))  # fmt: skip
+            ax.loglog([r["cpu"] for r in recs], [max(r["err_s"], 1e-16) for r in recs], style,
+                      marker="s" if comp else "o", ms=3.5, color=color, label=key,
+                      lw=(2.5 if base or comp else 1.2) * lw_scale)  # fmt: skip
+        for target in TARGETS:
+            ax.axhline(target, color="grey", lw=0.6)
+        ax.set_xlabel("CPU time per simulation [s] (median of repeats)")
+        ax.grid(True, which="both", lw=0.3)
+
+    draw(ax1, [(k, v) for k, v in groups.items() if k in keep], 1.0)
+    for e in results["summary"].values():
+        if e.get("ours") and e.get("baseline"):
+            o, b = e["ours"], e["baseline"]
+            ax1.annotate(
+                f"{e['cpu_ratio']:.0f}x", xy=(o["cpu"], e["target_err_s"]),
+                xytext=(b["cpu"], e["target_err_s"]), fontsize=8, va="bottom",
+                arrowprops={"arrowstyle": "->", "lw": 0.8},
+            )  # fmt: skip
+    ax1.set_ylabel("max |s - s_ref| [m] over the 0.1 ms grid")
+    ax1.set_title("Baseline (sympy index-1) and our best (compiled psi3 in red/orange)")
+    ax1.legend(fontsize=7.5, loc="upper right")
+    draw(ax2, list(groups.items()), 0.8)
+    ax2.set_title("Every formulation x method")
+    ax2.legend(fontsize=5.5, ncol=2, loc="upper right")
+    fig.suptitle("Forward dynamics on the seed manoeuvre: work-precision")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -450,6 +547,28 @@ def run(
                 rec = adaptive_case(prob, form, method, rtol, repeats)
                 results["adaptive"].append(rec)
     log(f"adaptive: {len(results['adaptive'])} runs in {time.perf_counter() - t0:.1f} s")
+
+    t0 = time.perf_counter()
+    results["compiled_rows"] = []
+    try:
+        from drs_model import compiled
+
+        t_w = time.perf_counter()
+        compiled.warm_up(p)  # compile or load from cache before any timing
+        results["compiled"] = {"in_process_warm_up_s": time.perf_counter() - t_w}
+    except ImportError as exc:  # numba missing: the pure-Python rows only
+        results["compiled"] = {"unavailable": str(exc)}
+        log(f"compiled methods skipped: {exc}")
+    else:
+        rtols = cfg.get("compiled_rtols", COMPILED_RTOLS)
+        for method in COMPILED:
+            for rtol in rtols:
+                results["compiled_rows"].append(
+                    adaptive_case(prob, "psi3", method, rtol, repeats, inner=COMPILED_INNER)
+                )
+        results["compiled"].update(compiled_startup())
+        log(f"compiled: {len(results['compiled_rows'])} runs + start-up in "
+            f"{time.perf_counter() - t0:.1f} s")  # fmt: skip
     t0 = time.perf_counter()
     results["fixed"] = [fixed_case(prob, m, dt, repeats) for m in cfg["fixed"] for dt in cfg["dts"]]
     results["realtime"] = [realtime_step_cost(p, dt, n=5000 if quick else 20000)
@@ -513,17 +632,30 @@ def report(results: dict) -> str:
     """The human summary: target ratios, fixed-step cost, stability study."""
     lines = []
     for key, e in results["summary"].items():
-        o, b = e["ours"], e["baseline"]
+        o, py, b = e["ours"], e.get("ours_python"), e["baseline"]
         if o is None or b is None:
-            lines.append(f"max|s err| <= {key} m: ours {o and o['cpu']}, baseline {b and b['cpu']}")
+            lines.append(f"target {key}: ours {o and o['cpu']}, baseline {b and b['cpu']}")
             continue
-        setting = f"rtol {o['rtol']:g}" if "rtol" in o else f"dt {o['dt']:g}"
         lines.append(
-            f"max|s err| <= {key} m: ours {o['formulation']}/{o['method']} "
-            f"({setting}) {o['cpu'] * 1e3:.2f} ms, "
-            f"baseline sympy/{b['method']} (rtol {b['rtol']:g}) {b['cpu'] * 1e3:.2f} ms: "
-            f"ratio {e['cpu_ratio']:.1f}x ({'meets' if e['meets_20x'] else 'misses'} 20x)"
+            f"target {key}: ours {o['cpu'] * 1e3:.3f} ms ({_label(o)}), baseline "
+            f"{b['cpu'] * 1e3:.2f} ms ({_label(b)}), ratio {e['cpu_ratio']:.1f} (target >= 20: "
+            f"{'met' if e['meets_20x'] else 'missed'})"
         )
+        if py is not None:
+            lines.append(
+                f"    best pure Python: {py['cpu'] * 1e3:.2f} ms ({_label(py)}), ratio "
+                f"{e['cpu_ratio_python']:.1f}"
+            )
+    comp = results.get("compiled", {})
+    if "cold" in comp:
+        cold, cached = comp["cold"], comp["cached"]
+        lines.append(
+            f"compiled start-up (numba {cold['numba']}, fresh interpreter, wall): import numba "
+            f"{cold['import_numba_s']:.2f} s; compile {cold['compile_or_load_s']:.2f} s without "
+            f"numba's cache, {cached['compile_or_load_s']:.2f} s from the cache"
+        )
+    elif comp:
+        lines.append(f"compiled methods: {comp}")
     for r in results["realtime"]:
         lines.append(
             f"fixed step rk4/psi3 dt = {r['dt'] * 1e3:g} ms: {r['us_per_step']:.2f} us per step "

@@ -42,6 +42,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK45, OdeSolver, Radau, solve_ivp
 
+from .compiled import COMPILED_METHODS
 from .constraints import S
 from .errors import (
     InputError,
@@ -60,6 +61,7 @@ from .kinematics import dead_centre, solve_position, stroke_limits
 from .params import DRSParams
 
 __all__ = [
+    "COMPILED_METHODS",
     "FIXED_STEP_METHODS",
     "METHODS",
     "FixedStepIntegrator",
@@ -110,6 +112,10 @@ class Solution:
         ``max |Phi|`` [m] and ``max |Phi_q qd|`` [m/s] (zero for minimal coordinates).
     nfev, njev, nlu, nsteps : int
         Right-hand-side and Jacobian evaluations, LU decompositions, accepted steps.
+    segments : list of (float, float)
+        The integration segments [s] (restarts at the force's breakpoints).
+    nrejected : int
+        Rejected steps (counted by the compiled methods only; 0 for the scipy methods).
     """
 
     formulation: str
@@ -125,6 +131,7 @@ class Solution:
     nlu: int = 0
     nsteps: int = 0
     segments: list[tuple[float, float]] = field(default_factory=list)
+    nrejected: int = 0
 
     @property
     def s(self) -> np.ndarray:
@@ -212,7 +219,11 @@ def simulate(
         Initial state in the formulation's coordinates. Alternatively ``initial = (q0, qd0)``
         (consistent full coordinates). Default: at rest at the closed stroke ``s_min``.
     method : str
-        ``"RK45"``, ``"DOP853"``, ``"Radau"``, ``"BDF"`` or ``"LSODA"``.
+        ``"RK45"``, ``"DOP853"``, ``"Radau"``, ``"BDF"`` or ``"LSODA"`` (scipy), or a compiled
+        method of :data:`COMPILED_METHODS`, ``"dopri5-numba"`` or ``"dop853-numba"`` (formulation
+        ``"psi3"`` only, a constant, step or manoeuvre force; needs numba: ``pip install
+        drs[fast]``; see :mod:`drs_model.compiled`, which also takes the options
+        ``stroke_range``, ``stop_at_dead_centre`` and ``max_steps``).
     rtol, atol : float or array_like
         Tolerances as in solve_ivp; ``atol`` defaults to ``rtol`` times each component's typical
         magnitude (0.05 m, 1 rad, 10 m/s, 100 rad/s).
@@ -242,6 +253,11 @@ def simulate(
     SingularConfigurationError
         The s formulation approached the dead centre.
     """
+    if isinstance(method, str) and method in COMPILED_METHODS:
+        return _simulate_compiled(
+            formulation, force, t_span, y0, params, initial, method, rtol, atol, max_step,
+            first_step, t_eval, min_step, breakpoints, formulation_options,
+        )  # fmt: skip
     if isinstance(formulation, Formulation):
         form = get_formulation(formulation, formulation.p, **formulation_options)
     else:
@@ -252,7 +268,9 @@ def simulate(
     try:
         base = METHODS[method]
     except (KeyError, TypeError):
-        raise InputError(f"method must be one of {sorted(METHODS)}, got {method!r}") from None
+        raise InputError(
+            f"method must be one of {sorted(METHODS) + sorted(COMPILED_METHODS)}, got {method!r}"
+        ) from None
     t0, t1 = (float(v) for v in t_span)
     if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
         raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
@@ -337,6 +355,36 @@ def simulate(
         stats["nsteps"],
         list(zip(edges[:-1], edges[1:], strict=True)),
     )
+
+
+_COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")
+
+
+def _simulate_compiled(
+    formulation, force, t_span, y0, params, initial, method, rtol, atol, max_step, first_step,
+    t_eval, min_step, breakpoints, options,
+) -> Solution:  # fmt: skip
+    """``simulate`` with a compiled method: formulation (a) in :mod:`drs_model.compiled`."""
+    from . import compiled
+
+    extra = {k: options.pop(k) for k in _COMPILED_OPTIONS if k in options}
+    name = formulation.name if isinstance(formulation, Formulation) else formulation
+    if name != "psi3":
+        raise InputError(
+            f"method {method!r} integrates formulation 'psi3' only, got {name!r}; use a scipy "
+            f"method ({', '.join(sorted(METHODS))}) for the others"
+        )
+    if isinstance(formulation, Formulation):
+        form = get_formulation(formulation, formulation.p, **options)
+    else:
+        if params is None:
+            raise InputError("params is required with a formulation name")
+        form = compiled.psi3_formulation(params, **options)
+    return compiled.run_formulation(
+        form, force, t_span, method=COMPILED_METHODS[method], initial=initial, y0=y0,
+        label=method, rtol=rtol, atol=atol, t_eval=t_eval, first_step=first_step,
+        max_step=max_step, min_step=min_step, breakpoints=breakpoints, **extra,
+    )  # fmt: skip
 
 
 # ---- fixed-step real-time integrator -----------------------------------------------------------

@@ -1,0 +1,1033 @@
+r"""Compiled forward dynamics of formulation (a) (``psi3``): numba kernels and an adaptive RK.
+
+Optional: needs numba (``pip install drs[fast]``). Importing this module does not import numba;
+the first call of :func:`simulate_compiled` (or :func:`load`) does, and compiles the kernels (or
+loads them from numba's on-disk cache, ``cache=True``). Without numba that call raises
+:class:`NumbaUnavailableError` (an ``ImportError``).
+
+What runs compiled, in one call per simulation:
+
+* the psi3 acceleration, a port of :func:`drs_model.forward.make_psi3_kernel`'s ``accel``
+  (constants in a float64 array, :func:`psi3_constants`):
+
+  .. math::
+
+      \ddot\psi_3 = \frac{u^T Q - \dot\psi_3^2\,(u^T M w + u^T h(q, u))}{u^T M u};
+
+* the piston force: a constant per segment (:class:`~drs_model.forward.ConstantForce`,
+  :class:`~drs_model.forward.StepForce`), or the manoeuvre's inverse-dynamics force
+  (:class:`~drs_model.forward.ManoeuvreForce`), a port of ``dynamics._manoeuvre_profile`` and
+  ``dynamics._fused_force`` (closed-form kinematics with s independent and d'Alembert's principle
+  along ``dq/ds``; constants in :func:`manoeuvre_constants`);
+* an explicit embedded Runge-Kutta driver, ``"dopri5"`` (Dormand-Prince 5(4), scipy's ``RK45``)
+  or ``"dop853"`` (Hairer's DOP853, scipy's ``DOP853``), with scipy's step-size control:
+  error norm ``RMS(err / (atol + max(|y|, |y_new|) rtol))``, new step ``h * min(10, max(0.2,
+  0.9 * norm^(-1/(p+1))))`` (no growth right after a rejection), scipy's initial-step
+  heuristic (Hairer, Norsett & Wanner II.4) at the start of every segment. The tableaux are read
+  from scipy's public solver classes (``RK45.A``, ``DOP853.E5`` ...), one source of truth;
+* output by **dense output** at the requested times (scipy's continuous extensions: the quartic
+  of RK45, the degree-7 interpolant of DOP853, which costs 3 extra evaluations on each step that
+  holds an output time), or at every accepted step if no times are given;
+* ``(q, qd)`` from ``[psi3, psi3']`` in closed form (port of ``make_psi3_kernel``'s ``config``).
+
+The span is cut at the force's breakpoints (0, 10, 40, 50 ms for the manoeuvre) and every segment
+restarts the integrator, as :func:`drs_model.integrators.simulate` does, so no stage straddles a
+kink. Numerical failures come back from the compiled code as a status code (scipy's
+``(success, message)`` pattern); the wrapper raises the typed errors of the pure-Python path:
+
+=================  ======================================================================
+status             error
+=================  ======================================================================
+step collapse      :class:`~drs_model.errors.IntegrationError` ("step size collapsed")
+non-finite state   :class:`~drs_model.errors.IntegrationError`
+non-finite force   :class:`~drs_model.errors.IntegrationError` ("piston force is not finite")
+cos psi1 small     :class:`~drs_model.errors.SingularConfigurationError` (as ``Psi3Minimal``)
+dead centre        :class:`~drs_model.errors.SingularConfigurationError` (``stop_at_dead_centre``)
+stroke range       :class:`~drs_model.errors.StrokeRangeError` (``stroke_range``)
+too many steps     :class:`~drs_model.errors.IntegrationError` (``max_steps``)
+=================  ======================================================================
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import weakref
+from functools import lru_cache
+
+import numpy as np
+
+from .errors import (
+    DRSError,
+    InputError,
+    IntegrationError,
+    SingularConfigurationError,
+    StrokeRangeError,
+)
+from .forward import (
+    ConstantForce,
+    ManoeuvreForce,
+    Psi3Minimal,
+    StepForce,
+    as_force,
+    manoeuvre_initial_state,
+)
+from .kinematics import SINGULAR_TOL, dead_centre, flap_angle_limits, solve_position
+from .params import DRSParams
+
+__all__ = [
+    "COMPILED_METHODS",
+    "NumbaUnavailableError",
+    "available",
+    "load",
+    "manoeuvre_constants",
+    "psi3_constants",
+    "psi3_formulation",
+    "run_formulation",
+    "simulate_compiled",
+    "warm_up",
+]
+
+#: Names of the compiled methods in :func:`drs_model.integrators.simulate` -> driver name.
+COMPILED_METHODS = {"dopri5-numba": "dopri5", "dop853-numba": "dop853"}
+
+# status codes of the compiled driver
+OK = 0
+STEP_COLLAPSE = 1  # h below scipy's 10 ulp(t) after rejections
+MIN_STEP = 2  # an accepted step shorter than min_step (not the last of a segment)
+NONFINITE_STATE = 3
+NONFINITE_FORCE = 4
+SINGULAR = 5  # cos psi1 < min_cos_psi1
+DEAD_CENTRE = 6
+STROKE_RANGE = 7
+TOO_MANY_STEPS = 8
+
+# scipy's step-size control (scipy/integrate/_ivp/rk.py)
+SAFETY = 0.9
+MIN_FACTOR = 0.2
+MAX_FACTOR = 10.0
+
+# force kinds per segment
+_CONSTANT = 0
+_MANOEUVRE = 1
+
+
+class NumbaUnavailableError(DRSError, ImportError):
+    """The compiled methods need numba, which is not installed (``pip install drs[fast]``)."""
+
+
+# ---- kernels (plain Python in numba's subset; njit-ed by load()) --------------------------------
+def _psi3_accel(b, bd, force, kc):
+    """psi3'' [rad/s^2] at psi3 = b [rad], psi3' = bd [rad/s] under piston force [N]; NaN where
+    the loop does not assemble. ``kc``: :func:`psi3_constants`."""
+    ax, L2, L3 = kc[0], kc[2], kc[3]
+    m_ps, m_l, m_w, g = kc[4], kc[5], kc[6], kc[7]
+    hl2, M11, M22, gx, gy = kc[8], kc[9], kc[10], kc[11], kc[12]
+    d0, d1, w0_, w1_, grav0 = kc[13], kc[14], kc[15], kc[16], kc[17]
+    sb, cb = math.sin(b), math.cos(b)
+    sa = (ax + L3 * cb) / L2
+    ca2 = 1.0 - sa * sa
+    if not ca2 > 0.0:
+        return math.nan
+    ca = math.sqrt(ca2)
+    u1 = -L3 * sb / (L2 * ca)
+    u0 = L2 * sa * u1 - L3 * cb
+    w1 = (L2 * sa * u1 * u1 - L3 * cb) / (L2 * ca)
+    w0 = L2 * sa * w1 + L2 * ca * u1 * u1 + L3 * sb
+    m01 = -m_l * hl2 * sa
+    umu = m_ps * u0 * u0 + 2.0 * m01 * u0 * u1 + M11 * u1 * u1 + M22
+    umw = m_ps * u0 * w0 + m01 * (u0 * w1 + u1 * w0) + M11 * u1 * w1
+    uh = -u0 * m_l * hl2 * ca * u1 * u1
+    rx = cb * gx - sb * gy
+    ry = sb * gx + cb * gy
+    q2 = -(m_w * g + w0_ + w1_ * b) * rx - (d0 + d1 * b) * ry
+    uq = u0 * (force + grav0) + u1 * m_l * g * hl2 * sa + q2
+    return (uq - bd * bd * (umw + uh)) / umu
+
+
+def _clip01(x):
+    return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
+
+
+def _manoeuvre_force(t, mc, mp):
+    """Inverse-dynamics piston force [N] of the open-hold-close manoeuvre at t [s]; NaN where the
+    loop cannot close or at the dead centre. ``mc``, ``mp``: :func:`manoeuvre_constants`."""
+    s0, hgt, t0o, to, t0c, tc = mp[0], mp[1], mp[2], mp[3], mp[4], mp[5]
+    uo = _clip01((t - t0o) / to)
+    uc = _clip01((t - t0c) / tc)
+    vo, vc = 1.0 - uo, 1.0 - uc
+    s = s0 + hgt * (uo * uo * uo * (10.0 + uo * (6.0 * uo - 15.0))
+                    - uc * uc * uc * (10.0 + uc * (6.0 * uc - 15.0)))  # fmt: skip
+    sd = 30.0 * hgt * ((uo * vo) ** 2 / to - (uc * vc) ** 2 / tc)
+    sdd = 60.0 * hgt * (uo * vo * (vo - uo) / to**2 - uc * vc * (vc - uc) / tc**2)
+    xa, yb0, xd, yd, l2, l3, gx, gy = mc[0], mc[1], mc[2], mc[3], mc[4], mc[5], mc[6], mc[7]
+    m1, m2, m3, i2, i3, g = mc[8], mc[9], mc[10], mc[11], mc[12], mc[13]
+    d0, d1, n0, n1, po, sing_tol = mc[14], mc[15], mc[16], mc[17], mc[18], mc[19]
+    by = yb0 + s
+    dx, dy = xd - xa, yd - by
+    rho2 = dx * dx + dy * dy
+    inv_rho = 1.0 / math.sqrt(rho2)
+    a = 0.5 * (rho2 + l2 * l2 - l3 * l3) * inv_rho
+    h2 = l2 * l2 - a * a
+    if h2 < 0.0:
+        return math.nan
+    h = math.sqrt(h2) * inv_rho
+    a = a * inv_rho
+    cx = xa + a * dx - h * dy
+    cy = by + a * dy + h * dx
+    s1, c1 = (xa - cx) / l2, (cy - by) / l2
+    c3, s3 = (xd - cx) / l3, (yd - cy) / l3
+    psi3 = math.atan2(s3, c3)
+    det = -l2 * l3 * (c1 * c3 + s1 * s3)
+    if abs(det) < sing_tol * l2 * l3:
+        return math.nan
+    tau1, tau3 = -l3 * s3 / det, l2 * c1 / det
+    w1, w3 = tau1 * sd, tau3 * sd
+    r0 = l2 * s1 * w1 * w1 - l3 * c3 * w3 * w3
+    r1 = -l2 * c1 * w1 * w1 - l3 * s3 * w3 * w3 + sdd
+    a1 = (-l3 * c3 * r0 - l3 * s3 * r1) / det
+    a3 = (-l2 * s1 * r0 + l2 * c1 * r1) / det
+    hh = 0.5 * l2
+    r2x, r2y = -hh * s1, hh * c1
+    r3x, r3y = c3 * gx - s3 * gy, s3 * gx + c3 * gy
+    v2x, v2y = -tau1 * r2y, 1.0 + tau1 * r2x
+    v3x, v3y = -tau3 * r3y, tau3 * r3x
+    a2x = -a1 * r2y - w1 * w1 * r2x
+    a2y = sdd + a1 * r2x - w1 * w1 * r2y + g
+    a3x = -a3 * r3y - w3 * w3 * r3x
+    a3y = a3 * r3x - w3 * w3 * r3y + g
+    drag = d0 + d1 * (psi3 - po)
+    down = n0 + n1 * (psi3 - po)
+    return (
+        m1 * (sdd + g)
+        + m2 * (a2x * v2x + a2y * v2y)
+        + i2 * a1 * tau1
+        + m3 * (a3x * v3x + a3y * v3y)
+        + i3 * a3 * tau3
+        - (drag * v3x - down * v3y)
+    )
+
+
+def _force(t, kind, value, mc, mp):
+    """Piston force [N] of a segment: ``value`` (constant) or the manoeuvre's at t."""
+    if kind == 0:
+        return value
+    return _manoeuvre_force(t, mc, mp)
+
+
+def _manoeuvre_forces(t, mc, mp):
+    """:func:`_manoeuvre_force` at each time of ``t`` (1-D) [N] (for tests and benchmarks)."""
+    out = np.empty(t.shape[0])
+    for i in range(t.shape[0]):
+        out[i] = _manoeuvre_force(t[i], mc, mp)
+    return out
+
+
+def _psi3_accels(b, bd, f, kc):
+    """:func:`_psi3_accel` element-wise over 1-D arrays (for tests)."""
+    out = np.empty(b.shape[0])
+    for i in range(b.shape[0]):
+        out[i] = _psi3_accel(b[i], bd[i], f[i], kc)
+    return out
+
+
+def _to_q_qd(y, n, kc):
+    """``(q, qd)``, each ``(n, 3)``, from states ``y[:, :n]`` = [psi3, psi3'] (closed form)."""
+    ax, s_off, L2, L3 = kc[0], kc[1], kc[2], kc[3]
+    q = np.empty((n, 3))
+    qd = np.empty((n, 3))
+    for i in range(n):
+        b, bd = y[0, i], y[1, i]
+        sb, cb = math.sin(b), math.cos(b)
+        sa = (ax + L3 * cb) / L2
+        ca = math.sqrt(max(1.0 - sa * sa, 0.0))
+        u1 = -L3 * sb / (L2 * ca) if ca > 0.0 else math.inf
+        q[i, 0] = s_off - L3 * sb - L2 * ca
+        q[i, 1] = math.asin(max(-1.0, min(1.0, sa)))
+        q[i, 2] = b
+        qd[i, 0] = (L2 * sa * u1 - L3 * cb) * bd
+        qd[i, 1] = u1 * bd
+        qd[i, 2] = bd
+    return q, qd
+
+
+def _grow(t_out, y_out):
+    n = t_out.shape[0]
+    t_new = np.empty(2 * n)
+    y_new = np.empty((2, 2 * n))
+    for i in range(n):  # element loops: a slice assignment compiles numba's string formatting
+        t_new[i] = t_out[i]
+        y_new[0, i] = y_out[0, i]
+        y_new[1, i] = y_out[1, i]
+    return t_new, y_new
+
+
+def _rms_norm(e0, e1):
+    return math.sqrt(0.5 * (e0 * e0 + e1 * e1))
+
+
+def _stages(K, s_from, s_to, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc):
+    """Stages ``s_from <= s < s_to`` of an explicit RK step into the rows of ``K`` (2 columns:
+    psi3', psi3''). Returns ``(-1, 0.0)``, or the stage whose piston force is not finite and
+    that force."""
+    for s in range(s_from, s_to):
+        s0 = 0.0
+        s1 = 0.0
+        for j in range(s):
+            s0 += K[j, 0] * tab_a[s, j]
+            s1 += K[j, 1] * tab_a[s, j]
+        ys0 = y0 + s0 * h
+        ys1 = y1 + s1 * h
+        fo = _force(t + tab_c[s] * h, kind, value, mc, mp)
+        if not math.isfinite(fo):
+            return s, fo
+        K[s, 0] = ys1
+        K[s, 1] = _psi3_accel(ys0, ys1, fo, kc)
+    return -1, 0.0
+
+
+def _error_norm(K, ns, h, tab_e, tab_e3, sc0, sc1, is853):
+    """scipy's error norms: RK45 ``RMS(h K^T E / scale)``; DOP853 the 5th-order estimate
+    corrected by the 3rd-order one."""
+    e0 = 0.0
+    e1 = 0.0
+    f0 = 0.0
+    f1 = 0.0
+    for j in range(ns + 1):
+        e0 += K[j, 0] * tab_e[j]
+        e1 += K[j, 1] * tab_e[j]
+        f0 += K[j, 0] * tab_e3[j]
+        f1 += K[j, 1] * tab_e3[j]
+    if not is853:
+        return _rms_norm(e0 * h / sc0, e1 * h / sc1)
+    e0 /= sc0
+    e1 /= sc1
+    f0 /= sc0
+    f1 /= sc1
+    n5 = e0 * e0 + e1 * e1
+    n3 = f0 * f0 + f1 * f1
+    if n5 == 0.0 and n3 == 0.0:
+        return 0.0
+    return abs(h) * n5 / math.sqrt((n5 + 0.01 * n3) * 2.0)
+
+
+def _dense(K, ns, n_ext, x, h, y0, y1, yn0, yn1, tab_dense, is853):
+    """The continuous extension at ``t + x h`` (scipy's RkDenseOutput / Dop853DenseOutput)."""
+    r0 = 0.0
+    r1 = 0.0
+    if not is853:  # y_old + h (K^T P) [x, x^2, x^3, x^4]
+        xp = 1.0
+        for m in range(tab_dense.shape[1]):
+            xp *= x
+            q0 = 0.0
+            q1 = 0.0
+            for j in range(ns + 1):
+                q0 += K[j, 0] * tab_dense[j, m]
+                q1 += K[j, 1] * tab_dense[j, m]
+            r0 += q0 * xp
+            r1 += q1 * xp
+        return y0 + h * r0, y1 + h * r1
+    dy0 = yn0 - y0
+    dy1 = yn1 - y1
+    # F = [dy, h f_old - dy, 2 dy - h (f_new + f_old), h D K], Horner from F[6] down
+    for i in range(6, -1, -1):
+        if i == 0:
+            c0, c1 = dy0, dy1
+        elif i == 1:
+            c0, c1 = h * K[0, 0] - dy0, h * K[0, 1] - dy1
+        elif i == 2:
+            c0 = 2.0 * dy0 - h * (K[ns, 0] + K[0, 0])
+            c1 = 2.0 * dy1 - h * (K[ns, 1] + K[0, 1])
+        else:
+            c0 = 0.0
+            c1 = 0.0
+            for j in range(n_ext):
+                c0 += tab_dense[i - 3, j] * K[j, 0]
+                c1 += tab_dense[i - 3, j] * K[j, 1]
+            c0 *= h
+            c1 *= h
+        r0 += c0
+        r1 += c1
+        if (6 - i) % 2 == 0:
+            r0 *= x
+            r1 *= x
+        else:
+            r0 *= 1.0 - x
+            r1 *= 1.0 - x
+    return y0 + r0, y1 + r1
+
+
+def _initial_step(t, b, y0, y1, f1, kind, value, mc, mp, kc, rtol, atol, err_order, max_step):
+    """scipy's ``select_initial_step`` (Hairer, Norsett & Wanner II.4). Returns ``(h, force at
+    the probe)``; the force is NaN-checked by the caller."""
+    f0 = y1
+    sc0 = atol[0] + abs(y0) * rtol
+    sc1 = atol[1] + abs(y1) * rtol
+    d0 = _rms_norm(y0 / sc0, y1 / sc1)
+    d1 = _rms_norm(f0 / sc0, f1 / sc1)
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, b - t)
+    z0 = y0 + h0 * f0
+    z1 = y1 + h0 * f1
+    fo = _force(t + h0, kind, value, mc, mp)
+    if not math.isfinite(fo):
+        return h0, fo
+    g1 = _psi3_accel(z0, z1, fo, kc)
+    d2 = _rms_norm((z1 - f0) / sc0, (g1 - f1) / sc1) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    elif d2 != d2:
+        h1 = h0  # a NaN trial stage (no assembly): the error control shrinks the step
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (err_order + 1.0))
+    return min(100.0 * h0, h1, b - t, max_step), fo
+
+
+def _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc):
+    """The checks after an accepted step (the Guarded solver's and Psi3Minimal.check, plus the
+    optional dead centre and stroke range). Returns ``(status, info)``."""
+    if h < min_step and t_new != b:
+        return MIN_STEP, h
+    if not (math.isfinite(yn0) and math.isfinite(yn1)):
+        return NONFINITE_STATE, 0.0
+    ax, s_off, L2, L3 = kc[0], kc[1], kc[2], kc[3]
+    sa = (ax + L3 * math.cos(yn0)) / L2
+    cos1 = math.sqrt(max(0.0, 1.0 - sa * sa))
+    if not cos1 >= checks[0]:
+        return SINGULAR, cos1
+    if checks[5] != 0.0 and yn0 >= checks[3]:
+        return DEAD_CENTRE, yn0
+    if checks[4] != 0.0:
+        s_new = s_off - L3 * math.sin(yn0) - L2 * cos1
+        if not (checks[1] <= s_new <= checks[2]):
+            return STROKE_RANGE, s_new
+    return OK, 0.0
+
+
+def _integrate(
+    y_start, edges, kinds, values, mc, mp, kc,
+    tab_a, tab_c, tab_e, tab_e3, tab_dense, ns, n_ext, err_order, is853,
+    t_eval, has_eval, rtol, atol, first_step, max_step, min_step, checks, max_steps,
+):  # fmt: skip
+    """The adaptive RK driver over the segments ``edges`` (see the module docstring).
+
+    ``tab_a`` (n_ext, n_ext) holds the stages' coefficients with the weights B in row ``ns``
+    (``y_new`` is "stage" ``ns`` at ``c = 1``, FSAL) and the dense-output stages of DOP853 in
+    the rows after it. Returns ``(status, n_out, t_out, y_out, nfev, nsteps, nrejected, t_fail,
+    y_fail, info, segment)``; ``y_out`` has shape ``(2, >= n_out)``; ``info`` is the offending
+    step size, force, cos psi1, psi3 or stroke of a failure.
+    """
+    expo = -1.0 / (err_order + 1.0)
+    K = np.zeros((n_ext, 2))
+    y_fail = np.zeros(2)
+    n_eval = t_eval.shape[0]
+    if has_eval:
+        t_out = t_eval.copy()
+        y_out = np.empty((2, n_eval))
+        n_out = 0
+    else:
+        t_out = np.empty(256)
+        y_out = np.empty((2, 256))
+        t_out[0] = edges[0]
+        y_out[0, 0] = y_start[0]
+        y_out[1, 0] = y_start[1]
+        n_out = 1
+    ie = 0
+    nfev = 0
+    nsteps = 0
+    nrej = 0
+    status = OK
+    info = 0.0
+    y0 = y_start[0]
+    y1 = y_start[1]
+    t = edges[0]
+    t_fail = t
+    n_seg = edges.shape[0] - 1
+    seg = 0
+    for seg in range(n_seg):
+        b = edges[seg + 1]
+        kind, value = kinds[seg], values[seg]
+        t = edges[seg]
+        fo = _force(t, kind, value, mc, mp)
+        nfev += 1
+        if not math.isfinite(fo):
+            status, info, t_fail = NONFINITE_FORCE, fo, t
+            break
+        K[0, 0] = y1
+        K[0, 1] = _psi3_accel(y0, y1, fo, kc)
+        if first_step > 0.0:
+            h_abs = min(first_step, b - t)
+        else:
+            h_abs, fo = _initial_step(
+                t, b, y0, y1, K[0, 1], kind, value, mc, mp, kc, rtol, atol, err_order, max_step
+            )
+            nfev += 1
+            if not math.isfinite(fo):
+                status, info, t_fail = NONFINITE_FORCE, fo, t + h_abs
+                break
+        while t < b:
+            ulp_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+            h_abs = min(max(h_abs, ulp_step), max_step)
+            rejected = False
+            # ---- one step: try, reject and shrink until the error norm is below 1
+            while True:
+                if h_abs < ulp_step:
+                    status, info, t_fail = STEP_COLLAPSE, h_abs, t
+                    break
+                t_new = min(t + h_abs, b)
+                h = t_new - t
+                h_abs = abs(h)
+                bad, fo = _stages(K, 1, ns + 1, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc)
+                if bad >= 0:
+                    nfev += bad
+                    status, info, t_fail = NONFINITE_FORCE, fo, t + tab_c[bad] * h
+                    break
+                nfev += ns
+                s0 = 0.0
+                s1 = 0.0
+                for j in range(ns):
+                    s0 += K[j, 0] * tab_a[ns, j]
+                    s1 += K[j, 1] * tab_a[ns, j]
+                yn0 = y0 + s0 * h
+                yn1 = y1 + s1 * h
+                sc0 = atol[0] + max(abs(y0), abs(yn0)) * rtol
+                sc1 = atol[1] + max(abs(y1), abs(yn1)) * rtol
+                err = _error_norm(K, ns, h, tab_e, tab_e3, sc0, sc1, is853)
+                if err < 1.0:
+                    factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err**expo)
+                    if rejected:
+                        factor = min(1.0, factor)
+                    h_abs *= factor
+                    break
+                if err != err:  # NaN: a stage outside the assembly range
+                    h_abs *= MIN_FACTOR
+                else:
+                    h_abs *= max(MIN_FACTOR, SAFETY * err**expo)
+                rejected = True
+                nrej += 1
+            if status != OK:
+                y_fail[0], y_fail[1] = y0, y1
+                break
+            nsteps += 1
+            status, info = _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc)
+            if status == OK and nsteps >= max_steps and not (seg == n_seg - 1 and t_new == b):
+                status = TOO_MANY_STEPS
+            if status != OK:
+                y_fail[0], y_fail[1], t_fail = yn0, yn1, t_new
+                break
+            # ---- output: dense at the requested times, or the step itself
+            if has_eval:
+                if is853 and ie < n_eval and t_eval[ie] < t_new:  # three more stages
+                    _stages(K, ns + 1, n_ext, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc)
+                    nfev += n_ext - ns - 1
+                while ie < n_eval and t_eval[ie] <= t_new:
+                    if t_eval[ie] == t_new:
+                        y_out[0, ie], y_out[1, ie] = yn0, yn1
+                    else:
+                        y_out[0, ie], y_out[1, ie] = _dense(
+                            K, ns, n_ext, (t_eval[ie] - t) / h, h, y0, y1, yn0, yn1, tab_dense,
+                            is853,
+                        )  # fmt: skip
+                    ie += 1
+                n_out = ie
+            else:
+                if n_out == t_out.shape[0]:
+                    t_out, y_out = _grow(t_out, y_out)
+                t_out[n_out] = t_new
+                y_out[0, n_out], y_out[1, n_out] = yn0, yn1
+                n_out += 1
+            t = t_new
+            y0 = yn0
+            y1 = yn1
+            K[0, 0] = K[ns, 0]  # FSAL
+            K[0, 1] = K[ns, 1]
+        if status != OK:
+            break
+    return status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg
+
+
+_KERNELS = (
+    "_psi3_accel",
+    "_clip01",
+    "_manoeuvre_force",
+    "_force",
+    "_manoeuvre_forces",
+    "_psi3_accels",
+    "_to_q_qd",
+    "_grow",
+    "_rms_norm",
+    "_stages",
+    "_error_norm",
+    "_dense",
+    "_initial_step",
+    "_check_step",
+    "_integrate",
+)
+_LOADED = False
+
+
+def available() -> bool:
+    """Whether numba can be imported (without importing it twice)."""
+    if _LOADED:
+        return True
+    import importlib.util
+
+    return importlib.util.find_spec("numba") is not None
+
+
+def load() -> float:
+    """Import numba and wrap the kernels in ``njit(cache=True)`` (once). Returns the seconds this
+    call took (0 after the first). Compilation itself happens at the first call of each kernel
+    (or is loaded from numba's cache); :func:`warm_up` triggers it.
+
+    Raises
+    ------
+    NumbaUnavailableError
+        numba is not installed.
+    """
+    global _LOADED
+    if _LOADED:
+        return 0.0
+    t0 = time.perf_counter()
+    try:
+        import numba
+    except ImportError as exc:
+        raise NumbaUnavailableError(
+            "the compiled methods ('dopri5-numba', 'dop853-numba') need numba, which is not "
+            "installed: pip install 'drs[fast]' (or pip install 'numba>=0.60'); the scipy "
+            "methods ('RK45', 'DOP853', 'LSODA', ...) work without it"
+        ) from exc
+    g = globals()
+    for name in _KERNELS:  # callees first: a kernel resolves the others when it compiles
+        g[name] = numba.njit(cache=True)(g[name])
+    _LOADED = True
+    return time.perf_counter() - t0
+
+
+def warm_up(p: DRSParams | None = None) -> float:
+    """Load and compile (or load from numba's cache) every kernel by short runs of both methods,
+    with and without output times (the force kind is a run-time switch: one compilation serves
+    constant, step and manoeuvre forces); returns the seconds taken (the start-up cost)."""
+    t0 = time.perf_counter()
+    load()
+    p = DRSParams() if p is None else p
+    force = ManoeuvreForce(p)
+    for method in ("dopri5", "dop853"):
+        simulate_compiled(p, force, (0.0, 0.012), method=method, rtol=1e-6)
+        simulate_compiled(p, force, (0.0, 0.002), method=method, rtol=1e-6, t_eval=[0.001, 0.002])
+    t = np.array([0.001])
+    _manoeuvre_forces(t, *manoeuvre_constants(force))
+    _psi3_accels(t, t, t, psi3_constants(Psi3Minimal(p)))
+    return time.perf_counter() - t0
+
+
+# ---- constants ----------------------------------------------------------------------------------
+def psi3_constants(form: Psi3Minimal) -> np.ndarray:
+    """The constants of :func:`_psi3_accel` as a float64 array (18,), from the formulation's
+    scalar constants: ``[x_A - x_D, y_D - y_A - L1, L2, L3, m_p + m_l, m_l, m_w, g, L2/2, M11,
+    M22, gx, gy, drag0, drag1, down0, down1, -(m_p + m_l) g]``."""
+    c = form.consts
+    return np.array(
+        [c.xA - c.xD, c.yD - c.yA - c.L1, c.L2, c.L3, c.m_ps, c.m_l, c.m_w, c.g, c.half_L2,
+         c.M11, c.M22, c.gx, c.gy, c.drag0, c.drag1, c.down0, c.down1, c.grav0],
+        dtype=np.float64,
+    )  # fmt: skip
+
+
+def _fused_constants(p: DRSParams, flap_limits=None) -> np.ndarray:
+    """The constants of ``dynamics.FusedInverseDynamics`` (same order) and SINGULAR_TOL, (20,)."""
+    psi_c, psi_o = flap_angle_limits(p) if flap_limits is None else flap_limits
+    xg, yg = p.flap_com_local
+    gx, gy = p.d_tip - p.L_wing + xg, yg
+    dpsi = psi_c - psi_o
+    return np.array(
+        [p.x_A, p.y_A + p.L1, p.x_D, p.y_D, p.L2, p.L3, gx, gy,
+         p.m_pist, p.m_link, p.m_wing, p.Iz_link, p.Iz_wing, p.g,
+         p.F_drag_open, (p.F_drag_closed - p.F_drag_open) / dpsi,
+         p.F_down_open, (p.F_down_closed - p.F_down_open) / dpsi, psi_o, SINGULAR_TOL],
+        dtype=np.float64,
+    )  # fmt: skip
+
+
+_MANOEUVRE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def manoeuvre_constants(force: ManoeuvreForce, flap_limits=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(mc, mp)``: the force constants (20,) and the profile ``(s_min, s_max - s_min,
+    t0_open, T_open, t0_close, T_close)`` (6,) of ``force``'s manoeuvre."""
+    m = force.manoeuvre
+    o, c = m.opening, m.closing
+    mp = np.array(
+        [m.s_min, m.s_max - m.s_min, o.t0, o.duration, c.t0, c.duration], dtype=np.float64
+    )
+    return _fused_constants(force.p, flap_limits), mp
+
+
+def _manoeuvre_spec(force: ManoeuvreForce) -> tuple[np.ndarray, np.ndarray]:
+    """Constants of ``force``, checked once per force object against its own ``force(t)`` at
+    the middle of every piece (ManoeuvreForce does not expose its air-law flap limits)."""
+    try:
+        return _MANOEUVRE_CACHE[force]
+    except KeyError:
+        pass
+    mc, mp = manoeuvre_constants(force)
+    bps = force.breakpoints
+    probes = [bps[0] - 1e-3, *(0.5 * (a + b) for a, b in zip(bps[:-1], bps[1:], strict=True))]
+    probes += [bps[i] + 0.1 * (bps[i + 1] - bps[i]) for i in range(len(bps) - 1)]
+    ours = _manoeuvre_forces(np.array(probes, dtype=np.float64), mc, mp)
+    for t, f in zip(probes, ours, strict=True):
+        ref = float(force(t))
+        if not abs(f - ref) <= 1e-9 * max(1.0, abs(ref)):
+            raise InputError(
+                f"the compiled path cannot reproduce this ManoeuvreForce (custom flap limits of "
+                f"its air law?): {f!r} N against {ref!r} N at t = {t!r} s; use a scipy method"
+            )
+    _MANOEUVRE_CACHE[force] = (mc, mp)
+    return mc, mp
+
+
+@lru_cache(maxsize=64)
+def _default_form(p: DRSParams, flap_limits, min_cos_psi1: float) -> Psi3Minimal:
+    return Psi3Minimal(p, flap_limits, min_cos_psi1)
+
+
+def psi3_formulation(
+    p: DRSParams, flap_limits: tuple[float, float] | None = None, min_cos_psi1: float = 0.05
+) -> Psi3Minimal:
+    """A :class:`~drs_model.forward.Psi3Minimal` for ``p``, cached (building one costs ~60 us,
+    as much as a whole compiled run)."""
+    if not isinstance(p, DRSParams):
+        raise InputError(f"p must be DRSParams, got {type(p).__name__}")
+    try:
+        return _default_form(p, flap_limits, float(min_cos_psi1))
+    except TypeError:  # unhashable flap_limits (a list)
+        return Psi3Minimal(p, flap_limits, float(min_cos_psi1))
+
+
+@lru_cache(maxsize=64)
+def _rest_state(p: DRSParams) -> tuple[float, float]:
+    q0, qd0 = manoeuvre_initial_state(p)
+    y = _default_form(p, None, 0.05).initial_state(q0, qd0)
+    return float(y[0]), float(y[1])
+
+
+@lru_cache(maxsize=64)
+def _dead_centre_psi3(p: DRSParams) -> float:
+    return float(solve_position(dead_centre(p), p)[2])
+
+
+@lru_cache(maxsize=2)
+def _tableau(method: str):
+    """The method's arrays, read from scipy's public solver classes (one source of truth):
+    ``A`` (n_ext, n_ext) with the weights B in row ``ns`` (FSAL: ``y_new`` is the stage at
+    ``c = 1``) and DOP853's dense-output stages below it, ``C`` (n_ext,), the error weights ``E``
+    (RK45) or ``E5`` and ``E3`` (DOP853), the dense-output matrix ``P`` (RK45, (7, 4)) or ``D``
+    (DOP853, (4, 16)); then ``ns``, ``n_ext``, the error estimator's order, is-DOP853."""
+    from scipy.integrate import DOP853, RK45
+
+    if method == "dopri5":
+        ns, n_ext = RK45.n_stages, RK45.n_stages + 1
+        a = np.zeros((n_ext, n_ext))
+        a[:ns, : RK45.A.shape[1]] = RK45.A
+        a[ns, :ns] = RK45.B
+        c = np.zeros(n_ext)
+        c[:ns], c[ns] = RK45.C, 1.0
+        e, e3, dense = RK45.E, np.zeros(n_ext), RK45.P
+        order = RK45.error_estimator_order
+    elif method == "dop853":
+        ns = DOP853.n_stages
+        n_ext = ns + 1 + DOP853.A_EXTRA.shape[0]
+        a = np.zeros((n_ext, n_ext))
+        a[:ns, :ns] = DOP853.A
+        a[ns, :ns] = DOP853.B
+        a[ns + 1 :, : DOP853.A_EXTRA.shape[1]] = DOP853.A_EXTRA
+        c = np.zeros(n_ext)
+        c[:ns], c[ns], c[ns + 1 :] = DOP853.C, 1.0, DOP853.C_EXTRA
+        e, e3, dense = DOP853.E5, DOP853.E3, DOP853.D
+        order = DOP853.error_estimator_order
+    else:
+        raise InputError(f"method must be 'dopri5' or 'dop853', got {method!r}")
+    arrays = tuple(np.ascontiguousarray(x, dtype=np.float64) for x in (a, c, e, e3, dense))
+    return (*arrays, int(ns), int(n_ext), float(order), method == "dop853")
+
+
+# ---- the wrapper --------------------------------------------------------------------------------
+def _segments(fobj, t0: float, t1: float, extra=()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    cuts = sorted({float(b) for b in (*fobj.breakpoints, *extra) if t0 < b < t1})
+    edges = np.array([t0, *cuts, t1], dtype=np.float64)
+    n = edges.size - 1
+    kinds = np.zeros(n, dtype=np.int64)
+    values = np.zeros(n, dtype=np.float64)
+    if isinstance(fobj, ManoeuvreForce):
+        kinds[:] = _MANOEUVRE
+    elif isinstance(fobj, ConstantForce):
+        values[:] = fobj.value
+    elif isinstance(fobj, StepForce):
+        mid = 0.5 * (edges[:-1] + edges[1:])
+        values[:] = np.where(mid < fobj.t_step, fobj.before, fobj.after)
+    else:
+        raise InputError(
+            "the compiled methods take a constant force, a StepForce or a ManoeuvreForce, got "
+            f"{type(fobj).__name__}; use a scipy method ('DOP853', 'LSODA', ...) for a callable"
+        )
+    return edges, kinds, values
+
+
+_NO_MANOEUVRE = (np.zeros(20), np.ones(6))
+
+
+def _run(
+    form: Psi3Minimal,
+    fobj,
+    t_span,
+    y,
+    *,
+    method: str,
+    rtol: float,
+    atol,
+    t_eval,
+    first_step,
+    max_step: float,
+    min_step: float,
+    breakpoints=(),
+    stroke_range=None,
+    stop_at_dead_centre: bool = False,
+    max_steps: int = 1_000_000,
+    label: str | None = None,
+):
+    """Validate, run the compiled driver, raise its failure as a typed error or return the
+    :class:`~drs_model.integrators.Solution`."""
+    from .integrators import Solution
+
+    load()
+    label = label or f"{method}-numba"
+    t0, t1 = float(t_span[0]), float(t_span[1])
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
+    if not (rtol > 0.0 and math.isfinite(rtol)):
+        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
+    rtol = max(float(rtol), 100 * np.finfo(float).eps)  # scipy's floor
+    atol_arr = (
+        rtol * np.array([1.0, 100.0])
+        if atol is None
+        else np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).copy()
+    )
+    if not (np.all(np.isfinite(atol_arr)) and np.all(atol_arr >= 0.0)):
+        raise InputError(f"atol must be finite and >= 0, got {atol!r}")
+    fs = 0.0 if first_step is None else float(first_step)
+    if first_step is not None and not (fs > 0.0 and math.isfinite(fs)):
+        raise InputError(f"first_step must be a finite number > 0 s, got {first_step!r}")
+    if not max_step > 0.0:
+        raise InputError(f"max_step must be > 0 s, got {max_step!r}")
+    if int(max_steps) < 1:
+        raise InputError(f"max_steps must be >= 1, got {max_steps!r}")
+    if t_eval is None:
+        te, has_eval = np.zeros(0), False
+    else:
+        te = np.ascontiguousarray(t_eval, dtype=np.float64)
+        if te.ndim != 1 or np.any(te < t0) or np.any(te > t1):
+            raise InputError(f"t_eval must be 1-D within t_span {t_span!r}")
+        if np.any(np.diff(te) < 0.0):
+            raise InputError("t_eval must be sorted in increasing order")
+        has_eval = True
+    edges, kinds, values = _segments(fobj, t0, t1, breakpoints)
+    mc, mp = _manoeuvre_spec(fobj) if isinstance(fobj, ManoeuvreForce) else _NO_MANOEUVRE
+    p = form.p
+    if stroke_range is None:
+        lo, hi, check_range = -math.inf, math.inf, 0.0
+    else:
+        lo, hi = (float(v) for v in stroke_range)
+        if not lo < hi:
+            raise InputError(
+                f"stroke_range must be (lo, hi) with lo < hi [m], got {stroke_range!r}"
+            )
+        check_range = 1.0
+    psi3_dead = _dead_centre_psi3(p) if stop_at_dead_centre else math.inf
+    checks = np.array(
+        [form.min_cos_psi1, lo, hi, psi3_dead, check_range, 1.0 if stop_at_dead_centre else 0.0]
+    )
+    kc = psi3_constants(form)
+    a, c, e, e3, dense, ns, n_ext, order, is853 = _tableau(method)
+    y_start = np.array([float(y[0]), float(y[1])])
+    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg = _integrate(
+        y_start, edges, kinds, values, mc, mp, kc,
+        a, c, e, e3, dense, ns, n_ext, order, is853,
+        te, has_eval, rtol, atol_arr, fs, float(max_step), float(min_step), checks,
+        int(max_steps),
+    )  # fmt: skip
+    if status != OK:
+        _raise(status, label, t_fail, y_fail, info, seg, edges, checks, p, int(max_steps), min_step)
+    q, qd = _to_q_qd(y_out, n_out, kc)
+    y_out = y_out[:, :n_out]
+    zeros = np.zeros(n_out)
+    return Solution(
+        form.name,
+        label,
+        t_out[:n_out].copy(),
+        np.ascontiguousarray(y_out),
+        q,
+        qd,
+        zeros,
+        zeros.copy(),
+        int(nfev),
+        0,
+        0,
+        int(nsteps),
+        [(float(x), float(z)) for x, z in zip(edges[:-1], edges[1:], strict=True)],
+        int(nrej),
+    )
+
+
+def _raise(status, label, t, y, info, seg, edges, checks, p, max_steps, min_step):
+    where = f"at t = {t:.9g} s (segment [{edges[seg]:.6g}, {edges[seg + 1]:.6g}] s)"
+    state = f"psi3 = {y[0]:.9g} rad, psi3' = {y[1]:.9g} rad/s"
+    head = f"{label} on formulation 'psi3'"
+    if status == STEP_COLLAPSE:
+        raise IntegrationError(
+            f"{head}: step size collapsed to {info:.3g} s (10 ulp of t) {where}, {state}: "
+            f"the error control rejects every step (a stage outside the assembly range?)"
+        )
+    if status == MIN_STEP:
+        raise IntegrationError(
+            f"{head}: step size collapsed to {info:.3g} s < min_step = {min_step:g} s {where}"
+        )
+    if status == NONFINITE_STATE:
+        raise IntegrationError(f"{head}: non-finite state {where}: {state}")
+    if status == NONFINITE_FORCE:
+        raise IntegrationError(
+            f"{head}: piston force is not finite at t = {t!r} s: {info!r} N (the manoeuvre's "
+            f"loop cannot close there?)"
+        )
+    if status == SINGULAR:
+        raise SingularConfigurationError(
+            f"psi3 formulation ({label}): at psi3 = {y[0]:.9g} rad (t = {t:.9g} s) cos psi1 = "
+            f"{info:.3g} < min_cos_psi1 = {checks[0]:g}: the link is nearly horizontal and psi3 "
+            f"cannot stay the independent coordinate"
+        )
+    if status == DEAD_CENTRE:
+        raise SingularConfigurationError(
+            f"{head}: step to t = {t:.9g} s crosses the dead centre: psi3 = {y[0]:.9g} rad >= "
+            f"{checks[3]:.9g} rad (s_dead = {dead_centre(p):.9g} m)"
+        )
+    if status == STROKE_RANGE:
+        raise StrokeRangeError(
+            f"{head}: stroke s = {info:.9g} m at t = {t:.9g} s leaves the stroke range "
+            f"[{checks[1]:.9g}, {checks[2]:.9g}] m ({state})"
+        )
+    if status == TOO_MANY_STEPS:
+        raise IntegrationError(f"{head}: more than max_steps = {max_steps} steps {where}")
+    raise IntegrationError(f"{head}: unknown status {status} {where}")  # pragma: no cover
+
+
+def simulate_compiled(
+    p: DRSParams,
+    force,
+    t_span: tuple[float, float],
+    *,
+    method: str = "dop853",
+    rtol: float = 1e-8,
+    atol=None,
+    t_eval=None,
+    first_step: float | None = None,
+    max_step: float = math.inf,
+    min_step: float = 1e-12,
+    initial: tuple | None = None,
+    y0=None,
+    breakpoints: tuple[float, ...] = (),
+    flap_limits: tuple[float, float] | None = None,
+    min_cos_psi1: float = 0.05,
+    stroke_range: tuple[float, float] | None = None,
+    stop_at_dead_centre: bool = False,
+    max_steps: int = 1_000_000,
+):
+    """Forward dynamics of formulation (a) (``psi3``) with a compiled adaptive RK method.
+
+    Parameters
+    ----------
+    p : DRSParams
+    force : float or force object
+        A constant [N], a :class:`~drs_model.forward.StepForce` or a
+        :class:`~drs_model.forward.ManoeuvreForce` (a general callable of t is refused: use a
+        scipy method).
+    t_span : (float, float)
+        Start and end times [s].
+    method : {"dopri5", "dop853"}
+        Dormand-Prince 5(4) or DOP853 (the tableaux and step control of scipy's RK45 / DOP853).
+    rtol, atol : float or array_like
+        Tolerances; ``atol`` defaults to ``rtol * [1 rad, 100 rad/s]`` (as ``simulate``).
+    t_eval : array_like, shape (n,), optional
+        Sorted output times [s] (dense output); default: every accepted step.
+    first_step, max_step, min_step : float
+        As in :func:`drs_model.integrators.simulate` [s].
+    initial, y0
+        ``(q0, qd0)`` (consistent full coordinates) or ``[psi3, psi3']``; default: at rest at
+        the closed stroke.
+    breakpoints : tuple of float
+        Extra restart times [s].
+    flap_limits, min_cos_psi1
+        Options of :class:`~drs_model.forward.Psi3Minimal`.
+    stroke_range : (float, float), optional
+        A step ending with the stroke outside ``[lo, hi]`` [m] raises
+        :class:`~drs_model.errors.StrokeRangeError` (default: no check, as ``simulate``).
+    stop_at_dead_centre : bool
+        A step ending at ``psi3 >= psi3(s_dead)`` raises
+        :class:`~drs_model.errors.SingularConfigurationError` (default False: formulation (a)
+        passes through the dead centre).
+    max_steps : int
+        Accepted steps allowed over the whole span.
+
+    Returns
+    -------
+    Solution
+        ``method`` is ``"dopri5-numba"`` or ``"dop853-numba"``; ``nrejected`` counts the
+        rejected steps.
+
+    Raises
+    ------
+    NumbaUnavailableError
+        numba is not installed.
+    InputError, IntegrationError, SingularConfigurationError, StrokeRangeError
+        See the module docstring.
+    """
+    form = psi3_formulation(p, flap_limits, min_cos_psi1)
+    return run_formulation(
+        form, force, t_span, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
+        first_step=first_step, max_step=max_step, min_step=min_step, initial=initial, y0=y0,
+        breakpoints=breakpoints, stroke_range=stroke_range,
+        stop_at_dead_centre=stop_at_dead_centre, max_steps=max_steps,
+    )  # fmt: skip
+
+
+def run_formulation(
+    form,
+    force,
+    t_span,
+    *,
+    method: str,
+    initial=None,
+    y0=None,
+    label: str | None = None,
+    **options,
+):
+    """:func:`simulate_compiled` on a formulation instance (the hook of ``simulate``)."""
+    if isinstance(form, str):
+        raise InputError("run_formulation takes a formulation instance")
+    if not isinstance(form, Psi3Minimal):
+        raise InputError(
+            f"the compiled methods integrate formulation 'psi3' only, got {form.name!r}; use a "
+            f"scipy method for the others"
+        )
+    if method not in ("dopri5", "dop853"):
+        raise InputError(f"method must be 'dopri5' or 'dop853', got {method!r}")
+    fobj = as_force(force)
+    if y0 is not None:
+        y = np.asarray(y0, dtype=float).reshape(2)
+        form.check(float(t_span[0]), y)
+    elif initial is not None:
+        y = form.initial_state(*initial)
+    else:
+        y = _rest_state(form.p)
+    return _run(form, fobj, t_span, y, method=method, label=label, **options)

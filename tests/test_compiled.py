@@ -1,0 +1,277 @@
+"""The compiled path (drs_model.compiled): kernels against the Python ones, the RK driver against
+scipy's solvers and the exact profile, typed failures.
+
+Skipped when numba is missing, unless ``CI`` is set (CI installs every extra: a missing numba fails
+there). No timing is asserted (benchmarks/work_precision.py measures it).
+
+Measured accuracy on the manoeuvre (max |s - s_ref| over the 0.1 ms grid, numba 0.68.1):
+dopri5 1.8e-7 / 5.1e-10 / 6.2e-12 m and dop853 4.7e-7 / 7.7e-10 / 7.7e-12 m at rtol 1e-6 / 1e-9
+/ 1e-11, i.e. below 0.8 rtol [m]; the tests assert 2 rtol.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from drs_model import compiled
+from drs_model import forward as fw
+from drs_model import kinematics as kin
+from drs_model.constraints import constraint
+from drs_model.errors import (
+    InputError,
+    IntegrationError,
+    SingularConfigurationError,
+    StrokeRangeError,
+)
+from drs_model.integrators import COMPILED_METHODS, simulate
+
+if importlib.util.find_spec("numba") is None:
+    if os.environ.get("CI"):
+        pytest.fail("numba is required under CI (pip install -e '.[fast]')", pytrace=False)
+    pytest.skip("numba is not installed (pip install drs[fast])", allow_module_level=True)
+
+METHODS = sorted(COMPILED_METHODS)  # dop853-numba, dopri5-numba
+SCIPY_TWIN = {"dopri5-numba": "RK45", "dop853-numba": "DOP853"}
+S0 = 0.02  # mid-stroke start [m]
+
+
+@pytest.fixture(scope="module")
+def mforce(params):
+    return fw.ManoeuvreForce(params)
+
+
+@pytest.fixture(scope="module")
+def grid(params):
+    return np.linspace(0.0, params.T_total, 501)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _compiled(params):
+    compiled.warm_up(params)  # compile (or load from numba's cache) once for the module
+
+
+def _start(params, s0=S0):
+    return kin.solve_position(s0, params), np.zeros(3)
+
+
+# ---- kernels ------------------------------------------------------------------------------------
+def test_compiled_force_equals_fused_inverse_dynamics(params, mforce):
+    """The compiled manoeuvre force equals FusedInverseDynamics.force_at and
+    dynamics.manoeuvre_force to 1e-9 relative over 10,000 times (rests, moves, joints)."""
+    from drs_model.dynamics import FusedInverseDynamics, manoeuvre_force
+
+    t = np.concatenate(
+        [np.linspace(-0.005, params.T_total + 0.005, 9995), np.array(mforce.breakpoints)]
+    )
+    got = compiled._manoeuvre_forces(t, *compiled.manoeuvre_constants(mforce))
+    fused = FusedInverseDynamics.from_params(params)
+    one_by_one = np.array([fused.force_at(float(x)) for x in t])
+    scale = np.max(np.abs(one_by_one))
+    np.testing.assert_allclose(got, one_by_one, rtol=1e-9, atol=1e-9 * scale)
+    np.testing.assert_allclose(got, manoeuvre_force(t, params), rtol=1e-9, atol=1e-9 * scale)
+    # and the forward module's piecewise force, which the scipy path integrates
+    np.testing.assert_allclose(
+        got[::50], [mforce(float(x)) for x in t[::50]], rtol=1e-9, atol=1e-9 * scale
+    )
+
+
+def test_compiled_kernel_equals_make_psi3_kernel(params):
+    form = fw.Psi3Minimal(params)
+    rng = np.random.default_rng(3)
+    psi_c, psi_o = kin.flap_angle_limits(params)
+    n = 2000
+    b = rng.uniform(min(psi_c, psi_o) - 0.3, max(psi_c, psi_o) + 0.3, n)
+    bd = rng.uniform(-150.0, 150.0, n)
+    f = rng.uniform(-3000.0, 3000.0, n)
+    got = compiled._psi3_accels(b, bd, f, compiled.psi3_constants(form))
+    ref = np.array([form.accel(*args) for args in zip(b, bd, f, strict=True)])
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-9)
+    # no assembly -> NaN, as the Python kernel
+    assert math.isnan(compiled._psi3_accels(np.array([math.pi]), np.zeros(1), np.zeros(1),
+                                            compiled.psi3_constants(form))[0])  # fmt: skip
+
+
+def test_tableaux_satisfy_the_order_conditions():
+    for method, order in (("dopri5", 5), ("dop853", 8)):
+        a, c, e, e3, dense, ns, n_ext, err_order, _ = compiled._tableau(method)
+        np.testing.assert_allclose(a.sum(axis=1), c, atol=1e-14)  # row sums = nodes
+        bw = a[ns, :ns]
+        for k in range(order):  # quadrature order: sum b c^k = 1/(k+1)
+            assert bw @ c[:ns] ** k == pytest.approx(1.0 / (k + 1), abs=1e-13)
+        assert err_order == order - 1 and n_ext >= ns + 1
+
+
+def test_q_qd_from_the_closed_form(params, mforce, grid):
+    sol = simulate("psi3", mforce, (0.0, params.T_total), params=params,
+                   method="dop853-numba", rtol=1e-9, t_eval=grid)  # fmt: skip
+    q, qd = fw.Psi3Minimal(params).to_q_qd(sol.y)
+    np.testing.assert_allclose(sol.q, q, rtol=0.0, atol=1e-13)
+    np.testing.assert_allclose(sol.qd, qd, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(constraint(sol.q, params))) < 1e-15
+
+
+# ---- the driver ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("method", METHODS)
+def test_same_steps_as_the_scipy_twin(params, mforce, grid, method):
+    """The port takes scipy's steps: same accepted steps and evaluations as RK45 / DOP853 (DOP853
+    spends 3 dense-output evaluations less on a step ending exactly on an output time)."""
+    kw = dict(params=params, rtol=1e-8, t_eval=grid)
+    ours = simulate("psi3", mforce, (0.0, params.T_total), method=method, **kw)
+    ref = simulate("psi3", mforce, (0.0, params.T_total), method=SCIPY_TWIN[method], **kw)
+    assert ours.nsteps == ref.nsteps
+    assert 0 <= ref.nfev - ours.nfev <= 3 * 5
+    assert ours.method == method and ours.formulation == "psi3"
+    assert ours.segments == ref.segments
+    np.testing.assert_array_equal(ours.t, grid)
+    # scipy restarts each segment from its dense output at the joint, we from the step's end:
+    # rounding differences, grown by the instability
+    np.testing.assert_allclose(ours.s, ref.s, rtol=0.0, atol=1e-11)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_agrees_with_scipy_dop853_at_tight_tolerance(params, mforce, grid, method):
+    ref = simulate("psi3", mforce, (0.0, params.T_total), params=params, method="DOP853",
+                   rtol=1e-12, t_eval=grid)  # fmt: skip
+    ours = simulate("psi3", mforce, (0.0, params.T_total), params=params, method=method,
+                    rtol=1e-12, t_eval=grid)  # fmt: skip
+    np.testing.assert_allclose(ours.s, ref.s, rtol=0.0, atol=2e-11)
+    np.testing.assert_allclose(ours.psi3, ref.psi3, rtol=0.0, atol=2e-10)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("rtol", [1e-6, 1e-9, 1e-11])
+def test_reproduces_the_profile(params, mforce, grid, method, rtol):
+    """Under its inverse-dynamics force the manoeuvre comes back: max|s err| < 2 rtol [m]
+    (measured <= 0.8 rtol, module docstring)."""
+    sol = simulate("psi3", mforce, (0.0, params.T_total), params=params, method=method,
+                   rtol=rtol, t_eval=grid)  # fmt: skip
+    err = np.max(np.abs(sol.s - mforce.profile(grid)[0]))
+    assert err < 2.0 * rtol
+    assert sol.nfev > 0 and sol.nsteps > 0 and sol.nrejected >= 0
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_error_scales_with_tolerance(params, mforce, grid, method):
+    errs, nfev = [], []
+    for rtol in (1e-5, 1e-7, 1e-9, 1e-11):
+        sol = simulate("psi3", mforce, (0.0, params.T_total), params=params, method=method,
+                       rtol=rtol, t_eval=grid)  # fmt: skip
+        errs.append(np.max(np.abs(sol.s - mforce.profile(grid)[0])))
+        nfev.append(sol.nfev)
+    assert all(a > 10.0 * b for a, b in zip(errs[:-1], errs[1:], strict=True)), errs
+    assert nfev == sorted(nfev)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_constant_force_and_every_step_output(params, method):
+    t_end = 0.01
+    ref = simulate("psi3", 500.0, (0.0, t_end), params=params, method="DOP853", rtol=1e-13,
+                   initial=_start(params), t_eval=[0.0025, 0.005, t_end])  # fmt: skip
+    sol = compiled.simulate_compiled(params, 500.0, (0.0, t_end), method=method[:-6],
+                                     rtol=1e-11, initial=_start(params))  # fmt: skip
+    assert sol.t[0] == 0.0 and sol.t[-1] == t_end and np.all(np.diff(sol.t) > 0)
+    assert sol.t.size == sol.nsteps + 1 and sol.y.shape == (2, sol.t.size)
+    assert sol.s[-1] == pytest.approx(ref.s[-1], abs=1e-11)
+    dense = compiled.simulate_compiled(params, 500.0, (0.0, t_end), method=method[:-6],
+                                       rtol=1e-11, initial=_start(params),
+                                       t_eval=[0.0025, 0.005, t_end])  # fmt: skip
+    np.testing.assert_allclose(dense.s, ref.s, rtol=0.0, atol=1e-11)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_step_force_restarts_at_the_step(params, method):
+    kw = dict(params=params, rtol=1e-12, method=method)
+    step = fw.StepForce(300.0, 600.0, 0.004)
+    whole = simulate("psi3", step, (0.0, 0.008), initial=_start(params), t_eval=[0.004, 0.008],
+                     **kw)  # fmt: skip
+    assert whole.segments == [(0.0, 0.004), (0.004, 0.008)]
+    first = simulate("psi3", 300.0, (0.0, 0.004), initial=_start(params), t_eval=[0.004], **kw)
+    second = simulate("psi3", 600.0, (0.004, 0.008), y0=first.y[:, -1], t_eval=[0.008], **kw)
+    np.testing.assert_allclose(whole.y[:, -1], second.y[:, -1], rtol=1e-12, atol=1e-13)
+    ref = simulate("psi3", step, (0.0, 0.008), params=params, rtol=1e-13, method="DOP853",
+                   initial=_start(params), t_eval=[0.008])  # fmt: skip
+    assert whole.s[-1] == pytest.approx(ref.s[-1], abs=1e-11)
+
+
+# ---- failures -----------------------------------------------------------------------------------
+def test_huge_force_leaves_the_stroke_range(params):
+    s_min, s_max = kin.stroke_limits(params)
+    with pytest.raises(StrokeRangeError, match=r"stroke s = 0\.05\d* m at t = .* leaves the "
+                       r"stroke range \[0\.000198\d*, 0\.0460\d*\] m"):  # fmt: skip
+        simulate("psi3", 1e6, (0.0, 0.05), params=params, method="dop853-numba",
+                 stroke_range=(s_min, s_max))  # fmt: skip
+    # without a range the link ends nearly horizontal: the psi3 formulation's own refusal,
+    # at the same place as the scipy path
+    with pytest.raises(SingularConfigurationError, match=r"cos psi1 = 0\.04\d* < min_cos_psi1"):
+        simulate("psi3", 1e6, (0.0, 0.05), params=params, method="dopri5-numba")
+    with pytest.raises(SingularConfigurationError, match=r"cos psi1 = .* < min_cos_psi1"):
+        simulate("psi3", 0.0, (0.0, 0.01), params=params, y0=[1.55, 0.0], method="dop853-numba")
+
+
+def test_dead_centre_passes_or_stops(params, mforce):
+    low = 0.8 * mforce(0.0)
+    sol = simulate("psi3", low, (0.0, 0.03), params=params, method="dop853-numba", rtol=1e-9)
+    assert sol.s.min() < kin.stroke_limits(params)[0] - 1e-3  # through to the other side
+    with pytest.raises(SingularConfigurationError,
+                       match=r"crosses the dead centre: psi3 = .* >= 1\.195\d* rad"):  # fmt: skip
+        simulate("psi3", low, (0.0, 0.03), params=params, method="dop853-numba", rtol=1e-9,
+                 stop_at_dead_centre=True)  # fmt: skip
+
+
+def test_nan_force_is_typed(params):
+    with pytest.raises(InputError, match=r"constant piston force must be finite"):
+        simulate("psi3", math.nan, (0.0, 0.01), params=params, method="dop853-numba")
+    # a non-finite force met inside the compiled driver (bypassing ConstantForce's validation)
+    bad = object.__new__(fw.ConstantForce)
+    object.__setattr__(bad, "value", math.nan)
+    with pytest.raises(IntegrationError, match=r"piston force is not finite at t = 0\.0 s: nan"):
+        compiled.simulate_compiled(params, bad, (0.0, 0.01))
+
+
+def test_step_size_collapse_and_step_budget(params, mforce):
+    with pytest.raises(IntegrationError, match=r"step size collapsed to .* < min_step = 0\.005"):
+        simulate("psi3", mforce, (0.0, 0.01), params=params, rtol=1e-12, min_step=5e-3,
+                 method="dopri5-numba")  # fmt: skip
+    with pytest.raises(IntegrationError, match=r"more than max_steps = 5 steps"):
+        simulate("psi3", mforce, (0.0, 0.05), params=params, method="dop853-numba",
+                 max_steps=5)  # fmt: skip
+
+
+def test_bad_arguments(params, mforce):
+    with pytest.raises(InputError, match=r"integrates formulation 'psi3' only, got 'index1'"):
+        simulate("index1", mforce, (0.0, 0.01), params=params, method="dop853-numba")
+    with pytest.raises(InputError, match=r"a constant force, a StepForce or a ManoeuvreForce"):
+        simulate("psi3", lambda t: 100.0, (0.0, 0.01), params=params, method="dop853-numba")
+    with pytest.raises(InputError, match=r"t_eval must be sorted"):
+        simulate("psi3", 0.0, (0.0, 0.01), params=params, method="dop853-numba",
+                 t_eval=[0.005, 0.001])  # fmt: skip
+    with pytest.raises(InputError, match=r"method must be one of .*dop853-numba"):
+        simulate("psi3", 0.0, (0.0, 0.01), params=params, method="dop853_numba")
+    with pytest.raises(InputError, match=r"method must be 'dopri5' or 'dop853'"):
+        compiled.simulate_compiled(params, 0.0, (0.0, 0.01), method="rk4")
+    custom = fw.ManoeuvreForce(params, flap_limits=(0.2, -0.3))
+    with pytest.raises(InputError, match=r"cannot reproduce this ManoeuvreForce"):
+        compiled.simulate_compiled(params, custom, (0.0, 0.05))
+
+
+def test_missing_numba_is_an_import_error(monkeypatch):
+    monkeypatch.setattr(compiled, "_LOADED", False)
+    monkeypatch.setitem(sys.modules, "numba", None)
+    with pytest.raises(ImportError, match=r"pip install 'drs\[fast\]'") as info:
+        compiled.load()
+    assert isinstance(info.value, compiled.NumbaUnavailableError)
+
+
+def test_importing_the_model_does_not_import_numba():
+    code = (
+        "import sys, drs_model.integrators, drs_model.compiled; "
+        "assert 'numba' not in sys.modules, 'numba imported'"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
