@@ -588,6 +588,9 @@ def load() -> float:
     NumbaUnavailableError
         numba is not installed.
     """
+    # The one module-level binding in drs_model: numba resolves calls between jitted kernels
+    # through module globals, so the kernels are rebound here once (a closure factory would lose
+    # numba's on-disk cache). It only ever goes from the Python functions to their jitted wrappers.
     global _LOADED
     if _LOADED:
         return 0.0

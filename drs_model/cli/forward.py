@@ -10,7 +10,7 @@ import numpy as np
 from .. import kinematics as kin
 from ..errors import InputError
 from ..forward import FORMULATIONS, ManoeuvreForce, StepForce
-from ..integrators import METHODS, simulate
+from ..integrators import COMPILED_METHODS, METHODS, simulate
 from ._common import Output, add_common, load_params, table
 
 
@@ -26,7 +26,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_common(p)
     p.add_argument("--force", default="manoeuvre", help="F [N] | manoeuvre | step:F0,F1,T")
     p.add_argument("--formulation", default="psi3", choices=sorted(FORMULATIONS))
-    p.add_argument("--method", default="DOP853", choices=sorted(METHODS))
+    p.add_argument(
+        "--method",
+        default="DOP853",
+        choices=sorted(METHODS) + sorted(COMPILED_METHODS),
+        help="scipy solver, or a compiled one (psi3 only; needs drs[fast])",
+    )
     p.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
     p.add_argument("--atol", type=float, default=None, help="absolute tolerance (default scaled)")
     p.add_argument("--max-step", type=float, default=math.inf, help="maximum step [s]")
