@@ -1,4 +1,14 @@
-"""drs_model: kinematics and dynamics of the DRS flap actuator (pure numpy/scipy, no ROS)."""
+"""drs_model: kinematics and dynamics of the DRS flap actuator (pure numpy/scipy, no ROS).
+
+Modules: ``params`` (DRSParams), ``constraints`` (Phi, Jacobians, gamma), ``kinematics``
+(positions, velocities, accelerations, gap, limits), ``profile`` (quintic manoeuvre), ``bodies``
+(mass matrix, forces), ``dynamics`` (inverse dynamics, three formulations), ``forward`` and
+``integrators`` (forward dynamics), ``compiled`` (optional numba kernels), ``actuator`` (the
+fixed-step actuator the node runs), ``coriolis`` (rotating-frame kinematics of seed 000).
+"""
+
+import importlib
+from types import MappingProxyType
 
 from .errors import (
     AssemblyError,
@@ -11,20 +21,93 @@ from .errors import (
     SingularConfigurationError,
     StrokeRangeError,
 )
+from .kinematics import (
+    KinematicState,
+    flap_angle_limits,
+    gap,
+    kinematic_state,
+    solve_position,
+    solve_position_from_flap_angle,
+    stroke_for_gap,
+    stroke_limits,
+    velocity_ratio,
+)
 from .params import SEED_LITERAL_IZ_WING, DRSParams, from_dict, from_file
+from .profile import Manoeuvre, QuinticSegment, drs_manoeuvre, quintic_move
+
+#: Names re-exported lazily (PEP 562): these modules pull in scipy.integrate/optimize (~0.5 s),
+#: which a quick ``drs limits`` or a kinematics-only user should not pay for.
+_LAZY = MappingProxyType(
+    {
+        "ActuatorSim": ("actuator", "ActuatorSim"),
+        "ActuatorState": ("actuator", "ActuatorState"),
+        "DegenerateGeometryError": ("coriolis", "DegenerateGeometryError"),
+        "collar_kinematics": ("coriolis", "collar_kinematics"),
+        "slotted_link_closed_form": ("coriolis", "slotted_link_closed_form"),
+        "INVERSE_METHODS": ("dynamics", "METHODS"),
+        "FusedInverseDynamics": ("dynamics", "FusedInverseDynamics"),
+        "inverse_dynamics": ("dynamics", "inverse_dynamics"),
+        "manoeuvre_force": ("dynamics", "manoeuvre_force"),
+        "peak_force": ("dynamics", "peak_force"),
+        "FORMULATIONS": ("forward", "FORMULATIONS"),
+        "ConstantForce": ("forward", "ConstantForce"),
+        "ManoeuvreForce": ("forward", "ManoeuvreForce"),
+        "StepForce": ("forward", "StepForce"),
+        "FixedStepIntegrator": ("integrators", "FixedStepIntegrator"),
+        "simulate": ("integrators", "simulate"),
+    }
+)
+
+
+def __getattr__(name: str):
+    try:
+        module, attr = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'drs_model' has no attribute {name!r}") from None
+    return getattr(importlib.import_module(f".{module}", __name__), attr)
+
 
 __all__ = [
+    "FORMULATIONS",
+    "INVERSE_METHODS",
+    "SEED_LITERAL_IZ_WING",
+    "ActuatorSim",
+    "ActuatorState",
     "AssemblyError",
+    "ConstantForce",
     "ConstraintDriftError",
     "ConvergenceError",
     "DRSError",
     "DRSParams",
+    "DegenerateGeometryError",
+    "FixedStepIntegrator",
+    "FusedInverseDynamics",
     "InputError",
     "IntegrationError",
+    "KinematicState",
+    "Manoeuvre",
+    "ManoeuvreForce",
     "ParameterError",
-    "SEED_LITERAL_IZ_WING",
+    "QuinticSegment",
     "SingularConfigurationError",
+    "StepForce",
     "StrokeRangeError",
+    "collar_kinematics",
+    "drs_manoeuvre",
+    "flap_angle_limits",
     "from_dict",
     "from_file",
+    "gap",
+    "inverse_dynamics",
+    "kinematic_state",
+    "manoeuvre_force",
+    "peak_force",
+    "quintic_move",
+    "simulate",
+    "slotted_link_closed_form",
+    "solve_position",
+    "solve_position_from_flap_angle",
+    "stroke_for_gap",
+    "stroke_limits",
+    "velocity_ratio",
 ]

@@ -72,7 +72,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from .bodies import air_forces, applied_forces, mass_matrix, velocity_forces
 from .constraints import PSI1, PSI3, S, constraint_jacobian, singularity_measure
@@ -528,6 +527,8 @@ def peak_force(
 
     best_t = t[k]
     if hi > lo:
+        from scipy.optimize import minimize_scalar  # lazy: 0.4 s of import for one refinement
+
         res = minimize_scalar(neg_abs, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
         if -res.fun > abs(force[k]):
             best_t = float(res.x)

@@ -112,3 +112,14 @@ def test_bad_files(tmp_path):
 def test_frozen(params):
     with pytest.raises(AttributeError):
         params.L1 = 1.0  # type: ignore[misc]
+
+
+def test_package_exports_resolve():
+    """Every name in drs_model.__all__ resolves (the heavy ones lazily), and an unknown one raises
+    AttributeError with its name."""
+    import drs_model
+
+    for name in drs_model.__all__:
+        assert getattr(drs_model, name) is not None, name
+    with pytest.raises(AttributeError, match=r"has no attribute 'nope'"):
+        drs_model.nope  # noqa: B018
