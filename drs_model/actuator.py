@@ -105,6 +105,9 @@ class ActuatorSim:
             FusedInverseDynamics.from_params(p) if force_method == "virtual-work" else None
         )
         self._stepper = None
+        # built now, not at the first force command: importing the integrators (scipy.integrate)
+        # mid-run stalls a real-time loop for ~0.4 s
+        self._ensure_stepper()
         self.reset()
 
     # ---- state ----------------------------------------------------------------------------------
