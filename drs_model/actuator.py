@@ -118,7 +118,7 @@ class ActuatorSim:
         self._t_reset = float(t)
         self.steps = 0
         self.mode = "hold"
-        self._segment: QuinticSegment | None = None
+        self._segments: tuple[QuinticSegment, ...] = ()
         self._target: float | None = None
         self._force_cmd = 0.0
         self._at_stop: str | None = None
@@ -182,9 +182,65 @@ class ActuatorSim:
                 f"the move to {target!r} m from s = {s0:.6g} m at {v0:.3g} m/s would leave "
                 f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"
             )
-        self._segment, self._target, self.mode = seg, target, "stroke"
+        self._segments, self._target, self.mode = (seg,), target, "stroke"
         self._at_stop = None
         return seg
+
+    def command_trajectory(self, times, strokes, rates=None) -> tuple[QuinticSegment, ...]:
+        """Follow a trajectory of the piston: reach ``strokes[k]`` [m] at ``times[k]`` [s from
+        now] with rate ``rates[k]`` [m/s] (default: the mean of the neighbouring slopes, and rest
+        at the last point), through one quintic per interval starting from the current state.
+
+        Refused (nothing changes) unless the times strictly increase from > 0, every value is
+        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it.
+        """
+        t = np.asarray(times, dtype=float).ravel()
+        s = np.asarray(strokes, dtype=float).ravel()
+        n = t.size
+        if n == 0 or n > 10_000 or s.size != n:
+            raise InputError(
+                f"a trajectory needs 1..10000 points with one stroke per time, got {n} times and "
+                f"{s.size} strokes"
+            )
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
+            raise InputError("trajectory times and strokes must be finite")
+        if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
+            raise InputError(
+                f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
+            )
+        kin.check_stroke(s, self.p)
+        if rates is None:
+            knots_t = np.concatenate([[0.0], t])
+            knots_s = np.concatenate([[self._q[0]], s])
+            v = np.zeros(n)
+            if n > 1:  # interior points: the slope across the neighbours (a C1 path)
+                v[:-1] = (knots_s[2:] - knots_s[:-2]) / (knots_t[2:] - knots_t[:-2])
+        else:
+            v = np.asarray(rates, dtype=float).ravel()
+            if v.size != n or not np.all(np.isfinite(v)):
+                raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
+        segs = []
+        s0, v0, a0, t0 = self._q[0], self._qd[0], self._qdd[0], self.t
+        for k in range(n):
+            seg = QuinticSegment.between(t0, self.t + t[k] - t0, s0, s[k], v0, v[k], a0, 0.0)
+            path = seg.evaluate(np.linspace(seg.t0, seg.t1, 65))[0]
+            if path.min() < self.s_min - 1e-12 or path.max() > self.s_max + 1e-12:
+                raise StrokeRangeError(
+                    f"the trajectory leaves [s_min, s_max] = [{self.s_min:.9g}, "
+                    f"{self.s_max:.9g}] m on its way to point {k} (of 0..{n - 1}), reaching "
+                    f"{path.min():.6g}..{path.max():.6g} m"
+                )
+            segs.append(seg)
+            s0, v0, a0, t0 = float(s[k]), float(v[k]), 0.0, seg.t1
+        self._segments, self._target, self.mode = tuple(segs), float(s[-1]), "stroke"
+        self._at_stop = None
+        return self._segments
+
+    def _active_segment(self) -> QuinticSegment:
+        for seg in self._segments:
+            if self.t <= seg.t1 + 1e-12:
+                return seg
+        return self._segments[-1]
 
     def command_drs(self, open_flap: bool) -> QuinticSegment:
         """Open (True) or close (False) with the seed's manoeuvre times."""
@@ -207,7 +263,7 @@ class ActuatorSim:
             stepper.reset(psi3=self._q[2], psi3_dot=self._qd[2], t=self.t)
         self._force_cmd = force
         self._force = force
-        self.mode, self._segment, self._target = "force", None, None
+        self.mode, self._segments, self._target = "force", (), None
 
     # ---- stepping ------------------------------------------------------------------------------
     def _ensure_stepper(self):
@@ -224,7 +280,7 @@ class ActuatorSim:
         if self.mode == "force":
             self._step_force()
         elif self.mode == "stroke":
-            s, v, a = self._segment.evaluate(self.t)
+            s, v, a = self._active_segment().evaluate(self.t)
             self._set_kinematic(float(s), float(v), float(a))
         else:
             self._set_kinematic(float(self._q[0]), 0.0, 0.0)

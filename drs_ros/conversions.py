@@ -44,6 +44,30 @@ def reactions_msg(reactions: Mapping[str, float], stamp_ns: int) -> JointState:
     return msg
 
 
+def trajectory_points(msg, joint: str) -> tuple[list[float], list[float], list[float] | None]:
+    """``(times [s from now], strokes [m], rates [m/s] or None)`` of joint ``joint`` in a
+    trajectory_msgs/JointTrajectory. Rates are used only when every point gives one.
+
+    Raises :class:`drs_model.errors.InputError` when the joint is missing or a point lacks its
+    position.
+    """
+    from drs_model.errors import InputError
+
+    names = list(msg.joint_names)
+    if joint not in names:
+        raise InputError(f"trajectory must name joint {joint!r}, got joint_names {names}")
+    j = names.index(joint)
+    times, strokes, rates = [], [], []
+    for k, pt in enumerate(msg.points):
+        if len(pt.positions) <= j:
+            raise InputError(f"trajectory point {k} has no position for joint {joint!r}")
+        times.append(pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec)
+        strokes.append(float(pt.positions[j]))
+        rates.append(float(pt.velocities[j]) if len(pt.velocities) > j else None)
+    use_rates = bool(rates) and all(r is not None for r in rates)
+    return times, strokes, (rates if use_rates else None)
+
+
 def float_msg(value: float) -> Float64:
     return Float64(data=float(value))
 

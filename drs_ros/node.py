@@ -4,6 +4,7 @@ Topics (``~`` is the node namespace, ``/drs/...`` by default):
 
 * ``~/stroke_cmd`` (in, std_msgs/Float64): move smoothly to this stroke [m];
 * ``~/force_cmd`` (in, std_msgs/Float64): apply this piston force [N] from now on;
+* ``~/trajectory_cmd`` (in, trajectory_msgs/JointTrajectory): follow the piston joint's points;
 * ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times);
 * ``/joint_states`` (sensor_msgs/JointState): piston [m, m/s, N], link and flap [rad, rad/s];
 * ``~/piston_force``, ``~/flap_gap`` (std_msgs/Float64): [N], [m];
@@ -35,6 +36,7 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
+from trajectory_msgs.msg import JointTrajectory
 
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
@@ -46,6 +48,7 @@ from .conversions import (
     float_msg,
     joint_state_msg,
     reactions_msg,
+    trajectory_points,
 )
 
 QOS_DEPTH = 10
@@ -99,6 +102,9 @@ class DRSNode(Node):
             Float64, "~/stroke_cmd", self._on_stroke, cmd_qos
         )
         self.sub_force = self.create_subscription(Float64, "~/force_cmd", self._on_force, cmd_qos)
+        self.sub_trajectory = self.create_subscription(
+            JointTrajectory, "~/trajectory_cmd", self._on_trajectory, cmd_qos
+        )
         self.srv_drs = self.create_service(SetBool, "~/drs", self._on_drs)
 
         # counters for diagnostics
@@ -251,6 +257,7 @@ class DRSNode(Node):
                 ("/diagnostics", DiagnosticArray),
                 (f"{ns}/stroke_cmd", Float64),
                 (f"{ns}/force_cmd", Float64),
+                (f"{ns}/trajectory_cmd", JointTrajectory),
             ):
                 depth = COMMAND_QOS_DEPTH if topic.endswith("_cmd") else QOS_DEPTH
                 self.recorder.register_topic(topic, typ, qos=QoSProfile(depth=depth))
@@ -319,6 +326,21 @@ class DRSNode(Node):
 
     def _on_force(self, msg: Float64) -> None:
         self._command("force_cmd", "force_cmd", msg, self.sim.command_force)
+
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        now = self._now_ns()
+        self._record(f"{self.get_fully_qualified_name()}/trajectory_cmd", msg, now)
+        summary = f"<{len(msg.points)} points>"
+        if self._flood("trajectory_cmd", now):
+            self._refuse("trajectory_cmd", summary, "command flood (max_command_rate_hz)")
+            return
+        try:
+            times, strokes, rates = trajectory_points(msg, self.joint_names[0])
+            self.sim.command_trajectory(times, strokes, rates)
+        except DRSError as exc:
+            self._refuse("trajectory_cmd", summary, str(exc))
+            return
+        self.accepted += 1
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         try:

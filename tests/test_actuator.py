@@ -142,3 +142,48 @@ def test_bad_construction(params):
         ActuatorSim(params, dt=0)
     with pytest.raises(InputError, match=r"method must be one of .*got 'bogus'"):
         ActuatorSim(params, force_method="bogus")
+
+
+def test_trajectory_passes_its_points_at_their_times(params):
+    a = ActuatorSim(params, dt=1e-3)
+    a.command_trajectory([0.01, 0.02, 0.03], [0.02, 0.04, 0.01])
+    seen = {}
+    for _ in range(40):
+        st_ = a.step()
+        seen[round(st_.t, 6)] = st_
+    for t, s in ((0.01, 0.02), (0.02, 0.04), (0.03, 0.01)):
+        assert seen[t].q[0] == pytest.approx(s, abs=1e-12)
+        assert np.abs(constraint(seen[t].q, params)).max() < 1e-14
+    # C1 through the interior points: the rate there is the slope across the neighbours
+    assert seen[0.01].qd[0] == pytest.approx((0.04 - kin.stroke_limits(params)[0]) / 0.02, rel=1e-9)
+    assert seen[0.03].qd[0] == pytest.approx(0.0, abs=1e-12)
+    assert seen[0.035].q[0] == pytest.approx(0.01, abs=1e-15)
+    # the force along it is the inverse dynamics of that motion
+    st_ = seen[0.015]
+    assert st_.piston_force == pytest.approx(
+        lagrange_force(params, *st_.q[:1], st_.qd[0], st_.qdd[0]), rel=1e-9
+    )
+
+
+@pytest.mark.parametrize(
+    ("times", "strokes", "rates", "match"),
+    [
+        ([0.01, 0.01], [0.02, 0.03], None, r"times must increase strictly from > 0 s"),
+        ([0.0], [0.02], None, r"times must increase strictly from > 0 s"),
+        ([0.01], [0.2], None, r"stroke 0\.2 m is outside \[s_min, s_max\]"),
+        ([0.01], [float("nan")], None, r"must be finite"),
+        ([], [], None, r"needs 1\.\.10000 points"),
+        ([0.01], [0.02], [float("inf")], r"rates must be 1 finite values"),
+        # arriving at 45 mm at 2 m/s, it cannot stop at 46 mm within 10 ms without overshooting
+        (
+            [0.01, 0.02], [0.045, 0.046], [2.0, 0.0],
+            r"leaves \[s_min, s_max\].* on its way to point 1 \(of 0\.\.1\)",
+        ),
+    ],
+)
+def test_bad_trajectories_are_refused_and_change_nothing(params, times, strokes, rates, match):
+    a = ActuatorSim(params)
+    before = a.state
+    with pytest.raises((InputError, StrokeRangeError), match=match):
+        a.command_trajectory(times, strokes, rates)
+    assert a.mode == before.mode and a.state.q[0] == before.q[0]

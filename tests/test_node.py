@@ -323,3 +323,34 @@ def test_joint_names_must_name_three_joints(ros_context):
         DRSNode(
             context=ros_context, parameter_overrides=[Parameter("joint_names", value=["a", "b"])]
         )
+
+
+def test_trajectory_command_over_dds(harness, params):
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    harness.wait_connected()
+    pub = harness.client.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+    assert spin_until(harness.exec, lambda: harness.node.sub_trajectory.get_publisher_count() > 0)
+
+    def traj(joint, points):
+        msg = JointTrajectory(joint_names=[joint, "drs_flap"])
+        for t, s in points:
+            msg.points.append(
+                JointTrajectoryPoint(
+                    positions=[s, 0.0], time_from_start=Duration(sec=0, nanosec=int(t * 1e9))
+                )
+            )
+        return msg
+
+    pub.publish(traj("drs_piston", [(0.02, 0.03), (0.04, 0.01)]))
+    assert spin_until(harness.exec, lambda: harness.node.accepted >= 1, 3.0)
+    assert spin_until(harness.exec, lambda: abs(harness.joints[-1].position[0] - 0.01) < 1e-12, 3.0)
+    assert max(m.position[0] for m in harness.joints) == pytest.approx(0.03, abs=2e-3)
+    # a trajectory for another joint, or past the stroke range, is refused with the reason
+    pub.publish(traj("elsewhere", [(0.02, 0.03)]))
+    pub.publish(traj("drs_piston", [(0.02, 0.3)]))
+    assert spin_until(harness.exec, lambda: harness.node.refused >= 2, 3.0)
+    reasons = list(harness.node.refusals)
+    assert any("trajectory must name joint 'drs_piston'" in r for r in reasons)
+    assert any("stroke 0.3 m is outside [s_min, s_max]" in r for r in reasons)
