@@ -337,8 +337,13 @@ def from_file(path: str | Path) -> DRSParams:
         if suffix == ".toml":
             data = tomllib.loads(text)
         elif suffix in (".yaml", ".yml"):
-            import yaml  # optional: installed with the ros extra
-
+            try:
+                import yaml  # optional: installed with the ros extra
+            except ImportError:
+                raise ParameterError(
+                    f"reading {str(path)!r} needs pyyaml (pip install pyyaml, or 'drs[ros]'); "
+                    "a .toml file needs nothing extra"
+                ) from None
             data = yaml.safe_load(text) or {}
         else:
             raise ParameterError(f"parameter file {str(path)!r} must end in .toml, .yaml or .yml")

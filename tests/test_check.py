@@ -108,6 +108,7 @@ def test_recover_reads_the_prefix_of_a_chunked_bag(tmp_path, params, capsys):
 
 
 def test_garbage_and_missing_files(tmp_path, capsys):
+    require_rclpy()  # the ros extra brings mcap and mcap_ros2
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(b"this is not an mcap file at all" * 10)
     assert check.main([str(junk)]) == 2

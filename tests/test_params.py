@@ -55,6 +55,9 @@ def test_bad_outlines_and_mappings(tmp_path):
         DRSParams(main_wing_outline=((0.0, 0.0), (1.0, float("nan")), (2.0, 0.0)))
     with pytest.raises(ParameterError, match=r"parameter overrides must be a mapping, got list"):
         from_dict([("L1", 0.01)])
+    from ros_support import require_module
+
+    require_module("yaml")
     f = tmp_path / "list.yaml"
     f.write_text("- 1\n- 2\n")
     with pytest.raises(ParameterError, match=r"must hold a table of name = value"):
@@ -88,9 +91,12 @@ def test_bad_values_are_refused(overrides, match):
 
 
 def test_from_toml_and_yaml(tmp_path):
+    from ros_support import require_module
+
     toml = tmp_path / "p.toml"
     toml.write_text("[drs]\nm_wing = 2.5\nIz_wing = 0.08\n")
     assert from_file(toml).m_wing == 2.5
+    require_module("yaml")
     yml = tmp_path / "p.yaml"
     yml.write_text("m_pist: 0.1\n")
     assert from_file(yml).m_pist == 0.1
@@ -123,3 +129,13 @@ def test_package_exports_resolve():
         assert getattr(drs_model, name) is not None, name
     with pytest.raises(AttributeError, match=r"has no attribute 'nope'"):
         drs_model.nope  # noqa: B018
+
+
+def test_yaml_without_pyyaml_says_what_to_install(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "yaml", None)  # as if pyyaml were not installed
+    f = tmp_path / "p.yaml"
+    f.write_text("m_pist: 0.1\n")
+    with pytest.raises(ParameterError, match=r"needs pyyaml .*a \.toml file needs nothing extra"):
+        from_file(f)

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
-from ros_support import JOINT_NAMES, require_rclpy, write_drs_bag
+from ros_support import JOINT_NAMES, require_module, require_rclpy, write_drs_bag
 
 pytestmark = pytest.mark.ros
+yaml = require_module("yaml")  # installed with the ros extra; skips (outside CI) without it
 
 PRIMITIVES = {"bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16",
               "int32", "uint32", "int64", "uint64", "string"}
