@@ -3,7 +3,7 @@
 1. starts ``drs-node`` as a process (loopback-only DDS, its own domain) recording
    ``bags/demo/`` (MCAP + metadata.yaml) and ``bags/demo.rrd``;
 2. drives it from a second node: open, hold, close through the ``~/drs`` service; a stroke
-   command; a force step; one bad command (NaN, refused with a reason);
+   command; a trajectory; a force step; one bad command (NaN, refused with a reason);
 3. stops it with SIGINT (it finishes both recordings and exits 0);
 4. runs ``drs-check`` on the bag, reads the ``.rrd`` back, and prints a short summary.
 """
@@ -38,6 +38,7 @@ def _say(text: str) -> None:
 def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
     """Run the scripted scenario against a running node; returns what the driver observed."""
     import rclpy
+    from builtin_interfaces.msg import Duration
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
@@ -45,6 +46,7 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
     from std_srvs.srv import SetBool
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     ctx = Context()
     rclpy.init(context=ctx, domain_id=domain)
@@ -68,6 +70,7 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
     node.create_subscription(DiagnosticArray, "/diagnostics", on_diag, 10)
     stroke = node.create_publisher(Float64, "/drs/stroke_cmd", 10)
     force = node.create_publisher(Float64, "/drs/force_cmd", 10)
+    trajectory = node.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
     client = node.create_client(SetBool, "/drs/drs")
 
     def spin(seconds: float) -> None:
@@ -93,13 +96,28 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
             stroke.get_subscription_count() == 0 or force.get_subscription_count() == 0
         ) and time.monotonic() < end:
             spin(0.05)
-        spin(0.3)
+        # the service is discoverable before the node spins: wait for its joint states to flow
+        while int(seen["joint_states"]) < 25 and time.monotonic() < end:
+            spin(0.02)
+        if int(seen["joint_states"]) < 25:
+            raise RuntimeError(f"no /joint_states from the node within {timeout} s")
+        spin(0.2)
         _say(f"open   -> {call(True)}")
         spin(0.04)  # the seed holds 30 ms after the 10 ms opening
         _say(f"close  -> {call(False)}")
         spin(0.3)
         _say("stroke -> 0.020 m")
         stroke.publish(Float64(data=0.020))
+        spin(0.3)
+        _say("traj   -> 30 mm at 20 ms, 10 mm at 40 ms, 25 mm at 60 ms (JointTrajectory)")
+        msg = JointTrajectory(joint_names=["drs_piston"])
+        for t_ms, s in ((20, 0.030), (40, 0.010), (60, 0.025)):
+            msg.points.append(
+                JointTrajectoryPoint(
+                    positions=[s], time_from_start=Duration(sec=0, nanosec=t_ms * 1_000_000)
+                )
+            )
+        trajectory.publish(msg)
         spin(0.3)
         _say("force  -> 1500 N step (forward dynamics, onto the open stop)")
         force.publish(Float64(data=1500.0))
