@@ -44,6 +44,7 @@ DEFAULT_TOPICS = MappingProxyType({
     "joint_states": "/joint_states",
     "piston_force": "/drs/piston_force",
     "flap_gap": "/drs/flap_gap",
+    "piston_acceleration": "/drs/piston_acceleration",
     "stroke_cmd": "/drs/stroke_cmd",
     "force_cmd": "/drs/force_cmd",
     "diagnostics": "/diagnostics",
@@ -344,6 +345,40 @@ def load_force_model(spec: str | None = None) -> tuple[Callable | None, str]:
     return None, "skipped: drs_model.dynamics has neither piston_force nor inverse_dynamics"
 
 
+def _logged_acceleration_force(q, qd, effort, t, log, accel_msgs, p, force_model, force_tol,
+                               max_match_s, accel_topic, force_note) -> CheckResult:
+    """The piston force of the logged motion with the logged piston acceleration: exact.
+
+    Each joint state is paired with the acceleration logged nearest in time; ``qdd`` follows from
+    ``Phi_q qdd = gamma`` (:func:`drs_model.kinematics.solve_acceleration`). Samples resting on an
+    end stop are left out (the stop carries the difference between the force and the static
+    load), as are non-finite ones.
+    """
+    from drs_model.kinematics import solve_acceleration, stroke_limits
+
+    vals = np.array([m.data for _, m in accel_msgs], dtype=float)
+    logs = np.array([ln for ln, _ in accel_msgs], dtype=np.int64)
+    idx, dt = _nearest(logs, log)  # for each joint state, the nearest acceleration
+    sdd = vals[idx]
+    s_min, s_max = stroke_limits(p)
+    at_rest = np.all(qd == 0.0, axis=1)
+    on_stop = at_rest & ((np.abs(q[:, 0] - s_min) < 1e-12) | (np.abs(q[:, 0] - s_max) < 1e-12))
+    use = (dt <= max_match_s * 1e9) & ~on_stop & np.isfinite(sdd)
+    use &= np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1)
+    name = "piston force vs model, logged accel."
+    if not use.any():
+        return CheckResult(name, accel_topic, "N", 0, math.nan, math.nan, force_tol, "skipped",
+                           "no joint state paired with an acceleration off the end stops")
+    try:
+        qdd = solve_acceleration(q[use], qd[use], sdd[use], p, "s")
+        model = np.asarray(force_model(q[use], qd[use], qdd, p), dtype=float).reshape(-1)
+    except DRSError as exc:
+        return CheckResult(name, accel_topic, "N", int(use.sum()), math.inf, math.nan, force_tol,
+                           "FAIL", f"the force model refuses the logged motion: {exc}")
+    note = (f"{force_note}; {int(on_stop.sum())} samples resting on an end stop left out")
+    return _result(name, accel_topic, "N", np.abs(effort[use] - model), t[use], force_tol, note)
+
+
 def check_bag(
     data: BagData,
     params: DRSParams | None = None,
@@ -422,6 +457,12 @@ def check_bag(
     out.append(_result("piston force vs effort[0]", tp["piston_force"], "N", err,
                        t[idx] if len(idx) else [], force_tol))
     model = None
+    accel_msgs = data.messages.get(tp["piston_acceleration"], [])
+    if force_model is not None and accel_msgs and len(q):
+        out.append(_logged_acceleration_force(q, qd, effort, t, log, accel_msgs, p, force_model,
+                                              force_tol, max_match_s, tp["piston_acceleration"],
+                                              force_note))
+        return out
     if force_model is None:
         out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
                                force_tol, "skipped", force_note or "skipped: no force model"))
@@ -467,9 +508,9 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     lines += [f"note: {n}" for n in data.notes]
     for topic, n in sorted(data.counts.items()):
         lines.append(f"  {topic:<28} {n:>8} messages")
-    # times are shown from the first logged joint state (stamps are epoch seconds)
-    starts = [msg_list[0][0] for msg_list in data.messages.values() if msg_list]
-    t0 = min(starts) * 1e-9 if starts else 0.0
+    # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
+    stamps = [_stamp_s(ln, m) for msgs in data.messages.values() for ln, m in msgs[:1]]
+    t0 = min(stamps) if stamps else 0.0
     head = f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} " \
            f"{'tol':>9}  status"
     lines += ["", head, "-" * len(head)]
@@ -541,7 +582,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         params = from_file(args.params) if args.params else DRSParams()
         force_model, force_note = load_force_model(args.force_model)
         data = read_bag(args.bag, [topics["joint_states"], topics["piston_force"],
-                                   topics["flap_gap"]], recover=args.recover)
+                                   topics["flap_gap"], topics["piston_acceleration"]],
+                        recover=args.recover)
         results = check_bag(data, params, tol=args.tol, force_tol=args.force_tol, topics=topics,
                             joint_names=names, force_model=force_model, force_note=force_note,
                             max_match_s=args.max_match, force_model_tol=args.force_model_tol)

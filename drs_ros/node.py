@@ -7,7 +7,8 @@ Topics (``~`` is the node namespace, ``/drs/...`` by default):
 * ``~/trajectory_cmd`` (in, trajectory_msgs/JointTrajectory): follow the piston joint's points;
 * ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times);
 * ``/joint_states`` (sensor_msgs/JointState): piston [m, m/s, N], link and flap [rad, rad/s];
-* ``~/piston_force``, ``~/flap_gap`` (std_msgs/Float64): [N], [m];
+* ``~/piston_force``, ``~/flap_gap``, ``~/piston_acceleration`` (std_msgs/Float64): [N], [m],
+  [m/s^2];
 * ``~/joint_reactions`` (sensor_msgs/JointState): reactions by name, only while subscribed;
 * ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, ~1 Hz): mode, dead centre, refusals...
 
@@ -95,6 +96,8 @@ class DRSNode(Node):
         self.pub_joints = self.create_publisher(JointState, "/joint_states", qos)
         self.pub_force = self.create_publisher(Float64, "~/piston_force", qos)
         self.pub_gap = self.create_publisher(Float64, "~/flap_gap", qos)
+        # JointState has no acceleration field; with it a bag replays the piston force exactly
+        self.pub_accel = self.create_publisher(Float64, "~/piston_acceleration", qos)
         self.pub_reactions = self.create_publisher(JointState, "~/joint_reactions", qos)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", qos)
         cmd_qos = QoSProfile(depth=COMMAND_QOS_DEPTH)
@@ -253,6 +256,7 @@ class DRSNode(Node):
                 ("/joint_states", JointState),
                 (f"{ns}/piston_force", Float64),
                 (f"{ns}/flap_gap", Float64),
+                (f"{ns}/piston_acceleration", Float64),
                 (f"{ns}/joint_reactions", JointState),
                 ("/diagnostics", DiagnosticArray),
                 (f"{ns}/stroke_cmd", Float64),
@@ -401,6 +405,7 @@ class DRSNode(Node):
             (self.pub_joints, "/joint_states", joint_state_msg(st, self.joint_names, stamp)),
             (self.pub_force, f"{ns}/piston_force", float_msg(st.piston_force)),
             (self.pub_gap, f"{ns}/flap_gap", float_msg(st.gap)),
+            (self.pub_accel, f"{ns}/piston_acceleration", float_msg(st.qdd[0])),
         ]
         if self.pub_reactions.get_subscription_count() > 0:
             out.append(

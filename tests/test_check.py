@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from ros_support import require_rclpy, write_drs_bag
+from ros_support import JOINT_NAMES, require_rclpy, write_drs_bag
 
 from drs_ros import check
 
@@ -90,8 +90,9 @@ def test_truncated_file_message_and_recover(good_bag, capsys):
 
 def test_recover_reads_the_prefix_of_a_chunked_bag(tmp_path, params, capsys):
     require_rclpy()
-    rec, t, q, *_ = write_drs_bag(tmp_path / "chunks", params, n=200,
-                                  recorder_kwargs={"flush_messages": 60})
+    rec, t, q, *_ = write_drs_bag(
+        tmp_path / "chunks", params, n=200, recorder_kwargs={"flush_messages": 60}
+    )
     raw = rec.path.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(raw[: len(raw) // 2])
@@ -134,3 +135,61 @@ def test_a_nan_joint_state_fails_its_row_and_the_rest_is_still_checked(tmp_path,
     assert rows["finite joint states"]["max_error"] == 1.0
     assert rows["gap vs kinematics.gap(q)"]["samples"] >= 59  # the other samples still checked
     assert rows["piston force vs model"]["status"] == "info"
+
+
+def _actuator_bag(bag_dir, params, corrupt_at=None):
+    """Record an ActuatorSim run as the node does (joint states, force, gap, acceleration):
+    the seed's opening, a force step onto the open stop, then 100 N (below the 322 N that holds
+    it open: the flap falls back)."""
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+
+    from drs_model.actuator import ActuatorSim
+    from drs_ros.recording import McapRecorder
+
+    a = ActuatorSim(params, dt=1e-4)
+    t0 = 1_700_000_000_000_000_000
+    with McapRecorder(bag_dir, flush_thread=False) as rec:
+        for topic in ("/drs/piston_force", "/drs/flap_gap", "/drs/piston_acceleration"):
+            rec.register_topic(topic, Float64, 10)
+        rec.register_topic("/joint_states", JointState, 10)
+        plan = {
+            0: lambda: a.command_drs(True),
+            200: lambda: a.command_force(2500.0),
+            300: lambda: a.command_force(100.0),
+        }
+        for k in range(500):
+            if k in plan:
+                plan[k]()
+            st = a.step()
+            ns = t0 + int(round(st.t * 1e9))
+            msg = JointState(
+                name=list(JOINT_NAMES),
+                position=[float(x) for x in st.q],
+                velocity=[float(x) for x in st.qd],
+                effort=[st.piston_force, float("nan"), float("nan")],
+            )
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 1_000_000_000)
+            force = st.piston_force + (5.0 if k == corrupt_at else 0.0)
+            msg.effort[0] = force
+            rec.write("/joint_states", msg, ns)
+            rec.write("/drs/piston_force", Float64(data=force), ns)
+            rec.write("/drs/flap_gap", Float64(data=st.gap), ns)
+            rec.write("/drs/piston_acceleration", Float64(data=float(st.qdd[0])), ns)
+    return a
+
+
+def test_logged_acceleration_replays_the_piston_force_exactly(tmp_path, params, capsys):
+    """Stroke mode (inverse dynamics) and force mode (forward dynamics) both invert back to the
+    logged force; a 5 N error on one sample fails the check."""
+    require_rclpy()
+    a = _actuator_bag(tmp_path / "good", params)
+    assert a.state.at_stop is None or a.state.at_stop == "closed"
+    assert check.main([str(tmp_path / "good"), "--json", "--force-tol", "1e-3"]) == 0
+    rows = {c["name"]: c for c in json.loads(capsys.readouterr().out)["checks"]}
+    row = rows["piston force vs model, logged accel."]
+    assert row["status"] == "ok" and row["samples"] > 300 and row["max_error"] < 1e-3
+    _actuator_bag(tmp_path / "bad", params, corrupt_at=50)  # mid-opening
+    assert check.main([str(tmp_path / "bad"), "--json", "--force-tol", "1e-3"]) == 1
+    rows = {c["name"]: c for c in json.loads(capsys.readouterr().out)["checks"]}
+    assert rows["piston force vs model, logged accel."]["max_error"] == pytest.approx(5.0, rel=1e-6)
