@@ -53,6 +53,37 @@ from .conversions import (
 )
 
 QOS_DEPTH = 10
+
+#: The node's own parameters: (name, default, description, valid range or None). All read-only.
+NODE_PARAMETERS = (
+    ("physics_rate_hz", 1000.0, "fixed physics step rate [Hz]", (100.0, 20000.0)),
+    ("publish_rate_hz", 250.0, "joint-state publish rate [Hz]", (1.0, 2000.0)),
+    ("joint_names", DEFAULT_JOINT_NAMES, "JointState names: piston, link, flap", None),
+    ("integrator", "rk4", "fixed-step method of force mode", None),
+    (
+        "force_method",
+        "virtual-work",
+        "inverse-dynamics formulation: newton-euler, lagrange, virtual-work",
+        None,
+    ),
+    ("force_limit", 2.0e4, "largest accepted |force command| [N]", (1.0, 1.0e6)),
+    (
+        "max_command_rate_hz",
+        1000.0,
+        "commands per topic beyond this rate are refused [Hz]",
+        (1.0, 1.0e5),
+    ),
+    (
+        "max_catch_up_steps",
+        200,
+        "physics steps per tick before the simulation drops time",
+        (1, 100000),
+    ),
+    ("bag_path", "", "MCAP bag directory ('' = no bag)", None),
+    ("rrd_path", "", "rerun .rrd file ('' = none)", None),
+    ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
+    ("model_params_file", "", "TOML/YAML file of DRSParams overrides", None),
+)
 #: Command queues are deep so that a burst is received (and recorded) rather than dropped by DDS;
 #: the node then refuses what exceeds max_command_rate_hz, with a reason.
 COMMAND_QOS_DEPTH = 1000
@@ -137,97 +168,22 @@ class DRSNode(Node):
 
     # ---- parameters ----------------------------------------------------------------------------
     def _declare_parameters(self) -> None:
-        d = ParameterDescriptor
-        self.declare_parameter(
-            "physics_rate_hz",
-            1000.0,
-            d(
-                description="fixed physics step rate [Hz]",
-                read_only=True,
-                floating_point_range=_float_range(100.0, 20000.0),
-            ),
-        )
-        self.declare_parameter(
-            "publish_rate_hz",
-            250.0,
-            d(
-                description="joint-state publish rate [Hz]",
-                read_only=True,
-                floating_point_range=_float_range(1.0, 2000.0),
-            ),
-        )
-        self.declare_parameter(
-            "joint_names",
-            list(DEFAULT_JOINT_NAMES),
-            d(description="JointState names: piston, link, flap", read_only=True),
-        )
-        self.declare_parameter(
-            "integrator",
-            "rk4",
-            d(description="fixed-step method of force mode", read_only=True),
-        )
-        self.declare_parameter(
-            "force_method",
-            "virtual-work",
-            d(
-                description="inverse-dynamics formulation: newton-euler, lagrange, virtual-work",
-                read_only=True,
-            ),
-        )
-        self.declare_parameter(
-            "force_limit",
-            2.0e4,
-            d(
-                description="largest accepted |force command| [N]",
-                read_only=True,
-                floating_point_range=_float_range(1.0, 1.0e6),
-            ),
-        )
-        self.declare_parameter(
-            "max_command_rate_hz",
-            1000.0,
-            d(
-                description="commands per topic beyond this rate are refused [Hz]",
-                read_only=True,
-                floating_point_range=_float_range(1.0, 1.0e5),
-            ),
-        )
-        self.declare_parameter(
-            "max_catch_up_steps",
-            200,
-            d(
-                description="physics steps per tick before the simulation drops time",
-                read_only=True,
-                integer_range=[IntegerRange(from_value=1, to_value=100000, step=1)],
-            ),
-        )
-        self.declare_parameter(
-            "bag_path", "", d(description="MCAP bag directory ('' = no bag)", read_only=True)
-        )
-        self.declare_parameter(
-            "rrd_path", "", d(description="rerun .rrd file ('' = none)", read_only=True)
-        )
-        self.declare_parameter(
-            "flush_period",
-            0.5,
-            d(
-                description="MCAP flush period [s]",
-                read_only=True,
-                floating_point_range=_float_range(0.01, 10.0),
-            ),
-        )
-        self.declare_parameter(
-            "model_params_file",
-            "",
-            d(description="TOML/YAML file of DRSParams overrides", read_only=True),
-        )
+        for name, default, description, valid in NODE_PARAMETERS:
+            desc = ParameterDescriptor(description=description, read_only=True)
+            if isinstance(valid, tuple) and isinstance(default, float):
+                desc.floating_point_range = _float_range(*valid)
+            elif isinstance(valid, tuple):
+                desc.integer_range = [IntegerRange(from_value=valid[0], to_value=valid[1], step=1)]
+            self.declare_parameter(
+                name, list(default) if isinstance(default, tuple) else default, desc
+            )
         defaults = DRSParams()
         for f in _model_fields():
             value = getattr(defaults, f.name)
             self.declare_parameter(
                 f"model.{f.name}",
                 float(value),
-                d(description=f"DRSParams.{f.name} (SI)", read_only=True),
+                ParameterDescriptor(description=f"DRSParams.{f.name} (SI)", read_only=True),
             )
 
     def _model_params(self) -> DRSParams:
