@@ -116,8 +116,10 @@ def test_service_opens_and_closes_with_the_seed_times(harness, params):
     ]
     last_closed = max(t for t, s in st if s <= s_min + 1e-12)
     first_open = min(t for t, s in st if s >= s_max - 1e-12)
-    period = harness.node.publish_period
-    assert params.T_opening - 1e-6 <= first_open - last_closed <= params.T_opening + 2 * period
+    # never faster than T_opening; slower only by the sampling (a late tick on a loaded machine
+    # publishes several steps at once: allow the largest gap between published states)
+    gap = max(b[0] - a[0] for a, b in zip(st, st[1:], strict=False))
+    assert params.T_opening - 1e-6 <= first_open - last_closed <= params.T_opening + 2 * gap
     res = harness.call_drs(False)
     assert res.success and "closing" in res.message
     assert spin_until(harness.exec, lambda: abs(harness.gaps[-1] - 0.01) < 1e-9, 3.0)
