@@ -445,6 +445,12 @@ def main(argv: list[str] | None = None) -> int:
     except (DRSError, ParameterException) as exc:
         print(f"drs-node: refused to start: {exc}", file=sys.stderr)
         rc = 2
+    except Exception:
+        if rclpy.ok():
+            raise  # a real failure while running
+        # SIGINT/SIGTERM shut the context down while a callback was running (rclpy then raises
+        # e.g. RCLError "publisher's context is invalid" from inside the callback): that is the
+        # requested stop, not a failure
     finally:
         if node is not None:
             node.close_recordings()
