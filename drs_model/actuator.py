@@ -119,6 +119,7 @@ class ActuatorSim:
         self.steps = 0
         self.mode = "hold"
         self._segments: tuple[QuinticSegment, ...] = ()
+        self._settled = False
         self._target: float | None = None
         self._force_cmd = 0.0
         self._at_stop: str | None = None
@@ -183,6 +184,7 @@ class ActuatorSim:
                 f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"
             )
         self._segments, self._target, self.mode = (seg,), target, "stroke"
+        self._settled = False
         self._at_stop = None
         return seg
 
@@ -233,6 +235,7 @@ class ActuatorSim:
             segs.append(seg)
             s0, v0, a0, t0 = float(s[k]), float(v[k]), 0.0, seg.t1
         self._segments, self._target, self.mode = tuple(segs), float(s[-1]), "stroke"
+        self._settled = False
         self._at_stop = None
         return self._segments
 
@@ -279,11 +282,12 @@ class ActuatorSim:
         self.t = self._t_reset + self.steps * self.dt  # no accumulated round-off
         if self.mode == "force":
             self._step_force()
-        elif self.mode == "stroke":
+        elif self.mode == "stroke" and not self._settled:
+            # past the last segment the end state no longer changes: computed once, then kept
+            self._settled = self.t > self._segments[-1].t1
             s, v, a = self._active_segment().evaluate(self.t)
             self._set_kinematic(float(s), float(v), float(a))
-        else:
-            self._set_kinematic(float(self._q[0]), 0.0, 0.0)
+        # hold mode (and a settled move) keeps the state reset() or the last step computed
         return self.state
 
     def _flap_acceleration(self, psi3: float, psi3d: float) -> float:
