@@ -11,10 +11,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from drs_model.actuator import ActuatorState
+from drs_model.dynamics import NE_UNKNOWNS
 
-DEFAULT_JOINT_NAMES = ("drs_piston", "drs_link", "drs_flap")
-#: Order of the reactions on ``~/joint_reactions`` (the seed's names; N, except Tp in N m).
-REACTION_NAMES = ("Np", "Tp", "rj1x", "rj1y", "rj2x", "rj2y", "rj3x", "rj3y")
+#: Order of the reactions on ``~/joint_reactions``: the Newton-Euler unknowns without the piston
+#: force (the seed's names; N, except Tp in N m).
+REACTION_NAMES = tuple(name for name in NE_UNKNOWNS if name != "F")
 
 
 def time_msg(ns: int) -> Time:

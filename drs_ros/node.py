@@ -43,8 +43,8 @@ from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
 from drs_model.params import DRSParams, from_dict, from_file
 
+from .check import DEFAULT_JOINT_NAMES  # the names the node publishes and the check assumes
 from .conversions import (
-    DEFAULT_JOINT_NAMES,
     diagnostics_msg,
     float_msg,
     joint_state_msg,
@@ -140,6 +140,15 @@ class DRSNode(Node):
             JointTrajectory, "~/trajectory_cmd", self._on_trajectory, cmd_qos
         )
         self.srv_drs = self.create_service(SetBool, "~/drs", self._on_drs)
+        # resolved topic names (e.g. /drs/piston_force), fixed for the node's life: the recording
+        # keys, looked up once instead of built per message
+        self.topic = {
+            entity: entity.topic_name
+            for entity in (
+                self.pub_joints, self.pub_force, self.pub_gap, self.pub_accel, self.pub_reactions,
+                self.pub_diag, self.sub_stroke, self.sub_force, self.sub_trajectory,
+            )
+        }  # fmt: skip
 
         # counters for diagnostics
         self.refused = 0
@@ -207,20 +216,9 @@ class DRSNode(Node):
             self.recorder = McapRecorder(
                 bag, overwrite=False, flush_period=self.get_parameter("flush_period").value
             )
-            ns = self.get_fully_qualified_name()
-            for topic, typ in (
-                ("/joint_states", JointState),
-                (f"{ns}/piston_force", Float64),
-                (f"{ns}/flap_gap", Float64),
-                (f"{ns}/piston_acceleration", Float64),
-                (f"{ns}/joint_reactions", JointState),
-                ("/diagnostics", DiagnosticArray),
-                (f"{ns}/stroke_cmd", Float64),
-                (f"{ns}/force_cmd", Float64),
-                (f"{ns}/trajectory_cmd", JointTrajectory),
-            ):
+            for entity, topic in self.topic.items():
                 depth = COMMAND_QOS_DEPTH if topic.endswith("_cmd") else QOS_DEPTH
-                self.recorder.register_topic(topic, typ, qos=QoSProfile(depth=depth))
+                self.recorder.register_topic(topic, entity.msg_type, qos=QoSProfile(depth=depth))
         if rrd:
             from .rerun_log import RerunRecorder
 
@@ -268,9 +266,9 @@ class DRSNode(Node):
         self.get_logger().warning(self.last_refusal, throttle_duration_sec=1.0)
         return self.last_refusal
 
-    def _command(self, key: str, topic: str, msg, apply) -> None:
+    def _command(self, key: str, sub, msg, apply) -> None:
         now = self._now_ns()
-        self._record(f"{self.get_fully_qualified_name()}/{topic}", msg, now)
+        self._record(self.topic[sub], msg, now)
         if self._flood(key, now):
             self._refuse(key, msg.data, "command flood (max_command_rate_hz)")
             return
@@ -282,14 +280,14 @@ class DRSNode(Node):
         self.accepted += 1
 
     def _on_stroke(self, msg: Float64) -> None:
-        self._command("stroke_cmd", "stroke_cmd", msg, self.sim.command_stroke)
+        self._command("stroke_cmd", self.sub_stroke, msg, self.sim.command_stroke)
 
     def _on_force(self, msg: Float64) -> None:
-        self._command("force_cmd", "force_cmd", msg, self.sim.command_force)
+        self._command("force_cmd", self.sub_force, msg, self.sim.command_force)
 
     def _on_trajectory(self, msg: JointTrajectory) -> None:
         now = self._now_ns()
-        self._record(f"{self.get_fully_qualified_name()}/trajectory_cmd", msg, now)
+        self._record(self.topic[self.sub_trajectory], msg, now)
         summary = f"<{len(msg.points)} points>"
         if self._flood("trajectory_cmd", now):
             self._refuse("trajectory_cmd", summary, "command flood (max_command_rate_hz)")
@@ -356,26 +354,19 @@ class DRSNode(Node):
         t = time.process_time()
         st = self.sim.state
         stamp = self._t0_ns + int(round(st.t * 1e9))
-        ns = self.get_fully_qualified_name()
         out = [
-            (self.pub_joints, "/joint_states", joint_state_msg(st, self.joint_names, stamp)),
-            (self.pub_force, f"{ns}/piston_force", float_msg(st.piston_force)),
-            (self.pub_gap, f"{ns}/flap_gap", float_msg(st.gap)),
-            (self.pub_accel, f"{ns}/piston_acceleration", float_msg(st.qdd[0])),
+            (self.pub_joints, joint_state_msg(st, self.joint_names, stamp)),
+            (self.pub_force, float_msg(st.piston_force)),
+            (self.pub_gap, float_msg(st.gap)),
+            (self.pub_accel, float_msg(st.qdd[0])),
         ]
         if self.pub_reactions.get_subscription_count() > 0:
-            out.append(
-                (
-                    self.pub_reactions,
-                    f"{ns}/joint_reactions",
-                    reactions_msg(self.sim.reactions(), stamp),
-                )
-            )
-        for pub, _, msg in out:
+            out.append((self.pub_reactions, reactions_msg(self.sim.reactions(), stamp)))
+        for pub, msg in out:
             pub.publish(msg)
         self._cpu["publish"] += time.process_time() - t
-        for _, topic, msg in out:
-            self._record(topic, msg, now_ns)
+        for pub, msg in out:
+            self._record(self.topic[pub], msg, now_ns)
         if self.rerun is not None and not self.recording_error:
             t = time.process_time()
             try:
@@ -424,7 +415,7 @@ class DRSNode(Node):
             level, message = DiagnosticStatus.OK, f"mode {values['mode']}"
         msg = diagnostics_msg(now, self.get_name(), level, message, values)
         self.pub_diag.publish(msg)
-        self._record("/diagnostics", msg, now)
+        self._record(self.topic[self.pub_diag], msg, now)
 
 
 def main(argv: list[str] | None = None) -> int:
