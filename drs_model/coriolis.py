@@ -81,6 +81,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .errors import AssemblyError, InputError, ParameterError
+from .params import real_number
 
 #: Below this distance [m] between a point and its pivot the link angle is undefined.
 MIN_RADIUS = 1e-12
@@ -372,12 +373,7 @@ class CollarExample:
 
     def __post_init__(self) -> None:
         for name in ("omega", "alpha", "r", "r_dot", "r_ddot", "theta", "r_max", "theta_max"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
-                raise ParameterError(f"{name} must be a real number, got {value!r}")
-            if not math.isfinite(value):
-                raise ParameterError(f"{name} must be finite, got {value!r}")
-            object.__setattr__(self, name, float(value))
+            object.__setattr__(self, name, real_number(name, getattr(self, name)))
         for name in ("r_max", "theta_max"):
             if getattr(self, name) <= 0.0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
@@ -546,12 +542,7 @@ class SlottedLinkExample:
 
     def __post_init__(self) -> None:
         for name in ("r", "d", "omega", "alpha"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
-                raise ParameterError(f"{name} must be a real number, got {value!r}")
-            if not math.isfinite(value):
-                raise ParameterError(f"{name} must be finite, got {value!r}")
-            object.__setattr__(self, name, float(value))
+            object.__setattr__(self, name, real_number(name, getattr(self, name)))
         _check_wheel(np.asarray(self.r), np.asarray(self.d), ParameterError)
 
     def solve(self, theta, method: str = "closed-form") -> SlottedLinkMotion:

@@ -130,6 +130,17 @@ PYLON_OUTLINE: tuple[tuple[float, float], ...] = (
 )
 
 
+def real_number(name: str, value: Any) -> float:
+    """``value`` as a finite float; :class:`ParameterError` naming ``name`` otherwise (a bool, a
+    non-number, NaN or inf). Shared by every frozen parameter dataclass of drs_model."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+        raise ParameterError(f"{name} must be a real number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ParameterError(f"{name} must be finite, got {value!r}")
+    return value
+
+
 def _tuple_points(value: Any, name: str) -> tuple[tuple[float, float], ...]:
     try:
         arr = np.asarray(value, dtype=float)
@@ -214,12 +225,7 @@ class DRSParams:
                 continue
             if value is None:
                 continue
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
-                raise ParameterError(f"{f.name} must be a real number, got {value!r}")
-            value = float(value)
-            if not math.isfinite(value):
-                raise ParameterError(f"{f.name} must be finite, got {value!r}")
-            object.__setattr__(self, f.name, value)
+            object.__setattr__(self, f.name, real_number(f.name, value))
         if self.Iz_link is None:
             object.__setattr__(self, "Iz_link", self.m_link * self.L2**2 / 12.0)
         if self.Iz_wing is None:
