@@ -560,7 +560,18 @@ def _consistent(q, qd, p: DRSParams, tol: float = 1e-9) -> tuple[np.ndarray, np.
     return q, qd
 
 
-class Psi3Minimal(Formulation):
+class _MinimalCoordinates(Formulation):
+    """Two states ``[x, x']`` of one independent coordinate: the constraints hold by
+    construction (the dependent coordinates come from the closed form)."""
+
+    n_state = 2
+
+    def residual(self, y):
+        n = np.asarray(y).reshape(self.n_state, -1).shape[1]
+        return np.zeros(n), np.zeros(n)
+
+
+class Psi3Minimal(_MinimalCoordinates):
     """(a) Minimal coordinates ``y = [psi3, psi3']`` [rad, rad/s]; regular over the stroke.
 
     Parameters
@@ -572,7 +583,6 @@ class Psi3Minimal(Formulation):
     """
 
     name = "psi3"
-    n_state = 2
     coordinates = ("psi3", "psi3_dot")
 
     def __init__(
@@ -619,12 +629,8 @@ class Psi3Minimal(Formulation):
         u = velocity_ratio(q, self.p, "psi3", check=False)
         return q, u * y[1][:, None]
 
-    def residual(self, y):
-        n = np.asarray(y).reshape(self.n_state, -1).shape[1]
-        return np.zeros(n), np.zeros(n)
 
-
-class StrokeMinimal(Formulation):
+class StrokeMinimal(_MinimalCoordinates):
     """(b) Minimal coordinates ``y = [s, s']`` [m, m/s]; singular at the dead centre.
 
     Parameters
@@ -636,7 +642,6 @@ class StrokeMinimal(Formulation):
     """
 
     name = "s"
-    n_state = 2
     coordinates = ("s", "s_dot")
 
     def __init__(
@@ -689,10 +694,6 @@ class StrokeMinimal(Formulation):
         q = solve_position(y[0], self.p)
         u = velocity_ratio(q, self.p, "s")
         return q, u * y[1][:, None]
-
-    def residual(self, y):
-        n = np.asarray(y).reshape(self.n_state, -1).shape[1]
-        return np.zeros(n), np.zeros(n)
 
 
 class FullCoordinates(Formulation):
