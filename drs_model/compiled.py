@@ -7,7 +7,7 @@ loads them from numba's on-disk cache, ``cache=True``). Without numba that call 
 
 What runs compiled, in one call per simulation:
 
-* the psi3 acceleration, a port of :func:`drs_model.forward.make_psi3_kernel`'s ``accel``
+* the psi3 acceleration: :func:`drs_model.forward.psi3_acceleration` itself, compiled
   (constants in a float64 array, :func:`psi3_constants`):
 
   .. math::
@@ -28,7 +28,8 @@ What runs compiled, in one call per simulation:
 * output by **dense output** at the requested times (scipy's continuous extensions: the quartic
   of RK45, the degree-7 interpolant of DOP853, which costs 3 extra evaluations on each step that
   holds an output time), or at every accepted step if no times are given;
-* ``(q, qd)`` from ``[psi3, psi3']`` in closed form (port of ``make_psi3_kernel``'s ``config``).
+* ``(q, qd)`` from ``[psi3, psi3']`` in closed form (:func:`drs_model.forward.psi3_configuration`,
+  compiled).
 
 The span is cut at the force's breakpoints (0, 10, 40, 50 ms for the manoeuvre) and every segment
 restarts the integrator, as :func:`drs_model.integrators.simulate` does, so no stage straddles a
@@ -71,7 +72,12 @@ from .forward import (
     StepForce,
     as_force,
     manoeuvre_initial_state,
+    psi3_kernel_constants,
 )
+
+# the psi3 kernel is forward.py's own function: load() compiles it under these names
+from .forward import psi3_acceleration as _psi3_accel
+from .forward import psi3_configuration as _psi3_config
 from .kinematics import SINGULAR_TOL, dead_centre, flap_angle_limits, solve_position
 from .params import DRSParams
 
@@ -117,34 +123,6 @@ class NumbaUnavailableError(DRSError, ImportError):
 
 
 # ---- kernels (plain Python in numba's subset; njit-ed by load()) --------------------------------
-def _psi3_accel(b, bd, force, kc):
-    """psi3'' [rad/s^2] at psi3 = b [rad], psi3' = bd [rad/s] under piston force [N]; NaN where
-    the loop does not assemble. ``kc``: :func:`psi3_constants`."""
-    ax, L2, L3 = kc[0], kc[2], kc[3]
-    m_ps, m_l, m_w, g = kc[4], kc[5], kc[6], kc[7]
-    hl2, M11, M22, gx, gy = kc[8], kc[9], kc[10], kc[11], kc[12]
-    d0, d1, w0_, w1_, grav0 = kc[13], kc[14], kc[15], kc[16], kc[17]
-    sb, cb = math.sin(b), math.cos(b)
-    sa = (ax + L3 * cb) / L2
-    ca2 = 1.0 - sa * sa
-    if not ca2 > 0.0:
-        return math.nan
-    ca = math.sqrt(ca2)
-    u1 = -L3 * sb / (L2 * ca)
-    u0 = L2 * sa * u1 - L3 * cb
-    w1 = (L2 * sa * u1 * u1 - L3 * cb) / (L2 * ca)
-    w0 = L2 * sa * w1 + L2 * ca * u1 * u1 + L3 * sb
-    m01 = -m_l * hl2 * sa
-    umu = m_ps * u0 * u0 + 2.0 * m01 * u0 * u1 + M11 * u1 * u1 + M22
-    umw = m_ps * u0 * w0 + m01 * (u0 * w1 + u1 * w0) + M11 * u1 * w1
-    uh = -u0 * m_l * hl2 * ca * u1 * u1
-    rx = cb * gx - sb * gy
-    ry = sb * gx + cb * gy
-    q2 = -(m_w * g + w0_ + w1_ * b) * rx - (d0 + d1 * b) * ry
-    uq = u0 * (force + grav0) + u1 * m_l * g * hl2 * sa + q2
-    return (uq - bd * bd * (umw + uh)) / umu
-
-
 def _clip01(x):
     return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
 
@@ -233,21 +211,13 @@ def _psi3_accels(b, bd, f, kc):
 
 def _to_q_qd(y, n, kc):
     """``(q, qd)``, each ``(n, 3)``, from states ``y[:, :n]`` = [psi3, psi3'] (closed form)."""
-    ax, s_off, L2, L3 = kc[0], kc[1], kc[2], kc[3]
     q = np.empty((n, 3))
     qd = np.empty((n, 3))
     for i in range(n):
         b, bd = y[0, i], y[1, i]
-        sb, cb = math.sin(b), math.cos(b)
-        sa = (ax + L3 * cb) / L2
-        ca = math.sqrt(max(1.0 - sa * sa, 0.0))
-        u1 = -L3 * sb / (L2 * ca) if ca > 0.0 else math.inf
-        q[i, 0] = s_off - L3 * sb - L2 * ca
-        q[i, 1] = math.asin(max(-1.0, min(1.0, sa)))
-        q[i, 2] = b
-        qd[i, 0] = (L2 * sa * u1 - L3 * cb) * bd
-        qd[i, 1] = u1 * bd
-        qd[i, 2] = bd
+        s, psi1, u0, u1 = _psi3_config(b, kc)
+        q[i, 0], q[i, 1], q[i, 2] = s, psi1, b
+        qd[i, 0], qd[i, 1], qd[i, 2] = u0 * bd, u1 * bd, bd
     return q, qd
 
 
@@ -551,6 +521,7 @@ def _integrate(
 
 _KERNELS = (
     "_psi3_accel",
+    "_psi3_config",
     "_clip01",
     "_manoeuvre_force",
     "_force",
@@ -629,15 +600,9 @@ def warm_up(p: DRSParams | None = None) -> float:
 
 # ---- constants ----------------------------------------------------------------------------------
 def psi3_constants(form: Psi3Minimal) -> np.ndarray:
-    """The constants of :func:`_psi3_accel` as a float64 array (18,), from the formulation's
-    scalar constants: ``[x_A - x_D, y_D - y_A - L1, L2, L3, m_p + m_l, m_l, m_w, g, L2/2, M11,
-    M22, gx, gy, drag0, drag1, down0, down1, -(m_p + m_l) g]``."""
-    c = form.consts
-    return np.array(
-        [c.xA - c.xD, c.yD - c.yA - c.L1, c.L2, c.L3, c.m_ps, c.m_l, c.m_w, c.g, c.half_L2,
-         c.M11, c.M22, c.gx, c.gy, c.drag0, c.drag1, c.down0, c.down1, c.grav0],
-        dtype=np.float64,
-    )  # fmt: skip
+    """The constants of the psi3 kernel (:func:`drs_model.forward.psi3_kernel_constants`) as a
+    float64 array (18,)."""
+    return np.array(psi3_kernel_constants(form.consts), dtype=np.float64)
 
 
 def _fused_constants(p: DRSParams, flap_limits=None) -> np.ndarray:

@@ -283,55 +283,74 @@ def _consts(p: DRSParams, flap_limits: tuple[float, float] | None = None) -> _Co
     )
 
 
+def psi3_kernel_constants(c: _Consts) -> tuple[float, ...]:
+    """The 18 constants of :func:`psi3_acceleration` and :func:`psi3_configuration`, in order:
+    ``(x_A - x_D, y_D - y_A - L1, L2, L3, m_p + m_l, m_l, m_w, g, L2/2, M11, M22, gx, gy, drag0,
+    drag1, down0, down1, -(m_p + m_l) g)``."""
+    return (
+        c.xA - c.xD, c.yD - c.yA - c.L1, c.L2, c.L3, c.m_ps, c.m_l, c.m_w, c.g, c.half_L2,
+        c.M11, c.M22, c.gx, c.gy, c.drag0, c.drag1, c.down0, c.down1, c.grav0,
+    )  # fmt: skip
+
+
+def psi3_acceleration(b: float, bd: float, force: float, kc) -> float:
+    """Formulation (a): psi3'' [rad/s^2] at psi3 = ``b`` [rad], psi3' = ``bd`` [rad/s] under the
+    piston force [N]; NaN where the loop cannot close (a trial stage the error control rejects).
+
+    ``kc`` holds :func:`psi3_kernel_constants` (a tuple, or a float64 array when numba compiles
+    this same function in :mod:`drs_model.compiled`).
+    """
+    ax, s_off, L2, L3, m_ps, m_l, m_w, g, hl2, M11, M22, gx, gy, d0, d1, w0_, w1_, grav0 = kc
+    sb, cb = math.sin(b), math.cos(b)
+    sa = (ax + L3 * cb) / L2
+    ca2 = 1.0 - sa * sa
+    if not ca2 > 0.0:  # no assembly (or NaN)
+        return math.nan
+    ca = math.sqrt(ca2)
+    u1 = -L3 * sb / (L2 * ca)
+    u0 = L2 * sa * u1 - L3 * cb
+    w1 = (L2 * sa * u1 * u1 - L3 * cb) / (L2 * ca)
+    w0 = L2 * sa * w1 + L2 * ca * u1 * u1 + L3 * sb
+    m01 = -m_l * hl2 * sa
+    umu = m_ps * u0 * u0 + 2.0 * m01 * u0 * u1 + M11 * u1 * u1 + M22
+    umw = m_ps * u0 * w0 + m01 * (u0 * w1 + u1 * w0) + M11 * u1 * w1
+    uh = -u0 * m_l * hl2 * ca * u1 * u1
+    rx = cb * gx - sb * gy
+    ry = sb * gx + cb * gy
+    q2 = -(m_w * g + w0_ + w1_ * b) * rx - (d0 + d1 * b) * ry
+    uq = u0 * (force + grav0) + u1 * m_l * g * hl2 * sa + q2
+    return (uq - bd * bd * (umw + uh)) / umu
+
+
+def psi3_configuration(b: float, kc) -> tuple[float, float, float, float]:
+    """``(s, psi1, u_s, u_psi1)`` at psi3 = ``b`` [rad]: the dependent coordinates [m, rad] and
+    their rates per unit psi3 rate (closed form; ``kc`` as for :func:`psi3_acceleration`)."""
+    ax, s_off, L2, L3 = kc[0], kc[1], kc[2], kc[3]
+    sb, cb = math.sin(b), math.cos(b)
+    sa = (ax + L3 * cb) / L2
+    ca = math.sqrt(max(1.0 - sa * sa, 0.0))
+    u1 = -L3 * sb / (L2 * ca) if ca > 0.0 else math.inf
+    return (
+        s_off - L3 * sb - L2 * ca,
+        math.asin(max(-1.0, min(1.0, sa))),
+        L2 * sa * u1 - L3 * cb,
+        u1,
+    )
+
+
 def make_psi3_kernel(c: _Consts) -> tuple[Callable, Callable]:
     """Scalar kernels of formulation (a) for the constants ``c``.
 
     Returns ``accel(psi3, psi3d, F) -> psi3dd`` [rad/s^2] and ``config(psi3) -> (s, psi1, u_s,
-    u_psi1)`` (the dependent coordinates [m, rad] and their rates per unit psi3 rate).
-    Closures keep the constants in fast local cells (no attribute look-up per call).
+    u_psi1)``: :func:`psi3_acceleration` and :func:`psi3_configuration` bound to ``c``.
     """
-    L2, L3, L1 = c.L2, c.L3, c.L1
-    ax = c.xA - c.xD
-    s_off = c.yD - c.yA - L1
-    m_ps, m_l, m_w, g = c.m_ps, c.m_l, c.m_w, c.g
-    hl2, M11, M22 = c.half_L2, c.M11, c.M22
-    gx, gy = c.gx, c.gy
-    d0, d1, w0_, w1_ = c.drag0, c.drag1, c.down0, c.down1
-    grav0 = c.grav0
-    sin, cos, sqrt = math.sin, math.cos, math.sqrt
+    kc = psi3_kernel_constants(c)
 
     def accel(b: float, bd: float, force: float) -> float:
-        sb, cb = sin(b), cos(b)
-        sa = (ax + L3 * cb) / L2
-        ca2 = 1.0 - sa * sa
-        if not ca2 > 0.0:  # no assembly (or NaN): a trial stage the error control must reject
-            return math.nan
-        ca = sqrt(ca2)
-        u1 = -L3 * sb / (L2 * ca)
-        u0 = L2 * sa * u1 - L3 * cb
-        w1 = (L2 * sa * u1 * u1 - L3 * cb) / (L2 * ca)
-        w0 = L2 * sa * w1 + L2 * ca * u1 * u1 + L3 * sb
-        m01 = -m_l * hl2 * sa
-        umu = m_ps * u0 * u0 + 2.0 * m01 * u0 * u1 + M11 * u1 * u1 + M22
-        umw = m_ps * u0 * w0 + m01 * (u0 * w1 + u1 * w0) + M11 * u1 * w1
-        uh = -u0 * m_l * hl2 * ca * u1 * u1
-        rx = cb * gx - sb * gy
-        ry = sb * gx + cb * gy
-        q2 = -(m_w * g + w0_ + w1_ * b) * rx - (d0 + d1 * b) * ry
-        uq = u0 * (force + grav0) + u1 * m_l * g * hl2 * sa + q2
-        return (uq - bd * bd * (umw + uh)) / umu
+        return psi3_acceleration(b, bd, force, kc)
 
     def config(b: float) -> tuple[float, float, float, float]:
-        sb, cb = sin(b), cos(b)
-        sa = (ax + L3 * cb) / L2
-        ca = sqrt(max(1.0 - sa * sa, 0.0))
-        u1 = -L3 * sb / (L2 * ca) if ca > 0.0 else math.inf
-        return (
-            s_off - L3 * sb - L2 * ca,
-            math.asin(max(-1.0, min(1.0, sa))),
-            L2 * sa * u1 - L3 * cb,
-            u1,
-        )
+        return psi3_configuration(b, kc)
 
     return accel, config
 
