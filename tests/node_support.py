@@ -12,8 +12,13 @@ from ros_support import require_rclpy
 
 
 def domain_for(nodeid: str) -> int:
-    """A domain id in 1..100 derived from the test id (tests never hear each other)."""
-    return 1 + zlib.crc32(nodeid.encode()) % 100
+    """A domain id derived from the test id (tests never hear each other).
+
+    ``DRS_TEST_DOMAIN_BASE`` (default 1) and ``DRS_TEST_DOMAIN_SPAN`` (default 100) choose the
+    range ``base .. base + span - 1``, so that two checkouts testing at once stay apart."""
+    base = int(os.environ.get("DRS_TEST_DOMAIN_BASE", "1"))
+    span = int(os.environ.get("DRS_TEST_DOMAIN_SPAN", "100"))
+    return base + zlib.crc32(nodeid.encode()) % span
 
 
 @pytest.fixture
