@@ -194,7 +194,9 @@ class ActuatorSim:
         at the last point), through one quintic per interval starting from the current state.
 
         Refused (nothing changes) unless the times strictly increase from > 0, every value is
-        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it.
+        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it. A
+        trajectory ends at rest: a last point with a non-zero rate is refused (holding a stroke
+        at a speed is no state the mechanism can be in).
         """
         t = np.asarray(times, dtype=float).ravel()
         s = np.asarray(strokes, dtype=float).ravel()
@@ -221,6 +223,11 @@ class ActuatorSim:
             v = np.asarray(rates, dtype=float).ravel()
             if v.size != n or not np.all(np.isfinite(v)):
                 raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
+            if v[-1] != 0.0:
+                raise InputError(
+                    f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
+                    "give 0 (or no velocities)"
+                )
         segs = []
         s0, v0, a0, t0 = self._q[0], self._qd[0], self._qdd[0], self.t
         for k in range(n):
@@ -284,8 +291,11 @@ class ActuatorSim:
             self._step_force()
         elif self.mode == "stroke" and not self._settled:
             # past the last segment the end state no longer changes: computed once, then kept
-            self._settled = self.t > self._segments[-1].t1
-            s, v, a = self._active_segment().evaluate(self.t)
+            end = self._segments[-1].t1
+            self._settled = self.t >= end
+            # past its end a move rests where it ended (a quintic evaluated beyond t1 would
+            # extrapolate)
+            s, v, a = self._active_segment().evaluate(min(self.t, end))
             self._set_kinematic(float(s), float(v), float(a))
         # hold mode (and a settled move) keeps the state reset() or the last step computed
         return self.state

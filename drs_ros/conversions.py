@@ -47,30 +47,91 @@ def reactions_msg(reactions: Mapping[str, float], stamp_ns: int) -> JointState:
 
 def trajectory_points(msg, joint: str) -> tuple[list[float], list[float], list[float] | None]:
     """``(times [s from now], strokes [m], rates [m/s] or None)`` of joint ``joint`` in a
-    trajectory_msgs/JointTrajectory. Rates are used only when every point gives one.
+    trajectory_msgs/JointTrajectory, validated as ros2_control's joint_trajectory_controller
+    validates one: unique joint names; in every point, ``positions`` as long as ``joint_names``
+    and ``velocities`` / ``accelerations`` / ``effort`` empty or as long; ``time_from_start``
+    strictly increasing. Rates are used only when the points give them.
 
-    Raises :class:`drs_model.errors.InputError` when the joint is missing or a point lacks its
-    position.
+    Raises :class:`drs_model.errors.InputError` with the reason (the point, the field, the
+    lengths).
     """
     from drs_model.errors import InputError
 
     names = list(msg.joint_names)
+    n = len(names)
+    if len(set(names)) != n:
+        raise InputError(f"trajectory joint_names must be unique, got {names}")
     if joint not in names:
         raise InputError(f"trajectory must name joint {joint!r}, got joint_names {names}")
+    if not msg.points:
+        raise InputError("trajectory has no points")
     j = names.index(joint)
     times, strokes, rates = [], [], []
     for k, pt in enumerate(msg.points):
-        if len(pt.positions) <= j:
-            raise InputError(f"trajectory point {k} has no position for joint {joint!r}")
-        times.append(pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec)
+        if len(pt.positions) != n:
+            raise InputError(
+                f"trajectory point {k} has {len(pt.positions)} positions for {n} joint_names"
+            )
+        for field in ("velocities", "accelerations", "effort"):
+            size = len(getattr(pt, field))
+            if size not in (0, n):
+                raise InputError(
+                    f"trajectory point {k} has {size} {field} for {n} joint_names "
+                    "(give none or one per joint)"
+                )
+        t = pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
+        if times and t <= times[-1]:
+            raise InputError(
+                f"trajectory time_from_start must increase strictly: point {k} at {t:g} s "
+                f"follows {times[-1]:g} s"
+            )
+        times.append(t)
         strokes.append(float(pt.positions[j]))
-        rates.append(float(pt.velocities[j]) if len(pt.velocities) > j else None)
-    use_rates = bool(rates) and all(r is not None for r in rates)
+        rates.append(float(pt.velocities[j]) if pt.velocities else None)
+    use_rates = any(r is not None for r in rates)
+    if use_rates and not all(r is not None for r in rates):
+        raise InputError("trajectory velocities must be given in every point or in none")
     return times, strokes, (rates if use_rates else None)
 
 
 def float_msg(value: float) -> Float64:
     return Float64(data=float(value))
+
+
+def command_event_msg(
+    stamp_ns: int, source: str, outcome: str, level: bytes, message: str,
+    values: Mapping[str, object],
+) -> DiagnosticArray:
+    """One record of the effect log ``~/command_events`` (see docs/ros.md, "Effect record").
+
+    A DiagnosticArray stamped at the simulated instant the record speaks of, holding one status:
+    ``name`` the command's topic or service (or ``clock`` / ``reset``), ``level`` OK (accepted),
+    WARN (refused) or STALE (superseded), ``message`` the outcome and reason, and key/values.
+    """
+    status = DiagnosticStatus(
+        level=level,
+        name=source,
+        message=f"{outcome}: {message}" if message else outcome,
+        hardware_id="drs",
+        values=[KeyValue(key="outcome", value=outcome)]
+        + [KeyValue(key=str(k), value=str(v)) for k, v in values.items()],
+    )
+    arr = DiagnosticArray()
+    arr.header.stamp = time_msg(stamp_ns)
+    arr.status = [status]
+    return arr
+
+
+def parameter_event_msg(node_name: str, parameters: Sequence, stamp_ns: int):
+    """rcl_interfaces/ParameterEvent listing ``parameters`` (rclpy ``Parameter`` objects) as new:
+    what the node's parameter set is, in the form ``/parameter_events`` carries."""
+    from rcl_interfaces.msg import ParameterEvent
+
+    return ParameterEvent(
+        stamp=time_msg(stamp_ns),
+        node=node_name,
+        new_parameters=[p.to_parameter_msg() for p in parameters],
+    )
 
 
 def diagnostics_msg(

@@ -14,6 +14,14 @@ looked up under ``<prefix>/share/<pkg>/msg/`` for every prefix of ``AMENT_PREFIX
 ``sys.prefix`` (the PyPI wheels install them into the venv), which is where
 ``ament_index_python.get_package_share_directory`` would find them.
 
+Service introspection events (``pkg/srv/Name_Event`` on ``<service>/_service_event``): rosbag2
+Jazzy stores the ``.srv`` text behind an ``SRV:`` delimiter, which no message parser reads
+(rosbags, mcap_ros2 and Foxglove reject it: ros2/rosbag2 issue 2365). We store what that issue
+settles on: the event type's own message definition, ``service_msgs/ServiceEventInfo info``,
+``Name_Request[<=1] request``, ``Name_Response[<=1] response``, followed by the definitions of
+``ServiceEventInfo`` (and its dependencies), the request and the response (the two halves of the
+``.srv`` text). Its RIHS01 hash is the one in the service's ``.json`` description.
+
 Only ``functools.lru_cache`` holds state: one entry per type.
 """
 
@@ -41,6 +49,8 @@ PRIMITIVE_TYPES = frozenset(
 _FIELD_TYPE = re.compile(r"(?:^|\n)\s*([a-zA-Z0-9_/]+)(?:\[[^\]]*\])?\s+")
 _NAME = r"[a-zA-Z][a-zA-Z0-9_]*"
 _TYPE_NAME = re.compile(rf"^({_NAME})/(?:({_NAME})/)?({_NAME})$")
+#: Suffix of a service introspection event type (``std_srvs/srv/SetBool_Event``).
+SERVICE_EVENT_SUFFIX = "_Event"
 #: Recursion bound (rosbag2 uses 50).
 MAX_DEPTH = 50
 
@@ -67,12 +77,20 @@ def type_name(msg_type) -> str:
         return f"{pkg}/{ns}/{name}"
     module = getattr(msg_type, "__module__", "") or ""
     parts = module.split(".")
-    if len(parts) < 2 or parts[1] != "msg" or not hasattr(msg_type, "_fields_and_field_types"):
+    if len(parts) < 2 or parts[1] not in ("msg", "srv") or not hasattr(
+        msg_type, "_fields_and_field_types"
+    ):
         raise MessageDefinitionError(
-            f"expected a ROS message class (e.g. sensor_msgs.msg.JointState) or a name "
-            f"'pkg/msg/Type', got {msg_type!r}"
+            f"expected a ROS message class (e.g. sensor_msgs.msg.JointState or "
+            f"std_srvs.srv.SetBool.Event) or a name 'pkg/msg/Type', got {msg_type!r}"
         )
-    return f"{parts[0]}/msg/{msg_type.__name__}"
+    return f"{parts[0]}/{parts[1]}/{msg_type.__name__}"
+
+
+def is_service_event(name: str) -> bool:
+    """Whether ``name`` (``pkg/ns/Type``) is a service introspection event type."""
+    _pkg, ns, typ = _split(name)
+    return ns == "srv" and typ.endswith(SERVICE_EVENT_SUFFIX)
 
 
 def _split(name: str) -> tuple[str, str, str]:
@@ -169,6 +187,26 @@ def _full_text(name: str) -> str:
     return append(name, MAX_DEPTH)
 
 
+@functools.lru_cache(maxsize=64)
+def _service_event_text(name: str) -> str:
+    pkg, _ns, typ = _split(name)
+    service = typ[: -len(SERVICE_EVENT_SUFFIX)]
+    request, sep, response = interface_file(f"{pkg}/srv/{service}", ".srv").read_text(
+        encoding="utf-8"
+    ).partition("---\n")
+    if not sep:
+        raise MessageDefinitionError(f"{pkg}/srv/{service}.srv has no '---' line")
+    info = "service_msgs/msg/ServiceEventInfo"
+    parts = [
+        f"service_msgs/ServiceEventInfo info\n{pkg}/srv/{service}_Request[<=1] request\n"
+        f"{pkg}/srv/{service}_Response[<=1] response\n",
+        f"{DELIMITER}\nMSG: service_msgs/ServiceEventInfo\n{_full_text(info)}",
+        f"{DELIMITER}\nMSG: {pkg}/srv/{service}_Request\n{request}",
+        f"{DELIMITER}\nMSG: {pkg}/srv/{service}_Response\n{response}",
+    ]
+    return "\n".join(p.rstrip("\n") for p in parts) + "\n"
+
+
 def full_definition(msg_type) -> str:
     """The complete ``ros2msg`` definition rosbag2 stores as the MCAP schema data.
 
@@ -180,14 +218,20 @@ def full_definition(msg_type) -> str:
     Returns
     -------
     str
-        Root ``.msg`` text followed by every dependency (delimiter line, ``MSG: pkg/Type``, text).
+        Root ``.msg`` text followed by every dependency (delimiter line, ``MSG: pkg/Type``, text);
+        for a service event, its message form (see the module docstring).
     """
-    return _full_text(type_name(msg_type))
+    name = type_name(msg_type)
+    return _service_event_text(name) if is_service_event(name) else _full_text(name)
 
 
 @functools.lru_cache(maxsize=256)
 def _hash(name: str) -> str:
-    path = interface_file(name, ".json")
+    return _hash_in(name, name)
+
+
+def _hash_in(description: str, name: str) -> str:
+    path = interface_file(description, ".json")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         for entry in data["type_hashes"]:
@@ -199,8 +243,13 @@ def _hash(name: str) -> str:
 
 
 def type_hash(msg_type) -> str:
-    """The ``RIHS01_<sha256 hex>`` type description hash of a message type (from its ``.json``)."""
-    return _hash(type_name(msg_type))
+    """The ``RIHS01_<sha256 hex>`` type description hash of a message type (from its ``.json``;
+    a service event's is in its service's ``.json``)."""
+    name = type_name(msg_type)
+    if is_service_event(name):
+        pkg, _ns, typ = _split(name)
+        return _hash_in(f"{pkg}/srv/{typ[: -len(SERVICE_EVENT_SUFFIX)]}", name)
+    return _hash(name)
 
 
 __all__ = [
@@ -209,6 +258,7 @@ __all__ = [
     "dependencies",
     "full_definition",
     "interface_file",
+    "is_service_event",
     "message_class",
     "search_prefixes",
     "type_hash",

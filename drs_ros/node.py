@@ -5,35 +5,53 @@ Topics (``~`` is the node namespace, ``/drs/...`` by default):
 * ``~/stroke_cmd`` (in, std_msgs/Float64): move smoothly to this stroke [m];
 * ``~/force_cmd`` (in, std_msgs/Float64): apply this piston force [N] from now on;
 * ``~/trajectory_cmd`` (in, trajectory_msgs/JointTrajectory): follow the piston joint's points;
-* ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times);
+* ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times); its calls
+  are published as introspection events on ``~/drs/_service_event``;
 * ``/joint_states`` (sensor_msgs/JointState): piston [m, m/s, N], link and flap [rad, rad/s];
 * ``~/piston_force``, ``~/flap_gap``, ``~/piston_acceleration`` (std_msgs/Float64): [N], [m],
   [m/s^2];
 * ``~/joint_reactions`` (sensor_msgs/JointState): reactions by name, only while subscribed;
-* ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, ~1 Hz): mode, dead centre, refusals...
+* ``~/command_events`` (diagnostic_msgs/DiagnosticArray): the effect record, one message per
+  command (accepted, refused or superseded, at which simulated instant) and per clock origin or
+  physics reset: with the recorded commands and parameters, a bag re-runs deterministically;
+* ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, ~1 Hz): the last few seconds' troubles and
+  the cumulative counters.
 
 The physics runs on a fixed simulated step (``physics_rate_hz``); one timer at ``publish_rate_hz``
 catches the simulation up with the node clock (wall or ``/clock`` with ``use_sim_time``) and
 publishes. Stamps are ``t0 + simulated time``, so they follow the node clock without its jitter.
-Every command received is recorded, accepted or refused.
+
+Commands are latest-wins: a subscription callback only records the bytes that arrived and keeps
+the newest command per topic; the next tick applies it before stepping, so no queued, stale
+setpoint is ever executed. Every message is recorded as its exact CDR bytes: commands as they
+arrived (raw subscriptions, as rosbag2 does), the node's own messages serialised once by
+:mod:`drs_ros.cdr`, published as those bytes and recorded as the same bytes.
 """
 
 from __future__ import annotations
 
 import collections
 import dataclasses
+import difflib
 import math
 import os
+import shutil
 import sys
 import time
+from pathlib import Path
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import ParameterEvent
+from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
+from rclpy.serialization import deserialize_message
+from rclpy.service_introspection import ServiceIntrospectionState
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
@@ -43,58 +61,87 @@ from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
 from drs_model.params import DRSParams, from_dict, from_file
 
-from .check import DEFAULT_JOINT_NAMES  # the names the node publishes and the check assumes
+from . import cdr
 from .conversions import (
+    command_event_msg,
     diagnostics_msg,
     float_msg,
     joint_state_msg,
+    parameter_event_msg,
     reactions_msg,
     trajectory_points,
 )
+from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSEDED
 
 QOS_DEPTH = 10
+#: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
+COMMAND_QOS_DEPTH = 10
+EXECUTORS = ("events", "single")
 
-#: The node's own parameters: (name, default, description, valid range or None). All read-only.
+#: The node's own parameters: (name, default, description, valid range or choices). All read-only.
 NODE_PARAMETERS = (
     ("physics_rate_hz", 1000.0, "fixed physics step rate [Hz]", (100.0, 20000.0)),
-    ("publish_rate_hz", 250.0, "joint-state publish rate [Hz]", (1.0, 2000.0)),
+    ("publish_rate_hz", 250.0, "joint-state publish rate [Hz], at most physics_rate_hz",
+     (1.0, 2000.0)),
     ("joint_names", DEFAULT_JOINT_NAMES, "JointState names: piston, link, flap", None),
     ("integrator", "rk4", "fixed-step method of force mode", None),
-    (
-        "force_method",
-        "virtual-work",
-        "inverse-dynamics formulation: newton-euler, lagrange, virtual-work",
-        None,
-    ),
+    ("force_method", "virtual-work",
+     "inverse-dynamics formulation: newton-euler, lagrange, virtual-work", None),
     ("force_limit", 2.0e4, "largest accepted |force command| [N]", (1.0, 1.0e6)),
-    (
-        "max_command_rate_hz",
-        1000.0,
-        "commands per topic beyond this rate are refused [Hz]",
-        (1.0, 1.0e5),
-    ),
-    (
-        "max_catch_up_steps",
-        200,
-        "physics steps per tick before the simulation drops time",
-        (1, 100000),
-    ),
+    ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
+     (1, 100000)),
+    ("diagnostics_window", 5.0, "diagnostics report the troubles of the last this many s [s]",
+     (0.1, 3600.0)),
+    ("executor", "single", "rclpy executor: single (SingleThreadedExecutor) or events", EXECUTORS),
     ("bag_path", "", "MCAP bag directory ('' = no bag)", None),
     ("rrd_path", "", "rerun .rrd file ('' = none)", None),
     ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
     ("model_params_file", "", "TOML/YAML file of DRSParams overrides", None),
-)
-#: Command queues are deep so that a burst is received (and recorded) rather than dropped by DDS;
-#: the node then refuses what exceeds max_command_rate_hz, with a reason.
-COMMAND_QOS_DEPTH = 1000
+)  # fmt: skip
+#: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
+CLOCK_WAIT_WARNING_S = 2.0
 
 
-def _float_range(lo: float, hi: float) -> list[FloatingPointRange]:
-    return [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
+class StartupError(DRSError):
+    """The node refuses to start: a parameter or a recording path is wrong (the reason says)."""
 
 
 def _model_fields() -> list[dataclasses.Field]:
     return [f for f in dataclasses.fields(DRSParams) if not f.name.endswith("_outline")]
+
+
+@dataclasses.dataclass
+class PendingCommand:
+    """A command received and recorded, waiting for the next physics step (newest wins)."""
+
+    key: str
+    topic: str
+    data: bytes
+    sequence: int | None
+    received_ns: int
+    #: sequence numbers of the older commands of the topic this one replaced before a step
+    superseded: list = dataclasses.field(default_factory=list)
+
+
+class TroubleWindow:
+    """Troubles (refusals, missed deadlines, superseded commands...) of the last ``window_s``
+    seconds of node time, for diagnostics that recover once the trouble is over."""
+
+    def __init__(self, window_s: float) -> None:
+        self.window_ns = int(window_s * 1e9)
+        self._events: collections.deque[tuple[int, str, str]] = collections.deque()
+
+    def add(self, now_ns: int, kind: str, reason: str) -> None:
+        self._events.append((now_ns, kind, reason))
+
+    def recent(self, now_ns: int) -> dict[str, tuple[int, str]]:
+        """kind -> (count in the window, last reason)."""
+        while self._events and now_ns - self._events[0][0] > self.window_ns:
+            self._events.popleft()
+        out: dict[str, tuple[int, str]] = {}
+        for _t, kind, reason in self._events:
+            out[kind] = (out.get(kind, (0, ""))[0] + 1, reason)
+        return out
 
 
 class DRSNode(Node):
@@ -105,8 +152,15 @@ class DRSNode(Node):
         self._declare_parameters()
         self.params = self._model_params()
         gp = self.get_parameter
-        self.physics_dt = 1.0 / gp("physics_rate_hz").value
-        self.publish_period = 1.0 / gp("publish_rate_hz").value
+        physics_hz, publish_hz = gp("physics_rate_hz").value, gp("publish_rate_hz").value
+        if publish_hz > physics_hz:
+            raise StartupError(
+                f"publish_rate_hz {publish_hz:g} exceeds physics_rate_hz {physics_hz:g}: the node "
+                "cannot publish new states faster than it computes them; lower publish_rate_hz "
+                "or raise physics_rate_hz"
+            )
+        self.physics_dt = 1.0 / physics_hz
+        self.publish_period = 1.0 / publish_hz
         self.joint_names = list(gp("joint_names").value)
         if len(self.joint_names) != 3:
             raise ParameterException(
@@ -121,7 +175,6 @@ class DRSNode(Node):
             force_method=gp("force_method").value,
         )
         self.max_catch_up = int(gp("max_catch_up_steps").value)
-        self.min_command_interval_ns = int(1e9 / gp("max_command_rate_hz").value)
 
         qos = QoSProfile(depth=QOS_DEPTH)
         self.pub_joints = self.create_publisher(JointState, "/joint_states", qos)
@@ -131,45 +184,84 @@ class DRSNode(Node):
         self.pub_accel = self.create_publisher(Float64, "~/piston_acceleration", qos)
         self.pub_reactions = self.create_publisher(JointState, "~/joint_reactions", qos)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", qos)
+        self.pub_events = self.create_publisher(
+            DiagnosticArray, "~/command_events", QoSProfile(depth=100)
+        )
         cmd_qos = QoSProfile(depth=COMMAND_QOS_DEPTH)
+        # raw: the callback gets the bytes that arrived, recorded as they are; only the command
+        # that takes effect is ever deserialised
         self.sub_stroke = self.create_subscription(
-            Float64, "~/stroke_cmd", self._on_stroke, cmd_qos
+            Float64, "~/stroke_cmd", lambda b: self._receive("stroke_cmd", self.sub_stroke, b),
+            cmd_qos, raw=True,
         )
-        self.sub_force = self.create_subscription(Float64, "~/force_cmd", self._on_force, cmd_qos)
+        self.sub_force = self.create_subscription(
+            Float64, "~/force_cmd", lambda b: self._receive("force_cmd", self.sub_force, b),
+            cmd_qos, raw=True,
+        )
         self.sub_trajectory = self.create_subscription(
-            JointTrajectory, "~/trajectory_cmd", self._on_trajectory, cmd_qos
-        )
+            JointTrajectory, "~/trajectory_cmd",
+            lambda b: self._receive("trajectory_cmd", self.sub_trajectory, b), cmd_qos, raw=True,
+        )  # fmt: skip
         self.srv_drs = self.create_service(SetBool, "~/drs", self._on_drs)
-        # resolved topic names (e.g. /drs/piston_force), fixed for the node's life: the recording
-        # keys, looked up once instead of built per message
+        self.srv_drs.configure_introspection(
+            self.get_clock(), QoSProfile(depth=100), ServiceIntrospectionState.CONTENTS
+        )
+        self.service_name = self.srv_drs.service_name
+        self.sub_drs_events = None
+        if gp("bag_path").value:  # record the service calls as rosbag2 does: their events
+            self.sub_drs_events = self.create_subscription(
+                SetBool.Event, f"{self.service_name}/_service_event",
+                self._on_service_event, QoSProfile(depth=100), raw=True,
+            )  # fmt: skip
+        self._classes = {"stroke_cmd": Float64, "force_cmd": Float64,
+                         "trajectory_cmd": JointTrajectory}  # fmt: skip
+        # resolved topic names (e.g. /drs/piston_force), fixed for the node's life
         self.topic = {
             entity: entity.topic_name
             for entity in (
                 self.pub_joints, self.pub_force, self.pub_gap, self.pub_accel, self.pub_reactions,
-                self.pub_diag, self.sub_stroke, self.sub_force, self.sub_trajectory,
-            )
+                self.pub_diag, self.pub_events, self.sub_stroke, self.sub_force,
+                self.sub_trajectory,
+            ) + ((self.sub_drs_events,) if self.sub_drs_events is not None else ())
         }  # fmt: skip
+        self._serialize = {cls: cdr.serializer(cls)
+                           for cls in (JointState, Float64, DiagnosticArray)}  # fmt: skip
 
-        # counters for diagnostics
+        # counters for diagnostics (cumulative) and the window of recent troubles
         self.refused = 0
         self.accepted = 0
+        self.superseded = 0
+        self.received = 0
         self.last_refusal = ""
         self.refusals: collections.deque[str] = collections.deque(maxlen=100)
         self.missed_deadlines = 0
         self.dropped_steps = 0
         self.ticks = 0
         self.recording_error = ""
-        self._last_accept_ns: dict[str, int] = {}
+        self.troubles = TroubleWindow(gp("diagnostics_window").value)
+        self._pending: dict[str, PendingCommand] = {}
         self._last_tick_ns: int | None = None
         self._t0_ns: int | None = None
         self._cpu = {"model": 0.0, "publish": 0.0, "record": 0.0}
+        self._started_wall = time.monotonic()
+        self._clock_warned = False
 
+        # all paths are checked before any file is created; a failure removes what was made
         self.recorder = None
         self.rerun = None
-        self._open_recordings(qos)
-
+        self._open_recordings()
+        try:
+            self._register_recorded_topics()
+        except Exception:
+            self.discard_recordings()
+            raise
         self.timer = self.create_timer(self.publish_period, self._on_tick)
         self.diag_timer = self.create_timer(1.0, self._on_diagnostics)
+        self.clock_watch = None
+        if gp("use_sim_time").value:  # a steady-clock timer: it runs without /clock
+            self.clock_watch = self.create_timer(
+                0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
         self.get_logger().info(
             f"drs node up: physics {1 / self.physics_dt:g} Hz, publish {1 / self.publish_period:g} "
             f"Hz, stroke [{self.sim.s_min:.6g}, {self.sim.s_max:.6g}] m"
@@ -177,23 +269,43 @@ class DRSNode(Node):
 
     # ---- parameters ----------------------------------------------------------------------------
     def _declare_parameters(self) -> None:
-        for name, default, description, valid in NODE_PARAMETERS:
+        known = [name for name, *_ in NODE_PARAMETERS]
+        known += [f"model.{f.name}" for f in _model_fields()] + ["use_sim_time"]
+        # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
+        # the only place a misspelt name (never declared, silently ignored) can be seen
+        overrides = self._parameter_overrides
+        for name in overrides:
+            if name not in known and not name.startswith("qos_overrides."):
+                close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise StartupError(f"unknown parameter {name!r}{hint} (known: {', '.join(known)})")
+        defaults = DRSParams()
+        table = [*NODE_PARAMETERS] + [
+            (f"model.{f.name}", float(getattr(defaults, f.name)), f"DRSParams.{f.name} (SI)", None)
+            for f in _model_fields()
+        ]
+        for name, default, description, valid in table:
             desc = ParameterDescriptor(description=description, read_only=True)
-            if isinstance(valid, tuple) and isinstance(default, float):
-                desc.floating_point_range = _float_range(*valid)
-            elif isinstance(valid, tuple):
+            if isinstance(default, float):
+                given = overrides.get(name)
+                if given is not None and given.type_ == Parameter.Type.INTEGER:
+                    # -p rate:=500 means 500.0: an integer is a valid double
+                    overrides[name] = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
+                if isinstance(valid, tuple):
+                    desc.floating_point_range = [
+                        FloatingPointRange(from_value=valid[0], to_value=valid[1], step=0.0)
+                    ]
+            elif isinstance(valid, tuple) and isinstance(default, int):
                 desc.integer_range = [IntegerRange(from_value=valid[0], to_value=valid[1], step=1)]
+            elif isinstance(valid, tuple):
+                desc.additional_constraints = f"one of {', '.join(valid)}"
             self.declare_parameter(
                 name, list(default) if isinstance(default, tuple) else default, desc
             )
-        defaults = DRSParams()
-        for f in _model_fields():
-            value = getattr(defaults, f.name)
-            self.declare_parameter(
-                f"model.{f.name}",
-                float(value),
-                ParameterDescriptor(description=f"DRSParams.{f.name} (SI)", read_only=True),
-            )
+            if isinstance(valid, tuple) and isinstance(default, str):
+                value = self.get_parameter(name).value
+                if value not in valid:
+                    raise StartupError(f"{name} must be one of {list(valid)}, got {value!r}")
 
     def _model_params(self) -> DRSParams:
         path = self.get_parameter("model_params_file").value
@@ -206,34 +318,87 @@ class DRSNode(Node):
                 overrides[f.name] = value
         return from_dict(overrides, base=base) if overrides else base
 
+    def effective_parameters(self) -> list[Parameter]:
+        """Every node parameter, the ``model.*`` ones at the values the model runs with (a
+        ``model_params_file`` included): what a re-run needs."""
+        out = []
+        for name in sorted(self._parameters):
+            if name.startswith("model."):
+                value = float(getattr(self.params, name.removeprefix("model.")))
+                out.append(Parameter(name, Parameter.Type.DOUBLE, value))
+            else:
+                out.append(self.get_parameter(name))
+        return out
+
     # ---- recordings ----------------------------------------------------------------------------
-    def _open_recordings(self, qos: QoSProfile) -> None:
+    def _open_recordings(self) -> None:
+        """Check both paths, then create both recorders; on any failure remove what was made."""
+        from .recording import McapRecorder, RecordingError, check_new_bag
+
         bag = self.get_parameter("bag_path").value
         rrd = self.get_parameter("rrd_path").value
         if bag:
-            from .recording import McapRecorder
-
-            self.recorder = McapRecorder(
-                bag, overwrite=False, flush_period=self.get_parameter("flush_period").value
-            )
-            for entity, topic in self.topic.items():
-                depth = COMMAND_QOS_DEPTH if topic.endswith("_cmd") else QOS_DEPTH
-                self.recorder.register_topic(topic, entity.msg_type, qos=QoSProfile(depth=depth))
+            check_new_bag(bag)
         if rrd:
-            from .rerun_log import RerunRecorder
+            from .rerun_log import check_new_rrd
 
-            self.rerun = RerunRecorder(rrd, self.params)
+            check_new_rrd(rrd)
+        made_dir = bool(bag) and not Path(bag).exists()
+        try:
+            if bag:
+                self.recorder = McapRecorder(
+                    bag, flush_period=self.get_parameter("flush_period").value
+                )
+            if rrd:
+                from .rerun_log import RerunRecorder
 
-    def _record(self, topic: str, msg, now_ns: int) -> None:
-        if self.recorder is None or self.recording_error:
+                self.rerun = RerunRecorder(rrd, self.params)
+        except Exception as exc:
+            self._made_bag_dir = made_dir
+            self.discard_recordings()
+            if isinstance(exc, DRSError):
+                raise
+            raise RecordingError(f"cannot start the recordings: {exc}") from exc
+        self._made_bag_dir = made_dir
+
+    def discard_recordings(self) -> None:
+        """Close and delete the recordings of a node that fails to start: nothing is left."""
+        if self.recorder is not None:
+            self.recorder.discard()
+            if self._made_bag_dir:
+                shutil.rmtree(self.recorder.bag_dir, ignore_errors=True)
+            self.recorder = None
+        if self.rerun is not None:
+            self.rerun.discard()
+            self.rerun = None
+
+    def _register_recorded_topics(self) -> None:
+        if self.recorder is None:
             return
+        for entity, topic in self.topic.items():
+            depth = COMMAND_QOS_DEPTH if topic.endswith("_cmd") else QOS_DEPTH
+            if entity in (self.pub_events, self.sub_drs_events):
+                depth = 100
+            self.recorder.register_topic(topic, entity.msg_type, qos=QoSProfile(depth=depth))
+        self.recorder.register_topic("/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000))
+        now = self._now_ns()
+        event = parameter_event_msg(self.get_fully_qualified_name(), self.effective_parameters(),
+                                    now)
+        self.recorder.write("/parameter_events", event, now)
+
+    def _record(self, topic: str, data: bytes, now_ns: int) -> int | None:
+        """Append exact bytes to the bag; returns the sequence number (None: not recorded)."""
+        if self.recorder is None or self.recording_error:
+            return None
         t = time.process_time()
         try:
-            self.recorder.write(topic, msg, log_time_ns=now_ns)
+            return self.recorder.write(topic, data, log_time_ns=now_ns)
         except Exception as exc:  # noqa: BLE001 - a failing disk must not stop the actuator
             self.recording_error = f"{type(exc).__name__}: {exc}"
             self.get_logger().error(f"recording stopped: {self.recording_error}")
-        self._cpu["record"] += time.process_time() - t
+            return None
+        finally:
+            self._cpu["record"] += time.process_time() - t
 
     def close_recordings(self) -> None:
         """Finish the MCAP bag and the rerun file (idempotent)."""
@@ -252,100 +417,156 @@ class DRSNode(Node):
     def _now_ns(self) -> int:
         return self.get_clock().now().nanoseconds
 
-    def _flood(self, key: str, now_ns: int) -> bool:
-        last = self._last_accept_ns.get(key)
-        if last is not None and 0 <= now_ns - last < self.min_command_interval_ns:
-            return True
-        self._last_accept_ns[key] = now_ns
-        return False
+    def _stamp_ns(self) -> int:
+        """The node stamp of the simulation's present instant (node clock before the first tick)."""
+        if self._t0_ns is None:
+            return self._now_ns()
+        return self._t0_ns + int(round(self.sim.t * 1e9))
+
+    def _receive(self, key: str, sub, data: bytes) -> None:
+        """A raw command arrived: record it, keep it as the newest of its topic."""
+        now = self._now_ns()
+        topic = self.topic[sub]
+        seq = self._record(topic, data, now)
+        self.received += 1
+        cmd = PendingCommand(key, topic, data, seq, now)
+        older = self._pending.get(key)
+        if older is not None:  # counted and recorded (one record per step) when the step comes
+            cmd.superseded = older.superseded
+            cmd.superseded.append(older.sequence)
+        self._pending[key] = cmd
+
+    def _apply_pending(self) -> None:
+        """Apply the newest command of each topic at the present physics step, oldest first."""
+        pending = sorted(self._pending.values(), key=lambda c: c.received_ns)
+        self._pending.clear()
+        for cmd in pending:
+            if cmd.superseded:
+                n = len(cmd.superseded)
+                self.superseded += n
+                reason = f"{n} {cmd.key} replaced by a newer one before the next physics step"
+                self.troubles.add(self._now_ns(), SUPERSEDED, reason)
+                known = [q for q in cmd.superseded if q is not None]
+                self._event(cmd.topic, SUPERSEDED, DiagnosticStatus.STALE, reason, None, {
+                    "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
+                })  # fmt: skip
+            msg = deserialize_message(cmd.data, self._classes[cmd.key])
+            if cmd.key == "trajectory_cmd":
+                value = f"<{len(msg.points)} points>"
+            else:
+                value = msg.data
+            try:
+                if cmd.key == "stroke_cmd":
+                    self.sim.command_stroke(msg.data)
+                elif cmd.key == "force_cmd":
+                    self.sim.command_force(msg.data)
+                else:
+                    times, strokes, rates = trajectory_points(msg, self.joint_names[0])
+                    self.sim.command_trajectory(times, strokes, rates)
+            except DRSError as exc:
+                reason = self._refuse(cmd.key, value, str(exc))
+                self._event(cmd.topic, REFUSED, DiagnosticStatus.WARN, reason, cmd,
+                            {"value": repr(value)})
+                continue
+            self.accepted += 1
+            self._event(cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, {"value": repr(value)})
 
     def _refuse(self, what: str, value, reason: str) -> str:
         self.refused += 1
         self.last_refusal = f"{what} {value!r} refused: {reason}"
         self.refusals.append(self.last_refusal)
+        self.troubles.add(self._now_ns(), REFUSED, self.last_refusal)
         self.get_logger().warning(self.last_refusal, throttle_duration_sec=1.0)
         return self.last_refusal
 
-    def _command(self, key: str, sub, msg, apply) -> None:
-        now = self._now_ns()
-        self._record(self.topic[sub], msg, now)
-        if self._flood(key, now):
-            self._refuse(key, msg.data, "command flood (max_command_rate_hz)")
-            return
-        try:
-            apply(msg.data)
-        except DRSError as exc:
-            self._refuse(key, msg.data, str(exc))
-            return
-        self.accepted += 1
-
-    def _on_stroke(self, msg: Float64) -> None:
-        self._command("stroke_cmd", self.sub_stroke, msg, self.sim.command_stroke)
-
-    def _on_force(self, msg: Float64) -> None:
-        self._command("force_cmd", self.sub_force, msg, self.sim.command_force)
-
-    def _on_trajectory(self, msg: JointTrajectory) -> None:
-        now = self._now_ns()
-        self._record(self.topic[self.sub_trajectory], msg, now)
-        summary = f"<{len(msg.points)} points>"
-        if self._flood("trajectory_cmd", now):
-            self._refuse("trajectory_cmd", summary, "command flood (max_command_rate_hz)")
-            return
-        try:
-            times, strokes, rates = trajectory_points(msg, self.joint_names[0])
-            self.sim.command_trajectory(times, strokes, rates)
-        except DRSError as exc:
-            self._refuse("trajectory_cmd", summary, str(exc))
-            return
-        self.accepted += 1
+    def _event(self, source: str, outcome: str, level: bytes, reason: str,
+               cmd: PendingCommand | None, values: dict) -> None:
+        """One record of the effect log: what happened, at which simulated instant."""
+        record = {"sim_time": repr(self.sim.t), "step": self.sim.steps}
+        if cmd is not None:
+            record["sequence"] = "" if cmd.sequence is None else cmd.sequence
+            record["received_ns"] = cmd.received_ns
+        record.update(values)
+        msg = command_event_msg(self._stamp_ns(), source, outcome, level, reason, record)
+        data = self._serialize[DiagnosticArray](msg)
+        self.pub_events.publish(data)
+        self._record(self.topic[self.pub_events], data, self._now_ns())
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        # a service call takes effect at once: the simulation is between two physics steps
+        self._apply_pending()  # commands that arrived earlier act first, as they would have
+        value = bool(request.data)
         try:
-            seg = self.sim.command_drs(bool(request.data))
+            seg = self.sim.command_drs(value)
         except DRSError as exc:
             response.success = False
-            response.message = self._refuse("drs", request.data, str(exc))
+            response.message = self._refuse("drs", value, str(exc))
+            self._event(self.service_name, REFUSED, DiagnosticStatus.WARN, response.message,
+                        None, {"value": repr(value)})
             return response
         self.accepted += 1
         response.success = True
         response.message = (
-            f"{'opening' if request.data else 'closing'} to {seg.evaluate(seg.t1)[0]:.6g} m "
+            f"{'opening' if value else 'closing'} to {seg.evaluate(seg.t1)[0]:.6g} m "
             f"in {seg.duration:g} s"
         )
+        self._event(self.service_name, ACCEPTED, DiagnosticStatus.OK, "", None,
+                    {"value": repr(value)})
         return response
 
+    def _on_service_event(self, data: bytes) -> None:
+        self._record(self.topic[self.sub_drs_events], data, self._now_ns())
+
     # ---- the loop ------------------------------------------------------------------------------
+    def _watch_clock(self) -> None:
+        if self._now_ns() != 0:
+            self.clock_watch.cancel()
+            return
+        if not self._clock_warned and time.monotonic() - self._started_wall > CLOCK_WAIT_WARNING_S:
+            self._clock_warned = True
+            self.get_logger().warning(
+                f"use_sim_time is set and no /clock message arrived in {CLOCK_WAIT_WARNING_S:g} s: "
+                "the simulation waits for /clock and publishes nothing"
+            )
+
     def _on_tick(self) -> None:
         now = self._now_ns()
         if now == 0:  # use_sim_time before the first /clock message
             return
         if self._t0_ns is None:
             self._t0_ns = now - int(round(self.sim.t * 1e9))
+            self._event(CLOCK, CLOCK, DiagnosticStatus.OK, "", None, {"t0_ns": self._t0_ns})
         if (
             self._last_tick_ns is not None
             and now - self._last_tick_ns > 1.5e9 * self.publish_period
         ):
             self.missed_deadlines += 1
+            self.troubles.add(now, "missed_deadline",
+                              f"tick {(now - self._last_tick_ns) * 1e-6:.1f} ms after the last")
         self._last_tick_ns = now
         self.ticks += 1
-        target = (now - self._t0_ns) * 1e-9
         t = time.process_time()
+        if self._pending:
+            self._apply_pending()
+        target = (now - self._t0_ns) * 1e-9
         due = int(math.floor((target - self.sim.t) / self.physics_dt + 1e-9))
         if due > self.max_catch_up:
             # too far behind (a stall): drop the excess instead of spiralling
             dropped = due - self.max_catch_up
             self.dropped_steps += dropped
+            self.troubles.add(now, "dropped_steps", f"{dropped} physics steps dropped")
             self._t0_ns += int(round(dropped * self.physics_dt * 1e9))
+            self._event(CLOCK, CLOCK, DiagnosticStatus.WARN, f"{dropped} steps dropped", None,
+                        {"t0_ns": self._t0_ns})
             due = self.max_catch_up
         try:
             for _ in range(max(due, 0)):
                 self.sim.step()
         except DRSError as exc:  # the model refuses to go on: hold where it is and say why
-            self._refuse("step", self.sim.mode, str(exc))
-            self.sim.reset(
-                self.sim.t, float(min(max(self.sim.state.q[0], self.sim.s_min), self.sim.s_max))
-            )
+            reason = self._refuse("step", self.sim.mode, str(exc))
+            s_hold = float(min(max(self.sim.state.q[0], self.sim.s_min), self.sim.s_max))
+            self.sim.reset(self.sim.t, s_hold)
+            self._event(RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_hold)})
         self._cpu["model"] += time.process_time() - t
         if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)
             self._publish(now)
@@ -354,19 +575,20 @@ class DRSNode(Node):
         t = time.process_time()
         st = self.sim.state
         stamp = self._t0_ns + int(round(st.t * 1e9))
+        ser_js, ser_f = self._serialize[JointState], self._serialize[Float64]
         out = [
-            (self.pub_joints, joint_state_msg(st, self.joint_names, stamp)),
-            (self.pub_force, float_msg(st.piston_force)),
-            (self.pub_gap, float_msg(st.gap)),
-            (self.pub_accel, float_msg(st.qdd[0])),
+            (self.pub_joints, ser_js(joint_state_msg(st, self.joint_names, stamp))),
+            (self.pub_force, ser_f(float_msg(st.piston_force))),
+            (self.pub_gap, ser_f(float_msg(st.gap))),
+            (self.pub_accel, ser_f(float_msg(st.qdd[0]))),
         ]
         if self.pub_reactions.get_subscription_count() > 0:
-            out.append((self.pub_reactions, reactions_msg(self.sim.reactions(), stamp)))
-        for pub, msg in out:
-            pub.publish(msg)
+            out.append((self.pub_reactions, ser_js(reactions_msg(self.sim.reactions(), stamp))))
+        for pub, data in out:
+            pub.publish(data)
         self._cpu["publish"] += time.process_time() - t
-        for pub, msg in out:
-            self._record(self.topic[pub], msg, now_ns)
+        for pub, data in out:
+            self._record(self.topic[pub], data, now_ns)
         if self.rerun is not None and not self.recording_error:
             t = time.process_time()
             try:
@@ -392,8 +614,10 @@ class DRSNode(Node):
             "at_stop": st.at_stop or "none",
             "dead_centre_distance_m": f"{st.dead_centre_distance:.6g}",
             "transmission_cos": f"{st.transmission:.4f}",
+            "received_commands": self.received,
             "accepted_commands": self.accepted,
             "refused_commands": self.refused,
+            "superseded_commands": self.superseded,
             "last_refusal": self.last_refusal or "none",
             "missed_deadlines": self.missed_deadlines,
             "dropped_steps": self.dropped_steps,
@@ -404,23 +628,40 @@ class DRSNode(Node):
             "cpu_record_s": f"{self._cpu['record']:.3f}",
         }
 
+    def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
+        """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
+        if self.recording_error:
+            return DiagnosticStatus.ERROR, f"recording failed: {self.recording_error}"
+        recent = self.troubles.recent(now_ns)
+        if not recent:
+            return DiagnosticStatus.OK, f"mode {self.sim.mode}"
+        window = self.troubles.window_ns * 1e-9
+        parts = [f"{n} {kind.replace('_', ' ')} (last: {reason})"
+                 for kind, (n, reason) in sorted(recent.items())]  # fmt: skip
+        return DiagnosticStatus.WARN, f"in the last {window:g} s: " + "; ".join(parts)
+
     def _on_diagnostics(self) -> None:
         now = self._now_ns()
-        values = self.diagnostics_values()
-        if self.recording_error:
-            level, message = DiagnosticStatus.ERROR, "recording failed"
-        elif self.last_refusal or self.missed_deadlines:
-            level, message = DiagnosticStatus.WARN, self.last_refusal or "missed deadlines"
-        else:
-            level, message = DiagnosticStatus.OK, f"mode {values['mode']}"
-        msg = diagnostics_msg(now, self.get_name(), level, message, values)
-        self.pub_diag.publish(msg)
-        self._record(self.topic[self.pub_diag], msg, now)
+        level, message = self.diagnostics_level(now)
+        msg = diagnostics_msg(now, self.get_name(), level, message, self.diagnostics_values())
+        data = self._serialize[DiagnosticArray](msg)
+        self.pub_diag.publish(data)
+        self._record(self.topic[self.pub_diag], data, now)
+
+
+def make_executor(name: str, context=None):
+    """The rclpy executor named by the ``executor`` parameter."""
+    if name == "events":
+        from rclpy.experimental import EventsExecutor
+
+        return EventsExecutor(context=context)
+    return SingleThreadedExecutor(context=context)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Console script ``drs-node`` (``--ros-args -p name:=value`` as usual). Returns 0 on a clean
-    SIGINT/SIGTERM, 2 when the parameters are refused."""
+    SIGINT/SIGTERM, 2 when the parameters or the recording paths are refused (one line on
+    stderr, nothing created)."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     args = sys.argv if argv is None else argv
     rclpy.init(args=args)
@@ -428,7 +669,7 @@ def main(argv: list[str] | None = None) -> int:
     rc = 0
     try:
         node = DRSNode()
-        executor = SingleThreadedExecutor()
+        executor = make_executor(node.get_parameter("executor").value)
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -7,8 +7,13 @@ What rosbag2 (Jazzy, ``rosbag2_storage_mcap``) writes, and this module reproduce
   definition text (:func:`drs_ros.msgdefs.full_definition`);
 * one channel per topic: message encoding ``cdr``, metadata ``offered_qos_profiles`` (a YAML
   string, the version-9 form with policy names) and ``topic_type_hash`` (``RIHS01_...``);
-* messages serialised with ``rclpy.serialization.serialize_message``, ``log_time`` (receive) and
-  ``publish_time`` (send) in integer nanoseconds;
+* messages as their exact CDR bytes: the bytes a raw subscription received, or a message
+  serialised by :mod:`drs_ros.cdr` (never ``rclpy.serialization.serialize_message``, whose buffer
+  can carry trailing bytes and uninitialised padding); ``log_time`` (receive) and
+  ``publish_time`` (send) in integer nanoseconds, and a per-channel sequence number;
+* service calls as rosbag2 Jazzy records them: the introspection events of ``<service>`` on
+  ``<service>/_service_event`` (``pkg/srv/Name_Event``; see :mod:`drs_ros.msgdefs` for the schema
+  text, and why such channels carry no ``topic_type_hash``);
 * on finish, a metadata record ``rosbag2`` holding ``serialized_metadata`` (the bag metadata as
   YAML) and ``metadata.yaml`` (version 9, key ``rosbag2_bagfile_information``) beside the file.
 
@@ -20,9 +25,9 @@ with SIGKILL before its first chunk completes leaves a file holding only the hea
 therefore closes the chunk in progress and hands it to the OS (``mcap.writer.Writer.flush``)
 every ``flush_period`` seconds and every ``flush_messages`` messages, from :meth:`write` and from
 a background thread (so a recorder whose writes stop is flushed too). A SIGKILL then loses at most
-the last period; the flushed prefix is readable with ``mcap.stream_reader.StreamReader`` (see
-``drs-check --recover``). A seeking reader needs the summary, which only :meth:`finish` writes:
-the node must finish the recorder on SIGINT/SIGTERM.
+the last period; ``drs-bag recover`` turns the flushed prefix into a complete bag. A seeking
+reader needs the summary, which only :meth:`finish` writes: the node finishes the recorder on
+SIGINT/SIGTERM.
 """
 
 from __future__ import annotations
@@ -43,7 +48,7 @@ from mcap.writer import CompressionType, Writer
 
 from drs_model.errors import DRSError
 
-from . import msgdefs
+from . import cdr, msgdefs
 
 #: rosbag2 metadata version of ROS 2 Jazzy.
 ROSBAG2_METADATA_VERSION = 9
@@ -130,14 +135,28 @@ def qos_yaml(profiles: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def parse_qos_yaml(text: str) -> list[dict[str, Any]]:
+    """The profiles of an ``offered_qos_profiles`` string (the inverse of :func:`qos_yaml`)."""
+    if not text:
+        return []
+    try:
+        profiles = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise RecordingError(f"offered_qos_profiles is not YAML: {exc}") from exc
+    if not isinstance(profiles, list) or not all(isinstance(p, dict) for p in profiles):
+        raise RecordingError(f"offered_qos_profiles must be a list of maps, got {text[:80]!r}")
+    return profiles
+
+
 # ---- records ------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class TopicInfo:
-    """A registered topic: name, ``pkg/msg/Type``, message class, channel id, QoS, type hash."""
+    """A registered topic: name, ``pkg/msg/Type``, message class (None for a topic copied from
+    another bag, which only takes bytes), channel id, QoS, type hash (``""`` when not stored)."""
 
     name: str
     type_name: str
-    msg_class: type = field(repr=False)
+    msg_class: type | None = field(repr=False)
     channel_id: int
     qos_profiles: tuple[dict[str, Any], ...] = field(repr=False)
     type_hash: str
@@ -237,19 +256,15 @@ class McapRecorder:
             raise RecordingError(
                 f"compression must be one of {sorted(_COMPRESSION)}, got {compression!r}"
             )
-        self._serialize = _serializer()
         self.bag_dir = Path(bag_dir)
         if not self.bag_dir.name:
             raise RecordingError(f"bag_dir must name a directory, got {str(bag_dir)!r}")
         self.path = self.bag_dir / f"{self.bag_dir.name}_0.mcap"
         self.metadata_path = self.bag_dir / "metadata.yaml"
-        if self.bag_dir.exists() and not self.bag_dir.is_dir():
+        if not overwrite:
+            check_new_bag(self.bag_dir)
+        elif self.bag_dir.exists() and not self.bag_dir.is_dir():
             raise RecordingError(f"bag directory {str(self.bag_dir)!r} exists and is a file")
-        if self.bag_dir.is_dir() and any(self.bag_dir.iterdir()) and not overwrite:
-            raise RecordingError(
-                f"bag directory {str(self.bag_dir)!r} already holds files; pass overwrite=True "
-                "or choose a new name"
-            )
         self.flush_period = float(flush_period)
         self.flush_messages = flush_messages
         self.ros_distro = ros_distro
@@ -301,6 +316,9 @@ class McapRecorder:
     def register_topic(self, topic: str, msg_type, qos: Any = None) -> TopicInfo:
         """Declare a topic (schema + channel); registering the same topic again is a no-op.
 
+        The schema data is the full definition generated from the installed interfaces
+        (:func:`drs_ros.msgdefs.full_definition`).
+
         Parameters
         ----------
         topic : str
@@ -314,13 +332,52 @@ class McapRecorder:
         -------
         TopicInfo
         """
-        if not isinstance(topic, str) or not topic.startswith("/"):
-            raise RecordingError(f"topic must be an absolute name starting with '/', got {topic!r}")
         name = msgdefs.type_name(msg_type)
         cls = msgdefs.message_class(msg_type)
-        profiles = tuple(qos_dict(q) for q in (qos if isinstance(qos, (list, tuple)) else [qos]))
-        definition = msgdefs.full_definition(name)
-        type_hash = msgdefs.type_hash(name)
+        profiles = [qos_dict(q) for q in (qos if isinstance(qos, (list, tuple)) else [qos])]
+        # rosbags checks a channel's hash against the type it parses from the schema, and cannot
+        # name a service type (it files pkg/srv/T under pkg/srv/msg/T): with the hash, rosbags
+        # would refuse the whole bag, so a service event channel carries none
+        type_hash = "" if msgdefs.is_service_event(name) else msgdefs.type_hash(name)
+        return self._register(
+            topic, name, cls, msgdefs.full_definition(name), "ros2msg", profiles, type_hash
+        )
+
+    def register_recorded_topic(
+        self,
+        topic: str,
+        type_name: str,
+        definition: bytes,
+        schema_encoding: str,
+        qos_profiles: list[dict[str, Any]],
+        type_hash: str,
+    ) -> TopicInfo:
+        """Declare a topic copied from another bag (schema and channel metadata as they were);
+        :meth:`write` then takes its messages as bytes only.
+
+        Parameters
+        ----------
+        topic : str
+            Absolute topic name.
+        type_name : str
+            The schema name (``pkg/msg/Type``).
+        definition : bytes
+            The schema data, copied verbatim.
+        schema_encoding : str
+            The schema encoding (``ros2msg``, ``ros2idl``...).
+        qos_profiles : list of dict
+            The offered QoS profiles (:func:`parse_qos_yaml` of the source channel).
+        type_hash : str
+            The source channel's ``topic_type_hash`` (``""`` if it had none).
+        """
+        return self._register(
+            topic, type_name, None, definition, schema_encoding, qos_profiles, type_hash
+        )
+
+    def _register(self, topic, name, cls, definition, encoding, profiles, type_hash) -> TopicInfo:
+        if not isinstance(topic, str) or not topic.startswith("/"):
+            raise RecordingError(f"topic must be an absolute name starting with '/', got {topic!r}")
+        data = definition.encode() if isinstance(definition, str) else bytes(definition)
         with self._lock:
             self._check_open()
             known = self._topics.get(topic)
@@ -332,15 +389,12 @@ class McapRecorder:
                 return known
             schema_id = self._schemas.get(name)
             if schema_id is None:
-                schema_id = self._writer.register_schema(name, "ros2msg", definition.encode())
+                schema_id = self._writer.register_schema(name, encoding, data)
                 self._schemas[name] = schema_id
-            channel_id = self._writer.register_channel(
-                topic,
-                "cdr",
-                schema_id,
-                {"offered_qos_profiles": qos_yaml(list(profiles)), "topic_type_hash": type_hash},
-            )
-            info = TopicInfo(topic, name, cls, channel_id, profiles, type_hash)
+            metadata = {"offered_qos_profiles": qos_yaml(list(profiles))}
+            metadata["topic_type_hash"] = type_hash
+            channel_id = self._writer.register_channel(topic, "cdr", schema_id, metadata)
+            info = TopicInfo(topic, name, cls, channel_id, tuple(profiles), type_hash)
             self._topics[topic] = info
             self._counts[topic] = 0
             self._sequence[topic] = 0
@@ -353,19 +407,30 @@ class McapRecorder:
             return dict(self._topics)
 
     # ---- writing ----------------------------------------------------------------------------
-    def write(self, topic: str, msg, log_time_ns: int, publish_time_ns: int | None = None) -> None:
-        """Serialise and append one message (thread-safe).
+    def write(
+        self,
+        topic: str,
+        msg,
+        log_time_ns: int,
+        publish_time_ns: int | None = None,
+        sequence: int | None = None,
+    ) -> int:
+        """Append one message (thread-safe); returns its sequence number on the channel.
 
         Parameters
         ----------
         topic : str
             A registered topic.
         msg : ROS message or bytes
-            A message of the topic's type, or its CDR bytes already serialised.
+            A message of the topic's type (serialised exactly by :mod:`drs_ros.cdr`), or its
+            exact CDR bytes (as a raw subscription receives them).
         log_time_ns : int
             Receive/record time [ns].
         publish_time_ns : int, optional
             Send time [ns]; ``log_time_ns`` when None.
+        sequence : int, optional
+            The sequence number to store (a copied message keeps its own); by default one more
+            than the channel's last.
         """
         info = self._topics.get(topic)
         if info is None:
@@ -374,8 +439,8 @@ class McapRecorder:
             )
         if isinstance(msg, (bytes, bytearray, memoryview)):
             data = bytes(msg)
-        elif type(msg) is info.msg_class:
-            data = self._serialize(msg)
+        elif info.msg_class is not None and type(msg) is info.msg_class:
+            data = cdr.serializer(info.msg_class)(msg)
         else:
             raise RecordingError(
                 f"topic {topic!r} carries {info.type_name}, got {type(msg).__module__}."
@@ -385,7 +450,8 @@ class McapRecorder:
         pub_ns = log_ns if publish_time_ns is None else _time_ns(publish_time_ns, "publish_time_ns")
         with self._lock:
             self._check_open()
-            seq = self._sequence[topic] = self._sequence[topic] + 1
+            seq = self._sequence[topic] + 1 if sequence is None else int(sequence)
+            self._sequence[topic] = seq
             self._writer.add_message(info.channel_id, log_ns, data, pub_ns, sequence=seq)
             self._counts[topic] += 1
             self._message_count += 1
@@ -397,6 +463,7 @@ class McapRecorder:
                 time.monotonic() - self._last_flush >= self.flush_period
             ):
                 self._flush_locked()
+        return seq
 
     def flush(self) -> None:
         """Close the chunk in progress and hand everything to the OS (no fsync)."""
@@ -482,6 +549,16 @@ class McapRecorder:
             "ros_distro": self.ros_distro,
         }
 
+    def discard(self) -> None:
+        """Close without finishing and delete the bag's files (a node that failed to start);
+        the directory itself is the caller's to remove."""
+        with self._lock:
+            self._finished = True
+            self._stop.set()
+            self._stream.close()
+        for path in (self.path, self.metadata_path):
+            path.unlink(missing_ok=True)
+
     # ---- finish -----------------------------------------------------------------------------
     def finish(self) -> Path:
         """Write the metadata record, summary and footer, close the file, write ``metadata.yaml``.
@@ -528,10 +605,38 @@ def _time_ns(value, name: str) -> int:
     return value
 
 
-def _serializer():
-    from rclpy.serialization import serialize_message  # rclpy only for serialisation
+def check_new_bag(bag_dir: str | os.PathLike) -> Path:
+    """Refuse a bag directory that would overwrite or cannot be created; create nothing.
 
-    return serialize_message
+    Returns the directory. Raises :class:`RecordingError` naming the path and the reason: it is a
+    file, it already holds files (an earlier recording is never overwritten), or its nearest
+    existing parent is not a writable directory.
+    """
+    path = Path(bag_dir)
+    if not path.name:
+        raise RecordingError(f"a bag path must name a directory, got {str(bag_dir)!r}")
+    if path.exists() and not path.is_dir():
+        raise RecordingError(f"bag path {str(path)!r} exists and is a file")
+    if path.is_dir() and any(path.iterdir()):
+        raise RecordingError(
+            f"bag path {str(path)!r} already holds files (an earlier recording is never "
+            "overwritten): choose a new path"
+        )
+    check_writable_parent(path)
+    return path
+
+
+def check_writable_parent(path: str | os.PathLike) -> Path:
+    """The nearest existing ancestor of ``path`` must be a writable directory (where ``path`` and
+    its missing parents can be created). Raises :class:`RecordingError` otherwise."""
+    parent = Path(path).absolute().parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise RecordingError(
+            f"cannot create {str(path)!r}: {str(parent)!r} is not a writable directory"
+        )
+    return parent
 
 
 def read_bag_metadata(bag_dir: str | os.PathLike) -> dict[str, Any]:
@@ -551,6 +656,9 @@ __all__ = [
     "RecorderStats",
     "RecordingError",
     "TopicInfo",
+    "check_new_bag",
+    "check_writable_parent",
+    "parse_qos_yaml",
     "qos_dict",
     "qos_yaml",
     "read_bag_metadata",

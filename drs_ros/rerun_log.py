@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -82,6 +83,24 @@ def default_blueprint() -> rrb.Blueprint:
     )
 
 
+def check_new_rrd(path: str | os.PathLike) -> Path:
+    """Refuse an ``.rrd`` path that exists (an earlier recording is never overwritten) or cannot
+    be created; create nothing. Raises :class:`RerunLogError` naming the path and the reason."""
+    from drs_ros.recording import RecordingError, check_writable_parent
+
+    path = Path(path)
+    if path.exists() or path.is_symlink():
+        raise RerunLogError(
+            f"rrd path {str(path)!r} already exists (an earlier recording is never "
+            "overwritten): choose a new path"
+        )
+    try:
+        check_writable_parent(path)
+    except RecordingError as exc:
+        raise RerunLogError(str(exc)) from None
+    return path
+
+
 def _closed(points: np.ndarray) -> np.ndarray:
     return np.concatenate([points, points[..., :1, :]], axis=-2)
 
@@ -121,7 +140,7 @@ class RerunRecorder:
             raise InputError(f"max_draw_hz must be a finite number > 0 Hz, got {max_draw_hz!r}")
         if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
             raise InputError(f"batch must be an int >= 1, got {batch!r}")
-        self.path = Path(path)
+        self.path = check_new_rrd(path)
         self.params = params if params is not None else DRSParams()
         self.max_draw_hz = float(max_draw_hz)
         self._draw_dt = 1.0 / self.max_draw_hz
@@ -135,9 +154,15 @@ class RerunRecorder:
         self._buf_q: list = []
         self._buf_f: list[float] = []
         self._buf_draw: list[bool] = []
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.rec = rr.RecordingStream(application_id)
-        self.rec.save(str(self.path), default_blueprint=default_blueprint())
+        made = [d for d in (self.path.parent, *self.path.parent.parents) if not d.exists()]
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.rec = rr.RecordingStream(application_id)
+            self.rec.save(str(self.path), default_blueprint=default_blueprint())
+        except Exception as exc:
+            for d in made:  # leave nothing behind
+                shutil.rmtree(d, ignore_errors=True)
+            raise RerunLogError(f"cannot create rrd {str(self.path)!r}: {exc}") from exc
         self._closed = False
         self._log_static()
 
@@ -312,6 +337,13 @@ class RerunRecorder:
         if self._closed:
             raise RerunLogError(f"the rerun recorder of {str(self.path)!r} is closed")
 
+    def discard(self) -> None:
+        """Close and delete the file (a node that failed to start)."""
+        if not self._closed:
+            self._closed = True
+            self.rec.disconnect()
+        self.path.unlink(missing_ok=True)
+
     def close(self) -> None:
         """Flush and close the file (idempotent)."""
         if self._closed:
@@ -323,5 +355,6 @@ class RerunRecorder:
 
 
 __all__ = [
-    "DRAWINGS", "SERIES", "TIMELINE", "RerunLogError", "RerunRecorder", "default_blueprint",
+    "DRAWINGS", "SERIES", "TIMELINE", "RerunLogError", "RerunRecorder", "check_new_rrd",
+    "default_blueprint",
 ]

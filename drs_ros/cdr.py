@@ -1,0 +1,217 @@
+"""Exact CDR serialisation of rclpy messages: the bytes a ROS 2 subscriber receives.
+
+Why not ``rclpy.serialization.serialize_message``: with the Jazzy wheels (Fast DDS) its buffer can
+be longer than the CDR data (a 2-point JointTrajectory: 140 bytes where the wire carries 112) and
+its alignment padding is uninitialised memory. A recorder using it leaks process memory into the
+log, and readers that check sizes (rosbags) reject such messages.
+
+The encoding is what ``rmw_fastrtps`` puts on the wire for ROS 2 messages: the 4-byte
+encapsulation header ``00 01 00 00`` (plain CDR, little endian), then the fields in order, each
+primitive aligned to its own size (at most 8) counted from the end of the header, padding bytes
+zero, no padding after the last field. Strings are a ``uint32`` length (including the NUL), the
+UTF-8 bytes and a NUL; sequences a ``uint32`` count then the elements; fixed arrays the elements
+only; an empty structure one zero byte.
+
+Each message class is compiled once (:func:`serializer`) into a chain of closures over
+``struct.Struct`` objects, from the class's own rosidl introspection (``SLOT_TYPES``). The same
+code serves the node's publishers, the recorder and the bag checker (which re-serialises what it
+decoded and compares bytes).
+"""
+
+from __future__ import annotations
+
+import array
+import functools
+import importlib
+import struct
+import sys
+from collections.abc import Callable
+
+from drs_model.errors import DRSError
+
+#: Encapsulation header of little-endian plain CDR (what Fast DDS sends for ROS 2 messages).
+CDR_LE_HEADER = b"\x00\x01\x00\x00"
+
+# rosidl basic type -> (struct code, size [bytes]); size is also the alignment
+_BASIC = {
+    "boolean": ("?", 1),
+    "octet": ("B", 1),
+    "char": ("B", 1),
+    "uint8": ("B", 1),
+    "int8": ("b", 1),
+    "int16": ("h", 2),
+    "uint16": ("H", 2),
+    "int32": ("i", 4),
+    "uint32": ("I", 4),
+    "int64": ("q", 8),
+    "uint64": ("Q", 8),
+    "float": ("f", 4),
+    "double": ("d", 8),
+}
+_U32 = struct.Struct("<I")
+_ZEROS = bytes(8)
+_LITTLE = sys.byteorder == "little"
+
+Writer = Callable[[bytearray, object], None]
+
+
+class CdrError(DRSError, TypeError):
+    """A message type or value that cannot be serialised as ROS 2 CDR."""
+
+
+def _align(buf: bytearray, n: int) -> None:
+    pad = -(len(buf) - 4) % n
+    if pad:
+        buf += _ZEROS[:pad]
+
+
+def _as_int(value) -> int:
+    """octet and char fields hold ``bytes`` / ``str`` of length 1 in rclpy."""
+    if isinstance(value, (bytes, bytearray)):
+        return value[0]
+    if isinstance(value, str):
+        return ord(value)
+    return value
+
+
+def _basic_writer(typename: str) -> tuple[Writer, int]:
+    code, size = _BASIC[typename]
+    packer = struct.Struct("<" + code)
+    convert = _as_int if typename in ("octet", "char") else None
+
+    def write(buf: bytearray, value, pack=packer.pack, size=size) -> None:
+        _align(buf, size)
+        buf += pack(convert(value) if convert else value)
+
+    return write, size
+
+
+def _string_writer(buf: bytearray, value: str) -> None:
+    data = value.encode("utf-8")
+    _align(buf, 4)
+    buf += _U32.pack(len(data) + 1)
+    buf += data
+    buf += b"\x00"
+
+
+def _basic_block_writer(typename: str) -> Writer:
+    """Elements of a basic type, back to back (the body of an array or a sequence)."""
+    code, size = _BASIC[typename]
+    convert = typename in ("octet", "char", "boolean")
+
+    def write(buf: bytearray, values) -> None:
+        n = len(values)
+        if n == 0:
+            return
+        _align(buf, size)
+        if _LITTLE and isinstance(values, array.array) and values.itemsize == size and \
+                values.typecode.lower() == code.lower():
+            buf += values.tobytes()  # the generated classes hold numeric sequences as arrays
+        elif isinstance(values, (bytes, bytearray)) and size == 1:
+            buf += values
+        elif hasattr(values, "dtype"):  # fixed-size array fields are numpy arrays
+            buf += values.astype("<" + code, copy=False).tobytes()
+        else:
+            items = [_as_int(v) for v in values] if convert else values
+            buf += struct.pack(f"<{n}{code}", *items)
+
+    return write
+
+
+def _element_writer(typ) -> Writer:
+    """Writer of one value of a rosidl type (basic, string, nested message)."""
+    from rosidl_parser.definition import AbstractString, BasicType, NamespacedType
+
+    if isinstance(typ, BasicType):
+        return _basic_writer(typ.typename)[0]
+    if isinstance(typ, AbstractString):
+        if type(typ).__name__.endswith("WString"):
+            raise CdrError("wide strings (wstring) are not supported")
+        return _string_writer
+    if isinstance(typ, NamespacedType):
+        module = importlib.import_module(".".join(typ.namespaces))
+        return _struct_writer(getattr(module, typ.name))
+    raise CdrError(f"unsupported rosidl type {typ!r}")
+
+
+def _field_writer(typ) -> Writer:
+    from rosidl_parser.definition import AbstractSequence, Array, BasicType
+
+    if isinstance(typ, (Array, AbstractSequence)):
+        is_sequence = isinstance(typ, AbstractSequence)
+        if isinstance(typ.value_type, BasicType):
+            body = _basic_block_writer(typ.value_type.typename)
+        else:
+            element = _element_writer(typ.value_type)
+
+            def body(buf: bytearray, values, element=element) -> None:
+                for v in values:
+                    element(buf, v)
+
+        if not is_sequence:
+            return body
+
+        def write(buf: bytearray, values, body=body) -> None:
+            _align(buf, 4)
+            buf += _U32.pack(len(values))
+            body(buf, values)
+
+        return write
+    return _element_writer(typ)
+
+
+@functools.lru_cache(maxsize=None)
+def _struct_writer(msg_class: type) -> Writer:
+    try:
+        names = list(msg_class.get_fields_and_field_types())
+        types = msg_class.SLOT_TYPES
+    except AttributeError as exc:
+        raise CdrError(f"{msg_class!r} is not a ROS message class") from exc
+    if not names:  # an empty structure carries one dummy uint8 on the wire
+        def write_empty(buf: bytearray, msg) -> None:
+            buf += b"\x00"
+
+        return write_empty
+    fields = [(name, _field_writer(typ)) for name, typ in zip(names, types, strict=True)]
+
+    def write(buf: bytearray, msg, fields=fields) -> None:
+        for name, writer in fields:
+            writer(buf, getattr(msg, name))
+
+    return write
+
+
+@functools.lru_cache(maxsize=None)
+def serializer(msg_class: type) -> Callable[[object], bytes]:
+    """A function ``msg -> bytes``: the exact CDR serialisation of messages of ``msg_class``.
+
+    Parameters
+    ----------
+    msg_class : type
+        A generated rclpy message class (e.g. ``sensor_msgs.msg.JointState``, or a service's
+        ``SetBool.Event``).
+
+    Raises
+    ------
+    CdrError
+        The class is not a message class, or holds a type this module does not encode.
+    """
+    write = _struct_writer(msg_class)
+
+    def serialize(msg) -> bytes:
+        buf = bytearray(CDR_LE_HEADER)
+        try:
+            write(buf, msg)
+        except (struct.error, TypeError, AttributeError, UnicodeError) as exc:
+            raise CdrError(f"cannot serialise a {msg_class.__name__}: {exc}") from exc
+        return bytes(buf)
+
+    return serialize
+
+
+def serialize(msg) -> bytes:
+    """The exact CDR bytes of one rclpy message (see :func:`serializer`)."""
+    return serializer(type(msg))(msg)
+
+
+__all__ = ["CDR_LE_HEADER", "CdrError", "serialize", "serializer"]
