@@ -68,6 +68,8 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
     node.create_subscription(JointState, "/joint_states", on_joints, 100)
     node.create_subscription(Float64, "/drs/flap_gap", on_gap, 100)
     node.create_subscription(DiagnosticArray, "/diagnostics", on_diag, 10)
+    # the node computes its reactions only while someone listens: listen, so the bag holds them
+    node.create_subscription(JointState, "/drs/joint_reactions", lambda _m: None, 100)
     stroke = node.create_publisher(Float64, "/drs/stroke_cmd", 10)
     force = node.create_publisher(Float64, "/drs/force_cmd", 10)
     trajectory = node.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
@@ -151,15 +153,30 @@ def _rrd_scalar_rows(path: Path) -> int:
         return 0
 
 
+def _rrd_verify(path: Path) -> int:
+    """``rerun rrd verify`` (the CLI installed with the SDK): an independent read of every chunk."""
+    exe = Path(sys.executable).with_name("rerun")
+    cmd = [str(exe) if exe.exists() else "rerun", "rrd", "verify", str(path)]
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        _say(f"rerun rrd verify could not run: {exc}")
+        return 1
+    if res.returncode != 0:
+        _say(f"rerun rrd verify {path}: {(res.stderr or res.stdout).strip()[-500:]}")
+    return res.returncode
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="drs-demo", description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="bags", help="output folder (default bags/)")
     ap.add_argument("--domain", type=int, default=int(os.environ.get("DRS_DEMO_DOMAIN", "73")))
     ap.add_argument("--publish-rate", type=float, default=500.0, help="node publish rate [Hz]")
+    ap.add_argument("--name", default="demo", help="bag name: OUT/NAME/ and OUT/NAME.rrd")
     args = ap.parse_args(argv)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     out = Path(args.out)
-    bag, rrd, log_dir = out / "demo", out / "demo.rrd", out / ".ros-log"
+    bag, rrd, log_dir = out / args.name, out / f"{args.name}.rrd", out / ".ros-log"
     shutil.rmtree(bag, ignore_errors=True)
     rrd.unlink(missing_ok=True)
     out.mkdir(parents=True, exist_ok=True)
@@ -202,10 +219,11 @@ def main(argv: list[str] | None = None) -> int:
     for line in refusals[:3]:
         _say(f"node log: {line.strip()}")
 
-    from drs_ros.check import main as check_main
+    from drs_ros.bag.check import main as check_main
 
-    _say(f"drs-check {bag}")
+    _say(f"drs-bag check {bag}")
     rc_check = check_main([str(bag)])
+    rc_verify = _rrd_verify(rrd)
     rows = _rrd_scalar_rows(rrd)
     diag = seen.get("diag") or {}
     _say("summary:")
@@ -219,8 +237,9 @@ def main(argv: list[str] | None = None) -> int:
         f"({'metadata.yaml ok' if (bag / 'metadata.yaml').exists() else 'NO metadata.yaml'})"
     )
     print(f"  rerun recording                     : {rrd} ({rows} scalar rows)")
-    print(f"  drs-check                           : {'PASS' if rc_check == 0 else 'FAIL'}")
-    ok = node.returncode == 0 and rc_check == 0 and rows > 0 and refusals
+    print(f"  rerun rrd verify                    : {'ok' if rc_verify == 0 else 'FAILED'}")
+    print(f"  drs-bag check                       : {'PASS' if rc_check == 0 else 'FAIL'}")
+    ok = node.returncode == 0 and rc_check == 0 and rc_verify == 0 and rows > 0 and refusals
     return 0 if ok else 1
 
 

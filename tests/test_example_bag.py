@@ -38,7 +38,7 @@ def test_rosbags_reads_the_example_bag(params):
 
 def test_drs_check_passes_on_the_example(capsys):
     require_rclpy()
-    from drs_ros.check import main
+    from drs_ros.bag.check import main
 
     assert main([str(BAGS / "example")]) == 0
     out = capsys.readouterr().out
@@ -57,3 +57,15 @@ def test_example_rrd_reads_back():
         entities.add(str(chunk.entity_path))
     assert any("mechanism/flap" in e for e in entities)
     assert any("series/piston_force" in e for e in entities)
+
+
+def test_rerun_verifies_the_example_rrd():
+    """``rerun rrd verify`` (the SDK's own CLI) loads and interprets every chunk."""
+    import subprocess
+    import sys
+
+    require_rclpy()
+    exe = Path(sys.executable).with_name("rerun")
+    res = subprocess.run([str(exe), "rrd", "verify", str(BAGS / "example.rrd")],
+                         capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert res.returncode == 0, res.stderr[-2000:]

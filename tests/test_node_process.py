@@ -89,7 +89,7 @@ def test_sigkill_leaves_a_recoverable_bag(tmp_path, request):
     assert count > 100  # >~1 s of joint states etc. survived the SIGKILL
     # drs-check reports the truncation and recovers the prefix
     res = subprocess.run(
-        [sys.executable, "-m", "drs_ros.check", str(bag), "--recover"],
+        [sys.executable, "-m", "drs_ros.bag.check", str(bag), "--recover"],
         capture_output=True,
         text=True,
         env=node_env(tmp_path, 0),

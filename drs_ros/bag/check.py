@@ -1,23 +1,22 @@
-"""``drs-check BAG``: recompute what the model says from a recorded bag and report discrepancies.
+"""``drs-bag check BAG`` (alias ``drs-check``): verify every byte of a bag, then recompute what
+the model says from it and report the discrepancies.
 
-Reads an MCAP file (a rosbag2 bag directory or a ``.mcap`` file) with ``mcap`` and
-``mcap_ros2`` decoding; no rclpy. Checks, each reported as the largest discrepancy per topic:
+First :func:`drs_ros.bag.reader.scan` reads the whole file and verifies it (CRCs, summary and
+``metadata.yaml`` counts against what was read, exact CDR bytes of every message); any problem is
+an error naming the offset and the topic. Then the model checks, each reported as the largest
+discrepancy per topic:
 
 * ``/joint_states`` positions ``q = [s, psi1, psi3]`` satisfy the loop constraint:
   ``max |Phi(q)|`` [m] (:func:`drs_model.constraints.constraint`);
-* its velocities satisfy ``Phi_q qd = 0``: ``max |Phi_q qd|`` [m/s];
+* its velocities satisfy ``Phi_q qd = 0``: ``max |Phi_q qd|`` [m/s]; every state is finite;
 * ``/drs/flap_gap`` equals :func:`drs_model.kinematics.gap` of the joint state nearest in time [m];
-* ``/drs/piston_force`` equals the joint state's ``effort[0]`` at the same time [N];
-* the piston force of the logged motion from the dynamics model, through a hook: a callable
-  ``piston_force(q, qd, qdd, params) -> (n,) [N]``, by default from ``drs_model.dynamics``
-  (imported lazily; the check is skipped with a note when it is absent; see
-  :func:`load_force_model`) or ``--force-model module:function``. ``qdd`` is the finite
-  difference of the logged ``qd`` over the stamps, so this check only reports (status ``info``)
-  unless ``--force-model-tol`` is given.
+* the piston force of the logged motion from the inverse dynamics: with the logged
+  ``~/piston_acceleration`` exactly, or (older bags) from finite differences of the logged
+  velocities, reported only unless ``--force-model-tol`` is given.
 
-Exit status: 0 all checks within tolerance, 1 a check failed, 2 the file cannot be read (a
-truncated or corrupt file: one line on stderr; ``--recover`` salvages the readable prefix with
-``mcap.stream_reader.StreamReader``).
+Exit status: 0 verified and every check within tolerance; 1 a model check failed; 2 the bag is
+missing, unreadable, corrupt or inconsistent (one line on stderr); 3 ``--recover`` checked the
+readable part of a damaged bag (it stopped early: the report says where and why).
 """
 
 from __future__ import annotations
@@ -26,12 +25,10 @@ import argparse
 import importlib
 import json
 import math
-import struct
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from types import MappingProxyType
 
 import numpy as np
 
@@ -40,20 +37,13 @@ from drs_model.errors import DRSError
 from drs_model.kinematics import gap as model_gap
 from drs_model.params import DRSParams, from_file
 
-DEFAULT_TOPICS = MappingProxyType({
-    "joint_states": "/joint_states",
-    "piston_force": "/drs/piston_force",
-    "flap_gap": "/drs/flap_gap",
-    "piston_acceleration": "/drs/piston_acceleration",
-    "stroke_cmd": "/drs/stroke_cmd",
-    "force_cmd": "/drs/force_cmd",
-    "diagnostics": "/diagnostics",
-})
-DEFAULT_JOINT_NAMES = ("drs_piston", "drs_link", "drs_flap")
+from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
+from .reader import BagReadError, scan
 
-
-class BagReadError(DRSError):
-    """The bag cannot be read (missing, not MCAP, truncated or corrupt)."""
+#: The topics the model checks read (overridable with ``--<key>-topic``).
+CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
+#: Exit statuses.
+EXIT_OK, EXIT_FAILED, EXIT_UNREADABLE, EXIT_RECOVERED = 0, 1, 2, 3
 
 
 class ForceModelError(DRSError):
@@ -72,11 +62,11 @@ class BagData:
     messages : dict
         topic -> list of ``(log_time_ns, decoded message)`` in file order.
     counts : dict
-        topic -> number of messages (every topic of the file).
+        topic -> number of messages (every topic of the file), as read.
     recovered : bool
-        Read with the streaming reader (``--recover``).
+        The bag is damaged and only its readable part was read (``--recover``).
     notes : list of str
-        What the reader had to say (truncation point...).
+        What the reader had to say (verification, truncation point...).
     """
 
     path: Path
@@ -86,132 +76,35 @@ class BagData:
     notes: list[str] = field(default_factory=list)
 
 
-def resolve_mcap(path: str | Path) -> Path:
-    """The ``.mcap`` file of a bag directory (first of its ``*.mcap``) or the file itself."""
-    path = Path(path)
-    if path.is_dir():
-        files = sorted(path.glob("*.mcap"))
-        if not files:
-            raise BagReadError(f"{str(path)!r}: bag directory holds no .mcap file")
-        return files[0]
-    if not path.is_file():
-        raise BagReadError(f"{str(path)!r}: no such bag file or directory")
-    return path
-
-
-def _decoder_factory():
-    from mcap_ros2.decoder import DecoderFactory
-
-    return DecoderFactory()
-
-
-_READ_ERRORS = (ValueError, EOFError, OSError, struct.error, KeyError, IndexError, TypeError)
-
-
-def _mcap_errors() -> tuple[type[BaseException], ...]:
-    from mcap.exceptions import McapError
-
-    return (McapError, *_READ_ERRORS)
-
-
 def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> BagData:
-    """Decode the messages of ``topics`` from a bag.
-
-    Parameters
-    ----------
-    path : str or Path
-        Bag directory or ``.mcap`` file.
-    topics : sequence of str
-        Topics to decode (the others are only counted).
-    recover : bool
-        Read sequentially with ``StreamReader`` and keep everything before a truncation instead of
-        failing.
+    """Verify a whole bag (:func:`drs_ros.bag.reader.scan`) and decode the messages of ``topics``.
 
     Raises
     ------
     BagReadError
-        The file is missing, not MCAP, or (without ``recover``) truncated or corrupt.
+        The bag is missing, unreadable, corrupt or inconsistent (with ``recover``: nothing of it
+        is readable).
     """
-    mcap_path = resolve_mcap(path)
-    data = BagData(mcap_path, {t: [] for t in topics}, recovered=recover)
-    if recover:
-        _read_stream(mcap_path, set(topics), data)
-    else:
-        _read_indexed(mcap_path, set(topics), data)
-    return data
+    from rclpy.serialization import deserialize_message
 
+    from .. import msgdefs
 
-def _read_indexed(path: Path, topics: set[str], data: BagData) -> None:
-    from mcap.reader import make_reader
+    wanted = set(topics)
+    messages: dict[str, list] = {t: [] for t in topics}
+    classes: dict[str, type] = {}
 
-    errors = _mcap_errors()
-    try:
-        with open(path, "rb") as f:
-            reader = make_reader(f, decoder_factories=[_decoder_factory()])
-            summary = reader.get_summary()
-            if summary is None:
-                raise BagReadError(
-                    f"{str(path)!r}: truncated or unfinished MCAP file (no summary/footer); "
-                    "use --recover to salvage the readable prefix"
-                )
-            for _schema, channel, message, decoded in reader.iter_decoded_messages(
-                topics=sorted(topics), log_time_order=False
-            ):
-                data.messages[channel.topic].append((message.log_time, decoded))
-            for cid, n in summary.statistics.channel_message_counts.items():
-                data.counts[summary.channels[cid].topic] = n
-    except BagReadError:
-        raise
-    except errors as exc:
-        raise BagReadError(
-            f"{str(path)!r}: truncated or corrupt MCAP file ({type(exc).__name__}: {exc}); "
-            "use --recover to salvage the readable prefix"
-        ) from exc
+    def keep(m) -> None:
+        cls = classes.get(m.type_name) or classes.setdefault(
+            m.type_name, msgdefs.message_class(m.type_name)
+        )
+        messages[m.topic].append((m.log_time, deserialize_message(m.data, cls)))
 
-
-def _read_stream(path: Path, topics: set[str], data: BagData) -> None:
-    from mcap.records import Channel, Footer, Message, Schema
-    from mcap.stream_reader import StreamReader
-
-    errors = _mcap_errors()
-    factory = _decoder_factory()
-    schemas: dict[int, Schema] = {}
-    channels: dict[int, Channel] = {}
-    decoders: dict[int, Callable] = {}
-    complete = False
-    try:
-        with open(path, "rb") as f:
-            for record in StreamReader(f, validate_crcs=True).records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    channels[record.id] = record
-                elif isinstance(record, Message):
-                    channel = channels[record.channel_id]
-                    data.counts[channel.topic] = data.counts.get(channel.topic, 0) + 1
-                    if channel.topic not in topics:
-                        continue
-                    decoder = decoders.get(channel.id)
-                    if decoder is None:
-                        decoder = factory.decoder_for(
-                            channel.message_encoding, schemas.get(channel.schema_id)
-                        )
-                        decoders[channel.id] = decoder
-                    data.messages[channel.topic].append((record.log_time, decoder(record.data)))
-                elif isinstance(record, Footer):
-                    complete = True
-    except errors as exc:
-        n = sum(data.counts.values())
-        reason = f"{type(exc).__name__}: {str(exc) or 'end of file'}"
-        if n == 0:
-            raise BagReadError(
-                f"{str(path)!r}: nothing recoverable: no complete chunk of messages before the "
-                f"file ends or breaks ({reason})"
-            ) from exc
-        data.notes.append(f"recovered {n} messages before the file ends or breaks ({reason})")
-        return
-    if complete:
-        data.notes.append("the file is complete (footer read)")
+    result = scan(path, keep, recover=recover, topics=wanted)
+    notes = list(result.notes)
+    if result.complete:
+        notes.insert(0, f"verified: {result.message_count} messages, every byte read "
+                        "(CRCs, summary, metadata.yaml, exact CDR)")  # fmt: skip
+    return BagData(result.path, messages, dict(result.counts), not result.complete, notes)
 
 
 # ---- checks -------------------------------------------------------------------------------------
@@ -310,39 +203,28 @@ def _nearest(log_ref: np.ndarray, log_query: np.ndarray) -> tuple[np.ndarray, np
     return order[pick], np.abs(ref[pick] - log_query)
 
 
-def load_force_model(spec: str | None = None) -> tuple[Callable | None, str]:
+def load_force_model(spec: str | None = None) -> tuple[Callable, str]:
     """The piston-force hook ``f(q, qd, qdd, params) -> (n,) [N]`` and a note.
 
-    ``spec`` is ``"module:function"``. By default (None) the hook is
-    ``drs_model.dynamics.piston_force`` if it exists, else an adapter of
-    ``drs_model.dynamics.inverse_dynamics((q, qd, qdd), params).piston_force``; ``(None, reason)``
-    when neither exists (yet). An explicit ``spec`` that cannot be loaded raises
+    ``spec`` is ``"module:function"``; by default (None) the inverse dynamics of
+    :func:`drs_model.dynamics.inverse_dynamics`. A ``spec`` that cannot be loaded raises
     :class:`ForceModelError`.
     """
-    if spec is not None:
-        module_name, _, func_name = spec.partition(":")
-        try:
-            func = getattr(importlib.import_module(module_name), func_name)
-        except (ImportError, AttributeError, ValueError) as exc:
-            raise ForceModelError(f"cannot load force model {spec!r}: {exc}") from exc
-        if not callable(func):
-            raise ForceModelError(f"force model {spec!r} is not callable")
-        return func, f"model {spec}"
-    try:
-        dynamics = importlib.import_module("drs_model.dynamics")
-    except ImportError as exc:
-        return None, f"skipped: drs_model.dynamics is not available yet ({exc})"
-    func = getattr(dynamics, "piston_force", None)
-    if callable(func):
-        return func, "model drs_model.dynamics.piston_force"
-    inverse = getattr(dynamics, "inverse_dynamics", None)
-    if callable(inverse):
+    if spec is None:
+        from drs_model.dynamics import inverse_dynamics
 
         def piston_force(q, qd, qdd, p):
-            return inverse((q, qd, qdd), p).piston_force
+            return inverse_dynamics((q, qd, qdd), p).piston_force
 
         return piston_force, "model drs_model.dynamics.inverse_dynamics"
-    return None, "skipped: drs_model.dynamics has neither piston_force nor inverse_dynamics"
+    module_name, _, func_name = spec.partition(":")
+    try:
+        func = getattr(importlib.import_module(module_name), func_name)
+    except (ImportError, AttributeError, ValueError) as exc:
+        raise ForceModelError(f"cannot load force model {spec!r}: {exc}") from exc
+    if not callable(func):
+        raise ForceModelError(f"force model {spec!r} is not callable")
+    return func, f"model {spec}"
 
 
 def _logged_acceleration_force(q, qd, effort, t, log, accel_msgs, p, force_model, force_tol,
@@ -452,10 +334,6 @@ def check_bag(
     err = np.where(ok, np.abs(vals - model_gap(q[idx], p)), np.nan) if ok.any() else []
     out.append(_result("gap vs kinematics.gap(q)", tp["flap_gap"], "m", err,
                        t[idx] if len(idx) else [], tol))
-    vals, idx, ok = scalar_topic("piston_force")
-    err = np.where(ok, np.abs(vals - effort[idx]), np.nan) if ok.any() else []
-    out.append(_result("piston force vs effort[0]", tp["piston_force"], "N", err,
-                       t[idx] if len(idx) else [], force_tol))
     model = None
     accel_msgs = data.messages.get(tp["piston_acceleration"], [])
     if force_model is not None and accel_msgs and len(q):
@@ -542,11 +420,8 @@ def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
     )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``drs-check`` argument parser."""
-    ap = argparse.ArgumentParser(
-        prog="drs-check", description="Check a recorded DRS bag against the model."
-    )
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The options of ``drs-bag check``."""
     ap.add_argument("bag", help="bag directory or .mcap file")
     ap.add_argument("--tol", type=float, default=1e-6,
                     help="tolerance of the kinematic checks [m, m/s] (default 1e-6)")
@@ -554,44 +429,64 @@ def build_parser() -> argparse.ArgumentParser:
                     help="tolerance of the force checks [N] (default 1)")
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     ap.add_argument("--recover", action="store_true",
-                    help="salvage the readable prefix of a truncated file (StreamReader)")
-    ap.add_argument("--params", help="parameter file (.toml/.yaml) of the recorded run")
+                    help="check the readable part of a damaged bag (exit status 3 if it is damaged)")
+    ap.add_argument("--params", help="parameter file (.toml/.yaml) of the recorded run (default: "
+                    "the model parameters the bag recorded, else the seed's)")
     ap.add_argument("--force-model", default=None,
                     help="piston force hook module:function f(q, qd, qdd, params) [N] "
                     "(default: drs_model.dynamics)")
     ap.add_argument("--force-model-tol", type=float, default=None,
-                    help="tolerance [N] of the model force check (default: report only)")
+                    help="tolerance [N] of the finite-difference force check (default: report only)")
     ap.add_argument("--joint-names", default=",".join(DEFAULT_JOINT_NAMES),
                     help="joint names of [s, psi1, psi3], comma-separated")
     ap.add_argument("--max-match", type=float, default=1e-3,
                     help="largest time offset [s] pairing a scalar topic with a joint state")
-    for key, default in DEFAULT_TOPICS.items():
+    for key in CHECK_TOPICS:
+        default = DEFAULT_TOPICS[key]
         ap.add_argument(f"--{key.replace('_', '-')}-topic", dest=f"topic_{key}", default=default,
                         help=f"(default {default})")
-    return ap
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``drs-check``; returns the exit status (0 ok, 1 failed check, 2 error)."""
-    args = build_parser().parse_args(argv)
-    topics = {key: getattr(args, f"topic_{key}") for key in DEFAULT_TOPICS}
+def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
+    """Run ``drs-bag check``; returns the exit status (see the module docstring)."""
+    from .effects import recorded_model_params
+
+    topics = {key: getattr(args, f"topic_{key}") for key in CHECK_TOPICS}
     names = tuple(n.strip() for n in args.joint_names.split(",") if n.strip())
     try:
         if len(names) != 3:
             raise BagReadError(f"--joint-names needs 3 names (s, psi1, psi3), got {list(names)}")
-        params = from_file(args.params) if args.params else DRSParams()
         force_model, force_note = load_force_model(args.force_model)
-        data = read_bag(args.bag, [topics["joint_states"], topics["piston_force"],
-                                   topics["flap_gap"], topics["piston_acceleration"]],
+        data = read_bag(args.bag, list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]],
                         recover=args.recover)
+        if args.params:
+            params = from_file(args.params)
+        else:
+            params, origin = recorded_model_params(
+                data.messages.get(DEFAULT_TOPICS["parameter_events"], [])
+            )
+            data.notes.append(f"model parameters: {origin}")
         results = check_bag(data, params, tol=args.tol, force_tol=args.force_tol, topics=topics,
                             joint_names=names, force_model=force_model, force_note=force_note,
                             max_match_s=args.max_match, force_model_tol=args.force_model_tol)
     except DRSError as exc:
-        print(f"drs-check: error: {exc}", file=sys.stderr)
-        return 2
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return EXIT_UNREADABLE
     print(to_json(data, results) if args.json else format_table(data, results))
-    return 1 if any(r.status == "FAIL" for r in results) else 0
+    if any(r.status == "FAIL" for r in results):
+        return EXIT_FAILED
+    return EXIT_RECOVERED if data.recovered else EXIT_OK
+
+
+def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:
+    """``drs-bag check`` / ``drs-check``; returns the exit status."""
+    ap = argparse.ArgumentParser(
+        prog=prog, description="Verify every byte of a recorded DRS bag and check it against "
+        "the model. Exit status: 0 ok, 1 a check failed, 2 unreadable or corrupt, 3 damaged "
+        "(--recover read its readable part)."
+    )
+    add_arguments(ap)
+    return run(ap.parse_args(argv), prog)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,0 +1,51 @@
+"""``drs-bag``: the bag tools, with the verbs and options of ``ros2 bag``.
+
+* ``drs-bag info BAG``: topics, types, counts, duration (:mod:`drs_ros.bag.info`);
+* ``drs-bag check BAG``: verify every byte, then check the run against the model
+  (:mod:`drs_ros.bag.check`; ``drs-check`` is its alias);
+* ``drs-bag recover BAG -o OUT``: a killed or truncated recording made whole
+  (:mod:`drs_ros.bag.recover`).
+
+Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+#: verb -> (module, one-line help)
+VERBS = {
+    "info": ("drs_ros.bag.info", "print what a bag holds (as ros2 bag info)"),
+    "check": ("drs_ros.bag.check", "verify every byte of a bag and check it against the model"),
+    "recover": ("drs_ros.bag.recover", "make a killed or truncated recording a complete bag"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="drs-bag", description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="verb", required=True, metavar="VERB")
+    for verb, (module, text) in VERBS.items():
+        p = sub.add_parser(verb, help=text, description=text)
+        importlib.import_module(module).add_arguments(p)
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``drs-bag``; returns the verb's exit status."""
+    args = build_parser().parse_args(argv)
+    module = importlib.import_module(VERBS[args.verb][0])
+    return module.run(args, prog=f"drs-bag {args.verb}")
+
+
+def check_alias(argv: Sequence[str] | None = None) -> int:
+    """``drs-check``: the old name of ``drs-bag check``."""
+    from .check import main as check_main
+
+    return check_main(argv, prog="drs-check")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,89 @@
+"""What a bag says about its own run: the parameters it ran with, and when each command took
+effect (the effect record ``~/command_events``; docs/ros.md, "Effect record").
+
+The node records, once at start, a ``rcl_interfaces/ParameterEvent`` on ``/parameter_events``
+listing every node parameter, the ``model.*`` ones at the values the model ran with. This module
+turns such records back into values; it holds no state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from drs_model.params import DRSParams, from_dict
+
+#: rcl_interfaces/ParameterType values -> the ParameterValue field holding the value.
+_VALUE_FIELDS = {
+    1: "bool_value", 2: "integer_value", 3: "double_value", 4: "string_value",
+    5: "byte_array_value", 6: "bool_array_value", 7: "integer_array_value",
+    8: "double_array_value", 9: "string_array_value",
+}  # fmt: skip
+
+
+def parameter_values(event) -> dict[str, object]:
+    """``name -> value`` of the new parameters of one ParameterEvent message."""
+    out = {}
+    for param in event.new_parameters:
+        field = _VALUE_FIELDS.get(param.value.type)
+        if field is not None:
+            value = getattr(param.value, field)
+            out[param.name] = list(value) if field.endswith("array_value") else value
+    return out
+
+
+def recorded_node_parameters(messages: Sequence, node: str = "/drs") -> dict[str, object] | None:
+    """The parameters ``node`` recorded at start (``(log_ns, ParameterEvent)`` pairs), or None."""
+    for _log_ns, event in messages:
+        if event.node == node and event.new_parameters:
+            return parameter_values(event)
+    return None
+
+
+def model_params_from(values: dict[str, object]) -> DRSParams:
+    """DRSParams from recorded ``model.<field>`` values (outlines, drawing only, stay default)."""
+    model = {k.removeprefix("model."): v for k, v in values.items() if k.startswith("model.")}
+    defaults = DRSParams()
+    changed = {k: v for k, v in model.items() if v != getattr(defaults, k, None)}
+    return from_dict(changed) if changed else defaults
+
+
+def recorded_model_params(messages: Sequence, node: str = "/drs") -> tuple[DRSParams, str]:
+    """The model parameters a bag recorded, and where they came from (for the report)."""
+    values = recorded_node_parameters(messages, node)
+    if values is None:
+        return DRSParams(), "the seed's (the bag recorded none)"
+    return model_params_from(values), f"recorded by {node} on /parameter_events"
+
+
+@dataclass(frozen=True)
+class EffectRecord:
+    """One record of ``~/command_events``: ``source`` (a command topic, the service, ``clock``
+    or ``reset``), ``outcome``, the simulated time [s] and step it speaks of, and its values."""
+
+    source: str
+    outcome: str
+    sim_time: float
+    values: dict[str, str]
+    log_time: int
+
+
+def effect_records(messages: Sequence) -> list[EffectRecord]:
+    """Parse ``(log_ns, DiagnosticArray)`` pairs of ``~/command_events``, in record order."""
+    out = []
+    for log_ns, msg in messages:
+        for status in msg.status:
+            values = {kv.key: kv.value for kv in status.values}
+            out.append(EffectRecord(status.name, values.get("outcome", ""),
+                                    float(values.get("sim_time", "nan")), values, log_ns))
+    return out
+
+
+__all__ = [
+    "EffectRecord",
+    "effect_records",
+    "model_params_from",
+    "parameter_values",
+    "recorded_model_params",
+    "recorded_node_parameters",
+]

@@ -1,0 +1,133 @@
+"""``drs-bag info BAG``: what a bag holds, printed as ``ros2 bag info`` prints it.
+
+From ``metadata.yaml`` when the bag directory has one (as ``ros2 bag info`` does), else from a
+scan of the file (a bare ``.mcap``, or an unfinished recording: then said so).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from drs_model.errors import DRSError
+
+from .. import msgdefs
+from .reader import BagReadError, resolve, scan
+
+_INDENT = " " * 19
+SERVICE_EVENT_TOPIC_SUFFIX = "/_service_event"
+
+
+def _size(n: int) -> str:
+    units = ["B", "KiB", "MiB", "GiB", "TiB"]
+    size, i = float(n), 0
+    while size >= 1024 and i < 4:
+        size /= 1024
+        i += 1
+    return f"{size:.0f} {units[i]}" if i == 0 else f"{size:.1f} {units[i]}"
+
+
+def _point(ns: int) -> str:
+    sec, frac = divmod(ns, 1_000_000_000)
+    tm = time.localtime(sec)
+    return f"{time.strftime('%b %e %Y %H:%M:%S', tm)}.{frac:09d} ({sec}.{frac:09d})"
+
+
+def _is_service_event(topic: str, type_name: str) -> bool:
+    try:
+        return topic.endswith(SERVICE_EVENT_TOPIC_SUFFIX) and msgdefs.is_service_event(type_name)
+    except DRSError:
+        return False
+
+
+def bag_summary(path: str | Path) -> dict:
+    """Files, size, storage, distro, start [ns], duration [ns], and topics with type and count."""
+    mcap_path, bag_dir, meta = resolve(path, require_metadata=False)
+    if meta is not None:
+        topics = [(t["topic_metadata"]["name"], t["topic_metadata"]["type"],
+                   int(t["message_count"]), t["topic_metadata"].get("serialization_format", "cdr"))
+                  for t in meta["topics_with_message_count"]]  # fmt: skip
+        files = [bag_dir / f for f in meta["relative_file_paths"]]
+        return {
+            "files": [f.name for f in files],
+            "size": sum(f.stat().st_size for f in files if f.exists()),
+            "storage": meta.get("storage_identifier", "mcap"),
+            "distro": meta.get("ros_distro") or "unknown",
+            "start_ns": int(meta["starting_time"]["nanoseconds_since_epoch"]),
+            "duration_ns": int(meta["duration"]["nanoseconds"]),
+            "topics": topics,
+            "source": "metadata.yaml",
+        }
+    result = scan(mcap_path, recover=True, exact=False)
+    topics = [(c.topic, c.type_name, result.counts.get(c.topic, 0), c.message_encoding)
+              for c in result.channels.values()]  # fmt: skip
+    start = result.start_ns or 0
+    return {
+        "files": [mcap_path.name],
+        "size": result.file_size,
+        "storage": "mcap",
+        "distro": "unknown",
+        "start_ns": start,
+        "duration_ns": (result.end_ns or start) - start,
+        "topics": topics,
+        "source": "the file" + ("" if result.complete else f" (incomplete: {result.reason})"),
+    }
+
+
+def format_info(info: dict) -> str:
+    """The ``ros2 bag info`` text of :func:`bag_summary`."""
+    plain = [t for t in info["topics"] if not _is_service_event(t[0], t[1])]
+    services = [t for t in info["topics"] if _is_service_event(t[0], t[1])]
+    end = info["start_ns"] + info["duration_ns"]
+    sec, frac = divmod(info["duration_ns"], 1_000_000_000)
+    lines = [
+        "",
+        "Files:             " + f"\n{_INDENT}".join(info["files"]),
+        f"Bag size:          {_size(info['size'])}",
+        f"Storage id:        {info['storage']}",
+        f"ROS Distro:        {info['distro']}",
+        f"Duration:          {sec}.{frac:09d}s",
+        f"Start:             {_point(info['start_ns'])}",
+        f"End:               {_point(end)}",
+        f"Messages:          {sum(t[2] for t in plain)}",
+    ]
+    rows = [f"Topic: {n} | Type: {t} | Count: {c} | Serialization Format: {f}"
+            for n, t, c, f in plain]  # fmt: skip
+    lines.append("Topic information: " + f"\n{_INDENT}".join(rows))
+    lines.append(f"Service:           {len(services)}")
+    rows = [f"Service: {n.removesuffix(SERVICE_EVENT_TOPIC_SUFFIX)} | "
+            f"Type: {t.removesuffix(msgdefs.SERVICE_EVENT_SUFFIX)} | Event Count: {c} | "
+            f"Serialization Format: {f}" for n, t, c, f in services]  # fmt: skip
+    lines.append("Service information: " + f"\n{_INDENT}  ".join(rows))
+    if info["source"] != "metadata.yaml":
+        lines.append(f"(read from {info['source']}: no metadata.yaml)")
+    return "\n".join(lines)
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("bag", help="bag directory or .mcap file")
+    ap.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def run(args: argparse.Namespace, prog: str = "drs-bag info") -> int:
+    try:
+        info = bag_summary(args.bag)
+    except (DRSError, OSError, KeyError, TypeError, ValueError) as exc:
+        msg = str(exc) if isinstance(exc, BagReadError) else f"{args.bag}: {exc}"
+        print(f"{prog}: error: {msg}", file=sys.stderr)
+        return 2
+    print(json.dumps(info, indent=2) if args.json else format_info(info))
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="drs-bag info", description=__doc__.splitlines()[0])
+    add_arguments(ap)
+    return run(ap.parse_args(argv))
+
+
+__all__ = ["add_arguments", "bag_summary", "format_info", "main", "run"]

@@ -1,0 +1,424 @@
+"""Read a rosbag2 MCAP bag and verify every byte of it (what ``drs-bag check`` trusts).
+
+:func:`scan` reads the file sequentially, record by record, and stops at the first problem with a
+:class:`BagReadError` naming the offset, the record and, where there is one, the topic:
+
+* the magic bytes at both ends, and nothing after the closing magic;
+* every chunk's CRC (the uncompressed data) and the data section CRC, as written;
+* the summary: its CRC (footer ``summary_crc``, computed here: the mcap reader does not), every
+  chunk index pointing at a chunk that was read at that offset, and the statistics' message
+  counts per channel against the messages actually read;
+* every message: its channel is known, and its bytes are exactly its CDR serialisation: it is
+  decoded by the installed type support (``rclpy.serialization.deserialize_message``) and
+  serialised again by :mod:`drs_ros.cdr`; trailing bytes or non-zero padding are an error;
+* a bag directory's ``metadata.yaml``: present, naming the file, and its per-topic counts equal
+  to what was read.
+
+With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
+reports where and why it stopped, instead of raising.
+
+No state beyond the scan's own result; rclpy is used only for its type support.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from drs_model.errors import DRSError
+
+#: The MCAP magic (8 bytes at both ends of a file).
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+_FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
+
+
+class BagReadError(DRSError):
+    """The bag cannot be read or is not what it claims: missing, not MCAP, truncated, corrupt,
+    inconsistent with its summary or ``metadata.yaml``, or holding inexact message bytes."""
+
+
+@dataclass(frozen=True)
+class RecordedMessage:
+    """One message as recorded: topic, type, times [ns], sequence, exact bytes, and the file
+    offset of the record (of its chunk, for a chunked message) [bytes]."""
+
+    topic: str
+    type_name: str
+    log_time: int
+    publish_time: int
+    sequence: int
+    data: bytes
+    offset: int
+
+
+@dataclass
+class ChannelInfo:
+    """A channel as recorded: topic, schema (name, encoding, data), metadata."""
+
+    id: int
+    topic: str
+    type_name: str
+    schema_encoding: str
+    schema_data: bytes
+    message_encoding: str
+    metadata: dict[str, str]
+
+
+@dataclass
+class BagScan:
+    """What :func:`scan` read.
+
+    Attributes
+    ----------
+    path : Path
+        The ``.mcap`` file.
+    bag_dir : Path or None
+        The bag directory (None for a bare file).
+    channels : dict
+        channel id -> :class:`ChannelInfo`, in the order they appear.
+    counts : dict
+        topic -> messages read (every topic).
+    complete : bool
+        The whole file was read and verified (footer, summary, magic).
+    stopped_at : int or None
+        With ``recover``: the offset [bytes] where reading stopped.
+    reason : str
+        With ``recover``: why it stopped ('' when complete).
+    last_good_offset : int
+        End of the last record read completely [bytes].
+    file_size : int
+        [bytes].
+    start_ns, end_ns : int or None
+        Earliest and latest ``log_time`` read.
+    metadata : dict or None
+        ``rosbag2_bagfile_information`` of ``metadata.yaml``, if there is one.
+    notes : list of str
+    """
+
+    path: Path
+    bag_dir: Path | None
+    channels: dict[int, ChannelInfo] = field(default_factory=dict)
+    counts: dict[str, int] = field(default_factory=dict)
+    complete: bool = False
+    stopped_at: int | None = None
+    reason: str = ""
+    last_good_offset: int = 0
+    file_size: int = 0
+    start_ns: int | None = None
+    end_ns: int | None = None
+    metadata: dict[str, Any] | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def message_count(self) -> int:
+        return sum(self.counts.values())
+
+
+def resolve(path: str | Path, require_metadata: bool = True) -> tuple[Path, Path | None, dict | None]:
+    """``(mcap file, bag directory or None, metadata or None)`` of a bag directory or a file.
+
+    A bag directory must hold ``metadata.yaml`` (unless ``require_metadata`` is False: a
+    recording killed before it finished has none) naming one ``.mcap`` file.
+    """
+    path = Path(path)
+    if path.is_dir():
+        meta_path = path / "metadata.yaml"
+        if not meta_path.is_file():
+            files = sorted(path.glob("*.mcap"))
+            if require_metadata:
+                hint = (f"; {files[0].name} may be an unfinished recording: "
+                        f"drs-bag recover {path} -o OUT" if files else "")  # fmt: skip
+                raise BagReadError(f"{str(path)!r}: no metadata.yaml in the bag directory{hint}")
+            if not files:
+                raise BagReadError(f"{str(path)!r}: bag directory holds no .mcap file")
+            return files[0], path, None
+        try:
+            meta = yaml.safe_load(meta_path.read_text())["rosbag2_bagfile_information"]
+            files = [path / f for f in meta["relative_file_paths"]]
+        except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
+            raise BagReadError(f"{str(meta_path)!r}: not a rosbag2 metadata file ({exc})") from exc
+        if len(files) != 1:
+            raise BagReadError(
+                f"{str(meta_path)!r}: names {len(files)} files; only single-file bags are read"
+            )
+        if not files[0].is_file():
+            raise BagReadError(f"{str(meta_path)!r}: names {files[0].name}, which does not exist")
+        return files[0], path, meta
+    if not path.is_file():
+        raise BagReadError(f"{str(path)!r}: no such bag file or directory")
+    return path, None, None
+
+
+def _exact_checker() -> Callable[[str, bytes], str | None]:
+    """``check(type_name, data) -> problem, '' (exact) or None (type not installed)``: decode
+    with the installed type support and serialise again exactly."""
+    from rclpy.serialization import deserialize_message
+
+    from drs_ros import cdr, msgdefs
+
+    classes: dict[str, Any] = {}
+
+    def check(type_name: str, data: bytes) -> str:
+        cls = classes.get(type_name)
+        if cls is None:
+            try:
+                cls = msgdefs.message_class(type_name)
+            except DRSError:
+                cls = False
+            classes[type_name] = cls
+        if cls is False:
+            return None  # not installed: counted, not verified (noted by the caller)
+        try:
+            again = cdr.serializer(cls)(deserialize_message(data, cls))
+        except Exception as exc:  # noqa: BLE001 - any decode failure is the bag's problem
+            return f"does not decode as {type_name} ({type(exc).__name__}: {exc})"
+        if again == data:
+            return ""
+        if len(data) != len(again):
+            return (f"is {len(data)} bytes where its CDR serialisation is {len(again)} "
+                    f"({len(data) - len(again):+d} bytes)")  # fmt: skip
+        first = next(i for i, (a, b) in enumerate(zip(data, again, strict=True)) if a != b)
+        return f"differs from its CDR serialisation at byte {first} (non-zero padding?)"
+
+    return check
+
+
+def scan(
+    path: str | Path,
+    on_message: Callable[[RecordedMessage], None] | None = None,
+    *,
+    recover: bool = False,
+    exact: bool = True,
+    topics: Iterable[str] | None = None,
+) -> BagScan:
+    """Read and verify a bag (see the module docstring); call ``on_message`` for each message.
+
+    Parameters
+    ----------
+    path : str or Path
+        Bag directory or ``.mcap`` file.
+    on_message : callable, optional
+        Called with each :class:`RecordedMessage` of ``topics`` (all topics by default), in file
+        order.
+    recover : bool
+        Keep what was read before a truncation or corruption instead of raising (a directory
+        without ``metadata.yaml`` is then accepted too).
+    exact : bool
+        Verify that every message's bytes are its exact CDR serialisation.
+    topics : iterable of str, optional
+        Topics passed to ``on_message``; every message is verified regardless.
+
+    Raises
+    ------
+    BagReadError
+        Without ``recover``: any problem; with it: nothing readable at all.
+    """
+    from mcap.exceptions import McapError
+    from mcap.records import Channel, Chunk, ChunkIndex, DataEnd, Footer, Message, Schema
+    from mcap.records import Statistics
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    mcap_path, bag_dir, meta = resolve(path, require_metadata=not recover)
+    out = BagScan(mcap_path, bag_dir, metadata=meta, file_size=mcap_path.stat().st_size)
+    wanted = None if topics is None else set(topics)
+    check = _exact_checker() if exact else None
+    unverified: set[str] = set()
+    schemas: dict[int, Schema] = {}
+    chunk_offsets: dict[int, int] = {}
+    stats: Statistics | None = None
+    chunk_indexes: list[ChunkIndex] = []
+    footer: Footer | None = None
+    offset = 8
+    where = "the header"
+
+    def fail(msg: str) -> None:
+        raise BagReadError(f"{str(mcap_path)!r}: {msg}")
+
+    def take(rec, at: int) -> None:
+        channel = out.channels.get(rec.channel_id)
+        if channel is None:
+            fail(f"a message at offset {at} names channel {rec.channel_id}, never declared")
+        if check is not None:
+            problem = check(channel.type_name, rec.data)
+            if problem is None:
+                unverified.add(channel.type_name)
+            elif problem:
+                fail(f"message {out.counts.get(channel.topic, 0) + 1} of {channel.topic} "
+                     f"(chunk at offset {at}) {problem}")  # fmt: skip
+        out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
+        out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
+        out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
+        if on_message is not None and (wanted is None or channel.topic in wanted):
+            on_message(RecordedMessage(channel.topic, channel.type_name, rec.log_time,
+                                       rec.publish_time, rec.sequence, bytes(rec.data), at))
+
+    errors = (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
+              UnicodeDecodeError)  # fmt: skip
+    try:
+        with open(mcap_path, "rb") as f:
+            head = f.read(8)
+            if head != MCAP_MAGIC:
+                fail("not an MCAP file (no MCAP magic at the start)" if head else "empty file")
+            f.seek(0)
+            reader = StreamReader(f, validate_crcs=True, emit_chunks=True)
+            stream = reader._stream  # its byte count is the offset of the next record
+            for record in reader.records:
+                end = stream.count
+                if isinstance(record, Chunk):
+                    where = f"the chunk at offset {offset}"
+                    chunk_offsets[offset] = end - offset
+                    for inner in breakup_chunk(record, validate_crc=True):
+                        if isinstance(inner, Message):
+                            take(inner, offset)
+                        elif isinstance(inner, Schema):
+                            schemas[inner.id] = inner
+                        elif isinstance(inner, Channel):
+                            _add_channel(out, schemas, inner, fail)
+                elif isinstance(record, Message):
+                    take(record, offset)
+                elif isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    _add_channel(out, schemas, record, fail)
+                elif isinstance(record, Statistics):
+                    stats = record
+                elif isinstance(record, ChunkIndex):
+                    chunk_indexes.append(record)
+                elif isinstance(record, DataEnd):
+                    where = f"the summary after offset {end}"
+                elif isinstance(record, Footer):
+                    footer = record
+                out.last_good_offset = end
+                offset = end
+                if footer is None:
+                    where = f"the record at offset {offset}"
+            if footer is None:
+                fail(f"ends at offset {offset} without a footer (truncated)")
+            end_of_file = stream.count
+            f.seek(0, 2)
+            size = f.tell()
+            if size != end_of_file:
+                fail(f"{size - end_of_file} unread bytes after the closing magic at offset "
+                     f"{end_of_file}")  # fmt: skip
+            _check_summary(f, footer, size, fail)
+    except BagReadError as exc:
+        if not recover or out.message_count == 0:
+            raise
+        out.stopped_at, out.reason = offset, str(exc).split(": ", 1)[-1]
+        _recovered_note(out)
+        return out
+    except errors as exc:
+        reason = _describe(exc, where)
+        if not recover:
+            raise BagReadError(
+                f"{str(mcap_path)!r}: {reason}; {out.message_count} messages were readable "
+                f"before it (drs-bag recover salvages them)"
+            ) from exc
+        if out.message_count == 0:
+            raise BagReadError(
+                f"{str(mcap_path)!r}: nothing recoverable: {reason} before any complete message"
+            ) from exc
+        out.stopped_at, out.reason = offset, reason
+        _recovered_note(out)
+        return out
+    if stats is not None:
+        for cid, n in stats.channel_message_counts.items():
+            topic = out.channels[cid].topic if cid in out.channels else f"channel {cid}"
+            if out.counts.get(topic, 0) != n:
+                raise BagReadError(
+                    f"{str(mcap_path)!r}: the summary counts {n} messages on {topic}, "
+                    f"{out.counts.get(topic, 0)} were read ({n - out.counts.get(topic, 0)} missing)"
+                )
+    else:
+        raise BagReadError(f"{str(mcap_path)!r}: no statistics record in the summary")
+    for index in chunk_indexes:
+        if chunk_offsets.get(index.chunk_start_offset) != index.chunk_length:
+            raise BagReadError(
+                f"{str(mcap_path)!r}: the summary indexes a chunk at offset "
+                f"{index.chunk_start_offset} ({index.chunk_length} bytes) that is not in the file"
+            )
+    if len(chunk_indexes) != len(chunk_offsets):
+        raise BagReadError(
+            f"{str(mcap_path)!r}: {len(chunk_offsets)} chunks were read, the summary indexes "
+            f"{len(chunk_indexes)}"
+        )
+    if meta is not None:
+        _check_metadata(out, meta)
+    out.complete = True
+    if unverified:
+        out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
+    return out
+
+
+def _add_channel(out: BagScan, schemas, record, fail) -> None:
+    schema = schemas.get(record.schema_id)
+    if schema is None and record.schema_id != 0:
+        fail(f"channel {record.topic} names schema {record.schema_id}, never declared")
+    out.channels[record.id] = ChannelInfo(
+        record.id, record.topic, schema.name if schema else "", schema.encoding if schema else "",
+        bytes(schema.data) if schema else b"", record.message_encoding, dict(record.metadata),
+    )
+    out.counts.setdefault(record.topic, 0)
+
+
+def _check_summary(f, footer, size: int, fail) -> None:
+    """The footer's summary CRC: bytes from the summary start through summary_offset_start."""
+    if footer.summary_start == 0 or footer.summary_crc == 0:
+        return
+    footer_at = size - 8 - _FOOTER_LEN
+    f.seek(footer.summary_start)
+    data = f.read(footer_at + 1 + 8 + 8 + 8 - footer.summary_start)
+    crc = zlib.crc32(data)
+    if crc != footer.summary_crc:
+        fail(f"summary CRC mismatch (footer says {footer.summary_crc:#010x}, the bytes from "
+             f"offset {footer.summary_start} give {crc:#010x})")  # fmt: skip
+
+
+def _check_metadata(out: BagScan, meta: dict) -> None:
+    listed = {t["topic_metadata"]["name"]: int(t["message_count"])
+              for t in meta.get("topics_with_message_count", [])}  # fmt: skip
+    for topic, n in listed.items():
+        if out.counts.get(topic) is None:
+            raise BagReadError(f"metadata.yaml lists {topic} ({n} messages); the file has no such "
+                               "topic")  # fmt: skip
+        if out.counts[topic] != n:
+            raise BagReadError(
+                f"metadata.yaml counts {n} messages on {topic}, the file holds {out.counts[topic]} "
+                f"({n - out.counts[topic]:+d})"
+            )
+    extra = sorted(set(out.counts) - set(listed))
+    if extra:
+        raise BagReadError(f"metadata.yaml does not list the topics {extra} of the file")
+    total = int(meta.get("message_count", -1))
+    if total != out.message_count:
+        raise BagReadError(
+            f"metadata.yaml counts {total} messages, the file holds {out.message_count}"
+        )
+
+
+def _describe(exc: BaseException, where: str) -> str:
+    name = type(exc).__name__
+    text = str(exc) or "unexpected end of file"
+    if name == "CRCValidationError":
+        return f"{where} is corrupt ({text})"
+    if isinstance(exc, (EOFError, struct.error)) or "end of" in text.lower():
+        return f"the file ends inside {where} (truncated: {text})"
+    return f"cannot read {where} ({name}: {text})"
+
+
+def _recovered_note(out: BagScan) -> None:
+    lost = out.file_size - out.last_good_offset
+    out.notes.append(
+        f"stopped at offset {out.stopped_at} of {out.file_size}: {out.reason}; kept "
+        f"{out.message_count} messages, {lost} bytes after the last complete record are lost"
+    )
+
+
+__all__ = ["MCAP_MAGIC", "BagReadError", "BagScan", "ChannelInfo", "RecordedMessage", "resolve",
+           "scan"]  # fmt: skip
