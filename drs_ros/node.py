@@ -37,6 +37,7 @@ import math
 import os
 import shutil
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -76,7 +77,14 @@ from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSE
 QOS_DEPTH = 10
 #: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
 COMMAND_QOS_DEPTH = 10
-EXECUTORS = ("events", "single")
+#: How the node is driven (the ``executor`` parameter, read by ``main``):
+#: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and a
+#: SingleThreadedExecutor in a second thread serves subscriptions, the service and diagnostics
+#: (under ``use_sim_time`` the ticks follow ``/clock`` through a timer, as ``single`` does);
+#: ``single``: one SingleThreadedExecutor runs everything, the tick being an rclpy timer.
+#: rclpy's EventsExecutor is not offered: with the Jazzy wheels its timers never fired and it
+#: ignored SIGINT and SIGTERM (docs/ros.md, "Rate").
+EXECUTORS = ("deadline", "single")
 
 #: The node's own parameters: (name, default, description, valid range or choices). All read-only.
 NODE_PARAMETERS = (
@@ -92,7 +100,8 @@ NODE_PARAMETERS = (
      (1, 100000)),
     ("diagnostics_window", 5.0, "diagnostics report the troubles of the last this many s [s]",
      (0.1, 3600.0)),
-    ("executor", "single", "rclpy executor: single (SingleThreadedExecutor) or events", EXECUTORS),
+    ("executor", "deadline",
+     "deadline (ticks on absolute deadlines, executor thread for the rest) or single", EXECUTORS),
     ("bag_path", "", "MCAP bag directory ('' = no bag)", None),
     ("rrd_path", "", "rerun .rrd file ('' = none)", None),
     ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
@@ -147,11 +156,16 @@ class TroubleWindow:
 class DRSNode(Node):
     """The DRS actuator node. Keyword arguments go to :class:`rclpy.node.Node`."""
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, *, tick_timer: bool = True, **kwargs) -> None:
+        """``tick_timer=False``: the caller calls :meth:`tick` (see :func:`run_deadline_loop`)."""
         super().__init__("drs", **kwargs)
+        # callbacks may run in an executor thread while the main thread ticks
+        self._lock = threading.Lock()
+        self._wall_clock = False
         self._declare_parameters()
         self.params = self._model_params()
         gp = self.get_parameter
+        self._wall_clock = not gp("use_sim_time").value
         physics_hz, publish_hz = gp("physics_rate_hz").value, gp("publish_rate_hz").value
         if publish_hz > physics_hz:
             raise StartupError(
@@ -255,7 +269,9 @@ class DRSNode(Node):
         except Exception:
             self.discard_recordings()
             raise
-        self.timer = self.create_timer(self.publish_period, self._on_tick)
+        self.timer = None
+        if tick_timer or gp("use_sim_time").value:
+            self.timer = self.create_timer(self.publish_period, self.tick)
         self.diag_timer = self.create_timer(1.0, self._on_diagnostics)
         self.clock_watch = None
         if gp("use_sim_time").value:  # a steady-clock timer: it runs without /clock
@@ -415,6 +431,8 @@ class DRSNode(Node):
 
     # ---- commands ------------------------------------------------------------------------------
     def _now_ns(self) -> int:
+        if self._wall_clock:  # the ROS clock without /clock is the system clock; 30x cheaper
+            return time.time_ns()
         return self.get_clock().now().nanoseconds
 
     def _stamp_ns(self) -> int:
@@ -425,6 +443,10 @@ class DRSNode(Node):
 
     def _receive(self, key: str, sub, data: bytes) -> None:
         """A raw command arrived: record it, keep it as the newest of its topic."""
+        with self._lock:
+            self._receive_locked(key, sub, data)
+
+    def _receive_locked(self, key: str, sub, data: bytes) -> None:
         now = self._now_ns()
         topic = self.topic[sub]
         seq = self._record(topic, data, now)
@@ -493,6 +515,10 @@ class DRSNode(Node):
         self._record(self.topic[self.pub_events], data, self._now_ns())
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        with self._lock:
+            return self._on_drs_locked(request, response)
+
+    def _on_drs_locked(self, request, response):
         # a service call takes effect at once: the simulation is between two physics steps
         self._apply_pending()  # commands that arrived earlier act first, as they would have
         value = bool(request.data)
@@ -529,7 +555,12 @@ class DRSNode(Node):
                 "the simulation waits for /clock and publishes nothing"
             )
 
-    def _on_tick(self) -> None:
+    def tick(self) -> None:
+        """Catch the simulation up with the node clock, apply the newest commands, publish."""
+        with self._lock:
+            self._tick_locked()
+
+    def _tick_locked(self) -> None:
         now = self._now_ns()
         if now == 0:  # use_sim_time before the first /clock message
             return
@@ -649,13 +680,47 @@ class DRSNode(Node):
         self._record(self.topic[self.pub_diag], data, now)
 
 
-def make_executor(name: str, context=None):
-    """The rclpy executor named by the ``executor`` parameter."""
-    if name == "events":
-        from rclpy.experimental import EventsExecutor
+def _spin(executor) -> None:
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:  # noqa: BLE001 - a callback under shutdown (see main): the stop requested
+        if executor.context.ok():
+            raise
 
-        return EventsExecutor(context=context)
-    return SingleThreadedExecutor(context=context)
+
+def run_deadline_loop(node: DRSNode, context=None) -> None:
+    """Drive ``node`` until its context shuts down (SIGINT/SIGTERM): ticks at absolute
+    deadlines of the wall clock in this thread, everything else in a SingleThreadedExecutor in a
+    second thread. A late tick is counted by the node; the deadlines then resume from now, so a
+    stall does not cause a burst of catch-up ticks (the simulation catches up within one tick).
+
+    Why: one rclpy timer at 250 Hz in a SingleThreadedExecutor rebuilds its wait set at every
+    wake-up, which cost more than the physics, the publishing and the recording together
+    (docs/ros.md, "Rate").
+    """
+    context = context or node.context
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    thread = threading.Thread(target=_spin, args=(executor,), name="drs-executor", daemon=True)
+    thread.start()
+    period_ns = int(round(node.publish_period * 1e9))
+    deadline = time.monotonic_ns()
+    try:
+        while context.ok():
+            deadline += period_ns
+            wait = deadline - time.monotonic_ns()
+            if wait > 0:
+                time.sleep(wait * 1e-9)
+            elif wait < -period_ns:
+                deadline = time.monotonic_ns()  # late by more than a period: resume from now
+            if not context.ok():
+                break
+            node.tick()
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        thread.join(timeout=2.0)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -668,10 +733,15 @@ def main(argv: list[str] | None = None) -> int:
     node = None
     rc = 0
     try:
-        node = DRSNode()
-        executor = make_executor(node.get_parameter("executor").value)
-        executor.add_node(node)
-        executor.spin()
+        node = DRSNode(tick_timer=False)
+        if node.timer is None and node.get_parameter("executor").value == "deadline":
+            run_deadline_loop(node)
+        else:
+            if node.timer is None:  # executor 'single': the tick is a timer after all
+                node.timer = node.create_timer(node.publish_period, node.tick)
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (DRSError, ParameterException) as exc:
