@@ -291,12 +291,14 @@ class ActuatorSim:
             self._step_force()
         elif self.mode == "stroke" and not self._settled:
             # past the last segment the end state no longer changes: computed once, then kept
-            end = self._segments[-1].t1
-            self._settled = self.t >= end
-            # past its end a move rests where it ended (a quintic evaluated beyond t1 would
-            # extrapolate)
-            s, v, a = self._active_segment().evaluate(min(self.t, end))
-            self._set_kinematic(float(s), float(v), float(a))
+            if self.t >= self._segments[-1].t1:
+                # every move ends at rest at its target: from its end on, that is the state
+                # exactly (the polynomial at t1 leaves ~1e-14 m/s of round-off)
+                self._settled = True
+                self._set_kinematic(self._target, 0.0, 0.0)
+            else:
+                s, v, a = self._active_segment().evaluate(self.t)
+                self._set_kinematic(float(s), float(v), float(a))
         # hold mode (and a settled move) keeps the state reset() or the last step computed
         return self.state
 

@@ -160,7 +160,7 @@ def _field_writer(typ) -> Writer:
     return _element_writer(typ)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _struct_writer(msg_class: type) -> Writer:
     try:
         names = list(msg_class.get_fields_and_field_types())
@@ -181,7 +181,7 @@ def _struct_writer(msg_class: type) -> Writer:
     return write
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def serializer(msg_class: type) -> Callable[[object], bytes]:
     """A function ``msg -> bytes``: the exact CDR serialisation of messages of ``msg_class``.
 

@@ -43,8 +43,7 @@ from pathlib import Path
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rcl_interfaces.msg import ParameterEvent
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterEvent
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -396,7 +395,9 @@ class DRSNode(Node):
             if entity in (self.pub_events, self.sub_drs_events):
                 depth = 100
             self.recorder.register_topic(topic, entity.msg_type, qos=QoSProfile(depth=depth))
-        self.recorder.register_topic("/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000))
+        self.recorder.register_topic(
+            "/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000)
+        )
         now = self._now_ns()
         event = parameter_event_msg(self.get_fully_qualified_name(), self.effective_parameters(),
                                     now)

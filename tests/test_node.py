@@ -332,3 +332,116 @@ def test_trajectory_command_over_dds(harness, params):
     reasons = list(harness.node.refusals)
     assert any("trajectory must name joint 'drs_piston'" in r for r in reasons)
     assert any("stroke 0.3 m is outside [s_min, s_max]" in r for r in reasons)
+
+
+def _trajectory(names, points):
+    """JointTrajectory from ``(t [s], positions, velocities)`` tuples."""
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    msg = JointTrajectory(joint_names=list(names))
+    for t, pos, vel in points:
+        msg.points.append(JointTrajectoryPoint(
+            positions=list(pos), velocities=list(vel),
+            time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9))),
+        ))  # fmt: skip
+    return msg
+
+
+@pytest.mark.parametrize(
+    ("names", "points", "reason"),
+    [
+        (["drs_piston"], [(0.02, [0.03], [0.0, 1.0])], "has 2 velocities for 1 joint_names"),
+        (["drs_piston", "drs_flap"], [(0.02, [0.03], [])], "has 1 positions for 2 joint_names"),
+        (["drs_piston"], [(0.02, [0.03], []), (0.02, [0.01], [])], "must increase strictly"),
+        (["drs_piston", "drs_piston"], [(0.02, [0.03, 0.03], [])], "must be unique"),
+        (["drs_piston"], [(0.02, [0.03], [0.5])], "must end at rest"),
+    ],
+)
+def test_trajectory_validation_refuses_with_a_reason(harness, names, points, reason):
+    from trajectory_msgs.msg import JointTrajectory
+
+    harness.wait_connected()
+    pub = harness.client.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+    assert spin_until(harness.exec, lambda: harness.node.sub_trajectory.get_publisher_count() > 0)
+    pub.publish(_trajectory(names, points))
+    assert spin_until(harness.exec, lambda: harness.node.refused >= 1, 3.0)
+    assert harness.node.accepted == 0
+    assert reason in harness.node.last_refusal
+
+
+def test_a_trajectory_ends_at_rest_and_the_state_is_what_the_physics_holds(harness, params):
+    """A trajectory whose points give velocities ends at rest; long after its end the published
+    velocity is 0 and the force is the static force (once: the 0.5 m/s reported for ever and the
+    353 N that came with it)."""
+    from trajectory_msgs.msg import JointTrajectory
+
+    harness.wait_connected()
+    pub = harness.client.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+    assert spin_until(harness.exec, lambda: harness.node.sub_trajectory.get_publisher_count() > 0)
+    pub.publish(_trajectory(["drs_piston"], [(0.02, [0.03], [0.5]), (0.04, [0.02], [0.0])]))
+    assert spin_until(harness.exec, lambda: harness.node.accepted >= 1, 3.0)
+    spin_for(harness.exec, 0.3)
+    last = harness.joints[-1]
+    assert last.position[0] == pytest.approx(0.02, abs=1e-12)
+    assert list(last.velocity) == [0.0, 0.0, 0.0]
+    state = kin.kinematic_state(np.array([0.02]), np.zeros(1), np.zeros(1), params)
+    static = float(inverse_dynamics(state, params).piston_force[0])
+    assert last.effort[0] == pytest.approx(static, rel=1e-9)
+    assert harness.forces[-1] == pytest.approx(static, rel=1e-9)
+
+
+def test_diagnostics_recover_once_the_window_has_passed(ros_context, tmp_path):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+    # 50 Hz publishing: a tick is late only past 30 ms, so a loaded test machine does not keep
+    # the node in WARN for missed deadlines
+    h = Harness(ros_context, [Parameter("diagnostics_window", value=1.0),
+                              Parameter("publish_rate_hz", value=50.0)])  # fmt: skip
+    levels: list[tuple[bytes, str]] = []
+    h.client.create_subscription(
+        DiagnosticArray, "/diagnostics",
+        lambda m: levels.append((m.status[0].level, m.status[0].message)), 10,
+    )  # fmt: skip
+    try:
+        h.wait_connected()
+        assert spin_until(h.exec, lambda: any(lv == DiagnosticStatus.OK for lv, _ in levels), 10.0)
+        h.stroke_pub.publish(Float64(data=math.nan))
+        assert spin_until(h.exec, lambda: h.node.refused == 1, 3.0)
+        n = len(levels)
+        assert spin_until(h.exec, lambda: len(levels) > n, 3.0)
+        level, message = levels[-1]
+        assert level == DiagnosticStatus.WARN and "stroke command must be finite" in message
+        # the window (1 s) passes: back to OK, the cumulative count stays in the key-values
+        assert spin_until(h.exec, lambda: levels[-1][0] == DiagnosticStatus.OK, 8.0)
+        assert h.node.diagnostics_values()["refused_commands"] == 1
+    finally:
+        h.close()
+
+
+def test_an_integer_for_a_double_parameter_is_accepted(ros_context):
+    overrides = [Parameter("publish_rate_hz", value=500)]
+    node = DRSNode(context=ros_context, parameter_overrides=overrides)
+    try:
+        assert node.publish_period == pytest.approx(1 / 500)
+        assert node.get_parameter("publish_rate_hz").type_ == Parameter.Type.DOUBLE
+    finally:
+        node.destroy_node()
+
+
+@pytest.mark.parametrize(
+    ("overrides", "match"),
+    [
+        ([Parameter("publish_rate", value=500.0)], r"unknown parameter 'publish_rate'; did you "
+                                                   r"mean 'publish_rate_hz'\?"),
+        ([Parameter("model.Iz_wnig", value=0.08)], r"did you mean 'model.Iz_wing'\?"),
+        ([Parameter("publish_rate_hz", value=1500.0)], r"publish_rate_hz 1500 exceeds "
+                                                        r"physics_rate_hz 1000"),
+        ([Parameter("executor", value="events")], r"executor must be one of"),
+    ],
+)
+def test_parameters_that_would_run_the_actuator_wrongly_are_refused(ros_context, overrides, match):
+    from drs_ros.node import StartupError
+
+    with pytest.raises(StartupError, match=match):
+        DRSNode(context=ros_context, parameter_overrides=overrides)

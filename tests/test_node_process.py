@@ -129,3 +129,15 @@ def test_a_signal_during_a_callback_is_still_a_clean_stop(tmp_path, request):
                 proc.kill()
         assert proc.returncode == 0, out[-2000:]
         assert (tmp_path / f"bag{k}" / "metadata.yaml").exists()  # finished properly
+
+
+def test_use_sim_time_without_clock_says_so(tmp_path, request):
+    """With use_sim_time and no /clock the node publishes nothing: it must say why."""
+    proc = start_node(tmp_path, request, "use_sim_time:=true")
+    try:
+        time.sleep(5.0)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    assert proc.returncode == 0, out[-2000:]
+    assert "no /clock message arrived in 2 s" in out

@@ -429,14 +429,14 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="tolerance of the force checks [N] (default 1)")
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     ap.add_argument("--recover", action="store_true",
-                    help="check the readable part of a damaged bag (exit status 3 if it is damaged)")
+                    help="check the readable part of a damaged bag (exit status 3 if damaged)")
     ap.add_argument("--params", help="parameter file (.toml/.yaml) of the recorded run (default: "
                     "the model parameters the bag recorded, else the seed's)")
     ap.add_argument("--force-model", default=None,
                     help="piston force hook module:function f(q, qd, qdd, params) [N] "
                     "(default: drs_model.dynamics)")
     ap.add_argument("--force-model-tol", type=float, default=None,
-                    help="tolerance [N] of the finite-difference force check (default: report only)")
+                    help="tolerance [N] of the finite-difference force check (default: report)")
     ap.add_argument("--joint-names", default=",".join(DEFAULT_JOINT_NAMES),
                     help="joint names of [s, psi1, psi3], comma-separated")
     ap.add_argument("--max-match", type=float, default=1e-3,

@@ -120,7 +120,9 @@ class BagScan:
         return sum(self.counts.values())
 
 
-def resolve(path: str | Path, require_metadata: bool = True) -> tuple[Path, Path | None, dict | None]:
+def resolve(
+    path: str | Path, require_metadata: bool = True
+) -> tuple[Path, Path | None, dict | None]:
     """``(mcap file, bag directory or None, metadata or None)`` of a bag directory or a file.
 
     A bag directory must hold ``metadata.yaml`` (unless ``require_metadata`` is False: a
@@ -220,8 +222,16 @@ def scan(
         Without ``recover``: any problem; with it: nothing readable at all.
     """
     from mcap.exceptions import McapError
-    from mcap.records import Channel, Chunk, ChunkIndex, DataEnd, Footer, Message, Schema
-    from mcap.records import Statistics
+    from mcap.records import (
+        Channel,
+        Chunk,
+        ChunkIndex,
+        DataEnd,
+        Footer,
+        Message,
+        Schema,
+        Statistics,
+    )
     from mcap.stream_reader import StreamReader, breakup_chunk
 
     mcap_path, bag_dir, meta = resolve(path, require_metadata=not recover)

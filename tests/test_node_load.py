@@ -1,0 +1,115 @@
+"""The node under a command flood (real DDS, the node as its own process): latest wins.
+
+A client floods ``~/stroke_cmd`` at 10 kHz for 2 s, then sends one final command. The bag's
+effect record (``~/command_events``) says when each command took effect; checked from it:
+
+* the node is on the final command's path within 2 publish periods of its arrival;
+* every command that took effect was the newest of its topic when it did (none waited behind a
+  newer one), and none was older than 2 publish periods (plus the lateness of its own tick,
+  which the node counts as a missed deadline);
+* every command the node received is in the bag, and is accepted, refused or superseded;
+* the superseded ones are counted in the diagnostics.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from node_support import domain_for, node_env
+from ros_support import require_rclpy
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+PUBLISH_HZ = 250.0
+
+
+def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
+    require_rclpy()
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+
+    from drs_model.kinematics import stroke_limits
+    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.effects import effect_records
+
+    domain = domain_for(request.node.nodeid)
+    bag = tmp_path / "bag"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={bag}",
+         "-p", f"publish_rate_hz:={PUBLISH_HZ}"],
+        env=node_env(tmp_path, domain), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        text=True,
+    )  # fmt: skip
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=domain)
+    client = Node("flooder", context=ctx)
+    joints: list = []
+    client.create_subscription(JointState, "/joint_states", joints.append, 10)
+    pub = client.create_publisher(Float64, "/drs/stroke_cmd", 10)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(client)
+    lo, hi = stroke_limits(params)
+    final = 0.5 * (lo + hi)
+    try:
+        end = time.monotonic() + 30
+        while (len(joints) < 20 or pub.get_subscription_count() == 0) and time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.05)
+        assert pub.get_subscription_count() > 0, "the node did not come up"
+        sent, start = 0, time.monotonic()
+        while time.monotonic() - start < 2.0:  # 10 kHz: 10 commands every millisecond
+            for _ in range(10):
+                pub.publish(Float64(data=lo + (hi - lo) * 0.1 * (1 + sent % 8)))
+                sent += 1
+            target = start + sent / 10_000.0
+            while time.monotonic() < target:
+                time.sleep(0.0002)
+        pub.publish(Float64(data=final))
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.01)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+        ex.shutdown()
+        client.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+    assert proc.returncode == 0, out[-2000:]
+    assert sent >= 15_000  # the flood really was ~10 kHz
+
+    data = read_bag(bag, ["/drs/stroke_cmd", "/drs/command_events", "/diagnostics"])
+    commands = data.messages["/drs/stroke_cmd"]
+    received = [log for log, _ in commands]
+    records = [r for r in effect_records(data.messages["/drs/command_events"])
+               if r.source == "/drs/stroke_cmd"]  # fmt: skip
+    took_effect = [r for r in records if r.outcome in ("accepted", "refused")]
+    superseded = sum(int(r.values["count"]) for r in records if r.outcome == "superseded")
+    # every command received is recorded, and is accounted for exactly once
+    assert len(received) == len(took_effect) + superseded
+    period_ns = 1e9 / PUBLISH_HZ
+    by_sequence = {seq: log for seq, log in enumerate(received, start=1)}
+    delays = []
+    for r in took_effect:
+        arrived = by_sequence[int(r.values["sequence"])]
+        assert arrived == int(r.values["received_ns"])
+        # newest: nothing else arrived on the topic between it and its effect
+        newer = [t for t in received if arrived < t < r.log_time]
+        assert not newer, f"a command took effect {len(newer)} newer commands late"
+        delays.append(r.log_time - arrived)
+    delays.sort()
+    # no stale command: within 2 publish periods, but for a tick that was itself late
+    assert delays[int(0.99 * (len(delays) - 1))] <= 2 * period_ns
+    assert delays[-1] <= 2 * period_ns + 50e6
+    last = took_effect[-1]
+    assert last.outcome == "accepted" and float(last.values["value"]) == final
+    assert last.log_time - received[-1] <= 2 * period_ns
+    assert joints[-1].position[0] == pytest.approx(final, abs=1e-12)  # it got there
+    diag = {kv.key: kv.value for kv in data.messages["/diagnostics"][-1][1].status[0].values}
+    assert int(diag["superseded_commands"]) == superseded > 0
