@@ -61,7 +61,7 @@ from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
 from drs_model.params import DRSParams, from_dict, from_file
 
-from . import cdr
+from . import cdr, commands
 from .conversions import (
     command_event_msg,
     diagnostics_msg,
@@ -69,7 +69,6 @@ from .conversions import (
     joint_state_msg,
     parameter_event_msg,
     reactions_msg,
-    trajectory_points,
 )
 from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSEDED
 
@@ -474,18 +473,9 @@ class DRSNode(Node):
                     "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
                 })  # fmt: skip
             msg = deserialize_message(cmd.data, self._classes[cmd.key])
-            if cmd.key == "trajectory_cmd":
-                value = f"<{len(msg.points)} points>"
-            else:
-                value = msg.data
+            value = commands.describe(cmd.key, msg)
             try:
-                if cmd.key == "stroke_cmd":
-                    self.sim.command_stroke(msg.data)
-                elif cmd.key == "force_cmd":
-                    self.sim.command_force(msg.data)
-                else:
-                    times, strokes, rates = trajectory_points(msg, self.joint_names[0])
-                    self.sim.command_trajectory(times, strokes, rates)
+                commands.apply(self.sim, cmd.key, msg, self.joint_names[0])
             except DRSError as exc:
                 reason = self._refuse(cmd.key, value, str(exc))
                 self._event(cmd.topic, REFUSED, DiagnosticStatus.WARN, reason, cmd,
@@ -522,9 +512,9 @@ class DRSNode(Node):
     def _on_drs_locked(self, request, response):
         # a service call takes effect at once: the simulation is between two physics steps
         self._apply_pending()  # commands that arrived earlier act first, as they would have
-        value = bool(request.data)
+        value = commands.describe(commands.SERVICE_KEY, request)
         try:
-            seg = self.sim.command_drs(value)
+            seg = commands.apply(self.sim, commands.SERVICE_KEY, request, self.joint_names[0])
         except DRSError as exc:
             response.success = False
             response.message = self._refuse("drs", value, str(exc))

@@ -18,3 +18,23 @@ from drs_model.params import DRSParams  # noqa: E402
 @pytest.fixture(scope="session")
 def params() -> DRSParams:
     return DRSParams()
+
+
+@pytest.fixture(scope="session")
+def node_bag(tmp_path_factory):
+    """A bag the node records now, through the demo's whole scenario (every message type): the
+    demo as a process, its node as another, over loopback DDS."""
+    import subprocess
+    import sys
+
+    from node_support import domain_for, node_env
+    from ros_support import require_rclpy
+
+    require_rclpy()
+    out = tmp_path_factory.mktemp("demo")
+    env = node_env(out, domain_for("conftest::node_bag"))
+    res = subprocess.run([sys.executable, "-m", "drs_ros.demo", "--out", str(out), "--domain",
+                          env["ROS_DOMAIN_ID"]], capture_output=True, text=True, timeout=180,
+                         env=env)  # fmt: skip
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
+    return out / "demo"

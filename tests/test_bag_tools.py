@@ -36,19 +36,6 @@ def run_tool(*args, env=None, timeout=120) -> subprocess.CompletedProcess:
                           timeout=timeout, env=env)  # fmt: skip
 
 
-@pytest.fixture(scope="module")
-def node_bag(tmp_path_factory) -> Path:
-    """A bag the node records now, through the demo's whole scenario (every message type)."""
-    require_rclpy()
-    out = tmp_path_factory.mktemp("demo")
-    env = node_env(out, domain_for("test_bag_tools::node_bag"))
-    res = subprocess.run([sys.executable, "-m", "drs_ros.demo", "--out", str(out), "--domain",
-                          env["ROS_DOMAIN_ID"]], capture_output=True, text=True, timeout=180,
-                         env=env)  # fmt: skip
-    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
-    return out / "demo"
-
-
 def judge_with_rosbags(bag: Path) -> dict[str, int]:
     """Decode every message with rosbags and compare its serialisation with the recorded bytes;
     returns the count per topic."""

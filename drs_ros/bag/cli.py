@@ -4,7 +4,9 @@
 * ``drs-bag check BAG``: verify every byte, then check the run against the model
   (:mod:`drs_ros.bag.check`; ``drs-check`` is its alias);
 * ``drs-bag recover BAG -o OUT``: a killed or truncated recording made whole
-  (:mod:`drs_ros.bag.recover`).
+  (:mod:`drs_ros.bag.recover`);
+* ``drs-bag resimulate BAG``: re-run the recorded commands in the model and compare
+  (:mod:`drs_ros.bag.resimulate`).
 
 Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status``.
 """
@@ -21,6 +23,7 @@ VERBS = {
     "info": ("drs_ros.bag.info", "print what a bag holds (as ros2 bag info)"),
     "check": ("drs_ros.bag.check", "verify every byte of a bag and check it against the model"),
     "recover": ("drs_ros.bag.recover", "make a killed or truncated recording a complete bag"),
+    "resimulate": ("drs_ros.bag.resimulate", "re-run a recorded run in the model and compare"),
 }
 
 

@@ -32,6 +32,31 @@ def parameter_values(event) -> dict[str, object]:
     return out
 
 
+def parameter_event(node: str, values: dict[str, object], stamp_ns: int):
+    """A ParameterEvent listing ``values`` as new parameters (the inverse of
+    :func:`parameter_values` for bool, int, float, str and lists of str or float)."""
+    from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
+
+    from ..conversions import time_msg
+
+    params = []
+    for name, value in values.items():
+        if isinstance(value, bool):
+            pv = ParameterValue(type=1, bool_value=value)
+        elif isinstance(value, int):
+            pv = ParameterValue(type=2, integer_value=value)
+        elif isinstance(value, float):
+            pv = ParameterValue(type=3, double_value=value)
+        elif isinstance(value, str):
+            pv = ParameterValue(type=4, string_value=value)
+        elif all(isinstance(v, str) for v in value):
+            pv = ParameterValue(type=9, string_array_value=list(value))
+        else:
+            pv = ParameterValue(type=8, double_array_value=[float(v) for v in value])
+        params.append(Parameter(name=name, value=pv))
+    return ParameterEvent(stamp=time_msg(stamp_ns), node=node, new_parameters=params)
+
+
 def recorded_node_parameters(messages: Sequence, node: str = "/drs") -> dict[str, object] | None:
     """The parameters ``node`` recorded at start (``(log_ns, ParameterEvent)`` pairs), or None."""
     for _log_ns, event in messages:
@@ -83,6 +108,7 @@ __all__ = [
     "EffectRecord",
     "effect_records",
     "model_params_from",
+    "parameter_event",
     "parameter_values",
     "recorded_model_params",
     "recorded_node_parameters",

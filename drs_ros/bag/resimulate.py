@@ -1,0 +1,348 @@
+"""``drs-bag resimulate BAG``: the model against a recorded run.
+
+Re-runs a recorded run in a fresh :class:`drs_model.actuator.ActuatorSim` (no DDS): with the
+parameters the node recorded at start (``/parameter_events``; ``--set`` / ``--params`` change
+them), it feeds the recorded commands in at the simulated instants the effect record
+(``~/command_events``) says they took effect: the stroke, force and trajectory commands (their
+recorded bytes, by sequence number), the service calls, and the node's own physics resets.
+Superseded and refused commands are left out, as they were in the run. It then compares the
+recorded ``/joint_states``, piston force and gap with the re-simulated ones, sample by sample
+(each recorded stamp is ``t0 + simulated time``; the clock records give ``t0``), and reports the
+largest deviation per signal with its time.
+
+Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
+read, or holds no effect record (it was recorded before drs recorded when commands took effect)
+or no parameters.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from drs_model.actuator import ActuatorSim
+from drs_model.errors import DRSError
+from drs_model.params import DRSParams, from_dict, from_file
+
+from .. import commands
+from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
+from .effects import effect_records, model_params_from, recorded_node_parameters
+from .reader import BagReadError, scan
+
+#: signal -> (unit, default tolerance)
+SIGNALS = {
+    "stroke": ("m", 1e-9), "link_angle": ("rad", 1e-9), "flap_angle": ("rad", 1e-9),
+    "stroke_rate": ("m/s", 1e-9), "link_rate": ("rad/s", 1e-9), "flap_rate": ("rad/s", 1e-9),
+    "piston_force": ("N", 1e-6), "gap": ("m", 1e-9),
+}  # fmt: skip
+
+
+class ResimulationError(DRSError):
+    """The bag cannot be re-simulated (no effect record, no parameters, a missing command)."""
+
+
+@dataclass
+class RecordedRun:
+    """What a re-run needs from a bag, and what it is compared with."""
+
+    node_parameters: dict
+    records: list
+    commands: dict = field(default_factory=dict)  # (topic, sequence) -> message
+    joint_states: list = field(default_factory=list)  # (log_ns, JointState)
+    forces: list = field(default_factory=list)
+    gaps: list = field(default_factory=list)
+    extra: dict = field(default_factory=dict)
+
+
+def read_run(bag: str | Path) -> RecordedRun:
+    """Verify the bag and collect the parameters, the effect record, the commands and the
+    signals to compare."""
+    from rclpy.serialization import deserialize_message
+
+    from .. import msgdefs
+
+    tp = DEFAULT_TOPICS
+    cmd_topics = {tp[k] for k in commands.COMMAND_TYPES}
+    wanted = {tp["parameter_events"], tp["command_events"], tp["joint_states"],
+              tp["piston_force"], tp["flap_gap"], *cmd_topics}  # fmt: skip
+    got: dict[str, list] = {t: [] for t in wanted}
+    cmds: dict = {}
+
+    def keep(m) -> None:
+        msg = deserialize_message(m.data, msgdefs.message_class(m.type_name))
+        if m.topic in cmd_topics:
+            cmds[(m.topic, m.sequence)] = msg
+        else:
+            got[m.topic].append((m.log_time, msg))
+
+    scan(bag, keep, topics=wanted)
+    params = recorded_node_parameters(got[tp["parameter_events"]])
+    if params is None:
+        raise ResimulationError(
+            f"{bag}: the bag records no node parameters on /parameter_events: it was recorded "
+            "before drs recorded what it needs to re-run a bag (see docs/ros.md, Effect record)"
+        )
+    if not got[tp["command_events"]]:
+        raise ResimulationError(
+            f"{bag}: the bag has no effect record ({tp['command_events']}): it was recorded before "
+            "drs recorded when each command took effect, so it cannot be re-run exactly"
+        )
+    return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds,
+                       got[tp["joint_states"]], got[tp["piston_force"]],
+                       got[tp["flap_gap"]])  # fmt: skip
+
+
+def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
+    """The model and actuator settings of the re-run: as recorded, then ``--params``, ``--set``."""
+    model = model_params_from(node_params)
+    if params_file:
+        model = from_dict(_file_overrides(params_file), model)
+    overrides = {}
+    for item in sets:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ResimulationError(f"--set takes NAME=VALUE, got {item!r}")
+        try:
+            overrides[name.strip()] = float(value)
+        except ValueError:
+            raise ResimulationError(f"--set {name}: {value!r} is not a number") from None
+    if overrides:
+        model = from_dict(overrides, model)
+    return model
+
+
+def _file_overrides(path: str) -> dict:
+    """The values a parameter file sets (read through DRSParams, so it is validated)."""
+    from dataclasses import fields
+
+    changed = from_file(path)
+    defaults = DRSParams()
+    return {f.name: getattr(changed, f.name) for f in fields(DRSParams)
+            if getattr(changed, f.name) != getattr(defaults, f.name)}  # fmt: skip
+
+
+def resimulate(run: RecordedRun, model: DRSParams) -> dict:
+    """Re-run the recorded commands; returns the re-simulated samples by step index and notes."""
+    np_ = run.node_parameters
+    dt = 1.0 / float(np_["physics_rate_hz"])
+    sim = ActuatorSim(model, dt=dt, force_limit=float(np_["force_limit"]),
+                      integrator=str(np_["integrator"]), force_method=str(np_["force_method"]))
+    piston = list(np_["joint_names"])[0]
+    states: dict[int, tuple] = {}
+    notes: list[str] = []
+
+    def keep() -> None:
+        st = sim.state
+        states[int(round(st.t / dt))] = (st.q.copy(), st.qd.copy(), st.piston_force, st.gap,
+                                         st.qdd[0])  # fmt: skip
+
+    def advance_to(t: float) -> None:
+        while sim.t < t - 0.5 * dt:
+            sim.step()
+            keep()
+
+    keep()
+    service = DEFAULT_TOPICS["drs_service"]
+    for r in run.records:
+        if r.outcome not in (ACCEPTED, RESET):
+            continue
+        advance_to(r.sim_time)
+        if r.outcome == RESET:  # the node resets inside a tick, then publishes the reset state
+            sim.reset(sim.t, float(r.values["stroke"]))
+            keep()
+            continue
+        key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
+        if key == commands.SERVICE_KEY:
+            msg = _Value(r.values["value"] == "True")
+        else:
+            msg = run.commands.get((r.source, int(r.values["sequence"])))
+            if msg is None:
+                raise ResimulationError(
+                    f"the effect record names {r.source} message {r.values['sequence']}, which "
+                    "the bag does not hold"
+                )
+        try:
+            commands.apply(sim, key, msg, piston)
+        except DRSError as exc:
+            notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
+                         f"{r.values.get('value', '')}: {exc}")  # fmt: skip
+        # no keep(): the node published this step's state before the command acted on it
+    return {"sim": sim, "states": states, "dt": dt, "notes": notes, "advance_to": advance_to}
+
+
+@dataclass
+class _Value:
+    data: object
+
+
+def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
+    """``log_time -> physics step`` of each recorded joint state: its stamp is ``t0 +`` simulated
+    time, ``t0`` being the clock origin in force when it was logged (a stall moves it)."""
+    origins = sorted((r.log_time, int(r.values["t0_ns"])) for r in run.records
+                     if r.outcome == CLOCK)  # fmt: skip
+    if not origins:
+        raise ResimulationError("the effect record holds no clock origin (t0)")
+    logs = np.array([o[0] for o in origins])
+    out = {}
+    for log, m in run.joint_states:
+        t0 = origins[max(int(np.searchsorted(logs, log, side="right")) - 1, 0)][1]
+        stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
+        out[log] = int(round((stamp - t0) * 1e-9 / dt))
+    return out
+
+
+def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> list[dict]:
+    """Largest deviation per signal between the recorded and the re-simulated samples."""
+    dt, states = result["dt"], result["states"]
+    steps = joint_state_steps(run, dt)
+    result["advance_to"](max(steps.values(), default=0) * dt)
+    result["by_log"] = {log: states[k] for log, k in steps.items() if k in states}
+    rows = {name: {"signal": name, "unit": unit, "max_deviation": 0.0, "at_time_s": math.nan,
+                   "samples": 0, "tol": tolerances[name]}
+            for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+    missing = 0
+
+    def note(name: str, dev: float, t: float) -> None:
+        row = rows[name]
+        row["samples"] += 1
+        if not dev <= row["max_deviation"]:  # NaN counts as the worst
+            row["max_deviation"], row["at_time_s"] = dev, t
+
+    for log, m in run.joint_states:
+        k = steps[log]
+        state = states.get(k)
+        if state is None:
+            missing += 1
+            continue
+        q, qd, force, _gap, _acc = state
+        names = ("stroke", "link_angle", "flap_angle")
+        for i, name in enumerate(names):
+            note(name, abs(m.position[i] - q[i]), k * dt)
+        for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
+            note(name, abs(m.velocity[i] - qd[i]), k * dt)
+        note("piston_force", abs(m.effort[0] - force), k * dt)
+    # the Float64 topics are published in the same tick, logged at the same node time
+    for topic_msgs, name, idx in ((run.forces, "piston_force", 2), (run.gaps, "gap", 3)):
+        for log, m in topic_msgs:
+            k = steps.get(log)
+            if k is None or k not in states:
+                continue
+            note(name, abs(m.data - states[k][idx]), k * dt)
+    out = list(rows.values())
+    for row in out:
+        row["ok"] = bool(row["max_deviation"] <= row["tol"])
+        if math.isnan(row["at_time_s"]):
+            row["at_time_s"] = None
+    if missing:
+        result["notes"].append(f"{missing} recorded joint states have no re-simulated step")
+    return out
+
+
+def _model_names() -> list[str]:
+    from dataclasses import fields
+
+    return [f.name for f in fields(DRSParams) if not f.name.endswith("_outline")]
+
+
+def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams) -> None:
+    """The re-simulated run as a new bag: the parameters it ran with, then joint states, force,
+    gap and acceleration at the recorded stamps (so ``drs-bag check`` checks it too)."""
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+
+    from ..conversions import float_msg, time_msg
+    from ..recording import McapRecorder
+
+    from rcl_interfaces.msg import ParameterEvent
+
+    from .effects import parameter_event
+
+    names = list(run.node_parameters["joint_names"])
+    tp = DEFAULT_TOPICS
+    values = dict(run.node_parameters)
+    values.update({f"model.{k}": float(getattr(model, k)) for k in _model_names()})
+    with McapRecorder(out, flush_thread=False) as rec:
+        rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
+        first = run.joint_states[0][0] if run.joint_states else 0
+        rec.write(tp["parameter_events"], parameter_event("/drs", values, first), first)
+        rec.register_topic(tp["joint_states"], JointState, 10)
+        for key in ("piston_force", "flap_gap", "piston_acceleration"):
+            rec.register_topic(tp[key], Float64, 10)
+        for log, m in run.joint_states:
+            stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
+            state = result["by_log"].get(log)
+            if state is None:
+                continue
+            q, qd, force, gap, acc = state
+            js = JointState(name=names, position=[float(x) for x in q],
+                            velocity=[float(x) for x in qd],
+                            effort=[float(force), math.nan, math.nan])  # fmt: skip
+            js.header.stamp = time_msg(stamp)
+            rec.write(tp["joint_states"], js, log)
+            rec.write(tp["piston_force"], float_msg(force), log)
+            rec.write(tp["flap_gap"], float_msg(gap), log)
+            rec.write(tp["piston_acceleration"], float_msg(acc), log)
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("bag", help="bag directory or .mcap file recorded by drs-node")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5")
+    ap.add_argument("--params", help="a .toml/.yaml file of model parameters for the re-run")
+    ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory")
+    ap.add_argument("--tol", type=float, default=1e-9,
+                    help="tolerance of the joint states and the gap [m, rad, /s] (default 1e-9)")
+    ap.add_argument("--force-tol", type=float, default=1e-6,
+                    help="tolerance of the piston force [N] (default 1e-6)")
+    ap.add_argument("--json", action="store_true", help="print the report as JSON")
+
+
+def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
+    tolerances = {name: (args.force_tol if unit == "N" else args.tol)
+                  for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+    try:
+        recorded = read_run(args.bag)
+        model = run_params(recorded.node_parameters, args.set, args.params)
+        result = resimulate(recorded, model)
+        rows = compare(recorded, result, tolerances)
+        if args.output:
+            write_bag(args.output, recorded, result, model)
+    except (DRSError, BagReadError) as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 2
+    ok = all(r["ok"] for r in rows)
+    if args.output:
+        result["notes"].append(f"wrote the re-simulated run to {args.output}")
+    if args.json:
+        print(json.dumps({"bag": str(args.bag), "ok": ok, "signals": rows,
+                          "notes": result["notes"], "changed": args.set}, indent=2,
+                         default=lambda x: None))  # fmt: skip
+    else:
+        print(f"re-simulated {args.bag}" + (f" with {', '.join(args.set)}" if args.set else ""))
+        print(f"{'signal':<14} {'unit':<6} {'n':>6} {'max deviation':>14} {'at t [s]':>10} "
+              f"{'tol':>8}  status")  # fmt: skip
+        for r in rows:
+            at = "-" if r["at_time_s"] is None else f"{r['at_time_s']:.4f}"
+            print(f"{r['signal']:<14} {r['unit']:<6} {r['samples']:>6} "
+                  f"{r['max_deviation']:>14.3e} {at:>10} {r['tol']:>8.1e}  "
+                  f"{'ok' if r['ok'] else 'DEVIATES'}")  # fmt: skip
+        for n in result["notes"]:
+            print(f"note: {n}")
+    return 0 if ok else 1
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="drs-bag resimulate", description=__doc__.splitlines()[0])
+    add_arguments(ap)
+    return run(ap.parse_args(argv))
+
+
+__all__ = ["ResimulationError", "add_arguments", "compare", "main", "read_run", "resimulate",
+           "run"]  # fmt: skip

@@ -1,0 +1,46 @@
+"""How a received command acts on the actuator: one place for the node and the re-simulation.
+
+A command is known by its key (the topic's last name: ``stroke_cmd``, ``force_cmd``,
+``trajectory_cmd``) or ``drs`` (the service). :func:`apply` hands its content to
+:class:`drs_model.actuator.ActuatorSim`; a refusal raises the model's :class:`DRSError` with the
+reason, and leaves the actuator unchanged.
+"""
+
+from __future__ import annotations
+
+from .conversions import trajectory_points
+
+#: key -> message type name of the command topics.
+COMMAND_TYPES = {
+    "stroke_cmd": "std_msgs/msg/Float64",
+    "force_cmd": "std_msgs/msg/Float64",
+    "trajectory_cmd": "trajectory_msgs/msg/JointTrajectory",
+}
+SERVICE_KEY = "drs"
+
+
+def describe(key: str, msg) -> object:
+    """The value a record shows for a command (the number, or the size of a trajectory)."""
+    if key == "trajectory_cmd":
+        return f"<{len(msg.points)} points>"
+    if key == SERVICE_KEY:
+        return bool(msg.data)
+    return msg.data
+
+
+def apply(sim, key: str, msg, piston_joint: str):
+    """Apply command ``msg`` of kind ``key`` to ``sim`` (an ActuatorSim); returns what the
+    actuator returns (the move's segments, or None for a force)."""
+    if key == "stroke_cmd":
+        return sim.command_stroke(msg.data)
+    if key == "force_cmd":
+        return sim.command_force(msg.data)
+    if key == "trajectory_cmd":
+        times, strokes, rates = trajectory_points(msg, piston_joint)
+        return sim.command_trajectory(times, strokes, rates)
+    if key == SERVICE_KEY:
+        return sim.command_drs(bool(msg.data))
+    raise KeyError(f"unknown command {key!r}; known: {sorted([*COMMAND_TYPES, SERVICE_KEY])}")
+
+
+__all__ = ["COMMAND_TYPES", "SERVICE_KEY", "apply", "describe"]
