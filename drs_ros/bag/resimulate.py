@@ -254,14 +254,12 @@ def _model_names() -> list[str]:
 def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams) -> None:
     """The re-simulated run as a new bag: the parameters it ran with, then joint states, force,
     gap and acceleration at the recorded stamps (so ``drs-bag check`` checks it too)."""
+    from rcl_interfaces.msg import ParameterEvent
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
 
     from ..conversions import float_msg, time_msg
     from ..recording import McapRecorder
-
-    from rcl_interfaces.msg import ParameterEvent
-
     from .effects import parameter_event
 
     names = list(run.node_parameters["joint_names"])
