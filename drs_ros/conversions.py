@@ -149,3 +149,50 @@ def diagnostics_msg(
     arr.header.stamp = time_msg(stamp_ns)
     arr.status = [status]
     return arr
+
+
+#: Marker colours (r, g, b) by drawing, as in the rerun recording.
+MARKER_COLORS = {
+    "piston": (0.47, 0.47, 0.47), "link": (0.27, 0.27, 0.78), "flap": (0.84, 0.15, 0.16),
+    "gap": (0.17, 0.63, 0.17), "fia_box": (0.63, 0.63, 0.63), "main_wing": (0.16, 0.16, 0.16),
+    "pylon": (0.43, 0.43, 0.43), "pins": (0.0, 0.0, 0.0), "force": (1.0, 0.5, 0.05),
+}  # fmt: skip
+#: Length of the force arrow per newton [m/N]: 25 kN draws 0.25 m.
+FORCE_ARROW_M_PER_N = 1e-5
+
+
+def marker_array_msg(lines, pins, still, force_origin, piston_force: float, stamp_ns: int,
+                     frame_id: str):  # fmt: skip
+    """visualization_msgs/MarkerArray of one configuration, in the z = 0 plane of ``frame_id``:
+    a LINE_STRIP per drawing (``lines`` and ``still``: name -> (k, 2) [m]), the pins as a
+    SPHERE_LIST, and the piston force as an ARROW from ``force_origin`` along +y
+    (:data:`FORCE_ARROW_M_PER_N`). Ids are fixed per drawing, so each message replaces the last.
+    """
+    from geometry_msgs.msg import Point
+    from std_msgs.msg import ColorRGBA
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    stamp = time_msg(stamp_ns)
+
+    def marker(ident: int, name: str, kind: int, points, width: float) -> Marker:
+        m = Marker(ns=f"drs/{name}", id=ident, type=kind, action=Marker.ADD, frame_locked=True)
+        m.header.frame_id = frame_id
+        m.header.stamp = stamp
+        m.pose.orientation.w = 1.0
+        m.scale.x = m.scale.y = m.scale.z = width
+        r, g, b = MARKER_COLORS[name]
+        m.color = ColorRGBA(r=r, g=g, b=b, a=1.0)
+        m.points = [Point(x=float(x), y=float(y), z=0.0) for x, y in points]
+        return m
+
+    out = MarkerArray()
+    drawings = {**still, **lines}
+    for ident, (name, pts) in enumerate(drawings.items()):
+        out.markers.append(marker(ident, name, Marker.LINE_STRIP, pts, 0.002))
+    out.markers.append(marker(len(drawings), "pins", Marker.SPHERE_LIST, pins, 0.006))
+    x, y = float(force_origin[0]), float(force_origin[1])
+    arrow = marker(len(drawings) + 1, "force", Marker.ARROW,
+                   [(x, y), (x, y + FORCE_ARROW_M_PER_N * float(piston_force))], 0.0)
+    arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.003, 0.008, 0.01  # shaft, head diameter, head
+    out.markers.append(arrow)
+    return out

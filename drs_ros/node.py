@@ -47,6 +47,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
@@ -56,9 +57,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import MarkerArray
 
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
+from drs_model.kinematics import point_positions
 from drs_model.params import DRSParams, from_dict, from_file
 
 from . import cdr, commands
@@ -67,12 +70,16 @@ from .conversions import (
     diagnostics_msg,
     float_msg,
     joint_state_msg,
+    marker_array_msg,
     parameter_event_msg,
     reactions_msg,
 )
+from .drawing import moving_drawings, still_drawings
 from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSEDED
 
 QOS_DEPTH = 10
+#: The command topics (``~/<key>``) and their message types.
+COMMANDS = {"stroke_cmd": Float64, "force_cmd": Float64, "trajectory_cmd": JointTrajectory}
 #: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
 COMMAND_QOS_DEPTH = 10
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
@@ -96,6 +103,10 @@ NODE_PARAMETERS = (
     ("force_limit", 2.0e4, "largest accepted |force command| [N]", (1.0, 1.0e6)),
     ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
      (1, 100000)),
+    ("frame_id", "drs_base", "frame of ~/markers: the seed's ground frame (x rearwards, y up)",
+     None),
+    ("markers_rate_hz", 30.0, "~/markers rate [Hz], computed only while subscribed or recorded",
+     (0.1, 1000.0)),
     ("diagnostics_window", 5.0, "diagnostics report the troubles of the last this many s [s]",
      (0.1, 3600.0)),
     ("executor", "deadline",
@@ -152,18 +163,42 @@ class TroubleWindow:
 
 
 class DRSNode(Node):
-    """The DRS actuator node. Keyword arguments go to :class:`rclpy.node.Node`."""
+    """The DRS actuator node. Keyword arguments go to :class:`rclpy.node.Node`.
 
-    def __init__(self, *, tick_timer: bool = True, **kwargs) -> None:
-        """``tick_timer=False``: the caller calls :meth:`tick` (see :func:`run_deadline_loop`)."""
+    Its life has the stages of a ROS 2 managed node, which :class:`ManagedDRSNode` exposes over
+    the standard lifecycle services; unmanaged (the default) it configures and activates itself
+    in the constructor:
+
+    * :meth:`configure`: validate the parameters, build the actuator, create the publishers and
+      open the recorders (a bad value or path raises, with the reason, leaving nothing behind);
+    * :meth:`activate`: create the command subscriptions, the service and the timers;
+    * :meth:`deactivate`: remove them again: the actuator holds its state, nothing is published;
+    * :meth:`cleanup`: finish the recordings and drop the publishers and the actuator.
+    """
+
+    def __init__(self, *, tick_timer: bool = True, managed: bool = False, **kwargs) -> None:
+        """``tick_timer=False``: the caller calls :meth:`tick` (see :func:`run_deadline_loop`);
+        ``managed=True``: stay unconfigured until :meth:`configure` is called."""
         super().__init__("drs", **kwargs)
         # callbacks may run in an executor thread while the main thread ticks
         self._lock = threading.Lock()
-        self._wall_clock = False
         self._declare_parameters()
+        self._wall_clock = not self.get_parameter("use_sim_time").value
+        self._tick_timer = tick_timer
+        self.configured = self.active = False
+        self.recorder = self.rerun = None
+        self.timer = self.diag_timer = self.clock_watch = None
+        self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
+        self.sub_drs_events = None
+        if not managed:
+            self.configure()
+            self.activate()
+
+    # ---- life stages ---------------------------------------------------------------------------
+    def configure(self) -> None:
+        """Validate the parameters, build the actuator and the publishers, open the recorders."""
         self.params = self._model_params()
         gp = self.get_parameter
-        self._wall_clock = not gp("use_sim_time").value
         physics_hz, publish_hz = gp("physics_rate_hz").value, gp("publish_rate_hz").value
         if publish_hz > physics_hz:
             raise StartupError(
@@ -173,6 +208,8 @@ class DRSNode(Node):
             )
         self.physics_dt = 1.0 / physics_hz
         self.publish_period = 1.0 / publish_hz
+        self.markers_period = 1.0 / gp("markers_rate_hz").value
+        self.frame_id = gp("frame_id").value
         self.joint_names = list(gp("joint_names").value)
         if len(self.joint_names) != 3:
             raise ParameterException(
@@ -187,6 +224,7 @@ class DRSNode(Node):
             force_method=gp("force_method").value,
         )
         self.max_catch_up = int(gp("max_catch_up_steps").value)
+        self._still = still_drawings(self.params)
 
         qos = QoSProfile(depth=QOS_DEPTH)
         self.pub_joints = self.create_publisher(JointState, "/joint_states", qos)
@@ -195,49 +233,19 @@ class DRSNode(Node):
         # JointState has no acceleration field; with it a bag replays the piston force exactly
         self.pub_accel = self.create_publisher(Float64, "~/piston_acceleration", qos)
         self.pub_reactions = self.create_publisher(JointState, "~/joint_reactions", qos)
+        self.pub_markers = self.create_publisher(MarkerArray, "~/markers", qos)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", qos)
         self.pub_events = self.create_publisher(
             DiagnosticArray, "~/command_events", QoSProfile(depth=100)
         )
-        cmd_qos = QoSProfile(depth=COMMAND_QOS_DEPTH)
-        # raw: the callback gets the bytes that arrived, recorded as they are; only the command
-        # that takes effect is ever deserialised
-        self.sub_stroke = self.create_subscription(
-            Float64, "~/stroke_cmd", lambda b: self._receive("stroke_cmd", self.sub_stroke, b),
-            cmd_qos, raw=True,
-        )
-        self.sub_force = self.create_subscription(
-            Float64, "~/force_cmd", lambda b: self._receive("force_cmd", self.sub_force, b),
-            cmd_qos, raw=True,
-        )
-        self.sub_trajectory = self.create_subscription(
-            JointTrajectory, "~/trajectory_cmd",
-            lambda b: self._receive("trajectory_cmd", self.sub_trajectory, b), cmd_qos, raw=True,
-        )  # fmt: skip
-        self.srv_drs = self.create_service(SetBool, "~/drs", self._on_drs)
-        self.srv_drs.configure_introspection(
-            self.get_clock(), QoSProfile(depth=100), ServiceIntrospectionState.CONTENTS
-        )
-        self.service_name = self.srv_drs.service_name
-        self.sub_drs_events = None
-        if gp("bag_path").value:  # record the service calls as rosbag2 does: their events
-            self.sub_drs_events = self.create_subscription(
-                SetBool.Event, f"{self.service_name}/_service_event",
-                self._on_service_event, QoSProfile(depth=100), raw=True,
-            )  # fmt: skip
-        self._classes = {"stroke_cmd": Float64, "force_cmd": Float64,
-                         "trajectory_cmd": JointTrajectory}  # fmt: skip
-        # resolved topic names (e.g. /drs/piston_force), fixed for the node's life
-        self.topic = {
-            entity: entity.topic_name
-            for entity in (
-                self.pub_joints, self.pub_force, self.pub_gap, self.pub_accel, self.pub_reactions,
-                self.pub_diag, self.pub_events, self.sub_stroke, self.sub_force,
-                self.sub_trajectory,
-            ) + ((self.sub_drs_events,) if self.sub_drs_events is not None else ())
-        }  # fmt: skip
+        self._own_publishers = (self.pub_joints, self.pub_force, self.pub_gap, self.pub_accel,
+                            self.pub_reactions, self.pub_markers, self.pub_diag, self.pub_events)
+        self.service_name = self.resolve_service_name("~/drs")
+        # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
+        self.topics = {pub: pub.topic_name for pub in self._own_publishers}
+        self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
         self._serialize = {cls: cdr.serializer(cls)
-                           for cls in (JointState, Float64, DiagnosticArray)}  # fmt: skip
+                           for cls in (JointState, Float64, DiagnosticArray, MarkerArray)}
 
         # counters for diagnostics (cumulative) and the window of recent troubles
         self.refused = 0
@@ -253,38 +261,96 @@ class DRSNode(Node):
         self.troubles = TroubleWindow(gp("diagnostics_window").value)
         self._pending: dict[str, PendingCommand] = {}
         self._last_tick_ns: int | None = None
+        self._last_markers_t: float | None = None
         self._t0_ns: int | None = None
         self._cpu = {"model": 0.0, "publish": 0.0, "record": 0.0}
         self._started_wall = time.monotonic()
         self._clock_warned = False
 
         # all paths are checked before any file is created; a failure removes what was made
-        self.recorder = None
-        self.rerun = None
         self._open_recordings()
         try:
             self._register_recorded_topics()
         except Exception:
             self.discard_recordings()
             raise
-        self.timer = None
-        if tick_timer or gp("use_sim_time").value:
+        self.configured = True
+        self.get_logger().info(
+            f"drs node configured: physics {physics_hz:g} Hz, publish {publish_hz:g} Hz, stroke "
+            f"[{self.sim.s_min:.6g}, {self.sim.s_max:.6g}] m"
+        )
+
+    def activate(self) -> None:
+        """Take commands and publish: the command subscriptions, the service, the timers."""
+        cmd_qos = QoSProfile(depth=COMMAND_QOS_DEPTH)
+        # raw: the callback gets the bytes that arrived, recorded as they are; only the command
+        # that takes effect is ever deserialised
+        self.sub_stroke, self.sub_force, self.sub_trajectory = (
+            self.create_subscription(
+                COMMANDS[key], f"~/{key}", lambda b, key=key: self._receive(key, b), cmd_qos,
+                raw=True,
+            )
+            for key in ("stroke_cmd", "force_cmd", "trajectory_cmd")
+        )  # fmt: skip
+        self.srv_drs = self.create_service(SetBool, "~/drs", self._on_drs)
+        self.srv_drs.configure_introspection(
+            self.get_clock(), QoSProfile(depth=100), ServiceIntrospectionState.CONTENTS
+        )
+        if self.recorder is not None:  # record the service calls as rosbag2 does: their events
+            self.sub_drs_events = self.create_subscription(
+                SetBool.Event, self.service_event_topic, self._on_service_event,
+                QoSProfile(depth=100), raw=True,
+            )  # fmt: skip
+        use_sim_time = self.get_parameter("use_sim_time").value
+        if self._tick_timer or use_sim_time:
             self.timer = self.create_timer(self.publish_period, self.tick)
         self.diag_timer = self.create_timer(1.0, self._on_diagnostics)
-        self.clock_watch = None
-        if gp("use_sim_time").value:  # a steady-clock timer: it runs without /clock
+        if use_sim_time:  # a steady-clock timer: it runs without /clock
             self.clock_watch = self.create_timer(
                 0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
-        self.get_logger().info(
-            f"drs node up: physics {1 / self.physics_dt:g} Hz, publish {1 / self.publish_period:g} "
-            f"Hz, stroke [{self.sim.s_min:.6g}, {self.sim.s_max:.6g}] m"
-        )
+        self._last_tick_ns = None  # the time inactive is no missed deadline
+        self.active = True
+
+    def deactivate(self) -> None:
+        """Stop taking commands and publishing; the actuator holds its state (no time passes)."""
+        self.active = False
+        for timer in (self.timer, self.diag_timer, self.clock_watch):
+            if timer is not None:
+                self.destroy_timer(timer)
+        for sub in (self.sub_stroke, self.sub_force, self.sub_trajectory, self.sub_drs_events):
+            if sub is not None:
+                self.destroy_subscription(sub)
+        if self.srv_drs is not None:
+            self.destroy_service(self.srv_drs)
+        self.timer = self.diag_timer = self.clock_watch = None
+        self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
+        self.sub_drs_events = None
+        with self._lock:
+            self._pending.clear()  # a command that arrived for the active node acts never
+            if self._t0_ns is not None:  # resume from the held state, not from the time away
+                self._t0_ns = None
+
+    def cleanup(self) -> None:
+        """Finish the recordings and drop the publishers and the actuator."""
+        if self.active:
+            self.deactivate()
+        self.close_recordings()
+        self.recorder = self.rerun = None
+        for pub in self._own_publishers:
+            self.destroy_publisher(pub)
+        self.configured = False
+
+    @property
+    def service_event_topic(self) -> str:
+        return f"{self.service_name}/_service_event"
 
     # ---- parameters ----------------------------------------------------------------------------
     def _declare_parameters(self) -> None:
         known = [name for name, *_ in NODE_PARAMETERS]
-        known += [f"model.{f.name}" for f in _model_fields()] + ["use_sim_time"]
+        # and the ones rclpy declares itself
+        known += [f"model.{f.name}" for f in _model_fields()]
+        known += [name for name in self._parameters if name not in known]
         # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
         # the only place a misspelt name (never declared, silently ignored) can be seen
         overrides = self._parameter_overrides
@@ -389,17 +455,17 @@ class DRSNode(Node):
     def _register_recorded_topics(self) -> None:
         if self.recorder is None:
             return
-        for entity, topic in self.topic.items():
-            depth = COMMAND_QOS_DEPTH if topic.endswith("_cmd") else QOS_DEPTH
-            if entity in (self.pub_events, self.sub_drs_events):
-                depth = 100
-            self.recorder.register_topic(topic, entity.msg_type, qos=QoSProfile(depth=depth))
-        self.recorder.register_topic(
-            "/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000)
-        )
+        register = self.recorder.register_topic
+        for pub, topic in self.topics.items():
+            register(topic, pub.msg_type, qos=QoSProfile(depth=100 if pub is self.pub_events
+                                                         else QOS_DEPTH))  # fmt: skip
+        for key, topic in self.command_topics.items():
+            register(topic, COMMANDS[key], qos=QoSProfile(depth=COMMAND_QOS_DEPTH))
+        register(self.service_event_topic, SetBool.Event, qos=QoSProfile(depth=100))
+        register("/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000))
         now = self._now_ns()
         event = parameter_event_msg(self.get_fully_qualified_name(), self.effective_parameters(),
-                                    now)
+                                    now)  # fmt: skip
         self.recorder.write("/parameter_events", event, now)
 
     def _record(self, topic: str, data: bytes, now_ns: int) -> int | None:
@@ -441,14 +507,14 @@ class DRSNode(Node):
             return self._now_ns()
         return self._t0_ns + int(round(self.sim.t * 1e9))
 
-    def _receive(self, key: str, sub, data: bytes) -> None:
+    def _receive(self, key: str, data: bytes) -> None:
         """A raw command arrived: record it, keep it as the newest of its topic."""
         with self._lock:
-            self._receive_locked(key, sub, data)
+            self._receive_locked(key, data)
 
-    def _receive_locked(self, key: str, sub, data: bytes) -> None:
+    def _receive_locked(self, key: str, data: bytes) -> None:
         now = self._now_ns()
-        topic = self.topic[sub]
+        topic = self.command_topics[key]
         seq = self._record(topic, data, now)
         self.received += 1
         cmd = PendingCommand(key, topic, data, seq, now)
@@ -472,7 +538,7 @@ class DRSNode(Node):
                 self._event(cmd.topic, SUPERSEDED, DiagnosticStatus.STALE, reason, None, {
                     "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
                 })  # fmt: skip
-            msg = deserialize_message(cmd.data, self._classes[cmd.key])
+            msg = deserialize_message(cmd.data, COMMANDS[cmd.key])
             value = commands.describe(cmd.key, msg)
             try:
                 commands.apply(self.sim, cmd.key, msg, self.joint_names[0])
@@ -503,7 +569,7 @@ class DRSNode(Node):
         msg = command_event_msg(self._stamp_ns(), source, outcome, level, reason, record)
         data = self._serialize[DiagnosticArray](msg)
         self.pub_events.publish(data)
-        self._record(self.topic[self.pub_events], data, self._now_ns())
+        self._record(self.topics[self.pub_events], data, self._now_ns())
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         with self._lock:
@@ -532,7 +598,7 @@ class DRSNode(Node):
         return response
 
     def _on_service_event(self, data: bytes) -> None:
-        self._record(self.topic[self.sub_drs_events], data, self._now_ns())
+        self._record(self.service_event_topic, data, self._now_ns())
 
     # ---- the loop ------------------------------------------------------------------------------
     def _watch_clock(self) -> None:
@@ -606,11 +672,16 @@ class DRSNode(Node):
         ]
         if self.pub_reactions.get_subscription_count() > 0:
             out.append((self.pub_reactions, ser_js(reactions_msg(self.sim.reactions(), stamp))))
+        if (self._last_markers_t is None or st.t - self._last_markers_t >= self.markers_period
+                - 1e-9) and (self.recorder is not None
+                             or self.pub_markers.get_subscription_count() > 0):  # fmt: skip
+            self._last_markers_t = st.t
+            out.append((self.pub_markers, self._serialize[MarkerArray](self._markers(st, stamp))))
         for pub, data in out:
             pub.publish(data)
         self._cpu["publish"] += time.process_time() - t
         for pub, data in out:
-            self._record(self.topic[pub], data, now_ns)
+            self._record(self.topics[pub], data, now_ns)
         if self.rerun is not None and not self.recording_error:
             t = time.process_time()
             try:
@@ -618,6 +689,13 @@ class DRSNode(Node):
             except Exception as exc:  # noqa: BLE001
                 self.recording_error = f"rerun: {exc}"
             self._cpu["record"] += time.process_time() - t
+
+    def _markers(self, st, stamp: int) -> MarkerArray:
+        """The mechanism at state ``st`` as RViz and Foxglove draw it (drs_ros.drawing)."""
+        lines, pins = moving_drawings(st.q[None, :], self.params)
+        force_at = point_positions(st.q[None, :], self.params, ("P",))["P"][0]
+        return marker_array_msg({k: v[0] for k, v in lines.items()}, pins[0], self._still,
+                                force_at, st.piston_force, stamp, self.frame_id)
 
     def diagnostics_values(self) -> dict[str, object]:
         st = self.sim.state
@@ -668,7 +746,50 @@ class DRSNode(Node):
         msg = diagnostics_msg(now, self.get_name(), level, message, self.diagnostics_values())
         data = self._serialize[DiagnosticArray](msg)
         self.pub_diag.publish(data)
-        self._record(self.topic[self.pub_diag], data, now)
+        self._record(self.topics[self.pub_diag], data, now)
+
+
+class ManagedDRSNode(LifecycleNodeMixin, DRSNode):
+    """The DRS node as a ROS 2 managed (lifecycle) node: ``drs-node --managed``.
+
+    It starts unconfigured; a lifecycle manager drives it over the standard ``~/change_state``
+    and ``~/get_state`` services: configure (validate the parameters, open the recorders),
+    activate (subscriptions, service, timers), deactivate (hold, publish nothing), cleanup
+    (finish the recordings), shutdown. A transition that fails logs the reason and returns
+    FAILURE, as the lifecycle design says.
+    """
+
+    def __init__(self, **kwargs) -> None:
+        DRSNode.__init__(self, managed=True, **kwargs)
+        LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
+
+    def _transition(self, name: str, action) -> TransitionCallbackReturn:
+        try:
+            action()
+        except (DRSError, ParameterException) as exc:
+            self.get_logger().error(f"{name} failed: {exc}")
+            if name == "configure":
+                self.discard_recordings()
+            return TransitionCallbackReturn.FAILURE
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("configure", self.configure)
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("activate", self.activate)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("deactivate", self.deactivate)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("cleanup", self.cleanup)
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("shutdown", self.cleanup if self.configured else lambda: None)
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("error", self.cleanup if self.configured else lambda: None)
 
 
 def _spin(executor) -> None:
@@ -715,15 +836,25 @@ def run_deadline_loop(node: DRSNode, context=None) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Console script ``drs-node`` (``--ros-args -p name:=value`` as usual). Returns 0 on a clean
-    SIGINT/SIGTERM, 2 when the parameters or the recording paths are refused (one line on
-    stderr, nothing created)."""
+    """Console script ``drs-node [--managed]`` (``--ros-args -p name:=value`` or
+    ``--params-file FILE`` as usual). Returns 0 on a clean SIGINT/SIGTERM, 2 when the parameters
+    or the recording paths are refused (one line on stderr, nothing created)."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    args = sys.argv if argv is None else argv
+    args = list(sys.argv if argv is None else argv)
+    managed = "--managed" in args[: args.index("--ros-args")] if "--ros-args" in args else \
+        "--managed" in args
+    if managed:
+        args.remove("--managed")
     rclpy.init(args=args)
     node = None
     rc = 0
     try:
+        if managed:
+            node = ManagedDRSNode()
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            executor.spin()
+            return rc
         node = DRSNode(tick_timer=False)
         if node.timer is None and node.get_parameter("executor").value == "deadline":
             run_deadline_loop(node)
@@ -746,7 +877,8 @@ def main(argv: list[str] | None = None) -> int:
         # requested stop, not a failure
     finally:
         if node is not None:
-            node.close_recordings()
+            if node.configured:
+                node.close_recordings()
             node.destroy_node()
         rclpy.try_shutdown()
     return rc

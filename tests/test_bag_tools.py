@@ -81,7 +81,8 @@ def judge_with_mcap_ros2(bag: Path) -> dict[str, int]:
 
 EVERY_TOPIC = {
     "/joint_states", "/drs/piston_force", "/drs/flap_gap", "/drs/piston_acceleration",
-    "/drs/joint_reactions", "/diagnostics", "/drs/command_events", "/parameter_events",
+    "/drs/joint_reactions", "/drs/markers", "/diagnostics", "/drs/command_events",
+    "/parameter_events",
     "/drs/stroke_cmd", "/drs/force_cmd", "/drs/trajectory_cmd", SERVICE_EVENTS,
 }  # fmt: skip
 
