@@ -268,6 +268,15 @@ def scan(
             on_message(RecordedMessage(channel.topic, channel.type_name, rec.log_time,
                                        rec.publish_time, rec.sequence, bytes(rec.data), at))
 
+    def data_record(rec, at: int) -> None:
+        """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
+        if isinstance(rec, Message):
+            take(rec, at)
+        elif isinstance(rec, Schema):
+            schemas[rec.id] = rec
+        elif isinstance(rec, Channel):
+            _add_channel(out, schemas, rec, fail)
+
     errors = (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
               UnicodeDecodeError)  # fmt: skip
     try:
@@ -284,18 +293,9 @@ def scan(
                     where = f"the chunk at offset {offset}"
                     chunk_offsets[offset] = end - offset
                     for inner in breakup_chunk(record, validate_crc=True):
-                        if isinstance(inner, Message):
-                            take(inner, offset)
-                        elif isinstance(inner, Schema):
-                            schemas[inner.id] = inner
-                        elif isinstance(inner, Channel):
-                            _add_channel(out, schemas, inner, fail)
-                elif isinstance(record, Message):
-                    take(record, offset)
-                elif isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    _add_channel(out, schemas, record, fail)
+                        data_record(inner, offset)
+                elif isinstance(record, (Message, Schema, Channel)):
+                    data_record(record, offset)
                 elif isinstance(record, Statistics):
                     stats = record
                 elif isinstance(record, ChunkIndex):
