@@ -1,0 +1,1 @@
+"""The ``drs-bag`` command family: work with rosbag2 MCAP bags (play, ...)."""
