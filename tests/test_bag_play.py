@@ -358,6 +358,71 @@ def test_a_topic_of_an_uninstalled_type_is_skipped_with_one_warning(ros_context,
         sub.close()
 
 
+def test_remap_publishes_on_the_new_name(ros_context, tmp_path, request):
+    types, messages = recorded(EXAMPLE)
+    sub = RawSubscriber(ros_context, {"/replay/gap": types["/drs/flap_gap"]})
+    try:
+        proc = start_play(
+            tmp_path,
+            request,
+            str(EXAMPLE),
+            *START,
+            "--rate",
+            "2",
+            "--topics",
+            "/drs/flap_gap",
+            "--remap",
+            "/drs/flap_gap:=/replay/gap",
+        )
+        _out, err = receive_until_exit(sub, proc, len(messages["/drs/flap_gap"]))
+        assert_clean_exit(proc, err)
+        assert sub.received["/replay/gap"] == as_received(messages["/drs/flap_gap"])
+    finally:
+        sub.close()
+
+
+def test_progress_line_on_a_terminal_only(tmp_path, request):
+    """stderr a terminal: a progress line (bag time, %, rate) that reaches 100 %; a pipe: none."""
+    import os
+    import pty
+
+    require_rclpy()
+    args = [
+        sys.executable,
+        "-m",
+        "drs_ros.bag.play",
+        str(EXAMPLE),
+        "--rate",
+        "4",
+        "--topics",
+        "/drs/stroke_cmd",
+    ]
+    env = node_env(tmp_path, domain_for(request.node.nodeid))
+    master, slave = pty.openpty()
+    try:
+        proc = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=slave)
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                block = os.read(master, 4096)
+            except OSError:  # EIO: the terminal's other side closed
+                break
+            if not block:
+                break
+            chunks.append(block)
+        proc.wait(timeout=30)
+    finally:
+        os.close(master)
+    text = b"".join(chunks).decode()
+    assert proc.returncode == 0, text
+    lines = [part for part in text.replace("\n", "\r").split("\r") if "bag time" in part]
+    assert len(lines) >= 2, text
+    assert "100.0 %" in lines[-1] and "rate 4" in lines[-1]
+    res = subprocess.run(args, env=env, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0 and res.stderr == "", res.stderr
+
+
 def test_a_corrupt_chunk_found_while_playing_exits_2_in_one_line(tmp_path, request):
     _types, messages = recorded(EXAMPLE)
     data = bytearray((next(EXAMPLE.glob("*.mcap"))).read_bytes())

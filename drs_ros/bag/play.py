@@ -340,7 +340,7 @@ def iter_bag(
                         message.log_time,
                         (data if isinstance(data, bytes) else bytes(data)),
                     )
-        except (DRSError, GeneratorExit):
+        except DRSError:
             raise
         except Exception as exc:  # a corrupt chunk, found while playing
             raise _read_failure(file, exc) from exc
