@@ -26,6 +26,24 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
 #: Start options: discovery on loopback took 0.03-3.3 s here, so rather than a longer --delay the
 #: player waits until every topic it plays has matched a subscriber.
 START = ("--delay", "0.1", "--wait-for-subscribers")
+
+
+def no_loss(tmp_path, bag: Path = EXAMPLE) -> tuple[str, str]:
+    """``--qos-profile-overrides-path`` offering keep-last 1000 on every topic of ``bag``.
+
+    rosbag2 offers a recorded profile with keep-last 10. A reliable Fast DDS writer drops its
+    oldest sample once 10 are unacknowledged, so a subscriber process stalled for 20 ms (500
+    messages/s on /joint_states) on this loaded 2-core machine loses messages: seen once in 8
+    benchmark runs at rate 1. Tests that require every message therefore offer a deeper history.
+    """
+    import yaml
+
+    types, _messages = recorded(bag)
+    path = tmp_path / "qos_overrides.yaml"
+    path.write_text(yaml.safe_dump({topic: {"depth": 1000} for topic in types}))
+    return ("--qos-profile-overrides-path", str(path))
+
+
 FLOAT64 = "std_msgs/msg/Float64"
 QOS_YAML = """- history: keep_last
   depth: 10
@@ -169,7 +187,7 @@ def test_every_message_arrives_byte_identical_and_in_order(ros_context, tmp_path
     assert total > 1000 and len([t for t in expected if expected[t]]) >= 5  # a real bag
     sub = RawSubscriber(ros_context, types)
     try:
-        proc = start_play(tmp_path, request, str(EXAMPLE), *START)
+        proc = start_play(tmp_path, request, str(EXAMPLE), *START, *no_loss(tmp_path))
         _out, err = receive_until_exit(sub, proc, total)
         assert_clean_exit(proc, err)
         for topic in types:
@@ -204,7 +222,9 @@ def test_topics_plays_only_the_chosen_topics(ros_context, tmp_path, request):
     chosen = ["/drs/flap_gap", "/drs/stroke_cmd"]
     sub = RawSubscriber(ros_context, types)
     try:
-        proc = start_play(tmp_path, request, str(EXAMPLE), *START, "--topics", *chosen)
+        proc = start_play(
+            tmp_path, request, str(EXAMPLE), *START, *no_loss(tmp_path), "--topics", *chosen
+        )
         expected = sum(len(messages[t]) for t in chosen)
         _out, err = receive_until_exit(sub, proc, expected)
         spin_for(sub.executor, 0.3)  # anything else would have arrived with them
@@ -226,6 +246,7 @@ def test_rate_2_plays_twice_as_fast(ros_context, tmp_path, request):
             request,
             str(EXAMPLE),
             *START,
+            *no_loss(tmp_path),
             "--rate",
             "2",
             "--topics",
@@ -252,6 +273,7 @@ def test_loop_plays_everything_again_until_sigint(ros_context, tmp_path, request
             request,
             str(EXAMPLE),
             *START,
+            *no_loss(tmp_path),
             "--loop",
             "--topics",
             *chosen,
@@ -289,6 +311,7 @@ def test_clock_drives_a_sim_time_node(ros_context, tmp_path, request):
             request,
             str(EXAMPLE),
             *START,
+            *no_loss(tmp_path),
             "--clock",
             "50",
             "--topics",
@@ -321,7 +344,15 @@ def test_sigint_mid_play_stops_cleanly(ros_context, tmp_path, request):
     sub = RawSubscriber(ros_context, {topic: types[topic]})
     try:
         proc = start_play(
-            tmp_path, request, str(EXAMPLE), *START, "--topics", topic, "--rate", "0.5"
+            tmp_path,
+            request,
+            str(EXAMPLE),
+            *START,
+            *no_loss(tmp_path),
+            "--topics",
+            topic,
+            "--rate",
+            "0.5",
         )
         assert spin_until(sub.executor, lambda: sub.count() >= 100, timeout=30.0)
         proc.send_signal(signal.SIGINT)
@@ -346,7 +377,7 @@ def test_a_topic_of_an_uninstalled_type_is_skipped_with_one_warning(ros_context,
     write_bag(bag, [("/known", FLOAT64), ("/unknown", "no_such_pkg/msg/Nothing")], msgs)
     sub = RawSubscriber(ros_context, {"/known": FLOAT64})
     try:
-        proc = start_play(tmp_path, request, str(bag), *START)
+        proc = start_play(tmp_path, request, str(bag), *START, *no_loss(tmp_path, bag))
         _out, err = receive_until_exit(sub, proc, len(known))
         assert_clean_exit(proc, err)
         assert sub.received["/known"] == known
@@ -367,6 +398,7 @@ def test_remap_publishes_on_the_new_name(ros_context, tmp_path, request):
             request,
             str(EXAMPLE),
             *START,
+            *no_loss(tmp_path),
             "--rate",
             "2",
             "--topics",
@@ -618,3 +650,30 @@ def test_qos_of_an_old_bag_reads_integer_policies_and_foxy_infinity():
     assert qos.reliability == ReliabilityPolicy.BEST_EFFORT
     assert qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
     assert qos.deadline.nanoseconds == 2**63 - 1
+
+
+def test_qos_overrides_file_gives_partial_profiles_and_rejects_unknown_keys(tmp_path):
+    require_rclpy()
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
+
+    from drs_ros.bag.play import PlayError, qos_overrides
+
+    path = tmp_path / "overrides.yaml"
+    path.write_text(
+        "/a:\n  depth: 1000\n/b:\n  durability: transient_local\n"
+        "  history: keep_all\n  deadline: {sec: 1, nsec: 5}\n"
+    )
+    table = qos_overrides(path)
+    assert set(table) == {"/a", "/b"}
+    a, b = table["/a"], table["/b"]
+    assert (a.history, a.depth, a.reliability, a.durability) == (
+        HistoryPolicy.KEEP_LAST,
+        1000,
+        ReliabilityPolicy.RELIABLE,
+        DurabilityPolicy.VOLATILE,
+    )
+    assert (b.history, b.durability) == (HistoryPolicy.KEEP_ALL, DurabilityPolicy.TRANSIENT_LOCAL)
+    assert b.deadline.nanoseconds == 1_000_000_005
+    path.write_text("/a:\n  dept: 3\n")
+    with pytest.raises(PlayError, match="dept"):
+        qos_overrides(path)

@@ -16,6 +16,9 @@ decode and re-encode). Options have ``ros2 bag play``'s names and meanings (rosb
 * ``--wait-for-subscribers`` (not in ``ros2 bag play``): after ``--delay``, wait until every
   played topic (and ``/clock`` with ``--clock``) has a matched subscriber. DDS discovery on
   loopback took from 0.03 s to over 3 s here, so a fixed delay can lose the first messages.
+* ``--qos-profile-overrides-path FILE``: a YAML mapping of recorded topic names to (partial)
+  profiles in the ``offered_qos_profiles`` spelling, offered instead of the adapted ones
+  (e.g. ``/joint_states: {depth: 1000}``).
 * QoS: each topic's publisher offers what its recorders saw (channel metadata
   ``offered_qos_profiles``), adapted as ``Rosbag2QoS::adapt_offer_to_recorded_offers`` does: when
   all recorded offers agree on the policies that decide compatibility (reliability, durability,
@@ -135,6 +138,58 @@ def qos_profile(offer: dict[str, Any]):
         ),
         avoid_ros_namespace_conventions=bool(offer.get("avoid_ros_namespace_conventions", False)),
     )
+
+
+#: The keys of a profile in ``offered_qos_profiles`` and in a QoS overrides file.
+QOS_KEYS = frozenset(
+    {
+        "history",
+        "depth",
+        "reliability",
+        "durability",
+        "deadline",
+        "lifespan",
+        "liveliness",
+        "liveliness_lease_duration",
+        "avoid_ros_namespace_conventions",
+    }
+)
+
+
+def qos_overrides(path: str | Path) -> dict[str, Any]:
+    """Topic -> QoSProfile from a ``--qos-profile-overrides-path`` YAML file.
+
+    Each value is a partial profile (missing policies keep rclpy's defaults: keep last 10,
+    reliable, volatile). Raises :class:`PlayError` on an unreadable file or an unknown key.
+    """
+    try:
+        text = Path(path).read_text()
+        table = yaml.safe_load(text) or {}
+        if not isinstance(table, dict):
+            raise TypeError("expected a mapping of topic names to profiles")
+        out = {}
+        for topic, given in table.items():
+            unknown = set(given) - QOS_KEYS
+            if unknown:
+                raise KeyError(
+                    f"{topic}: unknown QoS keys {sorted(unknown)}, valid: {sorted(QOS_KEYS)}"
+                )
+            base = {
+                "history": "keep_last",
+                "depth": DEFAULT_QOS_DEPTH,
+                "reliability": "reliable",
+                "durability": "volatile",
+                "liveliness": "system_default",
+            }
+            zero = {"sec": 0, "nsec": 0}  # unspecified: the middleware's default
+            for key in ("deadline", "lifespan", "liveliness_lease_duration"):
+                base[key] = zero
+            out[str(topic)] = qos_profile({**base, **given})
+        return out
+    except (OSError, yaml.YAMLError, TypeError, KeyError, ValueError, AttributeError) as exc:
+        raise PlayError(
+            f"--qos-profile-overrides-path {str(path)!r}: {type(exc).__name__}: {exc}"
+        ) from exc
 
 
 def default_qos():
@@ -414,6 +469,7 @@ class PlayOptions:
     read_ahead: int = DEFAULT_READ_AHEAD
     wait_acked_ms: int = DEFAULT_WAIT_ACKED_MS
     wait_for_subscribers: bool = False
+    qos_overrides_path: str | None = None
     progress: bool = False
     stats_json: str | None = None
 
@@ -449,6 +505,7 @@ def options_from_args(args: argparse.Namespace) -> PlayOptions:
         read_ahead=args.read_ahead_queue_size,
         wait_acked_ms=args.wait_for_all_acked,
         wait_for_subscribers=args.wait_for_subscribers,
+        qos_overrides_path=args.qos_profile_overrides_path,
         progress=sys.stderr.isatty(),
         stats_json=args.stats_json,
     )
@@ -467,9 +524,18 @@ class Player:
     options : PlayOptions
     stop : threading.Event
         Set to stop playing (a signal).
+    overrides : dict, optional
+        Topic -> QoSProfile offered instead of the recorded offers (:func:`qos_overrides`).
     """
 
-    def __init__(self, node, index: BagIndex, options: PlayOptions, stop: threading.Event):
+    def __init__(
+        self,
+        node,
+        index: BagIndex,
+        options: PlayOptions,
+        stop: threading.Event,
+        overrides: dict[str, Any] | None = None,
+    ):
         from drs_ros.msgdefs import message_class
 
         self.node, self.index, self.options, self.stop = node, index, options, stop
@@ -477,6 +543,7 @@ class Player:
         self.stats: list[tuple[float, float]] = []
         self.published = 0
         wanted = set(options.topics) if options.topics else set(index.channels)
+        overrides = overrides or {}
         for name in sorted(set(options.topics) - set(index.channels)):
             warn(f"topic {name} is not in the bag")
         for name in sorted(wanted & set(index.channels)):
@@ -495,9 +562,12 @@ class Player:
                     f"installed ({exc})"
                 )
                 continue
-            qos, note = playback_qos(ch.offered_qos, name)
-            if note:
-                warn(note)
+            if name in overrides:
+                qos = overrides[name]
+            else:
+                qos, note = playback_qos(ch.offered_qos, name)
+                if note:
+                    warn(note)
             self.publishers[name] = node.create_publisher(msg_class, name, qos)
         self.clock_pub = None
         if options.clock_hz > 0:
@@ -627,6 +697,8 @@ class Player:
 def play(options: PlayOptions) -> int:
     """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag)."""
     index = index_bag(options.bag)  # fails before DDS starts
+    path = options.qos_overrides_path
+    overrides = qos_overrides(path) if path else {}
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     import rclpy
     from rclpy.context import Context
@@ -645,7 +717,7 @@ def play(options: PlayOptions) -> int:
         node = rclpy.create_node(
             "rosbag2_player", context=context, cli_args=cli_args if options.remap else None
         )
-        player = Player(node, index, options, stop)
+        player = Player(node, index, options, stop, overrides)
         if player.play():
             player.wait_for_acks()
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -742,6 +814,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="at the end, wait up to MS ms until reliable "
         "subscribers acknowledged every message (0: forever; < 0: no wait; "
         f"default {DEFAULT_WAIT_ACKED_MS})",
+    )
+    parser.add_argument(
+        "--qos-profile-overrides-path",
+        default=None,
+        metavar="FILE",
+        help="YAML file of topic: QoS profile overrides (offered_qos_profiles keys)",
     )
     parser.add_argument(
         "--wait-for-subscribers",
