@@ -1,13 +1,16 @@
 """Replay benchmark: how exactly and how fast can ``drs-bag play`` replay a bag?
 
 Plays a bag (``bags/example`` by default) with ``python -m drs_ros.bag.play`` at a series of
-``--rate`` values while a raw subscriber in this process (reliable, keep last 1000, one
+``--rate`` values while a raw subscriber in this process (reliable, keep last 10000, one
 subscription per topic, loopback-only DDS on its own domain) counts what arrives. It reports:
 
 * the player's timing error: publish time minus scheduled time, per message, measured inside the
   player (its hidden ``--stats-json`` option), median, p99 and max [ms];
 * per rate: messages expected and received, the loss, and the message rate achieved;
-* the highest rate at which every message arrived (the rates stop after the first loss).
+* the highest rate at which every message arrived (the rates stop after the first loss);
+
+each for two publisher profiles side by side: the recorded offer as rosbag2 adapts it (keep last
+10) and keep last 1000 (``--qos-profile-overrides-path``).
 
 Usage: ``python benchmarks/replay.py [--bag bags/example] [--rates 1,2,5,10,20,50,100]
 [--domain 195] [--json benchmarks/results/replay.json]`` (about a minute).
@@ -48,8 +51,8 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
 
 
-def play_once(bag: Path, rate: float, sub, executor, expected: int, env: dict, stats: Path):
-    """One play at ``rate``; returns a result row."""
+def play_once(bag, rate, sub, executor, expected, env, stats, extra=()):
+    """One play at ``rate`` (``extra`` player options); returns a result row."""
     for lst in sub.values():
         lst.clear()
     cmd = [
@@ -64,6 +67,7 @@ def play_once(bag: Path, rate: float, sub, executor, expected: int, env: dict, s
         "2000",
         "--stats-json",
         str(stats),
+        *extra,
     ]
     proc = subprocess.Popen(cmd, env=env, stderr=subprocess.PIPE, text=True)
     while proc.poll() is None:
@@ -117,20 +121,27 @@ def main(argv=None) -> int:
     ctx = Context()
     rclpy.init(context=ctx, domain_id=args.domain)
     node = rclpy.create_node("replay_bench", context=ctx)
-    qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    qos = QoSProfile(depth=10000, reliability=ReliabilityPolicy.RELIABLE)  # never the limit
     sub: dict[str, list] = {}
     for topic, type_name in types.items():
         sub[topic] = []
         node.create_subscription(message_class(type_name), topic, sub[topic].append, qos, raw=True)
     executor = SingleThreadedExecutor(context=ctx)
     executor.add_node(node)
+    overrides = tmp / "overrides.yaml"
+    overrides.write_text("".join(f"{t}:\n  depth: 1000\n" for t in types))
+    profiles = {
+        "recorded (keep last 10)": (),
+        "keep last 1000": ("--qos-profile-overrides-path", str(overrides)),
+    }
     rows = []
     try:
-        for rate in (float(r) for r in args.rates.split(",")):
-            row = play_once(bag, rate, sub, executor, expected, env, tmp / "stats.json")
-            rows.append(row)
-            if row["lost"]:
-                break
+        for qos_name, extra in profiles.items():
+            for rate in (float(r) for r in args.rates.split(",")):
+                row = play_once(bag, rate, sub, executor, expected, env, tmp / "s.json", extra)
+                rows.append({"qos": qos_name, **row})
+                if row["lost"]:
+                    break
     finally:
         executor.shutdown()
         node.destroy_node()
@@ -140,17 +151,19 @@ def main(argv=None) -> int:
         f"{'rate':>6} {'received':>9} {'lost':>5} {'play s':>7} {'msg/s':>7} "
         f"{'late p50 ms':>11} {'p99 ms':>7} {'max ms':>7}"
     )
-    for r in rows:
-        print(
-            f"{r['rate']:>6g} {r['received']:>9} {r['lost']:>5} {r['play_s']:>7.2f} "
-            f"{r['msgs_per_s']:>7.0f} {r['late_p50_ms']:>11.3f} {r['late_p99_ms']:>7.2f} "
-            f"{r['late_max_ms']:>7.2f}"
-        )
-    lossless = [r["rate"] for r in rows if not r["lost"]]
-    print(
-        f"highest rate with every message received: {max(lossless) if lossless else 'none'}"
-        + ("" if rows[-1]["lost"] else " (no loss at any rate tried)")
-    )
+    for qos_name in profiles:
+        series = [r for r in rows if r["qos"] == qos_name]
+        print(f"-- publisher QoS: {qos_name}")
+        for r in series:
+            print(
+                f"{r['rate']:>6g} {r['received']:>9} {r['lost']:>5} {r['play_s']:>7.2f} "
+                f"{r['msgs_per_s']:>7.0f} {r['late_p50_ms']:>11.3f} {r['late_p99_ms']:>7.2f} "
+                f"{r['late_max_ms']:>7.2f}"
+            )
+        lossless = [r["rate"] for r in series if not r["lost"]]
+        best = max(lossless) if lossless else "none"
+        tail = "" if series[-1]["lost"] else " (no loss at any rate tried)"
+        print(f"   highest rate with every message received: {best}{tail}")
     if args.json:
         Path(args.json).write_text(json.dumps({"bag": str(bag), "rows": rows}, indent=2) + "\n")
     return 0

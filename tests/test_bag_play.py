@@ -413,6 +413,34 @@ def test_remap_publishes_on_the_new_name(ros_context, tmp_path, request):
         sub.close()
 
 
+def test_start_offset_plays_from_that_time_on(ros_context, tmp_path, request):
+    types, messages = recorded(EXAMPLE)
+    topic = "/drs/flap_gap"
+    start = min(m[0][0] for m in messages.values() if m)
+    cut = start + 2_000_000_000
+    want = [(t, d) for t, d in messages[topic] if t >= cut]
+    assert 0 < len(want) < len(messages[topic])
+    sub = RawSubscriber(ros_context, {topic: types[topic]})
+    try:
+        proc = start_play(
+            tmp_path,
+            request,
+            str(EXAMPLE),
+            *START,
+            *no_loss(tmp_path),
+            "--topics",
+            topic,
+            "--start-offset",
+            "2",
+        )
+        _out, err = receive_until_exit(sub, proc, len(want))
+        spin_for(sub.executor, 0.3)
+        assert_clean_exit(proc, err)
+        assert sub.received[topic] == as_received(want)
+    finally:
+        sub.close()
+
+
 def test_progress_line_on_a_terminal_only(tmp_path, request):
     """stderr a terminal: a progress line (bag time, %, rate) that reaches 100 %; a pipe: none."""
     import os
