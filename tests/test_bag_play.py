@@ -537,6 +537,30 @@ def test_an_unreadable_bag_exits_2_in_one_line(tmp_path, kind):
     assert_one_error_line(res.stderr, str(bag) if kind != "truncated" else "truncated_0.mcap")
 
 
+@pytest.mark.parametrize(
+    "option, words",
+    [
+        (("--remap", "no-separator"), "OLD:=NEW"),
+        (("--remap", "1 bad:=/x"), "remap rule"),
+        (("--delay", "-1"), "--delay must be >= 0"),
+        (("--start-offset", "nan"), "--start-offset"),
+    ],
+)
+def test_an_invalid_option_exits_2_in_one_line(tmp_path, request, option, words):
+    require_rclpy()
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.play", str(EXAMPLE), *option],
+        env=node_env(tmp_path, domain_for(request.node.nodeid)),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("drs-bag play: error:"), res.stderr
+    assert words in lines[0]
+
+
 def test_reading_streams_the_file_in_bounded_memory(tmp_path):
     """A 12 MB bag of 1 KiB messages in 64 KiB chunks: reading it through the player's reader
     must not hold more than a few chunks (an in-memory sort would hold all 12 MB)."""

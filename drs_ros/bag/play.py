@@ -407,18 +407,20 @@ _END = object()
 
 class ReadAhead:
     """A reader thread that keeps at most ``size`` messages of ``source`` ready (rosbag2's
-    read-ahead queue). Iterating yields them; a reader error is raised in the consumer."""
+    read-ahead queue). Iterating yields them; a reader error is raised in the consumer.
+    Setting ``stop`` (or :meth:`close`) ends both sides within 0.1 s."""
 
-    def __init__(self, source: Iterator, size: int):
+    def __init__(self, source: Iterator, size: int, stop: threading.Event | None = None):
         self._queue: queue.Queue = queue.Queue(maxsize=size)
-        self._stop = threading.Event()
+        self._stop = stop if stop is not None else threading.Event()
+        self._closed = threading.Event()
         self._thread = threading.Thread(
             target=self._fill, args=(source,), name="drs-bag-read-ahead", daemon=True
         )
         self._thread.start()
 
     def _put(self, item) -> bool:
-        while not self._stop.is_set():
+        while not self._halted():
             try:
                 self._queue.put(item, timeout=0.1)
                 return True
@@ -441,15 +443,24 @@ class ReadAhead:
 
     def __iter__(self):
         while True:
-            item = self._queue.get()
+            try:
+                item = self._queue.get(timeout=0.1)
+            except queue.Empty:
+                if self._halted():
+                    return
+                continue
             if item is _END:
                 return
             if isinstance(item, BaseException):
                 raise item
             yield item
 
+    def _halted(self) -> bool:
+        return self._stop.is_set() or self._closed.is_set()
+
     def close(self) -> None:
-        self._stop.set()
+        """Stop the reader thread (waits up to 1 s for it)."""
+        self._closed.set()
         self._thread.join(timeout=1.0)
 
 
@@ -568,7 +579,10 @@ class Player:
                 qos, note = playback_qos(ch.offered_qos, name)
                 if note:
                     warn(note)
-            self.publishers[name] = node.create_publisher(msg_class, name, qos)
+            try:
+                self.publishers[name] = node.create_publisher(msg_class, name, qos)
+            except Exception as exc:  # rclpy's own errors (type support, QoS, topic name)
+                warn(f"skipping topic {name}: cannot publish {ch.type_name} ({exc})")
         self.clock_pub = None
         if options.clock_hz > 0:
             from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -655,7 +669,7 @@ class Player:
             return False
         wall0 = time.monotonic()
         source = iter_bag(self.index, list(self.publishers), starting_at=start_ns)
-        reader = ReadAhead(source, opts.read_ahead)
+        reader = ReadAhead(source, opts.read_ahead, self.stop)
         try:
             for topic, log_ns, data in reader:
                 target = wall0 + (log_ns - start_ns) / opts.rate / 1e9
@@ -668,6 +682,8 @@ class Player:
                     self.stats.append((target - wall0, actual - wall0))
         finally:
             reader.close()
+        if self.stop.is_set():  # the reader ended early on a stop request
+            return False
         if opts.progress:
             self._progress(self.index.end_ns, loop_no)
         return True
@@ -714,9 +730,13 @@ def play(options: PlayOptions) -> int:
     try:
         rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         cli_args = ["--ros-args"] + [a for rule in options.remap for a in ("-r", rule)]
-        node = rclpy.create_node(
-            "rosbag2_player", context=context, cli_args=cli_args if options.remap else None
-        )
+        try:
+            node = rclpy.create_node(
+                "rosbag2_player", context=context, cli_args=cli_args if options.remap else None
+            )
+        except Exception as exc:  # rcl's RCLInvalidROSArgsError on a malformed --remap rule
+            reason = str(exc).split(", at ")[0]
+            raise PlayError(f"--remap {' '.join(options.remap)}: {reason}") from exc
         player = Player(node, index, options, stop, overrides)
         if player.play():
             player.wait_for_acks()
