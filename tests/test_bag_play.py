@@ -367,20 +367,41 @@ def test_sigint_mid_play_stops_cleanly(ros_context, tmp_path, request):
 
 
 def test_a_topic_of_an_uninstalled_type_is_skipped_with_one_warning(ros_context, tmp_path, request):
+    """A bag written by another tool: a Float64 topic, a service event topic (``*_Event`` types
+    live in ``pkg.srv``) and a topic whose package is not installed."""
+    from rclpy.serialization import serialize_message
+    from std_srvs.srv import SetBool
+
     t0 = 1_700_000_000_000_000_000
     bag = tmp_path / "mixed.mcap"
     known = [float64_cdr(0.5 * k) for k in range(20)]
+    events = []
+    for k in range(5):
+        event = SetBool.Event()
+        event.info.event_type = k % 2  # REQUEST_SENT, REQUEST_RECEIVED
+        event.info.sequence_number = k
+        event.request = [SetBool.Request(data=bool(k % 2))]
+        events.append(serialize_message(event))
+    event_topic, event_type = "/drs/drs/_service_event", "std_srvs/srv/SetBool_Event"
     msgs = []
     for k, data in enumerate(known):
         msgs.append(("/known", t0 + k * 10_000_000, data))
         msgs.append(("/unknown", t0 + k * 10_000_000 + 1, float64_cdr(-1.0)))
-    write_bag(bag, [("/known", FLOAT64), ("/unknown", "no_such_pkg/msg/Nothing")], msgs)
-    sub = RawSubscriber(ros_context, {"/known": FLOAT64})
+    msgs += [(event_topic, t0 + k * 30_000_000 + 2, data) for k, data in enumerate(events)]
+    msgs.sort(key=lambda m: m[1])
+    channels = [
+        ("/known", FLOAT64),
+        ("/unknown", "no_such_pkg/msg/Nothing"),
+        (event_topic, event_type),
+    ]
+    write_bag(bag, channels, msgs)
+    sub = RawSubscriber(ros_context, {"/known": FLOAT64, event_topic: event_type})
     try:
         proc = start_play(tmp_path, request, str(bag), *START, *no_loss(tmp_path, bag))
-        _out, err = receive_until_exit(sub, proc, len(known))
+        _out, err = receive_until_exit(sub, proc, len(known) + len(events))
         assert_clean_exit(proc, err)
         assert sub.received["/known"] == known
+        assert sub.received[event_topic] == as_received([(0, e) for e in events])
         lines = [line for line in err.splitlines() if line.strip()]
         assert len(lines) == 1, err
         assert "warning" in lines[0] and "/unknown" in lines[0]
