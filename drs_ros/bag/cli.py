@@ -6,7 +6,8 @@
 * ``drs-bag recover BAG -o OUT``: a killed or truncated recording made whole
   (:mod:`drs_ros.bag.recover`);
 * ``drs-bag resimulate BAG``: re-run the recorded commands in the model and compare
-  (:mod:`drs_ros.bag.resimulate`).
+  (:mod:`drs_ros.bag.resimulate`);
+* ``drs-bag play BAG``: publish the recorded messages onto ROS 2 topics (:mod:`drs_ros.bag.play`).
 
 Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status``.
 """
@@ -24,6 +25,7 @@ VERBS = {
     "check": ("drs_ros.bag.check", "verify every byte of a bag and check it against the model"),
     "recover": ("drs_ros.bag.recover", "make a killed or truncated recording a complete bag"),
     "resimulate": ("drs_ros.bag.resimulate", "re-run a recorded run in the model and compare"),
+    "play": ("drs_ros.bag.play", "publish a bag onto ROS 2 topics (as ros2 bag play)"),
 }
 
 
