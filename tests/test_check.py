@@ -188,7 +188,8 @@ def test_logged_acceleration_replays_the_piston_force_exactly(tmp_path, params, 
     assert check.main([str(tmp_path / "good"), "--json", "--force-tol", "1e-3"]) == 0
     rows = {c["name"]: c for c in json.loads(capsys.readouterr().out)["checks"]}
     row = rows["piston force vs model, logged accel."]
-    assert row["status"] == "ok" and row["samples"] > 300 and row["max_error"] < 1e-3
+    # the samples resting on the open stop after the opening (exactly at rest there) are left out
+    assert row["status"] == "ok" and row["samples"] > 250 and row["max_error"] < 1e-3
     _actuator_bag(tmp_path / "bad", params, corrupt_at=50)  # mid-opening
     assert check.main([str(tmp_path / "bad"), "--json", "--force-tol", "1e-3"]) == 1
     rows = {c["name"]: c for c in json.loads(capsys.readouterr().out)["checks"]}
