@@ -214,4 +214,32 @@ def serialize(msg) -> bytes:
     return serializer(type(msg))(msg)
 
 
-__all__ = ["CDR_LE_HEADER", "CdrError", "serialize", "serializer"]
+#: Fast DDS pads a message that crosses processes to a multiple of 4 bytes with zeros.
+MAX_TRANSPORT_PADDING = 3
+
+
+def exact_bytes(data: bytes, msg_class: type) -> bytes:
+    """``data`` (as a raw subscription received it) without the transport's padding.
+
+    Fast DDS pads a message that crosses processes to a multiple of 4 bytes with up to 3 zero
+    bytes (a 650-byte DiagnosticArray arrives as 652). The exact CDR is what the message
+    serialises to: ``data`` must be that, possibly followed by such padding; anything else
+    raises :class:`CdrError`.
+    """
+    from rclpy.serialization import deserialize_message
+
+    try:
+        exact = serializer(msg_class)(deserialize_message(data, msg_class))
+    except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
+        raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {exc}") from exc
+    tail = data[len(exact):]
+    if not data.startswith(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
+        raise CdrError(
+            f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
+            f"{msg_class.__name__} plus at most {MAX_TRANSPORT_PADDING} zero bytes of padding"
+        )
+    return exact
+
+
+__all__ = ["CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "exact_bytes", "serialize",
+           "serializer"]

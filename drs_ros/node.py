@@ -598,6 +598,12 @@ class DRSNode(Node):
         return response
 
     def _on_service_event(self, data: bytes) -> None:
+        # an event ends in a string, so the transport may have padded it (drs_ros.cdr.exact_bytes)
+        try:
+            data = cdr.exact_bytes(data, SetBool.Event)
+        except cdr.CdrError as exc:
+            self.get_logger().error(f"service event not recorded: {exc}")
+            return
         self._record(self.service_event_topic, data, self._now_ns())
 
     # ---- the loop ------------------------------------------------------------------------------

@@ -218,3 +218,35 @@ def test_start_up_is_all_or_nothing(case, tmp_path, request):
     after = {p: p.read_bytes() for p in tmp_path.rglob("*")
              if p.is_file() and "log" not in p.relative_to(tmp_path).parts}  # fmt: skip
     assert after == before  # nothing created, nothing changed
+
+
+def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
+    """Up to 3 zero bytes after the exact CDR are Fast DDS's padding (it pads a message that
+    crosses processes to a multiple of 4): the node strips them, the checker accepts and counts
+    them. Anything else after the message is refused."""
+    require_rclpy()
+    from std_srvs.srv import SetBool
+
+    from drs_ros import cdr
+    from drs_ros.bag.reader import BagReadError, scan
+    from drs_ros.recording import McapRecorder
+
+    event = SetBool.Event()
+    event.response = [SetBool.Response(success=True, message="opened")]
+    exact = cdr.serialize(event)
+    assert len(exact) % 4 != 0  # a string at the end: the transport would pad it
+    padded = exact + bytes(-len(exact) % 4)
+    assert cdr.exact_bytes(padded, SetBool.Event) == exact
+    with pytest.raises(cdr.CdrError, match="plus at most 3 zero bytes"):
+        cdr.exact_bytes(exact + b"\x01", SetBool.Event)
+    for name, data, ok in (("padded", padded, True), ("leaked", exact + b"\x7f\x00", False),
+                           ("long", exact + bytes(4), False)):  # fmt: skip
+        with McapRecorder(tmp_path / name, flush_thread=False) as rec:
+            rec.register_topic(SERVICE_EVENTS, SetBool.Event, 10)
+            rec.write(SERVICE_EVENTS, data, 1)
+        if ok:
+            result = scan(tmp_path / name)
+            assert result.complete and any("padding" in n for n in result.notes)
+        else:
+            with pytest.raises(BagReadError, match=r"bytes where its CDR serialisation is"):
+                scan(tmp_path / name)

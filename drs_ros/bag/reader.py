@@ -157,16 +157,18 @@ def resolve(
     return path, None, None
 
 
-def _exact_checker() -> Callable[[str, bytes], str | None]:
+def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]:
     """``check(type_name, data) -> problem, '' (exact) or None (type not installed)``: decode
-    with the installed type support and serialise again exactly."""
+    with the installed type support and serialise again exactly. Up to 3 zero bytes after the
+    exact CDR are the DDS transport's padding (:func:`drs_ros.cdr.exact_bytes`): rosbag2 records
+    them as they arrive; they are counted in ``padded`` per type, not refused."""
     from rclpy.serialization import deserialize_message
 
     from drs_ros import cdr, msgdefs
 
     classes: dict[str, Any] = {}
 
-    def check(type_name: str, data: bytes) -> str:
+    def check(type_name: str, data: bytes) -> str | None:
         cls = classes.get(type_name)
         if cls is None:
             try:
@@ -181,6 +183,10 @@ def _exact_checker() -> Callable[[str, bytes], str | None]:
         except Exception as exc:  # noqa: BLE001 - any decode failure is the bag's problem
             return f"does not decode as {type_name} ({type(exc).__name__}: {exc})"
         if again == data:
+            return ""
+        tail = data[len(again):]
+        if data.startswith(again) and len(tail) <= cdr.MAX_TRANSPORT_PADDING and not any(tail):
+            padded[type_name] = padded.get(type_name, 0) + 1  # DDS's padding, not a leak
             return ""
         if len(data) != len(again):
             return (f"is {len(data)} bytes where its CDR serialisation is {len(again)} "
@@ -237,7 +243,8 @@ def scan(
     mcap_path, bag_dir, meta = resolve(path, require_metadata=not recover)
     out = BagScan(mcap_path, bag_dir, metadata=meta, file_size=mcap_path.stat().st_size)
     wanted = None if topics is None else set(topics)
-    check = _exact_checker() if exact else None
+    padded: dict[str, int] = {}
+    check = _exact_checker(padded) if exact else None
     unverified: set[str] = set()
     schemas: dict[int, Schema] = {}
     chunk_offsets: dict[int, int] = {}
@@ -363,6 +370,9 @@ def scan(
     out.complete = True
     if unverified:
         out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
+    if padded:
+        out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
+                         f"their exact CDR: {padded}")  # fmt: skip
     return out
 
 
