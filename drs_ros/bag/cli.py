@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
@@ -42,7 +43,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``drs-bag``; returns the verb's exit status."""
     args = build_parser().parse_args(argv)
     module = importlib.import_module(VERBS[args.verb][0])
-    return module.run(args, prog=f"drs-bag {args.verb}")
+    try:
+        return module.run(args, prog=f"drs-bag {args.verb}")
+    except BrokenPipeError:  # the reader of our output went away (drs-bag info | head)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 def check_alias(argv: Sequence[str] | None = None) -> int:
