@@ -23,6 +23,7 @@ from __future__ import annotations
 import array
 import functools
 import importlib
+import operator
 import struct
 import sys
 from collections.abc import Callable
@@ -129,9 +130,37 @@ def _element_writer(typ) -> Writer:
             raise CdrError("wide strings (wstring) are not supported")
         return _string_writer
     if isinstance(typ, NamespacedType):
+        flat = _flat_struct(typ)
+        if flat is not None:  # e.g. a Vector3 or a Quaternion: one pack
+            code, size, get = flat
+
+            def write_flat(buf: bytearray, value, code=code, size=size, get=get) -> None:
+                _align(buf, size)
+                values = get(value)
+                buf += struct.pack(f"<{len(values)}{code}", *values)
+
+            return write_flat
         module = importlib.import_module(".".join(typ.namespaces))
         return _struct_writer(getattr(module, typ.name))
     raise CdrError(f"unsupported rosidl type {typ!r}")
+
+
+def _flat_struct(typ):
+    """``(struct code, size, getter)`` for a message type whose fields are all one fixed-size
+    floating-point type (geometry_msgs/Point: 3 doubles, std_msgs/ColorRGBA: 4 floats), whose
+    elements then lie back to back with no padding; None for any other type."""
+    from rosidl_parser.definition import BasicType, NamespacedType
+
+    if not isinstance(typ, NamespacedType):
+        return None
+    cls = getattr(importlib.import_module(".".join(typ.namespaces)), typ.name)
+    kinds = {t.typename if isinstance(t, BasicType) else None for t in cls.SLOT_TYPES}
+    if len(kinds) != 1 or kinds & {None} or next(iter(kinds)) not in ("double", "float"):
+        return None
+    code, size = _BASIC[next(iter(kinds))]
+    getter = operator.attrgetter(*cls.get_fields_and_field_types())
+    return code, size, (lambda item, g=getter: g(item)) if len(cls.SLOT_TYPES) > 1 else (
+        lambda item, g=getter: (g(item),))
 
 
 def _field_writer(typ) -> Writer:
@@ -139,8 +168,18 @@ def _field_writer(typ) -> Writer:
 
     if isinstance(typ, (Array, AbstractSequence)):
         is_sequence = isinstance(typ, AbstractSequence)
+        flat = _flat_struct(typ.value_type)
         if isinstance(typ.value_type, BasicType):
             body = _basic_block_writer(typ.value_type.typename)
+        elif flat is not None:  # e.g. geometry_msgs/Point: one pack for the whole sequence
+            code, size, get = flat
+
+            def body(buf: bytearray, values, code=code, size=size, get=get) -> None:
+                if values:
+                    _align(buf, size)
+                    flat_values = [v for item in values for v in get(item)]
+                    buf += struct.pack(f"<{len(flat_values)}{code}", *flat_values)
+
         else:
             element = _element_writer(typ.value_type)
 

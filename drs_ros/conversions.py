@@ -161,38 +161,60 @@ MARKER_COLORS = {
 FORCE_ARROW_M_PER_N = 1e-5
 
 
-def marker_array_msg(lines, pins, still, force_origin, piston_force: float, stamp_ns: int,
-                     frame_id: str):  # fmt: skip
-    """visualization_msgs/MarkerArray of one configuration, in the z = 0 plane of ``frame_id``:
-    a LINE_STRIP per drawing (``lines`` and ``still``: name -> (k, 2) [m]), the pins as a
-    SPHERE_LIST, and the piston force as an ARROW from ``force_origin`` along +y
-    (:data:`FORCE_ARROW_M_PER_N`). Ids are fixed per drawing, so each message replaces the last.
-    """
+def _marker(ident: int, name: str, kind: int, points, width: float, frame_id: str):
     from geometry_msgs.msg import Point
     from std_msgs.msg import ColorRGBA
-    from visualization_msgs.msg import Marker, MarkerArray
+    from visualization_msgs.msg import Marker
 
-    stamp = time_msg(stamp_ns)
+    m = Marker(ns=f"drs/{name}", id=ident, type=kind, action=Marker.ADD, frame_locked=True)
+    m.header.frame_id = frame_id
+    m.pose.orientation.w = 1.0
+    m.scale.x = m.scale.y = m.scale.z = width
+    r, g, b = MARKER_COLORS[name]
+    m.color = ColorRGBA(r=r, g=g, b=b, a=1.0)
+    m.points = [Point(x=float(x), y=float(y), z=0.0) for x, y in points]
+    return m
 
-    def marker(ident: int, name: str, kind: int, points, width: float) -> Marker:
-        m = Marker(ns=f"drs/{name}", id=ident, type=kind, action=Marker.ADD, frame_locked=True)
-        m.header.frame_id = frame_id
-        m.header.stamp = stamp
-        m.pose.orientation.w = 1.0
-        m.scale.x = m.scale.y = m.scale.z = width
-        r, g, b = MARKER_COLORS[name]
-        m.color = ColorRGBA(r=r, g=g, b=b, a=1.0)
-        m.points = [Point(x=float(x), y=float(y), z=0.0) for x, y in points]
-        return m
 
-    out = MarkerArray()
-    drawings = {**still, **lines}
-    for ident, (name, pts) in enumerate(drawings.items()):
-        out.markers.append(marker(ident, name, Marker.LINE_STRIP, pts, 0.002))
-    out.markers.append(marker(len(drawings), "pins", Marker.SPHERE_LIST, pins, 0.006))
-    x, y = float(force_origin[0]), float(force_origin[1])
-    arrow = marker(len(drawings) + 1, "force", Marker.ARROW,
-                   [(x, y), (x, y + FORCE_ARROW_M_PER_N * float(piston_force))], 0.0)
-    arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.003, 0.008, 0.01  # shaft, head diameter, head
-    out.markers.append(arrow)
-    return out
+class MechanismMarkers:
+    """The mechanism as a visualization_msgs/MarkerArray, in the z = 0 plane of ``frame_id``.
+
+    Built once (the still drawings' markers never change, the moving ones keep their objects):
+    :meth:`msg` only moves points and restamps, since building a Marker costs ~50 us and a Point
+    ~3 us. One LINE_STRIP per drawing (``still`` and the moving ``names``: drs_ros.drawing), the
+    pins as a SPHERE_LIST, the piston force as an ARROW from its point of action along +y
+    (:data:`FORCE_ARROW_M_PER_N`). Ids are fixed per drawing, so each message replaces the last.
+    """
+
+    def __init__(self, still, moving_sizes: dict[str, int], n_pins: int, frame_id: str) -> None:
+        from visualization_msgs.msg import Marker, MarkerArray
+
+        markers = [_marker(i, name, Marker.LINE_STRIP, pts, 0.002, frame_id)
+                   for i, (name, pts) in enumerate(still.items())]  # fmt: skip
+        self._lines = {}
+        for name, size in moving_sizes.items():
+            self._lines[name] = _marker(len(markers), name, Marker.LINE_STRIP,
+                                        [(0.0, 0.0)] * size, 0.002, frame_id)  # fmt: skip
+            markers.append(self._lines[name])
+        self._pins = _marker(len(markers), "pins", Marker.SPHERE_LIST, [(0.0, 0.0)] * n_pins,
+                             0.006, frame_id)  # fmt: skip
+        self._arrow = _marker(len(markers) + 1, "force", Marker.ARROW, [(0.0, 0.0)] * 2, 0.0,
+                              frame_id)  # fmt: skip
+        # shaft diameter, head diameter, head length [m]
+        self._arrow.scale.x, self._arrow.scale.y, self._arrow.scale.z = 0.003, 0.008, 0.01
+        markers += [self._pins, self._arrow]
+        self._array = MarkerArray(markers=markers)
+
+    def msg(self, lines, pins, force_origin, piston_force: float, stamp_ns: int):
+        """The array for one configuration: ``lines`` name -> (k, 2), ``pins`` (n, 2) [m], the
+        force [N] at ``force_origin`` (2,) [m]; every marker stamped ``stamp_ns``."""
+        x, y = float(force_origin[0]), float(force_origin[1])
+        arrow = ((x, y), (x, y + FORCE_ARROW_M_PER_N * float(piston_force)))
+        for marker, pts in [*((self._lines[k], v) for k, v in lines.items()),
+                            (self._pins, pins), (self._arrow, arrow)]:  # fmt: skip
+            for point, (px, py) in zip(marker.points, pts, strict=True):
+                point.x, point.y = float(px), float(py)
+        stamp = time_msg(stamp_ns)
+        for marker in self._array.markers:
+            marker.header.stamp = stamp
+        return self._array

@@ -41,6 +41,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterEvent
@@ -66,11 +67,11 @@ from drs_model.params import DRSParams, from_dict, from_file
 
 from . import cdr, commands
 from .conversions import (
+    MechanismMarkers,
     command_event_msg,
     diagnostics_msg,
     float_msg,
     joint_state_msg,
-    marker_array_msg,
     parameter_event_msg,
     reactions_msg,
 )
@@ -224,7 +225,10 @@ class DRSNode(Node):
             force_method=gp("force_method").value,
         )
         self.max_catch_up = int(gp("max_catch_up_steps").value)
-        self._still = still_drawings(self.params)
+        lines, pins = moving_drawings(np.array([[self.sim.s_min, 0.0, 0.0]]), self.params)
+        self._scene = MechanismMarkers(still_drawings(self.params),
+                                       {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
+                                       gp("frame_id").value)  # fmt: skip
 
         qos = QoSProfile(depth=QOS_DEPTH)
         self.pub_joints = self.create_publisher(JointState, "/joint_states", qos)
@@ -700,8 +704,8 @@ class DRSNode(Node):
         """The mechanism at state ``st`` as RViz and Foxglove draw it (drs_ros.drawing)."""
         lines, pins = moving_drawings(st.q[None, :], self.params)
         force_at = point_positions(st.q[None, :], self.params, ("P",))["P"][0]
-        return marker_array_msg({k: v[0] for k, v in lines.items()}, pins[0], self._still,
-                                force_at, st.piston_force, stamp, self.frame_id)
+        return self._scene.msg({k: v[0] for k, v in lines.items()}, pins[0], force_at,
+                               st.piston_force, stamp)
 
     def diagnostics_values(self) -> dict[str, object]:
         st = self.sim.state
