@@ -108,11 +108,13 @@ def constraint_gamma(q: np.ndarray, qd: np.ndarray, p: DRSParams) -> np.ndarray:
     """Right-hand side of ``Phi_q qdd = gamma`` [m/s^2], shape ``(..., 2)``."""
     _, p1, p3 = _split(q)
     qd = np.asarray(qd, dtype=float)
-    w1, w3 = qd[..., PSI1], qd[..., PSI3]
-    return np.stack(
-        [
-            p.L2 * np.sin(p1) * w1**2 - p.L3 * np.cos(p3) * w3**2,
-            -p.L2 * np.cos(p1) * w1**2 - p.L3 * np.sin(p3) * w3**2,
-        ],
-        axis=-1,
+    gam = NUMPY.loop_gamma(
+        np.sin(p1),
+        np.cos(p1),
+        np.sin(p3),
+        np.cos(p3),
+        qd[..., PSI1],
+        qd[..., PSI3],
+        p.loop_constants,
     )
+    return np.stack(np.broadcast_arrays(*gam), axis=-1)

@@ -113,6 +113,23 @@ def loop_residual(s, sin1, cos1, sin3, cos3, c):
     )
 
 
+def loop_velocity(sd, sin1, cos1, sin3, cos3, w1, w3, c):
+    """``Phi_q qd`` [m/s] for rates ``sd`` [m/s], ``w1``, ``w3`` [rad/s]."""
+    return (
+        c[L2] * cos1 * w1 + c[L3] * sin3 * w3,
+        -sd + c[L2] * sin1 * w1 - c[L3] * cos3 * w3,
+    )
+
+
+def loop_gamma(sin1, cos1, sin3, cos3, w1, w3, c):
+    """``gamma`` [m/s^2] of ``Phi_q qdd = gamma`` at angular rates ``w1``, ``w3`` [rad/s]."""
+    l2, l3 = c[L2], c[L3]
+    return (
+        l2 * sin1 * w1 * w1 - l3 * cos3 * w3 * w3,
+        -l2 * cos1 * w1 * w1 - l3 * sin3 * w3 * w3,
+    )
+
+
 def stroke_position(s, c, sign):
     """``(sin psi1, cos psi1, sin psi3, cos psi3, h2)`` at stroke ``s`` [m].
 
@@ -143,8 +160,8 @@ def stroke_rates(sin1, cos1, sin3, cos3, sd, sdd, c):
     tau1, tau3 = -l3 * sin3 / det, l2 * cos1 / det
     w1, w3 = tau1 * sd, tau3 * sd
     # J_D [psi1'', psi3''] = gamma - J_s s'' with J_D = [[L2 c1, L3 s3], [L2 s1, -L3 c3]]
-    r0 = l2 * sin1 * w1 * w1 - l3 * cos3 * w3 * w3
-    r1 = -l2 * cos1 * w1 * w1 - l3 * sin3 * w3 * w3 + sdd
+    r0, r1 = loop_gamma(sin1, cos1, sin3, cos3, w1, w3, c)
+    r1 = r1 + sdd
     return (
         tau1,
         tau3,
@@ -179,6 +196,19 @@ def flap_rates(sin1, cos1, sin3, cos3, c):
 
 
 # ---- dynamics ---------------------------------------------------------------------------------
+def generalised_forces(sin1, sin3, cos3, psi3, c):
+    """``Q0`` [N, N m, N m]: the generalised forces of gravity and air (no piston force) on
+    ``(s, psi1, psi3)``."""
+    m2, g = c[M2], c[G]
+    rx, ry = rotate(cos3, sin3, c[GX], c[GY])
+    drag, down = air_load(psi3, c)
+    return (
+        -(c[M1] + m2) * g,
+        m2 * g * 0.5 * c[L2] * sin1,
+        -(c[M3] * g + down) * rx - drag * ry,
+    )
+
+
 def projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, u2, w0, w1, w2, c):
     r"""``(u.M.u, u.M.w + u.h(q, u), u.Q0)`` for a direction ``u = dq/dx`` and ``w = du/dx``.
 
@@ -187,16 +217,14 @@ def projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, u2, w0, w1, w2, c):
     force). ``M`` is block diagonal: ``[[m1 + m2, -m2 L2/2 sin psi1], [., M11]]`` on ``(s, psi1)``
     and ``M22`` on psi3; ``h = (-m2 L2/2 cos psi1 psi1'^2, 0, 0)``.
     """
-    m2, g, hl2 = c[M2], c[G], 0.5 * c[L2]
+    m2, hl2 = c[M2], 0.5 * c[L2]
     m12 = c[M1] + m2
     m01 = -m2 * hl2 * sin1
     umu = m12 * u0 * u0 + 2.0 * m01 * u0 * u1 + c[M11] * u1 * u1 + c[M22] * u2 * u2
     umw = m12 * u0 * w0 + m01 * (u0 * w1 + u1 * w0) + c[M11] * u1 * w1 + c[M22] * u2 * w2
     uh = -u0 * m2 * hl2 * cos1 * u1 * u1
-    rx, ry = rotate(cos3, sin3, c[GX], c[GY])
-    drag, down = air_load(psi3, c)
-    q2 = -(c[M3] * g + down) * rx - drag * ry
-    return umu, umw + uh, -u0 * m12 * g + u1 * m2 * g * hl2 * sin1 + u2 * q2
+    q0, q1, q2 = generalised_forces(sin1, sin3, cos3, psi3, c)
+    return umu, umw + uh, u0 * q0 + u1 * q1 + u2 * q2
 
 
 def psi3_acceleration(b, bd, force, c):
@@ -278,10 +306,13 @@ KERNELS = (
     "flap_sine_for_gap",
     "air_load",
     "loop_residual",
+    "loop_velocity",
+    "loop_gamma",
     "stroke_position",
     "stroke_rates",
     "flap_position",
     "flap_rates",
+    "generalised_forces",
     "projected_dynamics",
     "psi3_acceleration",
     "psi3_configuration",

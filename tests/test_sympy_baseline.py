@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drs_model import dynamics as dyn
+from drs_model import inverse as dyn
 from drs_model.params import SEED_LITERAL_IZ_WING, DRSParams
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))

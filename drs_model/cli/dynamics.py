@@ -7,8 +7,9 @@ import argparse
 import numpy as np
 
 from ..constraints import PSI3, S
-from ..dynamics import (
-    METHODS,
+from ..errors import InputError
+from ..inverse import (
+    INVERSE_METHODS,
     REACTION_NAMES,
     air_load_magnitude,
     inverse_dynamics,
@@ -16,7 +17,6 @@ from ..dynamics import (
     peak_force,
     static_force_ratio,
 )
-from ..errors import InputError
 from ..kinematics import stroke_limits
 from ..params import SEED_LITERAL_IZ_WING
 from ._common import Output, add_common, float_list, key_values, load_params, table
@@ -25,13 +25,13 @@ from ._common import Output, add_common, float_list, key_values, load_params, ta
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("inverse", help="piston force (and joint reactions) along the manoeuvre")
     add_common(p)
-    p.add_argument("--method", choices=sorted(METHODS), default="newton-euler")
+    p.add_argument("--method", choices=sorted(INVERSE_METHODS), default="newton-euler")
     p.add_argument("--time", type=float_list, required=True, metavar="T[,T...]", help="times [s]")
     p.set_defaults(func=run_inverse)
 
     p = sub.add_parser("peak", help="peak piston force, its time and stroke, force ratio range")
     add_common(p)
-    p.add_argument("--method", choices=sorted(METHODS), default="virtual-work")
+    p.add_argument("--method", choices=sorted(INVERSE_METHODS), default="virtual-work")
     p.add_argument("--samples", type=int, default=5001, help="grid before the Brent refinement")
     p.set_defaults(func=run_peak)
 

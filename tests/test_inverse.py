@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from drs_model import dynamics as dyn
+from drs_model import inverse as dyn
 from drs_model import kinematics as kin
 from drs_model.bodies import air_forces, kinetic_energy, potential_energy
 from drs_model.cli import main as cli_main
@@ -36,18 +36,26 @@ SEED_NE_STATIC = [
     ({"rj1x": 1.0, "rj2x": -1.0}, 0.0),
     ({"rj1y": 1.0, "rj2y": -1.0}, 0.367875),
     (
-        {"rj1x": 0.02463676358, "rj2x": 0.02463676358, "rj1y": -0.004246160620,
-         "rj2y": -0.004246160620},
+        {
+            "rj1x": 0.02463676358,
+            "rj2x": 0.02463676358,
+            "rj1y": -0.004246160620,
+            "rj2y": -0.004246160620,
+        },
         0.0,
     ),
     ({"rj2x": 1.0, "rj3x": -1.0}, -145.5132885),
     ({"rj2y": 1.0, "rj3y": -1.0}, 838.7370169),
     (
-        {"rj2x": 0.03767539849, "rj2y": -0.01799901303, "rj3x": 0.05085213524,
-         "rj3y": -0.02850866573},
+        {
+            "rj2x": 0.03767539849,
+            "rj2y": -0.01799901303,
+            "rj3x": 0.05085213524,
+            "rj3y": -0.02850866573,
+        },
         0.0,
     ),
-]  # fmt: skip
+]
 # ics_rvars: reaction = a + b F
 SEED_RVARS_AFFINE = {
     "Np": (-0.1669624750, 0.1723505852),
@@ -61,9 +69,15 @@ SEED_RVARS_AFFINE = {
 }
 # ics_dae_NE (Newton-Euler profile at t = 0) and ics_dae_lagr / ics_piston_lagr
 SEED_NE_REACTIONS_0 = {
-    "Np": 172.7335602, "Tp": -2.763736962, "rj1x": -172.7335602, "rj1y": -1002.406007,
-    "rj2x": -172.7335602, "rj2y": -1002.038132, "rj3x": -318.2468487, "rj3y": -163.3011151,
-}  # fmt: skip
+    "Np": 172.7335602,
+    "Tp": -2.763736962,
+    "rj1x": -172.7335602,
+    "rj1y": -1002.406007,
+    "rj2x": -172.7335602,
+    "rj2y": -1002.038132,
+    "rj3x": -318.2468487,
+    "rj3y": -163.3011151,
+}
 SEED_F_LAGRANGE_0 = 1003.196915
 SEED_LAMBDA_0 = np.array([-172.7346128, -1002.044240])
 
@@ -269,8 +283,9 @@ def test_exact_closed_state_against_finite_difference_virtual_work(params):
         )
     # with the seed's strokes and flap limits, on the loop: again the finite-difference value
     ref_seed = static_force_by_finite_differences(SEED_S_LIMITS[0], params, SEED_FLAP_LIMITS)
-    f0 = dyn.manoeuvre_force(np.array([0.0]), params, "newton-euler", SEED_S_LIMITS,
-                             SEED_FLAP_LIMITS)  # fmt: skip
+    f0 = dyn.manoeuvre_force(
+        np.array([0.0]), params, "newton-euler", SEED_S_LIMITS, SEED_FLAP_LIMITS
+    )
     assert float(f0[0]) == pytest.approx(ref_seed, rel=1e-7)
     # and both lie within 2e-4 relative of the seed's 1003.196915 (the state moved, not the model)
     assert float(f0[0]) == pytest.approx(SEED_F_LAGRANGE_0, rel=2e-4)
