@@ -160,16 +160,22 @@ def _rms_norm(e0, e1):
     return math.sqrt(0.5 * (e0 * e0 + e1 * e1))
 
 
+def _combination(K, tab_a, row, n):
+    """``sum_j tab_a[row, j] K[j]`` over the first ``n`` stages: both components."""
+    s0 = 0.0
+    s1 = 0.0
+    for j in range(n):
+        s0 += K[j, 0] * tab_a[row, j]
+        s1 += K[j, 1] * tab_a[row, j]
+    return s0, s1
+
+
 def _stages(K, s_from, s_to, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc):
     """Stages ``s_from <= s < s_to`` of an explicit RK step into the rows of ``K`` (2 columns:
     psi3', psi3''). Returns ``(-1, 0.0)``, or the stage whose piston force is not finite and
     that force."""
     for s in range(s_from, s_to):
-        s0 = 0.0
-        s1 = 0.0
-        for j in range(s):
-            s0 += K[j, 0] * tab_a[s, j]
-            s1 += K[j, 1] * tab_a[s, j]
+        s0, s1 = _combination(K, tab_a, s, s)
         ys0 = y0 + s0 * h
         ys1 = y1 + s1 * h
         fo = _force(t + tab_c[s] * h, kind, value, mc, mp)
@@ -399,11 +405,7 @@ def _integrate(
                     status, info, t_fail = NONFINITE_FORCE, fo, t + tab_c[bad] * h
                     break
                 nfev += ns
-                s0 = 0.0
-                s1 = 0.0
-                for j in range(ns):
-                    s0 += K[j, 0] * tab_a[ns, j]
-                    s1 += K[j, 1] * tab_a[ns, j]
+                s0, s1 = _combination(K, tab_a, ns, ns)
                 yn0 = y0 + s0 * h
                 yn1 = y1 + s1 * h
                 sc0 = atol[0] + max(abs(y0), abs(yn0)) * rtol
@@ -480,6 +482,7 @@ _DRIVER = (
     "_to_q_qd",
     "_grow",
     "_rms_norm",
+    "_combination",
     "_stages",
     "_error_norm",
     "_dense",

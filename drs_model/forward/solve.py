@@ -163,6 +163,15 @@ def simulate(
         The s formulation approached the dead centre.
     """
     if isinstance(method, str) and method in COMPILED_METHODS:
+        solver_options = dict(
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            first_step=first_step,
+            t_eval=t_eval,
+            min_step=min_step,
+            breakpoints=breakpoints,
+        )
         return _simulate_compiled(
             formulation,
             force,
@@ -171,13 +180,7 @@ def simulate(
             params,
             initial,
             method,
-            rtol,
-            atol,
-            max_step,
-            first_step,
-            t_eval,
-            min_step,
-            breakpoints,
+            solver_options,
             formulation_options,
         )
     if isinstance(formulation, Formulation):
@@ -284,21 +287,7 @@ _COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")
 
 
 def _simulate_compiled(
-    formulation,
-    force,
-    t_span,
-    y0,
-    params,
-    initial,
-    method,
-    rtol,
-    atol,
-    max_step,
-    first_step,
-    t_eval,
-    min_step,
-    breakpoints,
-    options,
+    formulation, force, t_span, y0, params, initial, method, solver_options, options
 ) -> Solution:
     """``simulate`` with a compiled method: formulation (a) in :mod:`.numba_rk`."""
     extra = {k: options.pop(k) for k in _COMPILED_OPTIONS if k in options}
@@ -323,12 +312,6 @@ def _simulate_compiled(
         initial=initial,
         y0=y0,
         label=method,
-        rtol=rtol,
-        atol=atol,
-        t_eval=t_eval,
-        first_step=first_step,
-        max_step=max_step,
-        min_step=min_step,
-        breakpoints=breakpoints,
+        **solver_options,
         **extra,
     )
