@@ -13,7 +13,6 @@ from drs_model import kinematics as kin
 from drs_model.actuator import ActuatorSim
 from drs_model.constraints import constraint
 from drs_model.errors import InputError, StrokeRangeError
-from drs_model.forward import as_force  # noqa: F401 - the public force inputs exist
 from drs_model.inverse import inverse_dynamics
 from drs_model.profile import drs_manoeuvre
 

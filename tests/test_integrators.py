@@ -89,6 +89,20 @@ def test_step_force_restarts_at_the_step(params):
     np.testing.assert_allclose(whole.y[:, -1], second.y[:, -1], rtol=1e-12, atol=1e-13)
 
 
+@pytest.mark.parametrize("method", ["DOP853", "dop853-numba"])
+def test_unknown_option_is_a_drs_error_naming_it(params, method):
+    with pytest.raises(
+        DRSError, match=r"unknown option\(s\) \['bogus_option'\] for formulation 'psi3'"
+    ):
+        simulate("psi3", 0.0, (0.0, 0.01), params=params, method=method, bogus_option=1)
+    with pytest.raises(
+        DRSError, match=r"unknown option\(s\) \['alfa'\] for formulation 'baumgarte'"
+    ):
+        simulate("baumgarte", 0.0, (0.0, 0.01), params=params, alfa=10.0)
+    with pytest.raises(DRSError, match=r"\['bogus_option'\]"):
+        FixedStepIntegrator(params, 1e-3, bogus_option=1)
+
+
 def test_force_inputs_are_normalised():
     assert isinstance(fw.as_force(3), fw.ConstantForce)
     f = fw.as_force(lambda t: 2.0 * t)
