@@ -250,6 +250,12 @@ class DRSParams:
                 f"d_tip must be < L_wing = {self.L_wing!r} m, got d_tip={self.d_tip!r}"
             )
         check_geometry(self)  # the mechanism must assemble over the whole working stroke
+        # hashed once: the compiled path looks its formulation up by the parameters on every call
+        values = tuple(getattr(self, f.name) for f in dataclasses.fields(self))
+        object.__setattr__(self, "_hash", hash(values))
+
+    def __hash__(self) -> int:
+        return self._hash
 
     # ---- derived quantities -------------------------------------------------------------------
     @property

@@ -171,18 +171,20 @@ def _combination(K, tab_a, row, n):
 
 
 def _stages(K, s_from, s_to, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc):
-    """Stages ``s_from <= s < s_to`` of an explicit RK step into the rows of ``K`` (2 columns:
-    psi3', psi3''). Returns ``(-1, 0.0)``, or the stage whose piston force is not finite and
-    that force."""
+    """Stages ``s_from <= s < s_to`` of an explicit RK step into the rows of ``K`` (columns:
+    psi3', psi3'', piston force). The forces depend on the stage times only: all are evaluated
+    first, free of the stages' chain of dependencies. Returns ``(-1, 0.0)``, or the stage whose
+    piston force is not finite and that force."""
+    for s in range(s_from, s_to):
+        K[s, 2] = _force(t + tab_c[s] * h, kind, value, mc, mp)
+    for s in range(s_from, s_to):
+        if not math.isfinite(K[s, 2]):
+            return s, K[s, 2]
     for s in range(s_from, s_to):
         s0, s1 = _combination(K, tab_a, s, s)
-        ys0 = y0 + s0 * h
         ys1 = y1 + s1 * h
-        fo = _force(t + tab_c[s] * h, kind, value, mc, mp)
-        if not math.isfinite(fo):
-            return s, fo
         K[s, 0] = ys1
-        K[s, 1] = psi3_acceleration(ys0, ys1, fo, kc)
+        K[s, 1] = psi3_acceleration(y0 + s0 * h, ys1, K[s, 2], kc)
     return -1, 0.0
 
 
@@ -305,7 +307,8 @@ def _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc):
 
 
 def _integrate(
-    y_start,
+    y_start0,
+    y_start1,
     edges,
     kinds,
     values,
@@ -340,7 +343,7 @@ def _integrate(
     step size, force, cos psi1, psi3 or stroke of a failure.
     """
     expo = -1.0 / (err_order + 1.0)
-    K = np.zeros((n_ext, 2))
+    K = np.zeros((n_ext, 3))  # psi3', psi3'', piston force per stage
     y_fail = np.zeros(2)
     n_eval = t_eval.shape[0]
     if has_eval:
@@ -351,8 +354,8 @@ def _integrate(
         t_out = np.empty(256)
         y_out = np.empty((2, 256))
         t_out[0] = edges[0]
-        y_out[0, 0] = y_start[0]
-        y_out[1, 0] = y_start[1]
+        y_out[0, 0] = y_start0
+        y_out[1, 0] = y_start1
         n_out = 1
     ie = 0
     nfev = 0
@@ -360,8 +363,8 @@ def _integrate(
     nrej = 0
     status = OK
     info = 0.0
-    y0 = y_start[0]
-    y1 = y_start[1]
+    y0 = y_start0
+    y1 = y_start1
     t = edges[0]
     t_fail = t
     n_seg = edges.shape[0] - 1
@@ -473,6 +476,14 @@ def _integrate(
     return status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg
 
 
+def _integrate_to_q(*args):
+    """:func:`_integrate` on ``args``, then ``(q, qd)`` of its output states: one call from
+    Python."""
+    out = _integrate(*args)
+    q, qd = _to_q_qd(out[3], out[1], args[7])
+    return out + (q, qd)
+
+
 #: The driver's own functions, callees first; the kernels of :mod:`drs_model.kernels` are compiled
 #: before them.
 _DRIVER = (
@@ -489,6 +500,7 @@ _DRIVER = (
     "_initial_step",
     "_check_step",
     "_integrate",
+    "_integrate_to_q",
 )
 _LOADED = False
 
@@ -528,11 +540,15 @@ def load() -> float:
             "installed: pip install 'drs[fast]' (or pip install 'numba>=0.60'); the scipy "
             "methods ('RK45', 'DOP853', 'LSODA', ...) work without it"
         ) from exc
-    jit = numba.njit(cache=True)
+    # numpy's error model: a division by zero gives inf/NaN (which the driver treats as a rejected
+    # stage) instead of a ZeroDivisionError check on every division
+    jit = numba.njit(cache=True, error_model="numpy")
     # the kernels' own code objects, with globals in which every kernel is its compiled self
     namespace = kernels.rebind(kernels.KERNELS, dict(vars(kernels)))
     for name in kernels.KERNELS:
-        namespace[name] = jit(namespace[name])
+        namespace[name] = numba.njit(cache=True, error_model="numpy", inline="always")(
+            namespace[name]
+        )
     g = globals()
     for name in ("flap_position", "manoeuvre_force", "psi3_acceleration", "psi3_configuration"):
         g[name] = namespace[name]
@@ -560,14 +576,17 @@ def warm_up(p: DRSParams | None = None) -> float:
 
 
 # ---- constants ----------------------------------------------------------------------------------
+@lru_cache(maxsize=64)
 def psi3_constants(form: Psi3Minimal) -> np.ndarray:
-    """The formulation's kernel constants (:func:`drs_model.bodies.model_constants`) as float64."""
+    """The formulation's kernel constants (:func:`drs_model.bodies.model_constants`) as float64
+    (cached per formulation; read-only to the driver)."""
     return np.array(form.consts, dtype=np.float64)
 
 
+@lru_cache(maxsize=64)
 def manoeuvre_constants(force: ManoeuvreForce) -> tuple[np.ndarray, np.ndarray]:
     """``(mc, mp)``: the force's kernel constants and its manoeuvre's profile constants
-    (:meth:`drs_model.profile.Manoeuvre.constants`), as float64 arrays."""
+    (:meth:`drs_model.profile.Manoeuvre.constants`), as float64 arrays (cached per force)."""
     inv = force.inverse
     return np.array(inv.consts, dtype=np.float64), np.array(inv.profile, dtype=np.float64)
 
@@ -588,6 +607,20 @@ def psi3_formulation(
         return _default_form(p, flap_limits, float(min_cos_psi1))
     except TypeError:  # unhashable flap_limits (a list)
         return Psi3Minimal(p, flap_limits, float(min_cos_psi1))
+
+
+@lru_cache(maxsize=256)
+def _default_atol(form: Psi3Minimal, rtol: float) -> np.ndarray:
+    """``rtol`` times the formulation's state scales (cached: the driver only reads it)."""
+    return rtol * np.array(form.scales, dtype=np.float64)
+
+
+@lru_cache(maxsize=256)
+def _checks(form: Psi3Minimal, lo: float, hi: float, check_range: bool, stop: bool) -> np.ndarray:
+    """The driver's ``checks``: ``[min_cos_psi1, lo, hi, psi3 of the dead centre, check the stroke
+    range, stop at the dead centre]`` (cached: the driver only reads it)."""
+    psi3_dead = _dead_centre_psi3(form.p) if stop else math.inf
+    return np.array([form.min_cos_psi1, lo, hi, psi3_dead, float(check_range), float(stop)])
 
 
 @lru_cache(maxsize=64)
@@ -639,6 +672,13 @@ def _tableau(method: str):
 
 # ---- the wrapper --------------------------------------------------------------------------------
 def _segments(fobj, t0: float, t1: float, extra=()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(edges, kinds, values)`` of the segments of ``[t0, t1]`` (cached: the driver only reads
+    them)."""
+    return _segments_of(fobj, float(t0), float(t1), tuple(float(b) for b in extra) if extra else ())
+
+
+@lru_cache(maxsize=64)
+def _segments_of(fobj, t0: float, t1: float, extra: tuple[float, ...]):
     cuts = sorted({float(b) for b in (*fobj.breakpoints, *extra) if t0 < b < t1})
     edges = np.array([t0, *cuts, t1], dtype=np.float64)
     n = edges.size - 1
@@ -660,6 +700,7 @@ def _segments(fobj, t0: float, t1: float, extra=()) -> tuple[np.ndarray, np.ndar
 
 
 _NO_MANOEUVRE = (np.zeros(kernels.N_CONSTANTS), np.ones(17))
+_EPS = float(np.finfo(float).eps)
 
 
 def _run(
@@ -690,14 +731,13 @@ def _run(
         raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
     if not (rtol > 0.0 and math.isfinite(rtol)):
         raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
-    rtol = max(float(rtol), 100 * np.finfo(float).eps)  # scipy's floor
-    atol_arr = (
-        rtol * np.array(form.scales)
-        if atol is None
-        else np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).copy()
-    )
-    if not (np.all(np.isfinite(atol_arr)) and np.all(atol_arr >= 0.0)):
-        raise InputError(f"atol must be finite and >= 0, got {atol!r}")
+    rtol = max(float(rtol), 100 * _EPS)  # scipy's floor
+    if atol is None:
+        atol_arr = _default_atol(form, rtol)
+    else:
+        atol_arr = np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).copy()
+        if not (np.all(np.isfinite(atol_arr)) and np.all(atol_arr >= 0.0)):
+            raise InputError(f"atol must be finite and >= 0, got {atol!r}")
     fs = 0.0 if first_step is None else float(first_step)
     if first_step is not None and not (fs > 0.0 and math.isfinite(fs)):
         raise InputError(f"first_step must be a finite number > 0 s, got {first_step!r}")
@@ -718,23 +758,19 @@ def _run(
     mc, mp = manoeuvre_constants(fobj) if isinstance(fobj, ManoeuvreForce) else _NO_MANOEUVRE
     p = form.p
     if stroke_range is None:
-        lo, hi, check_range = -math.inf, math.inf, 0.0
+        lo, hi = -math.inf, math.inf
     else:
         lo, hi = (float(v) for v in stroke_range)
         if not lo < hi:
             raise InputError(
                 f"stroke_range must be (lo, hi) with lo < hi [m], got {stroke_range!r}"
             )
-        check_range = 1.0
-    psi3_dead = _dead_centre_psi3(p) if stop_at_dead_centre else math.inf
-    checks = np.array(
-        [form.min_cos_psi1, lo, hi, psi3_dead, check_range, 1.0 if stop_at_dead_centre else 0.0]
-    )
+    checks = _checks(form, lo, hi, stroke_range is not None, bool(stop_at_dead_centre))
     kc = psi3_constants(form)
     a, c, e, e3, dense, ns, n_ext, order, is853 = _tableau(method)
-    y_start = np.array([float(y[0]), float(y[1])])
-    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg = _integrate(
-        y_start,
+    out = _integrate_to_q(
+        float(y[0]),
+        float(y[1]),
         edges,
         kinds,
         values,
@@ -760,26 +796,25 @@ def _run(
         checks,
         int(max_steps),
     )
+    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg, q, qd = out
     if status != OK:
         _raise(status, label, t_fail, y_fail, info, seg, edges, checks, p, int(max_steps), min_step)
-    q, qd = _to_q_qd(y_out, n_out, kc)
-    y_out = y_out[:, :n_out]
-    zeros = np.zeros(n_out)
+    edge_list = edges.tolist()
     return Solution(
         form.name,
         label,
         t_out[:n_out].copy(),
-        np.ascontiguousarray(y_out),
+        y_out[:, :n_out].copy(),
         q,
         qd,
-        zeros,
-        zeros.copy(),
-        int(nfev),
+        np.zeros(n_out),
+        np.zeros(n_out),
+        nfev,
         0,
         0,
-        int(nsteps),
-        [(float(x), float(z)) for x, z in zip(edges[:-1], edges[1:], strict=True)],
-        int(nrej),
+        nsteps,
+        list(zip(edge_list[:-1], edge_list[1:], strict=True)),
+        nrej,
     )
 
 

@@ -302,7 +302,8 @@ def _simulate_compiled(
     else:
         if params is None:
             raise InputError("params is required with a formulation name")
-        check_options("psi3", options)
+        if options:
+            check_options("psi3", options)
         form = numba_rk.psi3_formulation(params, **options)
     return numba_rk.run_formulation(
         form,
