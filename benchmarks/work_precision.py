@@ -499,6 +499,75 @@ def compiled_startup() -> dict:
     return out
 
 
+FLOOR_RTOLS = (1e-6, 1e-9)
+FLOOR_TARGET = 1.5  # issue 11: a compiled run within 1.5x of nfev x (RHS + force)
+
+
+def compiled_floor(prob: Problem, repeats: int = 15, inner: int = 20, n: int = 2000) -> list[dict]:
+    """The compiled methods against their floor, ``nfev x (RHS + force)``: per repeat, back to back,
+    the CPU time of one ``simulate`` call and of ``n`` compiled evaluations of the psi3 right-hand
+    side (at the states of the run) and of the manoeuvre force (at its times); the ratio's median
+    over the repeats (and the ratio of the fastest samples) is printed."""
+    from drs_model.forward import numba_rk as compiled
+
+    p = prob.p
+    form = compiled.psi3_formulation(p)
+    kc = compiled.psi3_constants(form)
+    mc, mp = compiled.manoeuvre_constants(prob.force)
+    t = np.linspace(0.0, prob.t_end, n)
+    out = []
+    for method in COMPILED:
+        for rtol in FLOOR_RTOLS:
+
+            def go(method=method, rtol=rtol):
+                return simulate(
+                    "psi3", prob.force, (0.0, prob.t_end), params=p, method=method, rtol=rtol
+                )
+
+            sol = go()
+            b = np.interp(t, sol.t, sol.y[0])
+            bd = np.interp(t, sol.t, sol.y[1])
+            f = compiled._manoeuvre_forces(t, mc, mp)
+
+            def rhs_block(b=b, bd=bd, f=f):
+                return compiled._psi3_accels(b, bd, f, kc)
+
+            def force_block():
+                return compiled._manoeuvre_forces(t, mc, mp)
+
+            calls, rhs, force = [], [], []
+            _cpu(go, 1, inner)  # warm the caches of this method and tolerance
+            for _ in range(repeats):
+                calls.append(_cpu(go, 1, inner)[0])
+                rhs.append(_cpu(rhs_block, 1, inner)[0] / n)
+                force.append(_cpu(force_block, 1, inner)[0] / n)
+            ratios = [c / (sol.nfev * (r + g)) for c, r, g in zip(calls, rhs, force, strict=True)]
+            out.append(
+                {
+                    "method": method,
+                    "rtol": rtol,
+                    "nfev": sol.nfev,
+                    "call_us": statistics.median(calls) * 1e6,
+                    "rhs_ns": statistics.median(rhs) * 1e9,
+                    "force_ns": statistics.median(force) * 1e9,
+                    "ratio": statistics.median(ratios),
+                    "ratio_fastest": min(calls) / (sol.nfev * (min(rhs) + min(force))),
+                }
+            )
+    return out
+
+
+def floor_report(rows: list[dict]) -> str:
+    return "\n".join(
+        f"{r['method']} rtol {r['rtol']:g}: {r['call_us']:.1f} us per run, nfev {r['nfev']} x "
+        f"(RHS {r['rhs_ns']:.0f} ns + force {r['force_ns']:.0f} ns) = "
+        f"{r['nfev'] * (r['rhs_ns'] + r['force_ns']) * 1e-3:.1f} us: ratio {r['ratio']:.2f} "
+        f"(fastest samples {r['ratio_fastest']:.2f}; target <= {FLOOR_TARGET:g}: "
+        f"{'met' if r['ratio'] <= FLOOR_TARGET else 'missed'})"
+        for r in rows
+    )
+
+
 def _groups(records) -> dict[str, list]:
     groups: dict[str, list] = {}
     for r in records:
@@ -670,6 +739,7 @@ def run(
                 results["compiled_rows"].append(
                     adaptive_case(prob, "psi3", method, rtol, repeats, inner=COMPILED_INNER)
                 )
+        results["compiled_floor"] = compiled_floor(prob, repeats=5 if quick else 15)
         results["compiled"].update(compiled_startup())
         log(
             f"compiled: {len(results['compiled_rows'])} runs + start-up in "
@@ -764,6 +834,9 @@ def report(results: dict) -> str:
         )
     elif comp:
         lines.append(f"compiled methods: {comp}")
+    if results.get("compiled_floor"):
+        lines.append("compiled run against nfev x (RHS + force):")
+        lines.append(floor_report(results["compiled_floor"]))
     for r in results["realtime"]:
         lines.append(
             f"fixed step rk4/psi3 dt = {r['dt'] * 1e3:g} ms: {r['us_per_step']:.2f} us per step "
@@ -788,7 +861,17 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a ~30 s subset")
     ap.add_argument("--repeats", type=int, default=None)
+    ap.add_argument(
+        "--floor", action="store_true", help="only the compiled runs against their floor (~10 s)"
+    )
     args = ap.parse_args(argv)
+    if args.floor:
+        from drs_model.forward import numba_rk as compiled
+
+        prob = Problem(DRSParams())
+        compiled.warm_up(prob.p)
+        print(floor_report(compiled_floor(prob, repeats=args.repeats or 15)))
+        return 0
     results = run(quick=args.quick, repeats=args.repeats)
     print(report(results))
     print(f"wall time {results['wall_time']:.1f} s")
