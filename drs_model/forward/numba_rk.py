@@ -543,12 +543,12 @@ def load() -> float:
     # numpy's error model: a division by zero gives inf/NaN (which the driver treats as a rejected
     # stage) instead of a ZeroDivisionError check on every division
     jit = numba.njit(cache=True, error_model="numpy")
-    # the kernels' own code objects, with globals in which every kernel is its compiled self
+    # the kernels' own code objects, with globals in which every kernel is its compiled self,
+    # inlined into their callers (the force kernel runs ~25 % faster than called)
+    inline = numba.njit(cache=True, error_model="numpy", inline="always")
     namespace = kernels.rebind(kernels.KERNELS, dict(vars(kernels)))
     for name in kernels.KERNELS:
-        namespace[name] = numba.njit(cache=True, error_model="numpy", inline="always")(
-            namespace[name]
-        )
+        namespace[name] = inline(namespace[name])
     g = globals()
     for name in ("flap_position", "manoeuvre_force", "psi3_acceleration", "psi3_configuration"):
         g[name] = namespace[name]
