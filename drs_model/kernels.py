@@ -1,11 +1,12 @@
 r"""The scalar closed forms of the DRS model, each written once.
 
 Every kernel is plain ``math`` code in numba's subset (no numpy, no exceptions, no ``if`` on a
-value except through :func:`select` and :func:`clip`), so one source serves three paths:
+value except through :func:`select`, ``min`` and ``max``), so one source serves three paths:
 
 * the scalar real-time paths call the kernels as they are (``math`` on floats);
 * :data:`NUMPY` holds the same functions with ``math`` rebound to numpy's ufuncs (and ``select``
-  to ``np.where``, ``clip`` to ``np.clip``): same code objects, evaluated on arrays, for the
+  to ``np.where``, ``min``/``max`` to ``np.minimum``/``np.maximum``): same code objects, evaluated
+  on arrays, for the
   vectorised APIs of :mod:`~drs_model.kinematics`, :mod:`~drs_model.profile`,
   :mod:`~drs_model.bodies` and :mod:`~drs_model.inverse`;
 * :mod:`drs_model.forward.numba_rk` compiles the same code objects with numba.
@@ -58,8 +59,9 @@ def select(cond, a, b):
 
 
 def clip(x, lo, hi):
-    """``x`` limited to ``[lo, hi]`` (``np.clip`` on arrays)."""
-    return lo if x < lo else (hi if x > hi else x)
+    """``x`` limited to ``[lo, hi]`` (builtins ``min``/``max``: C calls in Python, and
+    ``np.minimum``/``np.maximum`` in :data:`NUMPY`)."""
+    return min(max(x, lo), hi)
 
 
 def rotate(c, s, x, y):
@@ -143,7 +145,7 @@ def stroke_position(s, c, sign):
     inv_rho = 1.0 / math.sqrt(rho2)
     a = 0.5 * (rho2 + l2 * l2 - l3 * l3) * inv_rho
     h2 = l2 * l2 - a * a
-    h = sign * math.sqrt(clip(h2, 0.0, math.inf)) * inv_rho
+    h = sign * math.sqrt(max(h2, 0.0)) * inv_rho
     a = a * inv_rho
     cx = xa + a * dx - h * dy
     cy = by + a * dy + h * dx
@@ -176,7 +178,7 @@ def flap_position(sin3, cos3, c, sign):
     l2, l3 = c[L2], c[L3]
     sin1 = (c[XA] - c[XD] + l3 * cos3) / l2
     cos1_sq = 1.0 - sin1 * sin1
-    cos1 = sign * math.sqrt(clip(cos1_sq, 0.0, 1.0))
+    cos1 = sign * math.sqrt(min(max(cos1_sq, 0.0), 1.0))
     return c[YD] - c[YB0] - l3 * sin3 - l2 * cos1, sin1, cos1, cos1_sq
 
 
@@ -320,7 +322,7 @@ KERNELS = (
     "manoeuvre_force",
 )
 #: Kernels free of value branches: these evaluate arrays in :data:`NUMPY`.
-VECTORISED = tuple(k for k in KERNELS if k not in ("psi3_acceleration", "select", "clip"))
+VECTORISED = tuple(k for k in KERNELS if k not in ("psi3_acceleration", "select"))
 
 
 def rebind(names, namespace: dict) -> dict:
@@ -342,7 +344,8 @@ _NUMPY_NAMESPACE = rebind(
             np.sqrt, np.sin, np.cos, np.arctan2, np.arcsin, np.arccos, np.nan, np.inf, np.pi
         ),
         "select": np.where,
-        "clip": np.clip,
+        "min": np.minimum,
+        "max": np.maximum,
     },
 )
 #: The vectorised kernels: same code, numpy ufuncs; ``NUMPY.stroke_position(s_array, c, 1.0)``.

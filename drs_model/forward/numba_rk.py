@@ -542,13 +542,14 @@ def load() -> float:
         ) from exc
     # numpy's error model: a division by zero gives inf/NaN (which the driver treats as a rejected
     # stage) instead of a ZeroDivisionError check on every division
+    from numba.extending import register_jitable
+
     jit = numba.njit(cache=True, error_model="numpy")
-    # the kernels' own code objects, with globals in which every kernel is its compiled self,
-    # inlined into their callers (the force kernel runs ~25 % faster than called)
-    inline = numba.njit(cache=True, error_model="numpy", inline="always")
+    # the kernels' own code objects, with globals in which every kernel is registered with numba:
+    # each compiles into the driver function that calls it (no dispatcher of its own)
     namespace = kernels.rebind(kernels.KERNELS, dict(vars(kernels)))
     for name in kernels.KERNELS:
-        namespace[name] = inline(namespace[name])
+        namespace[name] = register_jitable(error_model="numpy")(namespace[name])
     g = globals()
     for name in ("flap_position", "manoeuvre_force", "psi3_acceleration", "psi3_configuration"):
         g[name] = namespace[name]
