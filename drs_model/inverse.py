@@ -77,7 +77,7 @@ from . import kernels
 from .bodies import air_forces, applied_forces, mass_matrix, model_constants, velocity_forces
 from .constraints import PSI1, PSI3, S, constraint_jacobian, singularity_measure
 from .errors import AssemblyError, InputError, SingularConfigurationError
-from .kernels import NUMPY, SINGULAR_TOL
+from .kernels import NUMPY, SCALAR, SINGULAR_TOL
 from .kinematics import (
     KinematicState,
     kinematic_state,
@@ -623,7 +623,7 @@ class FusedInverseDynamics:
         """
         if not (math.isfinite(s) and math.isfinite(sd) and math.isfinite(sdd)):
             raise InputError(f"s, sd, sdd must be finite, got {(s, sd, sdd)!r}")
-        force = kernels.fused_force(s, sd, sdd, self.consts)
+        force = SCALAR.fused_force(s, sd, sdd, self.consts)
         if math.isnan(force):
             self._diagnose(np.array([s]))
         return force
@@ -632,7 +632,7 @@ class FusedInverseDynamics:
         """Piston force [N] at time ``t`` [s] of the open-hold-close manoeuvre."""
         if not math.isfinite(t):
             raise InputError(f"time must be finite, got {t!r}")
-        return kernels.manoeuvre_force(t, self.consts, self.profile)
+        return SCALAR.manoeuvre_force(t, self.consts, self.profile)
 
     def force_array(self, s, sd, sdd) -> np.ndarray:
         """The same kernel on numpy arrays, in cache-sized blocks.

@@ -32,7 +32,11 @@ Cramer's rule (determinant ``-L2 L3 cos(psi1 - psi3)`` with ``s`` independent).
 
 from __future__ import annotations
 
+import ast
+import copy
+import inspect
 import math
+import textwrap
 import types
 from collections import namedtuple
 
@@ -350,3 +354,131 @@ _NUMPY_NAMESPACE = rebind(
 )
 #: The vectorised kernels: same code, numpy ufuncs; ``NUMPY.stroke_position(s_array, c, 1.0)``.
 NUMPY = namedtuple("NumpyKernels", VECTORISED)(*(_NUMPY_NAMESPACE[k] for k in VECTORISED))
+
+
+# ---- the scalar path: the same kernels with their calls inlined ---------------------------------
+def _callee_source(name: str) -> ast.FunctionDef:
+    return ast.parse(textwrap.dedent(inspect.getsource(globals()[name]))).body[0]
+
+
+def _local_names(fdef: ast.FunctionDef) -> set[str]:
+    names = {a.arg for a in fdef.args.args}
+    for node in ast.walk(fdef):
+        if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+    return names
+
+
+class _Rename(ast.NodeTransformer):
+    """Renames a kernel's locals (``prefix`` + name), or replaces them by the caller's name or
+    constant bound to them (``bound``)."""
+
+    def __init__(self, names: set[str], prefix: str, bound: dict[str, ast.expr]) -> None:
+        self.names, self.prefix, self.bound = names, prefix, bound
+
+    def visit_Name(self, node: ast.Name) -> ast.expr:
+        if node.id in self.bound:
+            return ast.copy_location(copy.copy(self.bound[node.id]), node)
+        if node.id in self.names:
+            return ast.copy_location(ast.Name(self.prefix + node.id, node.ctx), node)
+        return node
+
+
+def _inline(body: list[ast.stmt], count: list[int]) -> list[ast.stmt]:
+    """``body`` with every statement ``targets = kernel(args)`` replaced by the kernel's body (its
+    locals renamed, an argument that is a name or a constant put in place of its parameter, any
+    other argument bound once, its final ``return`` assigned to ``targets``)."""
+    out: list[ast.stmt] = []
+    for stmt in body:
+        call = stmt.value if isinstance(stmt, ast.Assign) else None
+        if not (
+            isinstance(call, ast.Call)
+            and isinstance(call.func, ast.Name)
+            and call.func.id in KERNELS
+            and not call.keywords
+            and len(stmt.targets) == 1
+        ):
+            out.append(stmt)
+            continue
+        callee = _callee_source(call.func.id)
+        count[0] += 1
+        prefix = f"_{call.func.id}{count[0]}_"
+        inner = [
+            s
+            for s in callee.body
+            if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))
+        ]
+        *steps, last = _inline(inner, count)
+        if not isinstance(last, ast.Return) or any(
+            isinstance(n, ast.Return) for s in steps for n in ast.walk(s)
+        ):
+            raise AssertionError(f"kernel {call.func.id} must end in its only return")
+        stored = {
+            n.id
+            for s in steps
+            for n in ast.walk(s)
+            if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)
+        }
+        bound, binds = {}, []
+        for param, arg in zip((a.arg for a in callee.args.args), call.args, strict=True):
+            if isinstance(arg, (ast.Name, ast.Constant)) and param not in stored:
+                bound[param] = arg
+            else:
+                binds.append(ast.Assign([ast.Name(prefix + param, ast.Store())], arg))
+        renamer = _Rename(_local_names(callee), prefix, bound)
+        out += binds + [renamer.visit(s) for s in steps]
+        out.append(ast.Assign(stmt.targets, renamer.visit(last.value)))
+    return out
+
+
+_INDEX_NAMES = (
+    "XA", "YB0", "XD", "YD", "L2", "L3", "GX", "GY", "M1", "M2", "M3", "I2", "I3", "G",
+    "DRAG_OPEN", "DRAG_SLOPE", "DOWN_OPEN", "DOWN_SLOPE", "PSI3_OPEN", "M11", "M22",
+)  # fmt: skip
+
+
+class _Constants(ast.NodeTransformer):
+    """``c[NAME]`` -> the local ``_c_NAME`` (the constants unpacked once); ``x * 1.0`` -> ``x``
+    (exact: an inlined argument 1.0 multiplies nothing)."""
+
+    def visit_BinOp(self, node: ast.BinOp) -> ast.expr:
+        self.generic_visit(node)
+        if isinstance(node.op, ast.Mult):
+            for keep, one in ((node.left, node.right), (node.right, node.left)):
+                if isinstance(one, ast.Constant) and one.value == 1.0:
+                    return keep
+        return node
+
+    def visit_Subscript(self, node: ast.Subscript) -> ast.expr:
+        self.generic_visit(node)
+        if (
+            isinstance(node.value, ast.Name)
+            and node.value.id == "c"
+            and isinstance(node.slice, ast.Name)
+            and node.slice.id in _INDEX_NAMES
+        ):
+            return ast.copy_location(ast.Name("_c_" + node.slice.id, ast.Load()), node)
+        return node
+
+
+def _flatten(name: str):
+    """The kernel ``name`` with its calls of other kernels inlined and its constants ``c``
+    (all :data:`N_CONSTANTS`) unpacked once: the same operations in the same order, without
+    CPython's cost of a call per sub-kernel and of a lookup per constant."""
+    fdef = _callee_source(name)
+    body = _Constants().visit(ast.Module(_inline(fdef.body, [0]), [])).body
+    unpack = ast.Assign(
+        [ast.Tuple([ast.Name("_c_" + n, ast.Store()) for n in _INDEX_NAMES], ast.Store())],
+        ast.Name("c", ast.Load()),
+    )
+    fdef.body = [unpack, *body]
+    module = ast.fix_missing_locations(ast.Module([fdef], []))
+    namespace = dict(globals())
+    exec(compile(module, f"<drs_model.kernels.{name}, inlined>", "exec"), namespace)
+    return namespace[name]
+
+
+_SCALAR_KERNELS = ("psi3_acceleration", "psi3_configuration", "fused_force", "manoeuvre_force")
+#: The top-level kernels for one sample at a time in pure Python (the real-time loop, the scalar
+#: inverse dynamics): generated from the kernels above at import, calls inlined.
+SCALAR = namedtuple("ScalarKernels", _SCALAR_KERNELS)(*(_flatten(k) for k in _SCALAR_KERNELS))

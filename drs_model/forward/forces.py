@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import kernels
 from ..errors import InputError, IntegrationError
 from ..inverse import FusedInverseDynamics
+from ..kernels import SCALAR
 from ..kinematics import solve_position
 from ..params import DRSParams
 
@@ -145,10 +145,10 @@ class ManoeuvreForce:
         self.breakpoints = tuple(float(t) for t in self.manoeuvre.kinks)
 
     def __call__(self, t: float) -> float:
-        return kernels.manoeuvre_force(float(t), self.inverse.consts, self.inverse.profile)
+        return SCALAR.manoeuvre_force(float(t), self.inverse.consts, self.inverse.profile)
 
     def segment(self, a: float, b: float) -> Callable[[float], float]:
-        consts, profile, force = self.inverse.consts, self.inverse.profile, kernels.manoeuvre_force
+        consts, profile, force = self.inverse.consts, self.inverse.profile, SCALAR.manoeuvre_force
         return lambda t: force(t, consts, profile)
 
     def profile(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

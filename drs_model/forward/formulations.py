@@ -84,14 +84,13 @@ from ..errors import (
     SingularConfigurationError,
 )
 from ..kernels import (
+    SCALAR,
     flap_position,
     generalised_forces,
     loop_gamma,
     loop_residual,
     loop_velocity,
     projected_dynamics,
-    psi3_acceleration,
-    psi3_configuration,
     stroke_position,
     stroke_rates,
 )
@@ -314,8 +313,7 @@ class Psi3Minimal(_MinimalCoordinates):
         if not 0.0 <= min_cos_psi1 < 1.0:
             raise InputError(f"min_cos_psi1 must be in [0, 1), got {min_cos_psi1!r}")
         self.min_cos_psi1 = float(min_cos_psi1)
-        self.accel = partial(psi3_acceleration, c=self.consts)
-        self.config = partial(psi3_configuration, c=self.consts)
+        self.accel, self.config = _psi3_kernels(self.consts)
 
     def check(self, t, y):
         super().check(t, y)
@@ -346,6 +344,20 @@ class Psi3Minimal(_MinimalCoordinates):
         q = solve_position_from_flap_angle(y[0], self.p)
         u = velocity_ratio(q, self.p, "psi3", check=False)
         return q, u * y[1][:, None]
+
+
+def _psi3_kernels(consts: tuple[float, ...]) -> tuple[Callable, Callable]:
+    """``accel(psi3, psi3d, F)`` and ``config(psi3)``: the scalar psi3 kernels bound to ``consts``
+    (positional calls: a ``partial`` with a keyword costs a keyword merge per call)."""
+    acceleration, configuration = SCALAR.psi3_acceleration, SCALAR.psi3_configuration
+
+    def accel(b: float, bd: float, force: float) -> float:
+        return acceleration(b, bd, force, consts)
+
+    def config(b: float) -> tuple[float, float, float, float]:
+        return configuration(b, consts)
+
+    return accel, config
 
 
 class StrokeMinimal(_MinimalCoordinates):
