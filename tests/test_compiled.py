@@ -1,5 +1,5 @@
-"""The compiled path (drs_model.compiled): kernels against the Python ones, the RK driver against
-scipy's solvers and the exact profile, typed failures.
+"""The compiled path (drs_model.forward.numba_rk): kernels against independent formulations, the
+RK driver against scipy's solvers and the exact profile, typed failures.
 
 Skipped when numba is missing, unless ``CI`` is set (CI installs every extra: a missing numba fails
 there). No timing is asserted (benchmarks/work_precision.py measures it).

@@ -79,7 +79,7 @@ __all__ = [
     "warm_up",
 ]
 
-#: Names of the compiled methods in :func:`drs_model.integrators.simulate` -> driver name.
+#: Names of the compiled methods in :func:`drs_model.forward.simulate` -> driver name.
 COMPILED_METHODS = {"dopri5-numba": "dopri5", "dop853-numba": "dop853"}
 
 # status codes of the compiled driver
