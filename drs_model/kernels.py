@@ -432,9 +432,28 @@ def _inline(body: list[ast.stmt], count: list[int]) -> list[ast.stmt]:
 
 
 _INDEX_NAMES = (
-    "XA", "YB0", "XD", "YD", "L2", "L3", "GX", "GY", "M1", "M2", "M3", "I2", "I3", "G",
-    "DRAG_OPEN", "DRAG_SLOPE", "DOWN_OPEN", "DOWN_SLOPE", "PSI3_OPEN", "M11", "M22",
-)  # fmt: skip
+    "XA",
+    "YB0",
+    "XD",
+    "YD",
+    "L2",
+    "L3",
+    "GX",
+    "GY",
+    "M1",
+    "M2",
+    "M3",
+    "I2",
+    "I3",
+    "G",
+    "DRAG_OPEN",
+    "DRAG_SLOPE",
+    "DOWN_OPEN",
+    "DOWN_SLOPE",
+    "PSI3_OPEN",
+    "M11",
+    "M22",
+)
 
 
 class _Constants(ast.NodeTransformer):
@@ -461,24 +480,46 @@ class _Constants(ast.NodeTransformer):
         return node
 
 
-def _flatten(name: str):
+def _flatten(name: str, bind: bool = False):
     """The kernel ``name`` with its calls of other kernels inlined and its constants ``c``
     (all :data:`N_CONSTANTS`) unpacked once: the same operations in the same order, without
-    CPython's cost of a call per sub-kernel and of a lookup per constant."""
+    CPython's cost of a call per sub-kernel and of a lookup per constant.
+
+    ``bind``: instead, a factory ``f(c)`` that unpacks ``c`` once and returns the kernel without
+    its ``c`` argument (the constants become closure cells).
+    """
     fdef = _callee_source(name)
     body = _Constants().visit(ast.Module(_inline(fdef.body, [0]), [])).body
     unpack = ast.Assign(
         [ast.Tuple([ast.Name("_c_" + n, ast.Store()) for n in _INDEX_NAMES], ast.Store())],
         ast.Name("c", ast.Load()),
     )
-    fdef.body = [unpack, *body]
-    module = ast.fix_missing_locations(ast.Module([fdef], []))
+    if bind:
+        fdef.args.args = [a for a in fdef.args.args if a.arg != "c"]
+        fdef.body = body
+        factory = ast.FunctionDef(
+            "bind",
+            ast.arguments([], [ast.arg("c")], None, [], [], None, []),
+            [unpack, fdef, ast.Return(ast.Name(name, ast.Load()))],
+            [],
+        )
+        module = ast.Module([factory], [])
+    else:
+        fdef.body = [unpack, *body]
+        module = ast.Module([fdef], [])
     namespace = dict(globals())
-    exec(compile(module, f"<drs_model.kernels.{name}, inlined>", "exec"), namespace)
-    return namespace[name]
+    code = compile(
+        ast.fix_missing_locations(module), f"<drs_model.kernels.{name}, inlined>", "exec"
+    )
+    exec(code, namespace)
+    return namespace["bind" if bind else name]
 
 
 _SCALAR_KERNELS = ("psi3_acceleration", "psi3_configuration", "fused_force", "manoeuvre_force")
 #: The top-level kernels for one sample at a time in pure Python (the real-time loop, the scalar
 #: inverse dynamics): generated from the kernels above at import, calls inlined.
 SCALAR = namedtuple("ScalarKernels", _SCALAR_KERNELS)(*(_flatten(k) for k in _SCALAR_KERNELS))
+#: Factories ``f(c)`` of the same kernels with the constants ``c`` bound (no ``c`` argument).
+SCALAR_BOUND = namedtuple("BoundScalarKernels", _SCALAR_KERNELS)(
+    *(_flatten(k, bind=True) for k in _SCALAR_KERNELS)
+)

@@ -84,7 +84,7 @@ from ..errors import (
     SingularConfigurationError,
 )
 from ..kernels import (
-    SCALAR,
+    SCALAR_BOUND,
     flap_position,
     generalised_forces,
     loop_gamma,
@@ -347,17 +347,9 @@ class Psi3Minimal(_MinimalCoordinates):
 
 
 def _psi3_kernels(consts: tuple[float, ...]) -> tuple[Callable, Callable]:
-    """``accel(psi3, psi3d, F)`` and ``config(psi3)``: the scalar psi3 kernels bound to ``consts``
-    (positional calls: a ``partial`` with a keyword costs a keyword merge per call)."""
-    acceleration, configuration = SCALAR.psi3_acceleration, SCALAR.psi3_configuration
-
-    def accel(b: float, bd: float, force: float) -> float:
-        return acceleration(b, bd, force, consts)
-
-    def config(b: float) -> tuple[float, float, float, float]:
-        return configuration(b, consts)
-
-    return accel, config
+    """``accel(psi3, psi3d, F)`` and ``config(psi3)``: the scalar psi3 kernels with ``consts``
+    bound (:data:`drs_model.kernels.SCALAR_BOUND`)."""
+    return SCALAR_BOUND.psi3_acceleration(consts), SCALAR_BOUND.psi3_configuration(consts)
 
 
 class StrokeMinimal(_MinimalCoordinates):
