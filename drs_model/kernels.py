@@ -3,7 +3,9 @@ r"""The scalar closed forms of the DRS model, each written once.
 Every kernel is plain ``math`` code in numba's subset (no numpy, no exceptions, no ``if`` on a
 value except through :func:`select`, ``min`` and ``max``), so one source serves three paths:
 
-* the scalar real-time paths call the kernels as they are (``math`` on floats);
+* the scalar real-time paths run :data:`SCALAR` (and :data:`SCALAR_BOUND`): the top-level kernels
+  with their calls of other kernels inlined, generated from this source at import (``math`` on
+  floats, bit-identical to the kernels, without CPython's cost of a call per sub-kernel);
 * :data:`NUMPY` holds the same functions with ``math`` rebound to numpy's ufuncs (and ``select``
   to ``np.where``, ``min``/``max`` to ``np.minimum``/``np.maximum``): same code objects, evaluated
   on arrays, for the
