@@ -309,6 +309,8 @@ def _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc):
 def _integrate(
     y_start0,
     y_start1,
+    t_eval,
+    has_eval,
     edges,
     kinds,
     values,
@@ -324,8 +326,6 @@ def _integrate(
     n_ext,
     err_order,
     is853,
-    t_eval,
-    has_eval,
     rtol,
     atol,
     first_step,
@@ -480,7 +480,7 @@ def _integrate_to_q(*args):
     """:func:`_integrate` on ``args``, then ``(q, qd)`` of its output states: one call from
     Python."""
     out = _integrate(*args)
-    q, qd = _to_q_qd(out[3], out[1], args[7])
+    q, qd = _to_q_qd(out[3], out[1], args[9])
     return out + (q, qd)
 
 
@@ -611,12 +611,6 @@ def psi3_formulation(
 
 
 @lru_cache(maxsize=256)
-def _default_atol(form: Psi3Minimal, rtol: float) -> np.ndarray:
-    """``rtol`` times the formulation's state scales (cached: the driver only reads it)."""
-    return rtol * np.array(form.scales, dtype=np.float64)
-
-
-@lru_cache(maxsize=256)
 def _checks(form: Psi3Minimal, lo: float, hi: float, check_range: bool, stop: bool) -> np.ndarray:
     """The driver's ``checks``: ``[min_cos_psi1, lo, hi, psi3 of the dead centre, check the stroke
     range, stop at the dead centre]`` (cached: the driver only reads it)."""
@@ -704,6 +698,81 @@ _NO_MANOEUVRE = (np.zeros(kernels.N_CONSTANTS), np.ones(17))
 _EPS = float(np.finfo(float).eps)
 
 
+@lru_cache(maxsize=256)
+def _plan(
+    form,
+    fobj,
+    method,
+    t0,
+    t1,
+    rtol,
+    atol,
+    first_step,
+    max_step,
+    min_step,
+    breakpoints,
+    stroke_range,
+    stop_at_dead_centre,
+    max_steps,
+):
+    """The driver's arguments after the start state and the output times, validated. Cached: they
+    depend on these (hashable) inputs only, and the driver only reads them."""
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise InputError(f"t_span must be finite with t_end > t_start, got {(t0, t1)!r}")
+    if not (rtol > 0.0 and math.isfinite(rtol)):
+        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
+    rtol = max(float(rtol), 100 * _EPS)  # scipy's floor
+    if atol is None:
+        atol_arr = rtol * np.array(form.scales, dtype=np.float64)
+    else:
+        atol_arr = np.array(atol, dtype=np.float64)
+        if not (np.all(np.isfinite(atol_arr)) and np.all(atol_arr >= 0.0)):
+            raise InputError(f"atol must be finite and >= 0, got {atol!r}")
+    fs = 0.0 if first_step is None else float(first_step)
+    if first_step is not None and not (fs > 0.0 and math.isfinite(fs)):
+        raise InputError(f"first_step must be a finite number > 0 s, got {first_step!r}")
+    if not max_step > 0.0:
+        raise InputError(f"max_step must be > 0 s, got {max_step!r}")
+    if int(max_steps) < 1:
+        raise InputError(f"max_steps must be >= 1, got {max_steps!r}")
+    edges, kinds, values = _segments(fobj, t0, t1, breakpoints)
+    mc, mp = manoeuvre_constants(fobj) if isinstance(fobj, ManoeuvreForce) else _NO_MANOEUVRE
+    if stroke_range is None:
+        lo, hi = -math.inf, math.inf
+    else:
+        lo, hi = (float(v) for v in stroke_range)
+        if not lo < hi:
+            raise InputError(
+                f"stroke_range must be (lo, hi) with lo < hi [m], got {stroke_range!r}"
+            )
+    checks = _checks(form, lo, hi, stroke_range is not None, bool(stop_at_dead_centre))
+    a, c, e, e3, dense, ns, n_ext, order, is853 = _tableau(method)
+    return (
+        edges,
+        kinds,
+        values,
+        mc,
+        mp,
+        psi3_constants(form),
+        a,
+        c,
+        e,
+        e3,
+        dense,
+        ns,
+        n_ext,
+        order,
+        is853,
+        rtol,
+        atol_arr,
+        fs,
+        float(max_step),
+        float(min_step),
+        checks,
+        int(max_steps),
+    )
+
+
 def _run(
     form: Psi3Minimal,
     fobj,
@@ -726,26 +795,25 @@ def _run(
     """Validate, run the compiled driver, raise its failure as a typed error or return the
     :class:`~drs_model.forward.solution.Solution`."""
     load()
-    label = label or f"{method}-numba"
     t0, t1 = float(t_span[0]), float(t_span[1])
-    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-        raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
-    if not (rtol > 0.0 and math.isfinite(rtol)):
-        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
-    rtol = max(float(rtol), 100 * _EPS)  # scipy's floor
-    if atol is None:
-        atol_arr = _default_atol(form, rtol)
-    else:
-        atol_arr = np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).copy()
-        if not (np.all(np.isfinite(atol_arr)) and np.all(atol_arr >= 0.0)):
-            raise InputError(f"atol must be finite and >= 0, got {atol!r}")
-    fs = 0.0 if first_step is None else float(first_step)
-    if first_step is not None and not (fs > 0.0 and math.isfinite(fs)):
-        raise InputError(f"first_step must be a finite number > 0 s, got {first_step!r}")
-    if not max_step > 0.0:
-        raise InputError(f"max_step must be > 0 s, got {max_step!r}")
-    if int(max_steps) < 1:
-        raise InputError(f"max_steps must be >= 1, got {max_steps!r}")
+    if atol is not None:
+        atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
+    plan = _plan(
+        form,
+        fobj,
+        method,
+        t0,
+        t1,
+        rtol,
+        atol,
+        first_step,
+        max_step,
+        min_step,
+        tuple(breakpoints),
+        None if stroke_range is None else tuple(stroke_range),
+        bool(stop_at_dead_centre),
+        max_steps,
+    )
     if t_eval is None:
         te, has_eval = np.zeros(0), False
     else:
@@ -755,55 +823,16 @@ def _run(
         if np.any(np.diff(te) < 0.0):
             raise InputError("t_eval must be sorted in increasing order")
         has_eval = True
-    edges, kinds, values = _segments(fobj, t0, t1, breakpoints)
-    mc, mp = manoeuvre_constants(fobj) if isinstance(fobj, ManoeuvreForce) else _NO_MANOEUVRE
-    p = form.p
-    if stroke_range is None:
-        lo, hi = -math.inf, math.inf
-    else:
-        lo, hi = (float(v) for v in stroke_range)
-        if not lo < hi:
-            raise InputError(
-                f"stroke_range must be (lo, hi) with lo < hi [m], got {stroke_range!r}"
-            )
-    checks = _checks(form, lo, hi, stroke_range is not None, bool(stop_at_dead_centre))
-    kc = psi3_constants(form)
-    a, c, e, e3, dense, ns, n_ext, order, is853 = _tableau(method)
-    out = _integrate_to_q(
-        float(y[0]),
-        float(y[1]),
-        edges,
-        kinds,
-        values,
-        mc,
-        mp,
-        kc,
-        a,
-        c,
-        e,
-        e3,
-        dense,
-        ns,
-        n_ext,
-        order,
-        is853,
-        te,
-        has_eval,
-        rtol,
-        atol_arr,
-        fs,
-        float(max_step),
-        float(min_step),
-        checks,
-        int(max_steps),
-    )
+    out = _integrate_to_q(float(y[0]), float(y[1]), te, has_eval, *plan)
     status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg, q, qd = out
+    edges, checks = plan[0], plan[-2]
     if status != OK:
-        _raise(status, label, t_fail, y_fail, info, seg, edges, checks, p, int(max_steps), min_step)
+        label = label or f"{method}-numba"
+        _raise(status, label, t_fail, y_fail, info, seg, edges, checks, form.p, max_steps, min_step)
     edge_list = edges.tolist()
     return Solution(
         form.name,
-        label,
+        label or f"{method}-numba",
         t_out[:n_out].copy(),
         y_out[:, :n_out].copy(),
         q,
