@@ -2,7 +2,7 @@
 
 Both paths go from time to piston force: profile -> kinematics -> force.
 
-* ours, vectorised: :func:`drs_model.dynamics.manoeuvre_force` (default ``"virtual-work"``: the
+* ours, vectorised: :func:`drs_model.inverse.manoeuvre_force` (default ``"virtual-work"``: the
   fused closed form) and, for reference, the Newton-Euler route through ``kinematic_state``;
 * ours, one sample: :meth:`FusedInverseDynamics.force_at` (``math`` only, built once);
 * baseline: the seed's profile (drs_model's, shared), the baseline's own Newton kinematics on its
@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from sympy_baseline import build_baseline  # noqa: E402
 
-from drs_model.dynamics import FusedInverseDynamics, manoeuvre_force  # noqa: E402
+from drs_model.inverse import FusedInverseDynamics, manoeuvre_force  # noqa: E402
 from drs_model.params import DRSParams  # noqa: E402
 from drs_model.profile import drs_manoeuvre  # noqa: E402
 
@@ -57,8 +57,10 @@ def main() -> None:
     p = DRSParams()
     t_build = time.perf_counter()
     baseline = build_baseline(p)
-    print(f"sympy baseline: derivation + lambdify {baseline.build_time:.3f} s "
-          f"(build_baseline call {time.perf_counter() - t_build:.3f} s)")
+    print(
+        f"sympy baseline: derivation + lambdify {baseline.build_time:.3f} s "
+        f"(build_baseline call {time.perf_counter() - t_build:.3f} s)"
+    )
     man = drs_manoeuvre(p)
     fused = FusedInverseDynamics.from_params(p)
 

@@ -13,7 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from drs_model.dynamics import manoeuvre_force, peak_force  # noqa: E402
+from drs_model.inverse import manoeuvre_force, peak_force  # noqa: E402
 from drs_model.params import SEED_LITERAL_IZ_WING, DRSParams  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "img"

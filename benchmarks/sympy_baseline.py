@@ -200,12 +200,31 @@ def _derive(p: DRSParams, flap_limits: tuple[float, float] | None) -> Baseline:
     psi_c, psi_o = _flap_limits(p) if flap_limits is None else flap_limits
     xg_v, yg_v = p.flap_com_local
     values = {
-        xA: p.x_A, yA: p.y_A, xD: p.x_D, yD: p.y_D, L1: p.L1, L2: p.L2, L3: p.L3,
-        Lw: p.L_wing, dtip: p.d_tip, xg: xg_v, yg: yg_v, g: p.g,
-        m1: p.m_pist, m2: p.m_link, m3: p.m_wing, I1: p.Iz_pist, I2: p.Iz_link, I3: p.Iz_wing,
-        Fdc: p.F_drag_closed, Fdo: p.F_drag_open, Fnc: p.F_down_closed, Fno: p.F_down_open,
-        pc: psi_c, po: psi_o,
-    }  # fmt: skip
+        xA: p.x_A,
+        yA: p.y_A,
+        xD: p.x_D,
+        yD: p.y_D,
+        L1: p.L1,
+        L2: p.L2,
+        L3: p.L3,
+        Lw: p.L_wing,
+        dtip: p.d_tip,
+        xg: xg_v,
+        yg: yg_v,
+        g: p.g,
+        m1: p.m_pist,
+        m2: p.m_link,
+        m3: p.m_wing,
+        I1: p.Iz_pist,
+        I2: p.Iz_link,
+        I3: p.Iz_wing,
+        Fdc: p.F_drag_closed,
+        Fdo: p.F_drag_open,
+        Fnc: p.F_down_closed,
+        Fno: p.F_down_open,
+        pc: psi_c,
+        po: psi_o,
+    }
 
     # plain symbols for lambdify
     qs = sm.symbols("q0:3")

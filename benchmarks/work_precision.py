@@ -14,10 +14,11 @@ evaluations, or the failure (type and message). The baseline a user would otherw
 sympy.physics.mechanics index-1 right-hand side of ``benchmarks/sympy_baseline.py`` with
 solve_ivp (RK45, DOP853, Radau, LSODA; same segments and force) - runs in the same process.
 
-The compiled methods of :mod:`drs_model.compiled` (``dopri5-numba``, ``dop853-numba`` on formulation
-(a), numba) run as further rows when numba is installed: warmed first (compiled, or loaded from
-numba's cache), each timed over a batch of calls; their one-off start-up cost is measured apart, in
-fresh interpreters, without and with numba's on-disk cache (``compiled`` in the JSON).
+The compiled methods of :mod:`drs_model.forward.numba_rk` (``dopri5-numba``, ``dop853-numba``
+on formulation (a), numba) run as further rows when numba is installed: warmed first (compiled, or
+loaded from numba's cache), each timed over a batch of calls; their one-off start-up cost is
+measured apart, in fresh interpreters, without and with numba's on-disk cache (``compiled`` in
+the JSON).
 
 Outputs ``benchmarks/results/work_precision.json`` and ``docs/img/work_precision.png`` (left: the
 baseline and our best few; right: every row); prints the target ratios. ``--quick`` runs a subset
@@ -46,10 +47,7 @@ if str(ROOT) not in sys.path:  # pragma: no cover - running as a script
 
 from drs_model import forward as fw  # noqa: E402
 from drs_model.errors import DRSError  # noqa: E402
-from drs_model.integrators import (  # noqa: E402
-    FixedStepIntegrator,
-    simulate,
-)
+from drs_model.forward import FixedStepIntegrator, FullCoordinates, simulate  # noqa: E402
 from drs_model.kinematics import (  # noqa: E402
     dead_centre,
     solve_position,
@@ -117,9 +115,15 @@ def adaptive_case(
 
     def go():
         return simulate(
-            form, prob.force, (0.0, prob.t_end), params=prob.p, method=method, rtol=rtol,
-            t_eval=prob.grid, **options,
-        )  # fmt: skip
+            form,
+            prob.force,
+            (0.0, prob.t_end),
+            params=prob.p,
+            method=method,
+            rtol=rtol,
+            t_eval=prob.grid,
+            **options,
+        )
 
     try:
         cpu, sol = _cpu(go, repeats, inner)
@@ -128,11 +132,18 @@ def adaptive_case(
         return rec
     es, ep = prob.errors(sol.t, sol.s, sol.psi3)
     rec.update(
-        ok=True, cpu=cpu, nfev=sol.nfev, njev=sol.njev, nlu=sol.nlu, nsteps=sol.nsteps,
+        ok=True,
+        cpu=cpu,
+        nfev=sol.nfev,
+        njev=sol.njev,
+        nlu=sol.nlu,
+        nsteps=sol.nsteps,
         nrejected=sol.nrejected,
-        err_s=es, err_psi3=ep, residual=float(np.max(sol.residual)),
+        err_s=es,
+        err_psi3=ep,
+        residual=float(np.max(sol.residual)),
         velocity_residual=float(np.max(sol.velocity_residual)),
-    )  # fmt: skip
+    )
     return rec
 
 
@@ -159,9 +170,14 @@ def fixed_case(prob: Problem, method: str, dt: float, repeats: int) -> dict:
     es, ep = prob.errors(out[:, 0], out[:, 1], out[:, 2])
     evals = {"rk4": 4, "rk2": 2}.get(method, 1)
     rec.update(
-        ok=True, cpu=cpu, nfev=evals * n, err_s=es, err_psi3=ep, residual=0.0,
+        ok=True,
+        cpu=cpu,
+        nfev=evals * n,
+        err_s=es,
+        err_psi3=ep,
+        residual=0.0,
         us_per_step=cpu / n * 1e6,
-    )  # fmt: skip
+    )
     return rec
 
 
@@ -185,8 +201,14 @@ def realtime_step_cost(p: DRSParams, dt: float, n: int = 20000, repeats: int = 5
                     break  # ZOH of a 10 ms move at 1 kHz may overrun the stroke: restart
                 done += 1
         costs.append((time.process_time() - t0) / done * 1e6)
-    return {"dt": dt, "method": "rk4", "formulation": "psi3", "us_per_step": min(costs),
-            "us_per_step_median": statistics.median(costs), "steps": n}  # fmt: skip
+    return {
+        "dt": dt,
+        "method": "rk4",
+        "formulation": "psi3",
+        "us_per_step": min(costs),
+        "us_per_step_median": statistics.median(costs),
+        "steps": n,
+    }
 
 
 def baseline_case(prob: Problem, bl, method: str, rtol: float, repeats: int) -> dict:
@@ -194,7 +216,7 @@ def baseline_case(prob: Problem, bl, method: str, rtol: float, repeats: int) -> 
     bps = [0.0, *prob.force.breakpoints[1:-1], prob.t_end]
     q0 = solve_position(stroke_limits(prob.p)[0], prob.p)
     y0 = np.concatenate([q0, np.zeros(3)])
-    atol = rtol * np.array([0.05, 1.0, 1.0, 10.0, 100.0, 100.0])
+    atol = rtol * np.array(FullCoordinates.scales)
 
     def go():
         y, ts, ss, ps, nfev = y0, [], [], [], 0
@@ -202,9 +224,14 @@ def baseline_case(prob: Problem, bl, method: str, rtol: float, repeats: int) -> 
             piece = prob.force.segment(a, b)
             mask = (prob.grid >= a if k == 0 else prob.grid > a) & (prob.grid <= b)
             sol = solve_ivp(
-                lambda t, yy, f=piece: bl.rhs(t, yy, f), (a, b), y, method=method,
-                t_eval=prob.grid[mask], rtol=rtol, atol=atol,
-            )  # fmt: skip
+                lambda t, yy, f=piece: bl.rhs(t, yy, f),
+                (a, b),
+                y,
+                method=method,
+                t_eval=prob.grid[mask],
+                rtol=rtol,
+                atol=atol,
+            )
             if sol.status != 0:
                 raise RuntimeError(sol.message)
             nfev += sol.nfev
@@ -246,11 +273,20 @@ def stability_study(p: DRSParams, quick: bool) -> list[dict]:
         def go(form=form):
             sol = simulate(form, low, (0.0, 0.03), params=p, method="DOP853", rtol=1e-9)
             i = int(np.argmin(sol.s))
-            return {"min_s": float(sol.s[i]), "t_min_s": float(sol.t[i]),
-                    "psi3_at_min_s": float(sol.psi3[i])}  # fmt: skip
+            return {
+                "min_s": float(sol.s[i]),
+                "t_min_s": float(sol.t[i]),
+                "psi3_at_min_s": float(sol.psi3[i]),
+            }
 
-        rows.append({"study": "dead centre", "case": f"{form}, F = 0.8 F_hold(closed)",
-                     "s_dead": s_dead, **_outcome(go)})  # fmt: skip
+        rows.append(
+            {
+                "study": "dead centre",
+                "case": f"{form}, F = 0.8 F_hold(closed)",
+                "s_dead": s_dead,
+                **_outcome(go),
+            }
+        )
 
     def go_fixed_dead():
         integ = FixedStepIntegrator(p, 1e-4)
@@ -258,8 +294,13 @@ def stability_study(p: DRSParams, quick: bool) -> list[dict]:
             integ.step(low)
         return {"t": integ.t}
 
-    rows.append({"study": "dead centre", "case": "fixed rk4 dt=0.1 ms, F = 0.8 F_hold(closed)",
-                 **_outcome(go_fixed_dead)})  # fmt: skip
+    rows.append(
+        {
+            "study": "dead centre",
+            "case": "fixed rk4 dt=0.1 ms, F = 0.8 F_hold(closed)",
+            **_outcome(go_fixed_dead),
+        }
+    )
     # 2. fixed step too large on the manoeuvre
     for dt in (2e-3, 5e-3) if quick else (1e-3, 2e-3, 5e-3, 1e-2):
         for method in ("rk4",) if quick else ("rk4", "rk2", "semi-implicit-euler"):
@@ -273,8 +314,9 @@ def stability_study(p: DRSParams, quick: bool) -> list[dict]:
                     errs.append(abs(st.s - float(force.profile(st.t)[0])))
                 return {"err_s": max(errs)}
 
-            rows.append({"study": "fixed step", "case": f"{method} dt={dt * 1e3:g} ms",
-                         **_outcome(go)})  # fmt: skip
+            rows.append(
+                {"study": "fixed step", "case": f"{method} dt={dt * 1e3:g} ms", **_outcome(go)}
+            )
     # 3. Baumgarte gains (RK45 and Radau at rtol 1e-6)
     gains = (0.0, 50.0, 1e3, 1e5) if quick else (0.0, 10.0, 50.0, 200.0, 1e3, 1e4, 1e5)
     for method in ("RK45",) if quick else ("RK45", "Radau"):
@@ -283,17 +325,31 @@ def stability_study(p: DRSParams, quick: bool) -> list[dict]:
             def go(k=k, method=method):
                 t0 = time.process_time()
                 sol = simulate(
-                    "index1" if k == 0 else "baumgarte", force, (0.0, p.T_total), params=p,
-                    method=method, rtol=1e-6, drift_bound=1e-3,
+                    "index1" if k == 0 else "baumgarte",
+                    force,
+                    (0.0, p.T_total),
+                    params=p,
+                    method=method,
+                    rtol=1e-6,
+                    drift_bound=1e-3,
                     **({} if k == 0 else {"alpha": k, "beta": k}),
-                )  # fmt: skip
+                )
                 cpu = time.process_time() - t0
                 s_ref = force.profile(sol.t)[0]
-                return {"nfev": sol.nfev, "cpu": cpu, "err_s": float(np.max(np.abs(sol.s - s_ref))),
-                        "residual": float(np.max(sol.residual))}  # fmt: skip
+                return {
+                    "nfev": sol.nfev,
+                    "cpu": cpu,
+                    "err_s": float(np.max(np.abs(sol.s - s_ref))),
+                    "residual": float(np.max(sol.residual)),
+                }
 
-            rows.append({"study": "Baumgarte gains", "case": f"{method} alpha=beta={k:g} 1/s",
-                         **_outcome(go)})  # fmt: skip
+            rows.append(
+                {
+                    "study": "Baumgarte gains",
+                    "case": f"{method} alpha=beta={k:g} 1/s",
+                    **_outcome(go),
+                }
+            )
     # 4. drift over a long run: five manoeuvres back to back (0.25 s), RK45 at rtol 1e-8
     periodic = Periodic(force, 5)
     for form in ("index1", "baumgarte", "projection", "psi3"):
@@ -312,13 +368,20 @@ def stability_study(p: DRSParams, quick: bool) -> list[dict]:
                 **({} if form == "psi3" else {"drift_bound": 1.0}),
             )
             s_ref = force.profile(np.mod(grid, p.T_total))[0]
-            return {"residual_after_1": float(sol.residual[1]),
-                    "residual_after_5": float(sol.residual[-1]),
-                    "err_s_after_5": float(abs(sol.s[-1] - s_ref[-1])),
-                    "nfev": sol.nfev}  # fmt: skip
+            return {
+                "residual_after_1": float(sol.residual[1]),
+                "residual_after_5": float(sol.residual[-1]),
+                "err_s_after_5": float(abs(sol.s[-1] - s_ref[-1])),
+                "nfev": sol.nfev,
+            }
 
-        rows.append({"study": "drift, 5 manoeuvres (0.25 s)", "case": f"{form} RK45 rtol 1e-8",
-                     **_outcome(go)})  # fmt: skip
+        rows.append(
+            {
+                "study": "drift, 5 manoeuvres (0.25 s)",
+                "case": f"{form} RK45 rtol 1e-8",
+                **_outcome(go),
+            }
+        )
 
     # 5. index-1 with a tight drift bound at loose tolerance: the drift error is raised
     def go_drift():
@@ -327,8 +390,13 @@ def stability_study(p: DRSParams, quick: bool) -> list[dict]:
         )
         return {"residual": float(np.max(sol.residual))}
 
-    rows.append({"study": "drift bound", "case": "index1 RK45 rtol 1e-3, drift_bound 1e-7 m",
-                 **_outcome(go_drift)})  # fmt: skip
+    rows.append(
+        {
+            "study": "drift bound",
+            "case": "index1 RK45 rtol 1e-3, drift_bound 1e-7 m",
+            **_outcome(go_drift),
+        }
+    )
     return rows
 
 
@@ -354,8 +422,10 @@ def growth_rates(p: DRSParams) -> dict:
     force = fw.ManoeuvreForce(p)
     f = fw.Psi3Minimal(p)
     out = {}
-    for name, s, F in (("closed", stroke_limits(p)[0], force(0.0)),
-                       ("open", stroke_limits(p)[1], force(0.025))):  # fmt: skip
+    for name, s, F in (
+        ("closed", stroke_limits(p)[0], force(0.0)),
+        ("open", stroke_limits(p)[1], force(0.025)),
+    ):
         b = float(solve_position(s, p)[2])
         h = 1e-7
         k = (f.accel(b + h, 0.0, F) - f.accel(b - h, 0.0, F)) / (2 * h)
@@ -399,7 +469,7 @@ import json, time
 t0 = time.perf_counter()
 import numba
 t_numba = time.perf_counter() - t0
-from drs_model import compiled
+from drs_model.forward import numba_rk as compiled
 t1 = time.perf_counter()
 compiled.warm_up()
 t_warm = time.perf_counter() - t1
@@ -418,11 +488,84 @@ def compiled_startup() -> dict:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
         for key in ("cold", "cached"):
             proc = subprocess.run(
-                [sys.executable, "-c", _STARTUP], env=env, capture_output=True, text=True,
-                timeout=600, check=True,
-            )  # fmt: skip
+                [sys.executable, "-c", _STARTUP],
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=600,
+                check=True,
+            )
             out[key] = json.loads(proc.stdout.strip().splitlines()[-1])
     return out
+
+
+FLOOR_RTOLS = (1e-6, 1e-9)
+FLOOR_TARGET = 1.5  # issue 11: a compiled run within 1.5x of nfev x (RHS + force)
+
+
+def compiled_floor(prob: Problem, repeats: int = 15, inner: int = 20, n: int = 2000) -> list[dict]:
+    """The compiled methods against their floor, ``nfev x (RHS + force)``: per repeat, back to back,
+    the CPU time of one ``simulate`` call and of ``n`` compiled evaluations of the psi3 right-hand
+    side (at the states of the run) and of the manoeuvre force (at its times); the ratio's median
+    over the repeats (and the ratio of the fastest samples) is printed."""
+    from drs_model.forward import numba_rk as compiled
+
+    p = prob.p
+    form = compiled.psi3_formulation(p)
+    kc = compiled.psi3_constants(form)
+    mc, mp = compiled.manoeuvre_constants(prob.force)
+    t = np.linspace(0.0, prob.t_end, n)
+    out = []
+    for method in COMPILED:
+        for rtol in FLOOR_RTOLS:
+
+            def go(method=method, rtol=rtol):
+                return simulate(
+                    "psi3", prob.force, (0.0, prob.t_end), params=p, method=method, rtol=rtol
+                )
+
+            sol = go()
+            b = np.interp(t, sol.t, sol.y[0])
+            bd = np.interp(t, sol.t, sol.y[1])
+            f = compiled._manoeuvre_forces(t, mc, mp)
+
+            def rhs_block(b=b, bd=bd, f=f):
+                return compiled._psi3_accels(b, bd, f, kc)
+
+            def force_block():
+                return compiled._manoeuvre_forces(t, mc, mp)
+
+            calls, rhs, force = [], [], []
+            _cpu(go, 1, inner)  # warm the caches of this method and tolerance
+            for _ in range(repeats):
+                calls.append(_cpu(go, 1, inner)[0])
+                rhs.append(_cpu(rhs_block, 1, inner)[0] / n)
+                force.append(_cpu(force_block, 1, inner)[0] / n)
+            ratios = [c / (sol.nfev * (r + g)) for c, r, g in zip(calls, rhs, force, strict=True)]
+            out.append(
+                {
+                    "method": method,
+                    "rtol": rtol,
+                    "nfev": sol.nfev,
+                    "call_us": statistics.median(calls) * 1e6,
+                    "rhs_ns": statistics.median(rhs) * 1e9,
+                    "force_ns": statistics.median(force) * 1e9,
+                    "ratio": statistics.median(ratios),
+                    "ratio_fastest": min(calls) / (sol.nfev * (min(rhs) + min(force))),
+                }
+            )
+    return out
+
+
+def floor_report(rows: list[dict]) -> str:
+    return "\n".join(
+        f"{r['method']} rtol {r['rtol']:g}: {r['call_us']:.1f} us per run, nfev {r['nfev']} x "
+        f"(RHS {r['rhs_ns']:.0f} ns + force {r['force_ns']:.0f} ns) = "
+        f"{r['nfev'] * (r['rhs_ns'] + r['force_ns']) * 1e-3:.1f} us: ratio {r['ratio']:.2f} "
+        f"(fastest samples {r['ratio_fastest']:.2f}; target <= {FLOOR_TARGET:g}: "
+        f"{'met' if r['ratio'] <= FLOOR_TARGET else 'missed'})"
+        for r in rows
+    )
 
 
 def _groups(records) -> dict[str, list]:
@@ -451,9 +594,11 @@ def plot(results: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     records = (
-        results["adaptive"] + results.get("compiled_rows", []) + results["fixed"]
+        results["adaptive"]
+        + results.get("compiled_rows", [])
+        + results["fixed"]
         + results["baseline"]
-    )  # fmt: skip
+    )
     groups = _groups(records)
     keep = _highlights(results)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(15, 6.5), sharey=True)
@@ -464,11 +609,23 @@ def plot(results: dict, path: Path) -> None:
             base = key.startswith("sympy")
             comp = recs[0]["kind"] == "compiled"
             style = "--" if base else (":" if recs[0]["kind"] == "fixed" else "-")
-            color = "k" if base else ("tab:red" if "dop853-numba" in key else
-                                      "tab:orange" if comp else cmap(i % 20))  # fmt: skip
-            ax.loglog([r["cpu"] for r in recs], [max(r["err_s"], 1e-16) for r in recs], style,
-                      marker="s" if comp else "o", ms=3.5, color=color, label=key,
-                      lw=(2.5 if base or comp else 1.2) * lw_scale)  # fmt: skip
+            color = (
+                "k"
+                if base
+                else (
+                    "tab:red" if "dop853-numba" in key else "tab:orange" if comp else cmap(i % 20)
+                )
+            )
+            ax.loglog(
+                [r["cpu"] for r in recs],
+                [max(r["err_s"], 1e-16) for r in recs],
+                style,
+                marker="s" if comp else "o",
+                ms=3.5,
+                color=color,
+                label=key,
+                lw=(2.5 if base or comp else 1.2) * lw_scale,
+            )
         for target in TARGETS:
             ax.axhline(target, color="grey", lw=0.6)
         ax.set_xlabel("CPU time per simulation [s] (median of repeats)")
@@ -479,10 +636,13 @@ def plot(results: dict, path: Path) -> None:
         if e.get("ours") and e.get("baseline"):
             o, b = e["ours"], e["baseline"]
             ax1.annotate(
-                f"{e['cpu_ratio']:.0f}x", xy=(o["cpu"], e["target_err_s"]),
-                xytext=(b["cpu"], e["target_err_s"]), fontsize=8, va="bottom",
+                f"{e['cpu_ratio']:.0f}x",
+                xy=(o["cpu"], e["target_err_s"]),
+                xytext=(b["cpu"], e["target_err_s"]),
+                fontsize=8,
+                va="bottom",
                 arrowprops={"arrowstyle": "->", "lw": 0.8},
-            )  # fmt: skip
+            )
     ax1.set_ylabel("max |s - s_ref| [m] over the 0.1 ms grid")
     ax1.set_title("Baseline (sympy index-1) and our best (compiled psi3 in red/orange)")
     ax1.legend(fontsize=7.5, loc="upper right")
@@ -508,22 +668,33 @@ def run(
     t_start = time.perf_counter()
     p = DRSParams()
     prob = Problem(p)
-    cfg = QUICK if quick else {
-        "formulations": FORMULATIONS, "methods": METHODS, "rtols": RTOLS, "fixed": FIXED,
-        "dts": DTS, "baseline_methods": BASELINE_METHODS,
-    }  # fmt: skip
+    cfg = (
+        QUICK
+        if quick
+        else {
+            "formulations": FORMULATIONS,
+            "methods": METHODS,
+            "rtols": RTOLS,
+            "fixed": FIXED,
+            "dts": DTS,
+            "baseline_methods": BASELINE_METHODS,
+        }
+    )
     repeats = (1 if quick else 3) if repeats is None else repeats
     results: dict = {"quick": quick, "repeats": repeats, "reference": "exact profile s(t)"}
 
     # the reference and the force, checked
-    sol = simulate("psi3", prob.force, (0, prob.t_end), params=p, method="DOP853", rtol=1e-13,
-                   t_eval=prob.grid)  # fmt: skip
+    sol = simulate(
+        "psi3", prob.force, (0, prob.t_end), params=p, method="DOP853", rtol=1e-13, t_eval=prob.grid
+    )
     es, ep = prob.errors(sol.t, sol.s, sol.psi3)
-    results["reference_check"] = {"dop853_rtol1e-13_vs_profile_err_s": es,
-                                  "dop853_rtol1e-13_vs_profile_err_psi3": ep}  # fmt: skip
+    results["reference_check"] = {
+        "dop853_rtol1e-13_vs_profile_err_s": es,
+        "dop853_rtol1e-13_vs_profile_err_psi3": ep,
+    }
     f_ours = np.array([prob.force(t) for t in prob.grid])
     try:
-        from drs_model.dynamics import manoeuvre_force
+        from drs_model.inverse import manoeuvre_force
 
         results["force_check_vs_dynamics"] = float(
             np.max(np.abs(manoeuvre_force(prob.grid, p) - f_ours))
@@ -535,8 +706,10 @@ def run(
     results["force_us_per_call"] = (
         _cpu(lambda: [prob.force(t) for t in prob.grid], 3)[0] / prob.grid.size * 1e6
     )
-    log(f"reference check: DOP853 rtol 1e-13 vs profile: max|ds| = {es:.2e} m; "
-        f"growth rates {results['growth_rate_per_s']}")  # fmt: skip
+    log(
+        f"reference check: DOP853 rtol 1e-13 vs profile: max|ds| = {es:.2e} m; "
+        f"growth rates {results['growth_rate_per_s']}"
+    )
 
     results["adaptive"] = []
     for form in cfg["formulations"]:
@@ -551,7 +724,7 @@ def run(
     t0 = time.perf_counter()
     results["compiled_rows"] = []
     try:
-        from drs_model import compiled
+        from drs_model.forward import numba_rk as compiled
 
         t_w = time.perf_counter()
         compiled.warm_up(p)  # compile or load from cache before any timing
@@ -566,13 +739,17 @@ def run(
                 results["compiled_rows"].append(
                     adaptive_case(prob, "psi3", method, rtol, repeats, inner=COMPILED_INNER)
                 )
+        results["compiled_floor"] = compiled_floor(prob, repeats=5 if quick else 15)
         results["compiled"].update(compiled_startup())
-        log(f"compiled: {len(results['compiled_rows'])} runs + start-up in "
-            f"{time.perf_counter() - t0:.1f} s")  # fmt: skip
+        log(
+            f"compiled: {len(results['compiled_rows'])} runs + start-up in "
+            f"{time.perf_counter() - t0:.1f} s"
+        )
     t0 = time.perf_counter()
     results["fixed"] = [fixed_case(prob, m, dt, repeats) for m in cfg["fixed"] for dt in cfg["dts"]]
-    results["realtime"] = [realtime_step_cost(p, dt, n=5000 if quick else 20000)
-                           for dt in (1e-3, 1e-4)]  # fmt: skip
+    results["realtime"] = [
+        realtime_step_cost(p, dt, n=5000 if quick else 20000) for dt in (1e-3, 1e-4)
+    ]
     log(f"fixed step: {time.perf_counter() - t0:.1f} s")
 
     t0 = time.perf_counter()
@@ -584,8 +761,9 @@ def run(
     bl = build_baseline(p)
     results["baseline_build_time"] = bl.build_time
     q = solve_position(prob.s_ref[::50], p)
-    results["force_check_vs_baseline"] = float(np.max(np.abs(
-        bl.inverse_force(*_kin(prob, q)) - f_ours[::50])))  # fmt: skip
+    results["force_check_vs_baseline"] = float(
+        np.max(np.abs(bl.inverse_force(*_kin(prob, q)) - f_ours[::50]))
+    )
     for method in cfg["baseline_methods"]:
         for rtol in cfg["rtols"]:
             if method == "Radau" and rtol < 1e-9:
@@ -656,6 +834,9 @@ def report(results: dict) -> str:
         )
     elif comp:
         lines.append(f"compiled methods: {comp}")
+    if results.get("compiled_floor"):
+        lines.append("compiled run against nfev x (RHS + force):")
+        lines.append(floor_report(results["compiled_floor"]))
     for r in results["realtime"]:
         lines.append(
             f"fixed step rk4/psi3 dt = {r['dt'] * 1e3:g} ms: {r['us_per_step']:.2f} us per step "
@@ -680,7 +861,17 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a ~30 s subset")
     ap.add_argument("--repeats", type=int, default=None)
+    ap.add_argument(
+        "--floor", action="store_true", help="only the compiled runs against their floor (~10 s)"
+    )
     args = ap.parse_args(argv)
+    if args.floor:
+        from drs_model.forward import numba_rk as compiled
+
+        prob = Problem(DRSParams())
+        compiled.warm_up(prob.p)
+        print(floor_report(compiled_floor(prob, repeats=args.repeats or 15)))
+        return 0
     results = run(quick=args.quick, repeats=args.repeats)
     print(report(results))
     print(f"wall time {results['wall_time']:.1f} s")

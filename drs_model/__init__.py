@@ -1,10 +1,11 @@
 """drs_model: kinematics and dynamics of the DRS flap actuator (pure numpy/scipy, no ROS).
 
-Modules: ``params`` (DRSParams), ``constraints`` (Phi, Jacobians, gamma), ``kinematics``
-(positions, velocities, accelerations, gap, limits), ``profile`` (quintic manoeuvre), ``bodies``
-(mass matrix, forces), ``dynamics`` (inverse dynamics, three formulations), ``forward`` and
-``integrators`` (forward dynamics), ``compiled`` (optional numba kernels), ``actuator`` (the
-fixed-step actuator the node runs), ``coriolis`` (rotating-frame kinematics of seed 000).
+Modules: ``params`` (DRSParams), ``kernels`` (each scalar closed form, once), ``constraints``
+(Phi, Jacobians, gamma), ``kinematics`` (positions, velocities, accelerations, gap, limits),
+``profile`` (quintic manoeuvre), ``bodies`` (mass matrix, forces), ``inverse`` (inverse dynamics,
+three formulations), ``forward`` (forward dynamics: forces, formulations, the scipy, compiled and
+fixed-step drivers), ``actuator`` (the fixed-step actuator the node runs), ``coriolis``
+(rotating-frame kinematics of seed 000), ``plotting`` (figures).
 """
 
 import importlib
@@ -44,17 +45,17 @@ _LAZY = MappingProxyType(
         "DegenerateGeometryError": ("coriolis", "DegenerateGeometryError"),
         "collar_kinematics": ("coriolis", "collar_kinematics"),
         "slotted_link_closed_form": ("coriolis", "slotted_link_closed_form"),
-        "INVERSE_METHODS": ("dynamics", "METHODS"),
-        "FusedInverseDynamics": ("dynamics", "FusedInverseDynamics"),
-        "inverse_dynamics": ("dynamics", "inverse_dynamics"),
-        "manoeuvre_force": ("dynamics", "manoeuvre_force"),
-        "peak_force": ("dynamics", "peak_force"),
+        "INVERSE_METHODS": ("inverse", "INVERSE_METHODS"),
+        "FusedInverseDynamics": ("inverse", "FusedInverseDynamics"),
+        "inverse_dynamics": ("inverse", "inverse_dynamics"),
+        "manoeuvre_force": ("inverse", "manoeuvre_force"),
+        "peak_force": ("inverse", "peak_force"),
         "FORMULATIONS": ("forward", "FORMULATIONS"),
         "ConstantForce": ("forward", "ConstantForce"),
         "ManoeuvreForce": ("forward", "ManoeuvreForce"),
         "StepForce": ("forward", "StepForce"),
-        "FixedStepIntegrator": ("integrators", "FixedStepIntegrator"),
-        "simulate": ("integrators", "simulate"),
+        "FixedStepIntegrator": ("forward", "FixedStepIntegrator"),
+        "simulate": ("forward", "simulate"),
     }
 )
 

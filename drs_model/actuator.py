@@ -72,7 +72,7 @@ class ActuatorSim:
     force_limit : float
         Largest accepted |piston force| command [N].
     integrator : str
-        Fixed-step method for force mode (see :class:`drs_model.integrators.FixedStepIntegrator`).
+        Fixed-step method for force mode (see :class:`drs_model.forward.FixedStepIntegrator`).
     force_method : str
         Inverse-dynamics formulation for stroke and hold modes.
     """
@@ -98,7 +98,7 @@ class ActuatorSim:
         self.psi3_closed, self.psi3_open = kin.flap_angle_limits(p)
         self.s_dead = kin.dead_centre(p)
         self._r_y = p.reference_point[1]
-        from .dynamics import FusedInverseDynamics, get_method
+        from .inverse import FusedInverseDynamics, get_method
 
         get_method(force_method)  # refuse an unknown name now, with the valid ones
         self._scalar_force = (
@@ -135,7 +135,7 @@ class ActuatorSim:
             return self._scalar_force.force(
                 float(self._q[0]), float(self._qd[0]), float(self._qdd[0])
             )
-        from .dynamics import inverse_dynamics
+        from .inverse import inverse_dynamics
 
         res = inverse_dynamics(self._arrays(), self.p, method=self.force_method)
         return float(np.asarray(res.piston_force).ravel()[0])
@@ -278,7 +278,7 @@ class ActuatorSim:
     # ---- stepping ------------------------------------------------------------------------------
     def _ensure_stepper(self):
         if self._stepper is None:
-            from .integrators import FixedStepIntegrator
+            from .forward import FixedStepIntegrator
 
             self._stepper = FixedStepIntegrator(self.p, self.dt, method=self.integrator_name)
         return self._stepper
@@ -355,7 +355,7 @@ class ActuatorSim:
 
     def reactions(self) -> dict[str, float]:
         """Joint reactions of the current state by Newton-Euler [N, N m] (seed's names)."""
-        from .dynamics import inverse_dynamics
+        from .inverse import inverse_dynamics
 
         res = inverse_dynamics(self._arrays(), self.p, method="newton-euler")
         return {k: float(np.asarray(v).ravel()[0]) for k, v in res.reactions.items()}

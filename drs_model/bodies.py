@@ -31,7 +31,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .constraints import PSI1, PSI3, S
-from .kinematics import flap_angle_limits, point_jacobian, point_table
+from .kernels import NUMPY
+from .kinematics import flap_angle_limits, point_jacobian, point_positions, point_table
 from .params import DRSParams
 
 
@@ -52,12 +53,45 @@ def bodies(p: DRSParams) -> tuple[Body, Body, Body]:
     )
 
 
+def model_constants(
+    p: DRSParams, flap_limits: tuple[float, float] | None = None
+) -> tuple[float, ...]:
+    """The constants vector of the kernels of :mod:`drs_model.kernels` (indexed ``XA`` ...
+    ``M22`` there): geometry, mass properties and the air law of ``p``.
+
+    ``flap_limits = (psi3_closed, psi3_open)`` [rad] of the air law defaults to our exact
+    gap-rule angles.
+    """
+    psi_c, psi_o = flap_angle_limits(p) if flap_limits is None else flap_limits
+    xg, yg = p.flap_com_local
+    gx, gy = p.d_tip - p.L_wing + xg, yg  # G3 in RF3 (at D)
+    dpsi = psi_c - psi_o
+    out = (
+        *p.loop_constants,
+        gx,
+        gy,
+        p.m_pist,
+        p.m_link,
+        p.m_wing,
+        p.Iz_link,
+        p.Iz_wing,
+        p.g,
+        p.F_drag_open,
+        (p.F_drag_closed - p.F_drag_open) / dpsi,
+        p.F_down_open,
+        (p.F_down_closed - p.F_down_open) / dpsi,
+        psi_o,
+        p.m_link * p.L2**2 / 4.0 + p.Iz_link,
+        p.m_wing * (gx * gx + gy * gy) + p.Iz_wing,
+    )
+    return tuple(float(x) for x in out)
+
+
 def _com_offset(q: np.ndarray, p: DRSParams, body: Body) -> np.ndarray:
     """Centre of mass relative to the body's rotation centre (B or D) [m], ``(..., 2)``."""
     _, local = point_table(p)[body.com]
     angle = q[..., body.angle]
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * local[0] - s * local[1], s * local[0] + c * local[1]], axis=-1)
+    return np.stack(NUMPY.rotate(np.cos(angle), np.sin(angle), *local), axis=-1)
 
 
 def mass_matrix(q, p: DRSParams) -> np.ndarray:
@@ -94,11 +128,7 @@ def air_forces(psi3, p: DRSParams, flap_limits: tuple[float, float] | None = Non
     seed's printed ones to reproduce its numbers. Outside the range the law extrapolates, as the
     seed's does.
     """
-    psi_c, psi_o = flap_angle_limits(p) if flap_limits is None else flap_limits
-    u = (np.asarray(psi3, dtype=float) - psi_o) / (psi_c - psi_o)
-    drag = p.F_drag_open + (p.F_drag_closed - p.F_drag_open) * u
-    down = p.F_down_open + (p.F_down_closed - p.F_down_open) * u
-    return drag, down
+    return NUMPY.air_load(np.asarray(psi3, dtype=float), model_constants(p, flap_limits))
 
 
 def applied_forces(
@@ -128,7 +158,5 @@ def kinetic_energy(q, qd, p: DRSParams) -> np.ndarray:
 
 def potential_energy(q, p: DRSParams) -> np.ndarray:
     """Gravitational potential energy [J] (zero at y = 0)."""
-    from .kinematics import point_positions
-
     pts = point_positions(q, p, ("G1", "G2", "G3"))
     return p.g * sum(b.mass * pts[b.com][..., 1] for b in bodies(p))

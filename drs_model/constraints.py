@@ -25,6 +25,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .errors import InputError
+from .kernels import NUMPY
 from .params import DRSParams
 
 #: Index of each coordinate in q.
@@ -41,13 +43,8 @@ def _split(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def constraint(q: np.ndarray, p: DRSParams) -> np.ndarray:
     """Constraint residual ``Phi(q)`` [m], shape ``(..., 2)``."""
     s, p1, p3 = _split(q)
-    return np.stack(
-        [
-            p.L2 * np.sin(p1) - p.L3 * np.cos(p3) - p.x_A + p.x_D,
-            -p.L2 * np.cos(p1) - p.L3 * np.sin(p3) - p.L1 - s - p.y_A + p.y_D,
-        ],
-        axis=-1,
-    )
+    phi = NUMPY.loop_residual(s, np.sin(p1), np.cos(p1), np.sin(p3), np.cos(p3), p.loop_constants)
+    return np.stack(np.broadcast_arrays(*phi), axis=-1)
 
 
 def constraint_jacobian(q: np.ndarray, p: DRSParams) -> np.ndarray:
@@ -74,8 +71,6 @@ def jacobian_blocks(
 
 def partition(independent: str) -> tuple[int, tuple[int, int]]:
     """(independent index, dependent indices) for ``independent`` in ``{"s", "psi3"}``."""
-    from .errors import InputError
-
     try:
         return PARTITIONS[independent]
     except KeyError:
@@ -113,11 +108,13 @@ def constraint_gamma(q: np.ndarray, qd: np.ndarray, p: DRSParams) -> np.ndarray:
     """Right-hand side of ``Phi_q qdd = gamma`` [m/s^2], shape ``(..., 2)``."""
     _, p1, p3 = _split(q)
     qd = np.asarray(qd, dtype=float)
-    w1, w3 = qd[..., PSI1], qd[..., PSI3]
-    return np.stack(
-        [
-            p.L2 * np.sin(p1) * w1**2 - p.L3 * np.cos(p3) * w3**2,
-            -p.L2 * np.cos(p1) * w1**2 - p.L3 * np.sin(p3) * w3**2,
-        ],
-        axis=-1,
+    gam = NUMPY.loop_gamma(
+        np.sin(p1),
+        np.cos(p1),
+        np.sin(p3),
+        np.cos(p3),
+        qd[..., PSI1],
+        qd[..., PSI3],
+        p.loop_constants,
     )
+    return np.stack(np.broadcast_arrays(*gam), axis=-1)

@@ -46,14 +46,12 @@ from .errors import (
     AssemblyError,
     ConvergenceError,
     InputError,
-    ParameterError,
     SingularConfigurationError,
     StrokeRangeError,
 )
-from .params import DRSParams
+from .kernels import ASSEMBLY_TOL, NUMPY, SINGULAR_TOL, flap_rates, stroke_position, stroke_rates
+from .params import DRSParams, check_geometry  # noqa: F401 - check_geometry: public here too
 
-#: Below this normalised singularity measure a velocity/acceleration solve is refused.
-SINGULAR_TOL = 1e-9
 BRANCHES = (1, 2)
 
 
@@ -86,21 +84,16 @@ def solve_position(s, p: DRSParams, branch: int = 1) -> np.ndarray:
     Raises :class:`AssemblyError` where the loop cannot close (beyond a singular stroke).
     """
     s = _finite("stroke", s)
-    sign = -1.0 if _branch(branch) == 1 else 1.0
-    bx, by = p.x_A, p.y_A + p.L1 + s
-    dx, dy = p.x_D - bx, p.y_D - by
-    rho = np.hypot(dx, dy)
-    cos_arg = (rho**2 + p.L3**2 - p.L2**2) / (2.0 * p.L3 * rho)
-    if np.any(np.abs(cos_arg) > 1.0 + 1e-12):
-        lo, hi = singular_strokes(p)[[0, -1]] if singular_strokes(p).size else (np.nan, np.nan)
-        bad = float(np.asarray(s)[np.abs(cos_arg) > 1.0 + 1e-12].ravel()[0])
+    sign = 1.0 if _branch(branch) == 1 else -1.0
+    sin1, cos1, sin3, cos3, h2 = NUMPY.stroke_position(s, p.loop_constants, sign)
+    if np.any(h2 < -ASSEMBLY_TOL):
+        sing = singular_strokes(p)
+        lo, hi = sing[[0, -1]] if sing.size else (np.nan, np.nan)
+        bad = float(np.broadcast_to(s, h2.shape)[h2 < -ASSEMBLY_TOL].ravel()[0])
         raise AssemblyError(
             f"the loop cannot close at stroke {bad!r} m: assembly needs {lo:.6g} <= s <= {hi:.6g} m"
         )
-    psi3 = np.arctan2(dy, dx) + sign * np.arccos(np.clip(cos_arg, -1.0, 1.0))
-    cx, cy = p.x_D - p.L3 * np.cos(psi3), p.y_D - p.L3 * np.sin(psi3)
-    psi1 = np.arctan2(bx - cx, cy - by)
-    return np.stack(np.broadcast_arrays(s, psi1, psi3), axis=-1)
+    return np.stack(np.broadcast_arrays(s, np.arctan2(sin1, cos1), np.arctan2(sin3, cos3)), -1)
 
 
 def solve_position_from_flap_angle(psi3, p: DRSParams, branch: int = 1) -> np.ndarray:
@@ -109,14 +102,14 @@ def solve_position_from_flap_angle(psi3, p: DRSParams, branch: int = 1) -> np.nd
     Branch 1 has ``cos psi1 > 0`` (the seed's assembly). Shape ``(..., 3)``.
     """
     psi3 = _finite("flap angle", psi3)
-    sin1 = (p.x_A - p.x_D + p.L3 * np.cos(psi3)) / p.L2
-    if np.any(np.abs(sin1) > 1.0 + 1e-12):
-        bad = float(psi3[np.abs(sin1) > 1.0 + 1e-12].ravel()[0])
+    sign = 1.0 if _branch(branch) == 1 else -1.0
+    s, sin1, _, cos1_sq = NUMPY.flap_position(np.sin(psi3), np.cos(psi3), p.loop_constants, sign)
+    if np.any(cos1_sq < -ASSEMBLY_TOL):
+        bad = float(psi3[cos1_sq < -ASSEMBLY_TOL].ravel()[0])
         raise AssemblyError(f"the loop cannot close at flap angle {bad!r} rad: |sin psi1| > 1")
     psi1 = np.arcsin(np.clip(sin1, -1.0, 1.0))
-    if _branch(branch) == 2:
+    if sign < 0.0:
         psi1 = math.pi - psi1
-    s = p.y_D - p.y_A - p.L1 - p.L3 * np.sin(psi3) - p.L2 * np.cos(psi1)
     return np.stack(np.broadcast_arrays(s, psi1, psi3), axis=-1)
 
 
@@ -181,14 +174,7 @@ def solve_position_newton(s, q_guess, p: DRSParams, tol: float = 1e-13) -> np.nd
 # ---- singular configurations --------------------------------------------------------------------
 def singular_strokes(p: DRSParams) -> np.ndarray:
     """Real strokes [m] where B, C, D align (the s-parametrisation is singular), sorted."""
-    dx = p.x_D - p.x_A
-    out = []
-    for length in (p.L2 + p.L3, abs(p.L3 - p.L2)):
-        disc = length**2 - dx**2
-        if disc >= 0.0:
-            root = math.sqrt(disc)
-            out += [p.y_D - p.y_A - p.L1 - root, p.y_D - p.y_A - p.L1 + root]
-    return np.array(sorted(set(out)))
+    return np.array(p.singular_strokes)
 
 
 def singular_configurations(p: DRSParams) -> np.ndarray:
@@ -307,8 +293,7 @@ POINT_NAMES = ("A", "D", "R", "P", "G1", "B", "G2", "C", "C3", "T", "G3")
 
 
 def _rotate(angle: np.ndarray, local: tuple[float, float]) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * local[0] - s * local[1], s * local[0] + c * local[1]], axis=-1)
+    return np.stack(NUMPY.rotate(np.cos(angle), np.sin(angle), *local), axis=-1)
 
 
 def _cross_z(w: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -405,25 +390,21 @@ def flap_outline(q, p: DRSParams) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     local = np.asarray(p.flap_outline) + np.array([p.d_tip - p.L_wing, 0.0])
     c, s = np.cos(q[..., PSI3])[..., None], np.sin(q[..., PSI3])[..., None]
-    x = p.x_D + c * local[:, 0] - s * local[:, 1]
-    y = p.y_D + s * local[:, 0] + c * local[:, 1]
-    return np.stack([x, y], axis=-1)
+    x, y = NUMPY.rotate(c, s, local[:, 0], local[:, 1])
+    return np.stack([p.x_D + x, p.y_D + y], axis=-1)
 
 
 def main_wing_outline(p: DRSParams) -> np.ndarray:
     """Main-wing outline in ground [m], shape ``(n, 2)`` (fixed)."""
     local = np.asarray(p.main_wing_outline)
-    c, s = math.cos(p.gamma), math.sin(p.gamma)
-    return np.stack(
-        [p.d_wing + c * local[:, 0] - s * local[:, 1], s * local[:, 0] + c * local[:, 1]], axis=-1
-    )
+    x, y = NUMPY.rotate(math.cos(p.gamma), math.sin(p.gamma), local[:, 0], local[:, 1])
+    return np.stack([p.d_wing + x, y], axis=-1)
 
 
 # ---- gap, limits, workspace ---------------------------------------------------------------------
 def gap_from_flap_angle(psi3, p: DRSParams) -> np.ndarray:
     """Gap ``T_y - R_y`` [m] for flap angle(s) psi3 [rad]."""
-    psi3 = np.asarray(psi3, dtype=float)
-    return p.y_D - p.tip_arm * np.sin(psi3) - p.reference_point[1]
+    return NUMPY.flap_gap(np.sin(np.asarray(psi3, dtype=float)), *p.gap_constants)
 
 
 def gap(q, p: DRSParams) -> np.ndarray:
@@ -434,13 +415,12 @@ def gap(q, p: DRSParams) -> np.ndarray:
 def flap_angle_for_gap(gap_m, p: DRSParams) -> np.ndarray:
     """Flap angle psi3 [rad] (in (-pi/2, pi/2)) giving the gap [m]; closed form."""
     g = _finite("gap", gap_m)
-    sin3 = (p.y_D - p.reference_point[1] - g) / p.tip_arm
+    gap0, tip = p.gap_constants
+    sin3 = NUMPY.flap_sine_for_gap(g, gap0, tip)
     if np.any(np.abs(sin3) > 1.0):
         bad = float(g[np.abs(sin3) > 1.0].ravel()[0])
-        lo = p.y_D - p.reference_point[1] - p.tip_arm
-        hi = p.y_D - p.reference_point[1] + p.tip_arm
         raise StrokeRangeError(
-            f"gap {bad!r} m is unreachable: the flap tip spans {lo:.6g}..{hi:.6g} m"
+            f"gap {bad!r} m is unreachable: the flap tip spans {gap0 - tip:.6g}..{gap0 + tip:.6g} m"
         )
     return np.arcsin(sin3)
 
@@ -483,36 +463,6 @@ def workspace_traces(p: DRSParams, n: int = 50) -> dict[str, np.ndarray]:
     return {"s": q[:, S], "B": pts["B"], "C": pts["C"]}
 
 
-def check_geometry(p: DRSParams) -> None:
-    """Raise :class:`ParameterError` unless the mechanism assembles over the whole working stroke.
-
-    Both gaps must be reachable by the flap tip, both must assemble on branch 1, the working stroke
-    must hold no singular configuration, and the flap must open with increasing stroke.
-    """
-    try:
-        lo, hi = stroke_limits(p)
-        q = solve_position(np.linspace(lo, hi, 33), p)
-    except (StrokeRangeError, AssemblyError) as exc:
-        raise ParameterError(f"unreachable geometry: {exc}") from exc
-    if not lo < hi:
-        raise ParameterError(
-            f"unreachable geometry: the closed stroke {lo:.6g} m must lie below the open {hi:.6g} m"
-        )
-    sing = singular_strokes(p)
-    inside = sing[(sing > lo) & (sing < hi)]
-    if inside.size:
-        raise ParameterError(
-            f"unreachable geometry: singular stroke {inside[0]:.6g} m lies inside "
-            f"[{lo:.6g}, {hi:.6g}]"
-        )
-    # the closed-form psi3 branch must agree with the s-branch 1 solution at both ends
-    q_psi = solve_position_from_flap_angle(np.array(flap_angle_limits(p)), p)
-    if np.max(np.abs(q_psi - q[[0, -1]])) > 1e-8:
-        raise ParameterError(
-            "unreachable geometry: the gap rule's flap angles are not on assembly branch 1"
-        )
-
-
 # ---- scalar fast paths (math only; for per-step use in a real-time loop) -------------------------
 def kinematic_state_scalar(
     s: float, sd: float, sdd: float, p: DRSParams
@@ -523,42 +473,25 @@ def kinematic_state_scalar(
     """
     if not (math.isfinite(s) and math.isfinite(sd) and math.isfinite(sdd)):
         raise InputError(f"stroke, rate and acceleration must be finite, got {(s, sd, sdd)!r}")
-    L2, L3 = p.L2, p.L3
-    bx, by = p.x_A, p.y_A + p.L1 + s
-    dx, dy = p.x_D - bx, p.y_D - by
-    rho = math.hypot(dx, dy)
-    c = (rho * rho + L3 * L3 - L2 * L2) / (2.0 * L3 * rho)
-    if abs(c) > 1.0 + 1e-12:
+    c = p.loop_constants
+    sin1, cos1, sin3, cos3, h2 = stroke_position(s, c, 1.0)
+    if h2 < -ASSEMBLY_TOL:
         solve_position(s, p)  # raises the AssemblyError with the admissible range
-    psi3 = math.atan2(dy, dx) - math.acos(max(-1.0, min(1.0, c)))
-    s3, c3 = math.sin(psi3), math.cos(psi3)
-    cx, cy = p.x_D - L3 * c3, p.y_D - L3 * s3
-    psi1 = math.atan2(bx - cx, cy - by)
-    s1, c1 = math.sin(psi1), math.cos(psi1)
-    det = -L2 * L3 * (c1 * c3 + s1 * s3)
-    if abs(det) < SINGULAR_TOL * L2 * L3:
+    psi1, psi3 = math.atan2(sin1, cos1), math.atan2(sin3, cos3)
+    tau1, tau3, a1, a3 = stroke_rates(sin1, cos1, sin3, cos3, sd, sdd, c)
+    if math.isnan(tau1):
         _check_regular(np.array([s, psi1, psi3]), p, "s")
-    # J_D [psi1, psi3]' = rhs with J_D = [[L2 c1, L3 s3], [L2 s1, -L3 c3]] (Cramer's rule)
-    w1 = (-L3 * s3 * sd) / det
-    w3 = (L2 * c1 * sd) / det
-    g0 = L2 * s1 * w1 * w1 - L3 * c3 * w3 * w3
-    g1 = -L2 * c1 * w1 * w1 - L3 * s3 * w3 * w3 + sdd
-    a1 = (-L3 * c3 * g0 - L3 * s3 * g1) / det
-    a3 = (L2 * c1 * g1 - L2 * s1 * g0) / det
-    return (s, psi1, psi3), (sd, w1, w3), (sdd, a1, a3)
+    return (s, psi1, psi3), (sd, tau1 * sd, tau3 * sd), (sdd, a1, a3)
 
 
 def accelerations_from_flap_scalar(
     q, qd, psi3dd: float, p: DRSParams
 ) -> tuple[float, float, float]:
-    """``qdd`` for one sample given the flap acceleration [rad/s^2] (``psi3`` independent)."""
+    """``qdd`` for one sample given the flap acceleration [rad/s^2] (``psi3`` independent):
+    ``qdd = u psi3'' + w psi3'^2`` with ``u = dq/dpsi3``, ``w = du/dpsi3`` at ``q``."""
     _, psi1, psi3 = q
-    _, w1, w3 = qd
-    s1, c1 = math.sin(psi1), math.cos(psi1)
-    s3, c3 = math.sin(psi3), math.cos(psi3)
-    L2, L3 = p.L2, p.L3
-    # rows of Phi_q qdd = gamma with qdd_psi3 known: [0, L2 c1] and [-1, L2 s1] on [s, psi1]
-    g0 = L2 * s1 * w1 * w1 - L3 * c3 * w3 * w3 - L3 * s3 * psi3dd
-    g1 = -L2 * c1 * w1 * w1 - L3 * s3 * w3 * w3 + L3 * c3 * psi3dd
-    a1 = g0 / (L2 * c1)
-    return (L2 * s1 * a1 - g1, a1, psi3dd)
+    w3 = qd[2]
+    u0, u1, w0, w1 = flap_rates(
+        math.sin(psi1), math.cos(psi1), math.sin(psi3), math.cos(psi3), p.loop_constants
+    )
+    return (u0 * psi3dd + w0 * w3 * w3, u1 * psi3dd + w1 * w3 * w3, psi3dd)

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from . import kernels
 from .errors import ParameterError
 
 MAIN_WING_OUTLINE: tuple[tuple[float, float], ...] = (
@@ -248,10 +249,13 @@ class DRSParams:
             raise ParameterError(
                 f"d_tip must be < L_wing = {self.L_wing!r} m, got d_tip={self.d_tip!r}"
             )
-        # the mechanism must assemble over the whole working stroke (both gaps on branch 1)
-        from .kinematics import check_geometry  # local: kinematics imports params
+        check_geometry(self)  # the mechanism must assemble over the whole working stroke
+        # hashed once: the compiled path looks its formulation up by the parameters on every call
+        values = tuple(getattr(self, f.name) for f in dataclasses.fields(self))
+        object.__setattr__(self, "_hash", hash(values))
 
-        check_geometry(self)
+    def __hash__(self) -> int:
+        return self._hash
 
     # ---- derived quantities -------------------------------------------------------------------
     @property
@@ -273,8 +277,32 @@ class DRSParams:
     @property
     def reference_point(self) -> tuple[float, float]:
         """R in ground [m]: (x_R, y_R) of the main-wing frame."""
-        c, s = math.cos(self.gamma), math.sin(self.gamma)
-        return self.d_wing + c * self.x_R - s * self.y_R, s * self.x_R + c * self.y_R
+        x, y = kernels.rotate(math.cos(self.gamma), math.sin(self.gamma), self.x_R, self.y_R)
+        return self.d_wing + x, y
+
+    @property
+    def loop_constants(self) -> tuple[float, float, float, float, float, float]:
+        """``(x_A, y_A + L1, x_D, y_D, L2, L3)`` [m]: the constants of the position kernels of
+        :mod:`drs_model.kernels`."""
+        return (self.x_A, self.y_A + self.L1, self.x_D, self.y_D, self.L2, self.L3)
+
+    @property
+    def gap_constants(self) -> tuple[float, float]:
+        """``(y_D - R_y, L_wing - d_tip)`` [m]: the constants of :func:`kernels.flap_gap`."""
+        return self.y_D - self.reference_point[1], self.tip_arm
+
+    @property
+    def singular_strokes(self) -> tuple[float, ...]:
+        """Real strokes [m] where B, C, D align (the s-parametrisation is singular), sorted."""
+        dx = self.x_D - self.x_A
+        out = set()
+        for length in (self.L2 + self.L3, abs(self.L3 - self.L2)):
+            disc = length**2 - dx**2
+            if disc >= 0.0:
+                root = math.sqrt(disc)
+                base = self.y_D - self.y_A - self.L1
+                out.update((base - root, base + root))
+        return tuple(sorted(out))
 
     # ---- construction -------------------------------------------------------------------------
     def replace(self, **overrides: Any) -> DRSParams:
@@ -292,6 +320,50 @@ class DRSParams:
                 continue
             out[f.name] = value
         return out
+
+
+def check_geometry(p: DRSParams) -> None:
+    """Raise :class:`ParameterError` unless the mechanism assembles over the whole working stroke.
+
+    Both gaps must be reachable by the flap tip, both must assemble on branch 1, the working stroke
+    must hold no singular configuration, and the flap must open with increasing stroke.
+    """
+    c = p.loop_constants
+    gap0, tip = p.gap_constants
+    ends = []
+    for name in ("gap_closed", "gap_open"):
+        sin3 = kernels.flap_sine_for_gap(getattr(p, name), gap0, tip)
+        if abs(sin3) > 1.0:
+            raise ParameterError(
+                f"unreachable geometry: gap {getattr(p, name)!r} m is unreachable: the flap tip "
+                f"spans {gap0 - tip:.6g}..{gap0 + tip:.6g} m"
+            )
+        s, sin1, _, cos1_sq = kernels.flap_position(sin3, math.sqrt(1.0 - sin3 * sin3), c, 1.0)
+        if cos1_sq < -kernels.ASSEMBLY_TOL:
+            raise ParameterError(f"unreachable geometry: the loop cannot close at the {name}")
+        ends.append((s, math.asin(min(1.0, max(-1.0, sin1))), math.asin(sin3)))
+    lo, hi = ends[0][0], ends[1][0]
+    if not lo < hi:
+        raise ParameterError(
+            f"unreachable geometry: the closed stroke {lo:.6g} m must lie below the open {hi:.6g} m"
+        )
+    inside = [x for x in p.singular_strokes if lo < x < hi]
+    if inside:
+        raise ParameterError(
+            f"unreachable geometry: singular stroke {inside[0]:.6g} m lies inside "
+            f"[{lo:.6g}, {hi:.6g}]"
+        )
+    for k in range(33):
+        s = lo + (hi - lo) * k / 32.0
+        if kernels.stroke_position(s, c, 1.0)[4] < -kernels.ASSEMBLY_TOL:
+            raise ParameterError(f"unreachable geometry: the loop cannot close at stroke {s!r} m")
+    # the closed-form psi3 branch must agree with the s-branch 1 solution at both ends
+    for s, psi1, psi3 in ends:
+        sin1, cos1, sin3, cos3, _ = kernels.stroke_position(s, c, 1.0)
+        if max(abs(math.atan2(sin1, cos1) - psi1), abs(math.atan2(sin3, cos3) - psi3)) > 1e-8:
+            raise ParameterError(
+                "unreachable geometry: the gap rule's flap angles are not on assembly branch 1"
+            )
 
 
 #: The seed's literal (dimensionally inconsistent) ``m_wing * L_wing / 3`` [kg m] for Iz_wing.

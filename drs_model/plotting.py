@@ -1,12 +1,16 @@
-"""Figures of the mechanism (matplotlib, imported lazily so the model does not need it)."""
+"""Figures of the mechanism and of the Coriolis examples (matplotlib, imported lazily so the model
+does not need it)."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
 from . import kinematics as kin
+from .coriolis import SEED_COLLAR, SEED_SLOTTED_LINK, CollarExample, SlottedLinkExample
+from .errors import InputError
 from .params import DRSParams
 
 
@@ -81,3 +85,186 @@ def mechanism_figure(p: DRSParams, strokes, path: str | Path, title: str | None 
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+# ---- Coriolis examples (seed 000) -------------------------------------------------------------
+def _out_dir(out_dir) -> Path:
+    path = Path(out_dir)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"plot directory {str(path)!r} exists and is not a directory")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _figure(figsize: tuple[float, float], dpi: int):
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ModuleNotFoundError as exc:  # pragma: no cover - matplotlib is an optional extra
+        raise ModuleNotFoundError(
+            "plots need matplotlib: pip install 'drs[plots]'", name=exc.name
+        ) from exc
+    fig = Figure(figsize=figsize, dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)  # Agg without pyplot: no global backend state
+    return fig
+
+
+def _save(fig, path: Path) -> None:
+    """Write ``fig`` as a 256-colour PNG (a third of the size of a true-colour one)."""
+    from PIL import Image  # a dependency of matplotlib
+
+    fig.canvas.draw()
+    rgb = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())).convert("RGB")
+    rgb.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
+
+
+def plot_collar_maps(
+    out_dir,
+    example: CollarExample = SEED_COLLAR,
+    *,
+    n_theta: int = 91,
+    n_r: int = 41,
+    dpi: int = 100,
+) -> list[Path]:
+    """Example 2: contour + surface maps of v_X, v_Y, a_X, a_Y over rod angle and distance.
+
+    Writes ``collar_vx.png``, ``collar_vy.png``, ``collar_ax.png``, ``collar_ay.png`` into
+    ``out_dir`` (created if missing); each contour marks the example-1 point.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Output directory.
+    example : CollarExample
+        Rod and collar rates, marker point and map ranges (default: the seed's).
+    n_theta, n_r : int
+        Grid points along the angle and the distance.
+    dpi : int
+        Resolution of the PNGs.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    out = _out_dir(out_dir)
+    grid = example.grid(n_theta, n_r)
+    point = example.kinematics()
+    r_map = grid.motion.r
+    th_map = np.degrees(grid.motion.theta)
+    quantities = (
+        ("vx", "v_X", "m/s", grid.fixed.velocity.total[..., 0], point.fixed.velocity.total[0]),
+        ("vy", "v_Y", "m/s", grid.fixed.velocity.total[..., 1], point.fixed.velocity.total[1]),
+        (
+            "ax",
+            "a_X",
+            "m/s^2",
+            grid.fixed.acceleration.total[..., 0],
+            point.fixed.acceleration.total[0],
+        ),
+        (
+            "ay",
+            "a_Y",
+            "m/s^2",
+            grid.fixed.acceleration.total[..., 1],
+            point.fixed.acceleration.total[1],
+        ),
+    )
+    rates = (
+        rf"$\omega$ = {example.omega:g} rad/s, $\alpha$ = {example.alpha:g} rad/s$^2$, "
+        rf"$\dot r$ = {example.r_dot:g} m/s, $\ddot r$ = {example.r_ddot:g} m/s$^2$"
+    )
+    written = []
+    for key, sym, unit, z, value in quantities:
+        unit_tex = unit.replace("^2", "$^2$")
+        label = rf"${sym}$ [{unit_tex}]"
+        fig = _figure((11.0, 4.6), dpi)
+        ax = fig.add_subplot(1, 2, 1)
+        cs = ax.contour(r_map, th_map, z, levels=14, cmap="viridis")
+        ax.clabel(cs, fontsize=7, fmt="%.3g")
+        ax.plot(
+            example.r,
+            math.degrees(example.theta),
+            "o",
+            color="tab:red",
+            ms=8,
+            label=(
+                f"example 1: r = {example.r:g} m, θ = {math.degrees(example.theta):g}°, "
+                rf"${sym}$ = {float(value):.4g} {unit_tex}"
+            ),
+        )
+        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.12), fontsize=8, frameon=False)
+        ax.set_xlabel("distance A-B, r [m]")
+        ax.set_ylabel("rod angle θ [deg]")
+        ax.set_title(f"{label}: contour")
+        ax.grid(True, alpha=0.3)
+        ax3 = fig.add_subplot(1, 2, 2, projection="3d")
+        ax3.plot_surface(r_map, th_map, z, cmap="viridis", linewidth=0, antialiased=False)
+        ax3.scatter(
+            [example.r],
+            [math.degrees(example.theta)],
+            [float(value)],
+            color="tab:red",
+            s=30,
+            depthshade=False,
+        )
+        ax3.set_xlabel("r [m]")
+        ax3.set_ylabel("θ [deg]")
+        ax3.set_zlabel(label)
+        ax3.set_title(f"{label}: surface")
+        fig.suptitle(f"Collar B on a rotating rod, fixed-frame ${sym}$ ({rates})", fontsize=10)
+        path = out / f"collar_{key}.png"
+        _save(fig, path)
+        written.append(path)
+    return written
+
+
+def plot_slotted_link(
+    out_dir, link: SlottedLinkExample = SEED_SLOTTED_LINK, *, n: int = 361, dpi: int = 100
+) -> list[Path]:
+    """Example 3: rod angular velocity/acceleration and stroke velocity/acceleration vs theta.
+
+    Writes ``slotted_link.png`` (closed form as lines, the closure solution every 15 deg as dots)
+    into ``out_dir`` (created if missing). SI units, CCW positive. Returns the files written.
+    """
+    out = _out_dir(out_dir)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise InputError(f"n must be an integer >= 2, got {n!r}")
+    theta = np.linspace(0.0, 2.0 * math.pi, n)
+    theta_dots = np.radians(np.arange(0.0, 360.0 + 1e-9, 15.0))
+    curve = link.solve(theta, "closed-form")
+    dots = link.solve(theta_dots, "closure")
+    panels = (
+        ("omega_rod", r"rod angular velocity $\omega_{rod}$ [rad/s]"),
+        ("stroke_velocity", r"stroke velocity $\dot L$ [m/s]"),
+        ("alpha_rod", r"rod angular acceleration $\alpha_{rod}$ [rad/s$^2$]"),
+        ("stroke_acceleration", r"stroke acceleration $\ddot L$ [m/s$^2$]"),
+    )
+    fig = _figure((10.0, 7.0), dpi)
+    axes = fig.subplots(2, 2, sharex=True)
+    for ax, (field, label) in zip(axes.ravel(), panels, strict=True):
+        ax.plot(np.degrees(theta), getattr(curve, field), color="tab:blue", label="closed form")
+        ax.plot(
+            np.degrees(theta_dots),
+            getattr(dots, field),
+            "o",
+            ms=4,
+            color="tab:orange",
+            label="closure at C (2x2 solve)",
+        )
+        ax.set_ylabel(label)
+        ax.set_title(label.split(" [")[0].split(" $")[0] + " vs wheel angle", fontsize=10)
+        ax.grid(True, alpha=0.3)
+        ax.set_xticks(np.arange(0, 361, 60))
+    for ax in axes[1]:
+        ax.set_xlabel("wheel angle θ [deg]")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(
+        f"Slotted link: r = {link.r * 1e3:g} mm, d = {link.d * 1e3:g} mm, "
+        rf"$\omega$ = {link.omega:g} rad/s, $\alpha$ = {link.alpha:g} rad/s$^2$ "
+        "(rates CCW positive; L = |CB|)",
+        fontsize=10,
+    )
+    path = out / "slotted_link.png"
+    _save(fig, path)
+    return [path]

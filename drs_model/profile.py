@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError, StrokeRangeError
+from .kernels import NUMPY
 from .kinematics import stroke_limits
 from .params import DRSParams
 
@@ -76,9 +77,7 @@ class QuinticSegment:
         t = np.asarray(t, dtype=float)
         tau = np.clip(t - self.t0, 0.0, self.duration)
         c = self.coeffs
-        s = c[0] + tau * (c[1] + tau * (c[2] + tau * (c[3] + tau * (c[4] + tau * c[5]))))
-        v = c[1] + tau * (2 * c[2] + tau * (3 * c[3] + tau * (4 * c[4] + tau * 5 * c[5])))
-        a = 2 * c[2] + tau * (6 * c[3] + tau * (12 * c[4] + tau * 20 * c[5]))
+        s, v, a = NUMPY.quintic(tau, c, 0)
         outside = (t < self.t0) | (t > self.t1)
         if np.any(outside):
             # beyond the ends the move is at rest only if it ends at rest; hold position and
@@ -105,6 +104,12 @@ class Manoeuvre:
     def kinks(self) -> tuple[float, ...]:
         """Times [s] where the jerk jumps (the segment joints)."""
         return (self.opening.t0, self.opening.t1, self.closing.t0, self.closing.t1)
+
+    def constants(self) -> tuple[float, ...]:
+        """The 17 constants of :func:`drs_model.kernels.manoeuvre_profile`: ``(t0, T, 6
+        coefficients)`` of the opening and of the closing, then ``s_max``."""
+        o, c = self.opening, self.closing
+        return (o.t0, o.duration, *o.coeffs, c.t0, c.duration, *c.coeffs, self.s_max)
 
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(s, s', s'')`` [m, m/s, m/s^2] at time(s) t [s], vectorised."""

@@ -11,7 +11,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from drs_model.actuator import ActuatorState
-from drs_model.dynamics import NE_UNKNOWNS
+from drs_model.inverse import NE_UNKNOWNS
 
 #: Order of the reactions on ``~/joint_reactions``: the Newton-Euler unknowns without the piston
 #: force (the seed's names; N, except Tp in N m).

@@ -12,9 +12,8 @@ from hypothesis import strategies as st
 from drs_model import kinematics as kin
 from drs_model.actuator import ActuatorSim
 from drs_model.constraints import constraint
-from drs_model.dynamics import inverse_dynamics
 from drs_model.errors import InputError, StrokeRangeError
-from drs_model.forward import as_force  # noqa: F401 - the public force inputs exist
+from drs_model.inverse import inverse_dynamics
 from drs_model.profile import drs_manoeuvre
 
 
@@ -89,7 +88,7 @@ def test_force_commands_and_end_stops(params):
 
 
 def test_free_flight_matches_the_forward_integrator(params):
-    """Away from the stops the force mode is the fixed-step integrator of drs_model.integrators,
+    """Away from the stops the force mode is the fixed-step integrator of drs_model.forward,
     checked here against an independent tight solve_ivp run."""
     from scipy.integrate import solve_ivp
 
@@ -176,7 +175,9 @@ def test_trajectory_passes_its_points_at_their_times(params):
         ([0.01], [0.02], [float("inf")], r"rates must be 1 finite values"),
         # arriving at 45 mm at 2 m/s, it cannot stop at 46 mm within 10 ms without overshooting
         (
-            [0.01, 0.02], [0.045, 0.046], [2.0, 0.0],
+            [0.01, 0.02],
+            [0.045, 0.046],
+            [2.0, 0.0],
             r"leaves \[s_min, s_max\].* on its way to point 1 \(of 0\.\.1\)",
         ),
     ],

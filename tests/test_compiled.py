@@ -1,5 +1,5 @@
-"""The compiled path (drs_model.compiled): kernels against the Python ones, the RK driver against
-scipy's solvers and the exact profile, typed failures.
+"""The compiled path (drs_model.forward.numba_rk): kernels against independent formulations, the
+RK driver against scipy's solvers and the exact profile, typed failures.
 
 Skipped when numba is missing, unless ``CI`` is set (CI installs every extra: a missing numba fails
 there). No timing is asserted (benchmarks/work_precision.py measures it).
@@ -20,7 +20,6 @@ import sys
 import numpy as np
 import pytest
 
-from drs_model import compiled
 from drs_model import forward as fw
 from drs_model import kinematics as kin
 from drs_model.constraints import constraint
@@ -30,7 +29,8 @@ from drs_model.errors import (
     SingularConfigurationError,
     StrokeRangeError,
 )
-from drs_model.integrators import COMPILED_METHODS, simulate
+from drs_model.forward import COMPILED_METHODS, simulate
+from drs_model.forward import numba_rk as compiled
 
 if importlib.util.find_spec("numba") is None:
     if os.environ.get("CI"):
@@ -62,40 +62,45 @@ def _start(params, s0=S0):
 
 
 # ---- kernels ------------------------------------------------------------------------------------
-def test_compiled_force_equals_fused_inverse_dynamics(params, mforce):
-    """The compiled manoeuvre force equals FusedInverseDynamics.force_at and
-    dynamics.manoeuvre_force to 1e-9 relative over 10,000 times (rests, moves, joints)."""
-    from drs_model.dynamics import FusedInverseDynamics, manoeuvre_force
+def test_compiled_force_equals_newton_euler(params, mforce):
+    """The compiled manoeuvre force (numba's build of kernels.manoeuvre_force) equals an
+    independent formulation, Newton-Euler on the numpy kinematics, to 1e-9 relative over 2,000
+    times (rests, moves, joints); and the Python build of the same kernel to rounding."""
+    from drs_model.inverse import manoeuvre_force
 
     t = np.concatenate(
-        [np.linspace(-0.005, params.T_total + 0.005, 9995), np.array(mforce.breakpoints)]
+        [np.linspace(-0.005, params.T_total + 0.005, 1995), np.array(mforce.breakpoints)]
     )
     got = compiled._manoeuvre_forces(t, *compiled.manoeuvre_constants(mforce))
-    fused = FusedInverseDynamics.from_params(params)
-    one_by_one = np.array([fused.force_at(float(x)) for x in t])
-    scale = np.max(np.abs(one_by_one))
-    np.testing.assert_allclose(got, one_by_one, rtol=1e-9, atol=1e-9 * scale)
-    np.testing.assert_allclose(got, manoeuvre_force(t, params), rtol=1e-9, atol=1e-9 * scale)
-    # and the forward module's piecewise force, which the scipy path integrates
-    np.testing.assert_allclose(
-        got[::50], [mforce(float(x)) for x in t[::50]], rtol=1e-9, atol=1e-9 * scale
-    )
+    ref = manoeuvre_force(t, params, "newton-euler")
+    scale = np.max(np.abs(ref))
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * scale)
+    python = np.array([mforce(float(x)) for x in t])
+    np.testing.assert_allclose(got, python, rtol=1e-12, atol=1e-12 * scale)
 
 
-def test_compiled_kernel_equals_make_psi3_kernel(params):
+def test_compiled_psi3_kernel_equals_the_numpy_reference(params):
+    """The compiled psi3 acceleration against reference_rhs, which solves the projected equations
+    with the numpy mass matrix, forces and velocity ratios (no kernel shared), at 200 random
+    states around the stroke; no assembly gives NaN."""
     form = fw.Psi3Minimal(params)
     rng = np.random.default_rng(3)
     psi_c, psi_o = kin.flap_angle_limits(params)
-    n = 2000
+    n = 200
     b = rng.uniform(min(psi_c, psi_o) - 0.3, max(psi_c, psi_o) + 0.3, n)
     bd = rng.uniform(-150.0, 150.0, n)
     f = rng.uniform(-3000.0, 3000.0, n)
     got = compiled._psi3_accels(b, bd, f, compiled.psi3_constants(form))
-    ref = np.array([form.accel(*args) for args in zip(b, bd, f, strict=True)])
-    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-9)
+    ref = np.array(
+        [
+            fw.reference_rhs(form, 0.0, np.array([x, v]), F)[1]
+            for x, v, F in zip(b, bd, f, strict=True)
+        ]
+    )
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * np.max(np.abs(ref)))
     # no assembly -> NaN, as the Python kernel
-    assert math.isnan(compiled._psi3_accels(np.array([math.pi]), np.zeros(1), np.zeros(1),
-                                            compiled.psi3_constants(form))[0])  # fmt: skip
+    kc = compiled.psi3_constants(form)
+    assert math.isnan(compiled._psi3_accels(np.array([math.pi]), np.zeros(1), np.zeros(1), kc)[0])
 
 
 def test_tableaux_satisfy_the_order_conditions():
@@ -109,8 +114,15 @@ def test_tableaux_satisfy_the_order_conditions():
 
 
 def test_q_qd_from_the_closed_form(params, mforce, grid):
-    sol = simulate("psi3", mforce, (0.0, params.T_total), params=params,
-                   method="dop853-numba", rtol=1e-9, t_eval=grid)  # fmt: skip
+    sol = simulate(
+        "psi3",
+        mforce,
+        (0.0, params.T_total),
+        params=params,
+        method="dop853-numba",
+        rtol=1e-9,
+        t_eval=grid,
+    )
     q, qd = fw.Psi3Minimal(params).to_q_qd(sol.y)
     np.testing.assert_allclose(sol.q, q, rtol=0.0, atol=1e-13)
     np.testing.assert_allclose(sol.qd, qd, rtol=1e-12, atol=1e-12)
@@ -137,10 +149,18 @@ def test_same_steps_as_the_scipy_twin(params, mforce, grid, method):
 
 @pytest.mark.parametrize("method", METHODS)
 def test_agrees_with_scipy_dop853_at_tight_tolerance(params, mforce, grid, method):
-    ref = simulate("psi3", mforce, (0.0, params.T_total), params=params, method="DOP853",
-                   rtol=1e-12, t_eval=grid)  # fmt: skip
-    ours = simulate("psi3", mforce, (0.0, params.T_total), params=params, method=method,
-                    rtol=1e-12, t_eval=grid)  # fmt: skip
+    ref = simulate(
+        "psi3",
+        mforce,
+        (0.0, params.T_total),
+        params=params,
+        method="DOP853",
+        rtol=1e-12,
+        t_eval=grid,
+    )
+    ours = simulate(
+        "psi3", mforce, (0.0, params.T_total), params=params, method=method, rtol=1e-12, t_eval=grid
+    )
     np.testing.assert_allclose(ours.s, ref.s, rtol=0.0, atol=2e-11)
     np.testing.assert_allclose(ours.psi3, ref.psi3, rtol=0.0, atol=2e-10)
 
@@ -150,8 +170,9 @@ def test_agrees_with_scipy_dop853_at_tight_tolerance(params, mforce, grid, metho
 def test_reproduces_the_profile(params, mforce, grid, method, rtol):
     """Under its inverse-dynamics force the manoeuvre comes back: max|s err| < 2 rtol [m]
     (measured <= 0.8 rtol, module docstring)."""
-    sol = simulate("psi3", mforce, (0.0, params.T_total), params=params, method=method,
-                   rtol=rtol, t_eval=grid)  # fmt: skip
+    sol = simulate(
+        "psi3", mforce, (0.0, params.T_total), params=params, method=method, rtol=rtol, t_eval=grid
+    )
     err = np.max(np.abs(sol.s - mforce.profile(grid)[0]))
     assert err < 2.0 * rtol
     assert sol.nfev > 0 and sol.nsteps > 0 and sol.nrejected >= 0
@@ -161,8 +182,15 @@ def test_reproduces_the_profile(params, mforce, grid, method, rtol):
 def test_error_scales_with_tolerance(params, mforce, grid, method):
     errs, nfev = [], []
     for rtol in (1e-5, 1e-7, 1e-9, 1e-11):
-        sol = simulate("psi3", mforce, (0.0, params.T_total), params=params, method=method,
-                       rtol=rtol, t_eval=grid)  # fmt: skip
+        sol = simulate(
+            "psi3",
+            mforce,
+            (0.0, params.T_total),
+            params=params,
+            method=method,
+            rtol=rtol,
+            t_eval=grid,
+        )
         errs.append(np.max(np.abs(sol.s - mforce.profile(grid)[0])))
         nfev.append(sol.nfev)
     assert all(a > 10.0 * b for a, b in zip(errs[:-1], errs[1:], strict=True)), errs
@@ -172,16 +200,31 @@ def test_error_scales_with_tolerance(params, mforce, grid, method):
 @pytest.mark.parametrize("method", METHODS)
 def test_constant_force_and_every_step_output(params, method):
     t_end = 0.01
-    ref = simulate("psi3", 500.0, (0.0, t_end), params=params, method="DOP853", rtol=1e-13,
-                   initial=_start(params), t_eval=[0.0025, 0.005, t_end])  # fmt: skip
-    sol = compiled.simulate_compiled(params, 500.0, (0.0, t_end), method=method[:-6],
-                                     rtol=1e-11, initial=_start(params))  # fmt: skip
+    ref = simulate(
+        "psi3",
+        500.0,
+        (0.0, t_end),
+        params=params,
+        method="DOP853",
+        rtol=1e-13,
+        initial=_start(params),
+        t_eval=[0.0025, 0.005, t_end],
+    )
+    sol = compiled.simulate_compiled(
+        params, 500.0, (0.0, t_end), method=method[:-6], rtol=1e-11, initial=_start(params)
+    )
     assert sol.t[0] == 0.0 and sol.t[-1] == t_end and np.all(np.diff(sol.t) > 0)
     assert sol.t.size == sol.nsteps + 1 and sol.y.shape == (2, sol.t.size)
     assert sol.s[-1] == pytest.approx(ref.s[-1], abs=1e-11)
-    dense = compiled.simulate_compiled(params, 500.0, (0.0, t_end), method=method[:-6],
-                                       rtol=1e-11, initial=_start(params),
-                                       t_eval=[0.0025, 0.005, t_end])  # fmt: skip
+    dense = compiled.simulate_compiled(
+        params,
+        500.0,
+        (0.0, t_end),
+        method=method[:-6],
+        rtol=1e-11,
+        initial=_start(params),
+        t_eval=[0.0025, 0.005, t_end],
+    )
     np.testing.assert_allclose(dense.s, ref.s, rtol=0.0, atol=1e-11)
 
 
@@ -189,24 +232,42 @@ def test_constant_force_and_every_step_output(params, method):
 def test_step_force_restarts_at_the_step(params, method):
     kw = dict(params=params, rtol=1e-12, method=method)
     step = fw.StepForce(300.0, 600.0, 0.004)
-    whole = simulate("psi3", step, (0.0, 0.008), initial=_start(params), t_eval=[0.004, 0.008],
-                     **kw)  # fmt: skip
+    whole = simulate(
+        "psi3", step, (0.0, 0.008), initial=_start(params), t_eval=[0.004, 0.008], **kw
+    )
     assert whole.segments == [(0.0, 0.004), (0.004, 0.008)]
     first = simulate("psi3", 300.0, (0.0, 0.004), initial=_start(params), t_eval=[0.004], **kw)
     second = simulate("psi3", 600.0, (0.004, 0.008), y0=first.y[:, -1], t_eval=[0.008], **kw)
     np.testing.assert_allclose(whole.y[:, -1], second.y[:, -1], rtol=1e-12, atol=1e-13)
-    ref = simulate("psi3", step, (0.0, 0.008), params=params, rtol=1e-13, method="DOP853",
-                   initial=_start(params), t_eval=[0.008])  # fmt: skip
+    ref = simulate(
+        "psi3",
+        step,
+        (0.0, 0.008),
+        params=params,
+        rtol=1e-13,
+        method="DOP853",
+        initial=_start(params),
+        t_eval=[0.008],
+    )
     assert whole.s[-1] == pytest.approx(ref.s[-1], abs=1e-11)
 
 
 # ---- failures -----------------------------------------------------------------------------------
 def test_huge_force_leaves_the_stroke_range(params):
     s_min, s_max = kin.stroke_limits(params)
-    with pytest.raises(StrokeRangeError, match=r"stroke s = 0\.05\d* m at t = .* leaves the "
-                       r"stroke range \[0\.000198\d*, 0\.0460\d*\] m"):  # fmt: skip
-        simulate("psi3", 1e6, (0.0, 0.05), params=params, method="dop853-numba",
-                 stroke_range=(s_min, s_max))  # fmt: skip
+    with pytest.raises(
+        StrokeRangeError,
+        match=r"stroke s = 0\.05\d* m at t = .* leaves the "
+        r"stroke range \[0\.000198\d*, 0\.0460\d*\] m",
+    ):
+        simulate(
+            "psi3",
+            1e6,
+            (0.0, 0.05),
+            params=params,
+            method="dop853-numba",
+            stroke_range=(s_min, s_max),
+        )
     # without a range the link ends nearly horizontal: the psi3 formulation's own refusal,
     # at the same place as the scipy path
     with pytest.raises(SingularConfigurationError, match=r"cos psi1 = 0\.04\d* < min_cos_psi1"):
@@ -219,10 +280,18 @@ def test_dead_centre_passes_or_stops(params, mforce):
     low = 0.8 * mforce(0.0)
     sol = simulate("psi3", low, (0.0, 0.03), params=params, method="dop853-numba", rtol=1e-9)
     assert sol.s.min() < kin.stroke_limits(params)[0] - 1e-3  # through to the other side
-    with pytest.raises(SingularConfigurationError,
-                       match=r"crosses the dead centre: psi3 = .* >= 1\.195\d* rad"):  # fmt: skip
-        simulate("psi3", low, (0.0, 0.03), params=params, method="dop853-numba", rtol=1e-9,
-                 stop_at_dead_centre=True)  # fmt: skip
+    with pytest.raises(
+        SingularConfigurationError, match=r"crosses the dead centre: psi3 = .* >= 1\.195\d* rad"
+    ):
+        simulate(
+            "psi3",
+            low,
+            (0.0, 0.03),
+            params=params,
+            method="dop853-numba",
+            rtol=1e-9,
+            stop_at_dead_centre=True,
+        )
 
 
 def test_nan_force_is_typed(params):
@@ -237,11 +306,17 @@ def test_nan_force_is_typed(params):
 
 def test_step_size_collapse_and_step_budget(params, mforce):
     with pytest.raises(IntegrationError, match=r"step size collapsed to .* < min_step = 0\.005"):
-        simulate("psi3", mforce, (0.0, 0.01), params=params, rtol=1e-12, min_step=5e-3,
-                 method="dopri5-numba")  # fmt: skip
+        simulate(
+            "psi3",
+            mforce,
+            (0.0, 0.01),
+            params=params,
+            rtol=1e-12,
+            min_step=5e-3,
+            method="dopri5-numba",
+        )
     with pytest.raises(IntegrationError, match=r"more than max_steps = 5 steps"):
-        simulate("psi3", mforce, (0.0, 0.05), params=params, method="dop853-numba",
-                 max_steps=5)  # fmt: skip
+        simulate("psi3", mforce, (0.0, 0.05), params=params, method="dop853-numba", max_steps=5)
 
 
 def test_bad_arguments(params, mforce):
@@ -250,15 +325,24 @@ def test_bad_arguments(params, mforce):
     with pytest.raises(InputError, match=r"a constant force, a StepForce or a ManoeuvreForce"):
         simulate("psi3", lambda t: 100.0, (0.0, 0.01), params=params, method="dop853-numba")
     with pytest.raises(InputError, match=r"t_eval must be sorted"):
-        simulate("psi3", 0.0, (0.0, 0.01), params=params, method="dop853-numba",
-                 t_eval=[0.005, 0.001])  # fmt: skip
+        simulate(
+            "psi3", 0.0, (0.0, 0.01), params=params, method="dop853-numba", t_eval=[0.005, 0.001]
+        )
     with pytest.raises(InputError, match=r"method must be one of .*dop853-numba"):
         simulate("psi3", 0.0, (0.0, 0.01), params=params, method="dop853_numba")
     with pytest.raises(InputError, match=r"method must be 'dopri5' or 'dop853'"):
         compiled.simulate_compiled(params, 0.0, (0.0, 0.01), method="rk4")
-    custom = fw.ManoeuvreForce(params, flap_limits=(0.2, -0.3))
-    with pytest.raises(InputError, match=r"cannot reproduce this ManoeuvreForce"):
-        compiled.simulate_compiled(params, custom, (0.0, 0.05))
+
+
+def test_custom_air_law_force_runs_compiled(params, grid):
+    """A ManoeuvreForce with its own air-law flap limits carries its constants: the compiled run
+    matches the scipy twin on the same force (the port once had to refuse it)."""
+    custom = fw.ManoeuvreForce(params, flap_limits=(1.2, 0.4))
+    kw = dict(params=params, rtol=1e-9, t_eval=grid)
+    ours = simulate("psi3", custom, (0.0, params.T_total), method="dop853-numba", **kw)
+    ref = simulate("psi3", custom, (0.0, params.T_total), method="DOP853", **kw)
+    assert ours.nsteps == ref.nsteps
+    np.testing.assert_allclose(ours.q, ref.q, atol=1e-9)
 
 
 def test_missing_numba_is_an_import_error(monkeypatch):
@@ -270,8 +354,5 @@ def test_missing_numba_is_an_import_error(monkeypatch):
 
 
 def test_importing_the_model_does_not_import_numba():
-    code = (
-        "import sys, drs_model.integrators, drs_model.compiled; "
-        "assert 'numba' not in sys.modules, 'numba imported'"
-    )
+    code = "import sys, drs_model.forward; assert 'numba' not in sys.modules, 'numba imported'"
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

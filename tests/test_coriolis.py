@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from ros_support import require_module
 
-from drs_model import AssemblyError, DRSError, InputError, ParameterError
+from drs_model import AssemblyError, DRSError, InputError, ParameterError, plotting
 from drs_model import coriolis as cor
 from drs_model.cli import main
 
@@ -434,9 +434,9 @@ def test_plot_errors(tmp_path):
     not_a_dir = tmp_path / "file.png"
     not_a_dir.write_bytes(b"x")
     with pytest.raises(InputError, match=r"plot directory '.*file\.png' exists and is not a dir"):
-        cor.plot_slotted_link(not_a_dir)
+        plotting.plot_slotted_link(not_a_dir)
     with pytest.raises(InputError, match=r"n must be an integer >= 2, got 1"):
-        cor.plot_slotted_link(tmp_path, n=1)
+        plotting.plot_slotted_link(tmp_path, n=1)
 
 
 # ---- CLI ----------------------------------------------------------------------------------------
@@ -492,6 +492,16 @@ def test_cli_errors(capsys):
     assert "error: omega must be finite, got nan" in capsys.readouterr().err
     assert main(["coriolis", "slotted-link", "--plot", "x", "--dpi", "5"]) == 2
     assert "error: dpi must be in 10..600, got 5" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("example", ["collar", "slotted-link"])
+@pytest.mark.parametrize("option", [["--set", "Iz_wing=0.08"], ["--params", "drs.toml"]])
+def test_cli_examples_take_no_drs_parameters(capsys, example, option):
+    """The Coriolis examples are not the DRS mechanism: its --params/--set are not offered."""
+    with pytest.raises(SystemExit) as info:
+        main(["coriolis", example, *option])
+    assert info.value.code == 2
+    assert f"unrecognized arguments: {option[0]}" in capsys.readouterr().err
 
 
 def _assert_png(path):

@@ -20,7 +20,7 @@ from drs_model.errors import (
     IntegrationError,
     SingularConfigurationError,
 )
-from drs_model.integrators import simulate
+from drs_model.forward import simulate
 
 ALL = ("psi3", "s", "index1", "baumgarte", "projection")
 FULL = ("index1", "baumgarte", "projection")
@@ -106,7 +106,7 @@ def test_manoeuvre_force_equals_virtual_work_projection(params, mforce):
 
 
 def test_manoeuvre_force_agrees_with_dynamics_module(params, mforce):
-    from drs_model import dynamics as dyn
+    from drs_model import inverse as dyn
 
     t = np.linspace(0.0, params.T_total, 41)
     np.testing.assert_allclose(
@@ -132,9 +132,15 @@ def test_round_trip_reproduces_profile(params, mforce, name, rtol):
     amplified by the unstable open loop (a state error grows ~e^(120 t) while closed)."""
     t = np.linspace(0.0, params.T_total, 201)
     sol = simulate(
-        name, mforce, (0.0, params.T_total), params=params, method="DOP853", rtol=rtol,
-        t_eval=t, **_opts(name),
-    )  # fmt: skip
+        name,
+        mforce,
+        (0.0, params.T_total),
+        params=params,
+        method="DOP853",
+        rtol=rtol,
+        t_eval=t,
+        **_opts(name),
+    )
     s_ref = mforce.profile(t)[0]
     psi_ref = kin.solve_position(s_ref, params)[:, 2]
     bound = _round_trip_bound(params, mforce, rtol)
@@ -156,7 +162,7 @@ def test_formulations_agree_with_each_other(params, mforce):
             rtol=1e-11,
             t_eval=t,
             **_opts(name),
-        )  # fmt: skip
+        )
         for name in ALL
     }
     ref = runs["psi3"]
@@ -183,10 +189,18 @@ def test_perturbation_grows_like_cosh_lambda_t(params, mforce):
     q0 = kin.solve_position(kin.stroke_limits(params)[0], params)
     delta, t_end = 1e-9, 0.02
     f_hold = mforce(0.0)
-    base = simulate("psi3", f_hold, (0.0, t_end), params=params, rtol=1e-13,
-                    y0=[q0[2], 0.0], t_eval=[t_end])  # fmt: skip
-    pert = simulate("psi3", f_hold, (0.0, t_end), params=params, rtol=1e-13,
-                    y0=[q0[2] + delta, 0.0], t_eval=[t_end])  # fmt: skip
+    base = simulate(
+        "psi3", f_hold, (0.0, t_end), params=params, rtol=1e-13, y0=[q0[2], 0.0], t_eval=[t_end]
+    )
+    pert = simulate(
+        "psi3",
+        f_hold,
+        (0.0, t_end),
+        params=params,
+        rtol=1e-13,
+        y0=[q0[2] + delta, 0.0],
+        t_eval=[t_end],
+    )
     growth = (pert.psi3[-1] - base.psi3[-1]) / delta
     assert growth == pytest.approx(math.cosh(lam * t_end), rel=0.02)
     assert growth > 5.0  # unstable indeed
@@ -213,8 +227,16 @@ def test_energy_balance_without_air(params, name, force):
     def energy(q, qd):
         return bo.kinetic_energy(q, qd, p) + bo.potential_energy(q, p) - force * q[..., 0]
 
-    sol = simulate(name, force, (0.0, 0.01), params=p, rtol=1e-12, initial=(q0, qd0),
-                   t_eval=np.linspace(0, 0.01, 21), **_opts(name))  # fmt: skip
+    sol = simulate(
+        name,
+        force,
+        (0.0, 0.01),
+        params=p,
+        rtol=1e-12,
+        initial=(q0, qd0),
+        t_eval=np.linspace(0, 0.01, 21),
+        **_opts(name),
+    )
     e = energy(sol.q, sol.qd)
     scale = bo.kinetic_energy(sol.q, sol.qd, p).max()
     assert np.max(np.abs(e - e[0])) < 1e-8 * scale
@@ -253,8 +275,15 @@ def test_baumgarte_removes_an_initial_violation(params, mforce):
 
 def test_drift_past_bound_raises(params, mforce):
     with pytest.raises(ConstraintDriftError, match=r"exceeds drift_bound = 1e-07 m"):
-        simulate("index1", mforce, (0.0, params.T_total), params=params, method="RK45",
-                 rtol=1e-3, drift_bound=1e-7)  # fmt: skip
+        simulate(
+            "index1",
+            mforce,
+            (0.0, params.T_total),
+            params=params,
+            method="RK45",
+            rtol=1e-3,
+            drift_bound=1e-7,
+        )
 
 
 # ---- failure modes ----------------------------------------------------------------------------

@@ -17,9 +17,9 @@ from drs_model.errors import (
     SingularConfigurationError,
     StrokeRangeError,
 )
-from drs_model.integrators import (
+from drs_model.forward import (
     FIXED_STEP_METHODS,
-    METHODS,
+    SCIPY_METHODS,
     FixedStepIntegrator,
     simulate,
 )
@@ -35,8 +35,15 @@ def mforce(params):
 
 def _reference(params, t_eval, force=F_CONST, s0=S0):
     q0 = kin.solve_position(s0, params)
-    return simulate("psi3", force, (0.0, t_eval[-1]), params=params, rtol=1e-13,
-                    initial=(q0, np.zeros(3)), t_eval=t_eval)  # fmt: skip
+    return simulate(
+        "psi3",
+        force,
+        (0.0, t_eval[-1]),
+        params=params,
+        rtol=1e-13,
+        initial=(q0, np.zeros(3)),
+        t_eval=t_eval,
+    )
 
 
 # ---- adaptive driver --------------------------------------------------------------------------
@@ -57,11 +64,10 @@ def test_step_outputs_are_increasing_without_duplicates(params, mforce):
         assert np.count_nonzero(sol.t == joint) == 1
 
 
-@pytest.mark.parametrize("method", sorted(METHODS))
+@pytest.mark.parametrize("method", sorted(SCIPY_METHODS))
 def test_every_method_runs_the_manoeuvre(params, mforce, method):
     t = np.linspace(0.0, 0.05, 51)
-    sol = simulate("psi3", mforce, (0.0, 0.05), params=params, method=method, rtol=1e-8,
-                   t_eval=t)  # fmt: skip
+    sol = simulate("psi3", mforce, (0.0, 0.05), params=params, method=method, rtol=1e-8, t_eval=t)
     assert np.max(np.abs(sol.s - mforce.profile(t)[0])) < 1e-5
 
 
@@ -83,6 +89,20 @@ def test_step_force_restarts_at_the_step(params):
     np.testing.assert_allclose(whole.y[:, -1], second.y[:, -1], rtol=1e-12, atol=1e-13)
 
 
+@pytest.mark.parametrize("method", ["DOP853", "dop853-numba"])
+def test_unknown_option_is_a_drs_error_naming_it(params, method):
+    with pytest.raises(
+        DRSError, match=r"unknown option\(s\) \['bogus_option'\] for formulation 'psi3'"
+    ):
+        simulate("psi3", 0.0, (0.0, 0.01), params=params, method=method, bogus_option=1)
+    with pytest.raises(
+        DRSError, match=r"unknown option\(s\) \['alfa'\] for formulation 'baumgarte'"
+    ):
+        simulate("baumgarte", 0.0, (0.0, 0.01), params=params, alfa=10.0)
+    with pytest.raises(DRSError, match=r"\['bogus_option'\]"):
+        FixedStepIntegrator(params, 1e-3, bogus_option=1)
+
+
 def test_force_inputs_are_normalised():
     assert isinstance(fw.as_force(3), fw.ConstantForce)
     f = fw.as_force(lambda t: 2.0 * t)
@@ -96,9 +116,13 @@ def test_force_inputs_are_normalised():
 # ---- fixed step -------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     ("method", "dts"),
-    [("rk4", (1e-3, 5e-4)), ("rk2", (2e-4, 1e-4)), ("euler", (1e-4, 5e-5)),
-     ("semi-implicit-euler", (1e-4, 5e-5))],
-)  # fmt: skip
+    [
+        ("rk4", (1e-3, 5e-4)),
+        ("rk2", (2e-4, 1e-4)),
+        ("euler", (1e-4, 5e-5)),
+        ("semi-implicit-euler", (1e-4, 5e-5)),
+    ],
+)
 def test_fixed_step_order_against_dop853(params, method, dts):
     """Halving dt divides the error at 10 ms by ~2^order (reference: DOP853 at rtol 1e-13)."""
     ref = _reference(params, np.array([0.01]))

@@ -15,7 +15,7 @@ from ._common import dumps
 
 #: Subcommand modules of this package, in help order. Each defines ``register(subparsers)`` and
 #: sets ``func`` (returning an ``Output``) on its parsers.
-SUBCOMMAND_MODULES = ("geometry", "coriolis", "dynamics", "forward", "bench")
+SUBCOMMAND_MODULES = ("geometry", "coriolis", "dynamics", "forward")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -24,13 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in SUBCOMMAND_MODULES:
-        try:
-            module = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"{__name__}.{name}":
-                continue  # a subcommand group not built yet
-            raise
-        module.register(sub)
+        importlib.import_module(f"{__name__}.{name}").register(sub)
     return parser
 
 

@@ -23,9 +23,15 @@ class Output:
     text: str
 
 
-def add_common(parser: argparse.ArgumentParser) -> None:
-    """``--json``, ``--params FILE`` and ``--set NAME=VALUE`` for every subcommand."""
+def add_json(parser: argparse.ArgumentParser) -> None:
+    """``--json`` for every subcommand."""
     parser.add_argument("--json", action="store_true", help="print machine-readable JSON")
+
+
+def add_common(parser: argparse.ArgumentParser) -> None:
+    """``--json``, ``--params FILE`` and ``--set NAME=VALUE`` for the subcommands of the DRS
+    model (the Coriolis examples take their own options)."""
+    add_json(parser)
     parser.add_argument("--params", metavar="FILE", help="TOML/YAML file of DRSParams overrides")
     parser.add_argument(
         "--set",

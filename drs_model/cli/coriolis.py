@@ -11,8 +11,9 @@ import math
 import numpy as np
 
 from .. import coriolis as cor
+from .. import plotting
 from ..errors import InputError
-from ._common import Output, add_common, float_list, table
+from ._common import Output, add_json, float_list, table
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="collar sliding along a rotating rod (examples 1-2): every velocity and "
         "acceleration term in fixed and rotating axes",
     )
-    add_common(q)
+    add_json(q)
     q.add_argument("--omega", type=float, default=ex.omega, help="rod angular velocity [rad/s]")
     q.add_argument("--alpha", type=float, default=ex.alpha, help="rod angular accel. [rad/s^2]")
     q.add_argument("--r", type=float, default=ex.r, help="distance pivot -> collar [m]")
@@ -46,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "slotted-link",
         help="wheel pin driving a rod through a pivoting collar (example 3)",
     )
-    add_common(q)
+    add_json(q)
     q.add_argument("--r", type=float, default=link.r, help="wheel radius A -> pin B [m]")
     q.add_argument("--d", type=float, default=link.d, help="distance A -> collar pivot C [m]")
     q.add_argument("--omega", type=float, default=link.omega, help="wheel ang. velocity [rad/s]")
@@ -153,7 +154,7 @@ def run_collar(args) -> Output:
         + "\nOnly 'a coriolis' (2 omega x v_rel) is the Coriolis term."
     )
     if args.plot:
-        paths = cor.plot_collar_maps(args.plot, example, dpi=dpi)
+        paths = plotting.plot_collar_maps(args.plot, example, dpi=dpi)
         data["plots"] = [str(p) for p in paths]
         text += "\n\nwrote " + ", ".join(str(p) for p in paths)
     return Output(data, text)
@@ -214,7 +215,7 @@ def run_slotted_link(args) -> Output:
             )
         )
     if args.plot:
-        paths = cor.plot_slotted_link(args.plot, link, dpi=dpi)
+        paths = plotting.plot_slotted_link(args.plot, link, dpi=dpi)
         data["plots"] = [str(p) for p in paths]
         text += "\n\nwrote " + ", ".join(str(p) for p in paths)
     return Output(data, text)

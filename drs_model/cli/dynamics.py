@@ -7,16 +7,18 @@ import argparse
 import numpy as np
 
 from ..constraints import PSI3, S
-from ..dynamics import (
-    METHODS,
+from ..errors import InputError
+from ..inverse import (
+    INVERSE_METHODS,
     REACTION_NAMES,
-    air_load_magnitude,
+    force_ratio,
     inverse_dynamics,
+    manoeuvre_force,
     manoeuvre_state,
     peak_force,
+    refine_extremum,
     static_force_ratio,
 )
-from ..errors import InputError
 from ..kinematics import stroke_limits
 from ..params import SEED_LITERAL_IZ_WING
 from ._common import Output, add_common, float_list, key_values, load_params, table
@@ -25,13 +27,13 @@ from ._common import Output, add_common, float_list, key_values, load_params, ta
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("inverse", help="piston force (and joint reactions) along the manoeuvre")
     add_common(p)
-    p.add_argument("--method", choices=sorted(METHODS), default="newton-euler")
+    p.add_argument("--method", choices=sorted(INVERSE_METHODS), default="newton-euler")
     p.add_argument("--time", type=float_list, required=True, metavar="T[,T...]", help="times [s]")
     p.set_defaults(func=run_inverse)
 
     p = sub.add_parser("peak", help="peak piston force, its time and stroke, force ratio range")
     add_common(p)
-    p.add_argument("--method", choices=sorted(METHODS), default="virtual-work")
+    p.add_argument("--method", choices=sorted(INVERSE_METHODS), default="virtual-work")
     p.add_argument("--samples", type=int, default=5001, help="grid before the Brent refinement")
     p.set_defaults(func=run_peak)
 
@@ -67,12 +69,21 @@ def run_inverse(args) -> Output:
 def run_peak(args) -> Output:
     params = load_params(args)
     pk = peak_force(params, args.method, n=args.samples)
+    # every extremum refined from its grid sample as the peak is (refine_extremum)
     t = np.linspace(0.0, params.T_total, max(3, int(args.samples)))
-    _, state = manoeuvre_state(t, params)
-    force = inverse_dynamics(state, params, args.method).piston_force
-    ratio = force / air_load_magnitude(state.q[:, PSI3], params)
+    low = refine_extremum(lambda tt: manoeuvre_force(tt, params, args.method), t, "min")
+
+    def ratio(tt):
+        return force_ratio(tt, params, args.method)
+
+    ratio_lo, ratio_hi = refine_extremum(ratio, t, "min"), refine_extremum(ratio, t, "max")
     s_min, s_max = stroke_limits(params)
-    static = static_force_ratio(np.linspace(s_min, s_max, 201), params)
+    s = np.linspace(s_min, s_max, 201)
+
+    def static(ss):
+        return static_force_ratio(ss, params)
+
+    static_lo, static_hi = refine_extremum(static, s, "min"), refine_extremum(static, s, "max")
     d = {
         "method": args.method,
         "Iz_wing": params.Iz_wing,
@@ -81,11 +92,12 @@ def run_peak(args) -> Output:
         "peak_time": pk.time,
         "peak_stroke": pk.stroke,
         "peak_psi3": pk.psi3,
-        "force_min": float(force.min()),
-        "force_ratio_min": float(ratio.min()),
-        "force_ratio_max": float(ratio.max()),
-        "static_force_ratio_min": float(static.min()),
-        "static_force_ratio_max": float(static.max()),
+        "force_min": low.value,
+        "force_min_time": low.x,
+        "force_ratio_min": ratio_lo.value,
+        "force_ratio_max": ratio_hi.value,
+        "static_force_ratio_min": static_lo.value,
+        "static_force_ratio_max": static_hi.value,
     }
     text = key_values(
         [
@@ -94,9 +106,14 @@ def run_peak(args) -> Output:
             ("  at time", pk.time, "s"),
             ("  at stroke", pk.stroke, "m"),
             ("  at psi3", pk.psi3, "rad"),
-            ("lowest piston force", d["force_min"], "N"),
-            ("F/|F_air| along the manoeuvre", f"{ratio.min():.6g} .. {ratio.max():.6g}", "-"),
-            ("F/|F_air| static, along the stroke", f"{static.min():.6g} .. {static.max():.6g}", ""),
+            ("lowest piston force", low.value, "N"),
+            ("  at time", low.x, "s"),
+            ("F/|F_air| along the manoeuvre", f"{ratio_lo.value:.6g} .. {ratio_hi.value:.6g}", "-"),
+            (
+                "F/|F_air| static, along the stroke",
+                f"{static_lo.value:.6g} .. {static_hi.value:.6g}",
+                "",
+            ),
         ]
     )
     title = f"peak piston force ({args.method}; --set Iz_wing=0.08 for the seed's literal)"

@@ -9,8 +9,14 @@ import numpy as np
 
 from .. import kinematics as kin
 from ..errors import InputError
-from ..forward import FORMULATIONS, ManoeuvreForce, StepForce
-from ..integrators import COMPILED_METHODS, METHODS, simulate
+from ..forward import (
+    COMPILED_METHODS,
+    FORMULATIONS,
+    SCIPY_METHODS,
+    ManoeuvreForce,
+    StepForce,
+    simulate,
+)
 from ._common import Output, add_common, load_params, table
 
 
@@ -29,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--method",
         default="DOP853",
-        choices=sorted(METHODS) + sorted(COMPILED_METHODS),
+        choices=sorted(SCIPY_METHODS) + sorted(COMPILED_METHODS),
         help="scipy solver, or a compiled one (psi3 only; needs drs[fast])",
     )
     p.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
@@ -78,9 +84,17 @@ def run_forward(args) -> Output:
     if args.atol is not None:
         options["atol"] = args.atol
     sol = simulate(
-        args.formulation, force, (0.0, t_end), params=params, initial=(q0, np.zeros(3)),
-        method=args.method, rtol=args.rtol, max_step=args.max_step, t_eval=t, **options,
-    )  # fmt: skip
+        args.formulation,
+        force,
+        (0.0, t_end),
+        params=params,
+        initial=(q0, np.zeros(3)),
+        method=args.method,
+        rtol=args.rtol,
+        max_step=args.max_step,
+        t_eval=t,
+        **options,
+    )
     gap = kin.gap(sol.q, params)
     data = {
         "formulation": sol.formulation,

@@ -1,4 +1,4 @@
-r"""Compiled forward dynamics of formulation (a) (``psi3``): numba kernels and an adaptive RK.
+r"""The compiled RK driver of formulation (a) (``psi3``): numba, no physics of its own.
 
 Optional: needs numba (``pip install drs[fast]``). Importing this module does not import numba;
 the first call of :func:`simulate_compiled` (or :func:`load`) does, and compiles the kernels (or
@@ -7,18 +7,12 @@ loads them from numba's on-disk cache, ``cache=True``). Without numba that call 
 
 What runs compiled, in one call per simulation:
 
-* the psi3 acceleration: :func:`drs_model.forward.psi3_acceleration` itself, compiled
-  (constants in a float64 array, :func:`psi3_constants`):
-
-  .. math::
-
-      \ddot\psi_3 = \frac{u^T Q - \dot\psi_3^2\,(u^T M w + u^T h(q, u))}{u^T M u};
-
+* the psi3 acceleration: :func:`drs_model.kernels.psi3_acceleration` itself, compiled
+  (constants: the formulation's ``consts`` as a float64 array);
 * the piston force: a constant per segment (:class:`~drs_model.forward.ConstantForce`,
   :class:`~drs_model.forward.StepForce`), or the manoeuvre's inverse-dynamics force
-  (:class:`~drs_model.forward.ManoeuvreForce`), a port of ``dynamics._manoeuvre_profile`` and
-  ``dynamics._fused_force`` (closed-form kinematics with s independent and d'Alembert's principle
-  along ``dq/ds``; constants in :func:`manoeuvre_constants`);
+  (:class:`~drs_model.forward.ManoeuvreForce`): :func:`drs_model.kernels.manoeuvre_force` itself,
+  compiled (constants in :func:`manoeuvre_constants`);
 * an explicit embedded Runge-Kutta driver, ``"dopri5"`` (Dormand-Prince 5(4), scipy's ``RK45``)
   or ``"dop853"`` (Hairer's DOP853, scipy's ``DOP853``), with scipy's step-size control:
   error norm ``RMS(err / (atol + max(|y|, |y_new|) rtol))``, new step ``h * min(10, max(0.2,
@@ -28,11 +22,11 @@ What runs compiled, in one call per simulation:
 * output by **dense output** at the requested times (scipy's continuous extensions: the quartic
   of RK45, the degree-7 interpolant of DOP853, which costs 3 extra evaluations on each step that
   holds an output time), or at every accepted step if no times are given;
-* ``(q, qd)`` from ``[psi3, psi3']`` in closed form (:func:`drs_model.forward.psi3_configuration`,
+* ``(q, qd)`` from ``[psi3, psi3']`` in closed form (:func:`drs_model.kernels.psi3_configuration`,
   compiled).
 
 The span is cut at the force's breakpoints (0, 10, 40, 50 ms for the manoeuvre) and every segment
-restarts the integrator, as :func:`drs_model.integrators.simulate` does, so no stage straddles a
+restarts the integrator, as :func:`drs_model.forward.simulate` does, so no stage straddles a
 kink. Numerical failures come back from the compiled code as a status code (scipy's
 ``(success, message)`` pattern); the wrapper raises the typed errors of the pure-Python path:
 
@@ -53,33 +47,24 @@ from __future__ import annotations
 
 import math
 import time
-import weakref
 from functools import lru_cache
 
 import numpy as np
 
-from .errors import (
+from .. import kernels
+from ..errors import (
     DRSError,
     InputError,
     IntegrationError,
     SingularConfigurationError,
     StrokeRangeError,
 )
-from .forward import (
-    ConstantForce,
-    ManoeuvreForce,
-    Psi3Minimal,
-    StepForce,
-    as_force,
-    manoeuvre_initial_state,
-    psi3_kernel_constants,
-)
-
-# the psi3 kernel is forward.py's own function: load() compiles it under these names
-from .forward import psi3_acceleration as _psi3_accel
-from .forward import psi3_configuration as _psi3_config
-from .kinematics import SINGULAR_TOL, dead_centre, flap_angle_limits, solve_position
-from .params import DRSParams
+from ..kernels import flap_position, manoeuvre_force, psi3_acceleration, psi3_configuration
+from ..kinematics import dead_centre, solve_position
+from ..params import DRSParams
+from .forces import ConstantForce, ManoeuvreForce, StepForce, as_force
+from .formulations import Psi3Minimal, manoeuvre_initial_state
+from .solution import Solution
 
 __all__ = [
     "COMPILED_METHODS",
@@ -94,7 +79,7 @@ __all__ = [
     "warm_up",
 ]
 
-#: Names of the compiled methods in :func:`drs_model.integrators.simulate` -> driver name.
+#: Names of the compiled methods in :func:`drs_model.forward.simulate` -> driver name.
 COMPILED_METHODS = {"dopri5-numba": "dopri5", "dop853-numba": "dop853"}
 
 # status codes of the compiled driver
@@ -122,90 +107,29 @@ class NumbaUnavailableError(DRSError, ImportError):
     """The compiled methods need numba, which is not installed (``pip install drs[fast]``)."""
 
 
-# ---- kernels (plain Python in numba's subset; njit-ed by load()) --------------------------------
-def _clip01(x):
-    return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
-
-
-def _manoeuvre_force(t, mc, mp):
-    """Inverse-dynamics piston force [N] of the open-hold-close manoeuvre at t [s]; NaN where the
-    loop cannot close or at the dead centre. ``mc``, ``mp``: :func:`manoeuvre_constants`."""
-    s0, hgt, t0o, to, t0c, tc = mp[0], mp[1], mp[2], mp[3], mp[4], mp[5]
-    uo = _clip01((t - t0o) / to)
-    uc = _clip01((t - t0c) / tc)
-    vo, vc = 1.0 - uo, 1.0 - uc
-    s = s0 + hgt * (uo * uo * uo * (10.0 + uo * (6.0 * uo - 15.0))
-                    - uc * uc * uc * (10.0 + uc * (6.0 * uc - 15.0)))  # fmt: skip
-    sd = 30.0 * hgt * ((uo * vo) ** 2 / to - (uc * vc) ** 2 / tc)
-    sdd = 60.0 * hgt * (uo * vo * (vo - uo) / to**2 - uc * vc * (vc - uc) / tc**2)
-    xa, yb0, xd, yd, l2, l3, gx, gy = mc[0], mc[1], mc[2], mc[3], mc[4], mc[5], mc[6], mc[7]
-    m1, m2, m3, i2, i3, g = mc[8], mc[9], mc[10], mc[11], mc[12], mc[13]
-    d0, d1, n0, n1, po, sing_tol = mc[14], mc[15], mc[16], mc[17], mc[18], mc[19]
-    by = yb0 + s
-    dx, dy = xd - xa, yd - by
-    rho2 = dx * dx + dy * dy
-    inv_rho = 1.0 / math.sqrt(rho2)
-    a = 0.5 * (rho2 + l2 * l2 - l3 * l3) * inv_rho
-    h2 = l2 * l2 - a * a
-    if h2 < 0.0:
-        return math.nan
-    h = math.sqrt(h2) * inv_rho
-    a = a * inv_rho
-    cx = xa + a * dx - h * dy
-    cy = by + a * dy + h * dx
-    s1, c1 = (xa - cx) / l2, (cy - by) / l2
-    c3, s3 = (xd - cx) / l3, (yd - cy) / l3
-    psi3 = math.atan2(s3, c3)
-    det = -l2 * l3 * (c1 * c3 + s1 * s3)
-    if abs(det) < sing_tol * l2 * l3:
-        return math.nan
-    tau1, tau3 = -l3 * s3 / det, l2 * c1 / det
-    w1, w3 = tau1 * sd, tau3 * sd
-    r0 = l2 * s1 * w1 * w1 - l3 * c3 * w3 * w3
-    r1 = -l2 * c1 * w1 * w1 - l3 * s3 * w3 * w3 + sdd
-    a1 = (-l3 * c3 * r0 - l3 * s3 * r1) / det
-    a3 = (-l2 * s1 * r0 + l2 * c1 * r1) / det
-    hh = 0.5 * l2
-    r2x, r2y = -hh * s1, hh * c1
-    r3x, r3y = c3 * gx - s3 * gy, s3 * gx + c3 * gy
-    v2x, v2y = -tau1 * r2y, 1.0 + tau1 * r2x
-    v3x, v3y = -tau3 * r3y, tau3 * r3x
-    a2x = -a1 * r2y - w1 * w1 * r2x
-    a2y = sdd + a1 * r2x - w1 * w1 * r2y + g
-    a3x = -a3 * r3y - w3 * w3 * r3x
-    a3y = a3 * r3x - w3 * w3 * r3y + g
-    drag = d0 + d1 * (psi3 - po)
-    down = n0 + n1 * (psi3 - po)
-    return (
-        m1 * (sdd + g)
-        + m2 * (a2x * v2x + a2y * v2y)
-        + i2 * a1 * tau1
-        + m3 * (a3x * v3x + a3y * v3y)
-        + i3 * a3 * tau3
-        - (drag * v3x - down * v3y)
-    )
-
-
+# ---- the driver (plain Python in numba's subset; njit-ed by load()) ------------------------------
 def _force(t, kind, value, mc, mp):
     """Piston force [N] of a segment: ``value`` (constant) or the manoeuvre's at t."""
     if kind == 0:
         return value
-    return _manoeuvre_force(t, mc, mp)
+    return manoeuvre_force(t, mc, mp)
 
 
 def _manoeuvre_forces(t, mc, mp):
-    """:func:`_manoeuvre_force` at each time of ``t`` (1-D) [N] (for tests and benchmarks)."""
+    """The compiled :func:`~drs_model.kernels.manoeuvre_force` at each time of ``t`` (1-D) [N]
+    (for tests and benchmarks)."""
     out = np.empty(t.shape[0])
     for i in range(t.shape[0]):
-        out[i] = _manoeuvre_force(t[i], mc, mp)
+        out[i] = manoeuvre_force(t[i], mc, mp)
     return out
 
 
 def _psi3_accels(b, bd, f, kc):
-    """:func:`_psi3_accel` element-wise over 1-D arrays (for tests)."""
+    """The compiled :func:`~drs_model.kernels.psi3_acceleration` element-wise over 1-D arrays
+    (for tests)."""
     out = np.empty(b.shape[0])
     for i in range(b.shape[0]):
-        out[i] = _psi3_accel(b[i], bd[i], f[i], kc)
+        out[i] = psi3_acceleration(b[i], bd[i], f[i], kc)
     return out
 
 
@@ -215,7 +139,7 @@ def _to_q_qd(y, n, kc):
     qd = np.empty((n, 3))
     for i in range(n):
         b, bd = y[0, i], y[1, i]
-        s, psi1, u0, u1 = _psi3_config(b, kc)
+        s, psi1, u0, u1 = psi3_configuration(b, kc)
         q[i, 0], q[i, 1], q[i, 2] = s, psi1, b
         qd[i, 0], qd[i, 1], qd[i, 2] = u0 * bd, u1 * bd, bd
     return q, qd
@@ -236,23 +160,31 @@ def _rms_norm(e0, e1):
     return math.sqrt(0.5 * (e0 * e0 + e1 * e1))
 
 
+def _combination(K, tab_a, row, n):
+    """``sum_j tab_a[row, j] K[j]`` over the first ``n`` stages: both components."""
+    s0 = 0.0
+    s1 = 0.0
+    for j in range(n):
+        s0 += K[j, 0] * tab_a[row, j]
+        s1 += K[j, 1] * tab_a[row, j]
+    return s0, s1
+
+
 def _stages(K, s_from, s_to, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc):
-    """Stages ``s_from <= s < s_to`` of an explicit RK step into the rows of ``K`` (2 columns:
-    psi3', psi3''). Returns ``(-1, 0.0)``, or the stage whose piston force is not finite and
-    that force."""
+    """Stages ``s_from <= s < s_to`` of an explicit RK step into the rows of ``K`` (columns:
+    psi3', psi3'', piston force). The forces depend on the stage times only: all are evaluated
+    first, free of the stages' chain of dependencies. Returns ``(-1, 0.0)``, or the stage whose
+    piston force is not finite and that force."""
     for s in range(s_from, s_to):
-        s0 = 0.0
-        s1 = 0.0
-        for j in range(s):
-            s0 += K[j, 0] * tab_a[s, j]
-            s1 += K[j, 1] * tab_a[s, j]
-        ys0 = y0 + s0 * h
+        K[s, 2] = _force(t + tab_c[s] * h, kind, value, mc, mp)
+    for s in range(s_from, s_to):
+        if not math.isfinite(K[s, 2]):
+            return s, K[s, 2]
+    for s in range(s_from, s_to):
+        s0, s1 = _combination(K, tab_a, s, s)
         ys1 = y1 + s1 * h
-        fo = _force(t + tab_c[s] * h, kind, value, mc, mp)
-        if not math.isfinite(fo):
-            return s, fo
         K[s, 0] = ys1
-        K[s, 1] = _psi3_accel(ys0, ys1, fo, kc)
+        K[s, 1] = psi3_acceleration(y0 + s0 * h, ys1, K[s, 2], kc)
     return -1, 0.0
 
 
@@ -345,7 +277,7 @@ def _initial_step(t, b, y0, y1, f1, kind, value, mc, mp, kc, rtol, atol, err_ord
     fo = _force(t + h0, kind, value, mc, mp)
     if not math.isfinite(fo):
         return h0, fo
-    g1 = _psi3_accel(z0, z1, fo, kc)
+    g1 = psi3_acceleration(z0, z1, fo, kc)
     d2 = _rms_norm((z1 - f0) / sc0, (g1 - f1) / sc1) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -363,25 +295,45 @@ def _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc):
         return MIN_STEP, h
     if not (math.isfinite(yn0) and math.isfinite(yn1)):
         return NONFINITE_STATE, 0.0
-    ax, s_off, L2, L3 = kc[0], kc[1], kc[2], kc[3]
-    sa = (ax + L3 * math.cos(yn0)) / L2
-    cos1 = math.sqrt(max(0.0, 1.0 - sa * sa))
+    s_new, _, cos1, _ = flap_position(math.sin(yn0), math.cos(yn0), kc, 1.0)
     if not cos1 >= checks[0]:
         return SINGULAR, cos1
     if checks[5] != 0.0 and yn0 >= checks[3]:
         return DEAD_CENTRE, yn0
     if checks[4] != 0.0:
-        s_new = s_off - L3 * math.sin(yn0) - L2 * cos1
         if not (checks[1] <= s_new <= checks[2]):
             return STROKE_RANGE, s_new
     return OK, 0.0
 
 
 def _integrate(
-    y_start, edges, kinds, values, mc, mp, kc,
-    tab_a, tab_c, tab_e, tab_e3, tab_dense, ns, n_ext, err_order, is853,
-    t_eval, has_eval, rtol, atol, first_step, max_step, min_step, checks, max_steps,
-):  # fmt: skip
+    y_start0,
+    y_start1,
+    t_eval,
+    has_eval,
+    edges,
+    kinds,
+    values,
+    mc,
+    mp,
+    kc,
+    tab_a,
+    tab_c,
+    tab_e,
+    tab_e3,
+    tab_dense,
+    ns,
+    n_ext,
+    err_order,
+    is853,
+    rtol,
+    atol,
+    first_step,
+    max_step,
+    min_step,
+    checks,
+    max_steps,
+):
     """The adaptive RK driver over the segments ``edges`` (see the module docstring).
 
     ``tab_a`` (n_ext, n_ext) holds the stages' coefficients with the weights B in row ``ns``
@@ -391,7 +343,7 @@ def _integrate(
     step size, force, cos psi1, psi3 or stroke of a failure.
     """
     expo = -1.0 / (err_order + 1.0)
-    K = np.zeros((n_ext, 2))
+    K = np.zeros((n_ext, 3))  # psi3', psi3'', piston force per stage
     y_fail = np.zeros(2)
     n_eval = t_eval.shape[0]
     if has_eval:
@@ -402,8 +354,8 @@ def _integrate(
         t_out = np.empty(256)
         y_out = np.empty((2, 256))
         t_out[0] = edges[0]
-        y_out[0, 0] = y_start[0]
-        y_out[1, 0] = y_start[1]
+        y_out[0, 0] = y_start0
+        y_out[1, 0] = y_start1
         n_out = 1
     ie = 0
     nfev = 0
@@ -411,8 +363,8 @@ def _integrate(
     nrej = 0
     status = OK
     info = 0.0
-    y0 = y_start[0]
-    y1 = y_start[1]
+    y0 = y_start0
+    y1 = y_start1
     t = edges[0]
     t_fail = t
     n_seg = edges.shape[0] - 1
@@ -427,7 +379,7 @@ def _integrate(
             status, info, t_fail = NONFINITE_FORCE, fo, t
             break
         K[0, 0] = y1
-        K[0, 1] = _psi3_accel(y0, y1, fo, kc)
+        K[0, 1] = psi3_acceleration(y0, y1, fo, kc)
         if first_step > 0.0:
             h_abs = min(first_step, b - t)
         else:
@@ -456,11 +408,7 @@ def _integrate(
                     status, info, t_fail = NONFINITE_FORCE, fo, t + tab_c[bad] * h
                     break
                 nfev += ns
-                s0 = 0.0
-                s1 = 0.0
-                for j in range(ns):
-                    s0 += K[j, 0] * tab_a[ns, j]
-                    s1 += K[j, 1] * tab_a[ns, j]
+                s0, s1 = _combination(K, tab_a, ns, ns)
                 yn0 = y0 + s0 * h
                 yn1 = y1 + s1 * h
                 sc0 = atol[0] + max(abs(y0), abs(yn0)) * rtol
@@ -498,9 +446,18 @@ def _integrate(
                         y_out[0, ie], y_out[1, ie] = yn0, yn1
                     else:
                         y_out[0, ie], y_out[1, ie] = _dense(
-                            K, ns, n_ext, (t_eval[ie] - t) / h, h, y0, y1, yn0, yn1, tab_dense,
+                            K,
+                            ns,
+                            n_ext,
+                            (t_eval[ie] - t) / h,
+                            h,
+                            y0,
+                            y1,
+                            yn0,
+                            yn1,
+                            tab_dense,
                             is853,
-                        )  # fmt: skip
+                        )
                     ie += 1
                 n_out = ie
             else:
@@ -519,23 +476,31 @@ def _integrate(
     return status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg
 
 
-_KERNELS = (
-    "_psi3_accel",
-    "_psi3_config",
-    "_clip01",
-    "_manoeuvre_force",
+def _integrate_to_q(*args):
+    """:func:`_integrate` on ``args``, then ``(q, qd)`` of its output states: one call from
+    Python."""
+    out = _integrate(*args)
+    q, qd = _to_q_qd(out[3], out[1], args[9])
+    return out + (q, qd)
+
+
+#: The driver's own functions, callees first; the kernels of :mod:`drs_model.kernels` are compiled
+#: before them.
+_DRIVER = (
     "_force",
     "_manoeuvre_forces",
     "_psi3_accels",
     "_to_q_qd",
     "_grow",
     "_rms_norm",
+    "_combination",
     "_stages",
     "_error_norm",
     "_dense",
     "_initial_step",
     "_check_step",
     "_integrate",
+    "_integrate_to_q",
 )
 _LOADED = False
 
@@ -559,9 +524,10 @@ def load() -> float:
     NumbaUnavailableError
         numba is not installed.
     """
-    # The one module-level binding in drs_model: numba resolves calls between jitted kernels
-    # through module globals, so the kernels are rebound here once (a closure factory would lose
-    # numba's on-disk cache). It only ever goes from the Python functions to their jitted wrappers.
+    # The one module-level binding in drs_model: numba resolves calls between jitted functions
+    # through their globals, so the driver's names are rebound here once (a closure factory would
+    # lose numba's on-disk cache). It only ever goes from the Python functions to their jitted
+    # wrappers.
     global _LOADED
     if _LOADED:
         return 0.0
@@ -574,9 +540,21 @@ def load() -> float:
             "installed: pip install 'drs[fast]' (or pip install 'numba>=0.60'); the scipy "
             "methods ('RK45', 'DOP853', 'LSODA', ...) work without it"
         ) from exc
+    # numpy's error model: a division by zero gives inf/NaN (which the driver treats as a rejected
+    # stage) instead of a ZeroDivisionError check on every division
+    from numba.extending import register_jitable
+
+    jit = numba.njit(cache=True, error_model="numpy")
+    # the kernels' own code objects, with globals in which every kernel is registered with numba:
+    # each compiles into the driver function that calls it (no dispatcher of its own)
+    namespace = kernels.rebind(kernels.KERNELS, dict(vars(kernels)))
+    for name in kernels.KERNELS:
+        namespace[name] = register_jitable(error_model="numpy")(namespace[name])
     g = globals()
-    for name in _KERNELS:  # callees first: a kernel resolves the others when it compiles
-        g[name] = numba.njit(cache=True)(g[name])
+    for name in ("flap_position", "manoeuvre_force", "psi3_acceleration", "psi3_configuration"):
+        g[name] = namespace[name]
+    for name in _DRIVER:  # callees first: a function resolves the others when it compiles
+        g[name] = jit(g[name])
     _LOADED = True
     return time.perf_counter() - t0
 
@@ -599,62 +577,19 @@ def warm_up(p: DRSParams | None = None) -> float:
 
 
 # ---- constants ----------------------------------------------------------------------------------
+@lru_cache(maxsize=64)
 def psi3_constants(form: Psi3Minimal) -> np.ndarray:
-    """The constants of the psi3 kernel (:func:`drs_model.forward.psi3_kernel_constants`) as a
-    float64 array (18,)."""
-    return np.array(psi3_kernel_constants(form.consts), dtype=np.float64)
+    """The formulation's kernel constants (:func:`drs_model.bodies.model_constants`) as float64
+    (cached per formulation; read-only to the driver)."""
+    return np.array(form.consts, dtype=np.float64)
 
 
-def _fused_constants(p: DRSParams, flap_limits=None) -> np.ndarray:
-    """The constants of ``dynamics.FusedInverseDynamics`` (same order) and SINGULAR_TOL, (20,)."""
-    psi_c, psi_o = flap_angle_limits(p) if flap_limits is None else flap_limits
-    xg, yg = p.flap_com_local
-    gx, gy = p.d_tip - p.L_wing + xg, yg
-    dpsi = psi_c - psi_o
-    return np.array(
-        [p.x_A, p.y_A + p.L1, p.x_D, p.y_D, p.L2, p.L3, gx, gy,
-         p.m_pist, p.m_link, p.m_wing, p.Iz_link, p.Iz_wing, p.g,
-         p.F_drag_open, (p.F_drag_closed - p.F_drag_open) / dpsi,
-         p.F_down_open, (p.F_down_closed - p.F_down_open) / dpsi, psi_o, SINGULAR_TOL],
-        dtype=np.float64,
-    )  # fmt: skip
-
-
-_MANOEUVRE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def manoeuvre_constants(force: ManoeuvreForce, flap_limits=None) -> tuple[np.ndarray, np.ndarray]:
-    """``(mc, mp)``: the force constants (20,) and the profile ``(s_min, s_max - s_min,
-    t0_open, T_open, t0_close, T_close)`` (6,) of ``force``'s manoeuvre."""
-    m = force.manoeuvre
-    o, c = m.opening, m.closing
-    mp = np.array(
-        [m.s_min, m.s_max - m.s_min, o.t0, o.duration, c.t0, c.duration], dtype=np.float64
-    )
-    return _fused_constants(force.p, flap_limits), mp
-
-
-def _manoeuvre_spec(force: ManoeuvreForce) -> tuple[np.ndarray, np.ndarray]:
-    """Constants of ``force``, checked once per force object against its own ``force(t)`` at
-    the middle of every piece (ManoeuvreForce does not expose its air-law flap limits)."""
-    try:
-        return _MANOEUVRE_CACHE[force]
-    except KeyError:
-        pass
-    mc, mp = manoeuvre_constants(force)
-    bps = force.breakpoints
-    probes = [bps[0] - 1e-3, *(0.5 * (a + b) for a, b in zip(bps[:-1], bps[1:], strict=True))]
-    probes += [bps[i] + 0.1 * (bps[i + 1] - bps[i]) for i in range(len(bps) - 1)]
-    ours = _manoeuvre_forces(np.array(probes, dtype=np.float64), mc, mp)
-    for t, f in zip(probes, ours, strict=True):
-        ref = float(force(t))
-        if not abs(f - ref) <= 1e-9 * max(1.0, abs(ref)):
-            raise InputError(
-                f"the compiled path cannot reproduce this ManoeuvreForce (custom flap limits of "
-                f"its air law?): {f!r} N against {ref!r} N at t = {t!r} s; use a scipy method"
-            )
-    _MANOEUVRE_CACHE[force] = (mc, mp)
-    return mc, mp
+@lru_cache(maxsize=64)
+def manoeuvre_constants(force: ManoeuvreForce) -> tuple[np.ndarray, np.ndarray]:
+    """``(mc, mp)``: the force's kernel constants and its manoeuvre's profile constants
+    (:meth:`drs_model.profile.Manoeuvre.constants`), as float64 arrays (cached per force)."""
+    inv = force.inverse
+    return np.array(inv.consts, dtype=np.float64), np.array(inv.profile, dtype=np.float64)
 
 
 @lru_cache(maxsize=64)
@@ -673,6 +608,14 @@ def psi3_formulation(
         return _default_form(p, flap_limits, float(min_cos_psi1))
     except TypeError:  # unhashable flap_limits (a list)
         return Psi3Minimal(p, flap_limits, float(min_cos_psi1))
+
+
+@lru_cache(maxsize=256)
+def _checks(form: Psi3Minimal, lo: float, hi: float, check_range: bool, stop: bool) -> np.ndarray:
+    """The driver's ``checks``: ``[min_cos_psi1, lo, hi, psi3 of the dead centre, check the stroke
+    range, stop at the dead centre]`` (cached: the driver only reads it)."""
+    psi3_dead = _dead_centre_psi3(form.p) if stop else math.inf
+    return np.array([form.min_cos_psi1, lo, hi, psi3_dead, float(check_range), float(stop)])
 
 
 @lru_cache(maxsize=64)
@@ -724,6 +667,13 @@ def _tableau(method: str):
 
 # ---- the wrapper --------------------------------------------------------------------------------
 def _segments(fobj, t0: float, t1: float, extra=()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(edges, kinds, values)`` of the segments of ``[t0, t1]`` (cached: the driver only reads
+    them)."""
+    return _segments_of(fobj, float(t0), float(t1), tuple(float(b) for b in extra) if extra else ())
+
+
+@lru_cache(maxsize=64)
+def _segments_of(fobj, t0: float, t1: float, extra: tuple[float, ...]):
     cuts = sorted({float(b) for b in (*fobj.breakpoints, *extra) if t0 < b < t1})
     edges = np.array([t0, *cuts, t1], dtype=np.float64)
     n = edges.size - 1
@@ -744,7 +694,83 @@ def _segments(fobj, t0: float, t1: float, extra=()) -> tuple[np.ndarray, np.ndar
     return edges, kinds, values
 
 
-_NO_MANOEUVRE = (np.zeros(20), np.ones(6))
+_NO_MANOEUVRE = (np.zeros(kernels.N_CONSTANTS), np.ones(17))
+_EPS = float(np.finfo(float).eps)
+
+
+@lru_cache(maxsize=256)
+def _plan(
+    form,
+    fobj,
+    method,
+    t0,
+    t1,
+    rtol,
+    atol,
+    first_step,
+    max_step,
+    min_step,
+    breakpoints,
+    stroke_range,
+    stop_at_dead_centre,
+    max_steps,
+):
+    """The driver's arguments after the start state and the output times, validated. Cached: they
+    depend on these (hashable) inputs only, and the driver only reads them."""
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise InputError(f"t_span must be finite with t_end > t_start, got {(t0, t1)!r}")
+    if not (rtol > 0.0 and math.isfinite(rtol)):
+        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
+    rtol = max(float(rtol), 100 * _EPS)  # scipy's floor
+    if atol is None:
+        atol_arr = rtol * np.array(form.scales, dtype=np.float64)
+    else:
+        atol_arr = np.array(atol, dtype=np.float64)
+        if not (np.all(np.isfinite(atol_arr)) and np.all(atol_arr >= 0.0)):
+            raise InputError(f"atol must be finite and >= 0, got {atol!r}")
+    fs = 0.0 if first_step is None else float(first_step)
+    if first_step is not None and not (fs > 0.0 and math.isfinite(fs)):
+        raise InputError(f"first_step must be a finite number > 0 s, got {first_step!r}")
+    if not max_step > 0.0:
+        raise InputError(f"max_step must be > 0 s, got {max_step!r}")
+    if int(max_steps) < 1:
+        raise InputError(f"max_steps must be >= 1, got {max_steps!r}")
+    edges, kinds, values = _segments(fobj, t0, t1, breakpoints)
+    mc, mp = manoeuvre_constants(fobj) if isinstance(fobj, ManoeuvreForce) else _NO_MANOEUVRE
+    if stroke_range is None:
+        lo, hi = -math.inf, math.inf
+    else:
+        lo, hi = (float(v) for v in stroke_range)
+        if not lo < hi:
+            raise InputError(
+                f"stroke_range must be (lo, hi) with lo < hi [m], got {stroke_range!r}"
+            )
+    checks = _checks(form, lo, hi, stroke_range is not None, bool(stop_at_dead_centre))
+    a, c, e, e3, dense, ns, n_ext, order, is853 = _tableau(method)
+    return (
+        edges,
+        kinds,
+        values,
+        mc,
+        mp,
+        psi3_constants(form),
+        a,
+        c,
+        e,
+        e3,
+        dense,
+        ns,
+        n_ext,
+        order,
+        is853,
+        rtol,
+        atol_arr,
+        fs,
+        float(max_step),
+        float(min_step),
+        checks,
+        int(max_steps),
+    )
 
 
 def _run(
@@ -767,31 +793,27 @@ def _run(
     label: str | None = None,
 ):
     """Validate, run the compiled driver, raise its failure as a typed error or return the
-    :class:`~drs_model.integrators.Solution`."""
-    from .integrators import Solution
-
+    :class:`~drs_model.forward.solution.Solution`."""
     load()
-    label = label or f"{method}-numba"
     t0, t1 = float(t_span[0]), float(t_span[1])
-    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-        raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
-    if not (rtol > 0.0 and math.isfinite(rtol)):
-        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
-    rtol = max(float(rtol), 100 * np.finfo(float).eps)  # scipy's floor
-    atol_arr = (
-        rtol * np.array([1.0, 100.0])
-        if atol is None
-        else np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).copy()
+    if atol is not None:
+        atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
+    plan = _plan(
+        form,
+        fobj,
+        method,
+        t0,
+        t1,
+        rtol,
+        atol,
+        first_step,
+        max_step,
+        min_step,
+        tuple(breakpoints),
+        None if stroke_range is None else tuple(stroke_range),
+        bool(stop_at_dead_centre),
+        max_steps,
     )
-    if not (np.all(np.isfinite(atol_arr)) and np.all(atol_arr >= 0.0)):
-        raise InputError(f"atol must be finite and >= 0, got {atol!r}")
-    fs = 0.0 if first_step is None else float(first_step)
-    if first_step is not None and not (fs > 0.0 and math.isfinite(fs)):
-        raise InputError(f"first_step must be a finite number > 0 s, got {first_step!r}")
-    if not max_step > 0.0:
-        raise InputError(f"max_step must be > 0 s, got {max_step!r}")
-    if int(max_steps) < 1:
-        raise InputError(f"max_steps must be >= 1, got {max_steps!r}")
     if t_eval is None:
         te, has_eval = np.zeros(0), False
     else:
@@ -801,51 +823,28 @@ def _run(
         if np.any(np.diff(te) < 0.0):
             raise InputError("t_eval must be sorted in increasing order")
         has_eval = True
-    edges, kinds, values = _segments(fobj, t0, t1, breakpoints)
-    mc, mp = _manoeuvre_spec(fobj) if isinstance(fobj, ManoeuvreForce) else _NO_MANOEUVRE
-    p = form.p
-    if stroke_range is None:
-        lo, hi, check_range = -math.inf, math.inf, 0.0
-    else:
-        lo, hi = (float(v) for v in stroke_range)
-        if not lo < hi:
-            raise InputError(
-                f"stroke_range must be (lo, hi) with lo < hi [m], got {stroke_range!r}"
-            )
-        check_range = 1.0
-    psi3_dead = _dead_centre_psi3(p) if stop_at_dead_centre else math.inf
-    checks = np.array(
-        [form.min_cos_psi1, lo, hi, psi3_dead, check_range, 1.0 if stop_at_dead_centre else 0.0]
-    )
-    kc = psi3_constants(form)
-    a, c, e, e3, dense, ns, n_ext, order, is853 = _tableau(method)
-    y_start = np.array([float(y[0]), float(y[1])])
-    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg = _integrate(
-        y_start, edges, kinds, values, mc, mp, kc,
-        a, c, e, e3, dense, ns, n_ext, order, is853,
-        te, has_eval, rtol, atol_arr, fs, float(max_step), float(min_step), checks,
-        int(max_steps),
-    )  # fmt: skip
+    out = _integrate_to_q(float(y[0]), float(y[1]), te, has_eval, *plan)
+    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg, q, qd = out
+    edges, checks = plan[0], plan[-2]
     if status != OK:
-        _raise(status, label, t_fail, y_fail, info, seg, edges, checks, p, int(max_steps), min_step)
-    q, qd = _to_q_qd(y_out, n_out, kc)
-    y_out = y_out[:, :n_out]
-    zeros = np.zeros(n_out)
+        label = label or f"{method}-numba"
+        _raise(status, label, t_fail, y_fail, info, seg, edges, checks, form.p, max_steps, min_step)
+    edge_list = edges.tolist()
     return Solution(
         form.name,
-        label,
+        label or f"{method}-numba",
         t_out[:n_out].copy(),
-        np.ascontiguousarray(y_out),
+        y_out[:, :n_out].copy(),
         q,
         qd,
-        zeros,
-        zeros.copy(),
-        int(nfev),
+        np.zeros(n_out),
+        np.zeros(n_out),
+        nfev,
         0,
         0,
-        int(nsteps),
-        [(float(x), float(z)) for x, z in zip(edges[:-1], edges[1:], strict=True)],
-        int(nrej),
+        nsteps,
+        list(zip(edge_list[:-1], edge_list[1:], strict=True)),
+        nrej,
     )
 
 
@@ -929,7 +928,7 @@ def simulate_compiled(
     t_eval : array_like, shape (n,), optional
         Sorted output times [s] (dense output); default: every accepted step.
     first_step, max_step, min_step : float
-        As in :func:`drs_model.integrators.simulate` [s].
+        As in :func:`drs_model.forward.simulate` [s].
     initial, y0
         ``(q0, qd0)`` (consistent full coordinates) or ``[psi3, psi3']``; default: at rest at
         the closed stroke.
@@ -962,11 +961,23 @@ def simulate_compiled(
     """
     form = psi3_formulation(p, flap_limits, min_cos_psi1)
     return run_formulation(
-        form, force, t_span, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
-        first_step=first_step, max_step=max_step, min_step=min_step, initial=initial, y0=y0,
-        breakpoints=breakpoints, stroke_range=stroke_range,
-        stop_at_dead_centre=stop_at_dead_centre, max_steps=max_steps,
-    )  # fmt: skip
+        form,
+        force,
+        t_span,
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        t_eval=t_eval,
+        first_step=first_step,
+        max_step=max_step,
+        min_step=min_step,
+        initial=initial,
+        y0=y0,
+        breakpoints=breakpoints,
+        stroke_range=stroke_range,
+        stop_at_dead_centre=stop_at_dead_centre,
+        max_steps=max_steps,
+    )
 
 
 def run_formulation(

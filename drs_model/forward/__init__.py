@@ -1,0 +1,56 @@
+"""Forward dynamics: the motion of the mechanism under a given piston force.
+
+Modules: ``forces`` (constant, step, function and manoeuvre forces), ``formulations`` (psi3, s,
+index-1, Baumgarte, projection), ``solve`` (:func:`simulate`: scipy and compiled methods behind
+one call), ``solution`` (its result), ``fixed_step`` (the real-time :class:`FixedStepIntegrator`)
+and ``numba_rk`` (the compiled RK driver, optional numba). This module re-exports their public
+names.
+"""
+
+from .fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator, StepState, fixed_step_trajectory
+from .forces import ConstantForce, ForceLike, FunctionForce, ManoeuvreForce, StepForce, as_force
+from .formulations import (
+    FORMULATIONS,
+    Formulation,
+    ForwardState,
+    FullCoordinates,
+    Projected,
+    Psi3Minimal,
+    StrokeMinimal,
+    get_formulation,
+    manoeuvre_initial_state,
+    reference_rhs,
+)
+from .numba_rk import NumbaUnavailableError, simulate_compiled
+from .solution import Solution
+from .solve import COMPILED_METHODS, SCIPY_METHODS, default_atol, simulate
+
+__all__ = [
+    "COMPILED_METHODS",
+    "FIXED_STEP_METHODS",
+    "FORMULATIONS",
+    "SCIPY_METHODS",
+    "ConstantForce",
+    "FixedStepIntegrator",
+    "ForceLike",
+    "Formulation",
+    "ForwardState",
+    "FullCoordinates",
+    "FunctionForce",
+    "ManoeuvreForce",
+    "NumbaUnavailableError",
+    "Projected",
+    "Psi3Minimal",
+    "Solution",
+    "StepForce",
+    "StepState",
+    "StrokeMinimal",
+    "as_force",
+    "default_atol",
+    "fixed_step_trajectory",
+    "get_formulation",
+    "manoeuvre_initial_state",
+    "reference_rhs",
+    "simulate",
+    "simulate_compiled",
+]

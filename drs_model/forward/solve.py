@@ -1,0 +1,318 @@
+r"""Forward simulation: :func:`simulate` integrates any formulation of
+:mod:`drs_model.forward.formulations` under a piston force of :mod:`drs_model.forward.forces`.
+
+``method`` is a scipy solver (:data:`SCIPY_METHODS`: RK45, DOP853, Radau, BDF, LSODA), driven by
+:func:`scipy.integrate.solve_ivp`, or a compiled one (:data:`COMPILED_METHODS`: ``dopri5-numba``,
+``dop853-numba``; formulation ``"psi3"`` only), driven by :mod:`drs_model.forward.numba_rk`. Both
+return a :class:`~drs_model.forward.solution.Solution`.
+
+The scipy solver class is wrapped in a subclass (solve_ivp accepts an ``OdeSolver`` subclass)
+whose ``_step_impl`` runs, after every accepted step:
+
+* the formulation's projection, if any (formulation (d)); the solver's cached derivative (RK,
+  Radau) or its newest difference (BDF) is updated so the next step starts from the projected state;
+* the checks that turn a bad state into a typed error: a non-finite state
+  (:class:`~drs_model.errors.IntegrationError`), a step shorter than ``min_step`` (step-size
+  collapse, IntegrationError), the dead centre of the s formulation
+  (:class:`~drs_model.errors.SingularConfigurationError`), a constraint residual past the bound
+  (:class:`~drs_model.errors.ConstraintDriftError`).
+
+The time span is cut at the force's ``breakpoints`` (jerk jumps of the manoeuvre at 0, 10, 40,
+50 ms, the time of a step force) and each segment is integrated with the smooth piece of the force
+valid there, so that no step straddles a kink: an error-controlled method otherwise spends many
+rejected steps locating it, and a fixed-order method loses its order.
+"""
+
+from __future__ import annotations
+
+import math
+from types import MappingProxyType
+
+import numpy as np
+from scipy.integrate import BDF, DOP853, LSODA, RK45, OdeSolver, Radau, solve_ivp
+
+from ..errors import InputError, IntegrationError
+from ..params import DRSParams
+from . import numba_rk
+from .forces import as_force
+from .formulations import Formulation, check_options, get_formulation, manoeuvre_initial_state
+from .solution import Solution
+
+__all__ = ["COMPILED_METHODS", "SCIPY_METHODS", "default_atol", "simulate"]
+
+#: Adaptive scipy methods: name -> OdeSolver class.
+SCIPY_METHODS = MappingProxyType(
+    {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+)
+#: Compiled methods (formulation "psi3"): name -> driver of :mod:`drs_model.forward.numba_rk`.
+COMPILED_METHODS = numba_rk.COMPILED_METHODS
+
+
+def default_atol(formulation: Formulation, rtol: float) -> np.ndarray:
+    """``rtol`` times the typical magnitude of each state component (shape ``(n_state,)``)."""
+    return rtol * np.asarray(formulation.scales, dtype=float)
+
+
+def _guarded_solver(
+    base: type[OdeSolver], formulation: Formulation, min_step: float, stats: dict
+) -> type[OdeSolver]:
+    """A subclass of ``base`` that projects and checks after each accepted step."""
+    project = formulation.project
+    check = formulation.check
+    if project is not None and base is LSODA:
+        raise InputError(
+            "LSODA keeps its state inside Fortran and cannot be projected; use RK45, DOP853, "
+            "Radau or BDF with the projection formulation"
+        )
+    is_bdf = issubclass(base, BDF)
+    has_f = issubclass(base, (RK45, DOP853, Radau))
+
+    class Guarded(base):  # type: ignore[misc, valid-type]
+        def _step_impl(self):
+            t_prev = self.t
+            ok, message = super()._step_impl()
+            if not ok:
+                return ok, message
+            stats["nsteps"] += 1
+            h = abs(self.t - t_prev)
+            if h < min_step and self.t != self.t_bound:
+                raise IntegrationError(
+                    f"{base.__name__} on formulation {formulation.name!r}: step size collapsed "
+                    f"to {h:.3g} s < min_step = {min_step:g} s at t = {self.t:.9g} s"
+                )
+            if project is not None:
+                y = project(self.y)
+                self.y = y
+                if is_bdf:
+                    self.D[0] = y
+                elif has_f:
+                    self.f = self.fun(self.t, y)
+            check(self.t, self.y)
+            return ok, message
+
+    Guarded.__name__ = Guarded.__qualname__ = f"Guarded{base.__name__}"
+    return Guarded
+
+
+def simulate(
+    formulation,
+    force,
+    t_span: tuple[float, float],
+    y0=None,
+    *,
+    params: DRSParams | None = None,
+    initial: tuple | None = None,
+    method: str = "DOP853",
+    rtol: float = 1e-8,
+    atol=None,
+    max_step: float = math.inf,
+    first_step: float | None = None,
+    t_eval=None,
+    min_step: float = 1e-12,
+    breakpoints: tuple[float, ...] = (),
+    **formulation_options,
+) -> Solution:
+    """Integrate the forward dynamics under the piston force ``force``.
+
+    Parameters
+    ----------
+    formulation : str or Formulation
+        A name of :data:`~drs_model.forward.formulations.FORMULATIONS` (``"psi3"``, ``"s"``,
+        ``"index1"``, ``"baumgarte"``, ``"projection"``; needs ``params``) or an instance.
+    force : float, callable or force object
+        Piston force [N]: a constant, a callable of t [s], a :class:`~drs_model.forward.StepForce`
+        or :class:`~drs_model.forward.ManoeuvreForce`.
+    t_span : (float, float)
+        Start and end times [s].
+    y0 : array_like, shape (n_state,), optional
+        Initial state in the formulation's coordinates. Alternatively ``initial = (q0, qd0)``
+        (consistent full coordinates). Default: at rest at the closed stroke ``s_min``.
+    method : str
+        ``"RK45"``, ``"DOP853"``, ``"Radau"``, ``"BDF"`` or ``"LSODA"`` (scipy), or a compiled
+        method of :data:`COMPILED_METHODS`, ``"dopri5-numba"`` or ``"dop853-numba"`` (formulation
+        ``"psi3"`` only, a constant, step or manoeuvre force; needs numba: ``pip install
+        drs[fast]``; see :mod:`drs_model.forward.numba_rk`, which also takes the options
+        ``stroke_range``, ``stop_at_dead_centre`` and ``max_steps``).
+    rtol, atol : float or array_like
+        Tolerances as in solve_ivp; ``atol`` defaults to ``rtol`` times each component's typical
+        magnitude (0.05 m, 1 rad, 10 m/s, 100 rad/s).
+    max_step, first_step : float
+        As in solve_ivp [s].
+    t_eval : array_like, optional
+        Output times [s]; default: every accepted step.
+    min_step : float
+        A step shorter than this [s] (other than the last one of a segment) raises
+        :class:`IntegrationError`.
+    breakpoints : tuple of float
+        Extra restart times [s], in addition to the force's own.
+    **formulation_options
+        Passed to the formulation's constructor (e.g. ``alpha``, ``beta``, ``drift_bound``,
+        ``dead_centre_margin``).
+
+    Returns
+    -------
+    Solution
+
+    Raises
+    ------
+    IntegrationError
+        Non-finite state or force, step-size collapse, solver failure.
+    ConstraintDriftError
+        The constraint residual of a full-coordinate formulation exceeded its bound.
+    SingularConfigurationError
+        The s formulation approached the dead centre.
+    """
+    if isinstance(method, str) and method in COMPILED_METHODS:
+        solver_options = dict(
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            first_step=first_step,
+            t_eval=t_eval,
+            min_step=min_step,
+            breakpoints=breakpoints,
+        )
+        return _simulate_compiled(
+            formulation,
+            force,
+            t_span,
+            y0,
+            params,
+            initial,
+            method,
+            solver_options,
+            formulation_options,
+        )
+    if isinstance(formulation, Formulation):
+        form = get_formulation(formulation, formulation.p, **formulation_options)
+    else:
+        if params is None:
+            raise InputError("params is required with a formulation name")
+        form = get_formulation(formulation, params, **formulation_options)
+    p = form.p
+    try:
+        base = SCIPY_METHODS[method]
+    except (KeyError, TypeError):
+        raise InputError(
+            f"method must be one of {sorted(SCIPY_METHODS) + sorted(COMPILED_METHODS)}, "
+            f"got {method!r}"
+        ) from None
+    t0, t1 = (float(v) for v in t_span)
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
+    if not (rtol > 0.0 and math.isfinite(rtol)):
+        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
+    fobj = as_force(force)
+    if y0 is None:
+        q0, qd0 = manoeuvre_initial_state(p) if initial is None else initial
+        y = form.initial_state(q0, qd0)
+    else:
+        y = np.asarray(y0, dtype=float).reshape(form.n_state)
+        form.check(t0, y)
+    atol = default_atol(form, rtol) if atol is None else atol
+    cuts = sorted({float(b) for b in (*fobj.breakpoints, *breakpoints) if t0 < b < t1})
+    edges = [t0, *cuts, t1]
+    te = None if t_eval is None else np.asarray(t_eval, dtype=float)
+    if te is not None and (te.ndim != 1 or np.any(te < t0) or np.any(te > t1)):
+        raise InputError(f"t_eval must be 1-D within t_span {t_span!r}")
+    stats = {"nsteps": 0}
+    solver = _guarded_solver(base, form, float(min_step), stats)
+    ts, ys = [], []
+    nfev = njev = nlu = 0
+    for k, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+        want = None
+        if te is not None:
+            want = te[(te >= a if k == 0 else te > a) & (te <= b)]
+            # b is always evaluated: the next segment restarts from it
+            seg_eval = np.append(want[want < b], b)
+        else:
+            seg_eval = None
+        fun = form.fun(fobj.segment(a, b))
+        sol = solve_ivp(
+            fun,
+            (a, b),
+            y,
+            method=solver,
+            t_eval=seg_eval,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            first_step=first_step,
+        )
+        nfev += sol.nfev
+        njev += sol.njev
+        nlu += sol.nlu
+        if sol.status != 0 or sol.t.size == 0 or sol.t[-1] != b:
+            t_fail = sol.t[-1] if sol.t.size else a
+            if sol.t.size:  # the formulation may know why (e.g. the dead centre of 's')
+                form.check(t_fail, sol.y[:, -1])
+            raise IntegrationError(
+                f"{method} on formulation {form.name!r} failed at t = {t_fail:.9g} s "
+                f"(segment [{a:.6g}, {b:.6g}] s): {sol.message}"
+            )
+        if te is None:
+            keep = slice(None) if k == 0 else slice(1, None)
+            ts.append(sol.t[keep])
+            ys.append(sol.y[:, keep])
+        else:
+            n_keep = sol.t.size if (want.size and want[-1] == b) else sol.t.size - 1
+            ts.append(sol.t[:n_keep])
+            ys.append(sol.y[:, :n_keep])
+        # restart from the end of the segment (projected if the formulation projects)
+        y = sol.y[:, -1].copy()
+        if form.project is not None:
+            y = form.project(y)
+    t_out = np.concatenate(ts)
+    y_out = np.concatenate(ys, axis=1) if ys else np.zeros((form.n_state, 0))
+    q, qd = form.to_q_qd(y_out)
+    res, vres = form.residual(y_out)
+    return Solution(
+        form.name,
+        method,
+        t_out,
+        y_out,
+        q,
+        qd,
+        res,
+        vres,
+        nfev,
+        njev,
+        nlu,
+        stats["nsteps"],
+        list(zip(edges[:-1], edges[1:], strict=True)),
+    )
+
+
+_COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")
+
+
+def _simulate_compiled(
+    formulation, force, t_span, y0, params, initial, method, solver_options, options
+) -> Solution:
+    """``simulate`` with a compiled method: formulation (a) in :mod:`.numba_rk`."""
+    extra = {k: options.pop(k) for k in _COMPILED_OPTIONS if k in options}
+    name = formulation.name if isinstance(formulation, Formulation) else formulation
+    if name != "psi3":
+        raise InputError(
+            f"method {method!r} integrates formulation 'psi3' only, got {name!r}; use a scipy "
+            f"method ({', '.join(sorted(SCIPY_METHODS))}) for the others"
+        )
+    if isinstance(formulation, Formulation):
+        form = get_formulation(formulation, formulation.p, **options)
+    else:
+        if params is None:
+            raise InputError("params is required with a formulation name")
+        if options:
+            check_options("psi3", options)
+        form = numba_rk.psi3_formulation(params, **options)
+    return numba_rk.run_formulation(
+        form,
+        force,
+        t_span,
+        method=COMPILED_METHODS[method],
+        initial=initial,
+        y0=y0,
+        label=method,
+        **solver_options,
+        **extra,
+    )

@@ -1,0 +1,527 @@
+r"""The scalar closed forms of the DRS model, each written once.
+
+Every kernel is plain ``math`` code in numba's subset (no numpy, no exceptions, no ``if`` on a
+value except through :func:`select`, ``min`` and ``max``), so one source serves three paths:
+
+* the scalar real-time paths run :data:`SCALAR` (and :data:`SCALAR_BOUND`): the top-level kernels
+  with their calls of other kernels inlined, generated from this source at import (``math`` on
+  floats, bit-identical to the kernels, without CPython's cost of a call per sub-kernel);
+* :data:`NUMPY` holds the same functions with ``math`` rebound to numpy's ufuncs (and ``select``
+  to ``np.where``, ``min``/``max`` to ``np.minimum``/``np.maximum``): same code objects, evaluated
+  on arrays, for the
+  vectorised APIs of :mod:`~drs_model.kinematics`, :mod:`~drs_model.profile`,
+  :mod:`~drs_model.bodies` and :mod:`~drs_model.inverse`;
+* :mod:`drs_model.forward.numba_rk` compiles the same code objects with numba.
+
+A kernel never raises: where the loop cannot close or the mechanism is at the dead centre it returns
+NaN (or the quantity that says so, such as ``h2`` below), and its caller raises the typed error.
+
+Constants ``c`` (a tuple, or a float64 array for numba) are indexed by the names below; the first
+six (``XA .. L3``, :attr:`DRSParams.loop_constants <drs_model.params.DRSParams.loop_constants>`)
+are all the position kernels need, the rest (:func:`drs_model.bodies.model_constants`) the dynamics.
+
+Position with ``s`` independent: ``C`` lies on the circle of radius ``L2`` about ``B = (x_A, y_A +
+L1 + s)`` and on the circle of radius ``L3`` about ``D``. With ``d = D - B``, ``rho = |d|``,
+``a = (rho^2 + L2^2 - L3^2) / (2 rho)`` and ``h^2 = L2^2 - a^2``:
+``C = B + (a d + h k x d) / rho`` (branch 1: ``h > 0``). ``h^2 < 0``: the loop cannot close.
+
+Position with ``psi3`` independent: ``sin psi1 = (x_A - x_D + L3 cos psi3) / L2`` (branch 1:
+``cos psi1 > 0``), ``s = y_D - y_A - L1 - L3 sin psi3 - L2 cos psi1``.
+
+Rates: ``Phi_q qd = 0`` and ``Phi_q qdd = gamma`` solved for the two dependent coordinates by
+Cramer's rule (determinant ``-L2 L3 cos(psi1 - psi3)`` with ``s`` independent).
+"""
+
+from __future__ import annotations
+
+import ast
+import copy
+import inspect
+import math
+import textwrap
+import types
+from collections import namedtuple
+
+import numpy as np
+
+#: Below this normalised singularity measure ``|cos(psi1 - psi3)|`` a stroke is the dead centre.
+SINGULAR_TOL = 1e-9
+#: Normalised ``h^2 / L2^2`` below which the loop does not close (rounding allowance).
+ASSEMBLY_TOL = 1e-12
+
+# indices of the constants vector
+XA, YB0, XD, YD, L2, L3 = 0, 1, 2, 3, 4, 5  # x_A, y_A + L1, x_D, y_D, L2, L3 [m]
+GX, GY = 6, 7  # G3 in the flap frame RF3 [m]
+M1, M2, M3, I2, I3, G = 8, 9, 10, 11, 12, 13  # masses [kg], inertias [kg m^2], gravity [m/s^2]
+DRAG_OPEN, DRAG_SLOPE, DOWN_OPEN, DOWN_SLOPE, PSI3_OPEN = 14, 15, 16, 17, 18  # air law [N, N/rad]
+M11, M22 = 19, 20  # m_link L2^2/4 + Iz_link, m_wing |r_G3|^2 + Iz_wing [kg m^2]
+N_CONSTANTS = 21
+
+
+# ---- elementary ---------------------------------------------------------------------------------
+def select(cond, a, b):
+    """``a`` where ``cond`` holds, else ``b`` (``np.where`` on arrays)."""
+    return a if cond else b
+
+
+def clip(x, lo, hi):
+    """``x`` limited to ``[lo, hi]`` (builtins ``min``/``max``: C calls in Python, and
+    ``np.minimum``/``np.maximum`` in :data:`NUMPY`)."""
+    return min(max(x, lo), hi)
+
+
+def rotate(c, s, x, y):
+    """``(x, y)`` turned by the angle of cosine ``c`` and sine ``s``."""
+    return c * x - s * y, s * x + c * y
+
+
+def quintic(tau, k, i):
+    """``(s, s', s'')`` of ``sum k[i + j] tau^j`` (``j = 0..5``) at local time ``tau`` [s]."""
+    c0, c1, c2, c3, c4, c5 = k[i], k[i + 1], k[i + 2], k[i + 3], k[i + 4], k[i + 5]
+    s = c0 + tau * (c1 + tau * (c2 + tau * (c3 + tau * (c4 + tau * c5))))
+    v = c1 + tau * (2.0 * c2 + tau * (3.0 * c3 + tau * (4.0 * c4 + tau * 5.0 * c5)))
+    a = 2.0 * c2 + tau * (6.0 * c3 + tau * (12.0 * c4 + tau * 20.0 * c5))
+    return s, v, a
+
+
+def manoeuvre_profile(t, k):
+    """``(s, s', s'')`` [m, m/s, m/s^2] of the open-hold-close manoeuvre at time ``t`` [s].
+
+    ``k = (t0_open, T_open, 6 coefficients, t0_close, T_close, 6 coefficients, s_max)``
+    (:meth:`drs_model.profile.Manoeuvre.constants`): each segment's quintic at its local time
+    clipped to the segment, so ``s = s_open + s_close - s_max`` holds everywhere.
+    """
+    so, vo, ao = quintic(clip(t - k[0], 0.0, k[1]), k, 2)
+    sc, vc, ac = quintic(clip(t - k[8], 0.0, k[9]), k, 10)
+    return so + sc - k[16], vo + vc, ao + ac
+
+
+def flap_gap(sin_psi3, gap0, tip_arm):
+    """Gap ``T_y - R_y`` [m] at ``sin psi3``, with ``gap0 = y_D - R_y`` and ``tip_arm = |DT|``."""
+    return gap0 - tip_arm * sin_psi3
+
+
+def flap_sine_for_gap(gap, gap0, tip_arm):
+    """``sin psi3`` of the gap [m] (the inverse of :func:`flap_gap`; ``|.| > 1``: unreachable)."""
+    return (gap0 - gap) / tip_arm
+
+
+def air_load(psi3, c):
+    """Drag and downforce [N] at flap angle ``psi3`` [rad], linear between closed and open."""
+    d = psi3 - c[PSI3_OPEN]
+    return c[DRAG_OPEN] + c[DRAG_SLOPE] * d, c[DOWN_OPEN] + c[DOWN_SLOPE] * d
+
+
+# ---- loop closure ------------------------------------------------------------------------------
+def loop_residual(s, sin1, cos1, sin3, cos3, c):
+    """``Phi(q) = r_C3 - r_C`` [m] from ``s`` and the sines and cosines of psi1, psi3."""
+    return (
+        c[L2] * sin1 - c[L3] * cos3 - c[XA] + c[XD],
+        -c[L2] * cos1 - c[L3] * sin3 - c[YB0] - s + c[YD],
+    )
+
+
+def loop_velocity(sd, sin1, cos1, sin3, cos3, w1, w3, c):
+    """``Phi_q qd`` [m/s] for rates ``sd`` [m/s], ``w1``, ``w3`` [rad/s]."""
+    return (
+        c[L2] * cos1 * w1 + c[L3] * sin3 * w3,
+        -sd + c[L2] * sin1 * w1 - c[L3] * cos3 * w3,
+    )
+
+
+def loop_gamma(sin1, cos1, sin3, cos3, w1, w3, c):
+    """``gamma`` [m/s^2] of ``Phi_q qdd = gamma`` at angular rates ``w1``, ``w3`` [rad/s]."""
+    l2, l3 = c[L2], c[L3]
+    return (
+        l2 * sin1 * w1 * w1 - l3 * cos3 * w3 * w3,
+        -l2 * cos1 * w1 * w1 - l3 * sin3 * w3 * w3,
+    )
+
+
+def stroke_position(s, c, sign):
+    """``(sin psi1, cos psi1, sin psi3, cos psi3, h2)`` at stroke ``s`` [m].
+
+    ``sign = 1`` is assembly branch 1, ``-1`` branch 2; ``h2 = h^2 / L2^2`` (module docstring) is
+    negative where the loop cannot close (the position is then that of ``h = 0``).
+    """
+    xa, xd, yd, l2, l3 = c[XA], c[XD], c[YD], c[L2], c[L3]
+    by = c[YB0] + s
+    dx, dy = xd - xa, yd - by
+    rho2 = dx * dx + dy * dy
+    inv_rho = 1.0 / math.sqrt(rho2)
+    a = 0.5 * (rho2 + l2 * l2 - l3 * l3) * inv_rho
+    h2 = l2 * l2 - a * a
+    h = sign * math.sqrt(max(h2, 0.0)) * inv_rho
+    a = a * inv_rho
+    cx = xa + a * dx - h * dy
+    cy = by + a * dy + h * dx
+    return (xa - cx) / l2, (cy - by) / l2, (yd - cy) / l3, (xd - cx) / l3, h2 / (l2 * l2)
+
+
+def stroke_rates(sin1, cos1, sin3, cos3, sd, sdd, c):
+    """``(dpsi1/ds, dpsi3/ds, psi1'', psi3'')`` with ``s`` independent, at stroke rate ``sd``
+    [m/s] and acceleration ``sdd`` [m/s^2]; NaN at the dead centre (``|cos(psi1 - psi3)| <
+    SINGULAR_TOL``). The angular rates are ``dpsi/ds * sd``."""
+    l2, l3 = c[L2], c[L3]
+    det = -l2 * l3 * (cos1 * cos3 + sin1 * sin3)
+    det = select(abs(det) >= SINGULAR_TOL * l2 * l3, det, math.nan)
+    tau1, tau3 = -l3 * sin3 / det, l2 * cos1 / det
+    w1, w3 = tau1 * sd, tau3 * sd
+    # J_D [psi1'', psi3''] = gamma - J_s s'' with J_D = [[L2 c1, L3 s3], [L2 s1, -L3 c3]]
+    r0, r1 = loop_gamma(sin1, cos1, sin3, cos3, w1, w3, c)
+    r1 = r1 + sdd
+    return (
+        tau1,
+        tau3,
+        (-l3 * cos3 * r0 - l3 * sin3 * r1) / det,
+        (-l2 * sin1 * r0 + l2 * cos1 * r1) / det,
+    )
+
+
+def flap_position(sin3, cos3, c, sign):
+    """``(s, sin psi1, cos psi1, cos^2 psi1)`` at the flap angle of sine ``sin3`` and cosine
+    ``cos3``; ``sign = 1`` is branch 1 (``cos psi1 > 0``). ``cos^2 psi1 < 0``: no assembly."""
+    l2, l3 = c[L2], c[L3]
+    sin1 = (c[XA] - c[XD] + l3 * cos3) / l2
+    cos1_sq = 1.0 - sin1 * sin1
+    cos1 = sign * math.sqrt(min(max(cos1_sq, 0.0), 1.0))
+    return c[YD] - c[YB0] - l3 * sin3 - l2 * cos1, sin1, cos1, cos1_sq
+
+
+def flap_rates(sin1, cos1, sin3, cos3, c):
+    """``(u_s, u_psi1, w_s, w_psi1)``: ``u = dq/dpsi3`` and ``w = du/dpsi3`` with psi3
+    independent (``qd = u psi3'``, ``qdd = u psi3'' + w psi3'^2``); NaN where ``cos psi1 = 0``."""
+    l2, l3 = c[L2], c[L3]
+    l2c1 = select(cos1 != 0.0, l2 * cos1, math.nan)
+    u1 = -l3 * sin3 / l2c1
+    w1 = (l2 * sin1 * u1 * u1 - l3 * cos3) / l2c1
+    return (
+        l2 * sin1 * u1 - l3 * cos3,
+        u1,
+        l2 * sin1 * w1 + l2 * cos1 * u1 * u1 + l3 * sin3,
+        w1,
+    )
+
+
+# ---- dynamics ---------------------------------------------------------------------------------
+def generalised_forces(sin1, sin3, cos3, psi3, c):
+    """``Q0`` [N, N m, N m]: the generalised forces of gravity and air (no piston force) on
+    ``(s, psi1, psi3)``."""
+    m2, g = c[M2], c[G]
+    rx, ry = rotate(cos3, sin3, c[GX], c[GY])
+    drag, down = air_load(psi3, c)
+    return (
+        -(c[M1] + m2) * g,
+        m2 * g * 0.5 * c[L2] * sin1,
+        -(c[M3] * g + down) * rx - drag * ry,
+    )
+
+
+def projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, u2, w0, w1, w2, c):
+    r"""``(u.M.u, u.M.w + u.h(q, u), u.Q0)`` for a direction ``u = dq/dx`` and ``w = du/dx``.
+
+    The equations of motion projected on ``u`` (virtual work: ``u^T Phi_q^T = 0``) read
+    ``(u.M.u) x'' + (u.M.w + u.h(q, u)) x'^2 = u.Q0 + u_s F`` (``Q0``: gravity and air, no piston
+    force). ``M`` is block diagonal: ``[[m1 + m2, -m2 L2/2 sin psi1], [., M11]]`` on ``(s, psi1)``
+    and ``M22`` on psi3; ``h = (-m2 L2/2 cos psi1 psi1'^2, 0, 0)``.
+    """
+    m2, hl2 = c[M2], 0.5 * c[L2]
+    m12 = c[M1] + m2
+    m01 = -m2 * hl2 * sin1
+    umu = m12 * u0 * u0 + 2.0 * m01 * u0 * u1 + c[M11] * u1 * u1 + c[M22] * u2 * u2
+    umw = m12 * u0 * w0 + m01 * (u0 * w1 + u1 * w0) + c[M11] * u1 * w1 + c[M22] * u2 * w2
+    uh = -u0 * m2 * hl2 * cos1 * u1 * u1
+    q0, q1, q2 = generalised_forces(sin1, sin3, cos3, psi3, c)
+    return umu, umw + uh, u0 * q0 + u1 * q1 + u2 * q2
+
+
+def psi3_acceleration(b, bd, force, c):
+    r"""Formulation (a): ``psi3''`` [rad/s^2] at ``psi3 = b`` [rad], ``psi3' = bd`` [rad/s] under
+    the piston force [N]; NaN where the loop cannot close (a trial stage the error control
+    rejects).
+
+    .. math::  \ddot\psi_3 = \frac{u^T Q - \dot\psi_3^2\,(u^T M w + u^T h(q, u))}{u^T M u}
+    """
+    sb, cb = math.sin(b), math.cos(b)
+    _, sa, ca, ca2 = flap_position(sb, cb, c, 1.0)
+    if not ca2 > 0.0:  # no assembly (or NaN)
+        return math.nan
+    u0, u1, w0, w1 = flap_rates(sa, ca, sb, cb, c)
+    umu, quad, uq0 = projected_dynamics(sa, ca, sb, cb, b, u0, u1, 1.0, w0, w1, 0.0, c)
+    return (uq0 + u0 * force - bd * bd * quad) / umu
+
+
+def psi3_configuration(b, c):
+    """``(s, psi1, u_s, u_psi1)`` at ``psi3 = b`` [rad] on branch 1: the dependent coordinates
+    [m, rad] and their rates per unit psi3 rate."""
+    sb, cb = math.sin(b), math.cos(b)
+    s, sa, ca, _ = flap_position(sb, cb, c, 1.0)
+    u0, u1, _, _ = flap_rates(sa, ca, sb, cb, c)
+    return s, math.asin(clip(sa, -1.0, 1.0)), u0, u1
+
+
+def fused_force(s, sd, sdd, c):
+    r"""Piston force [N] for stroke ``s`` [m], rate ``sd`` [m/s], acceleration ``sdd`` [m/s^2]:
+    closed-form kinematics (branch 1) and d'Alembert's principle along ``u = dq/ds``. NaN where
+    the loop cannot close or at the dead centre.
+
+    .. math::
+
+        F = m_1 (\ddot s + g) + \sum_{b = 2, 3} \left[ m_b (a_{G_b} - g) \cdot \frac{dG_b}{ds}
+            + I_b \ddot\psi_b \frac{d\psi_b}{ds} \right] - F_{air} \cdot \frac{dG_3}{ds}
+    """
+    s1, c1, s3, c3, h2 = stroke_position(s, c, 1.0)
+    s1 = select(h2 >= -ASSEMBLY_TOL, s1, math.nan)
+    tau1, tau3, a1, a3 = stroke_rates(s1, c1, s3, c3, sd, sdd, c)
+    w1, w3 = tau1 * sd, tau3 * sd
+    g = c[G]
+    # link CoM relative to B: (L2/2)(-s1, c1); flap CoM relative to D: R(psi3) (gx, gy)
+    r2x, r2y = -0.5 * c[L2] * s1, 0.5 * c[L2] * c1
+    r3x, r3y = rotate(c3, s3, c[GX], c[GY])
+    # dG/ds and a_G - g
+    v2x, v2y = -tau1 * r2y, 1.0 + tau1 * r2x
+    v3x, v3y = -tau3 * r3y, tau3 * r3x
+    a2x = -a1 * r2y - w1 * w1 * r2x
+    a2y = sdd + a1 * r2x - w1 * w1 * r2y + g
+    a3x = -a3 * r3y - w3 * w3 * r3x
+    a3y = a3 * r3x - w3 * w3 * r3y + g
+    drag, down = air_load(math.atan2(s3, c3), c)
+    return (
+        c[M1] * (sdd + g)
+        + c[M2] * (a2x * v2x + a2y * v2y)
+        + c[I2] * a1 * tau1
+        + c[M3] * (a3x * v3x + a3y * v3y)
+        + c[I3] * a3 * tau3
+        - (drag * v3x - down * v3y)
+    )
+
+
+def manoeuvre_force(t, c, k):
+    """Inverse-dynamics piston force [N] of the manoeuvre ``k`` (:func:`manoeuvre_profile`) at
+    time ``t`` [s]."""
+    s, sd, sdd = manoeuvre_profile(t, k)
+    return fused_force(s, sd, sdd, c)
+
+
+#: Every kernel, callees first (the order in which numba_rk compiles them).
+KERNELS = (
+    "select",
+    "clip",
+    "rotate",
+    "quintic",
+    "manoeuvre_profile",
+    "flap_gap",
+    "flap_sine_for_gap",
+    "air_load",
+    "loop_residual",
+    "loop_velocity",
+    "loop_gamma",
+    "stroke_position",
+    "stroke_rates",
+    "flap_position",
+    "flap_rates",
+    "generalised_forces",
+    "projected_dynamics",
+    "psi3_acceleration",
+    "psi3_configuration",
+    "fused_force",
+    "manoeuvre_force",
+)
+#: Kernels free of value branches: these evaluate arrays in :data:`NUMPY`.
+VECTORISED = tuple(k for k in KERNELS if k not in ("psi3_acceleration", "select"))
+
+
+def rebind(names, namespace: dict) -> dict:
+    """Copies of the kernels ``names`` whose globals are ``namespace`` (updated in place and
+    returned): each kernel then calls the other kernels, ``math``, ``select`` and ``clip`` as
+    ``namespace`` defines them. The code objects are shared: one source."""
+    for name in names:
+        fn = globals()[name]
+        namespace[name] = types.FunctionType(fn.__code__, namespace, name, fn.__defaults__)
+    return namespace
+
+
+_NumpyMath = namedtuple("_NumpyMath", "sqrt sin cos atan2 asin acos nan inf pi")
+_NUMPY_NAMESPACE = rebind(
+    VECTORISED,
+    {
+        **globals(),
+        "math": _NumpyMath(
+            np.sqrt, np.sin, np.cos, np.arctan2, np.arcsin, np.arccos, np.nan, np.inf, np.pi
+        ),
+        "select": np.where,
+        "min": np.minimum,
+        "max": np.maximum,
+    },
+)
+#: The vectorised kernels: same code, numpy ufuncs; ``NUMPY.stroke_position(s_array, c, 1.0)``.
+NUMPY = namedtuple("NumpyKernels", VECTORISED)(*(_NUMPY_NAMESPACE[k] for k in VECTORISED))
+
+
+# ---- the scalar path: the same kernels with their calls inlined ---------------------------------
+def _callee_source(name: str) -> ast.FunctionDef:
+    return ast.parse(textwrap.dedent(inspect.getsource(globals()[name]))).body[0]
+
+
+def _local_names(fdef: ast.FunctionDef) -> set[str]:
+    names = {a.arg for a in fdef.args.args}
+    for node in ast.walk(fdef):
+        if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+    return names
+
+
+class _Rename(ast.NodeTransformer):
+    """Renames a kernel's locals (``prefix`` + name), or replaces them by the caller's name or
+    constant bound to them (``bound``)."""
+
+    def __init__(self, names: set[str], prefix: str, bound: dict[str, ast.expr]) -> None:
+        self.names, self.prefix, self.bound = names, prefix, bound
+
+    def visit_Name(self, node: ast.Name) -> ast.expr:
+        if node.id in self.bound:
+            return ast.copy_location(copy.copy(self.bound[node.id]), node)
+        if node.id in self.names:
+            return ast.copy_location(ast.Name(self.prefix + node.id, node.ctx), node)
+        return node
+
+
+def _inline(body: list[ast.stmt], count: list[int]) -> list[ast.stmt]:
+    """``body`` with every statement ``targets = kernel(args)`` replaced by the kernel's body (its
+    locals renamed, an argument that is a name or a constant put in place of its parameter, any
+    other argument bound once, its final ``return`` assigned to ``targets``)."""
+    out: list[ast.stmt] = []
+    for stmt in body:
+        call = stmt.value if isinstance(stmt, ast.Assign) else None
+        if not (
+            isinstance(call, ast.Call)
+            and isinstance(call.func, ast.Name)
+            and call.func.id in KERNELS
+            and not call.keywords
+            and len(stmt.targets) == 1
+        ):
+            out.append(stmt)
+            continue
+        callee = _callee_source(call.func.id)
+        count[0] += 1
+        prefix = f"_{call.func.id}{count[0]}_"
+        inner = [
+            s
+            for s in callee.body
+            if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))
+        ]
+        *steps, last = _inline(inner, count)
+        if not isinstance(last, ast.Return) or any(
+            isinstance(n, ast.Return) for s in steps for n in ast.walk(s)
+        ):
+            raise AssertionError(f"kernel {call.func.id} must end in its only return")
+        stored = {
+            n.id
+            for s in steps
+            for n in ast.walk(s)
+            if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)
+        }
+        bound, binds = {}, []
+        for param, arg in zip((a.arg for a in callee.args.args), call.args, strict=True):
+            if isinstance(arg, (ast.Name, ast.Constant)) and param not in stored:
+                bound[param] = arg
+            else:
+                binds.append(ast.Assign([ast.Name(prefix + param, ast.Store())], arg))
+        renamer = _Rename(_local_names(callee), prefix, bound)
+        out += binds + [renamer.visit(s) for s in steps]
+        out.append(ast.Assign(stmt.targets, renamer.visit(last.value)))
+    return out
+
+
+_INDEX_NAMES = (
+    "XA",
+    "YB0",
+    "XD",
+    "YD",
+    "L2",
+    "L3",
+    "GX",
+    "GY",
+    "M1",
+    "M2",
+    "M3",
+    "I2",
+    "I3",
+    "G",
+    "DRAG_OPEN",
+    "DRAG_SLOPE",
+    "DOWN_OPEN",
+    "DOWN_SLOPE",
+    "PSI3_OPEN",
+    "M11",
+    "M22",
+)
+
+
+class _Constants(ast.NodeTransformer):
+    """``c[NAME]`` -> the local ``_c_NAME`` (the constants unpacked once); ``x * 1.0`` -> ``x``
+    (exact: an inlined argument 1.0 multiplies nothing)."""
+
+    def visit_BinOp(self, node: ast.BinOp) -> ast.expr:
+        self.generic_visit(node)
+        if isinstance(node.op, ast.Mult):
+            for keep, one in ((node.left, node.right), (node.right, node.left)):
+                if isinstance(one, ast.Constant) and one.value == 1.0:
+                    return keep
+        return node
+
+    def visit_Subscript(self, node: ast.Subscript) -> ast.expr:
+        self.generic_visit(node)
+        if (
+            isinstance(node.value, ast.Name)
+            and node.value.id == "c"
+            and isinstance(node.slice, ast.Name)
+            and node.slice.id in _INDEX_NAMES
+        ):
+            return ast.copy_location(ast.Name("_c_" + node.slice.id, ast.Load()), node)
+        return node
+
+
+def _flatten(name: str, bind: bool = False):
+    """The kernel ``name`` with its calls of other kernels inlined and its constants ``c``
+    (all :data:`N_CONSTANTS`) unpacked once: the same operations in the same order, without
+    CPython's cost of a call per sub-kernel and of a lookup per constant.
+
+    ``bind``: instead, a factory ``f(c)`` that unpacks ``c`` once and returns the kernel without
+    its ``c`` argument (the constants become closure cells).
+    """
+    fdef = _callee_source(name)
+    body = _Constants().visit(ast.Module(_inline(fdef.body, [0]), [])).body
+    unpack = ast.Assign(
+        [ast.Tuple([ast.Name("_c_" + n, ast.Store()) for n in _INDEX_NAMES], ast.Store())],
+        ast.Name("c", ast.Load()),
+    )
+    if bind:
+        fdef.args.args = [a for a in fdef.args.args if a.arg != "c"]
+        fdef.body = body
+        factory = ast.FunctionDef(
+            "bind",
+            ast.arguments([], [ast.arg("c")], None, [], [], None, []),
+            [unpack, fdef, ast.Return(ast.Name(name, ast.Load()))],
+            [],
+        )
+        module = ast.Module([factory], [])
+    else:
+        fdef.body = [unpack, *body]
+        module = ast.Module([fdef], [])
+    namespace = dict(globals())
+    code = compile(
+        ast.fix_missing_locations(module), f"<drs_model.kernels.{name}, inlined>", "exec"
+    )
+    exec(code, namespace)
+    return namespace["bind" if bind else name]
+
+
+_SCALAR_KERNELS = ("psi3_acceleration", "psi3_configuration", "fused_force", "manoeuvre_force")
+#: The top-level kernels for one sample at a time in pure Python (the real-time loop, the scalar
+#: inverse dynamics): generated from the kernels above at import, calls inlined.
+SCALAR = namedtuple("ScalarKernels", _SCALAR_KERNELS)(*(_flatten(k) for k in _SCALAR_KERNELS))
+#: Factories ``f(c)`` of the same kernels with the constants ``c`` bound (no ``c`` argument).
+SCALAR_BOUND = namedtuple("BoundScalarKernels", _SCALAR_KERNELS)(
+    *(_flatten(k, bind=True) for k in _SCALAR_KERNELS)
+)

@@ -1,0 +1,97 @@
+"""The package structure: nothing in drs_model imports in a circle, and each module imports alone.
+
+The graph is read from the source with ``ast`` (every ``import`` and ``from ... import``, at module
+level or inside a function: an import inside a function is how a cycle hides), so the test sees
+what the code says, not what a warm interpreter happens to have loaded.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "drs_model"
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """drs_model modules imported by ``name`` (anywhere in its source)."""
+    is_package = path.name == "__init__.py"
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = name.split(".") if is_package else name.split(".")[:-1]
+                base = base[: len(base) - (node.level - 1)]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            # "from . import kernels" names a module; "from .kernels import x" names an attribute
+            targets = [mod] + [f"{mod}.{a.name}" for a in node.names]
+        else:
+            continue
+        out.update(t for t in targets if t in MODULES and t != name)
+    return out
+
+
+GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
+
+
+def _package_of(name: str) -> set[str]:
+    """The packages whose ``__init__`` runs when ``name`` is imported (not a dependency cycle:
+    Python imports a parent package before its modules)."""
+    parts = name.split(".")
+    return {".".join(parts[:i]) for i in range(1, len(parts))}
+
+
+def test_the_graph_is_read():
+    assert "drs_model.kernels" in GRAPH["drs_model.kinematics"]
+    assert "drs_model.forward.numba_rk" in GRAPH["drs_model.forward.solve"]
+    assert GRAPH["drs_model.kernels"] == set()  # the bottom of the stack
+
+
+def test_no_import_cycle():
+    """Depth-first search for a back edge; a module importing its own parent package's
+    ``__init__`` (re-exports) is not counted."""
+    state: dict[str, int] = {}  # 1 on the stack, 2 done
+
+    def visit(node: str, stack: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(GRAPH[node] - _package_of(node)):
+            if state.get(nxt) == 1:
+                cycle = stack[stack.index(nxt) :] + [nxt]
+                pytest.fail("import cycle: " + " -> ".join(cycle))
+            if nxt not in state:
+                visit(nxt, stack + [nxt])
+        state[node] = 2
+
+    for name in sorted(GRAPH):
+        if name not in state:
+            visit(name, [name])
+
+
+@pytest.mark.parametrize("name", sorted(n for n in MODULES if not n.endswith("__main__")))
+def test_each_module_imports_in_a_fresh_interpreter(name):
+    subprocess.run([sys.executable, "-c", f"import {name}"], check=True, timeout=120)
+
+
+def test_a_cycle_would_be_found(monkeypatch):
+    """The search fails on a planted cycle (so a pass means something)."""
+    planted = {k: set(v) for k, v in GRAPH.items()}
+    planted["drs_model.kernels"].add("drs_model.params")
+    monkeypatch.setattr(sys.modules[__name__], "GRAPH", planted)
+    with pytest.raises(pytest.fail.Exception, match="import cycle: .*drs_model.kernels"):
+        test_no_import_cycle()
