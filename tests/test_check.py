@@ -31,7 +31,7 @@ def test_consistent_bag_passes(good_bag, capsys):
     assert by_name["gap vs kinematics.gap(q)"]["status"] == "ok"
     model = by_name["piston force vs model"]
     hook, _ = check.load_force_model()
-    assert hook is not None  # drs_model.dynamics provides it
+    assert hook is not None  # drs_model.inverse provides it
     # reported, not enforced without --force-model-tol
     assert model["status"] == "info" and model["samples"] == 150
 

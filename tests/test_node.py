@@ -21,7 +21,7 @@ from std_srvs.srv import SetBool  # noqa: E402
 
 from drs_model import kinematics as kin  # noqa: E402
 from drs_model.constraints import constraint  # noqa: E402
-from drs_model.dynamics import inverse_dynamics  # noqa: E402
+from drs_model.inverse import inverse_dynamics  # noqa: E402
 from drs_ros.node import DRSNode  # noqa: E402
 
 

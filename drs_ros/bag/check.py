@@ -207,16 +207,16 @@ def load_force_model(spec: str | None = None) -> tuple[Callable, str]:
     """The piston-force hook ``f(q, qd, qdd, params) -> (n,) [N]`` and a note.
 
     ``spec`` is ``"module:function"``; by default (None) the inverse dynamics of
-    :func:`drs_model.dynamics.inverse_dynamics`. A ``spec`` that cannot be loaded raises
+    :func:`drs_model.inverse.inverse_dynamics`. A ``spec`` that cannot be loaded raises
     :class:`ForceModelError`.
     """
     if spec is None:
-        from drs_model.dynamics import inverse_dynamics
+        from drs_model.inverse import inverse_dynamics
 
         def piston_force(q, qd, qdd, p):
             return inverse_dynamics((q, qd, qdd), p).piston_force
 
-        return piston_force, "model drs_model.dynamics.inverse_dynamics"
+        return piston_force, "model drs_model.inverse.inverse_dynamics"
     module_name, _, func_name = spec.partition(":")
     try:
         func = getattr(importlib.import_module(module_name), func_name)
@@ -434,7 +434,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     "the model parameters the bag recorded, else the seed's)")
     ap.add_argument("--force-model", default=None,
                     help="piston force hook module:function f(q, qd, qdd, params) [N] "
-                    "(default: drs_model.dynamics)")
+                    "(default: drs_model.inverse)")
     ap.add_argument("--force-model-tol", type=float, default=None,
                     help="tolerance [N] of the finite-difference force check (default: report)")
     ap.add_argument("--joint-names", default=",".join(DEFAULT_JOINT_NAMES),
