@@ -146,21 +146,28 @@ def _element_writer(typ) -> Writer:
 
 
 def _flat_struct(typ):
-    """``(struct code, size, getter)`` for a message type whose fields are all one fixed-size
-    floating-point type (geometry_msgs/Point: 3 doubles, std_msgs/ColorRGBA: 4 floats), whose
-    elements then lie back to back with no padding; None for any other type."""
-    from rosidl_parser.definition import BasicType, NamespacedType
+    """:func:`_flat_class` of a rosidl type; None if it is not a message type."""
+    from rosidl_parser.definition import NamespacedType
 
     if not isinstance(typ, NamespacedType):
         return None
-    cls = getattr(importlib.import_module(".".join(typ.namespaces)), typ.name)
+    return _flat_class(getattr(importlib.import_module(".".join(typ.namespaces)), typ.name))
+
+
+def _flat_class(cls: type):
+    """``(struct code, size, getter)`` for a message class whose fields are all one fixed-size
+    floating-point type (geometry_msgs/Point: 3 doubles, std_msgs/ColorRGBA: 4 floats), whose
+    elements then lie back to back with no padding; None for any other class."""
+    from rosidl_parser.definition import BasicType
+
     kinds = {t.typename if isinstance(t, BasicType) else None for t in cls.SLOT_TYPES}
     if len(kinds) != 1 or kinds & {None} or next(iter(kinds)) not in ("double", "float"):
         return None
     code, size = _BASIC[next(iter(kinds))]
     getter = operator.attrgetter(*cls.get_fields_and_field_types())
-    return code, size, (lambda item, g=getter: g(item)) if len(cls.SLOT_TYPES) > 1 else (
-        lambda item, g=getter: (g(item),))
+    if len(cls.SLOT_TYPES) == 1:
+        return code, size, lambda item, g=getter: (g(item),)
+    return code, size, getter
 
 
 def _field_writer(typ) -> Writer:
@@ -248,6 +255,22 @@ def serializer(msg_class: type) -> Callable[[object], bytes]:
     return serialize
 
 
+def flat_packer(msg_class: type) -> Callable[..., bytes]:
+    """``pack(*values) -> bytes``: the exact CDR of a message whose fields are all one
+    floating-point type (std_msgs/Float64, geometry_msgs/Point...), from the values in field
+    order, without building the message (one ``struct.pack``: ~0.3 us against ~4 us)."""
+    flat = _flat_class(msg_class)
+    if flat is None:
+        raise CdrError(f"{msg_class.__name__} is not made of one floating-point type only")
+    # the first field sits right after the header, at offset 0: aligned already
+    pack = struct.Struct(f"<{len(msg_class.SLOT_TYPES)}{flat[0]}").pack
+
+    def packer(*values) -> bytes:
+        return CDR_LE_HEADER + pack(*values)
+
+    return packer
+
+
 def serialize(msg) -> bytes:
     """The exact CDR bytes of one rclpy message (see :func:`serializer`)."""
     return serializer(type(msg))(msg)
@@ -280,5 +303,5 @@ def exact_bytes(data: bytes, msg_class: type) -> bytes:
     return exact
 
 
-__all__ = ["CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "exact_bytes", "serialize",
-           "serializer"]
+__all__ = ["CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "exact_bytes", "flat_packer",
+           "serialize", "serializer"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from array import array
 from collections.abc import Mapping, Sequence
 
 from builtin_interfaces.msg import Time
@@ -23,15 +24,18 @@ def time_msg(ns: int) -> Time:
     return Time(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
 
 
-def joint_state_msg(state: ActuatorState, names: Sequence[str], stamp_ns: int) -> JointState:
+def joint_state_msg(
+    state: ActuatorState, names: Sequence[str], stamp_ns: int, msg: JointState | None = None
+) -> JointState:
     """JointState like ros2_control's joint_state_broadcaster: the piston (prismatic: m, m/s,
-    effort = piston force N), the link and the flap (revolute: rad, rad/s, effort unknown = NaN)."""
-    msg = JointState()
+    effort = piston force N), the link and the flap (revolute: rad, rad/s, effort unknown = NaN).
+
+    ``msg``: a JointState to fill in place (building one costs more than filling it)."""
+    msg = JointState(name=list(names)) if msg is None else msg
     msg.header.stamp = time_msg(stamp_ns)
-    msg.name = list(names)
-    msg.position = [float(x) for x in state.q]
-    msg.velocity = [float(x) for x in state.qd]
-    msg.effort = [float(state.piston_force), math.nan, math.nan]
+    msg.position = array("d", state.q)
+    msg.velocity = array("d", state.qd)
+    msg.effort = array("d", (state.piston_force, math.nan, math.nan))
     return msg
 
 
@@ -203,11 +207,15 @@ class MechanismMarkers:
         # shaft diameter, head diameter, head length [m]
         self._arrow.scale.x, self._arrow.scale.y, self._arrow.scale.z = 0.003, 0.008, 0.01
         markers += [self._pins, self._arrow]
-        self._array = MarkerArray(markers=markers)
+        self._all = MarkerArray(markers=markers)
+        self._moving = MarkerArray(markers=markers[len(still):])
 
-    def msg(self, lines, pins, force_origin, piston_force: float, stamp_ns: int):
+    def msg(self, lines, pins, force_origin, piston_force: float, stamp_ns: int,
+            with_still: bool = True):  # fmt: skip
         """The array for one configuration: ``lines`` name -> (k, 2), ``pins`` (n, 2) [m], the
-        force [N] at ``force_origin`` (2,) [m]; every marker stamped ``stamp_ns``."""
+        force [N] at ``force_origin`` (2,) [m]; every marker stamped ``stamp_ns``. Without
+        ``with_still`` only the moving markers (markers live until replaced: the still ones
+        drawn once stay)."""
         x, y = float(force_origin[0]), float(force_origin[1])
         arrow = ((x, y), (x, y + FORCE_ARROW_M_PER_N * float(piston_force)))
         for marker, pts in [*((self._lines[k], v) for k, v in lines.items()),
@@ -215,6 +223,7 @@ class MechanismMarkers:
             for point, (px, py) in zip(marker.points, pts, strict=True):
                 point.x, point.y = float(px), float(py)
         stamp = time_msg(stamp_ns)
-        for marker in self._array.markers:
+        array = self._all if with_still else self._moving
+        for marker in array.markers:
             marker.header.stamp = stamp
-        return self._array
+        return array

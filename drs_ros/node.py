@@ -70,7 +70,6 @@ from .conversions import (
     MechanismMarkers,
     command_event_msg,
     diagnostics_msg,
-    float_msg,
     joint_state_msg,
     parameter_event_msg,
     reactions_msg,
@@ -79,6 +78,10 @@ from .drawing import moving_drawings, still_drawings
 from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSEDED
 
 QOS_DEPTH = 10
+#: The still outlines (FIA box, main wing, pylon) are in ~/markers once per this [s] of sim time.
+STILL_MARKERS_PERIOD_S = 1.0
+#: Ticks between two questions to DDS whether the optional topics have listeners.
+LISTENER_CHECK_TICKS = 25
 #: The command topics (``~/<key>``) and their message types.
 COMMANDS = {"stroke_cmd": Float64, "force_cmd": Float64, "trajectory_cmd": JointTrajectory}
 #: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
@@ -106,7 +109,7 @@ NODE_PARAMETERS = (
      (1, 100000)),
     ("frame_id", "drs_base", "frame of ~/markers: the seed's ground frame (x rearwards, y up)",
      None),
-    ("markers_rate_hz", 30.0, "~/markers rate [Hz], computed only while subscribed or recorded",
+    ("markers_rate_hz", 30.0, "~/markers (and rerun drawing) rate [Hz], computed only when used",
      (0.1, 1000.0)),
     ("diagnostics_window", 5.0, "diagnostics report the troubles of the last this many s [s]",
      (0.1, 3600.0)),
@@ -209,7 +212,8 @@ class DRSNode(Node):
             )
         self.physics_dt = 1.0 / physics_hz
         self.publish_period = 1.0 / publish_hz
-        self.markers_period = 1.0 / gp("markers_rate_hz").value
+        self.markers_rate_hz = gp("markers_rate_hz").value
+        self.markers_period = 1.0 / self.markers_rate_hz
         self.frame_id = gp("frame_id").value
         self.joint_names = list(gp("joint_names").value)
         if len(self.joint_names) != 3:
@@ -249,7 +253,10 @@ class DRSNode(Node):
         self.topics = {pub: pub.topic_name for pub in self._own_publishers}
         self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
         self._serialize = {cls: cdr.serializer(cls)
-                           for cls in (JointState, Float64, DiagnosticArray, MarkerArray)}
+                           for cls in (JointState, DiagnosticArray, MarkerArray)}
+        self._pack_float64 = cdr.flat_packer(Float64)
+        self._joint_state = JointState(name=self.joint_names)  # filled in place at each publish
+        self._listened = {self.pub_reactions: False, self.pub_markers: False}
 
         # counters for diagnostics (cumulative) and the window of recent troubles
         self.refused = 0
@@ -266,6 +273,7 @@ class DRSNode(Node):
         self._pending: dict[str, PendingCommand] = {}
         self._last_tick_ns: int | None = None
         self._last_markers_t: float | None = None
+        self._last_still_t: float | None = None
         self._t0_ns: int | None = None
         self._cpu = {"model": 0.0, "publish": 0.0, "record": 0.0}
         self._started_wall = time.monotonic()
@@ -436,7 +444,8 @@ class DRSNode(Node):
             if rrd:
                 from .rerun_log import RerunRecorder
 
-                self.rerun = RerunRecorder(rrd, self.params)
+                # the mechanism drawn as often as ~/markers draws it; the series at every sample
+                self.rerun = RerunRecorder(rrd, self.params, max_draw_hz=self.markers_rate_hz)
         except Exception as exc:
             self._made_bag_dir = made_dir
             self.discard_recordings()
@@ -476,15 +485,12 @@ class DRSNode(Node):
         """Append exact bytes to the bag; returns the sequence number (None: not recorded)."""
         if self.recorder is None or self.recording_error:
             return None
-        t = time.process_time()
         try:
             return self.recorder.write(topic, data, log_time_ns=now_ns)
         except Exception as exc:  # noqa: BLE001 - a failing disk must not stop the actuator
             self.recording_error = f"{type(exc).__name__}: {exc}"
             self.get_logger().error(f"recording stopped: {self.recording_error}")
             return None
-        finally:
-            self._cpu["record"] += time.process_time() - t
 
     def close_recordings(self) -> None:
         """Finish the MCAP bag and the rerun file (idempotent)."""
@@ -658,8 +664,7 @@ class DRSNode(Node):
                         {"t0_ns": self._t0_ns})
             due = self.max_catch_up
         try:
-            for _ in range(max(due, 0)):
-                self.sim.step()
+            self.sim.advance(max(due, 0))
         except DRSError as exc:  # the model refuses to go on: hold where it is and say why
             reason = self._refuse("step", self.sim.mode, str(exc))
             s_hold = float(min(max(self.sim.state.q[0], self.sim.s_min), self.sim.s_max))
@@ -673,39 +678,49 @@ class DRSNode(Node):
         t = time.process_time()
         st = self.sim.state
         stamp = self._t0_ns + int(round(st.t * 1e9))
-        ser_js, ser_f = self._serialize[JointState], self._serialize[Float64]
+        pack = self._pack_float64
         out = [
-            (self.pub_joints, ser_js(joint_state_msg(st, self.joint_names, stamp))),
-            (self.pub_force, ser_f(float_msg(st.piston_force))),
-            (self.pub_gap, ser_f(float_msg(st.gap))),
-            (self.pub_accel, ser_f(float_msg(st.qdd[0]))),
-        ]
-        if self.pub_reactions.get_subscription_count() > 0:
-            out.append((self.pub_reactions, ser_js(reactions_msg(self.sim.reactions(), stamp))))
-        if (self._last_markers_t is None or st.t - self._last_markers_t >= self.markers_period
-                - 1e-9) and (self.recorder is not None
-                             or self.pub_markers.get_subscription_count() > 0):  # fmt: skip
+            (self.pub_joints, self._serialize[JointState](
+                joint_state_msg(st, self.joint_names, stamp, self._joint_state))),
+            (self.pub_force, pack(st.piston_force)),
+            (self.pub_gap, pack(st.gap)),
+            (self.pub_accel, pack(st.qdd[0])),
+        ]  # fmt: skip
+        if self.ticks % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
+            self._listened = {pub: pub.get_subscription_count() > 0
+                              for pub in (self.pub_reactions, self.pub_markers)}  # fmt: skip
+        if self._listened[self.pub_reactions]:
+            reactions = reactions_msg(self.sim.reactions(), stamp)
+            out.append((self.pub_reactions, self._serialize[JointState](reactions)))
+        if (self.recorder is not None or self._listened[self.pub_markers]) and (
+            self._last_markers_t is None
+            or st.t - self._last_markers_t >= self.markers_period - 1e-9
+        ):
             self._last_markers_t = st.t
             out.append((self.pub_markers, self._serialize[MarkerArray](self._markers(st, stamp))))
         for pub, data in out:
             pub.publish(data)
-        self._cpu["publish"] += time.process_time() - t
+        t1 = time.process_time()
+        self._cpu["publish"] += t1 - t
         for pub, data in out:
             self._record(self.topics[pub], data, now_ns)
         if self.rerun is not None and not self.recording_error:
-            t = time.process_time()
             try:
                 self.rerun.log_state(st.t, st.q, st.piston_force)
             except Exception as exc:  # noqa: BLE001
                 self.recording_error = f"rerun: {exc}"
-            self._cpu["record"] += time.process_time() - t
+        self._cpu["record"] += time.process_time() - t1
 
     def _markers(self, st, stamp: int) -> MarkerArray:
         """The mechanism at state ``st`` as RViz and Foxglove draw it (drs_ros.drawing)."""
         lines, pins = moving_drawings(st.q[None, :], self.params)
         force_at = point_positions(st.q[None, :], self.params, ("P",))["P"][0]
+        # the outlines that never move go out once a second (a marker lives until replaced)
+        still = self._last_still_t is None or st.t - self._last_still_t >= STILL_MARKERS_PERIOD_S
+        if still:
+            self._last_still_t = st.t
         return self._scene.msg({k: v[0] for k, v in lines.items()}, pins[0], force_at,
-                               st.piston_force, stamp)
+                               st.piston_force, stamp, with_still=still)
 
     def diagnostics_values(self) -> dict[str, object]:
         st = self.sim.state

@@ -82,6 +82,12 @@ def test_markers_draw_the_published_joint_state(ros_context, params):
             assert all(abs(p.z) == 0.0 for m in arr.markers for p in m.points)
             checked += 1
         assert checked >= 5
+        # the outlines that never move come once a second, and sit where the seed puts them
+        wings = [m for arr in markers for m in arr.markers if m.ns == "drs/main_wing"]
+        assert wings and 5 * len(wings) < len(markers)
+        outline = np.array([[p.x, p.y] for p in wings[0].points])
+        np.testing.assert_allclose(outline[:-1], kin.main_wing_outline(params), atol=1e-12,
+                                   rtol=0)  # fmt: skip
     finally:
         ex.shutdown()
         client.destroy_node()
