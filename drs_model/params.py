@@ -400,11 +400,33 @@ def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DR
         raise ParameterError(str(exc)) from exc
 
 
-def from_file(path: str | Path) -> DRSParams:
-    """Read overrides from a TOML (``.toml``) or YAML (``.yaml``/``.yml``) file.
+def from_file(path: str | Path, base: DRSParams | None = None) -> DRSParams:
+    """Parameters from ``base`` (default: the seed) with the overrides of a TOML (``.toml``) or
+    YAML (``.yaml``/``.yml``) file applied (:func:`file_overrides`)."""
+    return from_dict(file_overrides(path), base=base)
 
-    The file holds ``name = value`` pairs at top level or under a ``[drs]`` table.
+
+def assignment_overrides(items) -> dict[str, float]:
+    """Overrides from ``NAME=VALUE`` strings (the ``--set`` option of the command lines).
+
+    Raises :class:`ParameterError` for an item without ``=`` or a value that is no number (the
+    names are checked where the overrides are applied, :func:`from_dict`).
     """
+    overrides: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ParameterError(f"--set expects NAME=VALUE, got {item!r}")
+        try:
+            overrides[name.strip()] = float(value)
+        except ValueError:
+            raise ParameterError(f"--set {name}: {value!r} is not a number") from None
+    return overrides
+
+
+def file_overrides(path: str | Path) -> dict[str, Any]:
+    """The ``name = value`` pairs of a TOML or YAML parameter file (at top level or under a
+    ``[drs]`` table), not yet checked (:func:`from_dict` checks them)."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -433,4 +455,4 @@ def from_file(path: str | Path) -> DRSParams:
         data = data["drs"]
     if not isinstance(data, Mapping):
         raise ParameterError(f"parameter file {str(path)!r} must hold a table of name = value")
-    return from_dict(data)
+    return dict(data)

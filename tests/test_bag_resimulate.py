@@ -83,4 +83,4 @@ def test_bad_set_is_refused_with_a_reason(tmp_path):
     rc, err = resimulate(str(EXAMPLE), "--set", "m_wnig=0.6")
     assert rc == 2 and "unknown parameter(s) ['m_wnig']" in err
     rc, err = resimulate(str(EXAMPLE), "--set", "m_wing")
-    assert rc == 2 and "--set takes NAME=VALUE" in err
+    assert rc == 2 and "--set expects NAME=VALUE" in err

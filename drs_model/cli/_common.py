@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
-from ..params import DRSParams, from_file
+from ..errors import InputError
+from ..params import DRSParams, assignment_overrides, from_file
 
 
 @dataclass
@@ -44,15 +44,7 @@ def add_common(parser: argparse.ArgumentParser) -> None:
 
 def load_params(args: argparse.Namespace) -> DRSParams:
     base = from_file(args.params) if getattr(args, "params", None) else DRSParams()
-    overrides: dict[str, Any] = {}
-    for item in getattr(args, "set", []) or []:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ParameterError(f"--set expects NAME=VALUE, got {item!r}")
-        try:
-            overrides[name.strip()] = float(value)
-        except ValueError:
-            raise ParameterError(f"--set {name}: {value!r} is not a number") from None
+    overrides = assignment_overrides(getattr(args, "set", []) or [])
     return base.replace(**overrides) if overrides else base
 
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
-from drs_model.params import DRSParams, from_dict, from_file
+from drs_model.params import DRSParams, assignment_overrides, from_dict, from_file
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
@@ -100,32 +100,12 @@ def read_run(bag: str | Path) -> RecordedRun:
 
 
 def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
-    """The model and actuator settings of the re-run: as recorded, then ``--params``, ``--set``."""
+    """The model of the re-run: as recorded, then a parameter file's overrides, then ``--set``."""
     model = model_params_from(node_params)
     if params_file:
-        model = from_dict(_file_overrides(params_file), model)
-    overrides = {}
-    for item in sets:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ResimulationError(f"--set takes NAME=VALUE, got {item!r}")
-        try:
-            overrides[name.strip()] = float(value)
-        except ValueError:
-            raise ResimulationError(f"--set {name}: {value!r} is not a number") from None
-    if overrides:
-        model = from_dict(overrides, model)
-    return model
-
-
-def _file_overrides(path: str) -> dict:
-    """The values a parameter file sets (read through DRSParams, so it is validated)."""
-    from dataclasses import fields
-
-    changed = from_file(path)
-    defaults = DRSParams()
-    return {f.name: getattr(changed, f.name) for f in fields(DRSParams)
-            if getattr(changed, f.name) != getattr(defaults, f.name)}  # fmt: skip
+        model = from_file(params_file, base=model)
+    overrides = assignment_overrides(sets)
+    return from_dict(overrides, model) if overrides else model
 
 
 def resimulate(run: RecordedRun, model: DRSParams) -> dict:
