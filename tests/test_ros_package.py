@@ -12,13 +12,12 @@ import signal
 import stat
 import subprocess
 import sys
-import time
 import tomllib
 import zipfile
 from pathlib import Path
 
 import pytest
-from node_support import domain_for, node_env
+from node_support import domain_for, node_env, wait_for_file_growth
 from ros_support import require_module, require_rclpy
 
 REPO = Path(__file__).resolve().parents[1]
@@ -151,15 +150,6 @@ def test_wheel_installs_the_ament_index_marker_and_the_manifest(tmp_path):
     )
 
 
-def wait_for_file(path: Path, min_size: int, timeout: float = 30.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if path.exists() and path.stat().st_size >= min_size:
-            return True
-        time.sleep(0.1)
-    return False
-
-
 def setup_sh_environment(ws: Path, base: dict[str, str]) -> dict[str, str]:
     """The environment after ``. install/setup.sh`` in ``ws`` (what a user does), from ``base``."""
     proc = subprocess.run(
@@ -268,7 +258,7 @@ def test_colcon_build_then_drs_node_from_the_install_space(tmp_path, request, sy
         text=True,
     )
     try:
-        grew = wait_for_file(bag / "bag_0.mcap", min_size=2000)
+        grew = wait_for_file_growth(bag / "bag_0.mcap", timeout=30.0, min_size=2000)
         node.send_signal(signal.SIGINT)
         node_out, _ = node.communicate(timeout=30)
     finally:
