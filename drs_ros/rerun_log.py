@@ -1,8 +1,11 @@
-"""Offline rerun recording (``.rrd``) of the DRS mechanism and its time series.
+"""rerun recording of the DRS mechanism and its time series: to an ``.rrd`` file, live to a
+running rerun viewer or server, or both.
 
-One explicit ``rr.RecordingStream`` saved to a file (no viewer, no network), one timeline
-``sim_time`` (a duration [s]). Geometry comes from :mod:`drs_model.kinematics`; nothing is
-computed here beyond arranging points into drawings.
+One explicit ``rr.RecordingStream``, one timeline ``sim_time`` (a duration [s]). Its sinks: a
+file (``path``), a gRPC connection (``connect_url``, e.g. ``rerun+http://127.0.0.1:9876/proxy``,
+the address ``rerun`` prints when it starts), or both at once (``set_sinks``). The URL must name a
+loopback host: these machines send nothing off loopback. Geometry comes from
+:mod:`drs_model.kinematics`; nothing is computed here beyond arranging points into drawings.
 
 Entities (ground frame, metres; 2D view ``mechanism``):
 
@@ -23,11 +26,13 @@ only buffers (a few microseconds) and sends every ``batch`` samples, since loggi
 
 from __future__ import annotations
 
+import ipaddress
 import math
 import os
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import numpy as np
 import rerun as rr
@@ -39,6 +44,11 @@ from drs_model.errors import DRSError, InputError
 from drs_model.params import DRSParams
 
 TIMELINE = "sim_time"
+#: URL schemes of a rerun gRPC endpoint (rerun-sdk 0.41), and an example of a valid URL.
+CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https")
+CONNECT_URL_EXAMPLE = "rerun+http://127.0.0.1:9876/proxy"
+#: How long :meth:`RerunRecorder.close` waits for a live stream to drain [s].
+STREAM_FLUSH_TIMEOUT_S = 2.0
 #: Series entity -> (label, colour).
 SERIES = {
     "series/stroke": ("stroke [m]", (31, 119, 180)),
@@ -107,19 +117,74 @@ def check_new_rrd(path: str | os.PathLike) -> Path:
     return path
 
 
+def check_connect_url(url: str) -> str:
+    """Check the URL of a rerun gRPC endpoint: ``rerun[+http|+https]://HOST:PORT/proxy`` with HOST
+    on loopback (``127.0.0.0/8``, ``::1`` or ``localhost``; other names are not resolved, since
+    a name may lead off loopback). Returns ``url``; raises :class:`RerunLogError` with the reason.
+    """
+    if not isinstance(url, str) or not url.strip():
+        raise RerunLogError(
+            f"rerun connect URL must be a non-empty string such as {CONNECT_URL_EXAMPLE!r}, "
+            f"got {url!r}"
+        )
+    parts = urlsplit(url)
+    try:
+        port = parts.port
+    except ValueError:
+        port = -1
+    host = (parts.hostname or "").lower()
+    if parts.scheme not in CONNECT_SCHEMES:
+        reason = "the scheme must be one of " + ", ".join(f"{s}://" for s in CONNECT_SCHEMES)
+    elif not host:
+        reason = "it names no host"
+    elif port is None or port == -1 or port == 0:
+        reason = "it needs a port in 1..65535"
+    elif parts.path != "/proxy":
+        reason = "the path must be /proxy"
+    elif parts.query or parts.fragment or parts.username or parts.password:
+        reason = "it may hold no user, query or fragment"
+    else:
+        reason = None
+    if reason is not None:
+        raise RerunLogError(
+            f"invalid rerun connect URL {url!r}: {reason} (e.g. {CONNECT_URL_EXAMPLE!r})"
+        )
+    if host != "localhost":
+        try:
+            loopback = ipaddress.ip_address(host).is_loopback
+        except ValueError:
+            raise RerunLogError(
+                f"rerun connect URL {url!r} refused: host {host!r} is a name other than "
+                "'localhost'; give a loopback address (127.0.0.1 or ::1), since a name may lead "
+                "off loopback and these machines send nothing off loopback"
+            ) from None
+        if not loopback:
+            raise RerunLogError(
+                f"rerun connect URL {url!r} refused: host {host!r} is not on loopback "
+                "(127.0.0.0/8, ::1, localhost), and these machines send nothing off loopback"
+            )
+    return url
+
+
 def _closed(points: np.ndarray) -> np.ndarray:
     return np.concatenate([points, points[..., :1, :]], axis=-2)
 
 
 class RerunRecorder:
-    """Write the mechanism and its time series to an ``.rrd`` file.
+    """Write the mechanism and its time series to an ``.rrd`` file, to a running rerun viewer or
+    server, or to both.
 
     Parameters
     ----------
-    path : str or Path
-        Output ``.rrd`` file (parent directories are created).
+    path : str or Path or None
+        Output ``.rrd`` file (parent directories are created; an existing file is refused), or
+        None for no file.
     params : DRSParams, optional
         Geometry (the seed by default).
+    connect_url : str, optional
+        Stream live to the rerun gRPC endpoint at this URL (see :func:`check_connect_url`), e.g.
+        ``rerun+http://127.0.0.1:9876/proxy`` for ``rerun`` started on this machine. With a
+        ``path`` too, both get the same data (``set_sinks``).
     max_draw_hz : float
         Maximum rate of mechanism drawings per second of simulated time [Hz] (> 0).
     batch : int
@@ -129,14 +194,20 @@ class RerunRecorder:
 
     Notes
     -----
-    Call :meth:`close` (or use ``with``) to flush the file.
+    Call :meth:`close` (or use ``with``) to flush the file. With ``connect_url``, :meth:`close`
+    waits at most :data:`STREAM_FLUSH_TIMEOUT_S` for the stream to drain. A stream that could not
+    be delivered is not an error (the file, if any, is complete): its reason is left in
+    :attr:`stream_error`. When nothing listens at the URL, rerun-sdk 0.41 blocks: the
+    constructor 5 s (10 s with a file too) and :meth:`close` about 6 s (measured); with a
+    listening viewer both take milliseconds.
     """
 
     def __init__(
         self,
-        path: str | os.PathLike,
+        path: str | os.PathLike | None,
         params: DRSParams | None = None,
         *,
+        connect_url: str | None = None,
         max_draw_hz: float = 250.0,
         batch: int = 250,
         application_id: str = "drs",
@@ -146,7 +217,12 @@ class RerunRecorder:
             raise InputError(f"max_draw_hz must be a finite number > 0 Hz, got {max_draw_hz!r}")
         if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
             raise InputError(f"batch must be an int >= 1, got {batch!r}")
-        self.path = check_new_rrd(path)
+        if path is None and connect_url is None:
+            raise InputError("RerunRecorder needs a path, a connect_url, or both; got neither")
+        self.connect_url = None if connect_url is None else check_connect_url(connect_url)
+        self.path = None if path is None else check_new_rrd(path)
+        #: Why the live stream could not be delivered at :meth:`close` (None: delivered or none).
+        self.stream_error: str | None = None
         self.params = params if params is not None else DRSParams()
         self.max_draw_hz = float(max_draw_hz)
         self._draw_dt = 1.0 / self.max_draw_hz
@@ -160,17 +236,41 @@ class RerunRecorder:
         self._buf_q: list = []
         self._buf_f: list[float] = []
         self._buf_draw: list[bool] = []
-        made = [d for d in (self.path.parent, *self.path.parent.parents) if not d.exists()]
+        self.rec = self._open_sinks(application_id)
+        self._closed = False
+        self._log_static()
+
+    def _open_sinks(self, application_id: str) -> rr.RecordingStream:
+        """A recording stream writing to the file, the gRPC endpoint, or both."""
+        made = []
+        if self.path is not None:
+            made = [d for d in (self.path.parent, *self.path.parent.parents) if not d.exists()]
         try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self.rec = rr.RecordingStream(application_id)
-            self.rec.save(str(self.path), default_blueprint=default_blueprint())
+            if self.path is not None:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+            rec = rr.RecordingStream(application_id)
+            if self.connect_url is None:
+                rec.save(str(self.path), default_blueprint=default_blueprint())
+            else:
+                sinks = [rr.GrpcSink(self.connect_url)]
+                if self.path is not None:
+                    sinks.append(rr.FileSink(str(self.path)))
+                rec.set_sinks(*sinks, default_blueprint=default_blueprint())
         except Exception as exc:
             for d in made:  # leave nothing behind
                 shutil.rmtree(d, ignore_errors=True)
-            raise RerunLogError(f"cannot create rrd {str(self.path)!r}: {exc}") from exc
-        self._closed = False
-        self._log_static()
+            raise RerunLogError(
+                f"cannot open the rerun recording to {self._target}: {exc}"
+            ) from exc
+        return rec
+
+    @property
+    def _target(self) -> str:
+        """Where the recording goes, for messages."""
+        names = [repr(str(self.path))] if self.path is not None else []
+        if self.connect_url is not None:
+            names.append(repr(self.connect_url))
+        return " and ".join(names)
 
     def __enter__(self) -> RerunRecorder:
         return self
@@ -341,26 +441,34 @@ class RerunRecorder:
     # ---- lifecycle -----------------------------------------------------------------------------
     def _check_open(self) -> None:
         if self._closed:
-            raise RerunLogError(f"the rerun recorder of {str(self.path)!r} is closed")
+            raise RerunLogError(f"the rerun recorder of {self._target} is closed")
 
     def discard(self) -> None:
-        """Close and delete the file (a node that failed to start)."""
+        """Close and delete the file, if any (a node that failed to start)."""
         if not self._closed:
             self._closed = True
             self.rec.disconnect()
-        self.path.unlink(missing_ok=True)
+        if self.path is not None:
+            self.path.unlink(missing_ok=True)
 
     def close(self) -> None:
-        """Flush and close the file (idempotent)."""
+        """Flush and close the file and the live stream (idempotent)."""
         if self._closed:
             return
         self.flush()
         self._closed = True
-        self.rec.flush()
+        if self.connect_url is None:
+            self.rec.flush()
+        else:
+            try:
+                self.rec.flush(timeout_sec=STREAM_FLUSH_TIMEOUT_S)
+            except RuntimeError as exc:  # the endpoint did not answer: the file is still whole
+                self.stream_error = str(exc)
         self.rec.disconnect()
 
 
 __all__ = [
-    "DRAWINGS", "SERIES", "TIMELINE", "RerunLogError", "RerunRecorder", "check_new_rrd",
+    "CONNECT_SCHEMES", "CONNECT_URL_EXAMPLE", "DRAWINGS", "SERIES", "STREAM_FLUSH_TIMEOUT_S",
+    "TIMELINE", "RerunLogError", "RerunRecorder", "check_connect_url", "check_new_rrd",
     "default_blueprint",
 ]

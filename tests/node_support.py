@@ -63,3 +63,13 @@ def node_env(tmp_path, domain: int) -> dict[str, str]:
         PYTHONUNBUFFERED="1",
     )
     return env
+
+
+def wait_for_file_growth(path, timeout: float = 20.0, min_size: int = 1) -> bool:
+    """Wait until ``path`` holds at least ``min_size`` bytes, for ``timeout`` [s] of wall time."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if path.exists() and path.stat().st_size >= min_size:
+            return True
+        time.sleep(0.1)
+    return False

@@ -1,8 +1,14 @@
-"""RerunRecorder: the .rrd reads back with the entities and scalar rows that were logged."""
+"""RerunRecorder: the .rrd reads back with the entities and scalar rows that were logged; a live
+stream reaches a rerun gRPC server on loopback with the same data as the file."""
 
 from __future__ import annotations
 
+import re
+import socket
+import subprocess
+import time
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,8 +16,19 @@ from ros_support import manoeuvre_states, require_module  # noqa: E402
 
 rr = require_module("rerun")
 
+from drs_model import kinematics  # noqa: E402
 from drs_model.errors import InputError  # noqa: E402
-from drs_ros.rerun_log import DRAWINGS, SERIES, RerunLogError, RerunRecorder  # noqa: E402
+from drs_ros.rerun_log import (  # noqa: E402
+    DRAWINGS,
+    SERIES,
+    TIMELINE,
+    RerunLogError,
+    RerunRecorder,
+    check_connect_url,
+)
+
+#: A server writes what it receives without a footer; rerun's reader then warns and scans.
+no_footer = pytest.mark.filterwarnings("ignore:RRD file has no footer")
 
 
 def read_rows(path) -> tuple[Counter, Counter]:
@@ -77,3 +94,208 @@ def test_rerun_input_errors(tmp_path, params):
             rec.log_trajectory([1.0, 0.0], np.zeros((2, 3)))
         with pytest.raises(InputError, match=r"q must hold \[s, psi1, psi3\]"):
             rec.log_state(0.0, [0.0, 0.0])
+
+
+# ---- live streaming ---------------------------------------------------------------------------
+def read_series(path, entity: str) -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] and values of the scalar series ``entity`` in an .rrd, in time order."""
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    times, values = [], []
+    for chunk in RrdReader(str(path)).stream().to_chunks():
+        if chunk.entity_path != entity:
+            continue
+        batch = chunk.to_record_batch()
+        col = next((n for n in batch.schema.names if n.startswith("Scalars:scalars")), None)
+        if col is None:
+            continue
+        t_ns = batch.column(TIMELINE).cast(pa.int64()).to_numpy()
+        for ti, row in zip(t_ns, batch.column(col).to_pylist(), strict=True):
+            if row is not None:
+                (value,) = row
+                times.append(ti)
+                values.append(value)
+    order = np.argsort(times, kind="stable")
+    return np.asarray(times)[order] * 1e-9, np.asarray(values, dtype=float)[order]
+
+
+def free_loopback_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def wait_for(predicate, timeout: float = 20.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            if predicate():
+                return True
+        except Exception:  # a file the server is still writing may end mid-chunk
+            pass
+        time.sleep(0.2)
+    return predicate()
+
+
+@pytest.fixture
+def rerun_env(tmp_path, monkeypatch):
+    """The rerun CLI binary installed with the SDK, with rerun's usage analytics off for this test
+    and its server (they would leave loopback)."""
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg-config"))
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg-data"))
+    # The binary itself: `python -m rerun_cli` runs it as a grandchild that a signal to the
+    # wrapper would not stop.
+    cli = Path(require_module("rerun_cli").__file__).with_name("rerun")
+    subprocess.run([cli, "analytics", "disable"], check=True, capture_output=True, timeout=60)
+    return cli
+
+
+@pytest.fixture
+def rerun_server(tmp_path, rerun_env):
+    """A rerun gRPC server on 127.0.0.1 that saves what it receives to an .rrd: yields (URL, path
+    of that file)."""
+    port = free_loopback_port()
+    received = tmp_path / "received.rrd"
+    log = tmp_path / "rerun-server.log"
+    with open(log, "wb") as out:
+        proc = subprocess.Popen(
+            [rerun_env, "--bind", "127.0.0.1", "--port", str(port), "--save", str(received)],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
+
+    def listening() -> bool:
+        with socket.socket() as sock:
+            return sock.connect_ex(("127.0.0.1", port)) == 0
+
+    try:
+        if not wait_for(lambda: proc.poll() is not None or listening(), timeout=30.0):
+            pytest.fail("the rerun server did not listen within 30 s")
+        assert proc.poll() is None, log.read_text()
+        yield f"rerun+http://127.0.0.1:{port}/proxy", received
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=10)
+
+
+@no_footer
+def test_streams_live_and_to_the_file_alike(tmp_path, params, rerun_server):
+    url, received = rerun_server
+    t, q, _ = manoeuvre_states(params, 300)
+    force = np.linspace(-1.0, 1.0, t.size) * 1e3
+    path = tmp_path / "tee.rrd"
+    with RerunRecorder(path, params, connect_url=url, max_draw_hz=250.0) as rec:
+        drawn = rec.log_trajectory(t, q, force)
+    assert rec.stream_error is None
+    in_file = read_rows(path)
+    assert wait_for(lambda: read_rows(received) == in_file), (read_rows(received), in_file)
+    scalars, other = in_file
+    assert all(scalars["/" + e] == t.size for e in SERIES)
+    assert all(other["/" + e] == drawn for e in DRAWINGS)
+    # The values that arrived, against the model (not against what the recorder computed).
+    for where in (received, path):
+        t_gap, gap = read_series(where, "/series/gap")
+        np.testing.assert_allclose(t_gap, t, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(gap, kinematics.gap(q, params), rtol=0, atol=1e-15)
+        _, stroke = read_series(where, "/series/stroke")
+        np.testing.assert_array_equal(stroke, q[:, 0])
+
+
+@no_footer
+def test_streams_live_without_a_file(tmp_path, params, rerun_server):
+    url, received = rerun_server
+    t, q, _ = manoeuvre_states(params, 101)
+    rec = RerunRecorder(None, params, connect_url=url, max_draw_hz=500.0, batch=16)
+    for ti, qi in zip(t, q, strict=True):
+        rec.log_state(ti, qi, 5.0)
+    rec.close()
+    assert rec.path is None and rec.stream_error is None
+    assert sorted(p.name for p in tmp_path.glob("*.rrd")) == ["received.rrd"]
+
+    def arrived() -> bool:
+        scalars, other = read_rows(received)
+        return all(scalars["/" + e] == t.size for e in SERIES) and all(
+            other["/" + e] == rec.draw_count for e in DRAWINGS
+        )
+
+    assert wait_for(arrived), read_rows(received)
+    with pytest.raises(RerunLogError, match=r"rerun recorder of 'rerun\+http://127.0.0.1:\d+/proxy'"):
+        rec.log_state(1.0, q[0])
+
+
+@pytest.mark.slow
+def test_an_absent_viewer_loses_nothing_in_the_file(tmp_path, params, rerun_env):
+    """Nobody listens at the URL: close() returns (within the SDK's timeouts), the file is whole
+    and the reason is kept."""
+    url = f"rerun+http://127.0.0.1:{free_loopback_port()}/proxy"
+    t, q, _ = manoeuvre_states(params, 120)
+    path = tmp_path / "alone.rrd"
+    start = time.monotonic()
+    with RerunRecorder(path, params, connect_url=url) as rec:
+        rec.log_trajectory(t, q)
+    assert time.monotonic() - start < 30.0
+    assert rec.stream_error is not None and url in rec.stream_error
+    scalars, _ = read_rows(path)
+    assert all(scalars["/" + e] == t.size for e in SERIES if e != "series/piston_force")
+
+
+@pytest.mark.parametrize(
+    "url",
+    [
+        "rerun+http://127.0.0.1:9876/proxy",
+        "rerun+http://localhost:9876/proxy",
+        "rerun+https://[::1]:9876/proxy",
+        "rerun://127.0.0.2:1/proxy",
+    ],
+)
+def test_connect_url_on_loopback_is_accepted(url):
+    assert check_connect_url(url) == url
+
+
+@pytest.mark.parametrize(
+    ("url", "reason"),
+    [
+        ("", "must be a non-empty string"),
+        (9876, "must be a non-empty string"),
+        ("http://127.0.0.1:9876/proxy", "the scheme must be one of rerun://"),
+        ("127.0.0.1:9876", "the scheme must be one of"),
+        ("rerun+http://:9876/proxy", "it names no host"),
+        ("rerun+http://127.0.0.1/proxy", "it needs a port in 1..65535"),
+        ("rerun+http://127.0.0.1:99999/proxy", "it needs a port in 1..65535"),
+        ("rerun+http://127.0.0.1:abc/proxy", "it needs a port in 1..65535"),
+        ("rerun+http://127.0.0.1:9876/", "the path must be /proxy"),
+        ("rerun+http://127.0.0.1:9876/proxy?x=1", "no user, query or fragment"),
+        ("rerun+http://user@127.0.0.1:9876/proxy", "no user, query or fragment"),
+    ],
+)
+def test_malformed_connect_url_is_refused(tmp_path, params, url, reason):
+    with pytest.raises(RerunLogError, match="(invalid rerun connect URL|rerun connect URL must)"):
+        check_connect_url(url)
+    with pytest.raises(RerunLogError, match=re.escape(reason)):
+        RerunRecorder(tmp_path / "x.rrd", params, connect_url=url)
+    assert not (tmp_path / "x.rrd").exists()
+
+
+@pytest.mark.parametrize(
+    ("url", "reason"),
+    [
+        ("rerun+http://192.168.1.10:9876/proxy", "host '192.168.1.10' is not on loopback"),
+        ("rerun+http://0.0.0.0:9876/proxy", "host '0.0.0.0' is not on loopback"),
+        ("rerun+http://[2001:db8::1]:9876/proxy", "host '2001:db8::1' is not on loopback"),
+        ("rerun+http://viewer.example.com:9876/proxy", "is a name other than 'localhost'"),
+    ],
+)
+def test_connect_url_off_loopback_is_refused(tmp_path, params, url, reason):
+    with pytest.raises(RerunLogError, match="refused: .*" + re.escape(reason)):
+        RerunRecorder(tmp_path / "x.rrd", params, connect_url=url)
+    assert not (tmp_path / "x.rrd").exists()
+
+
+def test_needs_a_file_or_a_url(params):
+    with pytest.raises(InputError, match="needs a path, a connect_url, or both"):
+        RerunRecorder(None, params)
