@@ -155,11 +155,11 @@ def _rrd_scalar_rows(path: Path) -> int:
 
 def _rrd_verify(path: Path) -> int:
     """``rerun rrd verify`` (the CLI installed with the SDK): an independent read of every chunk."""
-    exe = Path(sys.executable).with_name("rerun")
-    cmd = [str(exe) if exe.exists() else "rerun", "rrd", "verify", str(path)]
+    from drs_ros.rerun_log import run_rerun_cli
+
     try:
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
-    except (OSError, subprocess.TimeoutExpired) as exc:
+        res = run_rerun_cli(["rrd", "verify", str(path)])
+    except (OSError, subprocess.SubprocessError) as exc:
         _say(f"rerun rrd verify could not run: {exc}")
         return 1
     if res.returncode != 0:

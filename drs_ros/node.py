@@ -117,6 +117,8 @@ NODE_PARAMETERS = (
      "deadline (ticks on absolute deadlines, executor thread for the rest) or single", EXECUTORS),
     ("bag_path", "", "MCAP bag directory ('' = no bag)", None),
     ("rrd_path", "", "rerun .rrd file ('' = none)", None),
+    ("rerun_connect", "", "stream to a running rerun viewer on loopback, e.g. "
+     "rerun+http://127.0.0.1:9876/proxy ('' = none)", None),
     ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
     ("model_params_file", "", "TOML/YAML file of DRSParams overrides", None),
 )  # fmt: skip
@@ -429,23 +431,28 @@ class DRSNode(Node):
 
         bag = self.get_parameter("bag_path").value
         rrd = self.get_parameter("rrd_path").value
+        live = self.get_parameter("rerun_connect").value
         if bag:
             check_new_bag(bag)
-        if rrd:
-            from .rerun_log import check_new_rrd
+        if rrd or live:
+            from .rerun_log import check_connect_url, check_new_rrd
 
-            check_new_rrd(rrd)
+            if rrd:
+                check_new_rrd(rrd)
+            if live:
+                check_connect_url(live)
         made_dir = bool(bag) and not Path(bag).exists()
         try:
             if bag:
                 self.recorder = McapRecorder(
                     bag, flush_period=self.get_parameter("flush_period").value
                 )
-            if rrd:
+            if rrd or live:
                 from .rerun_log import RerunRecorder
 
                 # the mechanism drawn as often as ~/markers draws it; the series at every sample
-                self.rerun = RerunRecorder(rrd, self.params, max_draw_hz=self.markers_rate_hz)
+                self.rerun = RerunRecorder(rrd or None, self.params, connect_url=live or None,
+                                           max_draw_hz=self.markers_rate_hz)
         except Exception as exc:
             self._made_bag_dir = made_dir
             self.discard_recordings()

@@ -61,11 +61,8 @@ def test_example_rrd_reads_back():
 
 def test_rerun_verifies_the_example_rrd():
     """``rerun rrd verify`` (the SDK's own CLI) loads and interprets every chunk."""
-    import subprocess
-    import sys
-
     require_rclpy()
-    exe = Path(sys.executable).with_name("rerun")
-    res = subprocess.run([str(exe), "rrd", "verify", str(BAGS / "example.rrd")],
-                         capture_output=True, text=True, timeout=120)  # fmt: skip
+    from drs_ros.rerun_log import run_rerun_cli
+
+    res = run_rerun_cli(["rrd", "verify", str(BAGS / "example.rrd")])
     assert res.returncode == 0, res.stderr[-2000:]

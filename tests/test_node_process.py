@@ -9,7 +9,7 @@ import sys
 import time
 
 import pytest
-from node_support import domain_for, node_env
+from node_support import domain_for, node_env, wait_for_file_growth
 from ros_support import require_rclpy
 
 pytestmark = pytest.mark.ros
@@ -27,15 +27,6 @@ def start_node(tmp_path, request, *params: str) -> subprocess.Popen:
         stderr=subprocess.STDOUT,
         text=True,
     )
-
-
-def wait_for_file_growth(path, timeout=20.0, min_size=1):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if path.exists() and path.stat().st_size >= min_size:
-            return True
-        time.sleep(0.1)
-    return False
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])

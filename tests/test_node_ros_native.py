@@ -270,3 +270,16 @@ def test_a_bad_value_in_the_parameter_file_is_refused_like_on_the_command_line(t
     assert line_file == line_cli and len(line_file) == 1
     assert "publish_rate_hz" in line_file[0]
     time.sleep(0)
+
+
+def test_rerun_connect_refuses_a_host_off_loopback(ros_context, tmp_path):
+    """A live rerun stream goes to loopback only; a bad URL refuses to start, leaving nothing."""
+    from drs_ros.rerun_log import RerunLogError
+
+    for url, reason in (("rerun+http://192.0.2.7:9876/proxy", "loopback"),
+                        ("not a url", "rerun")):  # fmt: skip
+        with pytest.raises(RerunLogError, match=reason):
+            DRSNode(context=ros_context, parameter_overrides=[
+                Parameter("rerun_connect", value=url),
+                Parameter("bag_path", value=str(tmp_path / "bag"))])  # fmt: skip
+        assert not (tmp_path / "bag").exists()
