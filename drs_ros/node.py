@@ -774,8 +774,10 @@ class DRSNode(Node):
 
     def _on_diagnostics(self) -> None:
         now = self._now_ns()
-        level, message = self.diagnostics_level(now)
-        msg = diagnostics_msg(now, self.get_name(), level, message, self.diagnostics_values())
+        with self._lock:  # the main thread may be stepping the actuator (deadline executor)
+            level, message = self.diagnostics_level(now)
+            values = self.diagnostics_values()
+        msg = diagnostics_msg(now, self.get_name(), level, message, values)
         data = self._serialize[DiagnosticArray](msg)
         self.pub_diag.publish(data)
         self._record(self.topics[self.pub_diag], data, now)
