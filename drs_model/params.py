@@ -370,6 +370,10 @@ def check_geometry(p: DRSParams) -> None:
 SEED_LITERAL_IZ_WING = 2.0 * 0.120 / 3.0
 
 _FIELD_NAMES = frozenset(f.name for f in dataclasses.fields(DRSParams))
+#: The numeric fields of DRSParams (all but the outlines), in declaration order.
+NUMERIC_FIELDS = tuple(
+    f.name for f in dataclasses.fields(DRSParams) if not f.name.endswith("_outline")
+)
 
 
 def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DRSParams:

@@ -14,10 +14,6 @@ from drs_model.params import DRSParams
 
 #: The pins drawn as points.
 PIN_NAMES = ("A", "B", "C", "D", "R", "T")
-#: Moving drawings, each an (n, k, 2) array of polylines for n configurations.
-MOVING = ("piston", "link", "flap", "gap")
-#: Still drawings, each a (k, 2) closed polyline.
-STILL = ("fia_box", "main_wing", "pylon")
 
 
 def closed(points: np.ndarray) -> np.ndarray:
@@ -36,11 +32,13 @@ def still_drawings(p: DRSParams) -> dict[str, np.ndarray]:
     }
 
 
-def moving_drawings(q: np.ndarray, p: DRSParams) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def moving_drawings(
+    q: np.ndarray, p: DRSParams
+) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """Drawings of configurations ``q`` (n, 3): piston A-B, link B-C, the closed flap outline,
-    the gap (from R up to the height of the flap tip T), as (n, k, 2) arrays [m]; and the pins
-    (n, len(PIN_NAMES), 2)."""
-    pts = kinematics.point_positions(q, p, PIN_NAMES)
+    the gap (from R up to the height of the flap tip T), as (n, k, 2) arrays [m]; the pins
+    (n, len(PIN_NAMES), 2); and P, where the piston force acts (n, 2)."""
+    pts = kinematics.point_positions(q, p, (*PIN_NAMES, "P"))
     gap_top = np.stack([pts["R"][:, 0], pts["T"][:, 1]], axis=-1)
     lines = {
         "piston": np.stack([pts["A"], pts["B"]], axis=1),
@@ -48,7 +46,7 @@ def moving_drawings(q: np.ndarray, p: DRSParams) -> tuple[dict[str, np.ndarray],
         "flap": closed(kinematics.flap_outline(q, p)),
         "gap": np.stack([pts["R"], gap_top], axis=1),
     }
-    return lines, np.stack([pts[name] for name in PIN_NAMES], axis=1)
+    return lines, np.stack([pts[name] for name in PIN_NAMES], axis=1), pts["P"]
 
 
-__all__ = ["MOVING", "PIN_NAMES", "STILL", "closed", "moving_drawings", "still_drawings"]
+__all__ = ["PIN_NAMES", "closed", "moving_drawings", "still_drawings"]

@@ -20,7 +20,7 @@ Jazzy stores the ``.srv`` text behind an ``SRV:`` delimiter, which no message pa
 settles on: the event type's own message definition, ``service_msgs/ServiceEventInfo info``,
 ``Name_Request[<=1] request``, ``Name_Response[<=1] response``, followed by the definitions of
 ``ServiceEventInfo`` (and its dependencies), the request and the response (the two halves of the
-``.srv`` text). Its RIHS01 hash is the one in the service's ``.json`` description.
+``.srv`` text).
 
 Only ``functools.lru_cache`` holds state: one entry per type.
 """
@@ -227,11 +227,7 @@ def full_definition(msg_type) -> str:
 
 @functools.lru_cache(maxsize=256)
 def _hash(name: str) -> str:
-    return _hash_in(name, name)
-
-
-def _hash_in(description: str, name: str) -> str:
-    path = interface_file(description, ".json")
+    path = interface_file(name, ".json")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         for entry in data["type_hashes"]:
@@ -243,13 +239,9 @@ def _hash_in(description: str, name: str) -> str:
 
 
 def type_hash(msg_type) -> str:
-    """The ``RIHS01_<sha256 hex>`` type description hash of a message type (from its ``.json``;
-    a service event's is in its service's ``.json``)."""
-    name = type_name(msg_type)
-    if is_service_event(name):
-        pkg, _ns, typ = _split(name)
-        return _hash_in(f"{pkg}/srv/{typ[: -len(SERVICE_EVENT_SUFFIX)]}", name)
-    return _hash(name)
+    """The ``RIHS01_<sha256 hex>`` type description hash of a message type (from its ``.json``).
+    Service events are not asked: their channels carry no hash (see :mod:`drs_ros.recording`)."""
+    return _hash(type_name(msg_type))
 
 
 __all__ = [

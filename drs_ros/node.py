@@ -62,8 +62,7 @@ from visualization_msgs.msg import MarkerArray
 
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
-from drs_model.kinematics import point_positions
-from drs_model.params import DRSParams, from_dict, from_file
+from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict, from_file
 
 from . import cdr, commands
 from .conversions import (
@@ -128,10 +127,6 @@ CLOCK_WAIT_WARNING_S = 2.0
 
 class StartupError(DRSError):
     """The node refuses to start: a parameter or a recording path is wrong (the reason says)."""
-
-
-def _model_fields() -> list[dataclasses.Field]:
-    return [f for f in dataclasses.fields(DRSParams) if not f.name.endswith("_outline")]
 
 
 @dataclasses.dataclass
@@ -231,7 +226,7 @@ class DRSNode(Node):
             force_method=gp("force_method").value,
         )
         self.max_catch_up = int(gp("max_catch_up_steps").value)
-        lines, pins = moving_drawings(np.array([[self.sim.s_min, 0.0, 0.0]]), self.params)
+        lines, pins, _ = moving_drawings(np.array([[self.sim.s_min, 0.0, 0.0]]), self.params)
         self._scene = MechanismMarkers(still_drawings(self.params),
                                        {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
                                        gp("frame_id").value)  # fmt: skip
@@ -363,7 +358,7 @@ class DRSNode(Node):
     def _declare_parameters(self) -> None:
         known = [name for name, *_ in NODE_PARAMETERS]
         # and the ones rclpy declares itself
-        known += [f"model.{f.name}" for f in _model_fields()]
+        known += [f"model.{name}" for name in NUMERIC_FIELDS]
         known += [name for name in self._parameters if name not in known]
         # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
         # the only place a misspelt name (never declared, silently ignored) can be seen
@@ -375,8 +370,8 @@ class DRSNode(Node):
                 raise StartupError(f"unknown parameter {name!r}{hint} (known: {', '.join(known)})")
         defaults = DRSParams()
         table = [*NODE_PARAMETERS] + [
-            (f"model.{f.name}", float(getattr(defaults, f.name)), f"DRSParams.{f.name} (SI)", None)
-            for f in _model_fields()
+            (f"model.{name}", float(getattr(defaults, name)), f"DRSParams.{name} (SI)", None)
+            for name in NUMERIC_FIELDS
         ]
         for name, default, description, valid in table:
             desc = ParameterDescriptor(description=description, read_only=True)
@@ -406,10 +401,10 @@ class DRSNode(Node):
         base = from_file(path) if path else DRSParams()
         overrides = {}
         defaults = DRSParams()
-        for f in _model_fields():
-            value = self.get_parameter(f"model.{f.name}").value
-            if value != float(getattr(defaults, f.name)):
-                overrides[f.name] = value
+        for name in NUMERIC_FIELDS:
+            value = self.get_parameter(f"model.{name}").value
+            if value != float(getattr(defaults, name)):
+                overrides[name] = value
         return from_dict(overrides, base=base) if overrides else base
 
     def effective_parameters(self) -> list[Parameter]:
@@ -720,13 +715,12 @@ class DRSNode(Node):
 
     def _markers(self, st, stamp: int) -> MarkerArray:
         """The mechanism at state ``st`` as RViz and Foxglove draw it (drs_ros.drawing)."""
-        lines, pins = moving_drawings(st.q[None, :], self.params)
-        force_at = point_positions(st.q[None, :], self.params, ("P",))["P"][0]
+        lines, pins, force_at = moving_drawings(st.q[None, :], self.params)
         # the outlines that never move go out once a second (a marker lives until replaced)
         still = self._last_still_t is None or st.t - self._last_still_t >= STILL_MARKERS_PERIOD_S
         if still:
             self._last_still_t = st.t
-        return self._scene.msg({k: v[0] for k, v in lines.items()}, pins[0], force_at,
+        return self._scene.msg({k: v[0] for k, v in lines.items()}, pins[0], force_at[0],
                                st.piston_force, stamp, with_still=still)
 
     def diagnostics_values(self) -> dict[str, object]:

@@ -46,6 +46,8 @@ from drs_model.constraints import PSI3, S
 from drs_model.errors import DRSError, InputError
 from drs_model.params import DRSParams
 
+from .drawing import PIN_NAMES, moving_drawings, still_drawings
+
 TIMELINE = "sim_time"
 #: URL schemes of a rerun gRPC endpoint (rerun-sdk 0.41), and an example of a valid URL.
 CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https")
@@ -62,7 +64,6 @@ SERIES = {
 #: Moving drawings.
 DRAWINGS = ("mechanism/piston", "mechanism/link", "mechanism/flap", "mechanism/gap",
             "mechanism/pins")
-_PIN_NAMES = ("A", "B", "C", "D", "R", "T")
 _COLORS = {
     "mechanism/piston": (120, 120, 120),
     "mechanism/link": (70, 70, 200),
@@ -184,10 +185,6 @@ def check_connect_url(url: str) -> str:
     return url
 
 
-def _closed(points: np.ndarray) -> np.ndarray:
-    return np.concatenate([points, points[..., :1, :]], axis=-2)
-
-
 class RerunRecorder:
     """Write the mechanism and its time series to an ``.rrd`` file, to a running rerun viewer or
     server, or to both.
@@ -298,32 +295,19 @@ class RerunRecorder:
 
     # ---- static scene ------------------------------------------------------------------------
     def _log_static(self) -> None:
-        p, rec = self.params, self.rec
-        box = np.array([[0.0, 0.0], [p.box_width, 0.0], [p.box_width, p.box_height],
-                        [0.0, p.box_height]])
-        statics = {
-            "mechanism/fia_box": _closed(box),
-            "mechanism/main_wing": _closed(kinematics.main_wing_outline(p)),
-            "mechanism/pylon": _closed(np.asarray(p.pylon_outline)),
-        }
-        for entity, strip in statics.items():
+        rec = self.rec
+        for name, strip in still_drawings(self.params).items():
+            entity = f"mechanism/{name}"
             rec.log(entity, rr.LineStrips2D([strip], colors=[_COLORS[entity]]), static=True)
         for entity, (label, color) in SERIES.items():
             rec.log(entity, rr.SeriesLines(colors=[color], names=[label]), static=True)
 
     # ---- geometry ----------------------------------------------------------------------------
     def _geometry(self, q: np.ndarray) -> dict[str, np.ndarray]:
-        """Drawings for configurations ``q`` of shape (n, 3): arrays with a leading n axis."""
-        p = self.params
-        pts = kinematics.point_positions(q, p, _PIN_NAMES)
-        gap_top = np.stack([pts["R"][:, 0], pts["T"][:, 1]], axis=-1)
-        return {
-            "mechanism/piston": np.stack([pts["A"], pts["B"]], axis=1),
-            "mechanism/link": np.stack([pts["B"], pts["C"]], axis=1),
-            "mechanism/flap": _closed(kinematics.flap_outline(q, p)),
-            "mechanism/gap": np.stack([pts["R"], gap_top], axis=1),
-            "mechanism/pins": np.stack([pts[name] for name in _PIN_NAMES], axis=1),
-        }
+        """Drawings for configurations ``q`` of shape (n, 3) (:mod:`drs_ros.drawing`): arrays
+        with a leading n axis."""
+        lines, pins, _force_at = moving_drawings(q, self.params)
+        return {**{f"mechanism/{k}": v for k, v in lines.items()}, "mechanism/pins": pins}
 
     def _series(self, q: np.ndarray, force: np.ndarray) -> dict[str, np.ndarray]:
         return {
@@ -438,7 +422,7 @@ class RerunRecorder:
             color = np.tile(np.array(_COLORS[entity], dtype=np.uint8), (idx.size, 1))
             if entity == "mechanism/pins":
                 cols = rr.Points2D.columns(positions=arr.reshape(-1, 2)).partition(
-                    [len(_PIN_NAMES)] * idx.size
+                    [len(PIN_NAMES)] * idx.size
                 )
             else:
                 # arr (n, k, 2): one strip per row; 36x faster than a list of strips

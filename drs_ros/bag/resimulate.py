@@ -29,7 +29,7 @@ import numpy as np
 
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
-from drs_model.params import DRSParams, assignment_overrides, from_dict, from_file
+from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, from_dict, from_file
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
@@ -225,12 +225,6 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> lis
     return out
 
 
-def _model_names() -> list[str]:
-    from dataclasses import fields
-
-    return [f.name for f in fields(DRSParams) if not f.name.endswith("_outline")]
-
-
 def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams) -> None:
     """The re-simulated run as a new bag: the parameters it ran with, then joint states, force,
     gap and acceleration at the recorded stamps (so ``drs-bag check`` checks it too)."""
@@ -245,7 +239,7 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
     names = list(run.node_parameters["joint_names"])
     tp = DEFAULT_TOPICS
     values = dict(run.node_parameters)
-    values.update({f"model.{k}": float(getattr(model, k)) for k in _model_names()})
+    values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
     with McapRecorder(out, flush_thread=False) as rec:
         rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
         first = run.joint_states[0][0] if run.joint_states else 0
