@@ -133,16 +133,18 @@ def _psi3_accels(b, bd, f, kc):
     return out
 
 
-def _to_q_qd(y, n, kc):
-    """``(q, qd)``, each ``(n, 3)``, from states ``y[:, :n]`` = [psi3, psi3'] (closed form)."""
-    q = np.empty((n, 3))
-    qd = np.empty((n, 3))
+def _output_block(t_out, y_out, n, kc):
+    """The run's output as one exact-size block ``(9, n)``: rows ``t``, ``[psi3, psi3']``, ``q``
+    and ``qd`` (``(s, psi1, psi3)`` and their rates, closed form) of the first ``n`` outputs. One
+    array crosses back to Python (each returned array costs a boxing of its own)."""
+    out = np.empty((9, n))
     for i in range(n):
-        b, bd = y[0, i], y[1, i]
+        b, bd = y_out[0, i], y_out[1, i]
         s, psi1, u0, u1 = psi3_configuration(b, kc)
-        q[i, 0], q[i, 1], q[i, 2] = s, psi1, b
-        qd[i, 0], qd[i, 1], qd[i, 2] = u0 * bd, u1 * bd, bd
-    return q, qd
+        out[0, i], out[1, i], out[2, i] = t_out[i], b, bd
+        out[3, i], out[4, i], out[5, i] = s, psi1, b
+        out[6, i], out[7, i], out[8, i] = u0 * bd, u1 * bd, bd
+    return out
 
 
 def _grow(t_out, y_out):
@@ -171,12 +173,16 @@ def _combination(K, tab_a, row, n):
 
 
 def _stages(K, s_from, s_to, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc):
-    """Stages ``s_from <= s < s_to`` of an explicit RK step into the rows of ``K`` (columns:
-    psi3', psi3'', piston force). The forces depend on the stage times only: all are evaluated
-    first, free of the stages' chain of dependencies. Returns ``(-1, 0.0)``, or the stage whose
-    piston force is not finite and that force."""
+    """Stages ``s_from <= s < s_to`` (``s_from >= 1``) of an explicit RK step into the rows of
+    ``K`` (columns: psi3', psi3'', piston force). The forces depend on the stage times only: all
+    are evaluated first, free of the stages' chain of dependencies; a stage at the same time as
+    the one before (``c = 1`` twice: the last stage and y_new) reuses its force. Returns
+    ``(-1, 0.0)``, or the stage whose piston force is not finite and that force."""
     for s in range(s_from, s_to):
-        K[s, 2] = _force(t + tab_c[s] * h, kind, value, mc, mp)
+        if tab_c[s] == tab_c[s - 1]:
+            K[s, 2] = K[s - 1, 2]
+        else:
+            K[s, 2] = _force(t + tab_c[s] * h, kind, value, mc, mp)
     for s in range(s_from, s_to):
         if not math.isfinite(K[s, 2]):
             return s, K[s, 2]
@@ -477,11 +483,12 @@ def _integrate(
 
 
 def _integrate_to_q(*args):
-    """:func:`_integrate` on ``args``, then ``(q, qd)`` of its output states: one call from
-    Python."""
-    out = _integrate(*args)
-    q, qd = _to_q_qd(out[3], out[1], args[9])
-    return out + (q, qd)
+    """:func:`_integrate` on ``args``, returned as ``(status, nfev, nsteps, nrejected, t_fail,
+    psi3_fail, psi3'_fail, info, segment, block)`` with the :func:`_output_block`: one call from
+    Python, one array back."""
+    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg = _integrate(*args)
+    block = _output_block(t_out, y_out, n_out, args[9])
+    return status, nfev, nsteps, nrej, t_fail, y_fail[0], y_fail[1], info, seg, block
 
 
 #: The driver's own functions, callees first; the kernels of :mod:`drs_model.kernels` are compiled
@@ -490,7 +497,7 @@ _DRIVER = (
     "_force",
     "_manoeuvre_forces",
     "_psi3_accels",
-    "_to_q_qd",
+    "_output_block",
     "_grow",
     "_rms_norm",
     "_combination",
@@ -695,6 +702,7 @@ def _segments_of(fobj, t0: float, t1: float, extra: tuple[float, ...]):
 
 
 _NO_MANOEUVRE = (np.zeros(kernels.N_CONSTANTS), np.ones(17))
+_NO_OUTPUT_TIMES = np.zeros(0)  # read-only to the driver
 _EPS = float(np.finfo(float).eps)
 
 
@@ -715,8 +723,9 @@ def _plan(
     stop_at_dead_centre,
     max_steps,
 ):
-    """The driver's arguments after the start state and the output times, validated. Cached: they
-    depend on these (hashable) inputs only, and the driver only reads them."""
+    """``(driver arguments after the start state and the output times, the segments as (start,
+    end) pairs [s])``, validated. Cached: they depend on these (hashable) inputs only, and the
+    driver only reads them."""
     if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
         raise InputError(f"t_span must be finite with t_end > t_start, got {(t0, t1)!r}")
     if not (rtol > 0.0 and math.isfinite(rtol)):
@@ -747,7 +756,7 @@ def _plan(
             )
     checks = _checks(form, lo, hi, stroke_range is not None, bool(stop_at_dead_centre))
     a, c, e, e3, dense, ns, n_ext, order, is853 = _tableau(method)
-    return (
+    driver_args = (
         edges,
         kinds,
         values,
@@ -771,51 +780,19 @@ def _plan(
         checks,
         int(max_steps),
     )
+    edge_list = edges.tolist()
+    return driver_args, tuple(zip(edge_list[:-1], edge_list[1:], strict=True))
 
 
-def _run(
-    form: Psi3Minimal,
-    fobj,
-    t_span,
-    y,
-    *,
-    method: str,
-    rtol: float,
-    atol,
-    t_eval,
-    first_step,
-    max_step: float,
-    min_step: float,
-    breakpoints=(),
-    stroke_range=None,
-    stop_at_dead_centre: bool = False,
-    max_steps: int = 1_000_000,
-    label: str | None = None,
-):
-    """Validate, run the compiled driver, raise its failure as a typed error or return the
-    :class:`~drs_model.forward.solution.Solution`."""
+def _run(form: Psi3Minimal, fobj, t_span, y, method: str, label: str, plan_key: tuple, t_eval):
+    """Run the compiled driver from state ``y``; raise its failure as a typed error or return the
+    :class:`~drs_model.forward.solution.Solution`. ``plan_key``: the arguments of :func:`_plan`
+    after ``(form, fobj, method, t0, t1)``."""
     load()
     t0, t1 = float(t_span[0]), float(t_span[1])
-    if atol is not None:
-        atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
-    plan = _plan(
-        form,
-        fobj,
-        method,
-        t0,
-        t1,
-        rtol,
-        atol,
-        first_step,
-        max_step,
-        min_step,
-        tuple(breakpoints),
-        None if stroke_range is None else tuple(stroke_range),
-        bool(stop_at_dead_centre),
-        max_steps,
-    )
+    plan, segments = _plan(form, fobj, method, t0, t1, *plan_key)
     if t_eval is None:
-        te, has_eval = np.zeros(0), False
+        te, has_eval = _NO_OUTPUT_TIMES, False
     else:
         te = np.ascontiguousarray(t_eval, dtype=np.float64)
         if te.ndim != 1 or np.any(te < t0) or np.any(te > t1):
@@ -823,27 +800,29 @@ def _run(
         if np.any(np.diff(te) < 0.0):
             raise InputError("t_eval must be sorted in increasing order")
         has_eval = True
-    out = _integrate_to_q(float(y[0]), float(y[1]), te, has_eval, *plan)
-    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg, q, qd = out
-    edges, checks = plan[0], plan[-2]
+    status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block = _integrate_to_q(
+        float(y[0]), float(y[1]), te, has_eval, *plan
+    )
     if status != OK:
-        label = label or f"{method}-numba"
-        _raise(status, label, t_fail, y_fail, info, seg, edges, checks, form.p, max_steps, min_step)
-    edge_list = edges.tolist()
+        edges, checks, max_steps, min_step = plan[0], plan[-2], plan[-1], plan[-3]
+        _raise(status, label, t_fail, (b_fail, bd_fail), info, seg, edges, checks, form.p,
+               max_steps, min_step)  # fmt: skip
+    n_out = block.shape[1]
+    # views into the one block the driver returned (q, qd: (n, 3), Fortran order)
     return Solution(
         form.name,
-        label or f"{method}-numba",
-        t_out[:n_out].copy(),
-        y_out[:, :n_out].copy(),
-        q,
-        qd,
+        label,
+        block[0],
+        block[1:3],
+        block[3:6].T,
+        block[6:9].T,
         np.zeros(n_out),
         np.zeros(n_out),
         nfev,
         0,
         0,
         nsteps,
-        list(zip(edge_list[:-1], edge_list[1:], strict=True)),
+        list(segments),
         nrej,
     )
 
@@ -989,17 +968,26 @@ def run_formulation(
     initial=None,
     y0=None,
     label: str | None = None,
-    **options,
+    rtol: float = 1e-8,
+    atol=None,
+    t_eval=None,
+    first_step: float | None = None,
+    max_step: float = math.inf,
+    min_step: float = 1e-12,
+    breakpoints: tuple[float, ...] = (),
+    stroke_range: tuple[float, float] | None = None,
+    stop_at_dead_centre: bool = False,
+    max_steps: int = 1_000_000,
 ):
     """:func:`simulate_compiled` on a formulation instance (the hook of ``simulate``)."""
-    if isinstance(form, str):
-        raise InputError("run_formulation takes a formulation instance")
     if not isinstance(form, Psi3Minimal):
+        if isinstance(form, str):
+            raise InputError("run_formulation takes a formulation instance")
         raise InputError(
             f"the compiled methods integrate formulation 'psi3' only, got {form.name!r}; use a "
             f"scipy method for the others"
         )
-    if method not in ("dopri5", "dop853"):
+    if method not in COMPILED_METHODS.values():
         raise InputError(f"method must be 'dopri5' or 'dop853', got {method!r}")
     fobj = as_force(force)
     if y0 is not None:
@@ -1009,4 +997,17 @@ def run_formulation(
         y = form.initial_state(*initial)
     else:
         y = _rest_state(form.p)
-    return _run(form, fobj, t_span, y, method=method, label=label, **options)
+    if atol is not None:  # hashable, for the plan's cache
+        atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
+    plan_key = (
+        rtol,
+        atol,
+        first_step,
+        max_step,
+        min_step,
+        tuple(breakpoints),
+        None if stroke_range is None else tuple(stroke_range),
+        bool(stop_at_dead_centre),
+        max_steps,
+    )
+    return _run(form, fobj, t_span, y, method, label or f"{method}-numba", plan_key, t_eval)

@@ -163,7 +163,15 @@ def simulate(
         The s formulation approached the dead centre.
     """
     if isinstance(method, str) and method in COMPILED_METHODS:
-        solver_options = dict(
+        form, extra = _compiled_formulation(formulation, params, method, formulation_options)
+        return numba_rk.run_formulation(
+            form,
+            force,
+            t_span,
+            method=COMPILED_METHODS[method],
+            initial=initial,
+            y0=y0,
+            label=method,
             rtol=rtol,
             atol=atol,
             max_step=max_step,
@@ -171,17 +179,7 @@ def simulate(
             t_eval=t_eval,
             min_step=min_step,
             breakpoints=breakpoints,
-        )
-        return _simulate_compiled(
-            formulation,
-            force,
-            t_span,
-            y0,
-            params,
-            initial,
-            method,
-            solver_options,
-            formulation_options,
+            **extra,
         )
     if isinstance(formulation, Formulation):
         form = get_formulation(formulation, formulation.p, **formulation_options)
@@ -286,11 +284,11 @@ def simulate(
 _COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")
 
 
-def _simulate_compiled(
-    formulation, force, t_span, y0, params, initial, method, solver_options, options
-) -> Solution:
-    """``simulate`` with a compiled method: formulation (a) in :mod:`.numba_rk`."""
-    extra = {k: options.pop(k) for k in _COMPILED_OPTIONS if k in options}
+def _compiled_formulation(formulation, params, method: str, options: dict):
+    """``(formulation (a), the compiled driver's own options)`` for ``simulate`` with a compiled
+    method (:mod:`.numba_rk`); ``options`` are the formulation options, those of the driver
+    included."""
+    extra = {k: options.pop(k) for k in _COMPILED_OPTIONS if k in options} if options else {}
     name = formulation.name if isinstance(formulation, Formulation) else formulation
     if name != "psi3":
         raise InputError(
@@ -305,14 +303,4 @@ def _simulate_compiled(
         if options:
             check_options("psi3", options)
         form = numba_rk.psi3_formulation(params, **options)
-    return numba_rk.run_formulation(
-        form,
-        force,
-        t_span,
-        method=COMPILED_METHODS[method],
-        initial=initial,
-        y0=y0,
-        label=method,
-        **solver_options,
-        **extra,
-    )
+    return form, extra
