@@ -96,6 +96,17 @@ def manoeuvre_profile(t, k):
     return so + sc - k[16], vo + vc, ao + ac
 
 
+def profile_held(a, b, k):
+    """Whether :func:`manoeuvre_profile` ``k`` is held still over the whole of ``[a, b]`` [s]
+    (before the opening, between the segments, after the closing), to the bit: each segment's
+    local time ``t - t0`` is clipped to the same end for every ``t`` of ``[a, b]``, since a
+    floating-point difference is monotonic in ``t``. Then ``(s, s', s'')``, and any force of them,
+    is one value there. Planning, not a kernel: it is not compiled."""
+    open_held = b - k[0] <= 0.0 or a - k[0] >= k[1]
+    close_held = b - k[8] <= 0.0 or a - k[8] >= k[9]
+    return open_held and close_held
+
+
 def flap_gap(sin_psi3, gap0, tip_arm):
     """Gap ``T_y - R_y`` [m] at ``sin psi3``, with ``gap0 = y_D - R_y`` and ``tip_arm = |DT|``."""
     return gap0 - tip_arm * sin_psi3

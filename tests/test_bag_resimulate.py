@@ -52,8 +52,11 @@ def test_a_heavier_flap_changes_what_the_run_needed(node_bag, tmp_path):
     rows = {r["signal"]: r for r in report["signals"]}
     assert rows["piston_force"]["max_deviation"] > 100.0  # N
     assert rows["stroke"]["max_deviation"] > 1e-3  # m, in force mode
-    check = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "check",
-                            str(tmp_path / "heavy")], capture_output=True, text=True)
+    check = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "check", str(tmp_path / "heavy")],
+        capture_output=True,
+        text=True,
+    )
     assert check.returncode == 0, check.stdout[-2000:] + check.stderr
     # the re-run's own inverse dynamics: its force follows the heavier model, checked by the
     # independent replay check above; and its params are the changed ones

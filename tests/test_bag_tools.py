@@ -50,8 +50,11 @@ def judge_with_rosbags(bag: Path) -> dict[str, int]:
             if conn.topic == SERVICE_EVENTS:  # rosbags' own name for the type (see the docstring)
                 store.register(get_types_from_msg(conn.msgdef.data, conn.msgtype))
         for conn, _t, raw in reader.messages():
-            name = conn.msgtype.replace("/srv/", "/srv/msg/") if conn.topic == SERVICE_EVENTS \
+            name = (
+                conn.msgtype.replace("/srv/", "/srv/msg/")
+                if conn.topic == SERVICE_EVENTS
                 else conn.msgtype
+            )
             again = bytes(store.serialize_cdr(store.deserialize_cdr(raw, name), name))
             assert again == bytes(raw), f"{conn.topic}: recorded bytes are not the exact CDR"
             counts[conn.topic] = counts.get(conn.topic, 0) + 1
@@ -107,8 +110,10 @@ def test_info_prints_what_ros2_bag_info_prints(node_bag):
     for topic, n in counts.items():
         if topic != SERVICE_EVENTS:
             assert f"Topic: {topic} | Type: " in out and f" | Count: {n} | " in out
-    assert f"Service: /drs/drs | Type: std_srvs/srv/SetBool | Event Count: " \
-           f"{counts[SERVICE_EVENTS]}" in out
+    assert (
+        f"Service: /drs/drs | Type: std_srvs/srv/SetBool | Event Count: "
+        f"{counts[SERVICE_EVENTS]}" in out
+    )
     assert f"Messages:          {sum(counts.values()) - counts[SERVICE_EVENTS]}" in out
 
 

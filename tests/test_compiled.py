@@ -147,6 +147,34 @@ def test_same_steps_as_the_scipy_twin(params, mforce, grid, method):
     np.testing.assert_allclose(ours.s, ref.s, rtol=0.0, atol=1e-11)
 
 
+@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+@pytest.mark.parametrize("dense", [False, True])
+def test_the_held_segment_evaluates_its_force_once_and_changes_no_bit(
+    params, mforce, grid, method, dense
+):
+    """The hold (10-40 ms) runs on one force value (kernels.profile_held): the run is the same,
+    bit for bit, as one that calls the manoeuvre kernel at every stage of the hold."""
+    form = compiled.psi3_formulation(params)
+    args, _ = compiled._plan(
+        form, mforce, method, 0.0, params.T_total, 1e-7, None, None, math.inf, 1e-12, (), None,
+        False, 1_000_000,
+    )  # fmt: skip
+    kinds = args[1]
+    assert kinds.tolist() == [1, 0, 1]  # manoeuvre kernel, one value, manoeuvre kernel
+    every_stage = (args[0], np.ones_like(kinds), *args[2:])
+    y = compiled._rest_state(params)
+    te = grid if dense else np.zeros(0)
+    held = compiled._integrate(y[0], y[1], te, dense, *args)
+    kernel = compiled._integrate(y[0], y[1], te, dense, *every_stage)
+    assert held[0] == compiled.OK
+    assert held[:9] == kernel[:9]  # status, nfev, steps, rejections, ...
+    np.testing.assert_array_equal(held[9], kernel[9])  # t, y, q, qd: every bit
+    # and the scipy path's piece of the hold is the kernel's value too
+    piece = mforce.segment(params.T_opening, params.T_opening + params.T_still)
+    for t in np.linspace(params.T_opening, params.T_opening + params.T_still, 7):
+        assert piece(t) == mforce(t)
+
+
 @pytest.mark.parametrize("method", METHODS)
 def test_agrees_with_scipy_dop853_at_tight_tolerance(params, mforce, grid, method):
     ref = simulate(

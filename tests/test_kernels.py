@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from drs_model import kernels
 from drs_model.bodies import model_constants
@@ -72,3 +74,47 @@ def _source(name, *fns):
 
     fn = {f.__name__: f for f in fns}[name]
     return ast.parse(textwrap.dedent(inspect.getsource(fn))).body[0]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    t0_open=st.floats(-0.02, 0.02),
+    fractions=st.tuples(st.floats(0.0, 1.0), st.floats(0.0, 1.0), st.floats(0.0, 1.0)),
+)
+def test_a_held_profile_is_one_value_to_the_bit(params, t0_open, fractions):
+    """Where profile_held says the manoeuvre holds still over [a, b], the kernel force at any t
+    in it equals the force at the middle bit for bit (the compiled path and ManoeuvreForce then
+    evaluate it once per segment); where the rod moves somewhere in [a, b] it says no."""
+    c = model_constants(params)
+    k = list(drs_manoeuvre(params).constants())
+    k[0] += t0_open  # shift the whole manoeuvre: t0 - k[0] is then rounded differently
+    k[8] += t0_open
+    opening_end, closing_start, closing_end = k[0] + k[1], k[8], k[8] + k[9]
+    spans = {
+        "before": (k[0] - 0.01, k[0]),
+        "hold": (opening_end, closing_start),
+        "after": (closing_end, closing_end + 0.01),
+    }
+    for name, (lo, hi) in spans.items():
+        lo, hi = lo + 1e-9, hi - 1e-9  # clear of the joints, whose sums round either way
+        a = lo + (hi - lo) * min(fractions[:2])
+        b = lo + (hi - lo) * max(fractions[:2])
+        assert kernels.profile_held(a, b, k), (name, a, b)
+        held = kernels.SCALAR.manoeuvre_force(0.5 * (a + b), c, k)
+        for t in (a, b, a + (b - a) * fractions[2]):
+            assert kernels.SCALAR.manoeuvre_force(t, c, k) == held, (name, t)
+    # any span that reaches into the opening or the closing moves
+    assert not kernels.profile_held(k[0] - 1e-3, k[0] + 1e-6, k)
+    assert not kernels.profile_held(opening_end - 1e-6, closing_start, k)
+    assert not kernels.profile_held(opening_end, closing_start + 1e-6, k)
+    assert not kernels.profile_held(closing_end - 1e-6, closing_end + 1e-3, k)
+
+
+def test_the_seed_hold_is_held_from_joint_to_joint(params):
+    """The seed's hold segment, exactly between its breakpoints (10 and 40 ms), is held: the
+    compiled path evaluates its force once."""
+    k = drs_manoeuvre(params).constants()
+    kinks = drs_manoeuvre(params).kinks
+    assert kernels.profile_held(kinks[1], kinks[2], k)
+    assert not kernels.profile_held(kinks[0], kinks[1], k)
+    assert not kernels.profile_held(kinks[2], kinks[3], k)

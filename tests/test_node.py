@@ -432,11 +432,17 @@ def test_an_integer_for_a_double_parameter_is_accepted(ros_context):
 @pytest.mark.parametrize(
     ("overrides", "match"),
     [
-        ([Parameter("publish_rate", value=500.0)], r"unknown parameter 'publish_rate'; did you "
-                                                   r"mean 'publish_rate_hz'\?"),
+        (
+            [Parameter("publish_rate", value=500.0)],
+            r"unknown parameter 'publish_rate'; did you "
+            r"mean 'publish_rate_hz'\?",
+        ),
         ([Parameter("model.Iz_wnig", value=0.08)], r"did you mean 'model.Iz_wing'\?"),
-        ([Parameter("publish_rate_hz", value=1500.0)], r"publish_rate_hz 1500 exceeds "
-                                                        r"physics_rate_hz 1000"),
+        (
+            [Parameter("publish_rate_hz", value=1500.0)],
+            r"publish_rate_hz 1500 exceeds "
+            r"physics_rate_hz 1000",
+        ),
         ([Parameter("executor", value="events")], r"executor must be one of"),
     ],
 )

@@ -107,7 +107,10 @@ def test_a_signal_during_a_callback_is_still_a_clean_stop(tmp_path, request):
     rng = random.Random(7)
     for k in range(10):
         proc = start_node(
-            tmp_path, request, f"bag_path:={tmp_path / f'bag{k}'}", "publish_rate_hz:=2000.0",
+            tmp_path,
+            request,
+            f"bag_path:={tmp_path / f'bag{k}'}",
+            "publish_rate_hz:=2000.0",
             "physics_rate_hz:=2000.0",
         )
         try:

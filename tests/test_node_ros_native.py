@@ -78,7 +78,8 @@ def test_markers_draw_the_published_joint_state(ros_context, params):
                                        atol=1e-9, rtol=0)  # fmt: skip
             # the arrow's length is the piston force, 1e-5 m/N
             assert arrow.points[1].y - arrow.points[0].y == pytest.approx(
-                1e-5 * js.effort[0], abs=1e-12)
+                1e-5 * js.effort[0], abs=1e-12
+            )
             assert all(abs(p.z) == 0.0 for m in arr.markers for p in m.points)
             checked += 1
         assert checked >= 5
@@ -183,8 +184,13 @@ def test_every_lifecycle_transition_over_the_standard_services(ros_context, tmp_
 def test_a_failing_configure_is_reported_and_leaves_nothing(ros_context, tmp_path):
     rrd = tmp_path / "run.rrd"
     rrd.write_bytes(b"an earlier recording")
-    node = ManagedDRSNode(context=ros_context, parameter_overrides=[
-        Parameter("bag_path", value=str(tmp_path / "bag")), Parameter("rrd_path", value=str(rrd))])
+    node = ManagedDRSNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("bag_path", value=str(tmp_path / "bag")),
+            Parameter("rrd_path", value=str(rrd)),
+        ],
+    )
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     manager = Lifecycle(ros_context, ex)
@@ -214,15 +220,23 @@ def test_the_parameter_file_holds_every_parameter_at_its_default(ros_context):
         node.destroy_node()
     text = CONFIG.read_text().splitlines()
     for i, line in enumerate(text):  # a comment above every parameter
-        if line.startswith("    ") and ":" in line and not line.strip().startswith("#") \
-                and line.strip() not in ("model:", "ros__parameters:"):
+        if (
+            line.startswith("    ")
+            and ":" in line
+            and not line.strip().startswith("#")
+            and line.strip() not in ("model:", "ros__parameters:")
+        ):
             assert text[i - 1].strip().startswith("#"), line
 
 
 def _run_node(tmp_path, request, *ros_args, seconds=3.0):
-    proc = subprocess.Popen([sys.executable, "-m", "drs_ros", "--ros-args", *ros_args],
-                            env=node_env(tmp_path, domain_for(request.node.nodeid)),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "drs_ros", "--ros-args", *ros_args],
+        env=node_env(tmp_path, domain_for(request.node.nodeid)),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         rc = proc.wait(timeout=seconds)  # a refusal ends it at once
     except subprocess.TimeoutExpired:

@@ -20,8 +20,22 @@ from ros_support import JOINT_NAMES, require_module, require_rclpy, write_drs_ba
 pytestmark = pytest.mark.ros
 yaml = require_module("yaml")  # installed with the ros extra; skips (outside CI) without it
 
-PRIMITIVES = {"bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16",
-              "int32", "uint32", "int64", "uint64", "string"}
+PRIMITIVES = {
+    "bool",
+    "byte",
+    "char",
+    "float32",
+    "float64",
+    "int8",
+    "uint8",
+    "int16",
+    "uint16",
+    "int32",
+    "uint32",
+    "int64",
+    "uint64",
+    "string",
+}
 
 
 def _share(pkg: str) -> Path:
@@ -124,8 +138,11 @@ def test_schema_text_of_diagnostics_matches_independent_build():
     require_rclpy()
     from drs_ros import msgdefs
 
-    for name in ("diagnostic_msgs/msg/DiagnosticArray", "sensor_msgs/msg/JointState",
-                 "trajectory_msgs/msg/JointTrajectory"):
+    for name in (
+        "diagnostic_msgs/msg/DiagnosticArray",
+        "sensor_msgs/msg/JointState",
+        "trajectory_msgs/msg/JointTrajectory",
+    ):
         assert msgdefs.full_definition(name) == independent_definition(name)
         assert msgdefs.type_hash(name) == json_hash(name)
     from sensor_msgs.msg import JointState
@@ -160,8 +177,10 @@ def test_rosbags_and_mcap_ros2_decode_the_same_values(bag):
     for source in (rec.path, rec.bag_dir):  # a bare .mcap and the bag directory
         with AnyReader([Path(source)]) as reader:
             conns = [c for c in reader.connections if c.topic == "/drs/piston_force"]
-            values = [reader.deserialize(raw, c.msgtype).data
-                      for c, _, raw in reader.messages(connections=conns)]
+            values = [
+                reader.deserialize(raw, c.msgtype).data
+                for c, _, raw in reader.messages(connections=conns)
+            ]
             np.testing.assert_array_equal(values, force)
 
 
@@ -264,7 +283,9 @@ def test_sigkill_leaves_a_recoverable_prefix(tmp_path):
     bag_dir = tmp_path / "killed"
     proc = subprocess.Popen(
         [sys.executable, "-c", CHILD, str(bag_dir)],
-        stdout=subprocess.PIPE, text=True, env=dict(os.environ),
+        stdout=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ),
         cwd=str(Path(__file__).resolve().parents[1]),
     )
     lines: list[str] = []

@@ -224,7 +224,9 @@ def test_streams_live_without_a_file(tmp_path, params, rerun_server):
         )
 
     assert wait_for(arrived), read_rows(received)
-    with pytest.raises(RerunLogError, match=r"rerun recorder of 'rerun\+http://127.0.0.1:\d+/proxy'"):
+    with pytest.raises(
+        RerunLogError, match=r"rerun recorder of 'rerun\+http://127.0.0.1:\d+/proxy'"
+    ):
         rec.log_state(1.0, q[0])
 
 

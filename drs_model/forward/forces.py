@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InputError, IntegrationError
 from ..inverse import FusedInverseDynamics
-from ..kernels import SCALAR
+from ..kernels import SCALAR, profile_held
 from ..kinematics import solve_position
 from ..params import DRSParams
 
@@ -148,7 +148,12 @@ class ManoeuvreForce:
         return SCALAR.manoeuvre_force(float(t), self.inverse.consts, self.inverse.profile)
 
     def segment(self, a: float, b: float) -> Callable[[float], float]:
+        """The force on ``[a, b]`` [s]: one value where the manoeuvre is held still over all of
+        it (:func:`~drs_model.kernels.profile_held`), else the kernel at each t."""
         consts, profile, force = self.inverse.consts, self.inverse.profile, SCALAR.manoeuvre_force
+        if profile_held(a, b, profile):
+            held = force(0.5 * (a + b), consts, profile)
+            return lambda t: held
         return lambda t: force(t, consts, profile)
 
     def profile(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -344,13 +344,14 @@ def _integrate(
 
     ``tab_a`` (n_ext, n_ext) holds the stages' coefficients with the weights B in row ``ns``
     (``y_new`` is "stage" ``ns`` at ``c = 1``, FSAL) and the dense-output stages of DOP853 in
-    the rows after it. Returns ``(status, n_out, t_out, y_out, nfev, nsteps, nrejected, t_fail,
-    y_fail, info, segment)``; ``y_out`` has shape ``(2, >= n_out)``; ``info`` is the offending
-    step size, force, cos psi1, psi3 or stroke of a failure.
+    the rows after it. Returns ``(status, nfev, nsteps, nrejected, t_fail, psi3_fail,
+    psi3'_fail, info, segment, block)``: ``info`` is the offending step size, force, cos psi1,
+    psi3 or stroke of a failure, ``block`` the :func:`_output_block` of the outputs (one call
+    from Python, one array back).
     """
     expo = -1.0 / (err_order + 1.0)
     K = np.zeros((n_ext, 3))  # psi3', psi3'', piston force per stage
-    y_fail = np.zeros(2)
+    b_fail = bd_fail = 0.0
     n_eval = t_eval.shape[0]
     if has_eval:
         t_out = t_eval.copy()
@@ -433,14 +434,14 @@ def _integrate(
                 rejected = True
                 nrej += 1
             if status != OK:
-                y_fail[0], y_fail[1] = y0, y1
+                b_fail, bd_fail = y0, y1
                 break
             nsteps += 1
             status, info = _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc)
             if status == OK and nsteps >= max_steps and not (seg == n_seg - 1 and t_new == b):
                 status = TOO_MANY_STEPS
             if status != OK:
-                y_fail[0], y_fail[1], t_fail = yn0, yn1, t_new
+                b_fail, bd_fail, t_fail = yn0, yn1, t_new
                 break
             # ---- output: dense at the requested times, or the step itself
             if has_eval:
@@ -479,16 +480,8 @@ def _integrate(
             K[0, 1] = K[ns, 1]
         if status != OK:
             break
-    return status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg
-
-
-def _integrate_to_q(*args):
-    """:func:`_integrate` on ``args``, returned as ``(status, nfev, nsteps, nrejected, t_fail,
-    psi3_fail, psi3'_fail, info, segment, block)`` with the :func:`_output_block`: one call from
-    Python, one array back."""
-    status, n_out, t_out, y_out, nfev, nsteps, nrej, t_fail, y_fail, info, seg = _integrate(*args)
-    block = _output_block(t_out, y_out, n_out, args[9])
-    return status, nfev, nsteps, nrej, t_fail, y_fail[0], y_fail[1], info, seg, block
+    block = _output_block(t_out, y_out, n_out, kc)
+    return status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block
 
 
 #: The driver's own functions, callees first; the kernels of :mod:`drs_model.kernels` are compiled
@@ -507,7 +500,6 @@ _DRIVER = (
     "_initial_step",
     "_check_step",
     "_integrate",
-    "_integrate_to_q",
 )
 _LOADED = False
 
@@ -687,7 +679,14 @@ def _segments_of(fobj, t0: float, t1: float, extra: tuple[float, ...]):
     kinds = np.zeros(n, dtype=np.int64)
     values = np.zeros(n, dtype=np.float64)
     if isinstance(fobj, ManoeuvreForce):
-        kinds[:] = _MANOEUVRE
+        # where the manoeuvre is held still the force is one value: no kernel call per stage
+        mc, mp = manoeuvre_constants(fobj)
+        for i in range(n):
+            if kernels.profile_held(edges[i], edges[i + 1], mp):
+                mid = np.array([0.5 * (edges[i] + edges[i + 1])])
+                values[i] = _manoeuvre_forces(mid, mc, mp)[0]  # compiled: the driver's own
+            else:
+                kinds[i] = _MANOEUVRE
     elif isinstance(fobj, ConstantForce):
         values[:] = fobj.value
     elif isinstance(fobj, StepForce):
@@ -782,49 +781,6 @@ def _plan(
     )
     edge_list = edges.tolist()
     return driver_args, tuple(zip(edge_list[:-1], edge_list[1:], strict=True))
-
-
-def _run(form: Psi3Minimal, fobj, t_span, y, method: str, label: str, plan_key: tuple, t_eval):
-    """Run the compiled driver from state ``y``; raise its failure as a typed error or return the
-    :class:`~drs_model.forward.solution.Solution`. ``plan_key``: the arguments of :func:`_plan`
-    after ``(form, fobj, method, t0, t1)``."""
-    load()
-    t0, t1 = float(t_span[0]), float(t_span[1])
-    plan, segments = _plan(form, fobj, method, t0, t1, *plan_key)
-    if t_eval is None:
-        te, has_eval = _NO_OUTPUT_TIMES, False
-    else:
-        te = np.ascontiguousarray(t_eval, dtype=np.float64)
-        if te.ndim != 1 or np.any(te < t0) or np.any(te > t1):
-            raise InputError(f"t_eval must be 1-D within t_span {t_span!r}")
-        if np.any(np.diff(te) < 0.0):
-            raise InputError("t_eval must be sorted in increasing order")
-        has_eval = True
-    status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block = _integrate_to_q(
-        float(y[0]), float(y[1]), te, has_eval, *plan
-    )
-    if status != OK:
-        edges, checks, max_steps, min_step = plan[0], plan[-2], plan[-1], plan[-3]
-        _raise(status, label, t_fail, (b_fail, bd_fail), info, seg, edges, checks, form.p,
-               max_steps, min_step)  # fmt: skip
-    n_out = block.shape[1]
-    # views into the one block the driver returned (q, qd: (n, 3), Fortran order)
-    return Solution(
-        form.name,
-        label,
-        block[0],
-        block[1:3],
-        block[3:6].T,
-        block[6:9].T,
-        np.zeros(n_out),
-        np.zeros(n_out),
-        nfev,
-        0,
-        0,
-        nsteps,
-        list(segments),
-        nrej,
-    )
 
 
 def _raise(status, label, t, y, info, seg, edges, checks, p, max_steps, min_step):
@@ -979,7 +935,9 @@ def run_formulation(
     stop_at_dead_centre: bool = False,
     max_steps: int = 1_000_000,
 ):
-    """:func:`simulate_compiled` on a formulation instance (the hook of ``simulate``)."""
+    """:func:`simulate_compiled` on a formulation instance (the hook of ``simulate``): validate,
+    run the compiled driver, raise its failure as a typed error or return the
+    :class:`~drs_model.forward.solution.Solution`."""
     if not isinstance(form, Psi3Minimal):
         if isinstance(form, str):
             raise InputError("run_formulation takes a formulation instance")
@@ -987,19 +945,25 @@ def run_formulation(
             f"the compiled methods integrate formulation 'psi3' only, got {form.name!r}; use a "
             f"scipy method for the others"
         )
-    if method not in COMPILED_METHODS.values():
-        raise InputError(f"method must be 'dopri5' or 'dop853', got {method!r}")
+    if not _LOADED:
+        load()
     fobj = as_force(force)
+    t0, t1 = float(t_span[0]), float(t_span[1])
     if y0 is not None:
         y = np.asarray(y0, dtype=float).reshape(2)
-        form.check(float(t_span[0]), y)
+        form.check(t0, y)
     elif initial is not None:
         y = form.initial_state(*initial)
     else:
         y = _rest_state(form.p)
     if atol is not None:  # hashable, for the plan's cache
         atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
-    plan_key = (
+    plan, segments = _plan(
+        form,
+        fobj,
+        method,
+        t0,
+        t1,
         rtol,
         atol,
         first_step,
@@ -1010,4 +974,38 @@ def run_formulation(
         bool(stop_at_dead_centre),
         max_steps,
     )
-    return _run(form, fobj, t_span, y, method, label or f"{method}-numba", plan_key, t_eval)
+    if t_eval is None:
+        te, has_eval = _NO_OUTPUT_TIMES, False
+    else:
+        te = np.ascontiguousarray(t_eval, dtype=np.float64)
+        if te.ndim != 1 or np.any(te < t0) or np.any(te > t1):
+            raise InputError(f"t_eval must be 1-D within t_span {t_span!r}")
+        if np.any(np.diff(te) < 0.0):
+            raise InputError("t_eval must be sorted in increasing order")
+        has_eval = True
+    status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block = _integrate(
+        float(y[0]), float(y[1]), te, has_eval, *plan
+    )
+    label = label or f"{method}-numba"
+    if status != OK:
+        edges, min_step, checks, max_steps = plan[0], plan[-3], plan[-2], plan[-1]
+        _raise(status, label, t_fail, (b_fail, bd_fail), info, seg, edges, checks, form.p,
+               max_steps, min_step)  # fmt: skip
+    n_out = block.shape[1]
+    # views into the one block the driver returned (q, qd: (n, 3), Fortran order)
+    return Solution(
+        form.name,
+        label,
+        block[0],
+        block[1:3],
+        block[3:6].T,
+        block[6:9].T,
+        np.zeros(n_out),
+        np.zeros(n_out),
+        nfev,
+        0,
+        0,
+        nsteps,
+        list(segments),
+        nrej,
+    )
