@@ -246,6 +246,22 @@ def projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, u2, w0, w1, w2, c):
     return umu, umw + uh, u0 * q0 + u1 * q1 + u2 * q2
 
 
+def psi3_position(b, c):
+    """``(sin psi3, cos psi3, s, sin psi1, cos psi1, cos^2 psi1)`` at ``psi3 = b`` [rad] on
+    branch 1 (:func:`flap_position`); ``cos^2 psi1 <= 0``: no assembly."""
+    sb, cb = math.sin(b), math.cos(b)
+    s, sa, ca, ca2 = flap_position(sb, cb, c, 1.0)
+    return sb, cb, s, sa, ca, ca2
+
+
+def psi3_acceleration_at(b, bd, force, sb, cb, sa, ca, c):
+    """:func:`psi3_acceleration` at a position already solved by :func:`psi3_position` (the
+    compiled driver keeps that position for its step checks); NaN where ``cos psi1 = 0``."""
+    u0, u1, w0, w1 = flap_rates(sa, ca, sb, cb, c)
+    umu, quad, uq0 = projected_dynamics(sa, ca, sb, cb, b, u0, u1, 1.0, w0, w1, 0.0, c)
+    return (uq0 + u0 * force - bd * bd * quad) / umu
+
+
 def psi3_acceleration(b, bd, force, c):
     r"""Formulation (a): ``psi3''`` [rad/s^2] at ``psi3 = b`` [rad], ``psi3' = bd`` [rad/s] under
     the piston force [N]; NaN where the loop cannot close (a trial stage the error control
@@ -253,20 +269,17 @@ def psi3_acceleration(b, bd, force, c):
 
     .. math::  \ddot\psi_3 = \frac{u^T Q - \dot\psi_3^2\,(u^T M w + u^T h(q, u))}{u^T M u}
     """
-    sb, cb = math.sin(b), math.cos(b)
-    _, sa, ca, ca2 = flap_position(sb, cb, c, 1.0)
+    sb, cb, _, sa, ca, ca2 = psi3_position(b, c)
     if not ca2 > 0.0:  # no assembly (or NaN)
         return math.nan
-    u0, u1, w0, w1 = flap_rates(sa, ca, sb, cb, c)
-    umu, quad, uq0 = projected_dynamics(sa, ca, sb, cb, b, u0, u1, 1.0, w0, w1, 0.0, c)
-    return (uq0 + u0 * force - bd * bd * quad) / umu
+    acc = psi3_acceleration_at(b, bd, force, sb, cb, sa, ca, c)
+    return acc
 
 
 def psi3_configuration(b, c):
     """``(s, psi1, u_s, u_psi1)`` at ``psi3 = b`` [rad] on branch 1: the dependent coordinates
     [m, rad] and their rates per unit psi3 rate."""
-    sb, cb = math.sin(b), math.cos(b)
-    s, sa, ca, _ = flap_position(sb, cb, c, 1.0)
+    sb, cb, s, sa, ca, _ = psi3_position(b, c)
     u0, u1, _, _ = flap_rates(sa, ca, sb, cb, c)
     return s, math.asin(clip(sa, -1.0, 1.0)), u0, u1
 
@@ -333,6 +346,8 @@ KERNELS = (
     "flap_rates",
     "generalised_forces",
     "projected_dynamics",
+    "psi3_position",
+    "psi3_acceleration_at",
     "psi3_acceleration",
     "psi3_configuration",
     "fused_force",
@@ -440,8 +455,25 @@ def _inline(body: list[ast.stmt], count: list[int]) -> list[ast.stmt]:
                 binds.append(ast.Assign([ast.Name(prefix + param, ast.Store())], arg))
         renamer = _Rename(_local_names(callee), prefix, bound)
         out += binds + [renamer.visit(s) for s in steps]
-        out.append(ast.Assign(stmt.targets, renamer.visit(last.value)))
+        out += _assign(stmt.targets[0], renamer.visit(last.value))
     return out
+
+
+def _assign(target: ast.expr, value: ast.expr) -> list[ast.stmt]:
+    """``target = value``; a tuple returned into names one by one (CPython builds and unpacks a
+    tuple of more than three otherwise) where no element reads a name the tuple assigns, so the
+    order of the assignments cannot matter."""
+    if (
+        isinstance(target, ast.Tuple)
+        and isinstance(value, ast.Tuple)
+        and len(target.elts) == len(value.elts)
+        and all(isinstance(t, ast.Name) for t in target.elts)
+    ):
+        assigned = {t.id for t in target.elts}
+        read = {n.id for n in ast.walk(value) if isinstance(n, ast.Name)}
+        if not assigned & read:
+            return [ast.Assign([t], v) for t, v in zip(target.elts, value.elts, strict=True)]
+    return [ast.Assign([target], value)]
 
 
 _INDEX_NAMES = (

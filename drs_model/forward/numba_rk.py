@@ -59,7 +59,13 @@ from ..errors import (
     SingularConfigurationError,
     StrokeRangeError,
 )
-from ..kernels import flap_position, manoeuvre_force, psi3_acceleration, psi3_configuration
+from ..kernels import (
+    manoeuvre_force,
+    psi3_acceleration,
+    psi3_acceleration_at,
+    psi3_configuration,
+    psi3_position,
+)
 from ..kinematics import dead_centre, solve_position
 from ..params import DRSParams
 from .forces import ConstantForce, ManoeuvreForce, StepForce, as_force
@@ -177,7 +183,9 @@ def _stages(K, s_from, s_to, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc
     ``K`` (columns: psi3', psi3'', piston force). The forces depend on the stage times only: all
     are evaluated first, free of the stages' chain of dependencies; a stage at the same time as
     the one before (``c = 1`` twice: the last stage and y_new) reuses its force. Returns
-    ``(-1, 0.0)``, or the stage whose piston force is not finite and that force."""
+    ``(-1, 0.0, s, cos psi1)`` with the stroke [m] and ``cos psi1`` of the last stage (that of
+    ``y_new`` for the stages of a step: its checks need no position of their own), or ``(the
+    stage whose piston force is not finite, that force, NaN, NaN)``."""
     for s in range(s_from, s_to):
         if tab_c[s] == tab_c[s - 1]:
             K[s, 2] = K[s - 1, 2]
@@ -185,13 +193,17 @@ def _stages(K, s_from, s_to, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc
             K[s, 2] = _force(t + tab_c[s] * h, kind, value, mc, mp)
     for s in range(s_from, s_to):
         if not math.isfinite(K[s, 2]):
-            return s, K[s, 2]
+            return s, K[s, 2], math.nan, math.nan
+    stroke = cos1 = math.nan
     for s in range(s_from, s_to):
         s0, s1 = _combination(K, tab_a, s, s)
+        ys0 = y0 + s0 * h
         ys1 = y1 + s1 * h
         K[s, 0] = ys1
-        K[s, 1] = psi3_acceleration(y0 + s0 * h, ys1, K[s, 2], kc)
-    return -1, 0.0
+        # psi3_acceleration in its two halves (NaN where the loop cannot close, as there)
+        sb, cb, stroke, sa, cos1, _ = psi3_position(ys0, kc)
+        K[s, 1] = psi3_acceleration_at(ys0, ys1, K[s, 2], sb, cb, sa, cos1, kc)
+    return -1, 0.0, stroke, cos1
 
 
 def _error_norm(K, ns, h, tab_e, tab_e3, sc0, sc1, is853):
@@ -294,14 +306,14 @@ def _initial_step(t, b, y0, y1, f1, kind, value, mc, mp, kc, rtol, atol, err_ord
     return min(100.0 * h0, h1, b - t, max_step), fo
 
 
-def _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc):
+def _check_step(t_new, b, h, yn0, yn1, s_new, cos1, min_step, checks):
     """The checks after an accepted step (the Guarded solver's and Psi3Minimal.check, plus the
-    optional dead centre and stroke range). Returns ``(status, info)``."""
+    optional dead centre and stroke range) on ``y_new``, its stroke ``s_new`` [m] and ``cos1``
+    (``cos psi1``). Returns ``(status, info)``."""
     if h < min_step and t_new != b:
         return MIN_STEP, h
     if not (math.isfinite(yn0) and math.isfinite(yn1)):
         return NONFINITE_STATE, 0.0
-    s_new, _, cos1, _ = flap_position(math.sin(yn0), math.cos(yn0), kc, 1.0)
     if not cos1 >= checks[0]:
         return SINGULAR, cos1
     if checks[5] != 0.0 and yn0 >= checks[3]:
@@ -409,7 +421,9 @@ def _integrate(
                 t_new = min(t + h_abs, b)
                 h = t_new - t
                 h_abs = abs(h)
-                bad, fo = _stages(K, 1, ns + 1, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc)
+                bad, fo, s_new, cos1 = _stages(
+                    K, 1, ns + 1, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc
+                )
                 if bad >= 0:
                     nfev += bad
                     status, info, t_fail = NONFINITE_FORCE, fo, t + tab_c[bad] * h
@@ -437,7 +451,7 @@ def _integrate(
                 b_fail, bd_fail = y0, y1
                 break
             nsteps += 1
-            status, info = _check_step(t_new, b, h, yn0, yn1, min_step, checks, kc)
+            status, info = _check_step(t_new, b, h, yn0, yn1, s_new, cos1, min_step, checks)
             if status == OK and nsteps >= max_steps and not (seg == n_seg - 1 and t_new == b):
                 status = TOO_MANY_STEPS
             if status != OK:
@@ -548,9 +562,18 @@ def load() -> float:
     # each compiles into the driver function that calls it (no dispatcher of its own)
     namespace = kernels.rebind(kernels.KERNELS, dict(vars(kernels)))
     for name in kernels.KERNELS:
-        namespace[name] = register_jitable(error_model="numpy")(namespace[name])
+        # the two halves of psi3_acceleration are inlined (numba IR): split, they cost as much
+        # as whole, and the driver keeps the position of y_new for free
+        inline = "always" if name in ("psi3_position", "psi3_acceleration_at") else "never"
+        namespace[name] = register_jitable(error_model="numpy", inline=inline)(namespace[name])
     g = globals()
-    for name in ("flap_position", "manoeuvre_force", "psi3_acceleration", "psi3_configuration"):
+    for name in (
+        "manoeuvre_force",
+        "psi3_acceleration",
+        "psi3_acceleration_at",
+        "psi3_configuration",
+        "psi3_position",
+    ):
         g[name] = namespace[name]
     for name in _DRIVER:  # callees first: a function resolves the others when it compiles
         g[name] = jit(g[name])
