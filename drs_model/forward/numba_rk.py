@@ -7,12 +7,16 @@ loads them from numba's on-disk cache, ``cache=True``). Without numba that call 
 
 What runs compiled, in one call per simulation:
 
-* the psi3 acceleration: :func:`drs_model.kernels.psi3_acceleration` itself, compiled
-  (constants: the formulation's ``consts`` as a float64 array);
+* the psi3 acceleration: :func:`drs_model.kernels.psi3_acceleration` itself, compiled, and in
+  the stages its two halves :func:`~drs_model.kernels.psi3_position` and
+  :func:`~drs_model.kernels.psi3_acceleration_at` (inlined), so that a step's checks read the
+  stroke and ``cos psi1`` of ``y_new`` from its last stage (constants: the formulation's
+  ``consts`` as a float64 array);
 * the piston force: a constant per segment (:class:`~drs_model.forward.ConstantForce`,
   :class:`~drs_model.forward.StepForce`), or the manoeuvre's inverse-dynamics force
   (:class:`~drs_model.forward.ManoeuvreForce`): :func:`drs_model.kernels.manoeuvre_force` itself,
-  compiled (constants in :func:`manoeuvre_constants`);
+  compiled (constants in :func:`manoeuvre_constants`), evaluated once for a segment where the
+  manoeuvre holds still (:func:`~drs_model.kernels.profile_held`: the same value to the bit);
 * an explicit embedded Runge-Kutta driver, ``"dopri5"`` (Dormand-Prince 5(4), scipy's ``RK45``)
   or ``"dop853"`` (Hairer's DOP853, scipy's ``DOP853``), with scipy's step-size control:
   error norm ``RMS(err / (atol + max(|y|, |y_new|) rtol))``, new step ``h * min(10, max(0.2,
