@@ -272,6 +272,7 @@ def psi3_acceleration(b, bd, force, c):
     sb, cb, _, sa, ca, ca2 = psi3_position(b, c)
     if not ca2 > 0.0:  # no assembly (or NaN)
         return math.nan
+    # assigned, not returned: the scalar path inlines only ``targets = kernel(...)``
     acc = psi3_acceleration_at(b, bd, force, sb, cb, sa, ca, c)
     return acc
 

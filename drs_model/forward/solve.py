@@ -163,10 +163,7 @@ def simulate(
         The s formulation approached the dead centre.
     """
     if isinstance(method, str) and method in COMPILED_METHODS:
-        if formulation == "psi3" and params is not None and not formulation_options:
-            form, extra = numba_rk.psi3_formulation(params), {}  # the common case, directly
-        else:
-            form, extra = _compiled_formulation(formulation, params, method, formulation_options)
+        form, extra = _compiled_formulation(formulation, params, method, formulation_options)
         return numba_rk.run_formulation(
             form,
             force,
