@@ -33,9 +33,11 @@ from __future__ import annotations
 import collections
 import dataclasses
 import difflib
+import hashlib
 import math
 import os
 import shutil
+import signal
 import sys
 import threading
 import time
@@ -54,6 +56,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 from rclpy.service_introspection import ServiceIntrospectionState
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
@@ -123,6 +126,11 @@ NODE_PARAMETERS = (
 )  # fmt: skip
 #: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
 CLOCK_WAIT_WARNING_S = 2.0
+#: A wall clock that moves this much [s] more or less than the steady clock between two ticks
+#: has jumped (NTP slews far slower: 0.5 ms/s at most).
+CLOCK_JUMP_THRESHOLD_S = 0.01
+#: Bytes of a malformed command kept (hex) in its effect record, for forensics.
+MALFORMED_BYTES_KEPT = 4096
 
 
 class StartupError(DRSError):
@@ -135,7 +143,7 @@ class PendingCommand:
 
     key: str
     topic: str
-    data: bytes
+    msg: object  # the decoded message (only messages that decode are ever pending)
     sequence: int | None
     received_ns: int
     #: sequence numbers of the older commands of the topic this one replaced before a step
@@ -187,6 +195,7 @@ class DRSNode(Node):
         self._wall_clock = not self.get_parameter("use_sim_time").value
         self._tick_timer = tick_timer
         self.configured = self.active = False
+        self.callback_errors = 0
         self.recorder = self.rerun = None
         self.timer = self.diag_timer = self.clock_watch = None
         self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
@@ -226,6 +235,15 @@ class DRSNode(Node):
             force_method=gp("force_method").value,
         )
         self.max_catch_up = int(gp("max_catch_up_steps").value)
+        # a tick late by one period must still catch up, or every tick would drop steps
+        needed = math.ceil(2.0 * physics_hz / publish_hz)
+        if self.max_catch_up < needed:
+            raise StartupError(
+                f"max_catch_up_steps {self.max_catch_up} is below the {needed} physics steps of "
+                f"two publish periods ({physics_hz:g} Hz physics, {publish_hz:g} Hz publish): "
+                f"every late tick would drop simulated time; give max_catch_up_steps >= {needed} "
+                "or publish faster"
+            )
         lines, pins, _ = moving_drawings(np.array([[self.sim.s_min, 0.0, 0.0]]), self.params)
         self._scene = MechanismMarkers(still_drawings(self.params),
                                        {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
@@ -243,14 +261,23 @@ class DRSNode(Node):
         self.pub_events = self.create_publisher(
             DiagnosticArray, "~/command_events", QoSProfile(depth=100)
         )
-        self._own_publishers = (self.pub_joints, self.pub_force, self.pub_gap, self.pub_accel,
-                            self.pub_reactions, self.pub_markers, self.pub_diag, self.pub_events)
+        self._own_publishers = (
+            self.pub_joints,
+            self.pub_force,
+            self.pub_gap,
+            self.pub_accel,
+            self.pub_reactions,
+            self.pub_markers,
+            self.pub_diag,
+            self.pub_events,
+        )
         self.service_name = self.resolve_service_name("~/drs")
         # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
         self.topics = {pub: pub.topic_name for pub in self._own_publishers}
         self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
-        self._serialize = {cls: cdr.serializer(cls)
-                           for cls in (JointState, DiagnosticArray, MarkerArray)}
+        self._serialize = {
+            cls: cdr.serializer(cls) for cls in (JointState, DiagnosticArray, MarkerArray)
+        }
         self._pack_float64 = cdr.flat_packer(Float64)
         self._joint_state = JointState(name=self.joint_names)  # filled in place at each publish
         self._listened = {self.pub_reactions: False, self.pub_markers: False}
@@ -269,6 +296,8 @@ class DRSNode(Node):
         self.troubles = TroubleWindow(gp("diagnostics_window").value)
         self._pending: dict[str, PendingCommand] = {}
         self._last_tick_ns: int | None = None
+        self._last_tick_mono: int | None = None
+        self.clock_jumps = 0
         self._last_markers_t: float | None = None
         self._last_still_t: float | None = None
         self._t0_ns: int | None = None
@@ -363,6 +392,7 @@ class DRSNode(Node):
         # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
         # the only place a misspelt name (never declared, silently ignored) can be seen
         overrides = self._parameter_overrides
+        self._given_parameters = frozenset(overrides)
         for name in overrides:
             if name not in known and not name.startswith("qos_overrides."):
                 close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
@@ -397,15 +427,19 @@ class DRSNode(Node):
                     raise StartupError(f"{name} must be one of {list(valid)}, got {value!r}")
 
     def _model_params(self) -> DRSParams:
+        """The model's parameters: the seed's, then ``model_params_file``'s, then every
+        ``model.*`` parameter given to the node (``-p`` or a ROS ``--params-file``), whatever
+        its value: a value given is the value used, even when it equals a default."""
         path = self.get_parameter("model_params_file").value
         base = from_file(path) if path else DRSParams()
-        overrides = {}
-        defaults = DRSParams()
-        for name in NUMERIC_FIELDS:
-            value = self.get_parameter(f"model.{name}").value
-            if value != float(getattr(defaults, name)):
-                overrides[name] = value
-        return from_dict(overrides, base=base) if overrides else base
+        given = {name: self.get_parameter(f"model.{name}").value for name in NUMERIC_FIELDS
+                 if f"model.{name}" in self._given_parameters}  # fmt: skip
+        if path:
+            over = [f"model.{k} {v!r} over {getattr(base, k)!r}" for k, v in given.items()
+                    if v != getattr(base, k)]  # fmt: skip
+            if over:
+                self.get_logger().info(f"parameters given win over {path}: {', '.join(over)}")
+        return from_dict(given, base=base) if given else base
 
     def effective_parameters(self) -> list[Parameter]:
         """Every node parameter, the ``model.*`` ones at the values the model runs with (a
@@ -446,8 +480,12 @@ class DRSNode(Node):
                 from .rerun_log import RerunRecorder
 
                 # the mechanism drawn as often as ~/markers draws it; the series at every sample
-                self.rerun = RerunRecorder(rrd or None, self.params, connect_url=live or None,
-                                           max_draw_hz=self.markers_rate_hz)
+                self.rerun = RerunRecorder(
+                    rrd or None,
+                    self.params,
+                    connect_url=live or None,
+                    max_draw_hz=self.markers_rate_hz,
+                )
         except Exception as exc:
             self._made_bag_dir = made_dir
             self.discard_recordings()
@@ -513,12 +551,6 @@ class DRSNode(Node):
             return time.time_ns()
         return self.get_clock().now().nanoseconds
 
-    def _stamp_ns(self) -> int:
-        """The node stamp of the simulation's present instant (node clock before the first tick)."""
-        if self._t0_ns is None:
-            return self._now_ns()
-        return self._t0_ns + int(round(self.sim.t * 1e9))
-
     def _receive(self, key: str, data: bytes) -> None:
         """A raw command arrived: record it, keep it as the newest of its topic."""
         with self._lock:
@@ -527,16 +559,41 @@ class DRSNode(Node):
     def _receive_locked(self, key: str, data: bytes) -> None:
         now = self._now_ns()
         topic = self.command_topics[key]
-        seq = self._record(topic, data, now)
         self.received += 1
-        cmd = PendingCommand(key, topic, data, seq, now)
+        try:
+            msg = deserialize_message(data, COMMANDS[key])
+        except Exception as exc:  # noqa: BLE001 - any bytes from any participant: refused, kept
+            self._refuse_malformed(topic, COMMANDS[key], data, exc, now)
+            return
+        # only bytes that decode go on the typed topic: the bag stays readable by every reader
+        seq = self._record(topic, data, now)
+        cmd = PendingCommand(key, topic, msg, seq, now)
         older = self._pending.get(key)
         if older is not None:  # counted and recorded (one record per step) when the step comes
             cmd.superseded = older.superseded
             cmd.superseded.append(older.sequence)
         self._pending[key] = cmd
 
-    def _apply_pending(self) -> None:
+    def _refuse_malformed(
+        self, topic: str, msg_type, data: bytes, exc: Exception, now_ns: int
+    ) -> None:
+        """Bytes that are no ``msg_type``: refused with the reason; the bytes themselves go into
+        the effect record (hex, for forensics), never onto the typed topic."""
+        type_name = f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
+        why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
+        reason = self._refuse(
+            topic,
+            f"<{len(data)} bytes>",
+            f"not a valid {type_name} ({type(exc).__name__}: {why})",
+            now_ns,
+        )
+        self._event(topic, REFUSED, DiagnosticStatus.WARN, reason, None, {
+            "value": f"<{len(data)} bytes>", "malformed": "true", "size": len(data),
+            "sha256": hashlib.sha256(data).hexdigest(),
+            "bytes_hex": data[:MALFORMED_BYTES_KEPT].hex(),
+        }, now_ns)  # fmt: skip
+
+    def _apply_pending(self, now_ns: int) -> None:
         """Apply the newest command of each topic at the present physics step, oldest first."""
         pending = sorted(self._pending.values(), key=lambda c: c.received_ns)
         self._pending.clear()
@@ -545,43 +602,62 @@ class DRSNode(Node):
                 n = len(cmd.superseded)
                 self.superseded += n
                 reason = f"{n} {cmd.key} replaced by a newer one before the next physics step"
-                self.troubles.add(self._now_ns(), SUPERSEDED, reason)
+                self.troubles.add(now_ns, SUPERSEDED, reason)
                 known = [q for q in cmd.superseded if q is not None]
                 self._event(cmd.topic, SUPERSEDED, DiagnosticStatus.STALE, reason, None, {
                     "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
-                })  # fmt: skip
-            msg = deserialize_message(cmd.data, COMMANDS[cmd.key])
-            value = commands.describe(cmd.key, msg)
+                }, now_ns)  # fmt: skip
+            value = commands.describe(cmd.key, cmd.msg)
             try:
-                commands.apply(self.sim, cmd.key, msg, self.joint_names[0])
-            except DRSError as exc:
-                reason = self._refuse(cmd.key, value, str(exc))
-                self._event(cmd.topic, REFUSED, DiagnosticStatus.WARN, reason, cmd,
-                            {"value": repr(value)})
+                commands.apply(self.sim, cmd.key, cmd.msg, self.joint_names[0])
+            except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
+                why = str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
+                reason = self._refuse(cmd.key, value, why, now_ns)
+                self._event(
+                    cmd.topic,
+                    REFUSED,
+                    DiagnosticStatus.WARN,
+                    reason,
+                    cmd,
+                    {"value": repr(value)},
+                    now_ns,
+                )
                 continue
             self.accepted += 1
-            self._event(cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, {"value": repr(value)})
+            self._event(
+                cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, {"value": repr(value)}, now_ns
+            )
 
-    def _refuse(self, what: str, value, reason: str) -> str:
+    def _refuse(self, what: str, value, reason: str, now_ns: int) -> str:
         self.refused += 1
         self.last_refusal = f"{what} {value!r} refused: {reason}"
         self.refusals.append(self.last_refusal)
-        self.troubles.add(self._now_ns(), REFUSED, self.last_refusal)
+        self.troubles.add(now_ns, REFUSED, self.last_refusal)
         self.get_logger().warning(self.last_refusal, throttle_duration_sec=1.0)
         return self.last_refusal
 
-    def _event(self, source: str, outcome: str, level: bytes, reason: str,
-               cmd: PendingCommand | None, values: dict) -> None:
-        """One record of the effect log: what happened, at which simulated instant."""
+    def _event(
+        self,
+        source: str,
+        outcome: str,
+        level: bytes,
+        reason: str,
+        cmd: PendingCommand | None,
+        values: dict,
+        now_ns: int,
+    ) -> None:
+        """One record of the effect log: what happened, at which simulated instant. ``now_ns``
+        is the node time of the tick or callback it happens in (its log time in the bag)."""
         record = {"sim_time": repr(self.sim.t), "step": self.sim.steps}
         if cmd is not None:
             record["sequence"] = "" if cmd.sequence is None else cmd.sequence
             record["received_ns"] = cmd.received_ns
         record.update(values)
-        msg = command_event_msg(self._stamp_ns(), source, outcome, level, reason, record)
+        stamp = now_ns if self._t0_ns is None else self._t0_ns + int(round(self.sim.t * 1e9))
+        msg = command_event_msg(stamp, source, outcome, level, reason, record)
         data = self._serialize[DiagnosticArray](msg)
         self.pub_events.publish(data)
-        self._record(self.topics[self.pub_events], data, self._now_ns())
+        self._record(self.topics[self.pub_events], data, now_ns)
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         with self._lock:
@@ -589,15 +665,24 @@ class DRSNode(Node):
 
     def _on_drs_locked(self, request, response):
         # a service call takes effect at once: the simulation is between two physics steps
-        self._apply_pending()  # commands that arrived earlier act first, as they would have
+        now = self._now_ns()
+        self._apply_pending(now)  # commands that arrived earlier act first, as they would have
         value = commands.describe(commands.SERVICE_KEY, request)
         try:
             seg = commands.apply(self.sim, commands.SERVICE_KEY, request, self.joint_names[0])
-        except DRSError as exc:
+        except Exception as exc:  # noqa: BLE001 - what a request carries never stops the node
+            why = str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
             response.success = False
-            response.message = self._refuse("drs", value, str(exc))
-            self._event(self.service_name, REFUSED, DiagnosticStatus.WARN, response.message,
-                        None, {"value": repr(value)})
+            response.message = self._refuse("drs", value, why, now)
+            self._event(
+                self.service_name,
+                REFUSED,
+                DiagnosticStatus.WARN,
+                response.message,
+                None,
+                {"value": repr(value)},
+                now,
+            )
             return response
         self.accepted += 1
         response.success = True
@@ -605,8 +690,9 @@ class DRSNode(Node):
             f"{'opening' if value else 'closing'} to {seg.evaluate(seg.t1)[0]:.6g} m "
             f"in {seg.duration:g} s"
         )
-        self._event(self.service_name, ACCEPTED, DiagnosticStatus.OK, "", None,
-                    {"value": repr(value)})
+        self._event(
+            self.service_name, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)}, now
+        )
         return response
 
     def _on_service_event(self, data: bytes) -> None:
@@ -636,24 +722,32 @@ class DRSNode(Node):
             self._tick_locked()
 
     def _tick_locked(self) -> None:
+        # one node time per tick: every stamp and log time of the tick derives from it, so a
+        # record of the tick (a new clock origin) is never logged after the states it governs
         now = self._now_ns()
         if now == 0:  # use_sim_time before the first /clock message
             return
+        mono = time.monotonic_ns()
         if self._t0_ns is None:
             self._t0_ns = now - int(round(self.sim.t * 1e9))
-            self._event(CLOCK, CLOCK, DiagnosticStatus.OK, "", None, {"t0_ns": self._t0_ns})
+            self._event(CLOCK, CLOCK, DiagnosticStatus.OK, "", None, {"t0_ns": self._t0_ns}, now)
+        elif self._last_tick_ns is not None:
+            self._check_clock_jump(now, mono)
         if (
             self._last_tick_ns is not None
             and now - self._last_tick_ns > 1.5e9 * self.publish_period
         ):
             self.missed_deadlines += 1
-            self.troubles.add(now, "missed_deadline",
-                              f"tick {(now - self._last_tick_ns) * 1e-6:.1f} ms after the last")
-        self._last_tick_ns = now
+            self.troubles.add(
+                now,
+                "missed_deadline",
+                f"tick {(now - self._last_tick_ns) * 1e-6:.1f} ms after the last",
+            )
+        self._last_tick_ns, self._last_tick_mono = now, mono
         self.ticks += 1
         t = time.process_time()
         if self._pending:
-            self._apply_pending()
+            self._apply_pending(now)
         target = (now - self._t0_ns) * 1e-9
         due = int(math.floor((target - self.sim.t) / self.physics_dt + 1e-9))
         if due > self.max_catch_up:
@@ -662,19 +756,59 @@ class DRSNode(Node):
             self.dropped_steps += dropped
             self.troubles.add(now, "dropped_steps", f"{dropped} physics steps dropped")
             self._t0_ns += int(round(dropped * self.physics_dt * 1e9))
-            self._event(CLOCK, CLOCK, DiagnosticStatus.WARN, f"{dropped} steps dropped", None,
-                        {"t0_ns": self._t0_ns})
+            self._event(
+                CLOCK,
+                CLOCK,
+                DiagnosticStatus.WARN,
+                f"{dropped} steps dropped",
+                None,
+                {"t0_ns": self._t0_ns},
+                now,
+            )
             due = self.max_catch_up
         try:
             self.sim.advance(max(due, 0))
         except DRSError as exc:  # the model refuses to go on: hold where it is and say why
-            reason = self._refuse("step", self.sim.mode, str(exc))
+            reason = self._refuse("step", self.sim.mode, str(exc), now)
             s_hold = float(min(max(self.sim.state.q[0], self.sim.s_min), self.sim.s_max))
             self.sim.reset(self.sim.t, s_hold)
-            self._event(RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_hold)})
+            self._event(
+                RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_hold)}, now
+            )
         self._cpu["model"] += time.process_time() - t
         if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)
             self._publish(now)
+
+    def _check_clock_jump(self, now: int, mono: int) -> None:
+        """A node clock that jumps (the system clock stepped by NTP or by hand; ``/clock`` going
+        back, as ``drs-bag play --loop --clock`` does) moves the clock origin by the jump, as
+        ROS 2's time-jump callbacks would: the simulation goes on from its state, in step with
+        the new clock, and the jump is recorded. Without it, a clock stepped back froze the
+        simulation until the clock caught up again."""
+        if self._wall_clock:  # the wall clock against the steady one: any difference is a jump
+            jump = (now - self._last_tick_ns) - (mono - self._last_tick_mono)
+            if abs(jump) < CLOCK_JUMP_THRESHOLD_S * 1e9:
+                return
+        else:  # /clock may run at any rate: only a step back is a jump
+            if now >= self._last_tick_ns:
+                return
+            jump = now - self._last_tick_ns
+        self._t0_ns += jump
+        self.clock_jumps += 1
+        way = "forward" if jump > 0 else "back"
+        reason = f"node clock jumped {way} by {abs(jump) * 1e-9:.6g} s"
+        self.troubles.add(now, "clock_jump", reason)
+        self.get_logger().warning(f"{reason}: the simulation goes on from its state")
+        self._event(
+            CLOCK,
+            CLOCK,
+            DiagnosticStatus.WARN,
+            reason,
+            None,
+            {"t0_ns": self._t0_ns, "jump_ns": jump},
+            now,
+        )
+        self._last_tick_ns = now  # no missed deadline for the jump itself
 
     def _publish(self, now_ns: int) -> None:
         t = time.process_time()
@@ -720,8 +854,14 @@ class DRSNode(Node):
         still = self._last_still_t is None or st.t - self._last_still_t >= STILL_MARKERS_PERIOD_S
         if still:
             self._last_still_t = st.t
-        return self._scene.msg({k: v[0] for k, v in lines.items()}, pins[0], force_at[0],
-                               st.piston_force, stamp, with_still=still)
+        return self._scene.msg(
+            {k: v[0] for k, v in lines.items()},
+            pins[0],
+            force_at[0],
+            st.piston_force,
+            stamp,
+            with_still=still,
+        )
 
     def diagnostics_values(self) -> dict[str, object]:
         st = self.sim.state
@@ -747,6 +887,8 @@ class DRSNode(Node):
             "last_refusal": self.last_refusal or "none",
             "missed_deadlines": self.missed_deadlines,
             "dropped_steps": self.dropped_steps,
+            "clock_jumps": self.clock_jumps,
+            "callback_errors": self.callback_errors,
             "ticks": self.ticks,
             "recording": rec,
             "cpu_model_s": f"{self._cpu['model']:.3f}",
@@ -765,6 +907,18 @@ class DRSNode(Node):
         parts = [f"{n} {kind.replace('_', ' ')} (last: {reason})"
                  for kind, (n, reason) in sorted(recent.items())]  # fmt: skip
         return DiagnosticStatus.WARN, f"in the last {window:g} s: " + "; ".join(parts)
+
+    def executor_error(self, exc: Exception) -> None:
+        """A callback (or the middleware taking a message for it) raised: counted, reported in
+        diagnostics, and the node goes on."""
+        reason = f"{type(exc).__name__}: {str(exc).split(', at /')[0]}"
+        with self._lock:
+            self.callback_errors += 1
+            if self.configured:
+                self.troubles.add(self._now_ns(), "callback_error", reason)
+        self.get_logger().error(
+            f"a callback failed, the node goes on: {reason}", throttle_duration_sec=1.0
+        )
 
     def _on_diagnostics(self) -> None:
         now = self._now_ns()
@@ -820,21 +974,58 @@ class ManagedDRSNode(LifecycleNodeMixin, DRSNode):
         return self._transition("error", self.cleanup if self.configured else lambda: None)
 
 
-def _spin(executor) -> None:
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:  # noqa: BLE001 - a callback under shutdown (see main): the stop requested
-        if executor.context.ok():
-            raise
+class StopRequest:
+    """A stop asked for by SIGINT or SIGTERM (or by a caller), taken at a tick boundary.
+
+    rclpy's own signal handlers are not installed (``SignalHandlerOptions.NO``): Python's raise
+    ``KeyboardInterrupt`` at any bytecode (between a bag write and its count, say), and rclpy's
+    shut the context down under running callbacks. This handler only sets a flag, which the loops
+    read between ticks; the stop then runs in order: the loops end, the executor thread is joined,
+    the recordings are finished after the last write, the node is destroyed."""
+
+    def __init__(self) -> None:
+        self.requested = False  # a plain flag: setting it takes no lock a signal could interrupt
+        self.signal_name = ""
+
+    def __call__(self, signum=None, frame=None) -> None:
+        if signum is not None:
+            self.signal_name = signal.Signals(signum).name
+        self.requested = True
+
+    def install(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self)
 
 
-def run_deadline_loop(node: DRSNode, context=None) -> None:
-    """Drive ``node`` until its context shuts down (SIGINT/SIGTERM): ticks at absolute
-    deadlines of the wall clock in this thread, everything else in a SingleThreadedExecutor in a
-    second thread. A late tick is counted by the node; the deadlines then resume from now, so a
-    stall does not cause a burst of catch-up ticks (the simulation catches up within one tick).
+#: The longest a loop waits before it looks at the stop flag again [s].
+STOP_POLL_S = 0.05
+
+
+def spin_until_stopped(node: Node, executor, stop: StopRequest) -> None:
+    """Run ``executor``'s callbacks until ``stop`` is requested or the context ends. A callback
+    that raises is logged and counted, and the executor goes on: nothing a participant sends
+    (a message the middleware cannot take, say) ends the node's service of the others."""
+    while not stop.requested and executor.context.ok():
+        try:
+            executor.spin_once(timeout_sec=STOP_POLL_S)
+        except ExternalShutdownException:
+            return
+        except Exception as exc:  # noqa: BLE001
+            if not executor.context.ok():
+                return
+            note = getattr(node, "executor_error", None)
+            if note is not None:
+                note(exc)
+            else:
+                node.get_logger().error(f"callback failed: {type(exc).__name__}: {exc}")
+
+
+def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
+    """Drive ``node`` until ``stop`` is requested: ticks at absolute deadlines of the wall clock
+    in this thread, everything else in a SingleThreadedExecutor in a second thread, which is
+    joined before this returns. A late tick is counted by the node; the deadlines then resume
+    from now, so a stall does not cause a burst of catch-up ticks (the simulation catches up
+    within one tick).
 
     Why: one rclpy timer at 250 Hz in a SingleThreadedExecutor rebuilds its wait set at every
     wake-up, which cost more than the physics, the publishing and the recording together
@@ -843,72 +1034,77 @@ def run_deadline_loop(node: DRSNode, context=None) -> None:
     context = context or node.context
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    thread = threading.Thread(target=_spin, args=(executor,), name="drs-executor", daemon=True)
+    thread = threading.Thread(target=spin_until_stopped, args=(node, executor, stop),
+                              name="drs-executor")  # fmt: skip
     thread.start()
     period_ns = int(round(node.publish_period * 1e9))
     deadline = time.monotonic_ns()
     try:
-        while context.ok():
+        while not stop.requested and context.ok():
             deadline += period_ns
             wait = deadline - time.monotonic_ns()
-            if wait > 0:
-                time.sleep(wait * 1e-9)
-            elif wait < -period_ns:
+            while wait > 0 and not stop.requested:  # a long period still sees a stop soon
+                time.sleep(min(wait * 1e-9, STOP_POLL_S))
+                wait = deadline - time.monotonic_ns()
+            if wait < -period_ns:
                 deadline = time.monotonic_ns()  # late by more than a period: resume from now
-            if not context.ok():
+            if stop.requested or not context.ok():
                 break
             node.tick()
     finally:
+        stop()  # the executor thread ends too, whatever ended this loop
+        thread.join()
         executor.shutdown(timeout_sec=1.0)
-        thread.join(timeout=2.0)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Console script ``drs-node [--managed]`` (``--ros-args -p name:=value`` or
-    ``--params-file FILE`` as usual). Returns 0 on a clean SIGINT/SIGTERM, 2 when the parameters
-    or the recording paths are refused (one line on stderr, nothing created)."""
+    ``--params-file FILE`` as usual). Returns 0 on SIGINT/SIGTERM, with both recordings
+    finished; 2 when the parameters or the recording paths are refused (one line on stderr,
+    nothing created)."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     args = list(sys.argv if argv is None else argv)
-    managed = "--managed" in args[: args.index("--ros-args")] if "--ros-args" in args else \
-        "--managed" in args
+    managed = (
+        "--managed" in args[: args.index("--ros-args")]
+        if "--ros-args" in args
+        else "--managed" in args
+    )
     if managed:
         args.remove("--managed")
-    rclpy.init(args=args)
+    stop = StopRequest()
+    stop.install()  # before rclpy starts: a signal during start-up is a stop too
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     rc = 0
     try:
         if managed:
             node = ManagedDRSNode()
-            executor = SingleThreadedExecutor()
-            executor.add_node(node)
-            executor.spin()
-            return rc
-        node = DRSNode(tick_timer=False)
-        if node.timer is None and node.get_parameter("executor").value == "deadline":
-            run_deadline_loop(node)
         else:
-            if node.timer is None:  # executor 'single': the tick is a timer after all
+            node = DRSNode(tick_timer=False)
+        if (
+            not managed
+            and node.get_parameter("executor").value == "deadline"
+            and node.timer is None
+        ):
+            run_deadline_loop(node, stop)
+        else:
+            if not managed and node.timer is None:  # executor 'single': the tick is a timer
                 node.timer = node.create_timer(node.publish_period, node.tick)
             executor = SingleThreadedExecutor()
             executor.add_node(node)
-            executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+            spin_until_stopped(node, executor, stop)
+            executor.shutdown(timeout_sec=1.0)
     except (DRSError, ParameterException) as exc:
         print(f"drs-node: refused to start: {exc}", file=sys.stderr)
         rc = 2
-    except Exception:
-        if rclpy.ok():
-            raise  # a real failure while running
-        # SIGINT/SIGTERM shut the context down while a callback was running (rclpy then raises
-        # e.g. RCLError "publisher's context is invalid" from inside the callback): that is the
-        # requested stop, not a failure
     finally:
         if node is not None:
             if node.configured:
                 node.close_recordings()
             node.destroy_node()
         rclpy.try_shutdown()
+    if stop.signal_name:
+        print(f"drs-node: stopped by {stop.signal_name}, recordings finished", file=sys.stderr)
     return rc
 
 

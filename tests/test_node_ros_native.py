@@ -3,6 +3,7 @@ services, and parameter files (real DDS, loopback only)."""
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import sys
@@ -208,6 +209,11 @@ def test_the_parameter_file_holds_every_parameter_at_its_default(ros_context):
     values = yaml.safe_load(CONFIG.read_text())["/drs"]["ros__parameters"]
     flat = {k: v for k, v in values.items() if k != "model"}
     flat.update({f"model.{k}": v for k, v in values["model"].items()})
+    # the derived inertias are shown commented out: given, they would no longer follow their
+    # mass and length (a value given is the value used)
+    derived = re.findall(r"^      # (Iz_\w+): (\S+)$", CONFIG.read_text(), re.M)
+    assert {name for name, _ in derived} == {"Iz_link", "Iz_wing"}
+    flat.update({f"model.{k}": float(v) for k, v in derived})
     node = DRSNode(context=ros_context)
     try:
         rclpy_own = {"use_sim_time", "start_type_description_service"}  # declared by rclpy
