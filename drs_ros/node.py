@@ -996,6 +996,10 @@ class StopRequest:
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, self)
 
+    def ignore_further(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+
 
 #: The longest a loop waits before it looks at the stop flag again [s].
 STOP_POLL_S = 0.05
@@ -1103,6 +1107,9 @@ def main(argv: list[str] | None = None) -> int:
                 node.close_recordings()
             node.destroy_node()
         rclpy.try_shutdown()
+    # the recordings are finished: a further SIGINT/SIGTERM (a second Ctrl-C) is ignored, not
+    # left to interpreter shutdown, which restores the default action (killed: exit -2)
+    stop.ignore_further()
     if stop.signal_name:
         print(f"drs-node: stopped by {stop.signal_name}, recordings finished", file=sys.stderr)
     return rc

@@ -194,41 +194,52 @@ def _burn(seconds: float) -> list[subprocess.Popen]:
 
 def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, request, params):
     """SIGINT or SIGTERM at random moments while recording at 500 Hz with a command stream, both
-    cores busy: every round exits 0, every bag passes ``drs-bag check`` (metadata.yaml counts what
+    cores busy: every stop exits 0, every bag passes ``drs-bag check`` (metadata.yaml counts what
     the file holds) and every recording passes ``rerun rrd verify``. Before the designed stop,
-    1 round in 40 ended in a segmentation fault and 1 demo in 12 had a miscounted bag; 30 rounds
+    1 stop in 40 ended in a segmentation fault and 1 demo in 12 had a miscounted bag; 30 stops
     would all pass by chance with probability ~0.3 if that regressed (the benchmark
-    ``benchmarks/shutdown_stress.py`` runs more)."""
+    ``benchmarks/shutdown_stress.py`` runs more). Three nodes run at once (one domain, one
+    command stream for all), each stopped at its own random moment."""
     from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
     from drs_ros.rerun_log import run_rerun_cli
 
-    rounds = 30
+    batches, per_batch = 10, 3
     rng = random.Random(16)
     domain = domain_for(request.node.nodeid)
     lo, hi = stroke_limits(params)
-    burners = _burn(rounds * 8.0)
+    burners = _burn(900.0)  # killed at the end; the cap only guards a crashed test run
     client = Client(domain)
     cmd = client.node.create_publisher(Float64, "/drs/stroke_cmd", 10)
     try:
-        for k in range(rounds):
-            bag, rrd = tmp_path / f"bag{k}", tmp_path / f"run{k}.rrd"
-            proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
-                              "publish_rate_hz:=500.0", "flush_period:=0.1")  # fmt: skip
+        for k in range(batches):
+            names = [f"b{k}_{i}" for i in range(per_batch)]
+            procs = {name: start_node(tmp_path, domain, f"bag_path:={tmp_path / name}",
+                                      f"rrd_path:={tmp_path / name}.rrd",
+                                      "publish_rate_hz:=500.0", "flush_period:=0.1")
+                     for name in names}  # fmt: skip
+            stops = {}
             try:
-                assert wait_for_file_growth(bag / f"bag{k}_0.mcap", min_size=1, timeout=60)
-                end = time.monotonic() + 0.2 + 1.5 * rng.random()
-                while time.monotonic() < end:  # a command stream until the stop
+                for name in names:
+                    assert wait_for_file_growth(tmp_path / name / f"{name}_0.mcap", timeout=60)
+                start = time.monotonic()
+                at = {name: start + 0.1 + 1.5 * rng.random() for name in names}
+                while len(stops) < per_batch:  # a command stream until the last stop
                     cmd.publish(Float64(data=lo + (hi - lo) * rng.random()))
-                    client.spin_for(0.01)
-                sig = rng.choice([signal.SIGINT, signal.SIGTERM])
+                    client.spin_for(0.005)
+                    for name in names:
+                        if name not in stops and time.monotonic() >= at[name]:
+                            stops[name] = rng.choice([signal.SIGINT, signal.SIGTERM])
+                            procs[name].send_signal(stops[name])
             finally:
-                out = stop_node(proc, sig, timeout=60)
-            assert proc.returncode == 0, f"round {k}, {sig.name}: {out[-3000:]}"
-            assert bag_check(bag) == 0, f"round {k}: the bag does not verify"
-            res = run_rerun_cli(["rrd", "verify", str(rrd)])
-            assert res.returncode == 0, f"round {k}: {res.stderr[-1000:]}"
+                outs = {name: stop_node(proc, timeout=60) for name, proc in procs.items()}
+            for name, proc in procs.items():
+                sig = stops.get(name, signal.SIGINT).name
+                assert proc.returncode == 0, f"{name}, {sig}: {outs[name][-3000:]}"
+                assert bag_check(tmp_path / name) == 0, f"{name}: the bag does not verify"
+                res = run_rerun_cli(["rrd", "verify", str(tmp_path / f"{name}.rrd")])
+                assert res.returncode == 0, f"{name}: {res.stderr[-1000:]}"
     finally:
         client.close()
         for b in burners:
