@@ -184,7 +184,7 @@ def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]
             return f"does not decode as {type_name} ({type(exc).__name__}: {exc})"
         if again == data:
             return ""
-        tail = data[len(again):]
+        tail = data[len(again) :]
         if data.startswith(again) and len(tail) <= cdr.MAX_TRANSPORT_PADDING and not any(tail):
             padded[type_name] = padded.get(type_name, 0) + 1  # DDS's padding, not a leak
             return ""
@@ -272,8 +272,17 @@ def scan(
         out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
         out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
         if on_message is not None and (wanted is None or channel.topic in wanted):
-            on_message(RecordedMessage(channel.topic, channel.type_name, rec.log_time,
-                                       rec.publish_time, rec.sequence, bytes(rec.data), at))
+            on_message(
+                RecordedMessage(
+                    channel.topic,
+                    channel.type_name,
+                    rec.log_time,
+                    rec.publish_time,
+                    rec.sequence,
+                    bytes(rec.data),
+                    at,
+                )
+            )
 
     def data_record(rec, at: int) -> None:
         """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
@@ -381,8 +390,13 @@ def _add_channel(out: BagScan, schemas, record, fail) -> None:
     if schema is None and record.schema_id != 0:
         fail(f"channel {record.topic} names schema {record.schema_id}, never declared")
     out.channels[record.id] = ChannelInfo(
-        record.id, record.topic, schema.name if schema else "", schema.encoding if schema else "",
-        bytes(schema.data) if schema else b"", record.message_encoding, dict(record.metadata),
+        record.id,
+        record.topic,
+        schema.name if schema else "",
+        schema.encoding if schema else "",
+        bytes(schema.data) if schema else b"",
+        record.message_encoding,
+        dict(record.metadata),
     )
     out.counts.setdefault(record.topic, 0)
 
