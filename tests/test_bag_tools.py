@@ -13,9 +13,11 @@
 
 from __future__ import annotations
 
+import json
 import random
 import shutil
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -23,7 +25,7 @@ from pathlib import Path
 
 import pytest
 from node_support import domain_for, node_env
-from ros_support import require_module, require_rclpy
+from ros_support import require_module, require_rclpy, write_drs_bag
 
 pytestmark = pytest.mark.ros
 
@@ -255,3 +257,68 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
         else:
             with pytest.raises(BagReadError, match=r"bytes where its CDR serialisation is"):
                 scan(tmp_path / name)
+
+
+# ---- a failing callback is the caller's, not the bag's -------------------------------------------
+def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
+    """A callback raising on the 50th message: the scan raises MessageCallbackError (caused by
+    the callback's exception) with or without ``recover``: never a BagReadError, never a scan
+    ended as if the file were truncated there."""
+    require_rclpy()
+    from drs_ros.bag.reader import BagReadError, scan
+
+    rec, *_ = write_drs_bag(tmp_path / "bag", params, n=100,
+                            recorder_kwargs={"flush_messages": 30})  # fmt: skip
+    bug = ValueError("the caller's own bug")
+    seen: list = []
+
+    def callback(message) -> None:
+        seen.append(message)
+        if len(seen) == 50:
+            raise bug
+
+    for recover in (False, True):
+        seen.clear()
+        try:
+            result = scan(rec.bag_dir, callback, recover=recover)
+        except Exception as exc:  # noqa: BLE001 - what it is is the test
+            raised = exc
+        else:
+            pytest.fail(f"recover={recover}: the callback's error ended the scan as damage to "
+                        f"the file: {result.reason!r}, {result.message_count} kept")  # fmt: skip
+        assert not isinstance(raised, BagReadError), f"reported as the bag's fault: {raised}"
+        assert type(raised).__name__ == "MessageCallbackError" and raised.__cause__ is bug
+        assert (raised.topic, raised.offset) == (seen[-1].topic, seen[-1].offset)
+        assert "ValueError: the caller's own bug" in str(raised) and "\n" not in str(raised)
+    assert scan(rec.bag_dir).complete  # the file itself is intact
+
+
+def _bag_of_an_uninstalled_type(bag: Path) -> None:
+    """/joint_states recorded as a type this machine does not have: intact, undecodable here."""
+    from drs_ros.recording import McapRecorder
+
+    with McapRecorder(bag, flush_thread=False) as rec:
+        rec.register_recorded_topic("/joint_states", "drs_test_msgs/msg/Unknown", b"float64 x",
+                                    "ros2msg", [], "")  # fmt: skip
+        for k in range(20):
+            rec.write("/joint_states", b"\x00\x01\x00\x00" + struct.pack("<d", k),
+                      1_700_000_000_000_000_000 + k * 1_000_000)  # fmt: skip
+
+
+def test_check_reports_its_own_failure_apart_from_corruption(tmp_path):
+    """check must decode /joint_states; a type it cannot decode is its failure (exit 4, one
+    line), not the file's (exit 2) nor a truncation (--recover: exit 3). recover copies the
+    whole bag (it decodes nothing)."""
+    require_rclpy()
+    bag = tmp_path / "bag"
+    _bag_of_an_uninstalled_type(bag)
+    for extra in ([], ["--recover"]):
+        res = run_tool("drs_ros.bag.cli", "check", str(bag), *extra)
+        lines = res.stderr.strip().splitlines()
+        assert res.returncode == 4, (extra, res.stdout[-1000:], res.stderr)
+        assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+        assert lines[0].startswith("drs-bag check: internal error (not a verdict on the bag): ")
+        assert "/joint_states" in lines[0] and "passed every check of the file" in lines[0]
+    res = run_tool("drs_ros.bag.cli", "recover", str(bag), "-o", str(tmp_path / "copy"), "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["per_topic"] == {"/joint_states": 20}

@@ -16,7 +16,9 @@ discrepancy per topic:
 
 Exit status: 0 verified and every check within tolerance; 1 a model check failed; 2 the bag is
 missing, unreadable, corrupt or inconsistent (one line on stderr); 3 ``--recover`` checked the
-readable part of a damaged bag (it stopped early: the report says where and why).
+readable part of a damaged bag (it stopped early: the report says where and why); 4 the check
+itself failed on a message that passed every check of the file (e.g. a checked topic of a type
+that is not installed): one line ``internal error``, no verdict on the bag.
 """
 
 from __future__ import annotations
@@ -38,12 +40,12 @@ from drs_model.kinematics import gap as model_gap
 from drs_model.params import DRSParams, from_file
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from .reader import BagReadError, scan
+from .reader import BagReadError, MessageCallbackError, scan
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
 #: Exit statuses.
-EXIT_OK, EXIT_FAILED, EXIT_UNREADABLE, EXIT_RECOVERED = 0, 1, 2, 3
+EXIT_OK, EXIT_FAILED, EXIT_UNREADABLE, EXIT_RECOVERED, EXIT_INTERNAL = 0, 1, 2, 3, 4
 
 
 class ForceModelError(DRSError):
@@ -84,6 +86,9 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> 
     BagReadError
         The bag is missing, unreadable, corrupt or inconsistent (with ``recover``: nothing of it
         is readable).
+    MessageCallbackError
+        Decoding a message that passed the file's checks failed (its type is not installed):
+        not a fault of the bag.
     """
     from rclpy.serialization import deserialize_message
 
@@ -651,6 +656,9 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
             max_match_s=args.max_match,
             force_model_tol=args.force_model_tol,
         )
+    except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
+        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
+        return EXIT_INTERNAL
     except DRSError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_UNREADABLE
@@ -666,7 +674,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:
         prog=prog,
         description="Verify every byte of a recorded DRS bag and check it against "
         "the model. Exit status: 0 ok, 1 a check failed, 2 unreadable or corrupt, 3 damaged "
-        "(--recover read its readable part).",
+        "(--recover read its readable part), 4 internal error (no verdict on the bag).",
     )
     add_arguments(ap)
     return run(ap.parse_args(argv), prog)

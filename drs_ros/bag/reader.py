@@ -17,6 +17,10 @@
 With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
 reports where and why it stopped, instead of raising.
 
+Only the file decides a :class:`BagReadError`. An exception raised by the caller's ``on_message``
+callback says nothing about the file: it is raised as :class:`MessageCallbackError` (its cause is
+the callback's exception), with or without ``recover``, and never ends a scan as a truncation.
+
 No state beyond the scan's own result; rclpy is used only for its type support.
 """
 
@@ -41,6 +45,28 @@ _FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset
 class BagReadError(DRSError):
     """The bag cannot be read or is not what it claims: missing, not MCAP, truncated, corrupt,
     inconsistent with its summary or ``metadata.yaml``, or holding inexact message bytes."""
+
+
+class MessageCallbackError(DRSError):
+    """The caller's ``on_message`` callback of :func:`scan` raised on a message that passed every
+    check of the file: a failure of the caller (a bug, a type it cannot handle, its output that
+    cannot be written), not of the bag. Never a :class:`BagReadError`; ``__cause__`` is the
+    callback's exception.
+
+    Attributes
+    ----------
+    path : Path
+        The ``.mcap`` file being read.
+    topic : str
+    index : int
+        1-based number of the message on its topic in that file.
+    offset : int
+        File offset of the message (of its chunk) [bytes].
+    """
+
+    def __init__(self, message: str, path: Path, topic: str, index: int, offset: int):
+        super().__init__(message)
+        self.path, self.topic, self.index, self.offset = path, topic, index, offset
 
 
 @dataclass(frozen=True)
@@ -225,7 +251,10 @@ def scan(
     Raises
     ------
     BagReadError
-        Without ``recover``: any problem; with it: nothing readable at all.
+        Without ``recover``: any problem of the bag; with it: nothing readable at all.
+    MessageCallbackError
+        ``on_message`` raised (with or without ``recover``): the scan ends there, and nothing is
+        said about the rest of the bag.
     """
     from mcap.exceptions import McapError
     from mcap.records import (
@@ -268,21 +297,23 @@ def scan(
             elif problem:
                 fail(f"message {out.counts.get(channel.topic, 0) + 1} of {channel.topic} "
                      f"(chunk at offset {at}) {problem}")  # fmt: skip
-        out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
+        n = out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
         out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
         out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
         if on_message is not None and (wanted is None or channel.topic in wanted):
-            on_message(
-                RecordedMessage(
-                    channel.topic,
-                    channel.type_name,
-                    rec.log_time,
-                    rec.publish_time,
-                    rec.sequence,
-                    bytes(rec.data),
-                    at,
-                )
-            )
+            message = RecordedMessage(channel.topic, channel.type_name, rec.log_time,
+                                      rec.publish_time, rec.sequence, bytes(rec.data),
+                                      at)  # fmt: skip
+            try:
+                on_message(message)
+            except Exception as exc:  # the caller's failure, not the file's: never a verdict
+                said = " ".join(str(exc).split()) or "(no message)"
+                raise MessageCallbackError(
+                    f"{str(mcap_path)!r}: message {n} of {channel.topic} (offset {at}) passed "
+                    f"every check of the file, then the caller's on_message callback raised "
+                    f"{type(exc).__name__}: {said}",
+                    mcap_path, channel.topic, n, at,
+                ) from exc  # fmt: skip
 
     def data_record(rec, at: int) -> None:
         """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
@@ -454,5 +485,13 @@ def _recovered_note(out: BagScan) -> None:
     )
 
 
-__all__ = ["MCAP_MAGIC", "BagReadError", "BagScan", "ChannelInfo", "RecordedMessage", "resolve",
-           "scan"]  # fmt: skip
+__all__ = [
+    "MCAP_MAGIC",
+    "BagReadError",
+    "BagScan",
+    "ChannelInfo",
+    "MessageCallbackError",
+    "RecordedMessage",
+    "resolve",
+    "scan",
+]

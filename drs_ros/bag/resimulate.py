@@ -11,8 +11,10 @@ recorded ``/joint_states``, piston force and gap with the re-simulated ones, sam
 largest deviation per signal with its time.
 
 Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
-read, or holds no effect record (it was recorded before drs recorded when commands took effect)
-or no parameters.
+read, or holds no effect record (it was recorded before drs recorded when commands took
+effect) or no parameters; 4 decoding a message that passed every
+check of the file failed (a type that is not installed): one line ``internal error``, no verdict
+on the bag.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, fr
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
 from .effects import effect_records, model_params_from, recorded_node_parameters
-from .reader import BagReadError, scan
+from .reader import BagReadError, MessageCallbackError, scan
 
 #: signal -> (unit, default tolerance)
 SIGNALS = {
@@ -304,6 +306,9 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
         rows = compare(recorded, result, tolerances)
         if args.output:
             write_bag(args.output, recorded, result, model)
+    except MessageCallbackError as exc:  # our own failure on an intact message
+        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
+        return 4
     except (DRSError, BagReadError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
