@@ -259,6 +259,99 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
                 scan(tmp_path / name)
 
 
+# ---- metadata.yaml: malformed is one line and exit status 2, for every verb ----------------------
+def _example_metadata() -> dict:
+    import yaml
+
+    return yaml.safe_load((EXAMPLE / "metadata.yaml").read_text())
+
+
+def _malformed(kind: str):
+    """The text (or bytes) of a malformed metadata.yaml, and words the error must hold."""
+    import yaml
+
+    meta = _example_metadata()
+    info = meta["rosbag2_bagfile_information"]
+    if kind == "not_yaml":
+        return "rosbag2_bagfile_information: [unclosed\n  - : :\n", "not YAML"
+    if kind == "not_utf8":
+        return b"\xff\xfe\x00rosbag2", "cannot be read"
+    if kind == "empty":
+        return "", "not a mapping"
+    if kind == "a_list":
+        return "- 1\n- 2\n", "not a mapping"
+    if kind == "no_key":
+        return yaml.safe_dump({"other": info}), "no key 'rosbag2_bagfile_information'"
+    if kind == "info_not_mapping":
+        return "rosbag2_bagfile_information: 3\n", "must be a mapping"
+    if kind == "count_not_int":
+        info["topics_with_message_count"][1]["message_count"] = "many"
+        words = "topics_with_message_count[1].message_count must be an integer >= 0, got 'many'"
+    elif kind == "negative_total":
+        info["message_count"] = -5
+        words = "message_count must be an integer >= 0, got -5"
+    elif kind == "no_topic_metadata":
+        del info["topics_with_message_count"][0]["topic_metadata"]
+        words = "topics_with_message_count[0].topic_metadata is missing"
+    elif kind == "files_not_a_list":
+        info["relative_file_paths"] = "example_0.mcap"
+        words = "relative_file_paths must be a non-empty list"
+    elif kind == "file_outside":
+        info["relative_file_paths"] = ["/etc/passwd"]
+        words = "must name a file inside the bag directory"
+    elif kind == "no_starting_time":
+        del info["starting_time"]
+        words = "starting_time is missing"
+    else:
+        raise AssertionError(kind)
+    return yaml.safe_dump(meta, sort_keys=False), words
+
+
+MALFORMED = ["not_yaml", "not_utf8", "empty", "a_list", "no_key", "info_not_mapping",
+             "count_not_int", "negative_total", "no_topic_metadata", "files_not_a_list",
+             "file_outside", "no_starting_time"]  # fmt: skip
+VERBS = ["info", "check", "recover", "resimulate", "play"]
+
+
+def _bag_with_metadata(tmp_path: Path, kind: str) -> tuple[Path, str]:
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    (bag / "example_0.mcap").symlink_to(EXAMPLE / "example_0.mcap")
+    text, words = _malformed(kind)
+    meta = bag / "metadata.yaml"
+    meta.write_bytes(text) if isinstance(text, bytes) else meta.write_text(text)
+    return bag, words
+
+
+@pytest.mark.parametrize("kind", MALFORMED)
+def test_a_malformed_metadata_yaml_is_one_line_and_status_2_for_every_verb(kind, tmp_path, capsys):
+    """Every verb, in process (drs_ros.bag.cli.main): exit 2, one stderr line naming the file and
+    what is wrong, nothing written (recover's output is not created)."""
+    require_rclpy()
+    from drs_ros.bag.cli import main
+
+    bag, words = _bag_with_metadata(tmp_path, kind)
+    for verb in VERBS:
+        extra = ["-o", str(tmp_path / "out")] if verb == "recover" else []
+        status = main([verb, str(bag), *extra])
+        err = capsys.readouterr().err
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert status == 2, (verb, err)
+        assert len(lines) == 1 and lines[0].startswith(f"drs-bag {verb}: error: "), (verb, err)
+        assert str(bag / "metadata.yaml") in lines[0] and words in lines[0], (verb, lines[0])
+        assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("kind", ["not_yaml", "count_not_int"])
+def test_a_malformed_metadata_yaml_gives_no_traceback(kind, tmp_path):
+    require_rclpy()
+    bag, words = _bag_with_metadata(tmp_path, kind)
+    res = run_tool("drs_ros.bag.cli", "check", str(bag))
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], res.stderr
+
+
 # ---- a failing callback is the caller's, not the bag's -------------------------------------------
 def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
     """A callback raising on the 50th message: the scan raises MessageCallbackError (caused by
@@ -322,3 +415,16 @@ def test_check_reports_its_own_failure_apart_from_corruption(tmp_path):
     res = run_tool("drs_ros.bag.cli", "recover", str(bag), "-o", str(tmp_path / "copy"), "--json")
     assert res.returncode == 0, res.stderr
     assert json.loads(res.stdout)["per_topic"] == {"/joint_states": 20}
+
+
+# ---- the one resolver ---------------------------------------------------------------------------
+def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
+    from drs_ros.bag.reader import BagReadError, resolve
+
+    for k in (10, 0, 2, 1, 11):
+        (tmp_path / f"run_{k}.mcap").write_bytes(b"")
+    bag = resolve(tmp_path, require_metadata=False)
+    assert [f.name for f in bag.files] == [f"run_{k}.mcap" for k in (0, 1, 2, 10, 11)]
+    assert bag.bag_dir == tmp_path and bag.metadata is None
+    with pytest.raises(BagReadError, match="run_0.mcap, run_1.mcap, .*drs-bag recover"):
+        resolve(tmp_path)

@@ -15,10 +15,11 @@ discrepancy per topic:
   velocities, reported only unless ``--force-model-tol`` is given.
 
 Exit status: 0 verified and every check within tolerance; 1 a model check failed; 2 the bag is
-missing, unreadable, corrupt or inconsistent (one line on stderr); 3 ``--recover`` checked the
-readable part of a damaged bag (it stopped early: the report says where and why); 4 the check
-itself failed on a message that passed every check of the file (e.g. a checked topic of a type
-that is not installed): one line ``internal error``, no verdict on the bag.
+missing, unreadable, corrupt or inconsistent, or its ``metadata.yaml`` is malformed (one line on
+stderr); 3 ``--recover`` checked the readable part of a damaged bag (it stopped early: the report
+says where and why); 4 the check itself failed on a message that passed every check of the file
+(e.g. a checked topic of a type that is not installed): one line ``internal error``, no verdict
+on the bag.
 """
 
 from __future__ import annotations

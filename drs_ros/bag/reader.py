@@ -11,8 +11,10 @@
 * every message: its channel is known, and its bytes are exactly its CDR serialisation: it is
   decoded by the installed type support (``rclpy.serialization.deserialize_message``) and
   serialised again by :mod:`drs_ros.cdr`; trailing bytes or non-zero padding are an error;
-* a bag directory's ``metadata.yaml``: present, naming the file, and its per-topic counts equal
-  to what was read.
+* a bag directory's ``metadata.yaml``: present, well formed (:func:`read_metadata`), naming the
+  file, and its per-topic counts equal to what was read.
+
+:func:`resolve` is the one place that finds a bag's files.
 
 With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
 reports where and why it stopped, instead of raising.
@@ -26,6 +28,7 @@ No state beyond the scan's own result; rclpy is used only for its type support.
 
 from __future__ import annotations
 
+import re
 import struct
 import zlib
 from collections.abc import Callable, Iterable
@@ -45,6 +48,12 @@ _FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset
 class BagReadError(DRSError):
     """The bag cannot be read or is not what it claims: missing, not MCAP, truncated, corrupt,
     inconsistent with its summary or ``metadata.yaml``, or holding inexact message bytes."""
+
+
+class BagMetadataError(BagReadError):
+    """A bag directory's ``metadata.yaml`` is unreadable, not YAML, or not a rosbag2 bag's
+    metadata (a missing key, or a value of the wrong type or range). The message names the file
+    and the field."""
 
 
 class MessageCallbackError(DRSError):
@@ -146,41 +155,177 @@ class BagScan:
         return sum(self.counts.values())
 
 
-def resolve(
-    path: str | Path, require_metadata: bool = True
-) -> tuple[Path, Path | None, dict | None]:
-    """``(mcap file, bag directory or None, metadata or None)`` of a bag directory or a file.
+@dataclass(frozen=True)
+class BagFiles:
+    """A bag's files, as :func:`resolve` found them.
 
-    A bag directory must hold ``metadata.yaml`` (unless ``require_metadata`` is False: a
-    recording killed before it finished has none) naming one ``.mcap`` file.
+    Attributes
+    ----------
+    files : tuple of Path
+        The ``.mcap`` files, in recording order (one for a file or an unsplit bag).
+    bag_dir : Path or None
+        The bag directory (None for a bare file).
+    metadata : dict or None
+        The checked ``rosbag2_bagfile_information`` of ``metadata.yaml`` (:func:`read_metadata`),
+        None when there is none.
+    """
+
+    files: tuple[Path, ...]
+    bag_dir: Path | None
+    metadata: dict[str, Any] | None
+
+
+_SPLIT_INDEX = re.compile(r"(.*?)(\d+)")
+
+
+def _file_order(path: Path) -> tuple[str, int, str]:
+    """rosbag2's split order: ``name_2.mcap`` before ``name_10.mcap`` (numerically)."""
+    found = _SPLIT_INDEX.fullmatch(path.stem)
+    return (found[1], int(found[2]), path.name) if found else (path.stem, -1, path.name)
+
+
+def resolve(path: str | Path, require_metadata: bool = True) -> BagFiles:
+    """The files of a bag directory or a file, in order: the one resolver of the bag tools.
+
+    A bag directory's files are those its ``metadata.yaml`` lists (``relative_file_paths``, in
+    that order; every one must exist). Without ``metadata.yaml`` (a recording killed before it
+    finished) the directory is refused unless ``require_metadata`` is False; then its ``*.mcap``
+    files are taken in rosbag2's split order (``name_0``, ``name_1``, ..., ``name_10``). A file is
+    a bag of one file.
+
+    Raises
+    ------
+    BagReadError
+        No such path; a directory without ``metadata.yaml`` (with ``require_metadata``) or without
+        any ``.mcap`` file; a listed file that does not exist.
+    BagMetadataError
+        ``metadata.yaml`` is malformed (:func:`read_metadata`).
     """
     path = Path(path)
     if path.is_dir():
         meta_path = path / "metadata.yaml"
         if not meta_path.is_file():
-            files = sorted(path.glob("*.mcap"))
+            files = tuple(sorted(path.glob("*.mcap"), key=_file_order))
             if require_metadata:
-                hint = (f"; {files[0].name} may be an unfinished recording: "
-                        f"drs-bag recover {path} -o OUT" if files else "")  # fmt: skip
+                hint = (
+                    f"; {', '.join(f.name for f in files)} may be an unfinished recording: "
+                    f"drs-bag recover {path} -o OUT"
+                    if files
+                    else ""
+                )
                 raise BagReadError(f"{str(path)!r}: no metadata.yaml in the bag directory{hint}")
             if not files:
                 raise BagReadError(f"{str(path)!r}: bag directory holds no .mcap file")
-            return files[0], path, None
-        try:
-            meta = yaml.safe_load(meta_path.read_text())["rosbag2_bagfile_information"]
-            files = [path / f for f in meta["relative_file_paths"]]
-        except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
-            raise BagReadError(f"{str(meta_path)!r}: not a rosbag2 metadata file ({exc})") from exc
-        if len(files) != 1:
+            return BagFiles(files, path, None)
+        meta = read_metadata(meta_path)
+        files = tuple(path / name for name in meta["relative_file_paths"])
+        missing = [f.name for f in files if not f.is_file()]
+        if missing:
             raise BagReadError(
-                f"{str(meta_path)!r}: names {len(files)} files; only single-file bags are read"
+                f"{str(meta_path)!r}: lists {', '.join(missing)}, which the bag directory does "
+                "not hold"
             )
-        if not files[0].is_file():
-            raise BagReadError(f"{str(meta_path)!r}: names {files[0].name}, which does not exist")
-        return files[0], path, meta
+        return BagFiles(files, path, meta)
     if not path.is_file():
         raise BagReadError(f"{str(path)!r}: no such bag file or directory")
-    return path, None, None
+    return BagFiles((path,), None, None)
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def read_metadata(meta_path: str | Path) -> dict[str, Any]:
+    """The ``rosbag2_bagfile_information`` of a ``metadata.yaml``, checked as far as the bag tools
+    read it.
+
+    Required: a mapping ``rosbag2_bagfile_information`` holding ``relative_file_paths`` (a
+    non-empty list of file names inside the bag directory), ``message_count`` (an integer >= 0),
+    ``topics_with_message_count`` (a list of ``{topic_metadata: {name, type: str,
+    serialization_format: str (optional)}, message_count: int >= 0}``),
+    ``starting_time.nanoseconds_since_epoch`` and ``duration.nanoseconds`` (integers >= 0 [ns]).
+    Optional: ``storage_identifier`` (``mcap``: the only storage read), ``ros_distro`` (a string).
+
+    Raises
+    ------
+    BagMetadataError
+        Naming the file and the first field that is missing or wrong, with its value.
+    """
+    where = str(meta_path)
+
+    def bad(text: str) -> BagMetadataError:
+        return BagMetadataError(f"{where!r}: not a rosbag2 metadata file: {text}")
+
+    try:
+        data = yaml.safe_load(Path(meta_path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BagMetadataError(f"{where!r}: cannot be read ({exc})") from exc
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        raise bad(f"not YAML ({problem}{at})") from exc
+    if not isinstance(data, dict):
+        raise bad(f"the document is {type(data).__name__}, not a mapping")
+    key = "rosbag2_bagfile_information"
+    if key not in data:
+        raise bad(f"no key {key!r} (keys: {_shown(sorted(map(str, data)))})")
+    meta = data[key]
+
+    def mapping(value: Any, name: str) -> dict:
+        if not isinstance(value, dict):
+            raise bad(f"{name} must be a mapping, got {_shown(value)}")
+        return value
+
+    def get(parent: dict, name: str, field_name: str) -> Any:
+        if field_name not in parent:
+            raise bad(f"{name}.{field_name} is missing")
+        return parent[field_name]
+
+    def count(value: Any, name: str) -> None:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise bad(f"{name} must be an integer >= 0, got {_shown(value)}")
+
+    def text(value: Any, name: str) -> None:
+        if not isinstance(value, str) or not value:
+            raise bad(f"{name} must be a non-empty string, got {_shown(value)}")
+
+    mapping(meta, key)
+    files = get(meta, key, "relative_file_paths")
+    if not isinstance(files, list) or not files:
+        raise bad(f"{key}.relative_file_paths must be a non-empty list, got {_shown(files)}")
+    for i, name in enumerate(files):
+        text(name, f"{key}.relative_file_paths[{i}]")
+        if Path(name).is_absolute() or ".." in Path(name).parts:
+            raise bad(
+                f"{key}.relative_file_paths[{i}] must name a file inside the bag directory, "
+                f"got {_shown(name)}"
+            )
+    count(get(meta, key, "message_count"), f"{key}.message_count")
+    topics = get(meta, key, "topics_with_message_count")
+    if not isinstance(topics, list):
+        raise bad(f"{key}.topics_with_message_count must be a list, got {_shown(topics)}")
+    for i, entry in enumerate(topics):
+        name = f"{key}.topics_with_message_count[{i}]"
+        mapping(entry, name)
+        topic = mapping(get(entry, name, "topic_metadata"), f"{name}.topic_metadata")
+        text(get(topic, f"{name}.topic_metadata", "name"), f"{name}.topic_metadata.name")
+        text(get(topic, f"{name}.topic_metadata", "type"), f"{name}.topic_metadata.type")
+        if "serialization_format" in topic:
+            text(topic["serialization_format"], f"{name}.topic_metadata.serialization_format")
+        count(get(entry, name, "message_count"), f"{name}.message_count")
+    for field_name, unit in (("starting_time", "nanoseconds_since_epoch"),
+                             ("duration", "nanoseconds")):  # fmt: skip
+        value = mapping(get(meta, key, field_name), f"{key}.{field_name}")
+        count(get(value, f"{key}.{field_name}", unit), f"{key}.{field_name}.{unit}")
+    storage = meta.get("storage_identifier", "mcap")
+    if storage != "mcap":
+        raise bad(f"{key}.storage_identifier is {_shown(storage)}: only 'mcap' bags are read")
+    distro = meta.get("ros_distro")
+    if distro is not None and not isinstance(distro, str):
+        raise bad(f"{key}.ros_distro must be a string, got {_shown(distro)}")
+    return meta
 
 
 def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]:
@@ -239,10 +384,10 @@ def scan(
         Bag directory or ``.mcap`` file.
     on_message : callable, optional
         Called with each :class:`RecordedMessage` of ``topics`` (all topics by default), in file
-        order.
+        order, once the message passed its checks.
     recover : bool
         Keep what was read before a truncation or corruption instead of raising (a directory
-        without ``metadata.yaml`` is then accepted too).
+        without ``metadata.yaml`` is then accepted too; its first file is read).
     exact : bool
         Verify that every message's bytes are its exact CDR serialisation.
     topics : iterable of str, optional
@@ -252,10 +397,44 @@ def scan(
     ------
     BagReadError
         Without ``recover``: any problem of the bag; with it: nothing readable at all.
+    BagMetadataError
+        ``metadata.yaml`` is malformed (a :class:`BagReadError`).
     MessageCallbackError
         ``on_message`` raised (with or without ``recover``): the scan ends there, and nothing is
         said about the rest of the bag.
     """
+    bag = resolve(path, require_metadata=not recover)
+    if bag.metadata is not None and len(bag.files) != 1:
+        raise BagReadError(
+            f"{str(bag.bag_dir / 'metadata.yaml')!r}: names {len(bag.files)} files; only "
+            "single-file bags are read"
+        )
+    wanted = None if topics is None else set(topics)
+    padded: dict[str, int] = {}
+    check = _exact_checker(padded) if exact else None
+    unverified: set[str] = set()
+    out = _scan_file(bag.files[0], bag.bag_dir, on_message, recover, check, wanted, unverified)
+    out.metadata = bag.metadata
+    if bag.metadata is not None and out.complete:
+        _check_metadata(out, bag.metadata, bag.bag_dir / "metadata.yaml")
+    if out.complete and unverified:
+        out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
+    if out.complete and padded:
+        out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
+                         f"their exact CDR: {padded}")  # fmt: skip
+    return out
+
+
+def _scan_file(
+    mcap_path: Path,
+    bag_dir: Path | None,
+    on_message: Callable[[RecordedMessage], None] | None,
+    recover: bool,
+    check: Callable[[str, bytes], str | None] | None,
+    wanted: set[str] | None,
+    unverified: set[str],
+) -> BagScan:
+    """Read and verify one ``.mcap`` file (everything of :func:`scan` but ``metadata.yaml``)."""
     from mcap.exceptions import McapError
     from mcap.records import (
         Channel,
@@ -269,12 +448,7 @@ def scan(
     )
     from mcap.stream_reader import StreamReader, breakup_chunk
 
-    mcap_path, bag_dir, meta = resolve(path, require_metadata=not recover)
-    out = BagScan(mcap_path, bag_dir, metadata=meta, file_size=mcap_path.stat().st_size)
-    wanted = None if topics is None else set(topics)
-    padded: dict[str, int] = {}
-    check = _exact_checker(padded) if exact else None
-    unverified: set[str] = set()
+    out = BagScan(mcap_path, bag_dir, file_size=mcap_path.stat().st_size)
     schemas: dict[int, Schema] = {}
     chunk_offsets: dict[int, int] = {}
     stats: Statistics | None = None
@@ -405,14 +579,7 @@ def scan(
             f"{str(mcap_path)!r}: {len(chunk_offsets)} chunks were read, the summary indexes "
             f"{len(chunk_indexes)}"
         )
-    if meta is not None:
-        _check_metadata(out, meta)
     out.complete = True
-    if unverified:
-        out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
-    if padded:
-        out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
-                         f"their exact CDR: {padded}")  # fmt: skip
     return out
 
 
@@ -445,26 +612,28 @@ def _check_summary(f, footer, size: int, fail) -> None:
              f"offset {footer.summary_start} give {crc:#010x})")  # fmt: skip
 
 
-def _check_metadata(out: BagScan, meta: dict) -> None:
-    listed = {t["topic_metadata"]["name"]: int(t["message_count"])
-              for t in meta.get("topics_with_message_count", [])}  # fmt: skip
+def _check_metadata(out: BagScan, meta: dict, meta_path: Path) -> None:
+    """``metadata.yaml``'s counts (checked by :func:`read_metadata`) against what was read."""
+    where = str(meta_path)
+    held = "the file holds"
+    listed: dict[str, int] = {}
+    for t in meta["topics_with_message_count"]:
+        name = t["topic_metadata"]["name"]
+        listed[name] = listed.get(name, 0) + t["message_count"]
     for topic, n in listed.items():
         if out.counts.get(topic) is None:
-            raise BagReadError(f"metadata.yaml lists {topic} ({n} messages); the file has no such "
-                               "topic")  # fmt: skip
+            raise BagReadError(f"{where!r}: lists {topic} ({n} messages); {held} no such topic")
         if out.counts[topic] != n:
             raise BagReadError(
-                f"metadata.yaml counts {n} messages on {topic}, the file holds {out.counts[topic]} "
+                f"{where!r}: counts {n} messages on {topic}, {held} {out.counts[topic]} "
                 f"({n - out.counts[topic]:+d})"
             )
     extra = sorted(set(out.counts) - set(listed))
     if extra:
-        raise BagReadError(f"metadata.yaml does not list the topics {extra} of the file")
-    total = int(meta.get("message_count", -1))
+        raise BagReadError(f"{where!r}: does not list the topics {extra} of the bag")
+    total = meta["message_count"]
     if total != out.message_count:
-        raise BagReadError(
-            f"metadata.yaml counts {total} messages, the file holds {out.message_count}"
-        )
+        raise BagReadError(f"{where!r}: counts {total} messages, {held} {out.message_count}")
 
 
 def _describe(exc: BaseException, where: str) -> str:
@@ -487,11 +656,14 @@ def _recovered_note(out: BagScan) -> None:
 
 __all__ = [
     "MCAP_MAGIC",
+    "BagFiles",
+    "BagMetadataError",
     "BagReadError",
     "BagScan",
     "ChannelInfo",
     "MessageCallbackError",
     "RecordedMessage",
+    "read_metadata",
     "resolve",
     "scan",
 ]

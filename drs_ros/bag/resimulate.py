@@ -11,8 +11,8 @@ recorded ``/joint_states``, piston force and gap with the re-simulated ones, sam
 largest deviation per signal with its time.
 
 Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
-read, or holds no effect record (it was recorded before drs recorded when commands took
-effect) or no parameters; 4 decoding a message that passed every
+read (or its ``metadata.yaml`` is malformed), or holds no effect record (it was recorded before
+drs recorded when commands took effect) or no parameters; 4 decoding a message that passed every
 check of the file failed (a type that is not installed): one line ``internal error``, no verdict
 on the bag.
 """
