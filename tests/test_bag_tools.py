@@ -417,7 +417,64 @@ def test_check_reports_its_own_failure_apart_from_corruption(tmp_path):
     assert json.loads(res.stdout)["per_topic"] == {"/joint_states": 20}
 
 
-# ---- the one resolver ---------------------------------------------------------------------------
+def test_recover_that_cannot_write_its_output_leaves_nothing(tmp_path):
+    """The output cannot grow past 64 KiB (RLIMIT_FSIZE, a real EFBIG from the kernel): the copy
+    fails inside the scan's callback. recover must say it could not write OUT (exit 2, one
+    line), not that the source is damaged, and leave no truncated OUT behind."""
+    require_rclpy()
+    import resource
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64 * 1024, 64 * 1024))
+
+    out = tmp_path / "out"
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "recover", str(EXAMPLE), "-o", str(out)],
+        capture_output=True, text=True, timeout=120, preexec_fn=limit,
+    )  # fmt: skip
+    assert res.returncode == 2, (res.stdout[-1000:], res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert f"cannot write the recovered bag {str(out)!r}" in lines[0], lines[0]
+    assert not out.exists()
+
+
+# ---- split bags ---------------------------------------------------------------------------------
+def _split_bag(tmp_path: Path, params, *, killed: bool, n: int = 240) -> tuple[Path, int]:
+    """A bag split as rosbag2 splits it, ``split/split_0.mcap`` (samples 0..n/2) and
+    ``split/split_1.mcap`` (the rest); ``killed``: the second file cut at 60 % and no
+    metadata.yaml (the recorder was SIGKILLed while writing it). Returns the bag and the number
+    of messages of the first file."""
+    import yaml
+
+    half = n // 2
+    parts = []
+    for i, samples in enumerate((range(0, half), range(half, n))):
+        rec, *_ = write_drs_bag(tmp_path / f"part{i}", params, n=n, samples=samples,
+                                recorder_kwargs={"flush_messages": 45})  # fmt: skip
+        parts.append(rec)
+    bag = tmp_path / "split"
+    bag.mkdir()
+    for i, rec in enumerate(parts):
+        data = rec.path.read_bytes()
+        if killed and i == 1:
+            data = data[: int(len(data) * 0.6)]
+        (bag / f"split_{i}.mcap").write_bytes(data)
+    if not killed:
+        metas = [rec.bag_metadata() for rec in parts]
+        meta = metas[0]
+        for topic, other in zip(meta["topics_with_message_count"],
+                                metas[1]["topics_with_message_count"], strict=True):  # fmt: skip
+            topic["message_count"] += other["message_count"]
+        meta["message_count"] += metas[1]["message_count"]
+        meta["relative_file_paths"] = ["split_0.mcap", "split_1.mcap"]
+        meta["files"] = []
+        (bag / "metadata.yaml").write_text(
+            yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
+        )
+    return bag, 3 * half
+
+
 def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
     from drs_ros.bag.reader import BagReadError, resolve
 
@@ -428,3 +485,60 @@ def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
     assert bag.bag_dir == tmp_path and bag.metadata is None
     with pytest.raises(BagReadError, match="run_0.mcap, run_1.mcap, .*drs-bag recover"):
         resolve(tmp_path)
+
+
+def test_check_and_info_read_every_file_of_a_split_bag(tmp_path, params, capsys):
+    require_rclpy()
+    from drs_ros.bag import check
+    from drs_ros.bag.cli import main
+
+    bag, _first = _split_bag(tmp_path, params, killed=False)
+    assert check.main([str(bag), "--json"]) == 0, capsys.readouterr().err
+    report = json.loads(capsys.readouterr().out)
+    assert report["messages"] == {"/joint_states": 240, "/drs/flap_gap": 240,
+                                  "/drs/piston_force": 240}  # fmt: skip
+    assert main(["info", str(bag), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["files"] == ["split_0.mcap", "split_1.mcap"]
+    # metadata.yaml's counts are checked against the sum over the files
+    meta = bag / "metadata.yaml"
+    meta.write_text(meta.read_text().replace("message_count: 720", "message_count: 719"))
+    assert check.main([str(bag)]) == 2
+    assert "counts 719 messages, its 2 files hold 720" in capsys.readouterr().err
+
+
+def test_recover_keeps_every_file_of_a_killed_split_bag(tmp_path, params):
+    """split_0.mcap complete, split_1.mcap cut (SIGKILL): the recovered bag holds every message
+    of the first file and the readable part of the second, in order, byte for byte; check
+    passes on it and rosbags reads it."""
+    require_rclpy()
+    require_module("rosbags")
+    from drs_ros.bag.reader import scan
+
+    bag, first = _split_bag(tmp_path, params, killed=True)
+    res = run_tool("drs_ros.bag.cli", "check", str(bag), "--recover", "--json")
+    assert res.returncode == 3, res.stderr
+    assert sum(json.loads(res.stdout)["messages"].values()) > first  # both files were read
+    out = tmp_path / "fixed"
+    res = run_tool("drs_ros.bag.cli", "recover", str(bag), "-o", str(out), "--json")
+    assert res.returncode == 3, res.stderr
+    report = json.loads(res.stdout)
+    files = report["files"]
+    assert [Path(f["file"]).name for f in files] == ["split_0.mcap", "split_1.mcap"]
+    assert files[0]["complete"] and files[0]["messages"] == first and files[0]["bytes_lost"] == 0
+    assert not files[1]["complete"] and 0 < files[1]["messages"] < first
+    assert files[1]["bytes_lost"] > 0 and "split_1.mcap" in report["reason"]
+    assert report["messages"] == first + files[1]["messages"]
+    text = run_tool("drs_ros.bag.cli", "recover", str(bag), "-o", str(tmp_path / "again"))
+    assert "split_0.mcap: complete" in text.stdout and "split_1.mcap: " in text.stdout
+
+    # what was written is what the two files hold, in order (times, sequences, bytes)
+    source: list = []
+    scan(bag, source.append, recover=True)
+    copied: list = []
+    assert scan(out, copied.append).complete
+    key = [(m.topic, m.log_time, m.publish_time, m.sequence, m.data) for m in source]
+    assert [(m.topic, m.log_time, m.publish_time, m.sequence, m.data) for m in copied] == key
+    assert len(key) == report["messages"]
+    assert run_tool("drs_ros.bag.cli", "check", str(out)).returncode == 0
+    assert judge_with_rosbags(out) == report["per_topic"]

@@ -1,7 +1,7 @@
 """``drs-bag info BAG``: what a bag holds, printed as ``ros2 bag info`` prints it.
 
 From ``metadata.yaml`` when the bag directory has one (as ``ros2 bag info`` does), else from a
-scan of the file (a bare ``.mcap``, or an unfinished recording: then said so).
+scan of the files (a bare ``.mcap``, or an unfinished recording, split or not: then said so).
 A malformed ``metadata.yaml`` is an error (exit status 2, one line naming the file and the field).
 """
 
@@ -69,13 +69,13 @@ def bag_summary(path: str | Path) -> dict:
             "topics": topics,
             "source": "metadata.yaml",
         }
-    result = scan(bag.files[0], recover=True, exact=False)
+    result = scan(path, recover=True, exact=False)
     topics = [(c.topic, c.type_name, result.counts.get(c.topic, 0), c.message_encoding)
               for c in result.channels.values()]  # fmt: skip
     start = result.start_ns or 0
-    source = "the file"
+    source = "the files" if result.parts else "the file"
     return {
-        "files": [bag.files[0].name],
+        "files": [f.name for f in bag.files],
         "size": result.file_size,
         "storage": "mcap",
         "distro": "unknown",

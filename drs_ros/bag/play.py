@@ -822,14 +822,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def verify(path: str | Path) -> None:
-    """Read the whole bag once, as ``drs-bag check`` does (CRCs, summary, counts), so that a
-    corrupt bag gets the same error before anything is published."""
-    files = resolve(path, require_metadata=False).files
-    if len(files) == 1:
-        scan(path, exact=False)
-    else:  # a split bag: each file on its own (the reader's metadata check is single-file)
-        for f in files:
-            scan(f, exact=False)
+    """Read the whole bag once, every file of a split bag, as ``drs-bag check`` does (CRCs,
+    summary, ``metadata.yaml`` counts), so that a corrupt bag gets the same error before
+    anything is published."""
+    scan(path, exact=False)
 
 
 def run(args: argparse.Namespace, prog: str = PROG) -> int:

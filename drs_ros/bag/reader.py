@@ -11,13 +11,15 @@
 * every message: its channel is known, and its bytes are exactly its CDR serialisation: it is
   decoded by the installed type support (``rclpy.serialization.deserialize_message``) and
   serialised again by :mod:`drs_ros.cdr`; trailing bytes or non-zero padding are an error;
-* a bag directory's ``metadata.yaml``: present, well formed (:func:`read_metadata`), naming the
-  file, and its per-topic counts equal to what was read.
+* a bag directory's ``metadata.yaml``: present, well formed (:func:`read_metadata`), naming files
+  that exist, and its per-topic counts equal to what was read from all of them.
 
-:func:`resolve` is the one place that finds a bag's files.
+A bag split into several files (``name_0.mcap``, ``name_1.mcap``... as rosbag2 splits) is read
+file by file, in order (:func:`resolve` is the one place that finds a bag's files).
 
 With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
-reports where and why it stopped, instead of raising.
+reports where and why it stopped, instead of raising; in a split bag each file is read up to its
+own first problem.
 
 Only the file decides a :class:`BagReadError`. An exception raised by the caller's ``on_message``
 callback says nothing about the file: it is raised as :class:`MessageCallbackError` (its cause is
@@ -32,7 +34,7 @@ import re
 import struct
 import zlib
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -80,8 +82,9 @@ class MessageCallbackError(DRSError):
 
 @dataclass(frozen=True)
 class RecordedMessage:
-    """One message as recorded: topic, type, times [ns], sequence, exact bytes, and the file
-    offset of the record (of its chunk, for a chunked message) [bytes]."""
+    """One message as recorded: topic, type, times [ns], sequence, exact bytes, the file offset
+    of the record (of its chunk, for a chunked message) [bytes], and its channel as declared in
+    the file (schema and metadata: what a copy of the message needs)."""
 
     topic: str
     type_name: str
@@ -90,6 +93,7 @@ class RecordedMessage:
     sequence: int
     data: bytes
     offset: int
+    channel: ChannelInfo | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass
@@ -112,28 +116,33 @@ class BagScan:
     Attributes
     ----------
     path : Path
-        The ``.mcap`` file.
+        The ``.mcap`` file; for a bag split into several files, the bag directory.
     bag_dir : Path or None
         The bag directory (None for a bare file).
     channels : dict
-        channel id -> :class:`ChannelInfo`, in the order they appear.
+        channel id -> :class:`ChannelInfo`, in the order they appear (for a split bag: the first
+        channel of each topic, numbered from 1 in order of appearance).
     counts : dict
-        topic -> messages read (every topic).
+        topic -> messages read (every topic; summed over the files of a split bag).
     complete : bool
-        The whole file was read and verified (footer, summary, magic).
+        The whole bag was read and verified (footer, summary, magic of every file).
     stopped_at : int or None
-        With ``recover``: the offset [bytes] where reading stopped.
+        With ``recover``: the offset [bytes] where reading stopped (of the first file that
+        stopped early, for a split bag).
     reason : str
-        With ``recover``: why it stopped ('' when complete).
+        With ``recover``: why it stopped ('' when complete; for a split bag, every file that
+        stopped early, by name).
     last_good_offset : int
-        End of the last record read completely [bytes].
+        End of the last record read completely [bytes] (of a single file).
     file_size : int
-        [bytes].
+        [bytes] (the sum over the files of a split bag).
     start_ns, end_ns : int or None
         Earliest and latest ``log_time`` read.
     metadata : dict or None
         ``rosbag2_bagfile_information`` of ``metadata.yaml``, if there is one.
     notes : list of str
+    parts : list of BagScan
+        A split bag's scans, one per file in order (empty for a single file).
     """
 
     path: Path
@@ -149,10 +158,16 @@ class BagScan:
     end_ns: int | None = None
     metadata: dict[str, Any] | None = None
     notes: list[str] = field(default_factory=list)
+    parts: list[BagScan] = field(default_factory=list)
 
     @property
     def message_count(self) -> int:
         return sum(self.counts.values())
+
+    @property
+    def file_scans(self) -> list[BagScan]:
+        """One scan per file, in order: ``parts``, or this scan for a single file."""
+        return self.parts or [self]
 
 
 @dataclass(frozen=True)
@@ -384,10 +399,11 @@ def scan(
         Bag directory or ``.mcap`` file.
     on_message : callable, optional
         Called with each :class:`RecordedMessage` of ``topics`` (all topics by default), in file
-        order, once the message passed its checks.
+        order, file after file, once the message passed its checks.
     recover : bool
         Keep what was read before a truncation or corruption instead of raising (a directory
-        without ``metadata.yaml`` is then accepted too; its first file is read).
+        without ``metadata.yaml`` is then accepted too). In a split bag every file is read up to
+        its own first problem; a file with nothing readable is reported in ``reason``.
     exact : bool
         Verify that every message's bytes are its exact CDR serialisation.
     topics : iterable of str, optional
@@ -404,16 +420,24 @@ def scan(
         said about the rest of the bag.
     """
     bag = resolve(path, require_metadata=not recover)
-    if bag.metadata is not None and len(bag.files) != 1:
-        raise BagReadError(
-            f"{str(bag.bag_dir / 'metadata.yaml')!r}: names {len(bag.files)} files; only "
-            "single-file bags are read"
-        )
     wanted = None if topics is None else set(topics)
     padded: dict[str, int] = {}
     check = _exact_checker(padded) if exact else None
     unverified: set[str] = set()
-    out = _scan_file(bag.files[0], bag.bag_dir, on_message, recover, check, wanted, unverified)
+    parts: list[BagScan] = []
+    for file in bag.files:
+        try:
+            part = _scan_file(file, bag.bag_dir, on_message, recover, check, wanted, unverified)
+        except BagReadError as exc:
+            if not recover or len(bag.files) == 1:
+                raise
+            reason = str(exc).split(": ", 1)[-1]
+            part = BagScan(file, bag.bag_dir, stopped_at=0, file_size=file.stat().st_size,
+                           reason=reason, notes=[f"nothing readable: {reason}"])  # fmt: skip
+        parts.append(part)
+    out = parts[0] if len(parts) == 1 else _combine(bag, parts)
+    if recover and out.message_count == 0 and not out.complete:
+        raise BagReadError(f"{str(out.path)!r}: nothing recoverable in any file: {out.reason}")
     out.metadata = bag.metadata
     if bag.metadata is not None and out.complete:
         _check_metadata(out, bag.metadata, bag.bag_dir / "metadata.yaml")
@@ -422,6 +446,37 @@ def scan(
     if out.complete and padded:
         out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
                          f"their exact CDR: {padded}")  # fmt: skip
+    return out
+
+
+def _combine(bag: BagFiles, parts: list[BagScan]) -> BagScan:
+    """One result of a split bag's per-file scans (see :class:`BagScan`)."""
+    out = BagScan(bag.bag_dir, bag.bag_dir, parts=parts)
+    first: dict[str, tuple[ChannelInfo, Path]] = {}
+    for part in parts:
+        for channel in part.channels.values():
+            known = first.get(channel.topic)
+            if known is None:
+                first[channel.topic] = (channel, part.path)
+                out.channels[len(first)] = replace(channel, id=len(first))
+            elif known[0].type_name != channel.type_name:
+                raise BagReadError(
+                    f"{str(bag.bag_dir)!r}: {channel.topic} is {known[0].type_name} in "
+                    f"{known[1].name} and {channel.type_name} in {part.path.name}"
+                )
+        for topic, n in part.counts.items():
+            out.counts[topic] = out.counts.get(topic, 0) + n
+        for t in (part.start_ns, part.end_ns):
+            if t is not None:
+                out.start_ns = t if out.start_ns is None else min(out.start_ns, t)
+                out.end_ns = t if out.end_ns is None else max(out.end_ns, t)
+        out.file_size += part.file_size
+        out.notes += [f"{part.path.name}: {note}" for note in part.notes]
+    stopped = [part for part in parts if not part.complete]
+    out.complete = not stopped
+    if stopped:
+        out.stopped_at, out.last_good_offset = stopped[0].stopped_at, stopped[0].last_good_offset
+        out.reason = "; ".join(f"{part.path.name}: {part.reason}" for part in stopped)
     return out
 
 
@@ -476,8 +531,8 @@ def _scan_file(
         out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
         if on_message is not None and (wanted is None or channel.topic in wanted):
             message = RecordedMessage(channel.topic, channel.type_name, rec.log_time,
-                                      rec.publish_time, rec.sequence, bytes(rec.data),
-                                      at)  # fmt: skip
+                                      rec.publish_time, rec.sequence, bytes(rec.data), at,
+                                      channel)  # fmt: skip
             try:
                 on_message(message)
             except Exception as exc:  # the caller's failure, not the file's: never a verdict
@@ -615,7 +670,7 @@ def _check_summary(f, footer, size: int, fail) -> None:
 def _check_metadata(out: BagScan, meta: dict, meta_path: Path) -> None:
     """``metadata.yaml``'s counts (checked by :func:`read_metadata`) against what was read."""
     where = str(meta_path)
-    held = "the file holds"
+    held = "the file holds" if not out.parts else f"its {len(out.parts)} files hold"
     listed: dict[str, int] = {}
     for t in meta["topics_with_message_count"]:
         name = t["topic_metadata"]["name"]
