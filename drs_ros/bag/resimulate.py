@@ -11,8 +11,10 @@ recorded ``/joint_states``, piston force and gap with the re-simulated ones, sam
 largest deviation per signal with its time.
 
 Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
-read, or holds no effect record (it was recorded before drs recorded when commands took effect)
-or no parameters.
+read (or its ``metadata.yaml`` is malformed), or holds no effect record (it was recorded before
+drs recorded when commands took effect) or no parameters; 4 decoding a message that passed every
+check of the file failed (a type that is not installed): one line ``internal error``, no verdict
+on the bag.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, fr
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
 from .effects import effect_records, model_params_from, recorded_node_parameters
-from .reader import BagReadError, scan
+from .reader import BagReadError, MessageCallbackError, scan
 
 #: signal -> (unit, default tolerance)
 SIGNALS = {
@@ -112,8 +114,13 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
     """Re-run the recorded commands; returns the re-simulated samples by step index and notes."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
-    sim = ActuatorSim(model, dt=dt, force_limit=float(np_["force_limit"]),
-                      integrator=str(np_["integrator"]), force_method=str(np_["force_method"]))
+    sim = ActuatorSim(
+        model,
+        dt=dt,
+        force_limit=float(np_["force_limit"]),
+        integrator=str(np_["integrator"]),
+        force_method=str(np_["force_method"]),
+    )
     piston = list(np_["joint_names"])[0]
     states: dict[int, tuple] = {}
     notes: list[str] = []
@@ -265,14 +272,27 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", help="bag directory or .mcap file recorded by drs-node")
-    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                    help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5",
+    )
     ap.add_argument("--params", help="a .toml/.yaml file of model parameters for the re-run")
     ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory")
-    ap.add_argument("--tol", type=float, default=1e-9,
-                    help="tolerance of the joint states and the gap [m, rad, /s] (default 1e-9)")
-    ap.add_argument("--force-tol", type=float, default=1e-6,
-                    help="tolerance of the piston force [N] (default 1e-6)")
+    ap.add_argument(
+        "--tol",
+        type=float,
+        default=1e-9,
+        help="tolerance of the joint states and the gap [m, rad, /s] (default 1e-9)",
+    )
+    ap.add_argument(
+        "--force-tol",
+        type=float,
+        default=1e-6,
+        help="tolerance of the piston force [N] (default 1e-6)",
+    )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
 
 
@@ -286,6 +306,9 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
         rows = compare(recorded, result, tolerances)
         if args.output:
             write_bag(args.output, recorded, result, model)
+    except MessageCallbackError as exc:  # our own failure on an intact message
+        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
+        return 4
     except (DRSError, BagReadError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
