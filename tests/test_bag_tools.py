@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 import pytest
-from node_support import domain_for, node_env
+from node_support import domain_for, node_env, wait_for_file_growth
 from ros_support import require_module, require_rclpy, write_drs_bag
 
 pytestmark = pytest.mark.ros
@@ -172,7 +172,9 @@ def test_sigkill_then_recover_gives_a_bag_every_reader_reads(tmp_path, request):
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     try:
-        time.sleep(4.0)  # well past start-up, with flushes behind it
+        # well past start-up (which takes seconds on a loaded machine), with flushes behind it
+        assert wait_for_file_growth(tmp_path / "bag" / "bag_0.mcap", timeout=60)
+        time.sleep(2.0)
     finally:
         kill_ns = time.time_ns()
         proc.send_signal(signal.SIGKILL)
