@@ -19,7 +19,11 @@ the closed (10 mm gap) and open (50 mm gap) positions. A commanded force that dr
 stop is not refused: the flap stops there (a perfectly inelastic contact: the velocity into the stop
 is removed), the stop carries the excess load, and ``at_stop`` says which stop. A force that pulls
 the flap away from the stop releases it. The closed stop sits 1.75 mm above the dead centre, so the
-mechanism can never be driven through the dead centre.
+mechanism can never be driven through the dead centre. A step that fails as a whole (at a low
+physics rate, dt up to 10 ms) or ends on or past a stop is taken again in sub-steps, so that the
+stop is the one the motion reaches, at the time it reaches it, and the rest of the step goes on
+from there (``ActuatorSim._split_step``); force mode never raises from :meth:`ActuatorSim.step`.
+A step longer than :data:`MAX_FORCE_STEP` (1 ms) is always taken in sub-steps.
 
 Commands are validated at the boundary: a refused command raises a :class:`DRSError` subclass with
 the reason and leaves the actuator unchanged.
@@ -34,11 +38,26 @@ import numpy as np
 
 from . import kernels
 from . import kinematics as kin
-from .errors import InputError, StrokeRangeError
+from .errors import (
+    InputError,
+    IntegrationError,
+    SingularConfigurationError,
+    StrokeRangeError,
+)
 from .params import DRSParams
 from .profile import QuinticSegment, quintic_move
 
 MODES = ("hold", "stroke", "force")
+#: Longest integrator step [s] of force mode: a longer physics step (a rate below 1 kHz) is taken
+#: in sub-steps of ``dt / 2**k`` no longer than this (a 10 ms RK4 step can carry the flap, which
+#: crosses its stroke in ~5 ms under a large force, past a stop and back within the step).
+MAX_FORCE_STEP = 1e-3
+#: Halvings of a sub-step that meets a stop: the contact is located to ``MAX_FORCE_STEP / 2**10``.
+SEARCH_LEVELS = 10
+#: Contacts resolved within one step; after the last the flap stays on its stop for the step.
+MAX_CONTACTS_PER_STEP = 4
+#: What the fixed-step integrator raises for a step it refuses (past a stop, non-finite).
+_REFUSED_STEP = (StrokeRangeError, SingularConfigurationError, IntegrationError)
 
 
 @dataclass(frozen=True)
@@ -105,6 +124,13 @@ class ActuatorSim:
         self._scalar_force = (
             FusedInverseDynamics.from_params(p) if force_method == "virtual-work" else None
         )
+        # force-mode sub-steps: dt / 2**top (<= MAX_FORCE_STEP) .. dt / 2**finest; a step of at
+        # most MAX_FORCE_STEP is first tried whole (the real-time loop's common case)
+        self._whole_steps = self.dt <= MAX_FORCE_STEP * (1.0 + 1e-9)
+        top = 1
+        while self.dt / (1 << top) > MAX_FORCE_STEP * (1.0 + 1e-9):
+            top += 1
+        self._search_levels = (top, top + SEARCH_LEVELS)
         self._stepper = None
         # built now, not at the first force command: importing the integrators (scipy.integrate)
         # mid-run stalls a real-time loop for ~0.4 s
@@ -317,37 +343,110 @@ class ActuatorSim:
     def _flap_acceleration(self, psi3: float, psi3d: float) -> float:
         return self._stepper.form.accel(psi3, psi3d, self._force_cmd)
 
-    def _step_force(self) -> None:
-        from .errors import SingularConfigurationError
+    def _leaves_stop(self, stop: str) -> bool:
+        """Whether the flap, at rest on ``stop`` (the current state), is pulled away from it: the
+        free acceleration points away from the stop (psi3 decreases as the flap opens)."""
+        acc = self._flap_acceleration(self._q[2], 0.0)
+        return acc < 0.0 if stop == "closed" else acc > 0.0
 
+    def _step_force(self) -> None:
         stepper, f = self._stepper, self._force_cmd
         if self._at_stop is not None:
-            # resting on a stop: it stays unless the free acceleration points away from the stop
-            # (psi3 decreases as the flap opens)
-            acc = self._flap_acceleration(self._q[2], 0.0)
-            leaving = acc < 0.0 if self._at_stop == "closed" else acc > 0.0
-            if not leaving:
+            # resting on a stop: it stays unless the force pulls the flap away from it
+            if not self._leaves_stop(self._at_stop):
                 self._hold_at(self._at_stop)
                 return
             self._at_stop = None
-            stepper.reset(psi3=float(self._q[2]), psi3_dot=0.0, t=self.t - self.dt)
-        try:
-            st = stepper.step(f)
-        except (StrokeRangeError, SingularConfigurationError):
-            # the step would pass a stop (or the dead centre beyond the closed stop); one step
-            # cannot cross half the stroke, so the nearer stop is the one it hits
-            nearer_open = self._q[0] > 0.5 * (self.s_min + self.s_max)
-            self._hold_at("open" if nearer_open else "closed")
-            return
-        if st.s <= self.s_min or st.s >= self.s_max:
-            self._hold_at("closed" if st.s <= self.s_min else "open")
-            return
+            stepper.restore(self.t - self.dt, (self._q[2], 0.0))
+        st = None
+        if self._whole_steps:
+            try:
+                st = stepper.step(f)
+            except _REFUSED_STEP:
+                pass
+        if st is None or not self.s_min < st.s < self.s_max:
+            # a long step, or one that fails or ends on or past a stop (rare at 1 kHz)
+            st = self._split_step()
+            if st is None:
+                return  # on a stop at the end of the step
         q = (st.s, st.psi1, st.psi3)
         qd = (st.s_dot, st.psi1_dot, st.psi3_dot)
         psi3dd = self._flap_acceleration(st.psi3, st.psi3_dot)
         self._q, self._qd = q, qd
         self._qdd = kin.accelerations_from_flap_scalar(q, qd, psi3dd, self.p)
         self._force = f
+
+    def _split_step(self):
+        """This step (from ``self._q``, ``self._qd`` at ``t - dt``) in sub-steps: a contact with
+        a stop is found from the motion, the flap placed on the stop it reaches (perfectly
+        inelastic), and the rest of the step goes on from there (resting on the stop, or leaving
+        it if the force pulls the flap away).
+
+        Sub-steps are ``dt / 2**k`` [s], at most :data:`MAX_FORCE_STEP` and at most ``dt / 2``;
+        one that fails or ends on or past a stop is halved, down to :data:`SEARCH_LEVELS`
+        halvings below the largest (~1 us): there the stop its end lies on or past is the one
+        reached. If even that
+        sub-step is refused (no state to read), the flap goes on the stop its motion points to:
+        the sign of ``psi3'`` at the last good state, else of ``psi3''`` there, else the nearer
+        stop. At most :data:`MAX_CONTACTS_PER_STEP` contacts per step; after the last the flap
+        stays on its stop for the rest of the step. Deterministic: the same state, force and
+        ``dt`` give the same sub-steps and the same bits.
+
+        Returns the integrator's state at the end of the step (in free flight), or None with
+        the flap placed on a stop.
+        """
+        stepper, f = self._stepper, self._force_cmd
+        top, finest = self._search_levels
+        total = 1 << finest  # the step in units of its finest sub-step
+        unit = self.dt / total
+        t_start = self.t - self.dt
+        stepper.restore(t_start, (self._q[2], self._qd[2]))
+        pos, level, contacts, stop = 0, top, 0, None
+        while pos < total:
+            if stop is not None:
+                if contacts >= MAX_CONTACTS_PER_STEP or not self._leaves_stop(stop):
+                    return None
+                # pulled away at once: on from rest at the stop, with the largest sub-step
+                # that fits the time already taken
+                stepper.restore(t_start + pos * unit, (self._q[2], 0.0))
+                self._at_stop = stop = None
+                level = max(top, finest - ((pos & -pos).bit_length() - 1))
+            size = 1 << (finest - level)
+            before = stepper.state
+            try:
+                st = stepper.step_by(f, size * unit)
+            except _REFUSED_STEP:
+                st = None
+            if st is not None and self.s_min < st.s < self.s_max:
+                pos += size
+                while level > top and pos % (size << 1) == 0:  # back to the larger sub-step
+                    level -= 1
+                    size <<= 1
+                continue
+            if st is not None:  # ended on or past a stop: back to where the sub-step began
+                stepper.restore(before.t, (before.psi3, before.psi3_dot))
+            if level < finest:
+                level += 1
+                continue
+            stop = self._stop_reached(st, before)
+            self._hold_at(stop)
+            contacts += 1
+            pos += size
+        return None if stop is not None else stepper.state
+
+    def _stop_reached(self, st, before) -> str:
+        """The stop a finest sub-step reaches: the one its end lies on or past; if the sub-step
+        was refused (``st`` None), the one the motion at ``before`` points to."""
+        if st is not None:
+            return "closed" if st.s <= self.s_min else "open"
+        direction = before.psi3_dot
+        if direction == 0.0:
+            direction = self._flap_acceleration(before.psi3, 0.0)
+        if direction < 0.0:
+            return "open"  # psi3 decreases as the flap opens
+        if direction > 0.0:
+            return "closed"
+        return "open" if before.s > 0.5 * (self.s_min + self.s_max) else "closed"
 
     def _hold_at(self, stop: str) -> None:
         s = self.s_min if stop == "closed" else self.s_max
