@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels
 from . import kinematics as kin
 from .errors import (
     InputError,
@@ -45,7 +44,7 @@ from .errors import (
     StrokeRangeError,
 )
 from .params import DRSParams
-from .profile import QuinticSegment, quintic_move
+from .profile import QuinticPath, QuinticSegment, TrajectoryPlan, plan_trajectory, quintic_move
 
 MODES = ("hold", "stroke", "force")
 #: Longest integrator step [s] of force mode: a longer physics step (a rate below 1 kHz) is taken
@@ -145,7 +144,7 @@ class ActuatorSim:
         self._t_reset = float(t)
         self.steps = 0
         self.mode = "hold"
-        self._segments: tuple[QuinticSegment, ...] = ()
+        self._path: QuinticPath | None = None
         self._settled = False
         self._target: float | None = None
         self._force_cmd = 0.0
@@ -210,74 +209,65 @@ class ActuatorSim:
                 f"the move to {target!r} m from s = {s0:.6g} m at {v0:.3g} m/s would leave "
                 f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"
             )
-        self._segments, self._target, self.mode = (seg,), target, "stroke"
+        self._path, self._target, self.mode = QuinticPath.of_segment(seg), target, "stroke"
         self._settled = False
         self._at_stop = None
         return seg
 
-    def command_trajectory(self, times, strokes, rates=None) -> tuple[QuinticSegment, ...]:
+    def plan_trajectory(self, times, strokes, rates=None) -> TrajectoryPlan:
+        """:func:`drs_model.profile.plan_trajectory` for this actuator's parameters: validate a
+        trajectory and build all of it that does not depend on the actuator's state (all but
+        the first one or two segments), for a later :meth:`command_trajectory` ``(plan)``.
+
+        Reads only the actuator's parameters, which never change: it may run in another thread
+        while the actuator steps (the node: in the subscription callback, outside its tick).
+        Raises as :meth:`command_trajectory` does, except for the first segment(s)' paths.
+        """
+        return plan_trajectory(self.p, times, strokes, rates)
+
+    def command_trajectory(self, times, strokes=None, rates=None) -> QuinticPath:
         """Follow a trajectory of the piston: reach ``strokes[k]`` [m] at ``times[k]`` [s from
         now] with rate ``rates[k]`` [m/s] (default: the mean of the neighbouring slopes, and rest
         at the last point), through one quintic per interval starting from the current state.
 
+        ``times`` may instead be a :class:`~drs_model.profile.TrajectoryPlan` from
+        :meth:`plan_trajectory` (``strokes`` and ``rates`` then omitted): only the segments
+        that depend on the current state (the first, and with default rates the second) are
+        built and checked here, in microseconds; given arrays, this plans first (a few ms for
+        10,000 points). The result is the same to the bit either way.
+
         Refused (nothing changes) unless the times strictly increase from > 0, every value is
-        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it. A
-        trajectory ends at rest: a last point with a non-zero rate is refused (holding a stroke
-        at a speed is no state the mechanism can be in).
+        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it
+        (checked at 65 instants per segment); at most 10,000 points. A trajectory ends at rest:
+        a last point with a non-zero rate is refused (holding a stroke at a speed is no state
+        the mechanism can be in). Where several segments leave the range, the one named is the
+        first of those built without the state, else the first of the others.
+
+        Returns the path followed (a sequence of :class:`QuinticSegment`, built on access).
         """
-        t = np.asarray(times, dtype=float).ravel()
-        s = np.asarray(strokes, dtype=float).ravel()
-        n = t.size
-        if n == 0 or n > 10_000 or s.size != n:
-            raise InputError(
-                f"a trajectory needs 1..10000 points with one stroke per time, got {n} times and "
-                f"{s.size} strokes"
-            )
-        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
-            raise InputError("trajectory times and strokes must be finite")
-        if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
-            raise InputError(
-                f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
-            )
-        kin.check_stroke(s, self.p)
-        if rates is None:
-            knots_t = np.concatenate([[0.0], t])
-            knots_s = np.concatenate([[self._q[0]], s])
-            v = np.zeros(n)
-            if n > 1:  # interior points: the slope across the neighbours (a C1 path)
-                v[:-1] = (knots_s[2:] - knots_s[:-2]) / (knots_t[2:] - knots_t[:-2])
-        else:
-            v = np.asarray(rates, dtype=float).ravel()
-            if v.size != n or not np.all(np.isfinite(v)):
-                raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
-            if v[-1] != 0.0:
+        if isinstance(times, TrajectoryPlan):
+            if strokes is not None or rates is not None:
                 raise InputError(
-                    f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
-                    "give 0 (or no velocities)"
+                    "command_trajectory takes a TrajectoryPlan alone or times and strokes "
+                    "(and rates), not both"
                 )
-        segs = []
-        s0, v0, a0, t0 = self._q[0], self._qd[0], self._qdd[0], self.t
-        for k in range(n):
-            seg = QuinticSegment.between(t0, self.t + t[k] - t0, s0, s[k], v0, v[k], a0, 0.0)
-            path = seg.evaluate(np.linspace(seg.t0, seg.t1, 65))[0]
-            if path.min() < self.s_min - 1e-12 or path.max() > self.s_max + 1e-12:
-                raise StrokeRangeError(
-                    f"the trajectory leaves [s_min, s_max] = [{self.s_min:.9g}, "
-                    f"{self.s_max:.9g}] m on its way to point {k} (of 0..{n - 1}), reaching "
-                    f"{path.min():.6g}..{path.max():.6g} m"
+            plan = times
+            if plan.limits != (self.s_min, self.s_max):
+                raise InputError(
+                    f"the trajectory plan was checked against [s_min, s_max] = "
+                    f"[{plan.limits[0]:.9g}, {plan.limits[1]:.9g}] m, this actuator's stroke "
+                    f"range is [{self.s_min:.9g}, {self.s_max:.9g}] m: plan it with its params"
                 )
-            segs.append(seg)
-            s0, v0, a0, t0 = float(s[k]), float(v[k]), 0.0, seg.t1
-        self._segments, self._target, self.mode = tuple(segs), float(s[-1]), "stroke"
+        else:
+            if strokes is None:
+                raise InputError("command_trajectory needs strokes with its times")
+            plan = plan_trajectory(self.p, times, strokes, rates)
+        head = plan.head(float(self._q[0]), float(self._qd[0]), float(self._qdd[0]))
+        path = QuinticPath.of_plan(plan, self.t, head)
+        self._path, self._target, self.mode = path, float(plan.strokes[-1]), "stroke"
         self._settled = False
         self._at_stop = None
-        return self._segments
-
-    def _active_segment(self) -> QuinticSegment:
-        for seg in self._segments:
-            if self.t <= seg.t1 + 1e-12:
-                return seg
-        return self._segments[-1]
+        return path
 
     def command_drs(self, open_flap: bool) -> QuinticSegment:
         """Open (True) or close (False) with the seed's manoeuvre times."""
@@ -300,7 +290,7 @@ class ActuatorSim:
             stepper.reset(psi3=self._q[2], psi3_dot=self._qd[2], t=self.t)
         self._force_cmd = force
         self._force = force
-        self.mode, self._segments, self._target = "force", (), None
+        self.mode, self._path, self._target = "force", None, None
 
     # ---- stepping ------------------------------------------------------------------------------
     def _ensure_stepper(self):
@@ -328,15 +318,13 @@ class ActuatorSim:
             self._step_force()
         elif self.mode == "stroke" and not self._settled:
             # past the last segment the end state no longer changes: computed once, then kept
-            if self.t >= self._segments[-1].t1:
+            if self.t >= self._path.t_end:
                 # every move ends at rest at its target: from its end on, that is the state
                 # exactly (the polynomial at t1 leaves ~1e-14 m/s of round-off)
                 self._settled = True
                 self._set_kinematic(self._target, 0.0, 0.0)
             else:
-                seg = self._active_segment()
-                s, v, a = kernels.quintic(min(max(self.t - seg.t0, 0.0), seg.duration),
-                                          seg.coeffs, 0)  # fmt: skip
+                s, v, a = self._path.at(self.t)  # the segment in force found by bisection
                 self._set_kinematic(s, v, a)
         # hold mode (and a settled move) keeps the state reset() or the last step computed
 
