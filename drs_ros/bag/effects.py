@@ -99,8 +99,15 @@ def effect_records(messages: Sequence) -> list[EffectRecord]:
     for log_ns, msg in messages:
         for status in msg.status:
             values = {kv.key: kv.value for kv in status.values}
-            out.append(EffectRecord(status.name, values.get("outcome", ""),
-                                    float(values.get("sim_time", "nan")), values, log_ns))
+            out.append(
+                EffectRecord(
+                    status.name,
+                    values.get("outcome", ""),
+                    float(values.get("sim_time", "nan")),
+                    values,
+                    log_ns,
+                )
+            )
     return out
 
 

@@ -112,8 +112,13 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
     """Re-run the recorded commands; returns the re-simulated samples by step index and notes."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
-    sim = ActuatorSim(model, dt=dt, force_limit=float(np_["force_limit"]),
-                      integrator=str(np_["integrator"]), force_method=str(np_["force_method"]))
+    sim = ActuatorSim(
+        model,
+        dt=dt,
+        force_limit=float(np_["force_limit"]),
+        integrator=str(np_["integrator"]),
+        force_method=str(np_["force_method"]),
+    )
     piston = list(np_["joint_names"])[0]
     states: dict[int, tuple] = {}
     notes: list[str] = []
@@ -265,14 +270,27 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", help="bag directory or .mcap file recorded by drs-node")
-    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                    help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5",
+    )
     ap.add_argument("--params", help="a .toml/.yaml file of model parameters for the re-run")
     ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory")
-    ap.add_argument("--tol", type=float, default=1e-9,
-                    help="tolerance of the joint states and the gap [m, rad, /s] (default 1e-9)")
-    ap.add_argument("--force-tol", type=float, default=1e-6,
-                    help="tolerance of the piston force [N] (default 1e-6)")
+    ap.add_argument(
+        "--tol",
+        type=float,
+        default=1e-9,
+        help="tolerance of the joint states and the gap [m, rad, /s] (default 1e-9)",
+    )
+    ap.add_argument(
+        "--force-tol",
+        type=float,
+        default=1e-6,
+        help="tolerance of the piston force [N] (default 1e-6)",
+    )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
 
 
