@@ -23,7 +23,7 @@ mechanism can never be driven through the dead centre. A step that fails as a wh
 physics rate, dt up to 10 ms) or ends on or past a stop is taken again in sub-steps, so that the
 stop is the one the motion reaches, at the time it reaches it, and the rest of the step goes on
 from there (``ActuatorSim._split_step``); force mode never raises from :meth:`ActuatorSim.step`.
-A step longer than :data:`MAX_FORCE_STEP` (1 ms) is always taken in sub-steps.
+A step longer than :data:`MAX_FORCE_STEP` (1 ms) is always taken in sub-steps of at most 1 ms.
 
 Commands are validated at the boundary: a refused command raises a :class:`DRSError` subclass with
 the reason and leaves the actuator unchanged.
@@ -48,8 +48,8 @@ from .profile import QuinticPath, QuinticSegment, TrajectoryPlan, plan_trajector
 
 MODES = ("hold", "stroke", "force")
 #: Longest integrator step [s] of force mode: a longer physics step (a rate below 1 kHz) is taken
-#: in sub-steps of ``dt / 2**k`` no longer than this (a 10 ms RK4 step can carry the flap, which
-#: crosses its stroke in ~5 ms under a large force, past a stop and back within the step).
+#: in equal sub-steps no longer than this (a 10 ms RK4 step can carry the flap, which crosses its
+#: stroke in ~5 ms under a large force, past a stop and back within the step).
 MAX_FORCE_STEP = 1e-3
 #: Halvings of a sub-step that meets a stop: the contact is located to ``MAX_FORCE_STEP / 2**10``.
 SEARCH_LEVELS = 10
@@ -123,13 +123,11 @@ class ActuatorSim:
         self._scalar_force = (
             FusedInverseDynamics.from_params(p) if force_method == "virtual-work" else None
         )
-        # force-mode sub-steps: dt / 2**top (<= MAX_FORCE_STEP) .. dt / 2**finest; a step of at
-        # most MAX_FORCE_STEP is first tried whole (the real-time loop's common case)
+        # force mode: a step of at most MAX_FORCE_STEP is first tried whole (the real-time loop's
+        # common case); a longer one, or one that fails or meets a stop, in `_pieces` equal
+        # sub-steps (at least two, none longer than MAX_FORCE_STEP), halved where needed
         self._whole_steps = self.dt <= MAX_FORCE_STEP * (1.0 + 1e-9)
-        top = 1
-        while self.dt / (1 << top) > MAX_FORCE_STEP * (1.0 + 1e-9):
-            top += 1
-        self._search_levels = (top, top + SEARCH_LEVELS)
+        self._pieces = max(2, math.ceil(self.dt / MAX_FORCE_STEP * (1.0 - 1e-9)))
         self._stepper = None
         # built now, not at the first force command: importing the integrators (scipy.integrate)
         # mid-run stalls a real-time loop for ~0.4 s
@@ -370,10 +368,10 @@ class ActuatorSim:
         inelastic), and the rest of the step goes on from there (resting on the stop, or leaving
         it if the force pulls the flap away).
 
-        Sub-steps are ``dt / 2**k`` [s], at most :data:`MAX_FORCE_STEP` and at most ``dt / 2``;
+        Sub-steps are ``dt / m`` [s] (``m >= 2``, the least with ``dt / m <= MAX_FORCE_STEP``);
         one that fails or ends on or past a stop is halved, down to :data:`SEARCH_LEVELS`
-        halvings below the largest (~1 us): there the stop its end lies on or past is the one
-        reached. If even that
+        halvings (~1 us at 1 ms), and grows back once past: at the finest the stop its end lies
+        on or past is the one reached. If even a finest
         sub-step is refused (no state to read), the flap goes on the stop its motion points to:
         the sign of ``psi3'`` at the last good state, else of ``psi3''`` there, else the nearer
         stop. At most :data:`MAX_CONTACTS_PER_STEP` contacts per step; after the last the flap
@@ -384,12 +382,12 @@ class ActuatorSim:
         the flap placed on a stop.
         """
         stepper, f = self._stepper, self._force_cmd
-        top, finest = self._search_levels
-        total = 1 << finest  # the step in units of its finest sub-step
+        top = 1 << SEARCH_LEVELS  # the largest sub-step, in units of the finest
+        total = self._pieces * top  # the step, in the same units
         unit = self.dt / total
         t_start = self.t - self.dt
         stepper.restore(t_start, (self._q[2], self._qd[2]))
-        pos, level, contacts, stop = 0, top, 0, None
+        pos, size, contacts, stop = 0, top, 0, None
         while pos < total:
             if stop is not None:
                 if contacts >= MAX_CONTACTS_PER_STEP or not self._leaves_stop(stop):
@@ -398,8 +396,7 @@ class ActuatorSim:
                 # that fits the time already taken
                 stepper.restore(t_start + pos * unit, (self._q[2], 0.0))
                 self._at_stop = stop = None
-                level = max(top, finest - ((pos & -pos).bit_length() - 1))
-            size = 1 << (finest - level)
+                size = min(top, pos & -pos)
             before = stepper.state
             try:
                 st = stepper.step_by(f, size * unit)
@@ -407,14 +404,13 @@ class ActuatorSim:
                 st = None
             if st is not None and self.s_min < st.s < self.s_max:
                 pos += size
-                while level > top and pos % (size << 1) == 0:  # back to the larger sub-step
-                    level -= 1
+                while size < top and pos % (size << 1) == 0:  # back to the larger sub-step
                     size <<= 1
                 continue
             if st is not None:  # ended on or past a stop: back to where the sub-step began
                 stepper.restore(before.t, (before.psi3, before.psi3_dot))
-            if level < finest:
-                level += 1
+            if size > 1:
+                size >>= 1
                 continue
             stop = self._stop_reached(st, before)
             self._hold_at(stop)
