@@ -4,7 +4,10 @@ Re-runs a recorded run in a fresh :class:`drs_model.actuator.ActuatorSim` (no DD
 parameters the node recorded at start (``/parameter_events``; ``--set`` / ``--params`` change
 them), it feeds the recorded commands in at the simulated instants the effect record
 (``~/command_events``) says they took effect: the stroke, force and trajectory commands (their
-recorded bytes, by sequence number), the service calls, and the node's own physics resets.
+recorded bytes, by sequence number), the service calls, and the node's own physics resets (a
+``reset`` record: the flap held at its recorded stroke at its recorded time, as the node did when
+its model refused a step; a step the re-run's model refuses is held the same way, with a note if
+the run did not).
 Superseded and refused commands are left out, as they were in the run. It then compares the
 recorded ``/joint_states``, piston force and gap with the re-simulated ones, sample by sample
 (each recorded stamp is ``t0 + simulated time``; the clock records give ``t0``), and reports the
@@ -125,6 +128,9 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
     states: dict[int, tuple] = {}
     notes: list[str] = []
 
+    # the steps at which the run's model refused to go on and the node held the flap
+    reset_steps = {int(round(r.sim_time / dt)) for r in run.records if r.outcome == RESET}
+
     def keep() -> None:
         st = sim.state
         states[int(round(st.t / dt))] = (st.q.copy(), st.qd.copy(), st.piston_force, st.gap,
@@ -132,7 +138,17 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
 
     def advance_to(t: float) -> None:
         while sim.t < t - 0.5 * dt:
-            sim.step()
+            try:
+                sim.step()
+            except DRSError as exc:
+                # the re-run's model refuses to go on: hold where it is, as the node does
+                # (node.py, _tick_locked); the run's RESET record, if it has one here, follows
+                s_hold = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
+                sim.reset(sim.t, s_hold)
+                if int(round(sim.t / dt)) not in reset_steps:
+                    notes.append(f"at {sim.t:.6f} s the re-run's model refuses a step the "
+                                 f"run took ({exc}); held at {s_hold!r} m as the node "
+                                 "would")  # fmt: skip
             keep()
 
     keep()
@@ -141,8 +157,16 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
         if r.outcome not in (ACCEPTED, RESET):
             continue
         advance_to(r.sim_time)
-        if r.outcome == RESET:  # the node resets inside a tick, then publishes the reset state
-            sim.reset(sim.t, float(r.values["stroke"]))
+        if r.outcome == RESET:
+            # the node's model refused a step; the node held the flap at the recorded stroke at
+            # that step's time and published that state: the same here, whether or not this
+            # model refuses the step (a later model may take it)
+            if abs(sim.t - r.sim_time) > 0.5 * dt:
+                raise ResimulationError(
+                    f"the effect record resets at {r.sim_time!r} s, which the re-run passed "
+                    f"({sim.t!r} s): the records are out of order"
+                )
+            sim.reset(r.sim_time, float(r.values["stroke"]))
             keep()
             continue
         key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
