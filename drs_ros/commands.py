@@ -28,19 +28,31 @@ def describe(key: str, msg) -> object:
     return msg.data
 
 
-def apply(sim, key: str, msg, piston_joint: str):
+def prepare(sim, key: str, msg, piston_joint: str):
+    """The part of applying ``msg`` that does not depend on the actuator's state, done before
+    the physics step that applies it (in the node, outside its real-time tick): a trajectory's
+    plan (:meth:`~drs_model.actuator.ActuatorSim.plan_trajectory`, bounded work, refusals
+    raised here). None for the other commands."""
+    if key == "trajectory_cmd":
+        return sim.plan_trajectory(*trajectory_points(msg, piston_joint))
+    return None
+
+
+def apply(sim, key: str, msg, piston_joint: str, prepared=None):
     """Apply command ``msg`` of kind ``key`` to ``sim`` (an ActuatorSim); returns what the
-    actuator returns (the move's segments, or None for a force)."""
+    actuator returns (the move's segments, or None for a force). ``prepared``: what
+    :func:`prepare` returned for it, if it was called (the result is the same to the bit)."""
     if key == "stroke_cmd":
         return sim.command_stroke(msg.data)
     if key == "force_cmd":
         return sim.command_force(msg.data)
     if key == "trajectory_cmd":
-        times, strokes, rates = trajectory_points(msg, piston_joint)
-        return sim.command_trajectory(times, strokes, rates)
+        if prepared is None:
+            prepared = prepare(sim, key, msg, piston_joint)
+        return sim.command_trajectory(prepared)
     if key == SERVICE_KEY:
         return sim.command_drs(bool(msg.data))
     raise KeyError(f"unknown command {key!r}; known: {sorted([*COMMAND_TYPES, SERVICE_KEY])}")
 
 
-__all__ = ["COMMAND_TYPES", "SERVICE_KEY", "apply", "describe"]
+__all__ = ["COMMAND_TYPES", "SERVICE_KEY", "apply", "describe", "prepare"]

@@ -330,3 +330,94 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     assert len(jumps) == 1 and "jumped back by" in out
     # from the last tick on the old clock (~1002 s) to the first on the new one (~900 s)
     assert -103e9 < int(jumps[0].values["jump_ns"]) < -101e9
+
+
+def test_force_mode_at_100_hz_lands_on_the_stop_the_force_drives_to(tmp_path, request, params):
+    """At the lowest allowed physics rate a +20 kN force opens the flap onto the open stop (it
+    parked on the closed stop for ever before), and -5 kN from there closes it onto the closed
+    stop (an IntegrationError escaped the step before, and the command was dropped)."""
+    from std_msgs.msg import Float64
+
+    from drs_model.kinematics import stroke_limits
+
+    domain = domain_for(request.node.nodeid)
+    proc = start_node(tmp_path, domain, "physics_rate_hz:=100.0", "publish_rate_hz:=50.0")
+    client = Client(domain)
+    force = client.node.create_publisher(Float64, "/drs/force_cmd", 10)
+    lo, hi = stroke_limits(params)
+    try:
+        assert client.wait_for(lambda: client.joints and force.get_subscription_count() > 0)
+        force.publish(Float64(data=20000.0))
+        assert client.wait_for(lambda: client.joints[-1].position[0] == hi, timeout=5.0), (
+            client.joints[-1].position[0]
+        )
+        force.publish(Float64(data=-5000.0))
+        assert client.wait_for(lambda: client.joints[-1].position[0] == lo, timeout=5.0), (
+            client.joints[-1].position[0]
+        )
+    finally:
+        out = stop_node(proc)
+        client.close()
+    assert proc.returncode == 0, out[-2000:]
+    assert "refused" not in out
+
+
+def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, params):
+    """The largest trajectory allowed (10,000 points, a 2 Hz sine of the stroke over 5 s) is
+    planned outside the real-time tick, accepted, and followed: the published strokes lie on
+    the sine (the quintics through its points with the neighbours' slopes differ from it by
+    ~1e-9 m), and it ends at its last point. Its cost to the loop is measured by
+    ``benchmarks/node_rate.py`` (missed deadlines with a 10,000-point trajectory a second)."""
+    from builtin_interfaces.msg import Duration
+    from std_msgs.msg import Float64
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from drs_model.kinematics import stroke_limits
+    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.effects import effect_records
+
+    domain = domain_for(request.node.nodeid)
+    bag = tmp_path / "bag"
+    proc = start_node(tmp_path, domain, f"bag_path:={bag}")
+    client = Client(domain)
+    pub = client.node.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+    lo, hi = stroke_limits(params)
+    mid, amp, n, span = 0.5 * (lo + hi), 0.3 * (hi - lo), 10_000, 5.0
+    t = span * np.arange(1, n + 1) / n
+    s = mid + amp * np.sin(2 * np.pi * 2.0 * t)
+    s[-1] = mid  # (sin(4 pi 5) = 0: it ends at rest where it started)
+    msg = JointTrajectory(joint_names=["drs_piston", "drs_link", "drs_flap"])
+    for tk, sk in zip(t, s, strict=True):
+        sec, ns = divmod(int(round(tk * 1e9)), 10**9)
+        msg.points.append(
+            JointTrajectoryPoint(
+                positions=[float(sk), 0.0, 0.0], time_from_start=Duration(sec=sec, nanosec=ns)
+            )
+        )
+    try:
+        assert client.wait_for(lambda: len(client.joints) > 10 and pub.get_subscription_count())
+        # start at rest where the sine starts: a move there, then the trajectory
+        stroke = client.node.create_publisher(Float64, "/drs/stroke_cmd", 10)
+        assert client.wait_for(lambda: stroke.get_subscription_count() > 0)
+        stroke.publish(Float64(data=mid))
+        client.spin_for(0.5)
+        pub.publish(msg)
+        client.spin_for(span + 1.0)
+    finally:
+        out = stop_node(proc)
+        client.close()
+    assert proc.returncode == 0, out[-2000:]
+    data = read_bag(bag, ["/drs/command_events", "/joint_states"])
+    records = [r for r in effect_records(data.messages["/drs/command_events"])
+               if r.source == "/drs/trajectory_cmd"]  # fmt: skip
+    assert [r.outcome for r in records] == ["accepted"], records
+    start = int(records[0].values["step"]) * 1e-3  # sim time the trajectory started [s]
+    states = [(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.position[0])
+              for _, m in data.messages["/joint_states"]]  # fmt: skip
+    t0 = int(next(r for r in effect_records(data.messages["/drs/command_events"])
+                  if r.outcome == "clock").values["t0_ns"]) * 1e-9  # fmt: skip
+    on_path = [(ts - t0 - start, sk) for ts, sk in states if 0.2 < ts - t0 - start < span - 0.2]
+    assert len(on_path) > 500
+    err = max(abs(sk - (mid + amp * np.sin(2 * np.pi * 2.0 * tau))) for tau, sk in on_path)
+    assert err < 1e-6, err
+    assert states[-1][1] == mid
