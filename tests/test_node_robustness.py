@@ -287,10 +287,11 @@ def test_a_catch_up_limit_below_two_publish_periods_is_refused_at_start(tmp_path
 
 
 def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
-    """Under use_sim_time, ``/clock`` running forward, then stepping back 100 s (as a looping
+    """Under use_sim_time, ``/clock`` running forward, then stepping back 1.5 s (as a looping
     ``drs-bag play --clock`` does), then forward again: the node keeps simulating and
     publishing, stamps its states on the new clock, and records the jump."""
     from rosgraph_msgs.msg import Clock
+    from std_msgs.msg import Float64
 
     from drs_ros.bag.check import read_bag
     from drs_ros.bag.effects import effect_records
@@ -301,21 +302,28 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     client = Client(domain)
     clock = client.node.create_publisher(Clock, "/clock", 10)
 
-    def run_clock(t0_s: float, seconds: float) -> None:
-        start = time.monotonic()
+    force = client.node.create_publisher(Float64, "/drs/force_cmd", 10)
+
+    def run_clock(t0_s: float, seconds: float, force_at: float) -> None:
+        start, forced = time.monotonic(), False
         while (el := time.monotonic() - start) < seconds:
             ns = int((t0_s + el) * 1e9)
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = divmod(ns, 10**9)
             clock.publish(msg)
             client.spin_for(0.002)
+            if not forced and el > 0.5:  # motion, so that a state matched to the wrong step
+                force.publish(Float64(data=force_at))  # would deviate in the re-run
+                forced = True
 
     try:
-        assert client.wait_for(lambda: clock.get_subscription_count() > 0)
-        run_clock(1000.0, 2.0)
+        assert client.wait_for(
+            lambda: clock.get_subscription_count() > 0 and force.get_subscription_count() > 0
+        )
+        run_clock(1000.0, 2.0, 3000.0)
         before = len(client.joints)
         assert before > 50, "no joint states on /clock"
-        run_clock(900.0, 2.0)
+        run_clock(1000.5, 2.0, -1500.0)  # back into times already logged: log times alone mislead
         after = client.joints[before:]
     finally:
         out = stop_node(proc)
@@ -323,13 +331,24 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     assert proc.returncode == 0, out[-2000:]
     assert len(after) > 50, "the node froze after the clock stepped back"
     stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in after])
-    assert stamps[-1] < 905.0 and stamps[-1] > 900.5  # on the new clock
+    assert 1001.5 < stamps[-1] < 1002.6  # on the new clock
     data = read_bag(bag, ["/drs/command_events"])
     jumps = [r for r in effect_records(data.messages["/drs/command_events"])
              if r.outcome == "clock" and "jump_ns" in r.values]  # fmt: skip
     assert len(jumps) == 1 and "jumped back by" in out
-    # from the last tick on the old clock (~1002 s) to the first on the new one (~900 s)
-    assert -103e9 < int(jumps[0].values["jump_ns"]) < -101e9
+    # from the last tick on the old clock (~1002 s) to the first on the new one (~1000.5 s)
+    assert -2.5e9 < int(jumps[0].values["jump_ns"]) < -1.0e9
+    # and the run re-simulates exactly across the jump (states matched to their clock origin
+    # in the order the node wrote them)
+    from drs_ros.bag.resimulate import compare, read_run, resimulate, run_params
+
+    run = read_run(bag)
+    result = resimulate(run, run_params(run.node_parameters))
+    rows = compare(run, result, {"piston_force": 1e-6, **dict.fromkeys(
+        ("stroke", "link_angle", "flap_angle", "stroke_rate", "link_rate", "flap_rate", "gap"),
+        1e-9)})  # fmt: skip
+    assert all(r["ok"] for r in rows) and not result["notes"], (rows, result["notes"])
+    assert rows[0]["samples"] == len(run.joint_states) > 100
 
 
 def test_force_mode_at_100_hz_lands_on_the_stop_the_force_drives_to(tmp_path, request, params):

@@ -30,8 +30,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
 from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, from_dict, from_file
@@ -79,13 +77,24 @@ def read_run(bag: str | Path) -> RecordedRun:
               tp["piston_force"], tp["flap_gap"], *cmd_topics}  # fmt: skip
     got: dict[str, list] = {t: [] for t in wanted}
     cmds: dict = {}
+    # the clock origin in force for each joint state, in the order the node wrote them (a clock
+    # record is written before the states of its tick); log times alone cannot say it once the
+    # node clock has jumped back
+    origin: list = [None]
+    state_origins: list = []
 
     def keep(m) -> None:
         msg = deserialize_message(m.data, msgdefs.message_class(m.type_name))
         if m.topic in cmd_topics:
             cmds[(m.topic, m.sequence)] = msg
-        else:
-            got[m.topic].append((m.log_time, msg))
+            return
+        got[m.topic].append((m.log_time, msg))
+        if m.topic == tp["command_events"]:
+            for r in effect_records([(m.log_time, msg)]):
+                if r.outcome == CLOCK:
+                    origin[0] = int(r.values["t0_ns"])
+        elif m.topic == tp["joint_states"]:
+            state_origins.append(origin[0])
 
     scan(bag, keep, topics=wanted)
     params = recorded_node_parameters(got[tp["parameter_events"]])
@@ -101,7 +110,7 @@ def read_run(bag: str | Path) -> RecordedRun:
         )
     return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds,
                        got[tp["joint_states"]], got[tp["piston_force"]],
-                       got[tp["flap_gap"]])  # fmt: skip
+                       got[tp["flap_gap"]], {"state_origins": state_origins})  # fmt: skip
 
 
 def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
@@ -195,15 +204,13 @@ class _Value:
 
 def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
     """``log_time -> physics step`` of each recorded joint state: its stamp is ``t0 +`` simulated
-    time, ``t0`` being the clock origin in force when it was logged (a stall moves it)."""
-    origins = sorted((r.log_time, int(r.values["t0_ns"])) for r in run.records
-                     if r.outcome == CLOCK)  # fmt: skip
-    if not origins:
-        raise ResimulationError("the effect record holds no clock origin (t0)")
-    logs = np.array([o[0] for o in origins])
+    time, ``t0`` being the clock origin in force when the node wrote it (a stall or a clock jump
+    moves it; the origins come in write order from :func:`read_run`)."""
+    origins = run.extra.get("state_origins")
+    if not origins or origins[0] is None:
+        raise ResimulationError("the effect record holds no clock origin (t0) before the states")
     out = {}
-    for log, m in run.joint_states:
-        t0 = origins[max(int(np.searchsorted(logs, log, side="right")) - 1, 0)][1]
+    for (log, m), t0 in zip(run.joint_states, origins, strict=True):
         stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
         out[log] = int(round((stamp - t0) * 1e-9 / dt))
     return out
