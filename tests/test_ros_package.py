@@ -12,6 +12,7 @@ import signal
 import stat
 import subprocess
 import sys
+import time
 import tomllib
 import zipfile
 from pathlib import Path
@@ -259,6 +260,7 @@ def test_colcon_build_then_drs_node_from_the_install_space(tmp_path, request, sy
     )
     try:
         grew = wait_for_file_growth(bag / "bag_0.mcap", timeout=30.0, min_size=2000)
+        time.sleep(1.0)  # the first flush may come before the first tick on a loaded machine
         node.send_signal(signal.SIGINT)
         node_out, _ = node.communicate(timeout=30)
     finally:
