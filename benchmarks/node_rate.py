@@ -190,10 +190,10 @@ def recorder_cost(n: int, repeats: int, tmp: Path) -> dict[str, float]:
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from drs_ros import cdr
     from drs_ros.conversions import REACTION_NAMES
-    from drs_ros.msgdefs import full_definition
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording import cdr
+    from drs_ros.recording.mcap_recorder import McapRecorder
+    from drs_ros.recording.msgdefs import full_definition
 
     msg = JointState()
     msg.name = ["drs_piston", "drs_link", "drs_flap"]
@@ -277,9 +277,10 @@ def main(argv: list[str] | None = None) -> int:
         for k, (executor, hz, load) in enumerate(plan):
             r = measure(executor, hz, duration, args.domain, tmp / str(k), load)
             by_config.setdefault((executor, hz, load), []).append(r)
-            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10}: CPU {100 * r['cpu_share_of_core']:5.1f} % of a "
-                  f"core, missed {r['missed_deadlines']}/{r['ticks']} "
-                  f"({100 * r['missed_share']:.2f} %), per cycle: model "
+            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10}: CPU "
+                  f"{100 * r['cpu_share_of_core']:5.1f} % of a core, missed "
+                  f"{r['missed_deadlines']}/{r['ticks']} ({100 * r['missed_share']:.2f} %), "
+                  f"per cycle: model "
                   f"{r['us_per_cycle_model']:.0f} us, publish {r['us_per_cycle_publish']:.0f} us, "
                   f"record {r['us_per_cycle_record']:.0f} us, rest {r['us_per_cycle_rest']:.0f} us",
                   flush=True)  # fmt: skip

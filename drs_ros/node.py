@@ -25,7 +25,7 @@ Commands are latest-wins: a subscription callback only records the bytes that ar
 the newest command per topic; the next tick applies it before stepping, so no queued, stale
 setpoint is ever executed. Every message is recorded as its exact CDR bytes: commands as they
 arrived (raw subscriptions, as rosbag2 does), the node's own messages serialised once by
-:mod:`drs_ros.cdr`, published as those bytes and recorded as the same bytes.
+:mod:`drs_ros.recording.cdr`, published as those bytes and recorded as the same bytes.
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict, from_file
 
-from . import cdr, commands
+from . import commands
 from .conversions import (
     MechanismMarkers,
     command_event_msg,
@@ -78,6 +78,7 @@ from .conversions import (
 )
 from .drawing import moving_drawings, still_drawings
 from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSEDED
+from .recording import cdr
 from .trajectory_cdr import read_joint_trajectory
 
 QOS_DEPTH = 10
@@ -466,7 +467,8 @@ class DRSNode(Node):
     # ---- recordings ----------------------------------------------------------------------------
     def _open_recordings(self) -> None:
         """Check both paths, then create both recorders; on any failure remove what was made."""
-        from .recording import McapRecorder, RecordingError, check_new_bag
+        from .recording.errors import RecordingError
+        from .recording.mcap_recorder import McapRecorder, check_new_bag
 
         bag = self.get_parameter("bag_path").value
         rrd = self.get_parameter("rrd_path").value
@@ -474,7 +476,7 @@ class DRSNode(Node):
         if bag:
             check_new_bag(bag)
         if rrd or live:
-            from .rerun_log import check_connect_url, check_new_rrd
+            from .recording.rerun_recorder import check_connect_url, check_new_rrd
 
             if rrd:
                 check_new_rrd(rrd)
@@ -487,7 +489,7 @@ class DRSNode(Node):
                     bag, flush_period=self.get_parameter("flush_period").value
                 )
             if rrd or live:
-                from .rerun_log import RerunRecorder
+                from .recording.rerun_recorder import RerunRecorder
 
                 # the mechanism drawn as often as ~/markers draws it; the series at every sample
                 self.rerun = RerunRecorder(
@@ -712,7 +714,7 @@ class DRSNode(Node):
         return response
 
     def _on_service_event(self, data: bytes) -> None:
-        # an event ends in a string, so the transport may have padded it (drs_ros.cdr.exact_bytes)
+        # an event ends in a string, so the transport may have padded it (cdr.exact_bytes)
         try:
             data = cdr.exact_bytes(data, SetBool.Event)
         except cdr.CdrError as exc:

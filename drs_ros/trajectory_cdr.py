@@ -7,10 +7,10 @@ with the attributes it reads (``joint_names``, ``points[k].positions``, ``.veloc
 ``.accelerations``, ``.effort``, ``.time_from_start.sec/.nanosec``), so the trajectory is
 validated by the same code whichever way it was decoded.
 
-It accepts exactly what :func:`drs_ros.cdr.exact_bytes` accepts: the exact CDR (little-endian
-plain CDR, zero padding, valid UTF-8 strings ending in NUL) followed by at most 3 zero bytes of
-transport padding; anything else raises :class:`drs_ros.cdr.CdrError`. So what the node records
-on a typed topic is what every reader decodes.
+It accepts exactly what :func:`drs_ros.recording.cdr.exact_bytes` accepts: the exact CDR
+(little-endian plain CDR, zero padding, valid UTF-8 strings ending in NUL) followed by at most 3
+zero bytes of transport padding; anything else raises :class:`drs_ros.recording.cdr.CdrError`. So
+what the node records on a typed topic is what every reader decodes.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import struct
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from .cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError
+from .recording.cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError
 
 _U32 = struct.Struct("<I")
 _TIME = struct.Struct("<iI")
@@ -129,7 +129,7 @@ class _Reader:
 
 def read_joint_trajectory(data: bytes) -> JointTrajectoryView:
     """The JointTrajectory whose exact CDR is ``data`` (plus at most 3 zero bytes of transport
-    padding), read in place; :class:`~drs_ros.cdr.CdrError` for anything else."""
+    padding), read in place; :class:`~drs_ros.recording.cdr.CdrError` for anything else."""
     buf = memoryview(bytes(data))
     if len(buf) < 4 or buf[:4] != CDR_LE_HEADER:
         raise CdrError(

@@ -123,7 +123,7 @@ class RawSubscriber:
         from rclpy.node import Node
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-        from drs_ros.msgdefs import message_class
+        from drs_ros.recording.msgdefs import message_class
 
         self.node = Node(node_name, context=context, **node_kw)
         self.received: dict[str, list[bytes]] = {t: [] for t in types}

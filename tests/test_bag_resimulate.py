@@ -113,7 +113,7 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
     from drs_ros.bag.effects import parameter_event
     from drs_ros.conversions import command_event_msg, float_msg, joint_state_msg
     from drs_ros.names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS, RESET
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     tp, names, hz = DEFAULT_TOPICS, list(DEFAULT_JOINT_NAMES), 100.0
     node_params = {"physics_rate_hz": hz, "publish_rate_hz": hz, "force_limit": 2.0e4,

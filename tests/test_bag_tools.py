@@ -236,9 +236,9 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
     require_rclpy()
     from std_srvs.srv import SetBool
 
-    from drs_ros import cdr
     from drs_ros.bag.reader import BagReadError, scan
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording import cdr
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     event = SetBool.Event()
     event.response = [SetBool.Response(success=True, message="opened")]
@@ -390,7 +390,7 @@ def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
 
 def _bag_of_an_uninstalled_type(bag: Path) -> None:
     """/joint_states recorded as a type this machine does not have: intact, undecodable here."""
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     with McapRecorder(bag, flush_thread=False) as rec:
         rec.register_recorded_topic("/joint_states", "drs_test_msgs/msg/Unknown", b"float64 x",

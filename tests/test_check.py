@@ -145,7 +145,7 @@ def _actuator_bag(bag_dir, params, corrupt_at=None):
     from std_msgs.msg import Float64
 
     from drs_model.actuator import ActuatorSim
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     a = ActuatorSim(params, dt=1e-4)
     t0 = 1_700_000_000_000_000_000

@@ -254,7 +254,7 @@ def test_use_sim_time_follows_clock(ros_context):
 
 
 def test_an_existing_recording_is_never_overwritten(ros_context, tmp_path):
-    from drs_ros.recording import RecordingError
+    from drs_ros.recording.errors import RecordingError
 
     bag = tmp_path / "bag"
     bag.mkdir()

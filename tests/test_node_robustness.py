@@ -203,7 +203,7 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
     from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.rerun_log import run_rerun_cli
+    from drs_ros.recording.rerun_cli import run_rerun_cli
 
     batches, per_batch = 10, 3
     rng = random.Random(16)

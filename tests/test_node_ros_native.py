@@ -294,7 +294,7 @@ def test_a_bad_value_in_the_parameter_file_is_refused_like_on_the_command_line(t
 
 def test_rerun_connect_refuses_a_host_off_loopback(ros_context, tmp_path):
     """A live rerun stream goes to loopback only; a bad URL refuses to start, leaving nothing."""
-    from drs_ros.rerun_log import RerunLogError
+    from drs_ros.recording.rerun_recorder import RerunLogError
 
     for url, reason in (("rerun+http://192.0.2.7:9876/proxy", "loopback"),
                         ("not a url", "rerun")):  # fmt: skip

@@ -93,7 +93,7 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> 
     """
     from rclpy.serialization import deserialize_message
 
-    from .. import msgdefs
+    from ..recording import msgdefs
 
     wanted = set(topics)
     messages: dict[str, list] = {t: [] for t in topics}

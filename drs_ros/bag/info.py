@@ -16,7 +16,7 @@ from pathlib import Path
 
 from drs_model.errors import DRSError
 
-from .. import msgdefs
+from ..recording import msgdefs
 from .reader import resolve, scan
 
 _INDENT = " " * 19

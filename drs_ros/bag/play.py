@@ -518,7 +518,7 @@ class Player:
         stop: threading.Event,
         overrides: dict[str, Any] | None = None,
     ):
-        from drs_ros.msgdefs import message_class
+        from drs_ros.recording.msgdefs import message_class
 
         self.node, self.index, self.options, self.stop = node, index, options, stop
         self.publishers: dict[str, Any] = {}

@@ -10,7 +10,7 @@
   counts per channel against the messages actually read;
 * every message: its channel is known, and its bytes are exactly its CDR serialisation: it is
   decoded by the installed type support (``rclpy.serialization.deserialize_message``) and
-  serialised again by :mod:`drs_ros.cdr`; trailing bytes or non-zero padding are an error;
+  serialised again by :mod:`drs_ros.recording.cdr`; trailing bytes or non-zero padding are an error;
 * a bag directory's ``metadata.yaml``: present, well formed (:func:`read_metadata`), naming files
   that exist, and its per-topic counts equal to what was read from all of them.
 
@@ -346,11 +346,11 @@ def read_metadata(meta_path: str | Path) -> dict[str, Any]:
 def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]:
     """``check(type_name, data) -> problem, '' (exact) or None (type not installed)``: decode
     with the installed type support and serialise again exactly. Up to 3 zero bytes after the
-    exact CDR are the DDS transport's padding (:func:`drs_ros.cdr.exact_bytes`): rosbag2 records
-    them as they arrive; they are counted in ``padded`` per type, not refused."""
+    exact CDR are the DDS transport's padding (:func:`drs_ros.recording.cdr.exact_bytes`):
+    rosbag2 records them as they arrive; they are counted in ``padded`` per type, not refused."""
     from rclpy.serialization import deserialize_message
 
-    from drs_ros import cdr, msgdefs
+    from drs_ros.recording import cdr, msgdefs
 
     classes: dict[str, Any] = {}
 

@@ -26,7 +26,9 @@ from pathlib import Path
 
 from drs_model.errors import DRSError
 
-from ..recording import McapRecorder, RecordingError, check_new_bag, parse_qos_yaml
+from ..recording.errors import RecordingError
+from ..recording.mcap_recorder import McapRecorder, check_new_bag
+from ..recording.qos import parse_qos_yaml
 from .reader import ChannelInfo, MessageCallbackError, RecordedMessage, scan
 
 

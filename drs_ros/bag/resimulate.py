@@ -69,7 +69,7 @@ def read_run(bag: str | Path) -> RecordedRun:
     signals to compare."""
     from rclpy.serialization import deserialize_message
 
-    from .. import msgdefs
+    from ..recording import msgdefs
 
     tp = DEFAULT_TOPICS
     cmd_topics = {tp[k] for k in commands.COMMAND_TYPES}
@@ -271,7 +271,7 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
     from std_msgs.msg import Float64
 
     from ..conversions import float_msg, time_msg
-    from ..recording import McapRecorder
+    from ..recording.mcap_recorder import McapRecorder
     from .effects import parameter_event
 
     names = list(run.node_parameters["joint_names"])

@@ -240,7 +240,8 @@ def _hash(name: str) -> str:
 
 def type_hash(msg_type) -> str:
     """The ``RIHS01_<sha256 hex>`` type description hash of a message type (from its ``.json``).
-    Service events are not asked: their channels carry no hash (see :mod:`drs_ros.recording`)."""
+    Service events are not asked: their channels carry no hash (see
+    :mod:`drs_ros.recording.mcap_recorder`)."""
     return _hash(type_name(msg_type))
 
 
