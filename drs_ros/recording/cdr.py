@@ -105,8 +105,12 @@ def _basic_block_writer(typename: str) -> Writer:
         if n == 0:
             return
         _align(buf, size)
-        if _LITTLE and isinstance(values, array.array) and values.itemsize == size and \
-                values.typecode.lower() == code.lower():
+        if (
+            _LITTLE
+            and isinstance(values, array.array)
+            and values.itemsize == size
+            and values.typecode.lower() == code.lower()
+        ):
             buf += values.tobytes()  # the generated classes hold numeric sequences as arrays
         elif isinstance(values, (bytes, bytearray)) and size == 1:
             buf += values
@@ -214,6 +218,7 @@ def _struct_writer(msg_class: type) -> Writer:
     except AttributeError as exc:
         raise CdrError(f"{msg_class!r} is not a ROS message class") from exc
     if not names:  # an empty structure carries one dummy uint8 on the wire
+
         def write_empty(buf: bytearray, msg) -> None:
             buf += b"\x00"
 
@@ -306,7 +311,7 @@ def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
     except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
         why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
         raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
-    tail = data[len(exact):]
+    tail = data[len(exact) :]
     if not data.startswith(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
         raise CdrError(
             f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
@@ -315,5 +320,13 @@ def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
     return msg, exact
 
 
-__all__ = ["CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "decode_exact", "exact_bytes",
-           "flat_packer", "serialize", "serializer"]
+__all__ = [
+    "CDR_LE_HEADER",
+    "MAX_TRANSPORT_PADDING",
+    "CdrError",
+    "decode_exact",
+    "exact_bytes",
+    "flat_packer",
+    "serialize",
+    "serializer",
+]

@@ -53,7 +53,9 @@ from .qos import qos_dict, qos_yaml
 #: rosbag2 metadata version of ROS 2 Jazzy.
 ROSBAG2_METADATA_VERSION = 9
 _COMPRESSION = {
-    "none": CompressionType.NONE, "lz4": CompressionType.LZ4, "zstd": CompressionType.ZSTD
+    "none": CompressionType.NONE,
+    "lz4": CompressionType.LZ4,
+    "zstd": CompressionType.ZSTD,
 }
 _LIBRARY = f"drs_ros.recording (mcap-python {_mcap_version})"
 
@@ -150,13 +152,17 @@ class McapRecorder:
         ros_distro: str = "jazzy",
         custom_data: Mapping[str, str] | None = None,
     ) -> None:
-        if not (isinstance(flush_period, (int, float)) and math.isfinite(flush_period)
-                and flush_period > 0):
+        if not (
+            isinstance(flush_period, (int, float))
+            and math.isfinite(flush_period)
+            and flush_period > 0
+        ):
             raise RecordingError(
                 f"flush_period must be a finite number > 0 s, got {flush_period!r}"
             )
         if flush_messages is not None and (
-            isinstance(flush_messages, bool) or not isinstance(flush_messages, int)
+            isinstance(flush_messages, bool)
+            or not isinstance(flush_messages, int)
             or flush_messages < 1
         ):
             raise RecordingError(
@@ -495,9 +501,7 @@ class McapRecorder:
                     yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
                 )
             except OSError as exc:
-                raise RecordingError(
-                    f"cannot write {str(self.metadata_path)!r}: {exc}"
-                ) from exc
+                raise RecordingError(f"cannot write {str(self.metadata_path)!r}: {exc}") from exc
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=5.0)
         return self.bag_dir

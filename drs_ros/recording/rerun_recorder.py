@@ -59,8 +59,13 @@ SERIES = {
     "series/piston_force": ("piston force [N]", (214, 39, 40)),
 }
 #: Moving drawings.
-DRAWINGS = ("mechanism/piston", "mechanism/link", "mechanism/flap", "mechanism/gap",
-            "mechanism/pins")
+DRAWINGS = (
+    "mechanism/piston",
+    "mechanism/link",
+    "mechanism/flap",
+    "mechanism/gap",
+    "mechanism/pins",
+)
 _COLORS = {
     "mechanism/piston": (120, 120, 120),
     "mechanism/link": (70, 70, 200),
@@ -210,8 +215,9 @@ class RerunRecorder:
         batch: int = 250,
         application_id: str = "drs",
     ) -> None:
-        if not (isinstance(max_draw_hz, (int, float)) and math.isfinite(max_draw_hz)
-                and max_draw_hz > 0):
+        if not (
+            isinstance(max_draw_hz, (int, float)) and math.isfinite(max_draw_hz) and max_draw_hz > 0
+        ):
             raise InputError(f"max_draw_hz must be a finite number > 0 Hz, got {max_draw_hz!r}")
         if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
             raise InputError(f"batch must be an int >= 1, got {batch!r}")
@@ -372,8 +378,11 @@ class RerunRecorder:
             raise InputError(f"t must have shape (n,) and q (n, 3), got {t.shape} and {q.shape}")
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
             raise InputError("t must be finite and non-decreasing")
-        force = (np.full(t.size, np.nan) if piston_force is None
-                 else np.asarray(piston_force, dtype=float))
+        force = (
+            np.full(t.size, np.nan)
+            if piston_force is None
+            else np.asarray(piston_force, dtype=float)
+        )
         if force.shape != t.shape:
             raise InputError(f"piston_force must have shape {t.shape}, got {force.shape}")
         self.flush()
@@ -453,7 +462,15 @@ class RerunRecorder:
 
 
 __all__ = [
-    "CONNECT_SCHEMES", "CONNECT_URL_EXAMPLE", "DRAWINGS", "SERIES", "STREAM_FLUSH_TIMEOUT_S",
-    "TIMELINE", "RerunLogError", "RerunRecorder", "check_connect_url", "check_new_rrd",
+    "CONNECT_SCHEMES",
+    "CONNECT_URL_EXAMPLE",
+    "DRAWINGS",
+    "SERIES",
+    "STREAM_FLUSH_TIMEOUT_S",
+    "TIMELINE",
+    "RerunLogError",
+    "RerunRecorder",
+    "check_connect_url",
+    "check_new_rrd",
     "default_blueprint",
 ]
