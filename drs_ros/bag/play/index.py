@@ -4,6 +4,7 @@ messages streamed in log-time order, a chunk at a time.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -11,7 +12,6 @@ from pathlib import Path
 from drs_model.errors import DRSError
 
 from ..reader import BagReadError, resolve
-from .offers import INFINITE_NS
 
 #: The 8 bytes every MCAP file starts (and ends) with.
 MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -76,7 +76,7 @@ def index_bag(path: str | Path) -> BagIndex:
     """
     files = resolve(path, require_metadata=False).files
     channels: dict[str, Channel] = {}
-    start, end, count = INFINITE_NS, -1, 0
+    start, end, count = math.inf, -1, 0  # no message yet
     for file in files:
         with open(file, "rb") as f:
             _reader, summary = _summary(f, file)

@@ -9,73 +9,9 @@ from typing import Any
 
 import yaml
 
+from ...recording.errors import RecordingError
+from ...recording.qos import DEFAULT_DEPTH, QOS_KEYS, parse_qos_yaml, qos_profile
 from .options import PlayError
-
-#: History depth of rosbag2's offers (``rmw_qos_profile_default.depth``).
-DEFAULT_QOS_DEPTH = 10
-#: ``RMW_DURATION_INFINITE`` [ns] and the Foxy-era spellings rosbag2 reads as infinite.
-INFINITE_NS = 2**63 - 1
-_FOXY_INFINITE = {(0x7FFFFFFF, 0xFFFFFFFF), (0x7FFFFFFF, 0x7FFFFFFF), divmod(INFINITE_NS, 10**9)}
-
-
-def _duration_ns(value: Any) -> int:
-    """A recorded ``{sec, nsec}`` duration [ns]; rosbag2's infinite spellings -> infinite."""
-    sec, nsec = int(value["sec"]), int(value["nsec"])
-    if (sec, nsec) in _FOXY_INFINITE:
-        return INFINITE_NS
-    return min(sec * 10**9 + nsec, INFINITE_NS)
-
-
-def _policy(enum_type, value: Any):
-    """A policy from its metadata-version-9 name (``reliable``) or a version <= 8 integer."""
-    if isinstance(value, bool):
-        raise ValueError(f"invalid QoS policy {value!r}")
-    if isinstance(value, int):
-        return enum_type(value)
-    return enum_type[str(value).strip().upper()]
-
-
-def qos_profile(offer: dict[str, Any]):
-    """An rclpy ``QoSProfile`` from one recorded offer (a dict of ``offered_qos_profiles``)."""
-    from rclpy.duration import Duration
-    from rclpy.qos import (
-        DurabilityPolicy,
-        HistoryPolicy,
-        LivelinessPolicy,
-        QoSProfile,
-        ReliabilityPolicy,
-    )
-
-    history = _policy(HistoryPolicy, offer.get("history", "keep_last"))
-    return QoSProfile(
-        history=history,
-        depth=int(offer.get("depth", DEFAULT_QOS_DEPTH)),
-        reliability=_policy(ReliabilityPolicy, offer["reliability"]),
-        durability=_policy(DurabilityPolicy, offer["durability"]),
-        deadline=Duration(nanoseconds=_duration_ns(offer["deadline"])),
-        lifespan=Duration(nanoseconds=_duration_ns(offer["lifespan"])),
-        liveliness=_policy(LivelinessPolicy, offer["liveliness"]),
-        liveliness_lease_duration=Duration(
-            nanoseconds=_duration_ns(offer["liveliness_lease_duration"])
-        ),
-        avoid_ros_namespace_conventions=bool(offer.get("avoid_ros_namespace_conventions", False)),
-    )
-
-
-#: The keys of a profile in ``offered_qos_profiles`` and in a QoS overrides file.
-QOS_KEYS = frozenset(
-    {
-        "history",
-        "depth",
-        "reliability",
-        "durability",
-        "deadline",
-        "lifespan",
-        "liveliness",
-        "liveliness_lease_duration",
-        "avoid_ros_namespace_conventions",
-    }
-)
 
 
 def qos_overrides(path: str | Path) -> dict[str, Any]:
@@ -98,7 +34,7 @@ def qos_overrides(path: str | Path) -> dict[str, Any]:
                 )
             base = {
                 "history": "keep_last",
-                "depth": DEFAULT_QOS_DEPTH,
+                "depth": DEFAULT_DEPTH,
                 "reliability": "reliable",
                 "durability": "volatile",
                 "liveliness": "system_default",
@@ -118,7 +54,7 @@ def default_qos():
     """rosbag2's default offer (``Rosbag2QoS{}``): keep last 10, reliable, volatile."""
     from rclpy.qos import QoSProfile
 
-    return QoSProfile(depth=DEFAULT_QOS_DEPTH)
+    return QoSProfile(depth=DEFAULT_DEPTH)
 
 
 def playback_qos(offered_yaml: str | None, topic: str) -> tuple[Any, str | None]:
@@ -139,9 +75,8 @@ def playback_qos(offered_yaml: str | None, topic: str) -> tuple[Any, str | None]
     if not offered_yaml or not offered_yaml.strip():
         return default_qos(), None
     try:
-        offers = yaml.safe_load(offered_yaml) or []
-        profiles = [qos_profile(offer) for offer in offers]
-    except (yaml.YAMLError, KeyError, ValueError, TypeError, AttributeError) as exc:
+        profiles = [qos_profile(offer) for offer in parse_qos_yaml(offered_yaml)]
+    except (RecordingError, KeyError, ValueError, TypeError, AttributeError) as exc:
         return default_qos(), (
             f"topic {topic}: unreadable offered_qos_profiles ({type(exc).__name__}: {exc}); "
             "using the default QoS (keep last 10, reliable, volatile)"
@@ -167,5 +102,5 @@ def playback_qos(offered_yaml: str | None, topic: str) -> tuple[Any, str | None]
 
     chosen = profiles[0]
     chosen.history = HistoryPolicy.KEEP_LAST
-    chosen.depth = DEFAULT_QOS_DEPTH
+    chosen.depth = DEFAULT_DEPTH
     return chosen, None
