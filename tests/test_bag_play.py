@@ -632,8 +632,8 @@ def test_start_offset_skips_the_beginning(tmp_path):
 def test_copy_of_the_example_bag_directory_plays_by_its_metadata(tmp_path):
     """A bag directory is read through its metadata.yaml's file list (the reader's resolver,
     which the player uses)."""
+    from drs_ros.bag.files import BagReadError, resolve
     from drs_ros.bag.play import index_bag
-    from drs_ros.bag.reader import BagReadError, resolve
 
     copy = tmp_path / "copy"
     shutil.copytree(EXAMPLE, copy)

@@ -41,7 +41,8 @@ from drs_model.kinematics import gap as model_gap
 from drs_model.params import DRSParams, from_file
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from .reader import BagReadError, MessageCallbackError, scan
+from .files import BagReadError
+from .reader import MessageCallbackError, scan
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")

@@ -17,7 +17,8 @@ from pathlib import Path
 from drs_model.errors import DRSError
 
 from ..recording import msgdefs
-from .reader import resolve, scan
+from .files import resolve
+from .reader import scan
 
 _INDENT = " " * 19
 SERVICE_EVENT_TOPIC_SUFFIX = "/_service_event"
@@ -55,7 +56,7 @@ def bag_summary(path: str | Path) -> dict:
     """
     bag = resolve(path, require_metadata=False)
     meta = bag.metadata
-    if meta is not None:  # checked by the resolver (drs_ros.bag.reader.read_metadata)
+    if meta is not None:  # checked by the resolver (drs_ros.bag.files.read_metadata)
         topics = [(t["topic_metadata"]["name"], t["topic_metadata"]["type"], t["message_count"],
                    t["topic_metadata"].get("serialization_format", "cdr"))
                   for t in meta["topics_with_message_count"]]  # fmt: skip

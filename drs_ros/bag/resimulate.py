@@ -37,7 +37,8 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, fr
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
 from .effects import effect_records, model_params_from, recorded_node_parameters
-from .reader import BagReadError, MessageCallbackError, scan
+from .files import BagReadError
+from .reader import MessageCallbackError, scan
 
 #: signal -> (unit, default tolerance)
 SIGNALS = {

@@ -11,10 +11,8 @@ from pathlib import Path
 
 from drs_model.errors import DRSError
 
-from ..reader import BagReadError, resolve
-
-#: The 8 bytes every MCAP file starts (and ends) with.
-MCAP_MAGIC = b"\x89MCAP0\r\n"
+from ..files import BagReadError, resolve
+from ..reader import MCAP_MAGIC
 
 
 @dataclass(frozen=True)
