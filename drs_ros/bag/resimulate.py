@@ -152,7 +152,8 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
                 sim.step()
             except DRSError as exc:
                 # the re-run's model refuses to go on: hold where it is, as the node does
-                # (node.py, _tick_locked); the run's RESET record, if it has one here, follows
+                # (drs_ros.node.adapter, _tick_locked); the run's RESET record, if it has one
+                # here, follows
                 s_hold = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
                 sim.reset(sim.t, s_hold)
                 if int(round(sim.t / dt)) not in reset_steps:

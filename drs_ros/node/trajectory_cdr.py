@@ -19,7 +19,7 @@ import struct
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from .recording.cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError
+from ..recording.cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError
 
 _U32 = struct.Struct("<I")
 _TIME = struct.Struct("<iI")
