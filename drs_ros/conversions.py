@@ -12,11 +12,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from drs_model.actuator import ActuatorState
-from drs_model.inverse import NE_UNKNOWNS
-
-#: Order of the reactions on ``~/joint_reactions``: the Newton-Euler unknowns without the piston
-#: force (the seed's names; N, except Tp in N m).
-REACTION_NAMES = tuple(name for name in NE_UNKNOWNS if name != "F")
+from drs_model.inverse import REACTION_NAMES
 
 
 def time_msg(ns: int) -> Time:
@@ -41,7 +37,8 @@ def joint_state_msg(
 
 def reactions_msg(reactions: Mapping[str, float], stamp_ns: int) -> JointState:
     """The joint reactions as a JointState whose names are the reactions and efforts their values
-    (self-describing and stamped; N, Tp in N m)."""
+    (self-describing and stamped; the model's :data:`~drs_model.inverse.REACTION_NAMES`, in that
+    order: N, Tp in N m)."""
     msg = JointState()
     msg.header.stamp = time_msg(stamp_ns)
     msg.name = list(REACTION_NAMES)
