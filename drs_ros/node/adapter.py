@@ -46,7 +46,6 @@ from rclpy.service_introspection import ServiceIntrospectionState
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool
-from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from drs_model.actuator import ActuatorSim
@@ -61,7 +60,7 @@ from ..conversions import (
 )
 from ..drawing import moving_drawings, still_drawings
 from ..names import ACCEPTED, CLOCK, REFUSED, RESET, SUPERSEDED
-from ..recording import cdr
+from ..recording import cdr, msgdefs
 from .effect_record import EffectRecord, PendingCommand
 from .parameters import StartupError, declare_parameters, effective_parameters, model_params
 from .recordings import NodeRecordings
@@ -72,8 +71,8 @@ QOS_DEPTH = 10
 STILL_MARKERS_PERIOD_S = 1.0
 #: Ticks between two questions to DDS whether the optional topics have listeners.
 LISTENER_CHECK_TICKS = 25
-#: The command topics (``~/<key>``) and their message types.
-COMMANDS = {"stroke_cmd": Float64, "force_cmd": Float64, "trajectory_cmd": JointTrajectory}
+#: The command topics (``~/<key>``) and their message classes, as commands.COMMAND_TYPES names them.
+COMMANDS = {key: msgdefs.message_class(name) for key, name in commands.COMMAND_TYPES.items()}
 #: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
 COMMAND_QOS_DEPTH = 10
 #: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
