@@ -151,11 +151,9 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
             try:
                 sim.step()
             except DRSError as exc:
-                # the re-run's model refuses to go on: hold where it is, as the node does
-                # (drs_ros.node.adapter, _tick_locked); the run's RESET record, if it has one
-                # here, follows
-                s_hold = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
-                sim.reset(sim.t, s_hold)
+                # the re-run's model refuses to go on: hold where it is, as the node does; the
+                # run's RESET record, if it has one here, follows
+                s_hold = commands.hold(sim)
                 if int(round(sim.t / dt)) not in reset_steps:
                     notes.append(f"at {sim.t:.6f} s the re-run's model refuses a step the "
                                  f"run took ({exc}); held at {s_hold!r} m as the node "

@@ -483,8 +483,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             self.sim.advance(max(due, 0))
         except DRSError as exc:  # the model refuses to go on: hold where it is and say why
             reason = self._refuse("step", self.sim.mode, str(exc), now)
-            s_hold = float(min(max(self.sim.state.q[0], self.sim.s_min), self.sim.s_max))
-            self.sim.reset(self.sim.t, s_hold)
+            s_hold = commands.hold(self.sim)
             self._event(
                 RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_hold)}, now
             )
