@@ -59,9 +59,9 @@ from ..conversions import (
     reactions_msg,
 )
 from ..drawing import moving_drawings, still_drawings
-from ..names import ACCEPTED, CLOCK, REFUSED, RESET, SUPERSEDED
+from ..names import ACCEPTED, REFUSED, RESET, SUPERSEDED
 from ..recording import cdr, msgdefs
-from .effect_record import EffectRecord, PendingCommand
+from .effect_record import EffectRecord, PendingCommand, refusal_reason
 from .parameters import StartupError, declare_parameters, effective_parameters, model_params
 from .recordings import NodeRecordings
 from .trajectory_cdr import read_joint_trajectory
@@ -384,9 +384,8 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         try:
             seg = commands.apply(self.sim, commands.SERVICE_KEY, request, self.joint_names[0])
         except Exception as exc:  # noqa: BLE001 - what a request carries never stops the node
-            why = str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
             response.success = False
-            response.message = self._refuse("drs", value, why, now)
+            response.message = self._refuse("drs", value, refusal_reason(exc), now)
             self._event(
                 self.service_name,
                 REFUSED,
@@ -443,7 +442,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         mono = time.monotonic_ns()
         if self._t0_ns is None:
             self._t0_ns = now - int(round(self.sim.t * 1e9))
-            self._event(CLOCK, CLOCK, DiagnosticStatus.OK, "", None, {"t0_ns": self._t0_ns}, now)
+            self._record_clock_origin(now)
         elif self._last_tick_ns is not None:
             self._check_clock_jump(now, mono)
         if (
@@ -469,15 +468,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             self.dropped_steps += dropped
             self.troubles.add(now, "dropped_steps", f"{dropped} physics steps dropped")
             self._t0_ns += int(round(dropped * self.physics_dt * 1e9))
-            self._event(
-                CLOCK,
-                CLOCK,
-                DiagnosticStatus.WARN,
-                f"{dropped} steps dropped",
-                None,
-                {"t0_ns": self._t0_ns},
-                now,
-            )
+            self._record_clock_origin(now, DiagnosticStatus.WARN, f"{dropped} steps dropped")
             due = self.max_catch_up
         try:
             self.sim.advance(max(due, 0))
@@ -511,15 +502,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         reason = f"node clock jumped {way} by {abs(jump) * 1e-9:.6g} s"
         self.troubles.add(now, "clock_jump", reason)
         self.get_logger().warning(f"{reason}: the simulation goes on from its state")
-        self._event(
-            CLOCK,
-            CLOCK,
-            DiagnosticStatus.WARN,
-            reason,
-            None,
-            {"t0_ns": self._t0_ns, "jump_ns": jump},
-            now,
-        )
+        self._record_clock_origin(now, DiagnosticStatus.WARN, reason, jump_ns=jump)
         self._last_tick_ns = now  # no missed deadline for the jump itself
 
     def _publish(self, now_ns: int) -> None:

@@ -23,7 +23,8 @@ from drs_model.errors import DRSError
 
 from .. import commands
 from ..conversions import command_event_msg, diagnostics_msg
-from ..names import REFUSED
+from ..names import CLOCK, REFUSED
+from ..recording.cdr import without_source_location
 
 #: Bytes of a malformed command kept (hex) in its effect record, for forensics.
 MALFORMED_BYTES_KEPT = 4096
@@ -41,6 +42,16 @@ class PendingCommand:
     prepared: object = None  # commands.prepare's result (a trajectory's plan)
     #: sequence numbers of the older commands of the topic this one replaced before a step
     superseded: list = dataclasses.field(default_factory=list)
+
+
+def refusal_reason(exc: Exception) -> str:
+    """Why a command was refused: the model's own words, or the exception's type and text."""
+    return str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
+
+
+def error_text(exc: Exception) -> str:
+    """An exception's type and text, without the C++ source location rmw appends."""
+    return f"{type(exc).__name__}: {without_source_location(str(exc))}"
 
 
 class TroubleWindow:
@@ -89,12 +100,8 @@ class EffectRecord:
         """Bytes that are no ``msg_type``: refused with the reason; the bytes themselves go into
         the effect record (hex, for forensics), never onto the typed topic."""
         type_name = f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
-        why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
         reason = self._refuse(
-            topic,
-            f"<{len(data)} bytes>",
-            f"not a valid {type_name} ({type(exc).__name__}: {why})",
-            now_ns,
+            topic, f"<{len(data)} bytes>", f"not a valid {type_name} ({error_text(exc)})", now_ns
         )
         self._event(topic, REFUSED, DiagnosticStatus.WARN, reason, None, {
             "value": f"<{len(data)} bytes>", "malformed": "true", "size": len(data),
@@ -104,8 +111,7 @@ class EffectRecord:
 
     def _refuse_command(self, cmd: PendingCommand, exc: Exception, now_ns: int) -> None:
         value = commands.describe(cmd.key, cmd.msg)
-        why = str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
-        reason = self._refuse(cmd.key, value, why, now_ns)
+        reason = self._refuse(cmd.key, value, refusal_reason(exc), now_ns)
         self._event(
             cmd.topic, REFUSED, DiagnosticStatus.WARN, reason, cmd, {"value": repr(value)}, now_ns
         )
@@ -140,6 +146,13 @@ class EffectRecord:
         data = self._serialize[DiagnosticArray](msg)
         self.pub_events.publish(data)
         self._record(self.topics[self.pub_events], data, now_ns)
+
+    def _record_clock_origin(
+        self, now_ns: int, level: bytes = DiagnosticStatus.OK, reason: str = "", **values
+    ) -> None:
+        """A ``clock`` record: the clock origin ``t0_ns`` now in force (at the first tick, after
+        dropped steps, after a clock jump), with ``values`` after it."""
+        self._event(CLOCK, CLOCK, level, reason, None, {"t0_ns": self._t0_ns, **values}, now_ns)
 
     def diagnostics_values(self) -> dict[str, object]:
         st = self.sim.state
@@ -189,7 +202,7 @@ class EffectRecord:
     def executor_error(self, exc: Exception) -> None:
         """A callback (or the middleware taking a message for it) raised: counted, reported in
         diagnostics, and the node goes on."""
-        reason = f"{type(exc).__name__}: {str(exc).split(', at /')[0]}"
+        reason = error_text(exc)
         with self._lock:
             self.callback_errors += 1
             if self.configured:
@@ -209,4 +222,11 @@ class EffectRecord:
         self._record(self.topics[self.pub_diag], data, now)
 
 
-__all__ = ["MALFORMED_BYTES_KEPT", "EffectRecord", "PendingCommand", "TroubleWindow"]
+__all__ = [
+    "MALFORMED_BYTES_KEPT",
+    "EffectRecord",
+    "PendingCommand",
+    "TroubleWindow",
+    "error_text",
+    "refusal_reason",
+]

@@ -302,6 +302,11 @@ def exact_bytes(data: bytes, msg_class: type) -> bytes:
     return _decode_exact(data, msg_class)[1]
 
 
+def without_source_location(text: str) -> str:
+    """An rmw error's text without the C++ source location rmw appends (``, at /path:line``)."""
+    return text.split(", at /")[0]
+
+
 def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
     from rclpy.serialization import deserialize_message
 
@@ -309,7 +314,7 @@ def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
         msg = deserialize_message(data, msg_class)
         exact = serializer(msg_class)(msg)
     except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
-        why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
+        why = without_source_location(str(exc))
         raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
     tail = data[len(exact) :]
     if not data.startswith(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
@@ -329,4 +334,5 @@ __all__ = [
     "flat_packer",
     "serialize",
     "serializer",
+    "without_source_location",
 ]
