@@ -114,13 +114,9 @@ def command_event_msg(
         name=source,
         message=f"{outcome}: {message}" if message else outcome,
         hardware_id="drs",
-        values=[KeyValue(key="outcome", value=outcome)]
-        + [KeyValue(key=str(k), value=str(v)) for k, v in values.items()],
+        values=[KeyValue(key="outcome", value=outcome), *_key_values(values)],
     )
-    arr = DiagnosticArray()
-    arr.header.stamp = time_msg(stamp_ns)
-    arr.status = [status]
-    return arr
+    return _status_array(stamp_ns, status)
 
 
 def parameter_event_msg(node_name: str, parameters: Sequence, stamp_ns: int):
@@ -144,8 +140,17 @@ def diagnostics_msg(
         name=f"{node_name}: actuator",
         message=message,
         hardware_id="drs",
-        values=[KeyValue(key=str(k), value=str(v)) for k, v in values.items()],
+        values=_key_values(values),
     )
+    return _status_array(stamp_ns, status)
+
+
+def _key_values(values: Mapping[str, object]) -> list[KeyValue]:
+    return [KeyValue(key=str(k), value=str(v)) for k, v in values.items()]
+
+
+def _status_array(stamp_ns: int, status: DiagnosticStatus) -> DiagnosticArray:
+    """A DiagnosticArray stamped ``stamp_ns`` holding the one ``status``."""
     arr = DiagnosticArray()
     arr.header.stamp = time_msg(stamp_ns)
     arr.status = [status]
