@@ -188,7 +188,7 @@ def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]
         if again == data:
             return ""
         tail = data[len(again) :]
-        if data.startswith(again) and len(tail) <= cdr.MAX_TRANSPORT_PADDING and not any(tail):
+        if data.startswith(again) and cdr.is_transport_padding(tail):
             padded[type_name] = padded.get(type_name, 0) + 1  # DDS's padding, not a leak
             return ""
         if len(data) != len(again):

@@ -19,7 +19,7 @@ import struct
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from ..recording.cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError
+from ..recording.cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError, is_transport_padding
 
 _U32 = struct.Struct("<I")
 _TIME = struct.Struct("<iI")
@@ -150,7 +150,7 @@ def read_joint_trajectory(data: bytes) -> JointTrajectoryView:
                             r.doubles(f"points[{k}].effort"),
                             r.time(f"points[{k}].time_from_start")))  # fmt: skip
     tail = r.body[r.pos :]
-    if len(tail) > MAX_TRANSPORT_PADDING or any(tail):
+    if not is_transport_padding(tail):
         raise CdrError(
             f"{len(tail)} bytes follow the JointTrajectory's CDR ({r.pos + 4} bytes): at most "
             f"{MAX_TRANSPORT_PADDING} zero bytes of transport padding may"

@@ -285,6 +285,12 @@ def serialize(msg) -> bytes:
 MAX_TRANSPORT_PADDING = 3
 
 
+def is_transport_padding(tail: bytes) -> bool:
+    """Whether ``tail``, what follows a message's exact CDR, is the transport's padding: at most
+    :data:`MAX_TRANSPORT_PADDING` zero bytes (none included)."""
+    return len(tail) <= MAX_TRANSPORT_PADDING and not any(tail)
+
+
 def decode_exact(data: bytes, msg_class: type):
     """The ``msg_class`` message whose exact CDR is ``data`` (plus at most 3 zero bytes of
     transport padding, see :func:`exact_bytes`); :class:`CdrError` for anything else."""
@@ -317,7 +323,7 @@ def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
         why = without_source_location(str(exc))
         raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
     tail = data[len(exact) :]
-    if not data.startswith(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
+    if not data.startswith(exact) or not is_transport_padding(tail):
         raise CdrError(
             f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
             f"{msg_class.__name__} plus at most {MAX_TRANSPORT_PADDING} zero bytes of padding"
@@ -332,6 +338,7 @@ __all__ = [
     "decode_exact",
     "exact_bytes",
     "flat_packer",
+    "is_transport_padding",
     "serialize",
     "serializer",
     "without_source_location",
