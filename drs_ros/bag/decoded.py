@@ -1,16 +1,18 @@
-"""The messages of a verified bag, decoded: what ``drs-bag check`` and the tests read.
+"""The messages of a verified bag, decoded: what ``drs-bag check``, ``drs-bag resimulate`` and
+the tests read.
 
 :func:`read_bag` verifies the whole bag (:func:`drs_ros.bag.reader.scan`: every byte, every
-file) and decodes the messages of the topics asked for with the installed type support.
+file) and decodes the messages of the topics asked for with the installed type support
+(:func:`decoder`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .reader import scan
+from .reader import RecordedMessage, scan
 
 
 @dataclass
@@ -38,6 +40,24 @@ class BagData:
     notes: list[str] = field(default_factory=list)
 
 
+def decoder() -> Callable[[RecordedMessage], object]:
+    """A function that decodes a recorded message with the installed type support (the message
+    class of each type looked up once). It raises for a type that is not installed."""
+    from rclpy.serialization import deserialize_message
+
+    from ..recording import msgdefs
+
+    classes: dict[str, type] = {}
+
+    def decode(m: RecordedMessage) -> object:
+        cls = classes.get(m.type_name) or classes.setdefault(
+            m.type_name, msgdefs.message_class(m.type_name)
+        )
+        return deserialize_message(m.data, cls)
+
+    return decode
+
+
 def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> BagData:
     """Verify a whole bag (:func:`drs_ros.bag.reader.scan`) and decode the messages of ``topics``.
 
@@ -50,19 +70,12 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> 
         Decoding a message that passed the file's checks failed (its type is not installed):
         not a fault of the bag.
     """
-    from rclpy.serialization import deserialize_message
-
-    from ..recording import msgdefs
-
     wanted = set(topics)
     messages: dict[str, list] = {t: [] for t in topics}
-    classes: dict[str, type] = {}
+    decode = decoder()
 
-    def keep(m) -> None:
-        cls = classes.get(m.type_name) or classes.setdefault(
-            m.type_name, msgdefs.message_class(m.type_name)
-        )
-        messages[m.topic].append((m.log_time, deserialize_message(m.data, cls)))
+    def keep(m: RecordedMessage) -> None:
+        messages[m.topic].append((m.log_time, decode(m)))
 
     result = scan(path, keep, recover=recover, topics=wanted)
     notes = list(result.notes)
@@ -72,4 +85,4 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> 
     return BagData(result.path, messages, dict(result.counts), not result.complete, notes)
 
 
-__all__ = ["BagData", "read_bag"]
+__all__ = ["BagData", "decoder", "read_bag"]

@@ -36,6 +36,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, fr
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
+from .decoded import decoder
 from .effects import effect_records, model_params_from, recorded_node_parameters
 from .files import BagReadError
 from .reader import MessageCallbackError, scan
@@ -68,10 +69,6 @@ class RecordedRun:
 def read_run(bag: str | Path) -> RecordedRun:
     """Verify the bag and collect the parameters, the effect record, the commands and the
     signals to compare."""
-    from rclpy.serialization import deserialize_message
-
-    from ..recording import msgdefs
-
     tp = DEFAULT_TOPICS
     cmd_topics = {tp[k] for k in commands.COMMAND_TYPES}
     wanted = {tp["parameter_events"], tp["command_events"], tp["joint_states"],
@@ -83,9 +80,10 @@ def read_run(bag: str | Path) -> RecordedRun:
     # node clock has jumped back
     origin: list = [None]
     state_origins: list = []
+    decode = decoder()
 
     def keep(m) -> None:
-        msg = deserialize_message(m.data, msgdefs.message_class(m.type_name))
+        msg = decode(m)
         if m.topic in cmd_topics:
             cmds[(m.topic, m.sequence)] = msg
             return
