@@ -200,6 +200,11 @@ class _Value:
     data: object
 
 
+def _stamp_ns(msg) -> int:
+    """A message's header stamp [ns]."""
+    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+
 def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
     """``log_time -> physics step`` of each recorded joint state: its stamp is ``t0 +`` simulated
     time, ``t0`` being the clock origin in force when the node wrote it (a stall or a clock jump
@@ -209,7 +214,7 @@ def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
         raise ResimulationError("the effect record holds no clock origin (t0) before the states")
     out = {}
     for (log, m), t0 in zip(run.joint_states, origins, strict=True):
-        stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
+        stamp = _stamp_ns(m)
         out[log] = int(round((stamp - t0) * 1e-9 / dt))
     return out
 
@@ -284,7 +289,7 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
         for key in ("piston_force", "flap_gap", "piston_acceleration"):
             rec.register_topic(tp[key], Float64, 10)
         for log, m in run.joint_states:
-            stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
+            stamp = _stamp_ns(m)
             state = result["by_log"].get(log)
             if state is None:
                 continue
