@@ -27,6 +27,9 @@ from drs_model.params import DRSParams
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 from .decoded import BagData
 
+#: The name of the piston-force check from finite differences of the logged velocities.
+FORCE_CHECK = "piston force vs model"
+
 
 class ForceModelError(DRSError):
     """The piston-force hook cannot be loaded or fails on the logged motion."""
@@ -110,10 +113,19 @@ def _worst(err: np.ndarray, t: np.ndarray) -> tuple[float, float, int]:
 def _result(name, topic, unit, err, t, tol, note="") -> CheckResult:
     worst, at, n = _worst(np.asarray(err, dtype=float), t)
     if n == 0:
-        return CheckResult(
-            name, topic, unit, 0, math.nan, math.nan, tol, "skipped", note or "no samples"
-        )
+        return _skipped(name, topic, unit, tol, note or "no samples")
     return CheckResult(name, topic, unit, n, worst, at, tol, "ok" if worst <= tol else "FAIL", note)
+
+
+def _skipped(name, topic, unit, tol, why) -> CheckResult:
+    """A check with nothing to check, and why."""
+    return CheckResult(name, topic, unit, 0, math.nan, math.nan, tol, "skipped", why)
+
+
+def _refused(name, topic, samples, tol, exc) -> CheckResult:
+    """A force check failed because the force model refuses the logged motion."""
+    return CheckResult(name, topic, "N", samples, math.inf, math.nan, tol, "FAIL",
+                       f"the force model refuses the logged motion: {exc}")  # fmt: skip
 
 
 def _nearest(log_ref: np.ndarray, log_query: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -186,32 +198,13 @@ def _logged_acceleration_force(
     use &= np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1)
     name = "piston force vs model, logged accel."
     if not use.any():
-        return CheckResult(
-            name,
-            accel_topic,
-            "N",
-            0,
-            math.nan,
-            math.nan,
-            force_tol,
-            "skipped",
-            "no joint state paired with an acceleration off the end stops",
-        )
+        return _skipped(name, accel_topic, "N", force_tol,
+                        "no joint state paired with an acceleration off the end stops")  # fmt: skip
     try:
         qdd = solve_acceleration(q[use], qd[use], sdd[use], p, "s")
         model = np.asarray(force_model(q[use], qd[use], qdd, p), dtype=float).reshape(-1)
     except DRSError as exc:
-        return CheckResult(
-            name,
-            accel_topic,
-            "N",
-            int(use.sum()),
-            math.inf,
-            math.nan,
-            force_tol,
-            "FAIL",
-            f"the force model refuses the logged motion: {exc}",
-        )
+        return _refused(name, accel_topic, int(use.sum()), force_tol, exc)
     note = f"{force_note}; {int(on_stop.sum())} samples resting on an end stop left out"
     return _result(name, accel_topic, "N", np.abs(effort[use] - model), t[use], force_tol, note)
 
@@ -335,33 +328,10 @@ def check_bag(
         )
         return out
     if force_model is None:
-        out.append(
-            CheckResult(
-                "piston force vs model",
-                js_topic,
-                "N",
-                0,
-                math.nan,
-                math.nan,
-                force_tol,
-                "skipped",
-                force_note or "skipped: no force model",
-            )
-        )
+        out.append(_skipped(FORCE_CHECK, js_topic, "N", force_tol,
+                            force_note or "skipped: no force model"))  # fmt: skip
     elif len(q) < 3:
-        out.append(
-            CheckResult(
-                "piston force vs model",
-                js_topic,
-                "N",
-                0,
-                math.nan,
-                math.nan,
-                force_tol,
-                "skipped",
-                "fewer than 3 joint states",
-            )
-        )
+        out.append(_skipped(FORCE_CHECK, js_topic, "N", force_tol, "fewer than 3 joint states"))
     else:
         order = np.argsort(t, kind="stable")
         ts, qs, qds, fs = t[order], q[order], qd[order], effort[order]
@@ -374,33 +344,10 @@ def check_bag(
             try:
                 model = np.asarray(force_model(qs, qds, qdd, p), dtype=float).reshape(-1)
             except DRSError as exc:
-                out.append(
-                    CheckResult(
-                        "piston force vs model",
-                        js_topic,
-                        "N",
-                        len(ts),
-                        math.inf,
-                        math.nan,
-                        force_tol,
-                        "FAIL",
-                        f"the force model refuses the logged motion: {exc}",
-                    )
-                )
-        elif force_model is not None:
-            out.append(
-                CheckResult(
-                    "piston force vs model",
-                    js_topic,
-                    "N",
-                    0,
-                    math.nan,
-                    math.nan,
-                    force_tol,
-                    "skipped",
-                    "fewer than 3 usable joint states",
-                )
-            )
+                out.append(_refused(FORCE_CHECK, js_topic, len(ts), force_tol, exc))
+        else:
+            out.append(_skipped(FORCE_CHECK, js_topic, "N", force_tol,
+                                "fewer than 3 usable joint states"))  # fmt: skip
     if force_model is not None and model is not None:
         note = (
             f"{force_note}; qdd by finite differences of the logged qd, peak |F| "
@@ -408,7 +355,7 @@ def check_bag(
         )
         if force_model_tol is None:
             res = _result(
-                "piston force vs model",
+                FORCE_CHECK,
                 js_topic,
                 "N",
                 np.abs(fs - model),
@@ -428,7 +375,7 @@ def check_bag(
         else:
             out.append(
                 _result(
-                    "piston force vs model",
+                    FORCE_CHECK,
                     js_topic,
                     "N",
                     np.abs(fs - model),
