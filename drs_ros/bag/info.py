@@ -11,7 +11,6 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Sequence
 from pathlib import Path
 
 from drs_model.errors import DRSError
@@ -133,10 +132,4 @@ def run(args: argparse.Namespace, prog: str = "drs-bag info") -> int:
     return 0
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="drs-bag info", description=__doc__.splitlines()[0])
-    add_arguments(ap)
-    return run(ap.parse_args(argv))
-
-
-__all__ = ["add_arguments", "bag_summary", "format_info", "main", "run"]
+__all__ = ["add_arguments", "bag_summary", "format_info", "run"]

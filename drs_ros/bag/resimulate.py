@@ -367,11 +367,4 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
     return 0 if ok else 1
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="drs-bag resimulate", description=__doc__.splitlines()[0])
-    add_arguments(ap)
-    return run(ap.parse_args(argv))
-
-
-__all__ = ["ResimulationError", "add_arguments", "compare", "main", "read_run", "resimulate",
-           "run"]  # fmt: skip
+__all__ = ["ResimulationError", "add_arguments", "compare", "read_run", "resimulate", "run"]

@@ -553,16 +553,6 @@ def check_writable_parent(path: str | os.PathLike) -> Path:
     return parent
 
 
-def read_bag_metadata(bag_dir: str | os.PathLike) -> dict[str, Any]:
-    """Parse ``<bag_dir>/metadata.yaml`` and return its ``rosbag2_bagfile_information``."""
-    path = Path(bag_dir) / "metadata.yaml"
-    try:
-        data = yaml.safe_load(path.read_text())
-        return data["rosbag2_bagfile_information"]
-    except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
-        raise RecordingError(f"cannot read rosbag2 metadata {str(path)!r}: {exc}") from exc
-
-
 __all__ = [
     "ROSBAG2_METADATA_VERSION",
     "McapRecorder",
@@ -570,5 +560,4 @@ __all__ = [
     "TopicInfo",
     "check_new_bag",
     "check_writable_parent",
-    "read_bag_metadata",
 ]

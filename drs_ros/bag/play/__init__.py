@@ -43,28 +43,20 @@ log-time order), ``read_ahead`` (the bounded queue), ``offers`` (the QoS of each
 ``player`` (the player and the verb's ``run``/``main``). This module re-exports their public names.
 """
 
-from .index import BagIndex, Channel, index_bag, iter_bag
-from .offers import default_qos, playback_qos, qos_overrides
-from .options import PlayError, PlayOptions, add_arguments, options_from_args
-from .player import Player, main, play, run, verify
-from .read_ahead import ReadAhead
+from .index import index_bag, iter_bag
+from .offers import playback_qos, qos_overrides
+from .options import PlayError, PlayOptions, add_arguments
+from .player import main, play, run
 
 __all__ = [
-    "BagIndex",
-    "Channel",
     "PlayError",
     "PlayOptions",
-    "Player",
-    "ReadAhead",
     "add_arguments",
-    "default_qos",
     "index_bag",
     "iter_bag",
     "main",
-    "options_from_args",
     "play",
     "playback_qos",
     "qos_overrides",
     "run",
-    "verify",
 ]
