@@ -105,8 +105,12 @@ def _basic_block_writer(typename: str) -> Writer:
         if n == 0:
             return
         _align(buf, size)
-        if _LITTLE and isinstance(values, array.array) and values.itemsize == size and \
-                values.typecode.lower() == code.lower():
+        if (
+            _LITTLE
+            and isinstance(values, array.array)
+            and values.itemsize == size
+            and values.typecode.lower() == code.lower()
+        ):
             buf += values.tobytes()  # the generated classes hold numeric sequences as arrays
         elif isinstance(values, (bytes, bytearray)) and size == 1:
             buf += values
@@ -214,6 +218,7 @@ def _struct_writer(msg_class: type) -> Writer:
     except AttributeError as exc:
         raise CdrError(f"{msg_class!r} is not a ROS message class") from exc
     if not names:  # an empty structure carries one dummy uint8 on the wire
+
         def write_empty(buf: bytearray, msg) -> None:
             buf += b"\x00"
 
@@ -280,10 +285,26 @@ def serialize(msg) -> bytes:
 MAX_TRANSPORT_PADDING = 3
 
 
-def decode_exact(data: bytes, msg_class: type):
-    """The ``msg_class`` message whose exact CDR is ``data`` (plus at most 3 zero bytes of
-    transport padding, see :func:`exact_bytes`); :class:`CdrError` for anything else."""
-    return _decode_exact(data, msg_class)[0]
+def decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
+    """``(message, its exact CDR)`` of ``data``, a ``msg_class`` as a raw subscription received
+    it: it must decode, and be as long as its exact CDR plus at most 3 zero bytes of transport
+    padding; its alignment padding may hold anything (Fast DDS leaves it uninitialised in what an
+    rclpy publisher sends), the exact CDR has it zeroed. :class:`CdrError` for anything else."""
+    from rclpy.serialization import deserialize_message
+
+    try:
+        msg = deserialize_message(data, msg_class)
+        exact = serializer(msg_class)(msg)
+    except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
+        why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
+        raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
+    tail = data[len(exact) :]
+    if len(data) < len(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
+        raise CdrError(
+            f"{len(data)} bytes are not the {len(exact)}-byte CDR of a {msg_class.__name__} plus "
+            f"at most {MAX_TRANSPORT_PADDING} zero bytes of transport padding"
+        )
+    return msg, exact
 
 
 def exact_bytes(data: bytes, msg_class: type) -> bytes:
@@ -294,26 +315,22 @@ def exact_bytes(data: bytes, msg_class: type) -> bytes:
     serialises to: ``data`` must be that, possibly followed by such padding; anything else
     raises :class:`CdrError`.
     """
-    return _decode_exact(data, msg_class)[1]
-
-
-def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
-    from rclpy.serialization import deserialize_message
-
-    try:
-        msg = deserialize_message(data, msg_class)
-        exact = serializer(msg_class)(msg)
-    except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
-        why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
-        raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
-    tail = data[len(exact):]
-    if not data.startswith(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
+    msg, exact = decode_exact(data, msg_class)
+    if not data.startswith(exact):
         raise CdrError(
             f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
             f"{msg_class.__name__} plus at most {MAX_TRANSPORT_PADDING} zero bytes of padding"
         )
-    return msg, exact
+    return exact
 
 
-__all__ = ["CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "decode_exact", "exact_bytes",
-           "flat_packer", "serialize", "serializer"]
+__all__ = [
+    "CDR_LE_HEADER",
+    "MAX_TRANSPORT_PADDING",
+    "CdrError",
+    "decode_exact",
+    "exact_bytes",
+    "flat_packer",
+    "serialize",
+    "serializer",
+]
