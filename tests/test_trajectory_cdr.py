@@ -76,8 +76,9 @@ def test_the_reader_sees_what_rclpy_decodes(msg):
 @settings(max_examples=300, deadline=None)
 @given(trajectories(), st.data())
 def test_what_the_reader_accepts_rclpy_decodes_exactly(msg, data):
-    """Damaged bytes (cut, extended, one byte changed): if the reader takes them, they are the
-    exact CDR of a JointTrajectory (what drs-bag check and every reader require)."""
+    """Damaged bytes (cut, extended, one byte changed): if the reader takes them, rclpy decodes
+    them too, to the same trajectory, and the view's exact CDR is the decoded message's (a
+    changed alignment-padding byte is taken, and zeroed in what is recorded)."""
     raw = bytearray(cdr.serialize(msg))
     how = data.draw(st.sampled_from(["cut", "extend", "flip"]))
     if how == "cut":
@@ -90,7 +91,8 @@ def test_what_the_reader_accepts_rclpy_decodes_exactly(msg, data):
         view = read_joint_trajectory(bytes(raw))
     except cdr.CdrError:
         return
-    decoded = cdr.decode_exact(bytes(raw), JointTrajectory)  # raises if not exact
+    decoded, exact = cdr.decode_exact(bytes(raw), JointTrajectory)  # raises if rclpy cannot
+    assert view.exact == exact  # what the node records: the exact CDR of what rclpy decodes
     assert same(outcome(view), outcome(decoded))
 
 
@@ -106,3 +108,19 @@ def test_what_the_reader_accepts_rclpy_decodes_exactly(msg, data):
 def test_malformed_bytes_are_refused_with_the_place(data, why):
     with pytest.raises(cdr.CdrError, match=why):
         read_joint_trajectory(data)
+
+
+def test_alignment_padding_of_any_content_is_taken_and_zeroed():
+    """Fast DDS leaves alignment padding uninitialised in what rclpy publishers send."""
+    msg = JointTrajectory(joint_names=["drs_piston"])
+    msg.points = [JointTrajectoryPoint(positions=[0.01], time_from_start=Duration(sec=1))]
+    exact = cdr.serialize(msg)
+    view = read_joint_trajectory(exact)
+    # the 4 bytes between the positions count and its first double are padding
+    count_at = 4 + len(exact) - 4 - 8 - 3 * 4 - 8 - 4 - 4
+    dirty = bytearray(exact)
+    dirty[count_at + 4 : count_at + 8] = b"\xde\xad\xbe\xef"
+    assert bytes(dirty) != exact
+    again = read_joint_trajectory(bytes(dirty))
+    assert again.exact == exact == view.exact
+    assert trajectory_points(again, "drs_piston") == trajectory_points(view, "drs_piston")

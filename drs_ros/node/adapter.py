@@ -195,12 +195,13 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             cls: cdr.serializer(cls) for cls in (JointState, DiagnosticArray, MarkerArray)
         }
         self._pack_float64 = cdr.flat_packer(Float64)
-        # a command is taken only as its exact CDR (plus transport padding), what every reader
-        # of the bag decodes; a trajectory is read in place (rclpy's decoder would hold the GIL
-        # for ~100 ms on 10,000 points, a stall of the real-time tick)
+        # a command is taken if it decodes and is as long as its exact CDR (plus transport
+        # padding), and recorded as that exact CDR, which every reader of the bag decodes; a
+        # trajectory is read in place (rclpy's decoder would hold the GIL for ~100 ms on 10,000
+        # points, a stall of the real-time tick)
         self._decode = {key: functools.partial(cdr.decode_exact, msg_class=cls)
                         for key, cls in COMMANDS.items()}  # fmt: skip
-        self._decode["trajectory_cmd"] = read_joint_trajectory
+        self._decode["trajectory_cmd"] = lambda data: (v := read_joint_trajectory(data), v.exact)
         self._joint_state = JointState(name=self.joint_names)  # filled in place at each publish
         self._listened = {self.pub_reactions: False, self.pub_markers: False}
 
@@ -323,7 +324,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         is taken under the lock: no tick logged after it applies an older command of its topic."""
         topic = self.command_topics[key]
         try:
-            msg = self._decode[key](data)
+            msg, exact = self._decode[key](data)
         except Exception as exc:  # noqa: BLE001 - any bytes from any participant: refused, kept
             with self._lock:
                 self.received += 1
@@ -337,7 +338,8 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             now = self._now_ns()
             self.received += 1
             # only bytes that decode go on the typed topic: the bag stays readable by all readers
-            cmd = PendingCommand(key, topic, msg, self._record(topic, data, now), now, prepared)
+            # recorded as its exact CDR: the bytes that arrived, any alignment padding zeroed
+            cmd = PendingCommand(key, topic, msg, self._record(topic, exact, now), now, prepared)
             if refusal is not None:
                 self._refuse_command(cmd, refusal, now)
                 return

@@ -7,10 +7,11 @@ with the attributes it reads (``joint_names``, ``points[k].positions``, ``.veloc
 ``.accelerations``, ``.effort``, ``.time_from_start.sec/.nanosec``), so the trajectory is
 validated by the same code whichever way it was decoded.
 
-It accepts exactly what :func:`drs_ros.recording.cdr.exact_bytes` accepts: the exact CDR
-(little-endian plain CDR, zero padding, valid UTF-8 strings ending in NUL) followed by at most 3
-zero bytes of transport padding; anything else raises :class:`drs_ros.recording.cdr.CdrError`. So
-what the node records on a typed topic is what every reader decodes.
+It accepts what :func:`drs_ros.recording.cdr.decode_exact` accepts: little-endian plain CDR with
+valid UTF-8 strings ending in NUL, followed by at most 3 zero bytes of transport padding; anything
+else raises :class:`drs_ros.recording.cdr.CdrError`. Alignment padding may hold any bytes (Fast
+DDS leaves it uninitialised in messages an rclpy publisher sends): the view's ``exact`` is the
+message's exact CDR, the bytes with their padding zeroed, which is what the node records.
 """
 
 from __future__ import annotations
@@ -68,6 +69,7 @@ class JointTrajectoryView(NamedTuple):
     frame_id: str
     joint_names: list[str]
     points: list[Point]
+    exact: bytes  # the exact CDR: the bytes read, alignment padding zeroed, no transport padding
 
 
 class _Reader:
@@ -75,11 +77,12 @@ class _Reader:
 
     def __init__(self, body: memoryview) -> None:
         self.body, self.pos = body, 0
+        self.dirty_padding: list[tuple[int, int]] = []  # (start, end) of non-zero padding
 
     def align(self, n: int) -> None:
-        pad = -self.pos % n
+        pad = min(-self.pos % n, len(self.body) - self.pos)
         if any(self.body[self.pos : self.pos + pad]):
-            raise CdrError(f"non-zero alignment padding at byte {self.pos + 4}")
+            self.dirty_padding.append((self.pos, self.pos + pad))
         self.pos += pad
 
     def need(self, n: int, what: str) -> None:
@@ -155,7 +158,10 @@ def read_joint_trajectory(data: bytes) -> JointTrajectoryView:
             f"{len(tail)} bytes follow the JointTrajectory's CDR ({r.pos + 4} bytes): at most "
             f"{MAX_TRANSPORT_PADDING} zero bytes of transport padding may"
         )
-    return JointTrajectoryView(stamp, frame_id, names, points)
+    exact = bytearray(buf[: r.pos + 4])
+    for start, end in r.dirty_padding:
+        exact[4 + start : 4 + end] = bytes(end - start)
+    return JointTrajectoryView(stamp, frame_id, names, points, bytes(exact))
 
 
 __all__ = ["Doubles", "Duration", "JointTrajectoryView", "Point", "read_joint_trajectory"]

@@ -291,10 +291,31 @@ def is_transport_padding(tail: bytes) -> bool:
     return len(tail) <= MAX_TRANSPORT_PADDING and not any(tail)
 
 
-def decode_exact(data: bytes, msg_class: type):
-    """The ``msg_class`` message whose exact CDR is ``data`` (plus at most 3 zero bytes of
-    transport padding, see :func:`exact_bytes`); :class:`CdrError` for anything else."""
-    return _decode_exact(data, msg_class)[0]
+def without_source_location(text: str) -> str:
+    """An rmw error's text without the C++ source location rmw appends (``, at /path:line``)."""
+    return text.split(", at /")[0]
+
+
+def decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
+    """``(message, its exact CDR)`` of ``data``, a ``msg_class`` as a raw subscription received
+    it: it must decode, and be as long as its exact CDR plus at most 3 zero bytes of transport
+    padding; its alignment padding may hold anything (Fast DDS leaves it uninitialised in what an
+    rclpy publisher sends), the exact CDR has it zeroed. :class:`CdrError` for anything else."""
+    from rclpy.serialization import deserialize_message
+
+    try:
+        msg = deserialize_message(data, msg_class)
+        exact = serializer(msg_class)(msg)
+    except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
+        why = without_source_location(str(exc))
+        raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
+    tail = data[len(exact) :]
+    if len(data) < len(exact) or not is_transport_padding(tail):
+        raise CdrError(
+            f"{len(data)} bytes are not the {len(exact)}-byte CDR of a {msg_class.__name__} plus "
+            f"at most {MAX_TRANSPORT_PADDING} zero bytes of transport padding"
+        )
+    return msg, exact
 
 
 def exact_bytes(data: bytes, msg_class: type) -> bytes:
@@ -305,30 +326,13 @@ def exact_bytes(data: bytes, msg_class: type) -> bytes:
     serialises to: ``data`` must be that, possibly followed by such padding; anything else
     raises :class:`CdrError`.
     """
-    return _decode_exact(data, msg_class)[1]
-
-
-def without_source_location(text: str) -> str:
-    """An rmw error's text without the C++ source location rmw appends (``, at /path:line``)."""
-    return text.split(", at /")[0]
-
-
-def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
-    from rclpy.serialization import deserialize_message
-
-    try:
-        msg = deserialize_message(data, msg_class)
-        exact = serializer(msg_class)(msg)
-    except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
-        why = without_source_location(str(exc))
-        raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
-    tail = data[len(exact) :]
-    if not data.startswith(exact) or not is_transport_padding(tail):
+    msg, exact = decode_exact(data, msg_class)
+    if not data.startswith(exact):
         raise CdrError(
             f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
             f"{msg_class.__name__} plus at most {MAX_TRANSPORT_PADDING} zero bytes of padding"
         )
-    return msg, exact
+    return exact
 
 
 __all__ = [
