@@ -100,7 +100,11 @@ def float_msg(value: float) -> Float64:
 
 
 def command_event_msg(
-    stamp_ns: int, source: str, outcome: str, level: bytes, message: str,
+    stamp_ns: int,
+    source: str,
+    outcome: str,
+    level: bytes,
+    message: str,
     values: Mapping[str, object],
 ) -> DiagnosticArray:
     """One record of the effect log ``~/command_events`` (see docs/ros.md, "Effect record").
@@ -210,7 +214,7 @@ class MechanismMarkers:
         self._arrow.scale.x, self._arrow.scale.y, self._arrow.scale.z = 0.003, 0.008, 0.01
         markers += [self._pins, self._arrow]
         self._all = MarkerArray(markers=markers)
-        self._moving = MarkerArray(markers=markers[len(still):])
+        self._moving = MarkerArray(markers=markers[len(still) :])
 
     def msg(self, lines, pins, force_origin, piston_force: float, stamp_ns: int,
             with_still: bool = True):  # fmt: skip
