@@ -91,18 +91,6 @@ from .profile import Manoeuvre, drs_manoeuvre
 
 #: Unknowns of the Newton-Euler system, in the seed's order (``rvars`` then the piston force).
 NE_UNKNOWNS = ("Np", "Tp", "rj1x", "rj1y", "rj2x", "rj2y", "rj3x", "rj3y", "F")
-#: Newton-Euler equations, in the seed's order (``eqns_NE``).
-NE_EQUATIONS = (
-    "piston x",
-    "piston y",
-    "piston Euler",
-    "link x",
-    "link y",
-    "link Euler",
-    "flap x",
-    "flap y",
-    "flap Euler",
-)
 #: Keys of :attr:`InverseDynamicsResult.reactions` (all but the piston force).
 REACTION_NAMES = NE_UNKNOWNS[:-1]
 
@@ -356,7 +344,8 @@ def newton_euler_system(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The seed's 9 Newton-Euler equations as ``A x = b`` (for inspection and a generic solve).
 
-    Row ``i`` is the seed's equation ``NE_EQUATIONS[i]`` written ``m a - sum F = 0`` (Newton) or
+    Rows in the seed's order (``eqns_NE``): piston x, y, Euler; link x, y, Euler; flap x, y,
+    Euler. Each is written ``m a - sum F = 0`` (Newton) or
     ``I alpha - sum M_G = 0`` (Euler about the centre of mass), i.e. ``A[i] . x - b[i]`` is the
     seed's printed expression, with ``x`` the unknowns :data:`NE_UNKNOWNS`. The pin-C reaction acts
     at the link's C on both link and flap, as in the seed.

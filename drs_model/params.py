@@ -184,7 +184,6 @@ class DRSParams:
     L2: float = 0.050
     L3: float = 0.100
     L_wing: float = 0.120
-    wing_span: float = 1.010  # seed: W_wing = 1010 (mm); not used by the planar model
     d_wing: float = 0.0060  # main wing offset along x
     d_tip: float = 0.0100  # flap tip offset allowed by the FIA regulation
     gamma: float = 5.0 * math.pi / 180.0  # main wing inclination
@@ -194,9 +193,8 @@ class DRSParams:
     T_closing: float = 0.010
     # masses
     m_pist: float = 0.0800
-    m_link: float = 0.0375  # = L2 * rho_steel
+    m_link: float = 0.0375  # seed: 0.05 m of a 1 cm steel bar at 0.75 kg/m; not derived from L2
     m_wing: float = 2.0000
-    rho_steel: float = 0.75  # kg/m, linear density of a 1 cm steel bar
     g: float = 9.81
     # inertias about the centres of mass; None selects the documented default
     Iz_pist: float = 0.0
@@ -214,8 +212,8 @@ class DRSParams:
     )
     pylon_outline: tuple[tuple[float, float], ...] = field(default=PYLON_OUTLINE, repr=False)
 
-    _LENGTHS = ("L1", "L2", "L3", "L_wing", "box_height", "box_width", "wing_span")
-    _POSITIVE = ("T_opening", "T_closing", "m_pist", "m_link", "m_wing", "g", "rho_steel")
+    _LENGTHS = ("L1", "L2", "L3", "L_wing", "box_height", "box_width")
+    _POSITIVE = ("T_opening", "T_closing", "m_pist", "m_link", "m_wing", "g")
     _NON_NEGATIVE = ("T_still", "Iz_pist", "Iz_link", "Iz_wing", "d_tip")
 
     def __post_init__(self) -> None:

@@ -7,12 +7,11 @@ and ``numba_rk`` (the compiled RK driver, optional numba). This module re-export
 names.
 """
 
-from .fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator, StepState, fixed_step_trajectory
+from .fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator, StepState
 from .forces import ConstantForce, ForceLike, FunctionForce, ManoeuvreForce, StepForce, as_force
 from .formulations import (
     FORMULATIONS,
     Formulation,
-    ForwardState,
     FullCoordinates,
     Projected,
     Psi3Minimal,
@@ -34,7 +33,6 @@ __all__ = [
     "FixedStepIntegrator",
     "ForceLike",
     "Formulation",
-    "ForwardState",
     "FullCoordinates",
     "FunctionForce",
     "ManoeuvreForce",
@@ -47,7 +45,6 @@ __all__ = [
     "StrokeMinimal",
     "as_force",
     "default_atol",
-    "fixed_step_trajectory",
     "get_formulation",
     "manoeuvre_initial_state",
     "reference_rhs",

@@ -17,7 +17,6 @@ Fixed-step methods (Butcher tableaux; ``h = dt``):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from types import MappingProxyType
 from typing import NamedTuple
 
@@ -36,7 +35,7 @@ from ..params import DRSParams
 from .forces import as_force
 from .formulations import Formulation, Psi3Minimal, get_formulation
 
-__all__ = ["FIXED_STEP_METHODS", "FixedStepIntegrator", "StepState", "fixed_step_trajectory"]
+__all__ = ["FIXED_STEP_METHODS", "FixedStepIntegrator", "StepState"]
 
 #: Fixed-step methods and their orders.
 FIXED_STEP_METHODS = MappingProxyType({"euler": 1, "semi-implicit-euler": 1, "rk2": 2, "rk4": 4})
@@ -296,18 +295,3 @@ class FixedStepIntegrator:
         if self.form.project is not None and np.all(np.isfinite(y_new)):
             y_new = self.form.project(y_new)
         return tuple(float(v) for v in y_new)
-
-    def run(self, forces) -> list[StepState]:
-        """Step once per force in ``forces``; returns the states (convenience for tests)."""
-        return [self.step(f) for f in forces]
-
-
-def fixed_step_trajectory(
-    integ: FixedStepIntegrator, force: Callable[[float], float], n_steps: int
-) -> np.ndarray:
-    """``[t, s, psi3]`` after each of ``n_steps`` steps under ``force(t)``, shape ``(n, 3)``."""
-    out = np.empty((n_steps, 3))
-    for i in range(n_steps):
-        st = integ.step(force)
-        out[i] = st.t, st.s, st.psi3
-    return out

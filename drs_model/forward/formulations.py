@@ -70,7 +70,6 @@ import math
 from collections.abc import Callable, Mapping
 from functools import partial
 from types import MappingProxyType
-from typing import NamedTuple
 
 import numpy as np
 
@@ -106,7 +105,6 @@ from ..params import DRSParams
 
 __all__ = [
     "FORMULATIONS",
-    "ForwardState",
     "Formulation",
     "FullCoordinates",
     "Projected",
@@ -117,15 +115,6 @@ __all__ = [
     "manoeuvre_initial_state",
     "reference_rhs",
 ]
-
-
-class ForwardState(NamedTuple):
-    """Configurations and velocities along a trajectory: ``q``, ``qd`` of shape ``(n, 3)``
-    [m, rad; m/s, rad/s] at the times ``t`` of shape ``(n,)`` [s]."""
-
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
 
 
 # ---- scalar right-hand sides ---------------------------------------------------------------------

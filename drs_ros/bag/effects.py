@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from drs_model.params import DRSParams, from_dict
+from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 #: rcl_interfaces/ParameterType values -> the ParameterValue field holding the value.
 _VALUE_FIELDS = {
@@ -69,7 +69,9 @@ def model_params_from(values: dict[str, object]) -> DRSParams:
     """DRSParams from recorded ``model.<field>`` values (outlines, drawing only, stay default)."""
     model = {k.removeprefix("model."): v for k, v in values.items() if k.startswith("model.")}
     defaults = DRSParams()
-    changed = {k: v for k, v in model.items() if v != getattr(defaults, k, None)}
+    # a name DRSParams no longer has is skipped: bags recorded before issue 17 hold wing_span and
+    # rho_steel, which the planar model never used
+    changed = {k: v for k, v in model.items() if k in NUMERIC_FIELDS and v != getattr(defaults, k)}
     return from_dict(changed) if changed else defaults
 
 
