@@ -33,7 +33,8 @@ from .kinematics import (
     stroke_limits,
     velocity_ratio,
 )
-from .params import SEED_LITERAL_IZ_WING, DRSParams, from_dict, from_file
+from .overrides import from_file
+from .params import SEED_LITERAL_IZ_WING, DRSParams, from_dict
 from .profile import Manoeuvre, QuinticSegment, drs_manoeuvre, quintic_move
 
 #: Names re-exported lazily (PEP 562): these modules pull in scipy.integrate/optimize (~0.5 s),
