@@ -69,15 +69,17 @@ import math
 import types
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
 
-from . import kernels
+from . import elementwise, kernels
 from .bodies import air_forces, applied_forces, mass_matrix, model_constants, velocity_forces
+from .compiled.scalar import bind
 from .constraints import PSI1, PSI3, S, constraint_jacobian, singularity_measure
 from .errors import AssemblyError, InputError, SingularConfigurationError
-from .kernels import NUMPY, SCALAR, SINGULAR_TOL
+from .kernels import SINGULAR_TOL
 from .kinematics import (
     KinematicState,
     kinematic_state,
@@ -559,20 +561,17 @@ def peak_force(
     return PeakForce(f, best.x, float(state.q[0, S]), float(state.q[0, PSI3]))
 
 
-# ---- one sample at a time ---------------------------------------------------------------------
-#: Samples per block of the vectorised fused path: numpy temporaries stay in cache (~4x faster
-#: than one pass over 1e5 samples).
-_BLOCK = 4096
-
-
+# ---- the fused closed form ----------------------------------------------------------------------
 @dataclass(frozen=True)
 class FusedInverseDynamics:
     """Piston force from :func:`drs_model.kernels.fused_force`: closed-form kinematics fused with
     d'Alembert's principle along ``u = dq/ds`` (the seed's ``PVW_dynamic``).
 
-    Build once with :meth:`from_params`; a scalar call costs a few microseconds (no numpy), the
-    array calls run the same kernel on numpy arrays. Same equations as :class:`VirtualWork`
-    (tested against all formulations).
+    Build once with :meth:`from_params`. One sample (:meth:`force`, :meth:`force_at`) runs the
+    kernel compiled by numba (~1 us; the plain Python kernel without numba); arrays
+    (:meth:`force_array`, :meth:`force_at_times`) run it on every element
+    (:mod:`drs_model.elementwise`). Same equations as :class:`VirtualWork` (tested against all
+    formulations).
 
     Attributes
     ----------
@@ -598,6 +597,14 @@ class FusedInverseDynamics:
         man = drs_manoeuvre(p, *(s_limits if s_limits is not None else (None, None)))
         return cls(model_constants(p, flap_limits), man, man.constants())
 
+    @cached_property
+    def _force(self):
+        return bind(kernels.fused_force, self.consts)
+
+    @cached_property
+    def _force_at(self):
+        return bind(kernels.fused_manoeuvre_force, self.consts, self.profile)
+
     def force(self, s: float, sd: float, sdd: float) -> float:
         """Piston force [N] for stroke ``s`` [m], rate ``sd`` [m/s], acceleration ``sdd`` [m/s^2].
 
@@ -612,7 +619,7 @@ class FusedInverseDynamics:
         """
         if not (math.isfinite(s) and math.isfinite(sd) and math.isfinite(sdd)):
             raise InputError(f"s, sd, sdd must be finite, got {(s, sd, sdd)!r}")
-        force = SCALAR.fused_force(s, sd, sdd, self.consts)
+        force = self._force(s, sd, sdd)
         if math.isnan(force):
             self._diagnose(np.array([s]))
         return force
@@ -621,10 +628,10 @@ class FusedInverseDynamics:
         """Piston force [N] at time ``t`` [s] of the open-hold-close manoeuvre."""
         if not math.isfinite(t):
             raise InputError(f"time must be finite, got {t!r}")
-        return SCALAR.manoeuvre_force(t, self.consts, self.profile)
+        return self._force_at(t)
 
     def force_array(self, s, sd, sdd) -> np.ndarray:
-        """The same kernel on numpy arrays, in cache-sized blocks.
+        """The same kernel on numpy arrays.
 
         ``s`` [m], ``sd`` [m/s], ``sdd`` [m/s^2] broadcast to a common shape; returns [N].
         """
@@ -633,31 +640,23 @@ class FusedInverseDynamics:
             if not np.all(np.isfinite(x)):
                 bad = float(x[~np.isfinite(x)].ravel()[0])
                 raise InputError(f"{name} must be finite, got {bad!r}")
-        shape = s.shape
-        s, sd, sdd = s.ravel(), sd.ravel(), sdd.ravel()
-        out = np.empty(s.shape)
-        for i in range(0, s.size, _BLOCK):
-            j = slice(i, i + _BLOCK)
-            out[j] = NUMPY.fused_force(s[j], sd[j], sdd[j], self.consts)
+        out = np.asarray(elementwise.fused_force(s, sd, sdd, self.consts), dtype=float)
         if np.any(np.isnan(out)):
-            self._diagnose(s)
-        return out.reshape(shape)
+            self._diagnose(s.ravel())
+        return out
 
     def force_at_times(self, t) -> np.ndarray:
-        """Piston force [N] along the manoeuvre at times ``t`` [s] (any shape), in blocks."""
+        """Piston force [N] along the manoeuvre at times ``t`` [s] (any shape)."""
         t = np.asarray(t, dtype=float)
         if not np.all(np.isfinite(t)):
             raise InputError(f"time must be finite, got {float(t[~np.isfinite(t)].ravel()[0])!r}")
-        flat = t.ravel()
-        out = np.empty(flat.shape)
-        for i in range(0, flat.size, _BLOCK):
-            j = slice(i, i + _BLOCK)
-            out[j] = NUMPY.manoeuvre_force(flat[j], self.consts, self.profile)
-        return out.reshape(t.shape)
+        return np.asarray(
+            elementwise.fused_manoeuvre_force(t, self.consts, self.profile), dtype=float
+        )
 
     def _diagnose(self, s: np.ndarray) -> None:
         """Raise the typed error of the first stroke [m] of ``s`` where the kernel gave NaN."""
-        *angles, h2 = NUMPY.stroke_position(s, self.consts, 1.0)
+        *angles, h2 = elementwise.stroke_position(s, self.consts, 1.0)
         if np.any(h2 < -kernels.ASSEMBLY_TOL):
             raise AssemblyError(
                 f"the loop cannot close at stroke {float(s[h2 < -kernels.ASSEMBLY_TOL][0])!r} m: "

@@ -2,9 +2,9 @@
 
 Modules: ``forces`` (constant, step, function and manoeuvre forces), ``formulations`` (psi3, s,
 index-1, Baumgarte, projection), ``solve`` (:func:`simulate`: scipy and compiled methods behind
-one call), ``solution`` (its result), ``fixed_step`` (the real-time :class:`FixedStepIntegrator`)
-and ``numba_rk`` (the compiled RK driver, optional numba). This module re-exports their public
-names.
+one call), ``solution`` (its result) and ``fixed_step`` (the real-time
+:class:`FixedStepIntegrator`). The compiled RK methods live in :mod:`drs_model.compiled` (optional
+numba). This module re-exports the public names.
 """
 
 from .fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator, StepState
@@ -20,7 +20,6 @@ from .formulations import (
     manoeuvre_initial_state,
     reference_rhs,
 )
-from .numba_rk import NumbaUnavailableError, simulate_compiled
 from .solution import Solution
 from .solve import COMPILED_METHODS, SCIPY_METHODS, default_atol, simulate
 
@@ -36,7 +35,6 @@ __all__ = [
     "FullCoordinates",
     "FunctionForce",
     "ManoeuvreForce",
-    "NumbaUnavailableError",
     "Projected",
     "Psi3Minimal",
     "Solution",
@@ -49,5 +47,4 @@ __all__ = [
     "manoeuvre_initial_state",
     "reference_rhs",
     "simulate",
-    "simulate_compiled",
 ]

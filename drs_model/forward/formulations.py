@@ -58,9 +58,10 @@ pin-C reaction on the link. Each formulation below turns these into an ODE ``y' 
 (e) Index-2 GGL form (``"ggl"``, ``y = [q, qd, mu]``) is not provided; see docs/forward.md.
 
 All right-hand sides run the scalar ``math`` kernels of :mod:`drs_model.kernels` (numpy's per-call
-overhead on 3-vectors is several microseconds); :func:`reference_rhs` gives the same right-hand
-sides from the numpy functions of :mod:`drs_model.bodies`, :mod:`drs_model.constraints` and
-:mod:`drs_model.kinematics`, for tests.
+overhead on 3-vectors is several microseconds); formulation (a)'s, the one the real-time loop and
+the compiled driver use, is compiled by numba when it is installed. :func:`reference_rhs` gives
+the same right-hand sides from the numpy functions of :mod:`drs_model.bodies`,
+:mod:`drs_model.constraints` and :mod:`drs_model.kinematics`, for tests.
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ import numpy as np
 
 from .. import kernels
 from ..bodies import applied_forces, mass_matrix, model_constants, velocity_forces
+from ..compiled.scalar import bind
 from ..constraints import constraint, constraint_gamma, constraint_jacobian
 from ..errors import (
     ConstraintDriftError,
@@ -83,7 +85,6 @@ from ..errors import (
     SingularConfigurationError,
 )
 from ..kernels import (
-    SCALAR_BOUND,
     flap_position,
     generalised_forces,
     loop_gamma,
@@ -302,7 +303,11 @@ class Psi3Minimal(_MinimalCoordinates):
         if not 0.0 <= min_cos_psi1 < 1.0:
             raise InputError(f"min_cos_psi1 must be in [0, 1), got {min_cos_psi1!r}")
         self.min_cos_psi1 = float(min_cos_psi1)
-        self.accel, self.config = _psi3_kernels(self.consts)
+        #: ``accel(psi3, psi3', F)`` [rad/s^2] and ``config(psi3) -> (s, psi1, u_s, u_psi1)``:
+        #: :func:`drs_model.kernels.psi3_acceleration` and :func:`~drs_model.kernels.
+        #: psi3_configuration` with these constants (compiled by numba when it is installed)
+        self.accel = bind(kernels.psi3_acceleration, self.consts)
+        self.config = bind(kernels.psi3_configuration, self.consts)
 
     def check(self, t, y):
         super().check(t, y)
@@ -333,12 +338,6 @@ class Psi3Minimal(_MinimalCoordinates):
         q = solve_position_from_flap_angle(y[0], self.p)
         u = velocity_ratio(q, self.p, "psi3", check=False)
         return q, u * y[1][:, None]
-
-
-def _psi3_kernels(consts: tuple[float, ...]) -> tuple[Callable, Callable]:
-    """``accel(psi3, psi3d, F)`` and ``config(psi3)``: the scalar psi3 kernels with ``consts``
-    bound (:data:`drs_model.kernels.SCALAR_BOUND`)."""
-    return SCALAR_BOUND.psi3_acceleration(consts), SCALAR_BOUND.psi3_configuration(consts)
 
 
 class StrokeMinimal(_MinimalCoordinates):

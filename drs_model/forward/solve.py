@@ -3,8 +3,9 @@ r"""Forward simulation: :func:`simulate` integrates any formulation of
 
 ``method`` is a scipy solver (:data:`SCIPY_METHODS`: RK45, DOP853, Radau, BDF, LSODA), driven by
 :func:`scipy.integrate.solve_ivp`, or a compiled one (:data:`COMPILED_METHODS`: ``dopri5-numba``,
-``dop853-numba``; formulation ``"psi3"`` only), driven by :mod:`drs_model.forward.numba_rk`. Both
-return a :class:`~drs_model.forward.solution.Solution`.
+``dop853-numba``; formulation ``"psi3"`` only), driven by :mod:`drs_model.compiled.simulate`
+(imported for these methods only: it needs numba). Both return a
+:class:`~drs_model.forward.solution.Solution`.
 
 The scipy solver class is wrapped in a subclass (solve_ivp accepts an ``OdeSolver`` subclass)
 whose ``_step_impl`` runs, after every accepted step:
@@ -33,7 +34,6 @@ from scipy.integrate import BDF, DOP853, LSODA, RK45, OdeSolver, Radau, solve_iv
 
 from ..errors import InputError, IntegrationError
 from ..params import DRSParams
-from . import numba_rk
 from .forces import as_force
 from .formulations import Formulation, check_options, get_formulation, manoeuvre_initial_state
 from .solution import Solution
@@ -44,8 +44,9 @@ __all__ = ["COMPILED_METHODS", "SCIPY_METHODS", "default_atol", "simulate"]
 SCIPY_METHODS = MappingProxyType(
     {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
 )
-#: Compiled methods (formulation "psi3"): name -> driver of :mod:`drs_model.forward.numba_rk`.
-COMPILED_METHODS = numba_rk.COMPILED_METHODS
+#: Compiled methods (formulation "psi3"): name -> method of
+#: :func:`drs_model.compiled.simulate.simulate_compiled`.
+COMPILED_METHODS = MappingProxyType({"dopri5-numba": "dopri5", "dop853-numba": "dop853"})
 
 
 def default_atol(formulation: Formulation, rtol: float) -> np.ndarray:
@@ -131,7 +132,7 @@ def simulate(
         ``"RK45"``, ``"DOP853"``, ``"Radau"``, ``"BDF"`` or ``"LSODA"`` (scipy), or a compiled
         method of :data:`COMPILED_METHODS`, ``"dopri5-numba"`` or ``"dop853-numba"`` (formulation
         ``"psi3"`` only, a constant, step or manoeuvre force; needs numba: ``pip install
-        drs[fast]``; see :mod:`drs_model.forward.numba_rk`, which also takes the options
+        drs[fast]``; see :mod:`drs_model.compiled.simulate`, which also takes the options
         ``stroke_range``, ``stop_at_dead_centre`` and ``max_steps``).
     rtol, atol : float or array_like
         Tolerances as in solve_ivp; ``atol`` defaults to ``rtol`` times each component's typical
@@ -163,8 +164,10 @@ def simulate(
         The s formulation approached the dead centre.
     """
     if isinstance(method, str) and method in COMPILED_METHODS:
+        from ..compiled.simulate import run_formulation
+
         form, extra = _compiled_formulation(formulation, params, method, formulation_options)
-        return numba_rk.run_formulation(
+        return run_formulation(
             form,
             force,
             t_span,
@@ -286,8 +289,8 @@ _COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")
 
 def _compiled_formulation(formulation, params, method: str, options: dict):
     """``(formulation (a), the compiled driver's own options)`` for ``simulate`` with a compiled
-    method (:mod:`.numba_rk`); ``options`` are the formulation options, those of the driver
-    included."""
+    method (:mod:`drs_model.compiled.simulate`); ``options`` are the formulation options, those of
+    the driver included."""
     extra = {k: options.pop(k) for k in _COMPILED_OPTIONS if k in options} if options else {}
     name = formulation.name if isinstance(formulation, Formulation) else formulation
     if name != "psi3":
@@ -302,5 +305,7 @@ def _compiled_formulation(formulation, params, method: str, options: dict):
             raise InputError("params is required with a formulation name")
         if options:
             check_options("psi3", options)
-        form = numba_rk.psi3_formulation(params, **options)
+        from ..compiled.simulate import psi3_formulation
+
+        form = psi3_formulation(params, **options)
     return form, extra
