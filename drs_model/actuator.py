@@ -98,7 +98,6 @@ class ActuatorSim:
         self.s_min, self.s_max = kin.stroke_limits(p)
         self.psi3_closed, self.psi3_open = kin.flap_angle_limits(p)
         self.s_dead = kin.dead_centre(p)
-        self._r_y = p.reference_point[1]
         from .inverse import FusedInverseDynamics, get_method
 
         get_method(force_method)  # refuse an unknown name now, with the valid ones
@@ -154,7 +153,7 @@ class ActuatorSim:
             qd=np.array(self._qd),
             qdd=np.array(self._qdd),
             piston_force=self._force,
-            gap=self.p.y_D - self.p.tip_arm * math.sin(psi3) - self._r_y,
+            gap=kernels.flap_gap(math.sin(psi3), *self.p.gap_constants),
             mode=self.mode,
             at_stop=self._at_stop,
             target=self._target,

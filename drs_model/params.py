@@ -22,6 +22,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -281,9 +282,10 @@ class DRSParams:
         :mod:`drs_model.kernels`."""
         return (self.x_A, self.y_A + self.L1, self.x_D, self.y_D, self.L2, self.L3)
 
-    @property
+    @cached_property
     def gap_constants(self) -> tuple[float, float]:
-        """``(y_D - R_y, L_wing - d_tip)`` [m]: the constants of :func:`kernels.flap_gap`."""
+        """``(y_D - R_y, L_wing - d_tip)`` [m]: the constants of :func:`kernels.flap_gap` (computed
+        once: the actuator's state reads them every step)."""
         return self.y_D - self.reference_point[1], self.tip_arm
 
     @property
