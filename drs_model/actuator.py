@@ -75,7 +75,10 @@ class ActuatorSim:
     integrator : str
         Fixed-step method for force mode (see :class:`drs_model.forward.FixedStepIntegrator`).
     force_method : str
-        Inverse-dynamics formulation for stroke and hold modes.
+        Inverse-dynamics formulation for stroke and hold modes, a name of
+        :data:`drs_model.inverse.INVERSE_METHODS`; ``"fused"`` (the default) is the one-sample
+        fused kernel. ``"virtual-work"`` is read as ``"fused"``: it named this path here before
+        issue 17, and the node's ``force_method`` parameter and recorded bags still say it.
     """
 
     def __init__(
@@ -84,7 +87,7 @@ class ActuatorSim:
         dt: float = 1e-3,
         force_limit: float = 2.0e4,
         integrator: str = "rk4",
-        force_method: str = "virtual-work",
+        force_method: str = "fused",
     ) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.01):
             raise InputError(f"dt must be a finite number in (0, 0.01] s, got {dt!r}")
@@ -102,7 +105,9 @@ class ActuatorSim:
 
         get_method(force_method)  # refuse an unknown name now, with the valid ones
         self._scalar_force = (
-            FusedInverseDynamics.from_params(p) if force_method == "virtual-work" else None
+            FusedInverseDynamics.from_params(p)
+            if force_method in ("fused", "virtual-work")
+            else None
         )
         self._stepper = None
         # built now, not at the first force command: importing the integrators (scipy.integrate)

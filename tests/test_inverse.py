@@ -23,6 +23,7 @@ from drs_model.errors import (
     SingularConfigurationError,
 )
 from drs_model.params import SEED_LITERAL_IZ_WING, DRSParams
+from drs_model.profile import drs_manoeuvre
 
 # ---- seed 003's printed state at t = 0 and its numbers (section "Dynamics") ---------------------
 SEED_Q0 = np.array([0.0001989391299, -0.1706738276, 1.087076363])  # ics_pos
@@ -81,7 +82,7 @@ SEED_NE_REACTIONS_0 = {
 SEED_F_LAGRANGE_0 = 1003.196915
 SEED_LAMBDA_0 = np.array([-172.7346128, -1002.044240])
 
-METHOD_NAMES = ("newton-euler", "lagrange", "virtual-work")
+METHOD_NAMES = ("newton-euler", "lagrange", "virtual-work", "fused")
 ZERO = np.zeros(3)
 
 
@@ -110,7 +111,7 @@ def test_manoeuvre_states_satisfy_the_constraints(params):
 
 
 # ---- the formulations agree -----------------------------------------------------------------
-def test_three_formulations_agree_over_the_manoeuvre(p_iz):
+def test_the_formulations_agree_over_the_manoeuvre(p_iz):
     _, st = manoeuvre(p_iz)
     forces = {m: dyn.inverse_dynamics(st, p_iz, m).piston_force for m in METHOD_NAMES}
     for m in METHOD_NAMES[1:]:
@@ -125,12 +126,12 @@ def test_three_formulations_agree_over_the_manoeuvre(p_iz):
 def test_manoeuvre_force_paths_agree(p_iz):
     t = np.linspace(0.0, p_iz.T_total, 10_000)
     ref = dyn.manoeuvre_force(t, p_iz, "newton-euler")
-    for m in ("lagrange", "virtual-work"):  # virtual-work: the fused closed form
+    for m in ("lagrange", "virtual-work", "fused"):  # fused: the closed form on the profile
         assert_close_scaled(dyn.manoeuvre_force(t, p_iz, m), ref, 1e-9)
     fused = dyn.FusedInverseDynamics.from_params(p_iz)
     scalar = np.array([fused.force_at(float(x)) for x in t[::97]])
     assert_close_scaled(scalar, ref[::97], 1e-9)
-    s, sd, sdd = dyn.drs_manoeuvre(p_iz).evaluate(t)
+    s, sd, sdd = drs_manoeuvre(p_iz).evaluate(t)
     assert_close_scaled(fused.force_array(s, sd, sdd), ref, 1e-9)
     assert fused.force(float(s[500]), float(sd[500]), float(sdd[500])) == pytest.approx(
         ref[500], rel=1e-9
@@ -314,7 +315,7 @@ def test_peak_force_and_the_seed_literal_inertia(params):
     assert abs(pk.force) >= np.max(np.abs(grid)) - 1e-9 * abs(pk.force)
     assert pk.force == pytest.approx(dyn.manoeuvre_force(np.array([pk.time]), params)[0])
     assert 0.0 < pk.time < params.T_opening
-    assert pk.stroke == pytest.approx(dyn.drs_manoeuvre(params).evaluate(pk.time)[0])
+    assert pk.stroke == pytest.approx(drs_manoeuvre(params).evaluate(pk.time)[0])
     # the seed's plotted force (axis to 1.2e5 N, curve above its top labelled tick) needs the
     # seed's literal Iz_wing = m L / 3 = 0.08; the physical m L^2 / 3 gives a much smaller peak
     pk_seed = dyn.peak_force(DRSParams(Iz_wing=SEED_LITERAL_IZ_WING))
@@ -346,7 +347,7 @@ def test_peak_force_against_the_sympy_baseline(params):
     bl = build_baseline(params)
     pk = dyn.peak_force(params)
     t = pk.time + np.array([-2e-5, 0.0, 2e-5])
-    s, v, a = dyn.drs_manoeuvre(params).evaluate(t)
+    s, v, a = drs_manoeuvre(params).evaluate(t)
     q, qd, qdd = bl.kinematics(s, v, a)
     f = bl.inverse_force(q, qd, qdd)
     assert f[1] == pytest.approx(pk.force, rel=1e-9)
