@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
+import os
 
 import numpy as np
 import pytest
@@ -25,6 +27,11 @@ from drs_model.forward import (
 )
 
 S0 = 0.02  # mid-stroke start [m]
+#: The compiled methods need numba (CI installs it: there a missing numba fails).
+NEEDS_NUMBA = pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None and not os.environ.get("CI"),
+    reason="numba is not installed (pip install drs[fast])",
+)
 F_CONST = 500.0  # N: lifts the flap from S0 by ~3 mm in 10 ms
 
 
@@ -101,6 +108,21 @@ def test_unknown_option_is_a_drs_error_naming_it(params, method):
         simulate("baumgarte", 0.0, (0.0, 0.01), params=params, alfa=10.0)
     with pytest.raises(DRSError, match=r"\['bogus_option'\]"):
         FixedStepIntegrator(params, 1e-3, bogus_option=1)
+
+
+@pytest.mark.parametrize("method", ["DOP853", pytest.param("dop853-numba", marks=NEEDS_NUMBA)])
+def test_both_drivers_refuse_the_same_arguments_alike(params, method):
+    """The scipy and the compiled driver check t_span, rtol and t_eval in one place
+    (forward/arguments.py): the same typed errors, the same messages."""
+    kw = dict(params=params, method=method)
+    with pytest.raises(InputError, match=r"t_span must be finite with t_end > t_start"):
+        simulate("psi3", 0.0, (0.01, 0.0), **kw)
+    with pytest.raises(InputError, match=r"rtol must be a finite number > 0, got nan"):
+        simulate("psi3", 0.0, (0.0, 0.01), rtol=math.nan, **kw)
+    with pytest.raises(InputError, match=r"t_eval must be 1-D within t_span \(0\.0, 0\.01\)"):
+        simulate("psi3", 0.0, (0.0, 0.01), t_eval=[0.02], **kw)
+    with pytest.raises(InputError, match=r"t_eval must be sorted in increasing order"):
+        simulate("psi3", 0.0, (0.0, 0.01), t_eval=[0.005, 0.001], **kw)
 
 
 def test_force_inputs_are_normalised():

@@ -43,6 +43,7 @@ import numpy as np
 
 from .. import elementwise, kernels
 from ..errors import InputError, IntegrationError, SingularConfigurationError, StrokeRangeError
+from ..forward.arguments import output_times, relative_tolerance, time_span
 from ..forward.forces import ConstantForce, ManoeuvreForce, StepForce, as_force
 from ..forward.formulations import Psi3Minimal, manoeuvre_initial_state
 from ..forward.solution import Solution
@@ -175,11 +176,7 @@ def _plan(
     """``(driver arguments after the start state and the output times, the segments as (start,
     end) pairs [s])``, validated. Cached: they depend on these (hashable) inputs only, and the
     driver only reads them."""
-    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-        raise InputError(f"t_span must be finite with t_end > t_start, got {(t0, t1)!r}")
-    if not (rtol > 0.0 and math.isfinite(rtol)):
-        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
-    rtol = max(float(rtol), 100 * _EPS)  # scipy's floor
+    rtol = max(relative_tolerance(rtol), 100 * _EPS)  # scipy's floor
     if atol is None:
         atol_arr = rtol * np.array(form.scales, dtype=np.float64)
     else:
@@ -396,7 +393,7 @@ def run_formulation(
             f"scipy method for the others"
         )
     fobj = as_force(force)
-    t0, t1 = float(t_span[0]), float(t_span[1])
+    t0, t1 = time_span(t_span)
     if y0 is not None:
         y = np.asarray(y0, dtype=float).reshape(2)
         form.check(t0, y)
@@ -425,11 +422,7 @@ def run_formulation(
     if t_eval is None:
         te, has_eval = _NO_OUTPUT_TIMES, False
     else:
-        te = np.ascontiguousarray(t_eval, dtype=np.float64)
-        if te.ndim != 1 or np.any(te < t0) or np.any(te > t1):
-            raise InputError(f"t_eval must be 1-D within t_span {t_span!r}")
-        if np.any(np.diff(te) < 0.0):
-            raise InputError("t_eval must be sorted in increasing order")
+        te = output_times(t_eval, (t0, t1))
         has_eval = True
     status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block = rk.integrate(
         float(y[0]), float(y[1]), te, has_eval, *plan

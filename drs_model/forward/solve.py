@@ -34,6 +34,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK45, OdeSolver, Radau, solve_iv
 
 from ..errors import InputError, IntegrationError
 from ..params import DRSParams
+from .arguments import output_times, relative_tolerance, time_span
 from .forces import as_force
 from .formulations import Formulation, check_options, get_formulation, manoeuvre_initial_state
 from .solution import Solution
@@ -164,9 +165,9 @@ def simulate(
         The s formulation approached the dead centre.
     """
     if isinstance(method, str) and method in COMPILED_METHODS:
-        from ..compiled.simulate import run_formulation
-
         form, extra = _compiled_formulation(formulation, params, method, formulation_options)
+        from ..compiled.simulate import run_formulation  # needs numba
+
         return run_formulation(
             form,
             force,
@@ -198,11 +199,8 @@ def simulate(
             f"method must be one of {sorted(SCIPY_METHODS) + sorted(COMPILED_METHODS)}, "
             f"got {method!r}"
         ) from None
-    t0, t1 = (float(v) for v in t_span)
-    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-        raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
-    if not (rtol > 0.0 and math.isfinite(rtol)):
-        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
+    t0, t1 = time_span(t_span)
+    relative_tolerance(rtol)
     fobj = as_force(force)
     if y0 is None:
         q0, qd0 = manoeuvre_initial_state(p) if initial is None else initial
@@ -213,9 +211,7 @@ def simulate(
     atol = default_atol(form, rtol) if atol is None else atol
     cuts = sorted({float(b) for b in (*fobj.breakpoints, *breakpoints) if t0 < b < t1})
     edges = [t0, *cuts, t1]
-    te = None if t_eval is None else np.asarray(t_eval, dtype=float)
-    if te is not None and (te.ndim != 1 or np.any(te < t0) or np.any(te > t1)):
-        raise InputError(f"t_eval must be 1-D within t_span {t_span!r}")
+    te = None if t_eval is None else output_times(t_eval, (t0, t1))
     stats = {"nsteps": 0}
     solver = _guarded_solver(base, form, float(min_step), stats)
     ts, ys = [], []
