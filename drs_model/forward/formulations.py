@@ -485,7 +485,11 @@ class FullCoordinates(Formulation):
 
 class Projected(FullCoordinates):
     """(d) Full coordinates, plain index-1 right-hand side, with the position projected on
-    ``Phi = 0`` and the velocity on ``Phi_q qd = 0`` after each accepted step (in the M metric).
+    ``Phi = 0`` and the velocity on ``Phi_q qd = 0`` after each accepted step (in the M metric):
+    :attr:`project`, which the drivers call. The outputs are those states as they are
+    (:meth:`to_q_qd` maps, it does not project), so :meth:`residual` shows what the projection
+    achieved; an output between steps (``t_eval``) is the solver's dense output between
+    projected states.
     """
 
     def __init__(
@@ -504,11 +508,6 @@ class Projected(FullCoordinates):
             return np.array(kernel(y.tolist(), self.tol))
 
         self.project = project
-
-    def to_q_qd(self, y):
-        y = np.asarray(y, dtype=float).reshape(6, -1)
-        out = np.array([self._project(col, self.tol) for col in y.T.tolist()]).reshape(-1, 6)
-        return out[:, :3].copy(), out[:, 3:].copy()
 
 
 #: Registry of formulations: name -> constructor ``(p, **options)``.
