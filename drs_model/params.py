@@ -160,10 +160,13 @@ class DRSParams:
     Lengths in m, angles in rad, masses in kg, inertias in kg m^2 (about each body's centre of
     mass), forces in N, times in s.
 
-    ``Iz_link`` defaults to ``m_link * L2**2 / 12`` (a slender rod) and ``Iz_wing`` to
-    ``m_wing * L_wing**2 / 3``. The seed's line for ``Iz_wing`` is OCR-garbled; its plotted piston
-    force (axis to 1.2e5 N) is what the dimensionally wrong ``m_wing * L_wing / 3 = 0.08`` gives.
-    Pass ``Iz_wing=SEED_LITERAL_IZ_WING`` to reproduce that.
+    ``Iz_link`` defaults to ``m_link * L2**2 / 12`` (a slender rod about its centre) and
+    ``Iz_wing`` to ``m_wing * L_wing**2 / 3``, the seed's choice: the inertia of a uniform plate
+    about one end (its leading edge), used here about the flap's centre of mass, where a uniform
+    plate has ``m_wing * L_wing**2 / 12`` (4x less; 14.8 kN of peak piston force instead of
+    25.4 kN: README, "Dynamics"). The seed's line for ``Iz_wing`` is OCR-garbled; its plotted
+    piston force (axis to 1.2e5 N) is what the dimensionally wrong ``m_wing * L_wing / 3 = 0.08``
+    gives. Pass ``Iz_wing=SEED_LITERAL_IZ_WING`` to reproduce that.
     """
 
     # FIA regulation box and the gap rule

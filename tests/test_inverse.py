@@ -421,7 +421,8 @@ def test_cli_peak_both_inertias(capsys):
 
 def test_readme_headline_figures(params):
     """README's headline: 25.41 kN at t = 0.904 ms, s = 0.493 mm; 128.8 kN with the seed's literal
-    Iz_wing (the figures as printed, so a change of the model that moves them fails here)."""
+    Iz_wing, 14.84 kN with a uniform plate's (the figures as printed, so a change of the model that
+    moves them fails here)."""
     pk = dyn.peak_force(params)
     assert round(pk.force / 1e3, 2) == 25.41
     assert round(pk.time * 1e3, 3) == 0.904
@@ -429,6 +430,10 @@ def test_readme_headline_figures(params):
     pk_seed = dyn.peak_force(DRSParams(Iz_wing=SEED_LITERAL_IZ_WING))
     assert round(pk_seed.force / 1e3, 1) == 128.8
     assert round(pk_seed.time * 1e3, 3) == 0.904
+    # a uniform flap about its centre of mass, m L^2 / 12 (README's table, docs/dynamics.md)
+    pk_plate = dyn.peak_force(DRSParams(Iz_wing=params.m_wing * params.L_wing**2 / 12.0))
+    assert round(pk_plate.force / 1e3, 2) == 14.84
+    assert round(pk_plate.time * 1e3, 3) == 0.903
 
 
 def test_cli_peak_refines_every_extremum(capsys, params):
