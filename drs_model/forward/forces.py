@@ -18,7 +18,6 @@ from ..compiled.scalar import bind
 from ..errors import InputError, IntegrationError
 from ..inverse import FusedInverseDynamics
 from ..kernels import fused_manoeuvre_force, profile_held
-from ..kinematics import solve_position
 from ..params import DRSParams
 
 ForceLike = float | Callable[[float], float]
@@ -163,8 +162,3 @@ class ManoeuvreForce:
     def profile(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The profile ``(s, s', s'')`` at times t (the exact solution under this force)."""
         return self.manoeuvre.evaluate(t)
-
-    def initial_q_qd(self) -> tuple[np.ndarray, np.ndarray]:
-        """The configuration at rest at the start of the manoeuvre (closed)."""
-        q = solve_position(self.manoeuvre.s_min, self.p)
-        return q, np.zeros(3)
