@@ -176,6 +176,7 @@ def _plan(
     """``(driver arguments after the start state and the output times, the segments as (start,
     end) pairs [s])``, validated. Cached: they depend on these (hashable) inputs only, and the
     driver only reads them."""
+    time_span((t0, t1))
     rtol = max(relative_tolerance(rtol), 100 * _EPS)  # scipy's floor
     if atol is None:
         atol_arr = rtol * np.array(form.scales, dtype=np.float64)
@@ -393,7 +394,7 @@ def run_formulation(
             f"scipy method for the others"
         )
     fobj = as_force(force)
-    t0, t1 = time_span(t_span)
+    t0, t1 = float(t_span[0]), float(t_span[1])  # checked in the cached plan
     if y0 is not None:
         y = np.asarray(y0, dtype=float).reshape(2)
         form.check(t0, y)

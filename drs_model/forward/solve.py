@@ -27,6 +27,7 @@ rejected steps locating it, and a fixed-order method loses its order.
 from __future__ import annotations
 
 import math
+from functools import cache
 from types import MappingProxyType
 
 import numpy as np
@@ -166,9 +167,7 @@ def simulate(
     """
     if isinstance(method, str) and method in COMPILED_METHODS:
         form, extra = _compiled_formulation(formulation, params, method, formulation_options)
-        from ..compiled.simulate import run_formulation  # needs numba
-
-        return run_formulation(
+        return _compiled_driver().run_formulation(
             form,
             force,
             t_span,
@@ -283,6 +282,16 @@ def simulate(
 _COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")
 
 
+@cache
+def _compiled_driver():
+    """:mod:`drs_model.compiled.simulate`, imported at the first compiled run (it imports numba;
+    without numba this raises :class:`~drs_model.errors.NumbaUnavailableError`). Cached: an
+    import statement costs ~1-2 us, a few % of a compiled run."""
+    from ..compiled import simulate
+
+    return simulate
+
+
 def _compiled_formulation(formulation, params, method: str, options: dict):
     """``(formulation (a), the compiled driver's own options)`` for ``simulate`` with a compiled
     method (:mod:`drs_model.compiled.simulate`); ``options`` are the formulation options, those of
@@ -301,7 +310,5 @@ def _compiled_formulation(formulation, params, method: str, options: dict):
             raise InputError("params is required with a formulation name")
         if options:
             check_options("psi3", options)
-        from ..compiled.simulate import psi3_formulation
-
-        form = psi3_formulation(params, **options)
+        form = _compiled_driver().psi3_formulation(params, **options)
     return form, extra
