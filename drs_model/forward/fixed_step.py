@@ -169,6 +169,12 @@ class FixedStepIntegrator:
         self._gap = p.gap_constants
         self.steps = 0
         self.reset()
+        if self._fast:
+            # compile (or load from numba's cache) what a step calls now, not at the first step:
+            # in a real-time loop that would stall it (~20 ms from the cache, seconds without)
+            b, bd = self._y
+            self._psi3_step(b, bd, 0.0, 0.0, 0.0, self.dt)
+            self.form.accel(b, bd, 0.0)
 
     # ---- state ---------------------------------------------------------------------------------
     def reset(
