@@ -137,9 +137,9 @@ def test_scalar_kinematics_equal_the_vectorised(params, s, sd, sdd):
 
 
 def test_force_method_virtual_work_is_still_the_fused_path(params):
-    """"virtual-work" named ActuatorSim's fused path before issue 17 (the node's force_method
-    parameter and recorded bags still say it): it runs the same fused kernel, to the bit, and the
-    other formulations agree with it."""
+    """The name "virtual-work" meant ActuatorSim's fused path before issue 17 (the node's
+    force_method parameter and recorded bags still say it): it runs the same fused kernel, to the
+    bit, and the other formulations agree with it."""
     sims = {m: ActuatorSim(params, force_method=m) for m in ("fused", "virtual-work", "lagrange")}
     for sim in sims.values():
         sim.command_drs(True)
