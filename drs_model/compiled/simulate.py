@@ -127,10 +127,10 @@ def _segments_of(fobj, t0: float, t1: float, extra: tuple[float, ...]):
     cuts = sorted({float(b) for b in (*fobj.breakpoints, *extra) if t0 < b < t1})
     edges = np.array([t0, *cuts, t1], dtype=np.float64)
     n = edges.size - 1
-    kinds = np.zeros(n, dtype=np.int64)
+    kinds = np.full(n, rk.CONSTANT, dtype=np.int64)
     values = np.zeros(n, dtype=np.float64)
     if isinstance(fobj, ManoeuvreForce):
-        # where the manoeuvre is held still the force is one value: no kernel call per stage
+        # where the manoeuvre rests the force is one value: no kernel call per stage
         mc, mp = manoeuvre_constants(fobj)
         for i in range(n):
             if kernels.profile_held(edges[i], edges[i + 1], mp):
