@@ -65,7 +65,8 @@ from visualization_msgs.msg import MarkerArray
 
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
-from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict, from_file
+from drs_model.overrides import from_file
+from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from . import cdr, commands
 from .conversions import (

@@ -38,7 +38,8 @@ import numpy as np
 from drs_model.constraints import constraint, constraint_velocity_term
 from drs_model.errors import DRSError
 from drs_model.kinematics import gap as model_gap
-from drs_model.params import DRSParams, from_file
+from drs_model.overrides import from_file
+from drs_model.params import DRSParams
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 from .reader import BagReadError, MessageCallbackError, scan
