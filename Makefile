@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.installed
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export ROS_LOG_DIR ?= $(CURDIR)/.ros-log
 
-.PHONY: demo test venv lint bench clean
+.PHONY: demo test venv lint bench clean clean-cache
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -16,6 +16,8 @@ $(BIN)/python:
 $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev,fast]"
+	# numba's on-disk cache, filled once here: no test, demo or node start compiles on a cold cache
+	$(BIN)/python -m drs_model.compiled
 	touch $(STAMP)
 
 venv: $(STAMP)
@@ -32,5 +34,10 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/work_precision.py
 
-clean:
+# numba checks only the file of the function it compiled: after editing drs_model/kernels.py, the
+# cached builds of the compiled functions in other files that call a kernel are stale
+clean-cache:
+	find drs_model -name '*.nbi' -delete -o -name '*.nbc' -delete
+
+clean: clean-cache
 	rm -rf $(VENV) .ros-log .pytest_cache

@@ -279,8 +279,8 @@ def main(argv: list[str] | None = None) -> int:
             by_config.setdefault((executor, hz, load), []).append(r)
             print(f"{executor:>8} {hz:6.0f} Hz, {load:>10}: CPU "
                   f"{100 * r['cpu_share_of_core']:5.1f} % of a core, missed "
-                  f"{r['missed_deadlines']}/{r['ticks']} ({100 * r['missed_share']:.2f} %), "
-                  f"per cycle: model "
+                  f"{r['missed_deadlines']}/{r['ticks']} "
+                  f"({100 * r['missed_share']:.2f} %), per cycle: model "
                   f"{r['us_per_cycle_model']:.0f} us, publish {r['us_per_cycle_publish']:.0f} us, "
                   f"record {r['us_per_cycle_record']:.0f} us, rest {r['us_per_cycle_rest']:.0f} us",
                   flush=True)  # fmt: skip

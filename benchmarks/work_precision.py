@@ -14,11 +14,11 @@ evaluations, or the failure (type and message). The baseline a user would otherw
 sympy.physics.mechanics index-1 right-hand side of ``benchmarks/sympy_baseline.py`` with
 solve_ivp (RK45, DOP853, Radau, LSODA; same segments and force) - runs in the same process.
 
-The compiled methods of :mod:`drs_model.forward.numba_rk` (``dopri5-numba``, ``dop853-numba``
+The compiled methods of :mod:`drs_model.compiled.simulate` (``dopri5-numba``, ``dop853-numba``
 on formulation (a), numba) run as further rows when numba is installed: warmed first (compiled, or
-loaded from numba's cache), each timed over a batch of calls; their one-off start-up cost is
-measured apart, in fresh interpreters, without and with numba's on-disk cache (``compiled`` in
-the JSON).
+loaded from numba's cache), each timed over a batch of calls; the one-off start-up cost of every
+numba function of drs_model (:func:`drs_model.compiled.warm.warm_up`) is measured apart, in fresh
+interpreters, without and with numba's on-disk cache (``compiled`` in the JSON).
 
 Outputs ``benchmarks/results/work_precision.json`` and ``docs/img/work_precision.png`` (left: the
 baseline and our best few; right: every row); prints the target ratios. ``--quick`` runs a subset
@@ -469,9 +469,9 @@ import json, time
 t0 = time.perf_counter()
 import numba
 t_numba = time.perf_counter() - t0
-from drs_model.forward import numba_rk as compiled
+from drs_model.compiled.warm import warm_up
 t1 = time.perf_counter()
-compiled.warm_up()
+warm_up()
 t_warm = time.perf_counter() - t1
 print(json.dumps({"import_numba_s": t_numba, "compile_or_load_s": t_warm,
                   "numba": numba.__version__}))
@@ -508,7 +508,8 @@ def compiled_floor(prob: Problem, repeats: int = 15, inner: int = 20, n: int = 2
     the CPU time of one ``simulate`` call and of ``n`` compiled evaluations of the psi3 right-hand
     side (at the states of the run) and of the manoeuvre force (at its times); the ratio's median
     over the repeats (and the ratio of the fastest samples) is printed."""
-    from drs_model.forward import numba_rk as compiled
+    from drs_model import elementwise
+    from drs_model.compiled import simulate as compiled
 
     p = prob.p
     form = compiled.psi3_formulation(p)
@@ -527,13 +528,13 @@ def compiled_floor(prob: Problem, repeats: int = 15, inner: int = 20, n: int = 2
             sol = go()
             b = np.interp(t, sol.t, sol.y[0])
             bd = np.interp(t, sol.t, sol.y[1])
-            f = compiled._manoeuvre_forces(t, mc, mp)
+            f = elementwise.fused_manoeuvre_force(t, mc, mp)
 
             def rhs_block(b=b, bd=bd, f=f):
-                return compiled._psi3_accels(b, bd, f, kc)
+                return elementwise.psi3_acceleration(b, bd, f, kc)
 
             def force_block():
-                return compiled._manoeuvre_forces(t, mc, mp)
+                return elementwise.fused_manoeuvre_force(t, mc, mp)
 
             calls, rhs, force = [], [], []
             _cpu(go, 1, inner)  # warm the caches of this method and tolerance
@@ -724,10 +725,10 @@ def run(
     t0 = time.perf_counter()
     results["compiled_rows"] = []
     try:
-        from drs_model.forward import numba_rk as compiled
+        from drs_model.compiled.warm import warm_up
 
         t_w = time.perf_counter()
-        compiled.warm_up(p)  # compile or load from cache before any timing
+        warm_up(p)  # compile or load from cache before any timing
         results["compiled"] = {"in_process_warm_up_s": time.perf_counter() - t_w}
     except ImportError as exc:  # numba missing: the pure-Python rows only
         results["compiled"] = {"unavailable": str(exc)}
@@ -866,10 +867,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     if args.floor:
-        from drs_model.forward import numba_rk as compiled
+        from drs_model.compiled.warm import warm_up
 
         prob = Problem(DRSParams())
-        compiled.warm_up(prob.p)
+        warm_up(prob.p)
         print(floor_report(compiled_floor(prob, repeats=args.repeats or 15)))
         return 0
     results = run(quick=args.quick, repeats=args.repeats)

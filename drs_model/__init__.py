@@ -1,11 +1,13 @@
 """drs_model: kinematics and dynamics of the DRS flap actuator (pure numpy/scipy, no ROS).
 
-Modules: ``params`` (DRSParams), ``kernels`` (each scalar closed form, once), ``constraints``
-(Phi, Jacobians, gamma), ``kinematics`` (positions, velocities, accelerations, gap, limits),
-``profile`` (quintic manoeuvre), ``bodies`` (mass matrix, forces), ``inverse`` (inverse dynamics,
-three formulations), ``forward`` (forward dynamics: forces, formulations, the scipy, compiled and
-fixed-step drivers), ``actuator`` (the fixed-step actuator the node runs), ``coriolis``
-(rotating-frame kinematics of seed 000), ``plotting`` (figures).
+Modules: ``params`` (DRSParams), ``overrides`` (parameters from --set items and files),
+``kernels`` (each scalar closed form, once, as plain Python), ``elementwise`` (the kernels on
+arrays), ``constraints`` (Phi, Jacobians, gamma), ``kinematics`` (positions, velocities,
+accelerations, gap, limits), ``profile`` (quintic manoeuvre), ``bodies`` (mass matrix, forces),
+``inverse`` (inverse dynamics, three formulations), ``forward`` (forward dynamics: forces,
+formulations, the scipy and fixed-step drivers), ``compiled`` (numba's builds of the kernels and
+the compiled RK driver; optional), ``actuator`` (the fixed-step actuator the node runs),
+``coriolis`` (rotating-frame kinematics of seed 000), ``plotting`` (figures).
 """
 
 import importlib
@@ -18,6 +20,7 @@ from .errors import (
     DRSError,
     InputError,
     IntegrationError,
+    NumbaUnavailableError,
     ParameterError,
     SingularConfigurationError,
     StrokeRangeError,
@@ -33,7 +36,8 @@ from .kinematics import (
     stroke_limits,
     velocity_ratio,
 )
-from .params import SEED_LITERAL_IZ_WING, DRSParams, from_dict, from_file
+from .overrides import from_file
+from .params import SEED_LITERAL_IZ_WING, DRSParams, from_dict
 from .profile import Manoeuvre, QuinticSegment, drs_manoeuvre, quintic_move
 
 #: Names re-exported lazily (PEP 562): these modules pull in scipy.integrate/optimize (~0.5 s),
@@ -88,6 +92,7 @@ __all__ = [
     "KinematicState",
     "Manoeuvre",
     "ManoeuvreForce",
+    "NumbaUnavailableError",
     "ParameterError",
     "QuinticSegment",
     "SingularConfigurationError",

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import kernels
 from . import kinematics as kin
 from .errors import (
     InputError,
@@ -93,7 +94,10 @@ class ActuatorSim:
     integrator : str
         Fixed-step method for force mode (see :class:`drs_model.forward.FixedStepIntegrator`).
     force_method : str
-        Inverse-dynamics formulation for stroke and hold modes.
+        Inverse-dynamics formulation for stroke and hold modes, a name of
+        :data:`drs_model.inverse.INVERSE_METHODS`; ``"fused"`` (the default) is the one-sample
+        fused kernel. ``"virtual-work"`` is read as ``"fused"``: it named this path here before
+        issue 17, and the node's ``force_method`` parameter and recorded bags still say it.
     """
 
     def __init__(
@@ -102,7 +106,7 @@ class ActuatorSim:
         dt: float = 1e-3,
         force_limit: float = 2.0e4,
         integrator: str = "rk4",
-        force_method: str = "virtual-work",
+        force_method: str = "fused",
     ) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.01):
             raise InputError(f"dt must be a finite number in (0, 0.01] s, got {dt!r}")
@@ -116,12 +120,13 @@ class ActuatorSim:
         self.s_min, self.s_max = kin.stroke_limits(p)
         self.psi3_closed, self.psi3_open = kin.flap_angle_limits(p)
         self.s_dead = kin.dead_centre(p)
-        self._r_y = p.reference_point[1]
         from .inverse import FusedInverseDynamics, get_method
 
         get_method(force_method)  # refuse an unknown name now, with the valid ones
         self._scalar_force = (
-            FusedInverseDynamics.from_params(p) if force_method == "virtual-work" else None
+            FusedInverseDynamics.from_params(p)
+            if force_method in ("fused", "virtual-work")
+            else None
         )
         # force mode: a step of at most MAX_FORCE_STEP is first tried whole (the real-time loop's
         # common case); a longer one, or one that fails or meets a stop, in `_pieces` equal
@@ -177,7 +182,7 @@ class ActuatorSim:
             qd=np.array(self._qd),
             qdd=np.array(self._qdd),
             piston_force=self._force,
-            gap=self.p.y_D - self.p.tip_arm * math.sin(psi3) - self._r_y,
+            gap=kernels.flap_gap(math.sin(psi3), *self.p.gap_constants),
             mode=self.mode,
             at_stop=self._at_stop,
             target=self._target,

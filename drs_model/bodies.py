@@ -30,8 +30,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import kernels
 from .constraints import PSI1, PSI3, S
-from .kernels import NUMPY
 from .kinematics import flap_angle_limits, point_jacobian, point_positions, point_table
 from .params import DRSParams
 
@@ -91,7 +91,7 @@ def _com_offset(q: np.ndarray, p: DRSParams, body: Body) -> np.ndarray:
     """Centre of mass relative to the body's rotation centre (B or D) [m], ``(..., 2)``."""
     _, local = point_table(p)[body.com]
     angle = q[..., body.angle]
-    return np.stack(NUMPY.rotate(np.cos(angle), np.sin(angle), *local), axis=-1)
+    return np.stack(kernels.rotate(np.cos(angle), np.sin(angle), *local), axis=-1)
 
 
 def mass_matrix(q, p: DRSParams) -> np.ndarray:
@@ -128,7 +128,7 @@ def air_forces(psi3, p: DRSParams, flap_limits: tuple[float, float] | None = Non
     seed's printed ones to reproduce its numbers. Outside the range the law extrapolates, as the
     seed's does.
     """
-    return NUMPY.air_load(np.asarray(psi3, dtype=float), model_constants(p, flap_limits))
+    return kernels.air_load(np.asarray(psi3, dtype=float), model_constants(p, flap_limits))
 
 
 def applied_forces(

@@ -25,8 +25,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from . import kernels
 from .errors import InputError
-from .kernels import NUMPY
 from .params import DRSParams
 
 #: Index of each coordinate in q.
@@ -43,7 +43,7 @@ def _split(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def constraint(q: np.ndarray, p: DRSParams) -> np.ndarray:
     """Constraint residual ``Phi(q)`` [m], shape ``(..., 2)``."""
     s, p1, p3 = _split(q)
-    phi = NUMPY.loop_residual(s, np.sin(p1), np.cos(p1), np.sin(p3), np.cos(p3), p.loop_constants)
+    phi = kernels.loop_residual(s, np.sin(p1), np.cos(p1), np.sin(p3), np.cos(p3), p.loop_constants)
     return np.stack(np.broadcast_arrays(*phi), axis=-1)
 
 
@@ -108,7 +108,7 @@ def constraint_gamma(q: np.ndarray, qd: np.ndarray, p: DRSParams) -> np.ndarray:
     """Right-hand side of ``Phi_q qdd = gamma`` [m/s^2], shape ``(..., 2)``."""
     _, p1, p3 = _split(q)
     qd = np.asarray(qd, dtype=float)
-    gam = NUMPY.loop_gamma(
+    gam = kernels.loop_gamma(
         np.sin(p1),
         np.cos(p1),
         np.sin(p3),

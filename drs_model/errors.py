@@ -43,3 +43,7 @@ class IntegrationError(DRSError, ArithmeticError):
 
 class ConstraintDriftError(IntegrationError):
     """The constraint residual of a forward-dynamics solution grew past the allowed bound."""
+
+
+class NumbaUnavailableError(DRSError, ImportError):
+    """The compiled paths need numba, which is not installed (``pip install 'drs[fast]'``)."""

@@ -1,24 +1,26 @@
-r"""The scalar closed forms of the DRS model, each written once.
+r"""The scalar closed forms of the DRS model, each written once, as ordinary Python.
 
-Every kernel is plain ``math`` code in numba's subset (no numpy, no exceptions, no ``if`` on a
-value except through :func:`select`, ``min`` and ``max``), so one source serves three paths:
+Every kernel is a plain function of floats (``math``, ``if``, ``return``) in the subset of Python
+that numba compiles, so the same function serves every path:
 
-* the scalar real-time paths run :data:`SCALAR` (and :data:`SCALAR_BOUND`): the top-level kernels
-  with their calls of other kernels inlined, generated from this source at import (``math`` on
-  floats, bit-identical to the kernels, without CPython's cost of a call per sub-kernel);
-* :data:`NUMPY` holds the same functions with ``math`` rebound to numpy's ufuncs (and ``select``
-  to ``np.where``, ``min``/``max`` to ``np.minimum``/``np.maximum``): same code objects, evaluated
-  on arrays, for the
-  vectorised APIs of :mod:`~drs_model.kinematics`, :mod:`~drs_model.profile`,
-  :mod:`~drs_model.bodies` and :mod:`~drs_model.inverse`;
-* :mod:`drs_model.forward.numba_rk` compiles the same code objects with numba.
+* Python calls it as it is (what you step through in a debugger);
+* :mod:`drs_model.compiled` compiles it with numba (``njit(cache=True)``): for one sample at a
+  time (the real-time fixed step, one inverse-dynamics force) and inside the compiled RK driver;
+* on numpy arrays, the kernels that are arithmetic alone (:func:`rotate`, :func:`quintic`,
+  :func:`flap_gap`, :func:`air_load`, :func:`loop_residual`, :func:`loop_gamma` ...) take arrays
+  as they are; those with a branch or a ``math`` function run element by element through
+  :mod:`drs_model.elementwise` (numba gufuncs, or :func:`numpy.vectorize` without numba).
+
+Without numba (it is the optional extra ``fast``), everything runs as plain Python: the same
+values, more slowly (docs/forward.md, "Without numba").
 
 A kernel never raises: where the loop cannot close or the mechanism is at the dead centre it returns
 NaN (or the quantity that says so, such as ``h2`` below), and its caller raises the typed error.
 
-Constants ``c`` (a tuple, or a float64 array for numba) are indexed by the names below; the first
-six (``XA .. L3``, :attr:`DRSParams.loop_constants <drs_model.params.DRSParams.loop_constants>`)
-are all the position kernels need, the rest (:func:`drs_model.bodies.model_constants`) the dynamics.
+Constants ``c`` (a tuple, or a float64 array for the compiled paths) are indexed by the names
+below; the first six (``XA .. L3``, :attr:`DRSParams.loop_constants
+<drs_model.params.DRSParams.loop_constants>`) are all the position kernels need, the rest
+(:func:`drs_model.bodies.model_constants`) the dynamics.
 
 Position with ``s`` independent: ``C`` lies on the circle of radius ``L2`` about ``B = (x_A, y_A +
 L1 + s)`` and on the circle of radius ``L3`` about ``D``. With ``d = D - B``, ``rho = |d|``,
@@ -34,15 +36,7 @@ Cramer's rule (determinant ``-L2 L3 cos(psi1 - psi3)`` with ``s`` independent).
 
 from __future__ import annotations
 
-import ast
-import copy
-import inspect
 import math
-import textwrap
-import types
-from collections import namedtuple
-
-import numpy as np
 
 #: Below this normalised singularity measure ``|cos(psi1 - psi3)|`` a stroke is the dead centre.
 SINGULAR_TOL = 1e-9
@@ -56,20 +50,11 @@ M1, M2, M3, I2, I3, G = 8, 9, 10, 11, 12, 13  # masses [kg], inertias [kg m^2], 
 DRAG_OPEN, DRAG_SLOPE, DOWN_OPEN, DOWN_SLOPE, PSI3_OPEN = 14, 15, 16, 17, 18  # air law [N, N/rad]
 M11, M22 = 19, 20  # m_link L2^2/4 + Iz_link, m_wing |r_G3|^2 + Iz_wing [kg m^2]
 N_CONSTANTS = 21
+#: Number of the manoeuvre's constants ``k`` (:meth:`drs_model.profile.Manoeuvre.constants`).
+N_PROFILE_CONSTANTS = 18
 
 
 # ---- elementary ---------------------------------------------------------------------------------
-def select(cond, a, b):
-    """``a`` where ``cond`` holds, else ``b`` (``np.where`` on arrays)."""
-    return a if cond else b
-
-
-def clip(x, lo, hi):
-    """``x`` limited to ``[lo, hi]`` (builtins ``min``/``max``: C calls in Python, and
-    ``np.minimum``/``np.maximum`` in :data:`NUMPY`)."""
-    return min(max(x, lo), hi)
-
-
 def rotate(c, s, x, y):
     """``(x, y)`` turned by the angle of cosine ``c`` and sine ``s``."""
     return c * x - s * y, s * x + c * y
@@ -87,24 +72,35 @@ def quintic(tau, k, i):
 def manoeuvre_profile(t, k):
     """``(s, s', s'')`` [m, m/s, m/s^2] of the open-hold-close manoeuvre at time ``t`` [s].
 
-    ``k = (t0_open, T_open, 6 coefficients, t0_close, T_close, 6 coefficients, s_max)``
-    (:meth:`drs_model.profile.Manoeuvre.constants`): each segment's quintic at its local time
-    clipped to the segment, so ``s = s_open + s_close - s_max`` holds everywhere.
+    ``k = (t0_open, T_open, 6 coefficients, t0_close, T_close, 6 coefficients, s_min, s_max)``
+    (:meth:`drs_model.profile.Manoeuvre.constants`). Each move's quintic runs strictly inside its
+    segment, ``0 < t - t0 < T``; at its ends and outside the moves the rod rests, exactly at
+    ``s_min`` (before the opening, after the closing) or ``s_max`` (the hold).
     """
-    so, vo, ao = quintic(clip(t - k[0], 0.0, k[1]), k, 2)
-    sc, vc, ac = quintic(clip(t - k[8], 0.0, k[9]), k, 10)
-    return so + sc - k[16], vo + vc, ao + ac
+    tau = t - k[0]
+    if tau <= 0.0:
+        return k[16], 0.0, 0.0
+    if tau < k[1]:
+        return quintic(tau, k, 2)
+    tau = t - k[8]
+    if tau <= 0.0:
+        return k[17], 0.0, 0.0
+    if tau < k[9]:
+        return quintic(tau, k, 10)
+    return k[16], 0.0, 0.0
 
 
 def profile_held(a, b, k):
-    """Whether :func:`manoeuvre_profile` ``k`` is held still over the whole of ``[a, b]`` [s]
-    (before the opening, between the segments, after the closing), to the bit: each segment's
-    local time ``t - t0`` is clipped to the same end for every ``t`` of ``[a, b]``, since a
-    floating-point difference is monotonic in ``t``. Then ``(s, s', s'')``, and any force of them,
-    is one value there. Planning, not a kernel: it is not compiled."""
-    open_held = b - k[0] <= 0.0 or a - k[0] >= k[1]
-    close_held = b - k[8] <= 0.0 or a - k[8] >= k[9]
-    return open_held and close_held
+    """Whether :func:`manoeuvre_profile` ``k`` rests over the whole of ``[a, b]`` [s] (before the
+    opening, in the hold, after the closing), so that ``(s, s', s'')`` and any force of them are
+    one value there, to the bit. Exact: a floating-point difference ``t - t0`` is monotonic in
+    ``t``, so the branch :func:`manoeuvre_profile` takes at ``a`` and at ``b`` is taken in between.
+    Planning, not a kernel: it is not compiled."""
+    if b - k[0] <= 0.0:
+        return True  # before the opening
+    if a - k[0] < k[1]:
+        return False  # some of [a, b] in the opening
+    return b - k[8] <= 0.0 or a - k[8] >= k[9]  # the hold, or after the closing
 
 
 def flap_gap(sin_psi3, gap0, tip_arm):
@@ -175,7 +171,8 @@ def stroke_rates(sin1, cos1, sin3, cos3, sd, sdd, c):
     SINGULAR_TOL``). The angular rates are ``dpsi/ds * sd``."""
     l2, l3 = c[L2], c[L3]
     det = -l2 * l3 * (cos1 * cos3 + sin1 * sin3)
-    det = select(abs(det) >= SINGULAR_TOL * l2 * l3, det, math.nan)
+    if not abs(det) >= SINGULAR_TOL * l2 * l3:  # the dead centre (or NaN)
+        return math.nan, math.nan, math.nan, math.nan
     tau1, tau3 = -l3 * sin3 / det, l2 * cos1 / det
     w1, w3 = tau1 * sd, tau3 * sd
     # J_D [psi1'', psi3''] = gamma - J_s s'' with J_D = [[L2 c1, L3 s3], [L2 s1, -L3 c3]]
@@ -203,7 +200,9 @@ def flap_rates(sin1, cos1, sin3, cos3, c):
     """``(u_s, u_psi1, w_s, w_psi1)``: ``u = dq/dpsi3`` and ``w = du/dpsi3`` with psi3
     independent (``qd = u psi3'``, ``qdd = u psi3'' + w psi3'^2``); NaN where ``cos psi1 = 0``."""
     l2, l3 = c[L2], c[L3]
-    l2c1 = select(cos1 != 0.0, l2 * cos1, math.nan)
+    if cos1 == 0.0:
+        return math.nan, math.nan, math.nan, math.nan
+    l2c1 = l2 * cos1
     u1 = -l3 * sin3 / l2c1
     w1 = (l2 * sin1 * u1 * u1 - l3 * cos3) / l2c1
     return (
@@ -272,9 +271,7 @@ def psi3_acceleration(b, bd, force, c):
     sb, cb, _, sa, ca, ca2 = psi3_position(b, c)
     if not ca2 > 0.0:  # no assembly (or NaN)
         return math.nan
-    # assigned, not returned: the scalar path inlines only ``targets = kernel(...)``
-    acc = psi3_acceleration_at(b, bd, force, sb, cb, sa, ca, c)
-    return acc
+    return psi3_acceleration_at(b, bd, force, sb, cb, sa, ca, c)
 
 
 def psi3_configuration(b, c):
@@ -282,7 +279,7 @@ def psi3_configuration(b, c):
     [m, rad] and their rates per unit psi3 rate."""
     sb, cb, s, sa, ca, _ = psi3_position(b, c)
     u0, u1, _, _ = flap_rates(sa, ca, sb, cb, c)
-    return s, math.asin(clip(sa, -1.0, 1.0)), u0, u1
+    return s, math.asin(min(max(sa, -1.0), 1.0)), u0, u1
 
 
 def fused_force(s, sd, sdd, c):
@@ -296,7 +293,8 @@ def fused_force(s, sd, sdd, c):
             + I_b \ddot\psi_b \frac{d\psi_b}{ds} \right] - F_{air} \cdot \frac{dG_3}{ds}
     """
     s1, c1, s3, c3, h2 = stroke_position(s, c, 1.0)
-    s1 = select(h2 >= -ASSEMBLY_TOL, s1, math.nan)
+    if not h2 >= -ASSEMBLY_TOL:  # the loop cannot close (or NaN)
+        return math.nan
     tau1, tau3, a1, a3 = stroke_rates(s1, c1, s3, c3, sd, sdd, c)
     w1, w3 = tau1 * sd, tau3 * sd
     g = c[G]
@@ -321,251 +319,34 @@ def fused_force(s, sd, sdd, c):
     )
 
 
-def manoeuvre_force(t, c, k):
-    """Inverse-dynamics piston force [N] of the manoeuvre ``k`` (:func:`manoeuvre_profile`) at
-    time ``t`` [s]."""
+def fused_manoeuvre_force(t, c, k):
+    """:func:`fused_force` [N] along the manoeuvre ``k`` (:func:`manoeuvre_profile`) at time ``t``
+    [s]: the piston force that makes the mechanism follow it."""
     s, sd, sdd = manoeuvre_profile(t, k)
     return fused_force(s, sd, sdd, c)
 
 
-#: Every kernel, callees first (the order in which numba_rk compiles them).
+#: Every kernel: :mod:`drs_model.compiled` makes each callable from compiled code.
 KERNELS = (
-    "select",
-    "clip",
-    "rotate",
-    "quintic",
-    "manoeuvre_profile",
-    "flap_gap",
-    "flap_sine_for_gap",
-    "air_load",
-    "loop_residual",
-    "loop_velocity",
-    "loop_gamma",
-    "stroke_position",
-    "stroke_rates",
-    "flap_position",
-    "flap_rates",
-    "generalised_forces",
-    "projected_dynamics",
-    "psi3_position",
-    "psi3_acceleration_at",
-    "psi3_acceleration",
-    "psi3_configuration",
-    "fused_force",
-    "manoeuvre_force",
-)
-#: Kernels free of value branches: these evaluate arrays in :data:`NUMPY`.
-VECTORISED = tuple(k for k in KERNELS if k not in ("psi3_acceleration", "select"))
-
-
-def rebind(names, namespace: dict) -> dict:
-    """Copies of the kernels ``names`` whose globals are ``namespace`` (updated in place and
-    returned): each kernel then calls the other kernels, ``math``, ``select`` and ``clip`` as
-    ``namespace`` defines them. The code objects are shared: one source."""
-    for name in names:
-        fn = globals()[name]
-        namespace[name] = types.FunctionType(fn.__code__, namespace, name, fn.__defaults__)
-    return namespace
-
-
-_NumpyMath = namedtuple("_NumpyMath", "sqrt sin cos atan2 asin acos nan inf pi")
-_NUMPY_NAMESPACE = rebind(
-    VECTORISED,
-    {
-        **globals(),
-        "math": _NumpyMath(
-            np.sqrt, np.sin, np.cos, np.arctan2, np.arcsin, np.arccos, np.nan, np.inf, np.pi
-        ),
-        "select": np.where,
-        "min": np.minimum,
-        "max": np.maximum,
-    },
-)
-#: The vectorised kernels: same code, numpy ufuncs; ``NUMPY.stroke_position(s_array, c, 1.0)``.
-NUMPY = namedtuple("NumpyKernels", VECTORISED)(*(_NUMPY_NAMESPACE[k] for k in VECTORISED))
-
-
-# ---- the scalar path: the same kernels with their calls inlined ---------------------------------
-def _callee_source(name: str) -> ast.FunctionDef:
-    return ast.parse(textwrap.dedent(inspect.getsource(globals()[name]))).body[0]
-
-
-def _local_names(fdef: ast.FunctionDef) -> set[str]:
-    names = {a.arg for a in fdef.args.args}
-    for node in ast.walk(fdef):
-        if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
-            names.add(node.id)
-    return names
-
-
-class _Rename(ast.NodeTransformer):
-    """Renames a kernel's locals (``prefix`` + name), or replaces them by the caller's name or
-    constant bound to them (``bound``)."""
-
-    def __init__(self, names: set[str], prefix: str, bound: dict[str, ast.expr]) -> None:
-        self.names, self.prefix, self.bound = names, prefix, bound
-
-    def visit_Name(self, node: ast.Name) -> ast.expr:
-        if node.id in self.bound:
-            return ast.copy_location(copy.copy(self.bound[node.id]), node)
-        if node.id in self.names:
-            return ast.copy_location(ast.Name(self.prefix + node.id, node.ctx), node)
-        return node
-
-
-def _inline(body: list[ast.stmt], count: list[int]) -> list[ast.stmt]:
-    """``body`` with every statement ``targets = kernel(args)`` replaced by the kernel's body (its
-    locals renamed, an argument that is a name or a constant put in place of its parameter, any
-    other argument bound once, its final ``return`` assigned to ``targets``)."""
-    out: list[ast.stmt] = []
-    for stmt in body:
-        call = stmt.value if isinstance(stmt, ast.Assign) else None
-        if not (
-            isinstance(call, ast.Call)
-            and isinstance(call.func, ast.Name)
-            and call.func.id in KERNELS
-            and not call.keywords
-            and len(stmt.targets) == 1
-        ):
-            out.append(stmt)
-            continue
-        callee = _callee_source(call.func.id)
-        count[0] += 1
-        prefix = f"_{call.func.id}{count[0]}_"
-        inner = [
-            s
-            for s in callee.body
-            if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))
-        ]
-        *steps, last = _inline(inner, count)
-        if not isinstance(last, ast.Return) or any(
-            isinstance(n, ast.Return) for s in steps for n in ast.walk(s)
-        ):
-            raise AssertionError(f"kernel {call.func.id} must end in its only return")
-        stored = {
-            n.id
-            for s in steps
-            for n in ast.walk(s)
-            if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)
-        }
-        bound, binds = {}, []
-        for param, arg in zip((a.arg for a in callee.args.args), call.args, strict=True):
-            if isinstance(arg, (ast.Name, ast.Constant)) and param not in stored:
-                bound[param] = arg
-            else:
-                binds.append(ast.Assign([ast.Name(prefix + param, ast.Store())], arg))
-        renamer = _Rename(_local_names(callee), prefix, bound)
-        out += binds + [renamer.visit(s) for s in steps]
-        out += _assign(stmt.targets[0], renamer.visit(last.value))
-    return out
-
-
-def _assign(target: ast.expr, value: ast.expr) -> list[ast.stmt]:
-    """``target = value``; a tuple returned into names one by one (CPython builds and unpacks a
-    tuple of more than three otherwise) where no element reads a name the tuple assigns, so the
-    order of the assignments cannot matter."""
-    if (
-        isinstance(target, ast.Tuple)
-        and isinstance(value, ast.Tuple)
-        and len(target.elts) == len(value.elts)
-        and all(isinstance(t, ast.Name) for t in target.elts)
-    ):
-        assigned = {t.id for t in target.elts}
-        read = {n.id for n in ast.walk(value) if isinstance(n, ast.Name)}
-        if not assigned & read:
-            return [ast.Assign([t], v) for t, v in zip(target.elts, value.elts, strict=True)]
-    return [ast.Assign([target], value)]
-
-
-_INDEX_NAMES = (
-    "XA",
-    "YB0",
-    "XD",
-    "YD",
-    "L2",
-    "L3",
-    "GX",
-    "GY",
-    "M1",
-    "M2",
-    "M3",
-    "I2",
-    "I3",
-    "G",
-    "DRAG_OPEN",
-    "DRAG_SLOPE",
-    "DOWN_OPEN",
-    "DOWN_SLOPE",
-    "PSI3_OPEN",
-    "M11",
-    "M22",
-)
-
-
-class _Constants(ast.NodeTransformer):
-    """``c[NAME]`` -> the local ``_c_NAME`` (the constants unpacked once); ``x * 1.0`` -> ``x``
-    (exact: an inlined argument 1.0 multiplies nothing)."""
-
-    def visit_BinOp(self, node: ast.BinOp) -> ast.expr:
-        self.generic_visit(node)
-        if isinstance(node.op, ast.Mult):
-            for keep, one in ((node.left, node.right), (node.right, node.left)):
-                if isinstance(one, ast.Constant) and one.value == 1.0:
-                    return keep
-        return node
-
-    def visit_Subscript(self, node: ast.Subscript) -> ast.expr:
-        self.generic_visit(node)
-        if (
-            isinstance(node.value, ast.Name)
-            and node.value.id == "c"
-            and isinstance(node.slice, ast.Name)
-            and node.slice.id in _INDEX_NAMES
-        ):
-            return ast.copy_location(ast.Name("_c_" + node.slice.id, ast.Load()), node)
-        return node
-
-
-def _flatten(name: str, bind: bool = False):
-    """The kernel ``name`` with its calls of other kernels inlined and its constants ``c``
-    (all :data:`N_CONSTANTS`) unpacked once: the same operations in the same order, without
-    CPython's cost of a call per sub-kernel and of a lookup per constant.
-
-    ``bind``: instead, a factory ``f(c)`` that unpacks ``c`` once and returns the kernel without
-    its ``c`` argument (the constants become closure cells).
-    """
-    fdef = _callee_source(name)
-    body = _Constants().visit(ast.Module(_inline(fdef.body, [0]), [])).body
-    unpack = ast.Assign(
-        [ast.Tuple([ast.Name("_c_" + n, ast.Store()) for n in _INDEX_NAMES], ast.Store())],
-        ast.Name("c", ast.Load()),
-    )
-    if bind:
-        fdef.args.args = [a for a in fdef.args.args if a.arg != "c"]
-        fdef.body = body
-        factory = ast.FunctionDef(
-            "bind",
-            ast.arguments([], [ast.arg("c")], None, [], [], None, []),
-            [unpack, fdef, ast.Return(ast.Name(name, ast.Load()))],
-            [],
-        )
-        module = ast.Module([factory], [])
-    else:
-        fdef.body = [unpack, *body]
-        module = ast.Module([fdef], [])
-    namespace = dict(globals())
-    code = compile(
-        ast.fix_missing_locations(module), f"<drs_model.kernels.{name}, inlined>", "exec"
-    )
-    exec(code, namespace)
-    return namespace["bind" if bind else name]
-
-
-_SCALAR_KERNELS = ("psi3_acceleration", "psi3_configuration", "fused_force", "manoeuvre_force")
-#: The top-level kernels for one sample at a time in pure Python (the real-time loop, the scalar
-#: inverse dynamics): generated from the kernels above at import, calls inlined.
-SCALAR = namedtuple("ScalarKernels", _SCALAR_KERNELS)(*(_flatten(k) for k in _SCALAR_KERNELS))
-#: Factories ``f(c)`` of the same kernels with the constants ``c`` bound (no ``c`` argument).
-SCALAR_BOUND = namedtuple("BoundScalarKernels", _SCALAR_KERNELS)(
-    *(_flatten(k, bind=True) for k in _SCALAR_KERNELS)
+    rotate,
+    quintic,
+    manoeuvre_profile,
+    flap_gap,
+    flap_sine_for_gap,
+    air_load,
+    loop_residual,
+    loop_velocity,
+    loop_gamma,
+    stroke_position,
+    stroke_rates,
+    flap_position,
+    flap_rates,
+    generalised_forces,
+    projected_dynamics,
+    psi3_position,
+    psi3_acceleration_at,
+    psi3_acceleration,
+    psi3_configuration,
+    fused_force,
+    fused_manoeuvre_force,
 )

@@ -31,6 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import elementwise, kernels
 from .constraints import (
     PSI1,
     PSI3,
@@ -49,7 +50,7 @@ from .errors import (
     SingularConfigurationError,
     StrokeRangeError,
 )
-from .kernels import ASSEMBLY_TOL, NUMPY, SINGULAR_TOL, flap_rates, stroke_position, stroke_rates
+from .kernels import ASSEMBLY_TOL, SINGULAR_TOL, flap_rates, stroke_position, stroke_rates
 from .params import DRSParams, check_geometry  # noqa: F401 - check_geometry: public here too
 
 BRANCHES = (1, 2)
@@ -85,7 +86,7 @@ def solve_position(s, p: DRSParams, branch: int = 1) -> np.ndarray:
     """
     s = _finite("stroke", s)
     sign = 1.0 if _branch(branch) == 1 else -1.0
-    sin1, cos1, sin3, cos3, h2 = NUMPY.stroke_position(s, p.loop_constants, sign)
+    sin1, cos1, sin3, cos3, h2 = elementwise.stroke_position(s, p.loop_constants, sign)
     if np.any(h2 < -ASSEMBLY_TOL):
         sing = singular_strokes(p)
         lo, hi = sing[[0, -1]] if sing.size else (np.nan, np.nan)
@@ -103,7 +104,9 @@ def solve_position_from_flap_angle(psi3, p: DRSParams, branch: int = 1) -> np.nd
     """
     psi3 = _finite("flap angle", psi3)
     sign = 1.0 if _branch(branch) == 1 else -1.0
-    s, sin1, _, cos1_sq = NUMPY.flap_position(np.sin(psi3), np.cos(psi3), p.loop_constants, sign)
+    s, sin1, _, cos1_sq = elementwise.flap_position(
+        np.sin(psi3), np.cos(psi3), p.loop_constants, sign
+    )
     if np.any(cos1_sq < -ASSEMBLY_TOL):
         bad = float(psi3[cos1_sq < -ASSEMBLY_TOL].ravel()[0])
         raise AssemblyError(f"the loop cannot close at flap angle {bad!r} rad: |sin psi1| > 1")
@@ -293,7 +296,7 @@ POINT_NAMES = ("A", "D", "R", "P", "G1", "B", "G2", "C", "C3", "T", "G3")
 
 
 def _rotate(angle: np.ndarray, local: tuple[float, float]) -> np.ndarray:
-    return np.stack(NUMPY.rotate(np.cos(angle), np.sin(angle), *local), axis=-1)
+    return np.stack(kernels.rotate(np.cos(angle), np.sin(angle), *local), axis=-1)
 
 
 def _cross_z(w: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -390,21 +393,21 @@ def flap_outline(q, p: DRSParams) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     local = np.asarray(p.flap_outline) + np.array([p.d_tip - p.L_wing, 0.0])
     c, s = np.cos(q[..., PSI3])[..., None], np.sin(q[..., PSI3])[..., None]
-    x, y = NUMPY.rotate(c, s, local[:, 0], local[:, 1])
+    x, y = kernels.rotate(c, s, local[:, 0], local[:, 1])
     return np.stack([p.x_D + x, p.y_D + y], axis=-1)
 
 
 def main_wing_outline(p: DRSParams) -> np.ndarray:
     """Main-wing outline in ground [m], shape ``(n, 2)`` (fixed)."""
     local = np.asarray(p.main_wing_outline)
-    x, y = NUMPY.rotate(math.cos(p.gamma), math.sin(p.gamma), local[:, 0], local[:, 1])
+    x, y = kernels.rotate(math.cos(p.gamma), math.sin(p.gamma), local[:, 0], local[:, 1])
     return np.stack([p.d_wing + x, y], axis=-1)
 
 
 # ---- gap, limits, workspace ---------------------------------------------------------------------
 def gap_from_flap_angle(psi3, p: DRSParams) -> np.ndarray:
     """Gap ``T_y - R_y`` [m] for flap angle(s) psi3 [rad]."""
-    return NUMPY.flap_gap(np.sin(np.asarray(psi3, dtype=float)), *p.gap_constants)
+    return kernels.flap_gap(np.sin(np.asarray(psi3, dtype=float)), *p.gap_constants)
 
 
 def gap(q, p: DRSParams) -> np.ndarray:
@@ -416,7 +419,7 @@ def flap_angle_for_gap(gap_m, p: DRSParams) -> np.ndarray:
     """Flap angle psi3 [rad] (in (-pi/2, pi/2)) giving the gap [m]; closed form."""
     g = _finite("gap", gap_m)
     gap0, tip = p.gap_constants
-    sin3 = NUMPY.flap_sine_for_gap(g, gap0, tip)
+    sin3 = kernels.flap_sine_for_gap(g, gap0, tip)
     if np.any(np.abs(sin3) > 1.0):
         bad = float(g[np.abs(sin3) > 1.0].ravel()[0])
         raise StrokeRangeError(

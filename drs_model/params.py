@@ -20,10 +20,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -161,10 +160,13 @@ class DRSParams:
     Lengths in m, angles in rad, masses in kg, inertias in kg m^2 (about each body's centre of
     mass), forces in N, times in s.
 
-    ``Iz_link`` defaults to ``m_link * L2**2 / 12`` (a slender rod) and ``Iz_wing`` to
-    ``m_wing * L_wing**2 / 3``. The seed's line for ``Iz_wing`` is OCR-garbled; its plotted piston
-    force (axis to 1.2e5 N) is what the dimensionally wrong ``m_wing * L_wing / 3 = 0.08`` gives.
-    Pass ``Iz_wing=SEED_LITERAL_IZ_WING`` to reproduce that.
+    ``Iz_link`` defaults to ``m_link * L2**2 / 12`` (a slender rod about its centre) and
+    ``Iz_wing`` to ``m_wing * L_wing**2 / 3``, the seed's choice: the inertia of a uniform plate
+    about one end (its leading edge), used here about the flap's centre of mass, where a uniform
+    plate has ``m_wing * L_wing**2 / 12`` (4x less; 14.8 kN of peak piston force instead of
+    25.4 kN: README, "Dynamics"). The seed's line for ``Iz_wing`` is OCR-garbled; its plotted
+    piston force (axis to 1.2e5 N) is what the dimensionally wrong ``m_wing * L_wing / 3 = 0.08``
+    gives. Pass ``Iz_wing=SEED_LITERAL_IZ_WING`` to reproduce that.
     """
 
     # FIA regulation box and the gap rule
@@ -184,7 +186,6 @@ class DRSParams:
     L2: float = 0.050
     L3: float = 0.100
     L_wing: float = 0.120
-    wing_span: float = 1.010  # seed: W_wing = 1010 (mm); not used by the planar model
     d_wing: float = 0.0060  # main wing offset along x
     d_tip: float = 0.0100  # flap tip offset allowed by the FIA regulation
     gamma: float = 5.0 * math.pi / 180.0  # main wing inclination
@@ -194,9 +195,8 @@ class DRSParams:
     T_closing: float = 0.010
     # masses
     m_pist: float = 0.0800
-    m_link: float = 0.0375  # = L2 * rho_steel
+    m_link: float = 0.0375  # seed: 0.05 m of a 1 cm steel bar at 0.75 kg/m; not derived from L2
     m_wing: float = 2.0000
-    rho_steel: float = 0.75  # kg/m, linear density of a 1 cm steel bar
     g: float = 9.81
     # inertias about the centres of mass; None selects the documented default
     Iz_pist: float = 0.0
@@ -214,8 +214,8 @@ class DRSParams:
     )
     pylon_outline: tuple[tuple[float, float], ...] = field(default=PYLON_OUTLINE, repr=False)
 
-    _LENGTHS = ("L1", "L2", "L3", "L_wing", "box_height", "box_width", "wing_span")
-    _POSITIVE = ("T_opening", "T_closing", "m_pist", "m_link", "m_wing", "g", "rho_steel")
+    _LENGTHS = ("L1", "L2", "L3", "L_wing", "box_height", "box_width")
+    _POSITIVE = ("T_opening", "T_closing", "m_pist", "m_link", "m_wing", "g")
     _NON_NEGATIVE = ("T_still", "Iz_pist", "Iz_link", "Iz_wing", "d_tip")
 
     def __post_init__(self) -> None:
@@ -227,10 +227,9 @@ class DRSParams:
             if value is None:
                 continue
             object.__setattr__(self, f.name, real_number(f.name, value))
-        if self.Iz_link is None:
-            object.__setattr__(self, "Iz_link", self.m_link * self.L2**2 / 12.0)
-        if self.Iz_wing is None:
-            object.__setattr__(self, "Iz_wing", self.m_wing * self.L_wing**2 / 3.0)
+        for name in DERIVED_INERTIAS:
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, derived_inertia(self, name))
         for name in self._LENGTHS:
             if getattr(self, name) <= 0.0:
                 raise ParameterError(f"{name} must be > 0 m, got {getattr(self, name)!r}")
@@ -286,9 +285,10 @@ class DRSParams:
         :mod:`drs_model.kernels`."""
         return (self.x_A, self.y_A + self.L1, self.x_D, self.y_D, self.L2, self.L3)
 
-    @property
+    @cached_property
     def gap_constants(self) -> tuple[float, float]:
-        """``(y_D - R_y, L_wing - d_tip)`` [m]: the constants of :func:`kernels.flap_gap`."""
+        """``(y_D - R_y, L_wing - d_tip)`` [m]: the constants of :func:`kernels.flap_gap` (computed
+        once: the actuator's state reads them every step)."""
         return self.y_D - self.reference_point[1], self.tip_arm
 
     @property
@@ -366,6 +366,18 @@ def check_geometry(p: DRSParams) -> None:
             )
 
 
+#: The inertias that follow their body's mass and length unless set: name -> (mass, length,
+#: divisor), ``I = mass length^2 / divisor`` [kg m^2] (see :class:`DRSParams`).
+DERIVED_INERTIAS = {"Iz_link": ("m_link", "L2", 12.0), "Iz_wing": ("m_wing", "L_wing", 3.0)}
+
+
+def derived_inertia(p: DRSParams, name: str) -> float:
+    """The default of the inertia ``name`` (a key of :data:`DERIVED_INERTIAS`) for the masses and
+    lengths of ``p`` [kg m^2]."""
+    mass, length, divisor = DERIVED_INERTIAS[name]
+    return getattr(p, mass) * getattr(p, length) ** 2 / divisor
+
+
 #: The seed's literal (dimensionally inconsistent) ``m_wing * L_wing / 3`` [kg m] for Iz_wing.
 SEED_LITERAL_IZ_WING = 2.0 * 0.120 / 3.0
 
@@ -392,71 +404,10 @@ def from_dict(overrides: Mapping[str, Any], base: DRSParams | None = None) -> DR
     base = base if base is not None else DRSParams()
     overrides = dict(overrides)
     # a derived inertia follows its mass and length unless it was set explicitly
-    for name, default in (
-        ("Iz_link", base.m_link * base.L2**2 / 12.0),
-        ("Iz_wing", base.m_wing * base.L_wing**2 / 3.0),
-    ):
-        if name not in overrides and getattr(base, name) == default:
+    for name in DERIVED_INERTIAS:
+        if name not in overrides and getattr(base, name) == derived_inertia(base, name):
             overrides[name] = None
     try:
         return dataclasses.replace(base, **overrides)  # validated by __post_init__
     except TypeError as exc:  # pragma: no cover - dataclasses only raises for unknown names
         raise ParameterError(str(exc)) from exc
-
-
-def from_file(path: str | Path, base: DRSParams | None = None) -> DRSParams:
-    """Parameters from ``base`` (default: the seed) with the overrides of a TOML (``.toml``) or
-    YAML (``.yaml``/``.yml``) file applied (:func:`file_overrides`)."""
-    return from_dict(file_overrides(path), base=base)
-
-
-def assignment_overrides(items) -> dict[str, float]:
-    """Overrides from ``NAME=VALUE`` strings (the ``--set`` option of the command lines).
-
-    Raises :class:`ParameterError` for an item without ``=`` or a value that is no number (the
-    names are checked where the overrides are applied, :func:`from_dict`).
-    """
-    overrides: dict[str, float] = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ParameterError(f"--set expects NAME=VALUE, got {item!r}")
-        try:
-            overrides[name.strip()] = float(value)
-        except ValueError:
-            raise ParameterError(f"--set {name}: {value!r} is not a number") from None
-    return overrides
-
-
-def file_overrides(path: str | Path) -> dict[str, Any]:
-    """The ``name = value`` pairs of a TOML or YAML parameter file (at top level or under a
-    ``[drs]`` table), not yet checked (:func:`from_dict` checks them)."""
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ParameterError(f"cannot read parameter file {str(path)!r}: {exc}") from exc
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".toml":
-            data = tomllib.loads(text)
-        elif suffix in (".yaml", ".yml"):
-            try:
-                import yaml  # optional: installed with the ros extra
-            except ImportError:
-                raise ParameterError(
-                    f"reading {str(path)!r} needs pyyaml (pip install pyyaml, or 'drs[ros]'); "
-                    "a .toml file needs nothing extra"
-                ) from None
-            data = yaml.safe_load(text) or {}
-        else:
-            raise ParameterError(f"parameter file {str(path)!r} must end in .toml, .yaml or .yml")
-    except ParameterError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - any parser error becomes a ParameterError
-        raise ParameterError(f"cannot parse parameter file {str(path)!r}: {exc}") from exc
-    if isinstance(data, Mapping) and "drs" in data and isinstance(data["drs"], Mapping):
-        data = data["drs"]
-    if not isinstance(data, Mapping):
-        raise ParameterError(f"parameter file {str(path)!r} must hold a table of name = value")
-    return dict(data)

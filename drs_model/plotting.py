@@ -14,22 +14,53 @@ from .errors import InputError
 from .params import DRSParams
 
 
+# ---- one matplotlib set-up: Agg figures without pyplot, saved as 256-colour PNGs -------------
+def _out_dir(out_dir) -> Path:
+    path = Path(out_dir)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"plot directory {str(path)!r} exists and is not a directory")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _figure(figsize: tuple[float, float], dpi: int):
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ModuleNotFoundError as exc:  # pragma: no cover - matplotlib is an optional extra
+        raise ModuleNotFoundError(
+            "plots need matplotlib: pip install 'drs[plots]'", name=exc.name
+        ) from exc
+    fig = Figure(figsize=figsize, dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)  # Agg without pyplot: no global backend state
+    return fig
+
+
+def _save(fig, path: Path) -> None:
+    """Write ``fig`` as a 256-colour PNG (a third of the size of a true-colour one)."""
+    from PIL import Image  # a dependency of matplotlib
+
+    fig.canvas.draw()
+    rgb = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())).convert("RGB")
+    rgb.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
+
+
+# ---- the mechanism -----------------------------------------------------------------------------
 def mechanism_figure(p: DRSParams, strokes, path: str | Path, title: str | None = None) -> Path:
     """Draw the mechanism at the given strokes [m] (one colour each) and save a PNG at ``path``.
 
     Shows the FIA box, the pylon, the main wing, the piston A-B, the link B-C, the flap outline,
     the gap T-R, the workspace traces of B and C and the fixed points A, D.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     strokes = np.atleast_1d(np.asarray(strokes, dtype=float))
     q = kin.solve_position(strokes, p)
-    fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
+    fig = _figure((8.0, 5.5), 110)
+    from matplotlib import colormaps
+    from matplotlib.patches import Rectangle
+
+    ax = fig.add_subplot()
     ax.add_patch(
-        plt.Rectangle(
+        Rectangle(
             (0, 0),
             p.box_width,
             p.box_height,
@@ -46,7 +77,7 @@ def mechanism_figure(p: DRSParams, strokes, path: str | Path, title: str | None 
     tr = kin.workspace_traces(p, 40)
     ax.plot(*tr["B"].T, ":", color="c", lw=2, label="trace of B")
     ax.plot(*tr["C"].T, ":", color="navy", lw=2, label="trace of C")
-    colors = plt.cm.viridis(np.linspace(0.0, 0.85, len(strokes)))
+    colors = colormaps["viridis"](np.linspace(0.0, 0.85, len(strokes)))
     for qi, col in zip(q, colors, strict=True):
         pts = kin.point_positions(qi, p)
         fl = kin.flap_outline(qi, p)
@@ -79,45 +110,13 @@ def mechanism_figure(p: DRSParams, strokes, path: str | Path, title: str | None 
     ax.legend(loc="upper left", fontsize=7)
     ax.set_xlim(-0.01, p.box_width + 0.01)
     ax.set_ylim(-0.01, p.box_height + 0.01)
-    fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    _save(fig, path)
     return path
 
 
 # ---- Coriolis examples (seed 000) -------------------------------------------------------------
-def _out_dir(out_dir) -> Path:
-    path = Path(out_dir)
-    if path.exists() and not path.is_dir():
-        raise InputError(f"plot directory {str(path)!r} exists and is not a directory")
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def _figure(figsize: tuple[float, float], dpi: int):
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ModuleNotFoundError as exc:  # pragma: no cover - matplotlib is an optional extra
-        raise ModuleNotFoundError(
-            "plots need matplotlib: pip install 'drs[plots]'", name=exc.name
-        ) from exc
-    fig = Figure(figsize=figsize, dpi=dpi, layout="constrained")
-    FigureCanvasAgg(fig)  # Agg without pyplot: no global backend state
-    return fig
-
-
-def _save(fig, path: Path) -> None:
-    """Write ``fig`` as a 256-colour PNG (a third of the size of a true-colour one)."""
-    from PIL import Image  # a dependency of matplotlib
-
-    fig.canvas.draw()
-    rgb = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())).convert("RGB")
-    rgb.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
-
-
 def plot_collar_maps(
     out_dir,
     example: CollarExample = SEED_COLLAR,

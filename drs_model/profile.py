@@ -19,9 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import elementwise, kernels
 from .errors import InputError, StrokeRangeError
-from .kernels import NUMPY
-from .kernels import quintic as _quintic
 from .kinematics import stroke_limits
 from .params import DRSParams
 
@@ -81,7 +80,7 @@ class QuinticSegment:
         t = np.asarray(t, dtype=float)
         tau = np.clip(t - self.t0, 0.0, self.duration)
         c = self.coeffs
-        s, v, a = NUMPY.quintic(tau, c, 0)
+        s, v, a = kernels.quintic(tau, c, 0)
         outside = (t < self.t0) | (t > self.t1)
         if np.any(outside):
             # beyond the ends the move is at rest only if it ends at rest; hold position and
@@ -110,29 +109,18 @@ class Manoeuvre:
         return (self.opening.t0, self.opening.t1, self.closing.t0, self.closing.t1)
 
     def constants(self) -> tuple[float, ...]:
-        """The 17 constants of :func:`drs_model.kernels.manoeuvre_profile`: ``(t0, T, 6
-        coefficients)`` of the opening and of the closing, then ``s_max``."""
+        """The 18 constants of :func:`drs_model.kernels.manoeuvre_profile`: ``(t0, T, 6
+        coefficients)`` of the opening and of the closing, then ``s_min`` and ``s_max``."""
         o, c = self.opening, self.closing
-        return (o.t0, o.duration, *o.coeffs, c.t0, c.duration, *c.coeffs, self.s_max)
+        return (o.t0, o.duration, *o.coeffs, c.t0, c.duration, *c.coeffs, self.s_min, self.s_max)
 
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(s, s', s'')`` [m, m/s, m/s^2] at time(s) t [s], vectorised."""
+        """``(s, s', s'')`` [m, m/s, m/s^2] at time(s) t [s] (any shape): the kernel
+        :func:`drs_model.kernels.manoeuvre_profile` at each time."""
         t = np.asarray(t, dtype=float)
         if not np.all(np.isfinite(t)):
             raise InputError("time must be finite")
-        so, vo, ao = self.opening.evaluate(t)
-        sc, vc, ac = self.closing.evaluate(t)
-        in_opening = t <= self.opening.t1
-        in_closing = (t >= self.closing.t0) & (t <= self.closing.t1)
-        # between and after the segments the rod is at rest at s_max / s_min exactly
-        s = np.where(in_opening, so, np.where(t < self.closing.t0, self.s_max, sc))
-        s = np.where(t > self.closing.t1, self.s_min, s)
-        v = np.where(in_opening, vo, np.where(in_closing, vc, 0.0))
-        a = np.where(in_opening, ao, np.where(in_closing, ac, 0.0))
-        s = np.where(t < self.opening.t0, self.s_min, s)
-        v = np.where(t < self.opening.t0, 0.0, v)
-        a = np.where(t < self.opening.t0, 0.0, a)
-        return s, v, a
+        return elementwise.manoeuvre_profile(t, self.constants())
 
 
 def drs_manoeuvre(
@@ -467,4 +455,4 @@ class QuinticPath(Sequence):
         if k >= len(self._durations):
             k = len(self._durations) - 1
         tau = min(max(tr - self._starts[k], 0.0), self._durations[k])
-        return _quintic(tau, self._head if k < self._n_head else self._tail, 6 * k)
+        return kernels.quintic(tau, self._head if k < self._n_head else self._tail, 6 * k)

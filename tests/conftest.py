@@ -12,12 +12,25 @@ os.environ.setdefault("ROS_PYTHON_CHECK_FIELDS", "1")
 
 from node_support import ros_context  # noqa: E402, F401 - fixture for the node tests
 
+from drs_model.errors import NumbaUnavailableError  # noqa: E402
 from drs_model.params import DRSParams  # noqa: E402
 
 
 @pytest.fixture(scope="session")
 def params() -> DRSParams:
     return DRSParams()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _numba_cache():
+    """Compile every numba function of drs_model once, before any test (or load them from numba's
+    cache, which ``make`` fills): the node tests start node processes, which would each compile
+    on a cold cache."""
+    try:
+        from drs_model.compiled.warm import warm_up
+    except NumbaUnavailableError:
+        return  # the plain Python kernels run
+    warm_up()
 
 
 @pytest.fixture(scope="session")

@@ -137,6 +137,19 @@ def test_scalar_kinematics_equal_the_vectorised(params, s, sd, sdd):
     np.testing.assert_allclose(back, ref.qdd, rtol=1e-9, atol=1e-5)
 
 
+def test_force_method_virtual_work_is_still_the_fused_path(params):
+    """The name "virtual-work" meant ActuatorSim's fused path before issue 17 (the node's
+    force_method parameter and recorded bags still say it): it runs the same fused kernel, to the
+    bit, and the other formulations agree with it."""
+    sims = {m: ActuatorSim(params, force_method=m) for m in ("fused", "virtual-work", "lagrange")}
+    for sim in sims.values():
+        sim.command_drs(True)
+        sim.advance(4)
+    forces = {m: sim.state.piston_force for m, sim in sims.items()}
+    assert forces["virtual-work"] == forces["fused"]
+    assert forces["lagrange"] == pytest.approx(forces["fused"], rel=1e-9)
+
+
 def test_bad_construction(params):
     with pytest.raises(InputError, match=r"dt must be a finite number in \(0, 0\.01\] s, got 0"):
         ActuatorSim(params, dt=0)

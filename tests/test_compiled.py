@@ -1,5 +1,6 @@
-"""The compiled path (drs_model.forward.numba_rk): kernels against independent formulations, the
-RK driver against scipy's solvers and the exact profile, typed failures.
+"""The compiled paths (drs_model.compiled): numba's builds of the kernels against the plain ones
+and against independent formulations, the RK driver against scipy's solvers and the exact
+profile, typed failures.
 
 Skipped when numba is missing, unless ``CI`` is set (CI installs every extra: a missing numba fails
 there). No timing is asserted (benchmarks/work_precision.py measures it).
@@ -30,12 +31,17 @@ from drs_model.errors import (
     StrokeRangeError,
 )
 from drs_model.forward import COMPILED_METHODS, simulate
-from drs_model.forward import numba_rk as compiled
 
 if importlib.util.find_spec("numba") is None:
     if os.environ.get("CI"):
         pytest.fail("numba is required under CI (pip install -e '.[fast]')", pytrace=False)
     pytest.skip("numba is not installed (pip install drs[fast])", allow_module_level=True)
+
+from drs_model import elementwise  # noqa: E402
+from drs_model.compiled import rk  # noqa: E402
+from drs_model.compiled import simulate as compiled  # noqa: E402
+from drs_model.compiled.tableaux import tableau  # noqa: E402
+from drs_model.compiled.warm import warm_up  # noqa: E402
 
 METHODS = sorted(COMPILED_METHODS)  # dop853-numba, dopri5-numba
 SCIPY_TWIN = {"dopri5-numba": "RK45", "dop853-numba": "DOP853"}
@@ -54,7 +60,7 @@ def grid(params):
 
 @pytest.fixture(scope="module", autouse=True)
 def _compiled(params):
-    compiled.warm_up(params)  # compile (or load from numba's cache) once for the module
+    warm_up(params)  # compile (or load from numba's cache) once for the module
 
 
 def _start(params, s0=S0):
@@ -62,8 +68,45 @@ def _start(params, s0=S0):
 
 
 # ---- kernels ------------------------------------------------------------------------------------
+def _same(a, b) -> bool:
+    a, b = np.atleast_1d(np.asarray(a, dtype=float)), np.atleast_1d(np.asarray(b, dtype=float))
+    return bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
+
+
+def test_compiled_kernels_equal_the_plain_ones_to_the_bit(params):
+    """numba's builds of the one-sample kernels and fixed steps (what the real-time loop, the
+    psi3 right-hand side and one inverse-dynamics force run) give the plain Python functions'
+    values to the last bit, NaN where they give NaN, inside and outside the assembly range."""
+    from drs_model import kernels
+    from drs_model.bodies import model_constants
+    from drs_model.compiled.jit import compiled as build
+    from drs_model.forward.fixed_step import PSI3_STEPS
+    from drs_model.profile import drs_manoeuvre
+
+    c = model_constants(params)
+    k = drs_manoeuvre(params).constants()
+    ca, ka = np.array(c), np.array(k)
+    rng = np.random.default_rng(7)
+    for b, bd, f, t, s, sd, sdd in rng.uniform(
+        [0.2, -150.0, -5e3, -0.01, -0.004, -10.0, -1e4],
+        [1.7, 150.0, 3e4, 0.06, 0.05, 10.0, 1e4],
+        (3000, 7),
+    ):
+        for fn, args in (
+            (kernels.psi3_acceleration, (b, bd, f)),
+            (kernels.psi3_configuration, (b,)),
+            (kernels.fused_force, (s, sd, sdd)),
+            *((step, (b, bd, f, f, f, 1e-4)) for step in PSI3_STEPS.values()),
+        ):
+            assert _same(build(fn)(*args, ca), fn(*args, c)), (fn.__name__, args)
+        assert _same(
+            build(kernels.fused_manoeuvre_force)(t, ca, ka), kernels.fused_manoeuvre_force(t, c, k)
+        )
+    assert math.isnan(build(kernels.fused_force)(-0.01, 0.0, 0.0, ca))  # past the dead centre
+
+
 def test_compiled_force_equals_newton_euler(params, mforce):
-    """The compiled manoeuvre force (numba's build of kernels.manoeuvre_force) equals an
+    """The compiled manoeuvre force (numba's build of kernels.fused_manoeuvre_force) equals an
     independent formulation, Newton-Euler on the numpy kinematics, to 1e-9 relative over 2,000
     times (rests, moves, joints); and the Python build of the same kernel to rounding."""
     from drs_model.inverse import manoeuvre_force
@@ -71,7 +114,7 @@ def test_compiled_force_equals_newton_euler(params, mforce):
     t = np.concatenate(
         [np.linspace(-0.005, params.T_total + 0.005, 1995), np.array(mforce.breakpoints)]
     )
-    got = compiled._manoeuvre_forces(t, *compiled.manoeuvre_constants(mforce))
+    got = elementwise.fused_manoeuvre_force(t, *compiled.manoeuvre_constants(mforce))
     ref = manoeuvre_force(t, params, "newton-euler")
     scale = np.max(np.abs(ref))
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * scale)
@@ -90,7 +133,7 @@ def test_compiled_psi3_kernel_equals_the_numpy_reference(params):
     b = rng.uniform(min(psi_c, psi_o) - 0.3, max(psi_c, psi_o) + 0.3, n)
     bd = rng.uniform(-150.0, 150.0, n)
     f = rng.uniform(-3000.0, 3000.0, n)
-    got = compiled._psi3_accels(b, bd, f, compiled.psi3_constants(form))
+    got = elementwise.psi3_acceleration(b, bd, f, compiled.psi3_constants(form))
     ref = np.array(
         [
             fw.reference_rhs(form, 0.0, np.array([x, v]), F)[1]
@@ -100,12 +143,14 @@ def test_compiled_psi3_kernel_equals_the_numpy_reference(params):
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * np.max(np.abs(ref)))
     # no assembly -> NaN, as the Python kernel
     kc = compiled.psi3_constants(form)
-    assert math.isnan(compiled._psi3_accels(np.array([math.pi]), np.zeros(1), np.zeros(1), kc)[0])
+    assert math.isnan(
+        elementwise.psi3_acceleration(np.array([math.pi]), np.zeros(1), np.zeros(1), kc)[0]
+    )
 
 
 def test_tableaux_satisfy_the_order_conditions():
     for method, order in (("dopri5", 5), ("dop853", 8)):
-        a, c, e, e3, dense, ns, n_ext, err_order, _ = compiled._tableau(method)
+        a, c, e, e3, dense, ns, n_ext, err_order, _ = tableau(method)
         np.testing.assert_allclose(a.sum(axis=1), c, atol=1e-14)  # row sums = nodes
         bw = a[ns, :ns]
         for k in range(order):  # quadrature order: sum b c^k = 1/(k+1)
@@ -164,9 +209,9 @@ def test_the_held_segment_evaluates_its_force_once_and_changes_no_bit(
     every_stage = (args[0], np.ones_like(kinds), *args[2:])
     y = compiled._rest_state(params)
     te = grid if dense else np.zeros(0)
-    held = compiled._integrate(y[0], y[1], te, dense, *args)
-    kernel = compiled._integrate(y[0], y[1], te, dense, *every_stage)
-    assert held[0] == compiled.OK
+    held = rk.integrate(y[0], y[1], te, dense, *args)
+    kernel = rk.integrate(y[0], y[1], te, dense, *every_stage)
+    assert held[0] == rk.OK
     assert held[:9] == kernel[:9]  # status, nfev, steps, rejections, ...
     np.testing.assert_array_equal(held[9], kernel[9])  # t, y, q, qd: every bit
     # and the scipy path's piece of the hold is the kernel's value too
@@ -373,12 +418,24 @@ def test_custom_air_law_force_runs_compiled(params, grid):
     np.testing.assert_allclose(ours.q, ref.q, atol=1e-9)
 
 
-def test_missing_numba_is_an_import_error(monkeypatch):
-    monkeypatch.setattr(compiled, "_LOADED", False)
-    monkeypatch.setitem(sys.modules, "numba", None)
-    with pytest.raises(ImportError, match=r"pip install 'drs\[fast\]'") as info:
-        compiled.load()
-    assert isinstance(info.value, compiled.NumbaUnavailableError)
+def test_missing_numba_is_an_import_error():
+    """Without numba a compiled method raises NumbaUnavailableError (an ImportError saying how to
+    install numba); the model and the scipy methods run on the plain kernels."""
+    code = (
+        "import sys; sys.modules['numba'] = None\n"
+        "from drs_model import DRSParams, NumbaUnavailableError, simulate\n"
+        "p = DRSParams()\n"
+        "assert simulate('psi3', 500.0, (0.0, 0.001), params=p).t[-1] == 0.001\n"
+        "try:\n"
+        "    simulate('psi3', 500.0, (0.0, 0.001), params=p, method='dop853-numba')\n"
+        "except NumbaUnavailableError as exc:\n"
+        "    assert isinstance(exc, ImportError)\n"
+        "    print(exc)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], check=True, timeout=120, capture_output=True, text=True
+    )
+    assert "pip install 'drs[fast]'" in out.stdout
 
 
 def test_importing_the_model_does_not_import_numba():

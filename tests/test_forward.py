@@ -255,6 +255,10 @@ def test_index1_drifts_baumgarte_bounded_projection_exact(params, mforce):
     assert stab.residual.max() < 0.5 * r[-1]
     assert proj.residual.max() < 1e-15  # at every accepted step
     assert proj.velocity_residual.max() < 1e-13
+    # the accepted states themselves (no projection of the output in between)
+    q, qd = proj.y[:3].T, proj.y[3:].T
+    assert np.max(np.abs(constraint(q, params))) < 1e-15
+    assert np.max(np.abs(np.einsum("nij,nj->ni", constraint_jacobian(q, params), qd))) < 1e-13
 
 
 def test_baumgarte_removes_an_initial_violation(params, mforce):

@@ -3,13 +3,16 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
+import os
 
 import numpy as np
 import pytest
 
 from drs_model import forward as fw
 from drs_model import kinematics as kin
+from drs_model.constraints import constraint, constraint_velocity_term
 from drs_model.errors import (
     DRSError,
     InputError,
@@ -25,6 +28,11 @@ from drs_model.forward import (
 )
 
 S0 = 0.02  # mid-stroke start [m]
+#: The compiled methods need numba (CI installs it: there a missing numba fails).
+NEEDS_NUMBA = pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None and not os.environ.get("CI"),
+    reason="numba is not installed (pip install drs[fast])",
+)
 F_CONST = 500.0  # N: lifts the flap from S0 by ~3 mm in 10 ms
 
 
@@ -73,7 +81,12 @@ def test_every_method_runs_the_manoeuvre(params, mforce, method):
 
 @pytest.mark.parametrize("method", ["RK45", "DOP853", "Radau", "BDF"])
 def test_projection_holds_constraints_to_rounding_with_each_solver(params, mforce, method):
+    """The states the solver accepted (sol.y itself, not a projection of it made for the output)
+    satisfy the constraints to rounding: the projection after each step ran."""
     sol = simulate("projection", mforce, (0.0, 0.012), params=params, method=method, rtol=1e-6)
+    q, qd = sol.y[:3].T, sol.y[3:].T
+    assert np.max(np.abs(constraint(q, params))) < 1e-15
+    assert np.max(np.abs(constraint_velocity_term(q, qd, params))) < 1e-13
     assert sol.residual.max() < 1e-15
     assert sol.velocity_residual.max() < 1e-13
 
@@ -101,6 +114,21 @@ def test_unknown_option_is_a_drs_error_naming_it(params, method):
         simulate("baumgarte", 0.0, (0.0, 0.01), params=params, alfa=10.0)
     with pytest.raises(DRSError, match=r"\['bogus_option'\]"):
         FixedStepIntegrator(params, 1e-3, bogus_option=1)
+
+
+@pytest.mark.parametrize("method", ["DOP853", pytest.param("dop853-numba", marks=NEEDS_NUMBA)])
+def test_both_drivers_refuse_the_same_arguments_alike(params, method):
+    """The scipy and the compiled driver check t_span, rtol and t_eval in one place
+    (forward/arguments.py): the same typed errors, the same messages."""
+    kw = dict(params=params, method=method)
+    with pytest.raises(InputError, match=r"t_span must be finite with t_end > t_start"):
+        simulate("psi3", 0.0, (0.01, 0.0), **kw)
+    with pytest.raises(InputError, match=r"rtol must be a finite number > 0, got nan"):
+        simulate("psi3", 0.0, (0.0, 0.01), rtol=math.nan, **kw)
+    with pytest.raises(InputError, match=r"t_eval must be 1-D within t_span \(0\.0, 0\.01\)"):
+        simulate("psi3", 0.0, (0.0, 0.01), t_eval=[0.02], **kw)
+    with pytest.raises(InputError, match=r"t_eval must be sorted in increasing order"):
+        simulate("psi3", 0.0, (0.0, 0.01), t_eval=[0.005, 0.001], **kw)
 
 
 def test_force_inputs_are_normalised():

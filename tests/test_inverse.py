@@ -23,6 +23,7 @@ from drs_model.errors import (
     SingularConfigurationError,
 )
 from drs_model.params import SEED_LITERAL_IZ_WING, DRSParams
+from drs_model.profile import drs_manoeuvre
 
 # ---- seed 003's printed state at t = 0 and its numbers (section "Dynamics") ---------------------
 SEED_Q0 = np.array([0.0001989391299, -0.1706738276, 1.087076363])  # ics_pos
@@ -81,7 +82,7 @@ SEED_NE_REACTIONS_0 = {
 SEED_F_LAGRANGE_0 = 1003.196915
 SEED_LAMBDA_0 = np.array([-172.7346128, -1002.044240])
 
-METHOD_NAMES = ("newton-euler", "lagrange", "virtual-work")
+METHOD_NAMES = ("newton-euler", "lagrange", "virtual-work", "fused")
 ZERO = np.zeros(3)
 
 
@@ -110,7 +111,7 @@ def test_manoeuvre_states_satisfy_the_constraints(params):
 
 
 # ---- the formulations agree -----------------------------------------------------------------
-def test_three_formulations_agree_over_the_manoeuvre(p_iz):
+def test_the_formulations_agree_over_the_manoeuvre(p_iz):
     _, st = manoeuvre(p_iz)
     forces = {m: dyn.inverse_dynamics(st, p_iz, m).piston_force for m in METHOD_NAMES}
     for m in METHOD_NAMES[1:]:
@@ -125,12 +126,12 @@ def test_three_formulations_agree_over_the_manoeuvre(p_iz):
 def test_manoeuvre_force_paths_agree(p_iz):
     t = np.linspace(0.0, p_iz.T_total, 10_000)
     ref = dyn.manoeuvre_force(t, p_iz, "newton-euler")
-    for m in ("lagrange", "virtual-work"):  # virtual-work: the fused closed form
+    for m in ("lagrange", "virtual-work", "fused"):  # fused: the closed form on the profile
         assert_close_scaled(dyn.manoeuvre_force(t, p_iz, m), ref, 1e-9)
     fused = dyn.FusedInverseDynamics.from_params(p_iz)
     scalar = np.array([fused.force_at(float(x)) for x in t[::97]])
     assert_close_scaled(scalar, ref[::97], 1e-9)
-    s, sd, sdd = dyn.drs_manoeuvre(p_iz).evaluate(t)
+    s, sd, sdd = drs_manoeuvre(p_iz).evaluate(t)
     assert_close_scaled(fused.force_array(s, sd, sdd), ref, 1e-9)
     assert fused.force(float(s[500]), float(sd[500]), float(sdd[500])) == pytest.approx(
         ref[500], rel=1e-9
@@ -314,7 +315,7 @@ def test_peak_force_and_the_seed_literal_inertia(params):
     assert abs(pk.force) >= np.max(np.abs(grid)) - 1e-9 * abs(pk.force)
     assert pk.force == pytest.approx(dyn.manoeuvre_force(np.array([pk.time]), params)[0])
     assert 0.0 < pk.time < params.T_opening
-    assert pk.stroke == pytest.approx(dyn.drs_manoeuvre(params).evaluate(pk.time)[0])
+    assert pk.stroke == pytest.approx(drs_manoeuvre(params).evaluate(pk.time)[0])
     # the seed's plotted force (axis to 1.2e5 N, curve above its top labelled tick) needs the
     # seed's literal Iz_wing = m L / 3 = 0.08; the physical m L^2 / 3 gives a much smaller peak
     pk_seed = dyn.peak_force(DRSParams(Iz_wing=SEED_LITERAL_IZ_WING))
@@ -346,7 +347,7 @@ def test_peak_force_against_the_sympy_baseline(params):
     bl = build_baseline(params)
     pk = dyn.peak_force(params)
     t = pk.time + np.array([-2e-5, 0.0, 2e-5])
-    s, v, a = dyn.drs_manoeuvre(params).evaluate(t)
+    s, v, a = drs_manoeuvre(params).evaluate(t)
     q, qd, qdd = bl.kinematics(s, v, a)
     f = bl.inverse_force(q, qd, qdd)
     assert f[1] == pytest.approx(pk.force, rel=1e-9)
@@ -420,7 +421,8 @@ def test_cli_peak_both_inertias(capsys):
 
 def test_readme_headline_figures(params):
     """README's headline: 25.41 kN at t = 0.904 ms, s = 0.493 mm; 128.8 kN with the seed's literal
-    Iz_wing (the figures as printed, so a change of the model that moves them fails here)."""
+    Iz_wing, 14.84 kN with a uniform plate's (the figures as printed, so a change of the model that
+    moves them fails here)."""
     pk = dyn.peak_force(params)
     assert round(pk.force / 1e3, 2) == 25.41
     assert round(pk.time * 1e3, 3) == 0.904
@@ -428,6 +430,10 @@ def test_readme_headline_figures(params):
     pk_seed = dyn.peak_force(DRSParams(Iz_wing=SEED_LITERAL_IZ_WING))
     assert round(pk_seed.force / 1e3, 1) == 128.8
     assert round(pk_seed.time * 1e3, 3) == 0.904
+    # a uniform flap about its centre of mass, m L^2 / 12 (README's table, docs/dynamics.md)
+    pk_plate = dyn.peak_force(DRSParams(Iz_wing=params.m_wing * params.L_wing**2 / 12.0))
+    assert round(pk_plate.force / 1e3, 2) == 14.84
+    assert round(pk_plate.time * 1e3, 3) == 0.903
 
 
 def test_cli_peak_refines_every_extremum(capsys, params):

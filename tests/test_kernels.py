@@ -1,16 +1,14 @@
-"""drs_model.kernels: the code generated from the kernels (inlined scalar, numpy) computes what the
-kernels compute, and a kernel that breaks the inliner's rules is refused."""
+"""drs_model.kernels and drs_model.elementwise: the kernels on arrays compute what the plain
+kernels compute, the manoeuvre rests exactly outside its moves, and profile_held says where."""
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drs_model import kernels
+from drs_model import elementwise, kernels
 from drs_model.bodies import model_constants
 from drs_model.profile import drs_manoeuvre
 
@@ -20,60 +18,33 @@ def _same(a, b) -> bool:
     return bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
 
 
-def test_inlined_scalar_kernels_are_bit_identical(params):
-    """SCALAR runs the same operations in the same order: equal to the last bit, NaN where the
-    kernel gives NaN (no assembly), over states inside and outside the assembly range."""
-    c = model_constants(params)
-    k = drs_manoeuvre(params).constants()
-    rng = np.random.default_rng(7)
-    for b, bd, f, t, s, sd, sdd in rng.uniform(
-        [0.2, -150.0, -5e3, -0.01, -0.004, -10.0, -1e4],
-        [1.7, 150.0, 3e4, 0.06, 0.05, 10.0, 1e4],
-        (3000, 7),
-    ):
-        assert _same(
-            kernels.psi3_acceleration(b, bd, f, c), kernels.SCALAR.psi3_acceleration(b, bd, f, c)
-        )
-        assert _same(kernels.psi3_configuration(b, c), kernels.SCALAR.psi3_configuration(b, c))
-        assert _same(kernels.fused_force(s, sd, sdd, c), kernels.SCALAR.fused_force(s, sd, sdd, c))
-        assert _same(kernels.manoeuvre_force(t, c, k), kernels.SCALAR.manoeuvre_force(t, c, k))
-    assert math.isnan(kernels.SCALAR.fused_force(-0.01, 0.0, 0.0, c))  # past the dead centre
-
-
-def test_numpy_kernels_evaluate_arrays_as_the_scalar_ones(params):
+def test_elementwise_kernels_evaluate_arrays_as_the_scalar_ones(params):
+    """The array path (numba gufuncs, or numpy.vectorize without numba) gives the plain kernel's
+    values, NaN where the kernel gives NaN (past the dead centre), for any shape."""
     c = model_constants(params)
     s = np.linspace(-0.004, 0.05, 101)
-    got = kernels.NUMPY.fused_force(s, 0.3, 50.0, c)
+    got = elementwise.fused_force(s, 0.3, 50.0, c)
     ref = [kernels.fused_force(float(x), 0.3, 50.0, c) for x in s]
     np.testing.assert_allclose(got, ref, rtol=1e-13, atol=1e-9)
     assert np.isnan(got[0]) and np.isfinite(got[-1])
+    k = drs_manoeuvre(params).constants()
+    t = np.linspace(-0.01, 0.06, 12).reshape(3, 4)
+    s, sd, sdd = elementwise.manoeuvre_profile(t, k)
+    assert s.shape == (3, 4)
+    ref = np.array([kernels.manoeuvre_profile(float(x), k) for x in t.ravel()]).T.reshape(3, 3, 4)
+    np.testing.assert_allclose(np.stack([s, sd, sdd]), ref, rtol=1e-13, atol=1e-15)
 
 
-def test_the_inliner_refuses_an_early_return(monkeypatch):
-    def early(x, c):
-        if x > 0.0:
-            return x
-        return -x
-
-    def top(x, c):
-        y = early(x, c)
-        return y
-
-    monkeypatch.setitem(kernels.__dict__, "early", early)
-    monkeypatch.setitem(kernels.__dict__, "top", top)
-    monkeypatch.setattr(kernels, "KERNELS", (*kernels.KERNELS, "early", "top"))
-    monkeypatch.setattr(kernels, "_callee_source", lambda name: _source(name, early, top))
-    with pytest.raises(AssertionError, match="kernel early must end in its only return"):
-        kernels._flatten("top")
-
-
-def _source(name, *fns):
-    import ast
-    import inspect
-    import textwrap
-
-    fn = {f.__name__: f for f in fns}[name]
-    return ast.parse(textwrap.dedent(inspect.getsource(fn))).body[0]
+def test_the_profile_rests_exactly_outside_the_moves(params):
+    """Before the opening, in the hold and after the closing (joints included) the kernel gives
+    s_min or s_max exactly and no motion; inside a move, the quintic."""
+    man = drs_manoeuvre(params)
+    k = man.constants()
+    for t, s in ((-1.0, man.s_min), (0.0, man.s_min), (0.01, man.s_max), (0.025, man.s_max),
+                 (0.04, man.s_max), (0.05, man.s_min), (1.0, man.s_min)):  # fmt: skip
+        assert kernels.manoeuvre_profile(t, k) == (s, 0.0, 0.0), t
+    s, sd, _ = kernels.manoeuvre_profile(0.005, k)
+    assert s == pytest.approx(0.5 * (man.s_min + man.s_max), rel=1e-12) and sd > 0.0
 
 
 @settings(max_examples=200, deadline=None)
@@ -100,9 +71,9 @@ def test_a_held_profile_is_one_value_to_the_bit(params, t0_open, fractions):
         a = lo + (hi - lo) * min(fractions[:2])
         b = lo + (hi - lo) * max(fractions[:2])
         assert kernels.profile_held(a, b, k), (name, a, b)
-        held = kernels.SCALAR.manoeuvre_force(0.5 * (a + b), c, k)
+        held = kernels.fused_manoeuvre_force(0.5 * (a + b), c, k)
         for t in (a, b, a + (b - a) * fractions[2]):
-            assert kernels.SCALAR.manoeuvre_force(t, c, k) == held, (name, t)
+            assert kernels.fused_manoeuvre_force(t, c, k) == held, (name, t)
     # any span that reaches into the opening or the closing moves
     assert not kernels.profile_held(k[0] - 1e-3, k[0] + 1e-6, k)
     assert not kernels.profile_held(opening_end - 1e-6, closing_start, k)

@@ -18,7 +18,7 @@ def test_seed_defaults_are_the_worksheet_data(params):
     assert (params.x_R, params.y_R, params.d_wing, params.d_tip) == (0.28, 0.0223, 0.006, 0.01)
     assert params.gamma == pytest.approx(5 * math.pi / 180, rel=1e-15)
     assert (params.m_pist, params.m_link, params.m_wing) == (0.08, 0.0375, 2.0)
-    assert params.m_link == pytest.approx(params.L2 * params.rho_steel, rel=1e-15)
+    assert params.m_link == pytest.approx(0.05 * 0.75, rel=1e-15)  # L2 of a 0.75 kg/m steel bar
     assert (params.box_width, params.box_height) == (0.35, 0.22)
     assert (params.gap_closed, params.gap_open) == (0.01, 0.05)
     assert params.T_total == pytest.approx(0.05, rel=1e-15)  # seed: T_tot := 0.0500

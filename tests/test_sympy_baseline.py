@@ -10,6 +10,7 @@ import pytest
 
 from drs_model import inverse as dyn
 from drs_model.params import SEED_LITERAL_IZ_WING, DRSParams
+from drs_model.profile import drs_manoeuvre
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from sympy_baseline import build_baseline  # noqa: E402
@@ -44,7 +45,7 @@ def test_baseline_kinematics_and_forward_dynamics(setup):
     p, bl = setup
     t = np.linspace(0.0, p.T_total, 501)
     _, st = dyn.manoeuvre_state(t, p)
-    s, sd, sdd = dyn.drs_manoeuvre(p).evaluate(t)
+    s, sd, sdd = drs_manoeuvre(p).evaluate(t)
     q, qd, qdd = bl.kinematics(s, sd, sdd)
     np.testing.assert_allclose(q, st.q, atol=1e-10)
     np.testing.assert_allclose(qd, st.qd, rtol=1e-8, atol=1e-8 * np.max(np.abs(st.qd)))

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..params import DRSParams, assignment_overrides, from_file
+from ..overrides import assignment_overrides, from_file
+from ..params import DRSParams
 
 
 @dataclass

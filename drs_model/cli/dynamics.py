@@ -33,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("peak", help="peak piston force, its time and stroke, force ratio range")
     add_common(p)
-    p.add_argument("--method", choices=sorted(INVERSE_METHODS), default="virtual-work")
+    p.add_argument("--method", choices=sorted(INVERSE_METHODS), default="fused")
     p.add_argument("--samples", type=int, default=5001, help="grid before the Brent refinement")
     p.set_defaults(func=run_peak)
 

@@ -2,17 +2,16 @@
 
 Modules: ``forces`` (constant, step, function and manoeuvre forces), ``formulations`` (psi3, s,
 index-1, Baumgarte, projection), ``solve`` (:func:`simulate`: scipy and compiled methods behind
-one call), ``solution`` (its result), ``fixed_step`` (the real-time :class:`FixedStepIntegrator`)
-and ``numba_rk`` (the compiled RK driver, optional numba). This module re-exports their public
-names.
+one call), ``solution`` (its result) and ``fixed_step`` (the real-time
+:class:`FixedStepIntegrator`). The compiled RK methods live in :mod:`drs_model.compiled` (optional
+numba). This module re-exports the public names.
 """
 
-from .fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator, StepState, fixed_step_trajectory
+from .fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator, StepState
 from .forces import ConstantForce, ForceLike, FunctionForce, ManoeuvreForce, StepForce, as_force
 from .formulations import (
     FORMULATIONS,
     Formulation,
-    ForwardState,
     FullCoordinates,
     Projected,
     Psi3Minimal,
@@ -21,7 +20,6 @@ from .formulations import (
     manoeuvre_initial_state,
     reference_rhs,
 )
-from .numba_rk import NumbaUnavailableError, simulate_compiled
 from .solution import Solution
 from .solve import COMPILED_METHODS, SCIPY_METHODS, default_atol, simulate
 
@@ -34,11 +32,9 @@ __all__ = [
     "FixedStepIntegrator",
     "ForceLike",
     "Formulation",
-    "ForwardState",
     "FullCoordinates",
     "FunctionForce",
     "ManoeuvreForce",
-    "NumbaUnavailableError",
     "Projected",
     "Psi3Minimal",
     "Solution",
@@ -47,10 +43,8 @@ __all__ = [
     "StrokeMinimal",
     "as_force",
     "default_atol",
-    "fixed_step_trajectory",
     "get_formulation",
     "manoeuvre_initial_state",
     "reference_rhs",
     "simulate",
-    "simulate_compiled",
 ]

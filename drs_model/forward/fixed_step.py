@@ -1,11 +1,13 @@
 """The fixed-step integrator of the forward dynamics: the real-time loop.
 
 :class:`FixedStepIntegrator`: one call of :meth:`~FixedStepIntegrator.step` advances by ``dt``
-under a piston force held over the step (or a callable of t). For formulation (a) it runs the
-scalar psi3 kernel of :mod:`drs_model.kernels` (about 4 right-hand sides of ~1.5 us each per RK4
-step); any other formulation runs through its numpy right-hand side. A step that would leave the
-stroke range (or cross the dead centre, or produce a non-finite state) is refused with a typed error
-and the state is kept.
+under a piston force held over the step (or a callable of t). For formulation (a) a step is one of
+the plain functions below (:data:`PSI3_STEPS`), each calling the psi3 kernel
+:func:`drs_model.kernels.psi3_acceleration`, compiled whole by numba when it is installed
+(:func:`drs_model.compiled.scalar.bind`: one call of ~1 us per step; the plain Python step takes
+tens of microseconds); any other formulation runs through its numpy right-hand side. A step that
+would leave the stroke range (or cross the dead centre, or produce a non-finite state) is refused
+with a typed error and the state is kept.
 
 Fixed-step methods (Butcher tableaux; ``h = dt``):
 
@@ -17,14 +19,14 @@ Fixed-step methods (Butcher tableaux; ``h = dt``):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from types import MappingProxyType
 from typing import NamedTuple
 
 import numpy as np
 
+from ..compiled.scalar import bind
 from ..errors import InputError, IntegrationError, SingularConfigurationError, StrokeRangeError
-from ..kernels import flap_gap
+from ..kernels import flap_gap, psi3_acceleration
 from ..kinematics import (
     dead_centre,
     solve_position,
@@ -36,10 +38,57 @@ from ..params import DRSParams
 from .forces import as_force
 from .formulations import Formulation, Psi3Minimal, get_formulation
 
-__all__ = ["FIXED_STEP_METHODS", "FixedStepIntegrator", "StepState", "fixed_step_trajectory"]
+__all__ = ["FIXED_STEP_METHODS", "FixedStepIntegrator", "StepState"]
 
 #: Fixed-step methods and their orders.
 FIXED_STEP_METHODS = MappingProxyType({"euler": 1, "semi-implicit-euler": 1, "rk2": 2, "rk4": 4})
+
+
+# ---- one step of formulation (a): y = [psi3, psi3'], a(psi3, psi3', F) = psi3'' ------------------
+# f0, f1, f2: the piston force [N] at t, t + h/2 and t + h; h: the step [s]; c: the kernel constants
+def psi3_euler_step(b, bd, f0, f1, f2, h, c):
+    """Explicit Euler: ``(psi3, psi3')`` [rad, rad/s] after one step."""
+    return b + h * bd, bd + h * psi3_acceleration(b, bd, f0, c)
+
+
+def psi3_semi_implicit_euler_step(b, bd, f0, f1, f2, h, c):
+    """Semi-implicit (symplectic) Euler: the rate first, then the angle with the new rate."""
+    v = bd + h * psi3_acceleration(b, bd, f0, c)
+    return b + h * v, v
+
+
+def psi3_rk2_step(b, bd, f0, f1, f2, h, c):
+    """Explicit midpoint rule (order 2)."""
+    k1 = psi3_acceleration(b, bd, f0, c)
+    v2 = bd + 0.5 * h * k1
+    return b + h * v2, bd + h * psi3_acceleration(b + 0.5 * h * bd, v2, f1, c)
+
+
+def psi3_rk4_step(b, bd, f0, f1, f2, h, c):
+    """Classic Runge-Kutta (order 4); the angle's stages are the rate's (``k_psi3 = v``)."""
+    hh = 0.5 * h
+    k1 = psi3_acceleration(b, bd, f0, c)
+    v2 = bd + hh * k1
+    k2 = psi3_acceleration(b + hh * bd, v2, f1, c)
+    v3 = bd + hh * k2
+    k3 = psi3_acceleration(b + hh * v2, v3, f1, c)
+    v4 = bd + h * k3
+    k4 = psi3_acceleration(b + h * v3, v4, f2, c)
+    return (
+        b + h / 6.0 * (bd + 2.0 * v2 + 2.0 * v3 + v4),
+        bd + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4),
+    )
+
+
+#: One step of formulation (a) per method of :data:`FIXED_STEP_METHODS`.
+PSI3_STEPS = MappingProxyType(
+    {
+        "euler": psi3_euler_step,
+        "semi-implicit-euler": psi3_semi_implicit_euler_step,
+        "rk2": psi3_rk2_step,
+        "rk4": psi3_rk4_step,
+    }
+)
 
 
 class StepState(NamedTuple):
@@ -116,9 +165,16 @@ class FixedStepIntegrator:
         self.lo, self.hi = self.s_min - stroke_margin, self.s_max + stroke_margin
         self.psi3_dead = float(solve_position(self.s_dead, p)[2])
         self._fast = isinstance(self.form, Psi3Minimal)
+        self._psi3_step = bind(PSI3_STEPS[method], self.form.consts) if self._fast else None
         self._gap = p.gap_constants
         self.steps = 0
         self.reset()
+        if self._fast:
+            # compile (or load from numba's cache) what a step calls now, not at the first step:
+            # in a real-time loop that would stall it (~20 ms from the cache, seconds without)
+            b, bd = self._y
+            self._psi3_step(b, bd, 0.0, 0.0, 0.0, self.dt)
+            self.form.accel(b, bd, 0.0)
 
     # ---- state ---------------------------------------------------------------------------------
     def reset(
@@ -226,7 +282,7 @@ class FixedStepIntegrator:
         return state
 
     def _step_fast(self, force):
-        acc, h, t = self.form.accel, self.dt, self._t
+        h, t = self.dt, self._t
         b, bd = self._y
         if callable(force):
             piece = force.segment(t, t + h) if hasattr(force, "segment") else force
@@ -238,32 +294,12 @@ class FixedStepIntegrator:
             f0 = f1 = f2 = float(force)
             if not math.isfinite(f0):
                 raise IntegrationError(f"piston force is not finite at t = {t!r} s: {force!r} N")
-        m = self.method
         try:
-            if m == "rk4":
-                hh = 0.5 * h
-                k1 = acc(b, bd, f0)
-                v2 = bd + hh * k1
-                k2 = acc(b + hh * bd, v2, f1)
-                v3 = bd + hh * k2
-                k3 = acc(b + hh * v2, v3, f1)
-                v4 = bd + h * k3
-                k4 = acc(b + h * v3, v4, f2)
-                return (
-                    b + h / 6.0 * (bd + 2.0 * v2 + 2.0 * v3 + v4),
-                    bd + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4),
-                )
-            if m == "rk2":
-                k1 = acc(b, bd, f0)
-                v2 = bd + 0.5 * h * k1
-                return b + h * v2, bd + h * acc(b + 0.5 * h * bd, v2, f1)
-            if m == "euler":
-                return b + h * bd, bd + h * acc(b, bd, f0)
-            v = bd + h * acc(b, bd, f0)  # semi-implicit Euler
-            return b + h * v, v
-        except (OverflowError, ZeroDivisionError, IntegrationError) as exc:
+            return self._psi3_step(b, bd, f0, f1, f2, h)
+        except (OverflowError, ZeroDivisionError, ValueError) as exc:  # the plain Python step
             raise IntegrationError(
-                f"fixed step {m} (dt = {h:g} s) diverged at t = {t + h:.9g} s: {exc}; reduce dt"
+                f"fixed step {self.method} (dt = {h:g} s) diverged at t = {t + h:.9g} s: {exc}; "
+                "reduce dt"
             ) from exc
 
     def _step_generic(self, force):
@@ -297,10 +333,6 @@ class FixedStepIntegrator:
             y_new = self.form.project(y_new)
         return tuple(float(v) for v in y_new)
 
-    def run(self, forces) -> list[StepState]:
-        """Step once per force in ``forces``; returns the states (convenience for tests)."""
-        return [self.step(f) for f in forces]
-
     # ---- a search inside one step (issue 16: ActuatorSim finds where a stop is reached) ---------
     def step_by(self, force, h: float) -> StepState:
         """Advance by ``h`` [s] (``0 < h <= dt``) instead of ``dt``: the same method and the same
@@ -327,13 +359,3 @@ class FixedStepIntegrator:
         self._y, self._t, self._state = y, float(t), state
         return state
 
-
-def fixed_step_trajectory(
-    integ: FixedStepIntegrator, force: Callable[[float], float], n_steps: int
-) -> np.ndarray:
-    """``[t, s, psi3]`` after each of ``n_steps`` steps under ``force(t)``, shape ``(n, 3)``."""
-    out = np.empty((n_steps, 3))
-    for i in range(n_steps):
-        st = integ.step(force)
-        out[i] = st.t, st.s, st.psi3
-    return out

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled.scalar import bind
 from ..errors import InputError, IntegrationError
 from ..inverse import FusedInverseDynamics
-from ..kernels import SCALAR, profile_held
-from ..kinematics import solve_position
+from ..kernels import fused_manoeuvre_force, profile_held
 from ..params import DRSParams
 
 ForceLike = float | Callable[[float], float]
@@ -123,8 +123,10 @@ def as_force(force) -> ConstantForce | StepForce | FunctionForce | ManoeuvreForc
 
 class ManoeuvreForce:
     """The piston force [N] that makes the mechanism follow the seed's open-hold-close manoeuvre
-    exactly: :func:`drs_model.kernels.manoeuvre_force` (closed-form kinematics and d'Alembert's
-    principle along ``dq/ds``), the kernel of :class:`~drs_model.inverse.FusedInverseDynamics`.
+    exactly: :func:`drs_model.kernels.fused_manoeuvre_force` (closed-form kinematics and
+    d'Alembert's principle along ``dq/ds``), the kernel of
+    :class:`~drs_model.inverse.FusedInverseDynamics` (compiled by numba when it is installed:
+    :func:`drs_model.compiled.scalar.bind`).
 
     ``breakpoints`` are the joints of the profile (0, 10, 40, 50 ms for the seed), where the jerk
     jumps; between them the force is smooth.
@@ -143,24 +145,20 @@ class ManoeuvreForce:
         self.inverse = FusedInverseDynamics.from_params(p, flap_limits, s_limits)
         self.manoeuvre = self.inverse.manoeuvre
         self.breakpoints = tuple(float(t) for t in self.manoeuvre.kinks)
+        self._force = bind(fused_manoeuvre_force, self.inverse.consts, self.inverse.profile)
 
     def __call__(self, t: float) -> float:
-        return SCALAR.manoeuvre_force(float(t), self.inverse.consts, self.inverse.profile)
+        return self._force(float(t))
 
     def segment(self, a: float, b: float) -> Callable[[float], float]:
-        """The force on ``[a, b]`` [s]: one value where the manoeuvre is held still over all of
-        it (:func:`~drs_model.kernels.profile_held`), else the kernel at each t."""
-        consts, profile, force = self.inverse.consts, self.inverse.profile, SCALAR.manoeuvre_force
-        if profile_held(a, b, profile):
-            held = force(0.5 * (a + b), consts, profile)
+        """The force on ``[a, b]`` [s]: one value where the manoeuvre rests over all of it
+        (:func:`~drs_model.kernels.profile_held`), else the kernel at each t."""
+        force = self._force
+        if profile_held(a, b, self.inverse.profile):
+            held = force(0.5 * (a + b))
             return lambda t: held
-        return lambda t: force(t, consts, profile)
+        return force
 
     def profile(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The profile ``(s, s', s'')`` at times t (the exact solution under this force)."""
         return self.manoeuvre.evaluate(t)
-
-    def initial_q_qd(self) -> tuple[np.ndarray, np.ndarray]:
-        """The configuration at rest at the start of the manoeuvre (closed)."""
-        q = solve_position(self.manoeuvre.s_min, self.p)
-        return q, np.zeros(3)

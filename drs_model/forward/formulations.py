@@ -58,9 +58,10 @@ pin-C reaction on the link. Each formulation below turns these into an ODE ``y' 
 (e) Index-2 GGL form (``"ggl"``, ``y = [q, qd, mu]``) is not provided; see docs/forward.md.
 
 All right-hand sides run the scalar ``math`` kernels of :mod:`drs_model.kernels` (numpy's per-call
-overhead on 3-vectors is several microseconds); :func:`reference_rhs` gives the same right-hand
-sides from the numpy functions of :mod:`drs_model.bodies`, :mod:`drs_model.constraints` and
-:mod:`drs_model.kinematics`, for tests.
+overhead on 3-vectors is several microseconds); formulation (a)'s, the one the real-time loop and
+the compiled driver use, is compiled by numba when it is installed. :func:`reference_rhs` gives
+the same right-hand sides from the numpy functions of :mod:`drs_model.bodies`,
+:mod:`drs_model.constraints` and :mod:`drs_model.kinematics`, for tests.
 """
 
 from __future__ import annotations
@@ -70,12 +71,12 @@ import math
 from collections.abc import Callable, Mapping
 from functools import partial
 from types import MappingProxyType
-from typing import NamedTuple
 
 import numpy as np
 
 from .. import kernels
 from ..bodies import applied_forces, mass_matrix, model_constants, velocity_forces
+from ..compiled.scalar import bind
 from ..constraints import constraint, constraint_gamma, constraint_jacobian
 from ..errors import (
     ConstraintDriftError,
@@ -84,7 +85,6 @@ from ..errors import (
     SingularConfigurationError,
 )
 from ..kernels import (
-    SCALAR_BOUND,
     flap_position,
     generalised_forces,
     loop_gamma,
@@ -106,7 +106,6 @@ from ..params import DRSParams
 
 __all__ = [
     "FORMULATIONS",
-    "ForwardState",
     "Formulation",
     "FullCoordinates",
     "Projected",
@@ -117,15 +116,6 @@ __all__ = [
     "manoeuvre_initial_state",
     "reference_rhs",
 ]
-
-
-class ForwardState(NamedTuple):
-    """Configurations and velocities along a trajectory: ``q``, ``qd`` of shape ``(n, 3)``
-    [m, rad; m/s, rad/s] at the times ``t`` of shape ``(n,)`` [s]."""
-
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
 
 
 # ---- scalar right-hand sides ---------------------------------------------------------------------
@@ -313,7 +303,11 @@ class Psi3Minimal(_MinimalCoordinates):
         if not 0.0 <= min_cos_psi1 < 1.0:
             raise InputError(f"min_cos_psi1 must be in [0, 1), got {min_cos_psi1!r}")
         self.min_cos_psi1 = float(min_cos_psi1)
-        self.accel, self.config = _psi3_kernels(self.consts)
+        #: ``accel(psi3, psi3', F)`` [rad/s^2] and ``config(psi3) -> (s, psi1, u_s, u_psi1)``:
+        #: :func:`drs_model.kernels.psi3_acceleration` and :func:`~drs_model.kernels.
+        #: psi3_configuration` with these constants (compiled by numba when it is installed)
+        self.accel = bind(kernels.psi3_acceleration, self.consts)
+        self.config = bind(kernels.psi3_configuration, self.consts)
 
     def check(self, t, y):
         super().check(t, y)
@@ -344,12 +338,6 @@ class Psi3Minimal(_MinimalCoordinates):
         q = solve_position_from_flap_angle(y[0], self.p)
         u = velocity_ratio(q, self.p, "psi3", check=False)
         return q, u * y[1][:, None]
-
-
-def _psi3_kernels(consts: tuple[float, ...]) -> tuple[Callable, Callable]:
-    """``accel(psi3, psi3d, F)`` and ``config(psi3)``: the scalar psi3 kernels with ``consts``
-    bound (:data:`drs_model.kernels.SCALAR_BOUND`)."""
-    return SCALAR_BOUND.psi3_acceleration(consts), SCALAR_BOUND.psi3_configuration(consts)
 
 
 class StrokeMinimal(_MinimalCoordinates):
@@ -497,7 +485,11 @@ class FullCoordinates(Formulation):
 
 class Projected(FullCoordinates):
     """(d) Full coordinates, plain index-1 right-hand side, with the position projected on
-    ``Phi = 0`` and the velocity on ``Phi_q qd = 0`` after each accepted step (in the M metric).
+    ``Phi = 0`` and the velocity on ``Phi_q qd = 0`` after each accepted step (in the M metric):
+    :attr:`project`, which the drivers call. The outputs are those states as they are
+    (:meth:`to_q_qd` maps, it does not project), so :meth:`residual` shows what the projection
+    achieved; an output between steps (``t_eval``) is the solver's dense output between
+    projected states.
     """
 
     def __init__(
@@ -516,11 +508,6 @@ class Projected(FullCoordinates):
             return np.array(kernel(y.tolist(), self.tol))
 
         self.project = project
-
-    def to_q_qd(self, y):
-        y = np.asarray(y, dtype=float).reshape(6, -1)
-        out = np.array([self._project(col, self.tol) for col in y.T.tolist()]).reshape(-1, 6)
-        return out[:, :3].copy(), out[:, 3:].copy()
 
 
 #: Registry of formulations: name -> constructor ``(p, **options)``.

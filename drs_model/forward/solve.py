@@ -3,8 +3,9 @@ r"""Forward simulation: :func:`simulate` integrates any formulation of
 
 ``method`` is a scipy solver (:data:`SCIPY_METHODS`: RK45, DOP853, Radau, BDF, LSODA), driven by
 :func:`scipy.integrate.solve_ivp`, or a compiled one (:data:`COMPILED_METHODS`: ``dopri5-numba``,
-``dop853-numba``; formulation ``"psi3"`` only), driven by :mod:`drs_model.forward.numba_rk`. Both
-return a :class:`~drs_model.forward.solution.Solution`.
+``dop853-numba``; formulation ``"psi3"`` only), driven by :mod:`drs_model.compiled.simulate`
+(imported for these methods only: it needs numba). Both return a
+:class:`~drs_model.forward.solution.Solution`.
 
 The scipy solver class is wrapped in a subclass (solve_ivp accepts an ``OdeSolver`` subclass)
 whose ``_step_impl`` runs, after every accepted step:
@@ -26,6 +27,7 @@ rejected steps locating it, and a fixed-order method loses its order.
 from __future__ import annotations
 
 import math
+from functools import cache
 from types import MappingProxyType
 
 import numpy as np
@@ -33,7 +35,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK45, OdeSolver, Radau, solve_iv
 
 from ..errors import InputError, IntegrationError
 from ..params import DRSParams
-from . import numba_rk
+from .arguments import output_times, relative_tolerance, time_span
 from .forces import as_force
 from .formulations import Formulation, check_options, get_formulation, manoeuvre_initial_state
 from .solution import Solution
@@ -44,8 +46,9 @@ __all__ = ["COMPILED_METHODS", "SCIPY_METHODS", "default_atol", "simulate"]
 SCIPY_METHODS = MappingProxyType(
     {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
 )
-#: Compiled methods (formulation "psi3"): name -> driver of :mod:`drs_model.forward.numba_rk`.
-COMPILED_METHODS = numba_rk.COMPILED_METHODS
+#: Compiled methods (formulation "psi3"): name -> method of
+#: :func:`drs_model.compiled.simulate.simulate_compiled`.
+COMPILED_METHODS = MappingProxyType({"dopri5-numba": "dopri5", "dop853-numba": "dop853"})
 
 
 def default_atol(formulation: Formulation, rtol: float) -> np.ndarray:
@@ -131,7 +134,7 @@ def simulate(
         ``"RK45"``, ``"DOP853"``, ``"Radau"``, ``"BDF"`` or ``"LSODA"`` (scipy), or a compiled
         method of :data:`COMPILED_METHODS`, ``"dopri5-numba"`` or ``"dop853-numba"`` (formulation
         ``"psi3"`` only, a constant, step or manoeuvre force; needs numba: ``pip install
-        drs[fast]``; see :mod:`drs_model.forward.numba_rk`, which also takes the options
+        drs[fast]``; see :mod:`drs_model.compiled.simulate`, which also takes the options
         ``stroke_range``, ``stop_at_dead_centre`` and ``max_steps``).
     rtol, atol : float or array_like
         Tolerances as in solve_ivp; ``atol`` defaults to ``rtol`` times each component's typical
@@ -164,7 +167,7 @@ def simulate(
     """
     if isinstance(method, str) and method in COMPILED_METHODS:
         form, extra = _compiled_formulation(formulation, params, method, formulation_options)
-        return numba_rk.run_formulation(
+        return _compiled_driver().run_formulation(
             form,
             force,
             t_span,
@@ -195,11 +198,8 @@ def simulate(
             f"method must be one of {sorted(SCIPY_METHODS) + sorted(COMPILED_METHODS)}, "
             f"got {method!r}"
         ) from None
-    t0, t1 = (float(v) for v in t_span)
-    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-        raise InputError(f"t_span must be finite with t_end > t_start, got {t_span!r}")
-    if not (rtol > 0.0 and math.isfinite(rtol)):
-        raise InputError(f"rtol must be a finite number > 0, got {rtol!r}")
+    t0, t1 = time_span(t_span)
+    relative_tolerance(rtol)
     fobj = as_force(force)
     if y0 is None:
         q0, qd0 = manoeuvre_initial_state(p) if initial is None else initial
@@ -210,9 +210,7 @@ def simulate(
     atol = default_atol(form, rtol) if atol is None else atol
     cuts = sorted({float(b) for b in (*fobj.breakpoints, *breakpoints) if t0 < b < t1})
     edges = [t0, *cuts, t1]
-    te = None if t_eval is None else np.asarray(t_eval, dtype=float)
-    if te is not None and (te.ndim != 1 or np.any(te < t0) or np.any(te > t1)):
-        raise InputError(f"t_eval must be 1-D within t_span {t_span!r}")
+    te = None if t_eval is None else output_times(t_eval, (t0, t1))
     stats = {"nsteps": 0}
     solver = _guarded_solver(base, form, float(min_step), stats)
     ts, ys = [], []
@@ -284,10 +282,20 @@ def simulate(
 _COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")
 
 
+@cache
+def _compiled_driver():
+    """:mod:`drs_model.compiled.simulate`, imported at the first compiled run (it imports numba;
+    without numba this raises :class:`~drs_model.errors.NumbaUnavailableError`). Cached: an
+    import statement costs ~1-2 us, a few % of a compiled run."""
+    from ..compiled import simulate
+
+    return simulate
+
+
 def _compiled_formulation(formulation, params, method: str, options: dict):
     """``(formulation (a), the compiled driver's own options)`` for ``simulate`` with a compiled
-    method (:mod:`.numba_rk`); ``options`` are the formulation options, those of the driver
-    included."""
+    method (:mod:`drs_model.compiled.simulate`); ``options`` are the formulation options, those of
+    the driver included."""
     extra = {k: options.pop(k) for k in _COMPILED_OPTIONS if k in options} if options else {}
     name = formulation.name if isinstance(formulation, Formulation) else formulation
     if name != "psi3":
@@ -302,5 +310,5 @@ def _compiled_formulation(formulation, params, method: str, options: dict):
             raise InputError("params is required with a formulation name")
         if options:
             check_options("psi3", options)
-        form = numba_rk.psi3_formulation(params, **options)
+        form = _compiled_driver().psi3_formulation(params, **options)
     return form, extra

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from dataclasses import asdict
 
 from drs_model.errors import DRSError
-from drs_model.params import from_file
+from drs_model.overrides import from_file
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 from .decoded import BagData, read_bag

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from drs_model.params import DRSParams, from_dict
+from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 #: rcl_interfaces/ParameterType values -> the ParameterValue field holding the value.
 _VALUE_FIELDS = {
@@ -72,7 +72,10 @@ def model_params_from(values: dict[str, object]) -> DRSParams:
     = 0.0144`` a missing ``Iz_wing`` would derive). The outlines (drawing only, never recorded)
     stay the seed's."""
     model = {k.removeprefix("model."): v for k, v in values.items() if k.startswith("model.")}
-    return from_dict(model) if model else DRSParams()
+    # every recorded value as recorded; a name DRSParams no longer has is skipped: bags recorded
+    # before issue 17 hold wing_span and rho_steel, which the planar model never used
+    known = {k: v for k, v in model.items() if k in NUMERIC_FIELDS}
+    return from_dict(known) if known else DRSParams()
 
 
 def recorded_model_params(messages: Sequence, node: str = "/drs") -> tuple[DRSParams, str]:

@@ -32,7 +32,8 @@ from pathlib import Path
 
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
-from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, from_dict, from_file
+from drs_model.overrides import assignment_overrides, from_file
+from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET

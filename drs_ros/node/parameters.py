@@ -12,7 +12,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from drs_model.errors import DRSError
-from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict, from_file
+from drs_model.overrides import from_file
+from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from ..names import DEFAULT_JOINT_NAMES
 

@@ -1,0 +1,64 @@
+"""numba for drs_model: the options of every compiled function, and the kernels of
+:mod:`drs_model.kernels` made callable from compiled code.
+
+Importing this module imports numba; without numba it raises
+:class:`~drs_model.errors.NumbaUnavailableError` (an ``ImportError``) saying how to install it.
+
+Every kernel is registered with :func:`numba.extending.register_jitable`: the function itself is
+unchanged (Python calls it as before), and a compiled function that calls it compiles it in.
+:func:`compiled` gives the compiled build of a plain function for Python to call, one per function
+and process; :func:`gufunc` builds a numpy gufunc.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+from ..errors import NumbaUnavailableError
+
+try:
+    import numba
+    from numba.extending import register_jitable
+except ImportError as exc:
+    raise NumbaUnavailableError(
+        "the compiled paths (the methods 'dopri5-numba', 'dop853-numba') need numba, which is "
+        "not installed: pip install 'drs[fast]' (or pip install 'numba>=0.60'); the scipy methods "
+        "('RK45', 'DOP853', 'LSODA', ...) and every model function work without it"
+    ) from exc
+
+from .. import kernels
+
+#: numba's options for every compiled function: numpy's error model, so that a division by zero
+#: gives inf or NaN (which the callers treat as a failed stage or sample) instead of a
+#: ZeroDivisionError check on every division.
+OPTIONS = {"error_model": "numpy"}
+
+#: ``numba.njit`` with :data:`OPTIONS` and numba's on-disk cache.
+jit = numba.njit(cache=True, **OPTIONS)
+
+
+def jitable(fn, inline: str = "never"):
+    """Register the plain function ``fn`` as callable from compiled code and return it unchanged.
+    ``inline="always"`` inlines it in numba's IR (where a caller keeps some of its results)."""
+    return register_jitable(inline=inline, **OPTIONS)(fn)
+
+
+#: Inlined into their callers: the two halves of psi3_acceleration, which the RK driver calls
+#: separately to keep the position of a step's last stage (split, they cost as much as whole).
+_INLINED = (kernels.psi3_position, kernels.psi3_acceleration_at)
+
+for _kernel in kernels.KERNELS:
+    jitable(_kernel, "always" if _kernel in _INLINED else "never")
+
+
+def gufunc(signature: str, layout: str):
+    """``numba.guvectorize`` of one signature and layout, with numba's on-disk cache (the kernel a
+    gufunc calls compiles with :data:`OPTIONS`, as registered above)."""
+    return numba.guvectorize([signature], layout, cache=True)
+
+
+@cache
+def compiled(fn):
+    """``fn`` compiled by :data:`jit`, one dispatcher per function and process (it compiles at its
+    first call, or loads from numba's cache)."""
+    return jit(fn)

@@ -1,0 +1,38 @@
+"""Compile every numba function of drs_model once, so that later processes load them from numba's
+on-disk cache: ``python -m drs_model.compiled`` (``make`` runs it after installing; the test
+session runs :func:`warm_up` first)."""
+
+from __future__ import annotations
+
+import time
+
+from ..forward.fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator
+from ..forward.forces import ManoeuvreForce
+from ..inverse import FusedInverseDynamics
+from ..params import DRSParams
+from . import ufuncs
+from .simulate import simulate_compiled
+
+
+def warm_up(p: DRSParams | None = None) -> float:
+    """Compile (or load from numba's cache) every compiled function by a short use of each: the
+    RK driver with both methods, with and without output times (the force kind is a run-time
+    switch: one build serves constant, step and manoeuvre forces), the one-sample kernels, every
+    fixed-step method and the gufuncs. Returns the seconds taken (the start-up cost)."""
+    t0 = time.perf_counter()
+    p = DRSParams() if p is None else p
+    force = ManoeuvreForce(p)
+    for method in ("dopri5", "dop853"):
+        simulate_compiled(p, force, (0.0, 0.012), method=method, rtol=1e-6)
+        simulate_compiled(p, force, (0.0, 0.002), method=method, rtol=1e-6, t_eval=[0.001, 0.002])
+    inverse = FusedInverseDynamics.from_params(p)
+    inverse.force(0.02, 0.1, 1.0)
+    inverse.force_at(0.001)
+    for method in FIXED_STEP_METHODS:
+        integ = FixedStepIntegrator(p, 1e-4, method)
+        integ.reset(s=0.02)
+        integ.step(500.0)
+    integ.form.accel(1.0, 0.0, 0.0)
+    for fn in ufuncs.SIGNATURES:
+        ufuncs.gufunc(fn)
+    return time.perf_counter() - t0
