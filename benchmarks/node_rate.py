@@ -190,10 +190,10 @@ def recorder_cost(n: int, repeats: int, tmp: Path) -> dict[str, float]:
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from drs_ros import cdr
-    from drs_ros.conversions import REACTION_NAMES
-    from drs_ros.msgdefs import full_definition
-    from drs_ros.recording import McapRecorder
+    from drs_model.inverse import REACTION_NAMES
+    from drs_ros.recording import cdr
+    from drs_ros.recording.mcap_recorder import McapRecorder
+    from drs_ros.recording.msgdefs import full_definition
 
     msg = JointState()
     msg.name = ["drs_piston", "drs_link", "drs_flap"]

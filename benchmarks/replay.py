@@ -112,7 +112,7 @@ def main(argv=None) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-    from drs_ros.msgdefs import message_class
+    from drs_ros.recording.msgdefs import message_class
 
     bag = Path(args.bag)
     types, counts = recorded_counts(bag)

@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     from drs_model.kinematics import stroke_limits
     from drs_model.params import DRSParams
     from drs_ros.bag.cli import main as bag_main
-    from drs_ros.rerun_log import run_rerun_cli
+    from drs_ros.recording.rerun_cli import run_rerun_cli
 
     rng = random.Random(args.seed)
     lo, hi = stroke_limits(DRSParams())

@@ -55,4 +55,13 @@ def apply(sim, key: str, msg, piston_joint: str, prepared=None):
     raise KeyError(f"unknown command {key!r}; known: {sorted([*COMMAND_TYPES, SERVICE_KEY])}")
 
 
-__all__ = ["COMMAND_TYPES", "SERVICE_KEY", "apply", "describe", "prepare"]
+def hold(sim) -> float:
+    """What the node does when the model refuses a physics step: hold the flap where it is, its
+    stroke kept within ``[s_min, s_max]``, at the present time (the re-simulation does the same).
+    Returns the stroke held [m]."""
+    s_hold = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
+    sim.reset(sim.t, s_hold)
+    return s_hold
+
+
+__all__ = ["COMMAND_TYPES", "SERVICE_KEY", "apply", "describe", "hold", "prepare"]

@@ -12,11 +12,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from drs_model.actuator import ActuatorState
-from drs_model.inverse import NE_UNKNOWNS
-
-#: Order of the reactions on ``~/joint_reactions``: the Newton-Euler unknowns without the piston
-#: force (the seed's names; N, except Tp in N m).
-REACTION_NAMES = tuple(name for name in NE_UNKNOWNS if name != "F")
+from drs_model.inverse import REACTION_NAMES
 
 
 def time_msg(ns: int) -> Time:
@@ -41,7 +37,8 @@ def joint_state_msg(
 
 def reactions_msg(reactions: Mapping[str, float], stamp_ns: int) -> JointState:
     """The joint reactions as a JointState whose names are the reactions and efforts their values
-    (self-describing and stamped; N, Tp in N m)."""
+    (self-describing and stamped; the model's :data:`~drs_model.inverse.REACTION_NAMES`, in that
+    order: N, Tp in N m)."""
     msg = JointState()
     msg.header.stamp = time_msg(stamp_ns)
     msg.name = list(REACTION_NAMES)
@@ -103,7 +100,11 @@ def float_msg(value: float) -> Float64:
 
 
 def command_event_msg(
-    stamp_ns: int, source: str, outcome: str, level: bytes, message: str,
+    stamp_ns: int,
+    source: str,
+    outcome: str,
+    level: bytes,
+    message: str,
     values: Mapping[str, object],
 ) -> DiagnosticArray:
     """One record of the effect log ``~/command_events`` (see docs/ros.md, "Effect record").
@@ -117,13 +118,9 @@ def command_event_msg(
         name=source,
         message=f"{outcome}: {message}" if message else outcome,
         hardware_id="drs",
-        values=[KeyValue(key="outcome", value=outcome)]
-        + [KeyValue(key=str(k), value=str(v)) for k, v in values.items()],
+        values=[KeyValue(key="outcome", value=outcome), *_key_values(values)],
     )
-    arr = DiagnosticArray()
-    arr.header.stamp = time_msg(stamp_ns)
-    arr.status = [status]
-    return arr
+    return _status_array(stamp_ns, status)
 
 
 def parameter_event_msg(node_name: str, parameters: Sequence, stamp_ns: int):
@@ -147,8 +144,17 @@ def diagnostics_msg(
         name=f"{node_name}: actuator",
         message=message,
         hardware_id="drs",
-        values=[KeyValue(key=str(k), value=str(v)) for k, v in values.items()],
+        values=_key_values(values),
     )
+    return _status_array(stamp_ns, status)
+
+
+def _key_values(values: Mapping[str, object]) -> list[KeyValue]:
+    return [KeyValue(key=str(k), value=str(v)) for k, v in values.items()]
+
+
+def _status_array(stamp_ns: int, status: DiagnosticStatus) -> DiagnosticArray:
+    """A DiagnosticArray stamped ``stamp_ns`` holding the one ``status``."""
     arr = DiagnosticArray()
     arr.header.stamp = time_msg(stamp_ns)
     arr.status = [status]
@@ -208,7 +214,7 @@ class MechanismMarkers:
         self._arrow.scale.x, self._arrow.scale.y, self._arrow.scale.z = 0.003, 0.008, 0.01
         markers += [self._pins, self._arrow]
         self._all = MarkerArray(markers=markers)
-        self._moving = MarkerArray(markers=markers[len(still):])
+        self._moving = MarkerArray(markers=markers[len(still) :])
 
     def msg(self, lines, pins, force_origin, piston_force: float, stamp_ns: int,
             with_still: bool = True):  # fmt: skip

@@ -214,7 +214,7 @@ def _rrd_scalar_rows(path: Path) -> int:
 
 def _rrd_verify(path: Path) -> int:
     """``rerun rrd verify`` (the CLI installed with the SDK): an independent read of every chunk."""
-    from drs_ros.rerun_log import run_rerun_cli
+    from drs_ros.recording.rerun_cli import run_rerun_cli
 
     try:
         res = run_rerun_cli(["rrd", "verify", str(path)])

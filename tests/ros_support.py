@@ -70,7 +70,7 @@ def write_drs_bag(
     from std_msgs.msg import Float64
 
     from drs_model.kinematics import gap
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     t, q, qd = manoeuvre_states(params, n)
     force = 1000.0 * np.sin(2 * np.pi * t / t[-1])  # a stand-in force, consistent across topics

@@ -123,7 +123,7 @@ class RawSubscriber:
         from rclpy.node import Node
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-        from drs_ros.msgdefs import message_class
+        from drs_ros.recording.msgdefs import message_class
 
         self.node = Node(node_name, context=context, **node_kw)
         self.received: dict[str, list[bytes]] = {t: [] for t in types}
@@ -632,8 +632,8 @@ def test_start_offset_skips_the_beginning(tmp_path):
 def test_copy_of_the_example_bag_directory_plays_by_its_metadata(tmp_path):
     """A bag directory is read through its metadata.yaml's file list (the reader's resolver,
     which the player uses)."""
-    from drs_ros.bag.play import BagReadError, index_bag
-    from drs_ros.bag.reader import resolve
+    from drs_ros.bag.files import BagReadError, resolve
+    from drs_ros.bag.play import index_bag
 
     copy = tmp_path / "copy"
     shutil.copytree(EXAMPLE, copy)

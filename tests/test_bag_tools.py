@@ -236,9 +236,10 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
     require_rclpy()
     from std_srvs.srv import SetBool
 
-    from drs_ros import cdr
-    from drs_ros.bag.reader import BagReadError, scan
-    from drs_ros.recording import McapRecorder
+    from drs_ros.bag.files import BagReadError
+    from drs_ros.bag.reader import scan
+    from drs_ros.recording import cdr
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     event = SetBool.Event()
     event.response = [SetBool.Response(success=True, message="opened")]
@@ -360,7 +361,8 @@ def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
     the callback's exception) with or without ``recover``: never a BagReadError, never a scan
     ended as if the file were truncated there."""
     require_rclpy()
-    from drs_ros.bag.reader import BagReadError, scan
+    from drs_ros.bag.files import BagReadError
+    from drs_ros.bag.reader import scan
 
     rec, *_ = write_drs_bag(tmp_path / "bag", params, n=100,
                             recorder_kwargs={"flush_messages": 30})  # fmt: skip
@@ -390,7 +392,7 @@ def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
 
 def _bag_of_an_uninstalled_type(bag: Path) -> None:
     """/joint_states recorded as a type this machine does not have: intact, undecodable here."""
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     with McapRecorder(bag, flush_thread=False) as rec:
         rec.register_recorded_topic("/joint_states", "drs_test_msgs/msg/Unknown", b"float64 x",
@@ -478,7 +480,7 @@ def _split_bag(tmp_path: Path, params, *, killed: bool, n: int = 240) -> tuple[P
 
 
 def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
-    from drs_ros.bag.reader import BagReadError, resolve
+    from drs_ros.bag.files import BagReadError, resolve
 
     for k in (10, 0, 2, 1, 11):
         (tmp_path / f"run_{k}.mcap").write_bytes(b"")

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from ros_support import JOINT_NAMES, require_rclpy, write_drs_bag
 
-from drs_ros.bag import check
+from drs_ros.bag import check, model_checks
+from drs_ros.bag.decoded import read_bag
+from drs_ros.bag.files import BagReadError
 
 pytestmark = pytest.mark.ros
 
@@ -30,7 +32,7 @@ def test_consistent_bag_passes(good_bag, capsys):
     assert by_name["velocity constraint |Phi_q qd|"]["samples"] == 150
     assert by_name["gap vs kinematics.gap(q)"]["status"] == "ok"
     model = by_name["piston force vs model"]
-    hook, _ = check.load_force_model()
+    hook, _ = model_checks.load_force_model()
     assert hook is not None  # drs_model.inverse provides it
     # reported, not enforced without --force-model-tol
     assert model["status"] == "info" and model["samples"] == 150
@@ -43,8 +45,8 @@ def test_corrupted_joint_state_fails_with_the_discrepancy(tmp_path, params, caps
     assert check.main([str(rec.path), "--tol", "1e-6"]) == 1
     out = capsys.readouterr().out
     assert "FAIL" in out
-    data = check.read_bag(rec.path, ["/joint_states", "/drs/piston_force", "/drs/flap_gap"])
-    results = {r.name: r for r in check.check_bag(data, params, tol=1e-6)}
+    data = read_bag(rec.path, ["/joint_states", "/drs/piston_force", "/drs/flap_gap"])
+    results = {r.name: r for r in model_checks.check_bag(data, params, tol=1e-6)}
     loop = results["loop constraint |Phi(q)|"]
     assert loop.status == "FAIL"
     assert loop.at_time_s == pytest.approx(1.7e9 + t[37], abs=1e-6)
@@ -60,16 +62,16 @@ def test_corrupted_joint_state_fails_with_the_discrepancy(tmp_path, params, caps
 def test_custom_topics_and_force_hook(tmp_path, params):
     require_rclpy()
     rec, t, q, qd, force = write_drs_bag(tmp_path / "hook", params, n=60)
-    data = check.read_bag(rec.bag_dir, ["/joint_states"])
+    data = read_bag(rec.bag_dir, ["/joint_states"])
 
     def fake_model(q, qd, qdd, p):
         return np.zeros(len(q))
 
-    results = check.check_bag(data, params, force_model=fake_model, force_model_tol=1.0)
+    results = model_checks.check_bag(data, params, force_model=fake_model, force_model_tol=1.0)
     model = next(r for r in results if r.name == "piston force vs model")
     assert model.status == "FAIL" and model.max_error == pytest.approx(np.max(np.abs(force)))
-    with pytest.raises(check.ForceModelError, match="cannot load force model"):
-        check.load_force_model("drs_model:no_such_function")
+    with pytest.raises(model_checks.ForceModelError, match="cannot load force model"):
+        model_checks.load_force_model("drs_model:no_such_function")
 
 
 def test_truncated_file_message_and_recover(good_bag, capsys):
@@ -80,8 +82,8 @@ def test_truncated_file_message_and_recover(good_bag, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
     assert "truncated" in err and "drs-bag recover" in err
-    with pytest.raises(check.BagReadError, match="truncated"):
-        check.read_bag(cut, ["/joint_states"])
+    with pytest.raises(BagReadError, match="truncated"):
+        read_bag(cut, ["/joint_states"])
     # this bag is one chunk (no flush before finish): its cut leaves no complete chunk
     assert check.main([str(cut), "--recover"]) == 2
     assert "nothing recoverable" in capsys.readouterr().err
@@ -95,11 +97,11 @@ def test_recover_reads_the_prefix_of_a_chunked_bag(tmp_path, params, capsys):
     raw = rec.path.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(raw[: len(raw) // 2])
-    data = check.read_bag(cut, ["/joint_states"], recover=True)
+    data = read_bag(cut, ["/joint_states"], recover=True)
     js = data.messages["/joint_states"]
     assert 0 < len(js) < 200
     np.testing.assert_array_equal(np.array([m.position for _, m in js]), q[: len(js)])
-    results = check.check_bag(data, params)
+    results = model_checks.check_bag(data, params)
     assert results[0].status == "ok" and results[0].samples == len(js)
     # a damaged bag checked in part has an exit status of its own (3), never 0
     assert check.main([str(cut), "--recover", "--json"]) == check.EXIT_RECOVERED == 3
@@ -116,11 +118,11 @@ def test_garbage_and_missing_files(tmp_path, capsys):
     assert "not an MCAP file" in capsys.readouterr().err
     assert check.main([str(junk), "--recover"]) == 2
     assert "not an MCAP file" in capsys.readouterr().err
-    with pytest.raises(check.BagReadError, match="no such bag file or directory"):
-        check.read_bag(tmp_path / "nope", ["/joint_states"])
+    with pytest.raises(BagReadError, match="no such bag file or directory"):
+        read_bag(tmp_path / "nope", ["/joint_states"])
     (tmp_path / "empty").mkdir()
-    with pytest.raises(check.BagReadError, match="no metadata.yaml"):
-        check.read_bag(tmp_path / "empty", ["/joint_states"])
+    with pytest.raises(BagReadError, match="no metadata.yaml"):
+        read_bag(tmp_path / "empty", ["/joint_states"])
     assert check.main([str(junk), "--joint-names", "a,b"]) == 2
     assert "--joint-names needs 3 names" in capsys.readouterr().err
 
@@ -145,7 +147,7 @@ def _actuator_bag(bag_dir, params, corrupt_at=None):
     from std_msgs.msg import Float64
 
     from drs_model.actuator import ActuatorSim
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     a = ActuatorSim(params, dt=1e-4)
     t0 = 1_700_000_000_000_000_000

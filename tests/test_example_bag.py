@@ -62,7 +62,7 @@ def test_example_rrd_reads_back():
 def test_rerun_verifies_the_example_rrd():
     """``rerun rrd verify`` (the SDK's own CLI) loads and interprets every chunk."""
     require_rclpy()
-    from drs_ros.rerun_log import run_rerun_cli
+    from drs_ros.recording.rerun_cli import run_rerun_cli
 
     res = run_rerun_cli(["rrd", "verify", str(BAGS / "example.rrd")])
     assert res.returncode == 0, res.stderr[-2000:]

@@ -1,4 +1,5 @@
-"""The package structure: nothing in drs_model imports in a circle, and each module imports alone.
+"""The package structure: nothing in drs_model or drs_ros imports in a circle, and each module
+imports alone.
 
 The graph is read from the source with ``ast`` (every ``import`` and ``from ... import``, at module
 level or inside a function: an import inside a function is how a cycle hides), so the test sees
@@ -15,20 +16,23 @@ import sys
 from pathlib import Path
 
 import pytest
+from ros_support import require_rclpy
 
-PACKAGE = Path(__file__).resolve().parents[1] / "drs_model"
+ROOT = Path(__file__).resolve().parents[1]
+#: The packages checked; drs_ros's modules import rclpy, drs_model's never do.
+PACKAGES = ("drs_model", "drs_ros")
 
 
 def _module_name(path: Path) -> str:
-    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    parts = path.relative_to(ROOT).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+MODULES = {_module_name(p): p for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py"))}
 
 
 def _imports(name: str, path: Path) -> set[str]:
-    """drs_model modules imported by ``name`` (anywhere in its source)."""
+    """drs_model and drs_ros modules imported by ``name`` (anywhere in its source)."""
     is_package = path.name == "__init__.py"
     out = set()
     for node in ast.walk(ast.parse(path.read_text())):
@@ -63,6 +67,8 @@ def test_the_graph_is_read():
     assert "drs_model.kernels" in GRAPH["drs_model.kinematics"]
     assert "drs_model.compiled.simulate" in GRAPH["drs_model.forward.solve"]
     assert GRAPH["drs_model.kernels"] == set()  # the bottom of the stack
+    assert "drs_ros.recording.cdr" in GRAPH["drs_ros.node.adapter"]
+    assert "drs_model.actuator" in GRAPH["drs_ros.node.adapter"]
 
 
 def test_no_import_cycle():
@@ -94,6 +100,8 @@ def test_each_module_imports_in_a_fresh_interpreter(name):
     if name.startswith(NEEDS_NUMBA) and importlib.util.find_spec("numba") is None:
         if not os.environ.get("CI"):
             pytest.skip("numba is not installed (pip install drs[fast])")
+    if name.startswith("drs_ros"):
+        require_rclpy()
     subprocess.run([sys.executable, "-c", f"import {name}"], check=True, timeout=120)
 
 

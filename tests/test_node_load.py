@@ -37,7 +37,7 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     domain = domain_for(request.node.nodeid)

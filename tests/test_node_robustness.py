@@ -112,7 +112,7 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     from trajectory_msgs.msg import JointTrajectory
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     types = {"std_msgs/msg/Float64": Float64,
@@ -203,7 +203,7 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
     from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.rerun_log import run_rerun_cli
+    from drs_ros.recording.rerun_cli import run_rerun_cli
 
     batches, per_batch = 10, 3
     rng = random.Random(16)
@@ -252,7 +252,7 @@ def test_parameters_given_are_used_and_recorded_even_at_their_defaults(tmp_path,
     file's ``Iz_wing = 0.0096`` (the value derived at the default mass) stays 0.0096 with
     ``m_wing = 3``: the recorded parameters rebuild exactly the run's DRSParams."""
     from drs_model.params import DRSParams
-    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import model_params_from, recorded_node_parameters
 
     domain = domain_for(request.node.nodeid)
@@ -293,7 +293,7 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     from rosgraph_msgs.msg import Clock
     from std_msgs.msg import Float64
 
-    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     domain = domain_for(request.node.nodeid)
@@ -392,7 +392,7 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     domain = domain_for(request.node.nodeid)

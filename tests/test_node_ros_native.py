@@ -255,7 +255,7 @@ def _run_node(tmp_path, request, *ros_args, seconds=3.0):
 def test_the_parameter_file_round_trip(tmp_path, request):
     """Start from config/drs.yaml with two values changed: the node runs with exactly the
     file's values (read back from the parameters it records in its bag)."""
-    from drs_ros.bag.check import read_bag
+    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import recorded_node_parameters
 
     values = yaml.safe_load(CONFIG.read_text())
@@ -294,7 +294,7 @@ def test_a_bad_value_in_the_parameter_file_is_refused_like_on_the_command_line(t
 
 def test_rerun_connect_refuses_a_host_off_loopback(ros_context, tmp_path):
     """A live rerun stream goes to loopback only; a bad URL refuses to start, leaving nothing."""
-    from drs_ros.rerun_log import RerunLogError
+    from drs_ros.recording.rerun_recorder import RerunLogError
 
     for url, reason in (("rerun+http://192.0.2.7:9876/proxy", "loopback"),
                         ("not a url", "rerun")):  # fmt: skip

@@ -43,7 +43,8 @@ def _share(pkg: str) -> Path:
 
 
 def independent_definition(name: str) -> str:
-    """Build the rosbag2 full text from the .msg files, line by line (not via drs_ros.msgdefs)."""
+    """Build the rosbag2 full text from the .msg files, line by line (not via
+    drs_ros.recording.msgdefs)."""
     seen: set[str] = set()
 
     def text_of(full: str) -> str:
@@ -136,7 +137,7 @@ def test_mcap_records_as_rosbag2_writes_them(bag):
 
 def test_schema_text_of_diagnostics_matches_independent_build():
     require_rclpy()
-    from drs_ros import msgdefs
+    from drs_ros.recording import msgdefs
 
     for name in (
         "diagnostic_msgs/msg/DiagnosticArray",
@@ -151,7 +152,7 @@ def test_schema_text_of_diagnostics_matches_independent_build():
 
 
 def test_msgdefs_errors():
-    from drs_ros import msgdefs
+    from drs_ros.recording import msgdefs
 
     with pytest.raises(msgdefs.MessageDefinitionError, match="invalid message type name"):
         msgdefs.full_definition("JointState")
@@ -188,7 +189,8 @@ def test_finish_is_idempotent_and_closes(tmp_path):
     require_rclpy()
     from std_msgs.msg import Float64
 
-    from drs_ros.recording import McapRecorder, RecordingError
+    from drs_ros.recording.errors import RecordingError
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     rec = McapRecorder(tmp_path / "b", flush_thread=False)
     rec.register_topic("/x", Float64)
@@ -205,7 +207,8 @@ def test_recorder_errors(tmp_path):
     require_rclpy()
     from std_msgs.msg import Float64, String
 
-    from drs_ros.recording import McapRecorder, RecordingError
+    from drs_ros.recording.errors import RecordingError
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     with pytest.raises(RecordingError, match="flush_period must be a finite number > 0"):
         McapRecorder(tmp_path / "a", flush_period=0.0)
@@ -231,7 +234,7 @@ def test_concurrent_writers_and_periodic_flush(tmp_path):
     require_rclpy()
     from std_msgs.msg import Float64
 
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     per_thread, n_threads = 300, 4
     with McapRecorder(tmp_path / "c", flush_messages=100, flush_thread=False) as rec:
@@ -258,7 +261,7 @@ CHILD = textwrap.dedent(
     """
     import sys, time
     from std_msgs.msg import Float64
-    from drs_ros.recording import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
     rec = McapRecorder(sys.argv[1], flush_period=0.2)
     rec.register_topic("/x", Float64)
     i, flushed = 0, 0

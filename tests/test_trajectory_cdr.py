@@ -15,9 +15,9 @@ from rclpy.serialization import deserialize_message  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
 from drs_model.errors import InputError  # noqa: E402
-from drs_ros import cdr  # noqa: E402
 from drs_ros.conversions import trajectory_points  # noqa: E402
-from drs_ros.trajectory_cdr import read_joint_trajectory  # noqa: E402
+from drs_ros.node.trajectory_cdr import read_joint_trajectory  # noqa: E402
+from drs_ros.recording import cdr  # noqa: E402
 
 NAMES = st.lists(st.sampled_from(["drs_piston", "drs_link", "drs_flap", "other", "é"]),
                  min_size=0, max_size=4)  # fmt: skip

@@ -11,13 +11,13 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Sequence
 from pathlib import Path
 
 from drs_model.errors import DRSError
 
-from .. import msgdefs
-from .reader import resolve, scan
+from ..recording import msgdefs
+from .files import resolve
+from .reader import scan
 
 _INDENT = " " * 19
 SERVICE_EVENT_TOPIC_SUFFIX = "/_service_event"
@@ -55,7 +55,7 @@ def bag_summary(path: str | Path) -> dict:
     """
     bag = resolve(path, require_metadata=False)
     meta = bag.metadata
-    if meta is not None:  # checked by the resolver (drs_ros.bag.reader.read_metadata)
+    if meta is not None:  # checked by the resolver (drs_ros.bag.files.read_metadata)
         topics = [(t["topic_metadata"]["name"], t["topic_metadata"]["type"], t["message_count"],
                    t["topic_metadata"].get("serialization_format", "cdr"))
                   for t in meta["topics_with_message_count"]]  # fmt: skip
@@ -132,10 +132,4 @@ def run(args: argparse.Namespace, prog: str = "drs-bag info") -> int:
     return 0
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="drs-bag info", description=__doc__.splitlines()[0])
-    add_arguments(ap)
-    return run(ap.parse_args(argv))
-
-
-__all__ = ["add_arguments", "bag_summary", "format_info", "main", "run"]
+__all__ = ["add_arguments", "bag_summary", "format_info", "run"]

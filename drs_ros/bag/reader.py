@@ -10,12 +10,14 @@
   counts per channel against the messages actually read;
 * every message: its channel is known, and its bytes are exactly its CDR serialisation: it is
   decoded by the installed type support (``rclpy.serialization.deserialize_message``) and
-  serialised again by :mod:`drs_ros.cdr`; trailing bytes or non-zero padding are an error;
-* a bag directory's ``metadata.yaml``: present, well formed (:func:`read_metadata`), naming files
-  that exist, and its per-topic counts equal to what was read from all of them.
+  serialised again by :mod:`drs_ros.recording.cdr`; trailing bytes or non-zero padding are an error;
+* a bag directory's ``metadata.yaml``: present, well formed
+  (:func:`drs_ros.bag.files.read_metadata`), naming files that exist, and its per-topic counts
+  equal to what was read from all of them.
 
 A bag split into several files (``name_0.mcap``, ``name_1.mcap``... as rosbag2 splits) is read
-file by file, in order (:func:`resolve` is the one place that finds a bag's files).
+file by file, in order (:func:`drs_ros.bag.files.resolve` is the one place that finds a bag's
+files).
 
 With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
 reports where and why it stopped, instead of raising; in a split bag each file is read up to its
@@ -30,7 +32,6 @@ No state beyond the scan's own result; rclpy is used only for its type support.
 
 from __future__ import annotations
 
-import re
 import struct
 import zlib
 from collections.abc import Callable, Iterable
@@ -38,24 +39,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from drs_model.errors import DRSError
+
+from .files import BagFiles, BagReadError, resolve
 
 #: The MCAP magic (8 bytes at both ends of a file).
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
-
-
-class BagReadError(DRSError):
-    """The bag cannot be read or is not what it claims: missing, not MCAP, truncated, corrupt,
-    inconsistent with its summary or ``metadata.yaml``, or holding inexact message bytes."""
-
-
-class BagMetadataError(BagReadError):
-    """A bag directory's ``metadata.yaml`` is unreadable, not YAML, or not a rosbag2 bag's
-    metadata (a missing key, or a value of the wrong type or range). The message names the file
-    and the field."""
 
 
 class MessageCallbackError(DRSError):
@@ -170,187 +160,14 @@ class BagScan:
         return self.parts or [self]
 
 
-@dataclass(frozen=True)
-class BagFiles:
-    """A bag's files, as :func:`resolve` found them.
-
-    Attributes
-    ----------
-    files : tuple of Path
-        The ``.mcap`` files, in recording order (one for a file or an unsplit bag).
-    bag_dir : Path or None
-        The bag directory (None for a bare file).
-    metadata : dict or None
-        The checked ``rosbag2_bagfile_information`` of ``metadata.yaml`` (:func:`read_metadata`),
-        None when there is none.
-    """
-
-    files: tuple[Path, ...]
-    bag_dir: Path | None
-    metadata: dict[str, Any] | None
-
-
-_SPLIT_INDEX = re.compile(r"(.*?)(\d+)")
-
-
-def _file_order(path: Path) -> tuple[str, int, str]:
-    """rosbag2's split order: ``name_2.mcap`` before ``name_10.mcap`` (numerically)."""
-    found = _SPLIT_INDEX.fullmatch(path.stem)
-    return (found[1], int(found[2]), path.name) if found else (path.stem, -1, path.name)
-
-
-def resolve(path: str | Path, require_metadata: bool = True) -> BagFiles:
-    """The files of a bag directory or a file, in order: the one resolver of the bag tools.
-
-    A bag directory's files are those its ``metadata.yaml`` lists (``relative_file_paths``, in
-    that order; every one must exist). Without ``metadata.yaml`` (a recording killed before it
-    finished) the directory is refused unless ``require_metadata`` is False; then its ``*.mcap``
-    files are taken in rosbag2's split order (``name_0``, ``name_1``, ..., ``name_10``). A file is
-    a bag of one file.
-
-    Raises
-    ------
-    BagReadError
-        No such path; a directory without ``metadata.yaml`` (with ``require_metadata``) or without
-        any ``.mcap`` file; a listed file that does not exist.
-    BagMetadataError
-        ``metadata.yaml`` is malformed (:func:`read_metadata`).
-    """
-    path = Path(path)
-    if path.is_dir():
-        meta_path = path / "metadata.yaml"
-        if not meta_path.is_file():
-            files = tuple(sorted(path.glob("*.mcap"), key=_file_order))
-            if require_metadata:
-                hint = (
-                    f"; {', '.join(f.name for f in files)} may be an unfinished recording: "
-                    f"drs-bag recover {path} -o OUT"
-                    if files
-                    else ""
-                )
-                raise BagReadError(f"{str(path)!r}: no metadata.yaml in the bag directory{hint}")
-            if not files:
-                raise BagReadError(f"{str(path)!r}: bag directory holds no .mcap file")
-            return BagFiles(files, path, None)
-        meta = read_metadata(meta_path)
-        files = tuple(path / name for name in meta["relative_file_paths"])
-        missing = [f.name for f in files if not f.is_file()]
-        if missing:
-            raise BagReadError(
-                f"{str(meta_path)!r}: lists {', '.join(missing)}, which the bag directory does "
-                "not hold"
-            )
-        return BagFiles(files, path, meta)
-    if not path.is_file():
-        raise BagReadError(f"{str(path)!r}: no such bag file or directory")
-    return BagFiles((path,), None, None)
-
-
-def _shown(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def read_metadata(meta_path: str | Path) -> dict[str, Any]:
-    """The ``rosbag2_bagfile_information`` of a ``metadata.yaml``, checked as far as the bag tools
-    read it.
-
-    Required: a mapping ``rosbag2_bagfile_information`` holding ``relative_file_paths`` (a
-    non-empty list of file names inside the bag directory), ``message_count`` (an integer >= 0),
-    ``topics_with_message_count`` (a list of ``{topic_metadata: {name, type: str,
-    serialization_format: str (optional)}, message_count: int >= 0}``),
-    ``starting_time.nanoseconds_since_epoch`` and ``duration.nanoseconds`` (integers >= 0 [ns]).
-    Optional: ``storage_identifier`` (``mcap``: the only storage read), ``ros_distro`` (a string).
-
-    Raises
-    ------
-    BagMetadataError
-        Naming the file and the first field that is missing or wrong, with its value.
-    """
-    where = str(meta_path)
-
-    def bad(text: str) -> BagMetadataError:
-        return BagMetadataError(f"{where!r}: not a rosbag2 metadata file: {text}")
-
-    try:
-        data = yaml.safe_load(Path(meta_path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BagMetadataError(f"{where!r}: cannot be read ({exc})") from exc
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or type(exc).__name__
-        raise bad(f"not YAML ({problem}{at})") from exc
-    if not isinstance(data, dict):
-        raise bad(f"the document is {type(data).__name__}, not a mapping")
-    key = "rosbag2_bagfile_information"
-    if key not in data:
-        raise bad(f"no key {key!r} (keys: {_shown(sorted(map(str, data)))})")
-    meta = data[key]
-
-    def mapping(value: Any, name: str) -> dict:
-        if not isinstance(value, dict):
-            raise bad(f"{name} must be a mapping, got {_shown(value)}")
-        return value
-
-    def get(parent: dict, name: str, field_name: str) -> Any:
-        if field_name not in parent:
-            raise bad(f"{name}.{field_name} is missing")
-        return parent[field_name]
-
-    def count(value: Any, name: str) -> None:
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise bad(f"{name} must be an integer >= 0, got {_shown(value)}")
-
-    def text(value: Any, name: str) -> None:
-        if not isinstance(value, str) or not value:
-            raise bad(f"{name} must be a non-empty string, got {_shown(value)}")
-
-    mapping(meta, key)
-    files = get(meta, key, "relative_file_paths")
-    if not isinstance(files, list) or not files:
-        raise bad(f"{key}.relative_file_paths must be a non-empty list, got {_shown(files)}")
-    for i, name in enumerate(files):
-        text(name, f"{key}.relative_file_paths[{i}]")
-        if Path(name).is_absolute() or ".." in Path(name).parts:
-            raise bad(
-                f"{key}.relative_file_paths[{i}] must name a file inside the bag directory, "
-                f"got {_shown(name)}"
-            )
-    count(get(meta, key, "message_count"), f"{key}.message_count")
-    topics = get(meta, key, "topics_with_message_count")
-    if not isinstance(topics, list):
-        raise bad(f"{key}.topics_with_message_count must be a list, got {_shown(topics)}")
-    for i, entry in enumerate(topics):
-        name = f"{key}.topics_with_message_count[{i}]"
-        mapping(entry, name)
-        topic = mapping(get(entry, name, "topic_metadata"), f"{name}.topic_metadata")
-        text(get(topic, f"{name}.topic_metadata", "name"), f"{name}.topic_metadata.name")
-        text(get(topic, f"{name}.topic_metadata", "type"), f"{name}.topic_metadata.type")
-        if "serialization_format" in topic:
-            text(topic["serialization_format"], f"{name}.topic_metadata.serialization_format")
-        count(get(entry, name, "message_count"), f"{name}.message_count")
-    for field_name, unit in (("starting_time", "nanoseconds_since_epoch"),
-                             ("duration", "nanoseconds")):  # fmt: skip
-        value = mapping(get(meta, key, field_name), f"{key}.{field_name}")
-        count(get(value, f"{key}.{field_name}", unit), f"{key}.{field_name}.{unit}")
-    storage = meta.get("storage_identifier", "mcap")
-    if storage != "mcap":
-        raise bad(f"{key}.storage_identifier is {_shown(storage)}: only 'mcap' bags are read")
-    distro = meta.get("ros_distro")
-    if distro is not None and not isinstance(distro, str):
-        raise bad(f"{key}.ros_distro must be a string, got {_shown(distro)}")
-    return meta
-
-
 def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]:
     """``check(type_name, data) -> problem, '' (exact) or None (type not installed)``: decode
     with the installed type support and serialise again exactly. Up to 3 zero bytes after the
-    exact CDR are the DDS transport's padding (:func:`drs_ros.cdr.exact_bytes`): rosbag2 records
-    them as they arrive; they are counted in ``padded`` per type, not refused."""
+    exact CDR are the DDS transport's padding (:func:`drs_ros.recording.cdr.exact_bytes`):
+    rosbag2 records them as they arrive; they are counted in ``padded`` per type, not refused."""
     from rclpy.serialization import deserialize_message
 
-    from drs_ros import cdr, msgdefs
+    from drs_ros.recording import cdr, msgdefs
 
     classes: dict[str, Any] = {}
 
@@ -371,7 +188,7 @@ def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]
         if again == data:
             return ""
         tail = data[len(again) :]
-        if data.startswith(again) and len(tail) <= cdr.MAX_TRANSPORT_PADDING and not any(tail):
+        if data.startswith(again) and cdr.is_transport_padding(tail):
             padded[type_name] = padded.get(type_name, 0) + 1  # DDS's padding, not a leak
             return ""
         if len(data) != len(again):
@@ -668,7 +485,8 @@ def _check_summary(f, footer, size: int, fail) -> None:
 
 
 def _check_metadata(out: BagScan, meta: dict, meta_path: Path) -> None:
-    """``metadata.yaml``'s counts (checked by :func:`read_metadata`) against what was read."""
+    """``metadata.yaml``'s counts (checked by :func:`~drs_ros.bag.files.read_metadata`) against
+    what was read."""
     where = str(meta_path)
     held = "the file holds" if not out.parts else f"its {len(out.parts)} files hold"
     listed: dict[str, int] = {}
@@ -711,14 +529,9 @@ def _recovered_note(out: BagScan) -> None:
 
 __all__ = [
     "MCAP_MAGIC",
-    "BagFiles",
-    "BagMetadataError",
-    "BagReadError",
     "BagScan",
     "ChannelInfo",
     "MessageCallbackError",
     "RecordedMessage",
-    "read_metadata",
-    "resolve",
     "scan",
 ]

@@ -21,12 +21,13 @@ import argparse
 import json
 import shutil
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 
 from drs_model.errors import DRSError
 
-from ..recording import McapRecorder, RecordingError, check_new_bag, parse_qos_yaml
+from ..recording.errors import RecordingError
+from ..recording.mcap_recorder import McapRecorder, check_new_bag
+from ..recording.qos import parse_qos_yaml
 from .reader import ChannelInfo, MessageCallbackError, RecordedMessage, scan
 
 
@@ -183,10 +184,4 @@ def run(args: argparse.Namespace, prog: str = "drs-bag recover") -> int:
     return 0 if rep["complete_source"] else 3
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="drs-bag recover", description=__doc__.splitlines()[0])
-    add_arguments(ap)
-    return run(ap.parse_args(argv))
-
-
-__all__ = ["add_arguments", "format_report", "main", "recover", "run"]
+__all__ = ["add_arguments", "format_report", "recover", "run"]

@@ -37,8 +37,10 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
+from .decoded import decoder
 from .effects import effect_records, model_params_from, recorded_node_parameters
-from .reader import BagReadError, MessageCallbackError, scan
+from .files import BagReadError
+from .reader import MessageCallbackError, scan
 
 #: signal -> (unit, default tolerance)
 SIGNALS = {
@@ -68,10 +70,6 @@ class RecordedRun:
 def read_run(bag: str | Path) -> RecordedRun:
     """Verify the bag and collect the parameters, the effect record, the commands and the
     signals to compare."""
-    from rclpy.serialization import deserialize_message
-
-    from .. import msgdefs
-
     tp = DEFAULT_TOPICS
     cmd_topics = {tp[k] for k in commands.COMMAND_TYPES}
     wanted = {tp["parameter_events"], tp["command_events"], tp["joint_states"],
@@ -83,9 +81,10 @@ def read_run(bag: str | Path) -> RecordedRun:
     # node clock has jumped back
     origin: list = [None]
     state_origins: list = []
+    decode = decoder()
 
     def keep(m) -> None:
-        msg = deserialize_message(m.data, msgdefs.message_class(m.type_name))
+        msg = decode(m)
         if m.topic in cmd_topics:
             cmds[(m.topic, m.sequence)] = msg
             return
@@ -151,10 +150,9 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
             try:
                 sim.step()
             except DRSError as exc:
-                # the re-run's model refuses to go on: hold where it is, as the node does
-                # (node.py, _tick_locked); the run's RESET record, if it has one here, follows
-                s_hold = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
-                sim.reset(sim.t, s_hold)
+                # the re-run's model refuses to go on: hold where it is, as the node does; the
+                # run's RESET record, if it has one here, follows
+                s_hold = commands.hold(sim)
                 if int(round(sim.t / dt)) not in reset_steps:
                     notes.append(f"at {sim.t:.6f} s the re-run's model refuses a step the "
                                  f"run took ({exc}); held at {s_hold!r} m as the node "
@@ -203,6 +201,11 @@ class _Value:
     data: object
 
 
+def _stamp_ns(msg) -> int:
+    """A message's header stamp [ns]."""
+    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+
 def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
     """``log_time -> physics step`` of each recorded joint state: its stamp is ``t0 +`` simulated
     time, ``t0`` being the clock origin in force when the node wrote it (a stall or a clock jump
@@ -212,7 +215,7 @@ def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
         raise ResimulationError("the effect record holds no clock origin (t0) before the states")
     out = {}
     for (log, m), t0 in zip(run.joint_states, origins, strict=True):
-        stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
+        stamp = _stamp_ns(m)
         out[log] = int(round((stamp - t0) * 1e-9 / dt))
     return out
 
@@ -272,7 +275,7 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
     from std_msgs.msg import Float64
 
     from ..conversions import float_msg, time_msg
-    from ..recording import McapRecorder
+    from ..recording.mcap_recorder import McapRecorder
     from .effects import parameter_event
 
     names = list(run.node_parameters["joint_names"])
@@ -287,7 +290,7 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
         for key in ("piston_force", "flap_gap", "piston_acceleration"):
             rec.register_topic(tp[key], Float64, 10)
         for log, m in run.joint_states:
-            stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
+            stamp = _stamp_ns(m)
             state = result["by_log"].get(log)
             if state is None:
                 continue
@@ -365,11 +368,4 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
     return 0 if ok else 1
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="drs-bag resimulate", description=__doc__.splitlines()[0])
-    add_arguments(ap)
-    return run(ap.parse_args(argv))
-
-
-__all__ = ["ResimulationError", "add_arguments", "compare", "main", "read_run", "resimulate",
-           "run"]  # fmt: skip
+__all__ = ["ResimulationError", "add_arguments", "compare", "read_run", "resimulate", "run"]

@@ -4,16 +4,16 @@ What rosbag2 (Jazzy, ``rosbag2_storage_mcap``) writes, and this module reproduce
 
 * header profile ``ros2``;
 * one schema per message type: name ``pkg/msg/Type``, encoding ``ros2msg``, data the full
-  definition text (:func:`drs_ros.msgdefs.full_definition`);
+  definition text (:func:`drs_ros.recording.msgdefs.full_definition`);
 * one channel per topic: message encoding ``cdr``, metadata ``offered_qos_profiles`` (a YAML
   string, the version-9 form with policy names) and ``topic_type_hash`` (``RIHS01_...``);
 * messages as their exact CDR bytes: the bytes a raw subscription received, or a message
-  serialised by :mod:`drs_ros.cdr` (never ``rclpy.serialization.serialize_message``, whose buffer
-  can carry trailing bytes and uninitialised padding); ``log_time`` (receive) and
+  serialised by :mod:`drs_ros.recording.cdr` (never ``rclpy.serialization.serialize_message``,
+  whose buffer can carry trailing bytes and uninitialised padding); ``log_time`` (receive) and
   ``publish_time`` (send) in integer nanoseconds, and a per-channel sequence number;
 * service calls as rosbag2 Jazzy records them: the introspection events of ``<service>`` on
-  ``<service>/_service_event`` (``pkg/srv/Name_Event``; see :mod:`drs_ros.msgdefs` for the schema
-  text, and why such channels carry no ``topic_type_hash``);
+  ``<service>/_service_event`` (``pkg/srv/Name_Event``; see :mod:`drs_ros.recording.msgdefs` for
+  the schema text, and why such channels carry no ``topic_type_hash``);
 * on finish, a metadata record ``rosbag2`` holding ``serialized_metadata`` (the bag metadata as
   YAML) and ``metadata.yaml`` (version 9, key ``rosbag2_bagfile_information``) beside the file.
 
@@ -46,106 +46,18 @@ import yaml
 from mcap import __version__ as _mcap_version
 from mcap.writer import CompressionType, Writer
 
-from drs_model.errors import DRSError
-
 from . import cdr, msgdefs
+from .errors import RecordingError
+from .qos import qos_dict, qos_yaml
 
 #: rosbag2 metadata version of ROS 2 Jazzy.
 ROSBAG2_METADATA_VERSION = 9
-#: ``RMW_DURATION_INFINITE`` as rosbag2 serialises it.
-INFINITE_DURATION = {"sec": 9223372036, "nsec": 854775807}
 _COMPRESSION = {
-    "none": CompressionType.NONE, "lz4": CompressionType.LZ4, "zstd": CompressionType.ZSTD
+    "none": CompressionType.NONE,
+    "lz4": CompressionType.LZ4,
+    "zstd": CompressionType.ZSTD,
 }
 _LIBRARY = f"drs_ros.recording (mcap-python {_mcap_version})"
-
-
-class RecordingError(DRSError):
-    """The recorder cannot do what was asked (unknown topic, wrong type, finished, bad path...)."""
-
-
-# ---- QoS ----------------------------------------------------------------------------------------
-def _policy(value: Any, resolved: str) -> str:
-    """Lower-case policy name; ``system_default`` resolved to what Fast DDS offers."""
-    name = getattr(value, "name", str(value)).lower()
-    return resolved if name == "system_default" else name
-
-
-def _duration(value: Any) -> dict[str, int]:
-    ns = int(getattr(value, "nanoseconds", value))
-    if ns <= 0 or ns >= 2**63 - 1:  # unspecified (0) is infinite on the wire
-        return dict(INFINITE_DURATION)
-    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
-
-
-def qos_dict(qos: Any = None) -> dict[str, Any]:
-    """A QoS profile as rosbag2 (metadata version 9) serialises an offered profile.
-
-    Parameters
-    ----------
-    qos : rclpy.qos.QoSProfile or int or None
-        The publisher's profile; an int is a KEEP_LAST depth; None means ``QoSProfile(depth=10)``.
-
-    Returns
-    -------
-    dict
-        ``history``, ``depth``, ``reliability``, ``durability``, ``deadline``, ``lifespan``,
-        ``liveliness``, ``liveliness_lease_duration``, ``avoid_ros_namespace_conventions``.
-        ``system_default`` policies and unspecified durations are resolved as the Fast DDS graph
-        reports them to ``ros2 bag record`` (reliable, volatile, automatic, infinite).
-    """
-    if qos is None or isinstance(qos, int):
-        from rclpy.qos import QoSProfile
-
-        depth = 10 if qos is None else qos
-        if isinstance(depth, bool) or depth < 0:
-            raise RecordingError(f"QoS depth must be an int >= 0, got {qos!r}")
-        qos = QoSProfile(depth=depth)
-    try:
-        return {
-            "history": _policy(qos.history, "keep_last"),
-            "depth": int(qos.depth),
-            "reliability": _policy(qos.reliability, "reliable"),
-            "durability": _policy(qos.durability, "volatile"),
-            "deadline": _duration(qos.deadline),
-            "lifespan": _duration(qos.lifespan),
-            "liveliness": _policy(qos.liveliness, "automatic"),
-            "liveliness_lease_duration": _duration(qos.liveliness_lease_duration),
-            "avoid_ros_namespace_conventions": bool(qos.avoid_ros_namespace_conventions),
-        }
-    except AttributeError as exc:
-        raise RecordingError(f"expected an rclpy QoSProfile, a depth or None, got {qos!r}") from exc
-
-
-def qos_yaml(profiles: list[dict[str, Any]]) -> str:
-    """The ``offered_qos_profiles`` channel metadata (yaml-cpp block style, no final newline)."""
-    lines = []
-    for prof in profiles:
-        first = True
-        for key, value in prof.items():
-            lead = "- " if first else "  "
-            first = False
-            if isinstance(value, dict):
-                lines.append(f"{lead}{key}:")
-                lines += [f"    {k}: {v}" for k, v in value.items()]
-            elif isinstance(value, bool):
-                lines.append(f"{lead}{key}: {'true' if value else 'false'}")
-            else:
-                lines.append(f"{lead}{key}: {value}")
-    return "\n".join(lines)
-
-
-def parse_qos_yaml(text: str) -> list[dict[str, Any]]:
-    """The profiles of an ``offered_qos_profiles`` string (the inverse of :func:`qos_yaml`)."""
-    if not text:
-        return []
-    try:
-        profiles = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise RecordingError(f"offered_qos_profiles is not YAML: {exc}") from exc
-    if not isinstance(profiles, list) or not all(isinstance(p, dict) for p in profiles):
-        raise RecordingError(f"offered_qos_profiles must be a list of maps, got {text[:80]!r}")
-    return profiles
 
 
 # ---- records ------------------------------------------------------------------------------------
@@ -240,13 +152,17 @@ class McapRecorder:
         ros_distro: str = "jazzy",
         custom_data: Mapping[str, str] | None = None,
     ) -> None:
-        if not (isinstance(flush_period, (int, float)) and math.isfinite(flush_period)
-                and flush_period > 0):
+        if not (
+            isinstance(flush_period, (int, float))
+            and math.isfinite(flush_period)
+            and flush_period > 0
+        ):
             raise RecordingError(
                 f"flush_period must be a finite number > 0 s, got {flush_period!r}"
             )
         if flush_messages is not None and (
-            isinstance(flush_messages, bool) or not isinstance(flush_messages, int)
+            isinstance(flush_messages, bool)
+            or not isinstance(flush_messages, int)
             or flush_messages < 1
         ):
             raise RecordingError(
@@ -317,7 +233,7 @@ class McapRecorder:
         """Declare a topic (schema + channel); registering the same topic again is a no-op.
 
         The schema data is the full definition generated from the installed interfaces
-        (:func:`drs_ros.msgdefs.full_definition`).
+        (:func:`drs_ros.recording.msgdefs.full_definition`).
 
         Parameters
         ----------
@@ -422,8 +338,8 @@ class McapRecorder:
         topic : str
             A registered topic.
         msg : ROS message or bytes
-            A message of the topic's type (serialised exactly by :mod:`drs_ros.cdr`), or its
-            exact CDR bytes (as a raw subscription receives them).
+            A message of the topic's type (serialised exactly by :mod:`drs_ros.recording.cdr`),
+            or its exact CDR bytes (as a raw subscription receives them).
         log_time_ns : int
             Receive/record time [ns].
         publish_time_ns : int, optional
@@ -585,9 +501,7 @@ class McapRecorder:
                     yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
                 )
             except OSError as exc:
-                raise RecordingError(
-                    f"cannot write {str(self.metadata_path)!r}: {exc}"
-                ) from exc
+                raise RecordingError(f"cannot write {str(self.metadata_path)!r}: {exc}") from exc
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=5.0)
         return self.bag_dir
@@ -639,27 +553,11 @@ def check_writable_parent(path: str | os.PathLike) -> Path:
     return parent
 
 
-def read_bag_metadata(bag_dir: str | os.PathLike) -> dict[str, Any]:
-    """Parse ``<bag_dir>/metadata.yaml`` and return its ``rosbag2_bagfile_information``."""
-    path = Path(bag_dir) / "metadata.yaml"
-    try:
-        data = yaml.safe_load(path.read_text())
-        return data["rosbag2_bagfile_information"]
-    except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
-        raise RecordingError(f"cannot read rosbag2 metadata {str(path)!r}: {exc}") from exc
-
-
 __all__ = [
-    "INFINITE_DURATION",
     "ROSBAG2_METADATA_VERSION",
     "McapRecorder",
     "RecorderStats",
-    "RecordingError",
     "TopicInfo",
     "check_new_bag",
     "check_writable_parent",
-    "parse_qos_yaml",
-    "qos_dict",
-    "qos_yaml",
-    "read_bag_metadata",
 ]

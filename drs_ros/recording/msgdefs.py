@@ -42,8 +42,20 @@ DELIMITER = "=" * 80
 #: Field types rosbag2 does not follow as dependencies.
 PRIMITIVE_TYPES = frozenset(
     {
-        "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16",
-        "int32", "uint32", "int64", "uint64", "string",
+        "bool",
+        "byte",
+        "char",
+        "float32",
+        "float64",
+        "int8",
+        "uint8",
+        "int16",
+        "uint16",
+        "int32",
+        "uint32",
+        "int64",
+        "uint64",
+        "string",
     }
 )
 _FIELD_TYPE = re.compile(r"(?:^|\n)\s*([a-zA-Z0-9_/]+)(?:\[[^\]]*\])?\s+")
@@ -77,8 +89,10 @@ def type_name(msg_type) -> str:
         return f"{pkg}/{ns}/{name}"
     module = getattr(msg_type, "__module__", "") or ""
     parts = module.split(".")
-    if len(parts) < 2 or parts[1] not in ("msg", "srv") or not hasattr(
-        msg_type, "_fields_and_field_types"
+    if (
+        len(parts) < 2
+        or parts[1] not in ("msg", "srv")
+        or not hasattr(msg_type, "_fields_and_field_types")
     ):
         raise MessageDefinitionError(
             f"expected a ROS message class (e.g. sensor_msgs.msg.JointState or "
@@ -191,9 +205,11 @@ def _full_text(name: str) -> str:
 def _service_event_text(name: str) -> str:
     pkg, _ns, typ = _split(name)
     service = typ[: -len(SERVICE_EVENT_SUFFIX)]
-    request, sep, response = interface_file(f"{pkg}/srv/{service}", ".srv").read_text(
-        encoding="utf-8"
-    ).partition("---\n")
+    request, sep, response = (
+        interface_file(f"{pkg}/srv/{service}", ".srv")
+        .read_text(encoding="utf-8")
+        .partition("---\n")
+    )
     if not sep:
         raise MessageDefinitionError(f"{pkg}/srv/{service}.srv has no '---' line")
     info = "service_msgs/msg/ServiceEventInfo"
@@ -240,7 +256,8 @@ def _hash(name: str) -> str:
 
 def type_hash(msg_type) -> str:
     """The ``RIHS01_<sha256 hex>`` type description hash of a message type (from its ``.json``).
-    Service events are not asked: their channels carry no hash (see :mod:`drs_ros.recording`)."""
+    Service events are not asked: their channels carry no hash (see
+    :mod:`drs_ros.recording.mcap_recorder`)."""
     return _hash(type_name(msg_type))
 
 

@@ -18,7 +18,7 @@ rr = require_module("rerun")
 
 from drs_model import kinematics  # noqa: E402
 from drs_model.errors import InputError  # noqa: E402
-from drs_ros.rerun_log import (  # noqa: E402
+from drs_ros.recording.rerun_recorder import (  # noqa: E402
     DRAWINGS,
     SERIES,
     TIMELINE,

@@ -7,11 +7,11 @@ with the attributes it reads (``joint_names``, ``points[k].positions``, ``.veloc
 ``.accelerations``, ``.effort``, ``.time_from_start.sec/.nanosec``), so the trajectory is
 validated by the same code whichever way it was decoded.
 
-It accepts what :func:`drs_ros.cdr.decode_exact` accepts: little-endian plain CDR with valid
-UTF-8 strings ending in NUL, followed by at most 3 zero bytes of transport padding; anything else
-raises :class:`drs_ros.cdr.CdrError`. Alignment padding may hold any bytes (Fast DDS leaves it
-uninitialised in messages an rclpy publisher sends): the view's ``exact`` is the message's exact
-CDR, the bytes with their padding zeroed, which is what the node records.
+It accepts what :func:`drs_ros.recording.cdr.decode_exact` accepts: little-endian plain CDR with
+valid UTF-8 strings ending in NUL, followed by at most 3 zero bytes of transport padding; anything
+else raises :class:`drs_ros.recording.cdr.CdrError`. Alignment padding may hold any bytes (Fast
+DDS leaves it uninitialised in messages an rclpy publisher sends): the view's ``exact`` is the
+message's exact CDR, the bytes with their padding zeroed, which is what the node records.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import struct
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from .cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError
+from ..recording.cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError, is_transport_padding
 
 _U32 = struct.Struct("<I")
 _TIME = struct.Struct("<iI")
@@ -132,7 +132,7 @@ class _Reader:
 
 def read_joint_trajectory(data: bytes) -> JointTrajectoryView:
     """The JointTrajectory whose exact CDR is ``data`` (plus at most 3 zero bytes of transport
-    padding), read in place; :class:`~drs_ros.cdr.CdrError` for anything else."""
+    padding), read in place; :class:`~drs_ros.recording.cdr.CdrError` for anything else."""
     buf = memoryview(bytes(data))
     if len(buf) < 4 or buf[:4] != CDR_LE_HEADER:
         raise CdrError(
@@ -153,7 +153,7 @@ def read_joint_trajectory(data: bytes) -> JointTrajectoryView:
                             r.doubles(f"points[{k}].effort"),
                             r.time(f"points[{k}].time_from_start")))  # fmt: skip
     tail = r.body[r.pos :]
-    if len(tail) > MAX_TRANSPORT_PADDING or any(tail):
+    if not is_transport_padding(tail):
         raise CdrError(
             f"{len(tail)} bytes follow the JointTrajectory's CDR ({r.pos + 4} bytes): at most "
             f"{MAX_TRANSPORT_PADDING} zero bytes of transport padding may"

@@ -285,6 +285,17 @@ def serialize(msg) -> bytes:
 MAX_TRANSPORT_PADDING = 3
 
 
+def is_transport_padding(tail: bytes) -> bool:
+    """Whether ``tail``, what follows a message's exact CDR, is the transport's padding: at most
+    :data:`MAX_TRANSPORT_PADDING` zero bytes (none included)."""
+    return len(tail) <= MAX_TRANSPORT_PADDING and not any(tail)
+
+
+def without_source_location(text: str) -> str:
+    """An rmw error's text without the C++ source location rmw appends (``, at /path:line``)."""
+    return text.split(", at /")[0]
+
+
 def decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
     """``(message, its exact CDR)`` of ``data``, a ``msg_class`` as a raw subscription received
     it: it must decode, and be as long as its exact CDR plus at most 3 zero bytes of transport
@@ -296,10 +307,10 @@ def decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
         msg = deserialize_message(data, msg_class)
         exact = serializer(msg_class)(msg)
     except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
-        why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
+        why = without_source_location(str(exc))
         raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
     tail = data[len(exact) :]
-    if len(data) < len(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
+    if len(data) < len(exact) or not is_transport_padding(tail):
         raise CdrError(
             f"{len(data)} bytes are not the {len(exact)}-byte CDR of a {msg_class.__name__} plus "
             f"at most {MAX_TRANSPORT_PADDING} zero bytes of transport padding"
@@ -331,6 +342,8 @@ __all__ = [
     "decode_exact",
     "exact_bytes",
     "flat_packer",
+    "is_transport_padding",
     "serialize",
     "serializer",
+    "without_source_location",
 ]

@@ -30,9 +30,6 @@ import ipaddress
 import math
 import os
 import shutil
-import subprocess
-import sys
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from urllib.parse import urlsplit
@@ -46,7 +43,7 @@ from drs_model.constraints import PSI3, S
 from drs_model.errors import DRSError, InputError
 from drs_model.params import DRSParams
 
-from .drawing import PIN_NAMES, moving_drawings, still_drawings
+from ..drawing import PIN_NAMES, moving_drawings, still_drawings
 
 TIMELINE = "sim_time"
 #: URL schemes of a rerun gRPC endpoint (rerun-sdk 0.41), and an example of a valid URL.
@@ -62,8 +59,13 @@ SERIES = {
     "series/piston_force": ("piston force [N]", (214, 39, 40)),
 }
 #: Moving drawings.
-DRAWINGS = ("mechanism/piston", "mechanism/link", "mechanism/flap", "mechanism/gap",
-            "mechanism/pins")
+DRAWINGS = (
+    "mechanism/piston",
+    "mechanism/link",
+    "mechanism/flap",
+    "mechanism/gap",
+    "mechanism/pins",
+)
 _COLORS = {
     "mechanism/piston": (120, 120, 120),
     "mechanism/link": (70, 70, 200),
@@ -100,7 +102,8 @@ def default_blueprint() -> rrb.Blueprint:
 def check_new_rrd(path: str | os.PathLike) -> Path:
     """Refuse an ``.rrd`` path that exists (an earlier recording is never overwritten) or cannot
     be created; create nothing. Raises :class:`RerunLogError` naming the path and the reason."""
-    from drs_ros.recording import RecordingError, check_writable_parent
+    from .errors import RecordingError
+    from .mcap_recorder import check_writable_parent
 
     path = Path(path)
     if path.exists() or path.is_symlink():
@@ -119,21 +122,6 @@ def check_new_rrd(path: str | os.PathLike) -> Path:
         except OSError as exc:
             raise RerunLogError(f"cannot create rrd {str(path)!r}: {exc.strerror}") from None
     return path
-
-
-def run_rerun_cli(args: list[str], timeout: float = 120.0) -> subprocess.CompletedProcess:
-    """Run the rerun CLI installed with the SDK (e.g. ``["rrd", "verify", path]``) with its
-    usage analytics off: a private config directory in which ``rerun analytics disable`` ran, so
-    that nothing leaves this machine and the user's own rerun configuration is untouched."""
-    exe = Path(sys.executable).with_name("rerun")
-    cli = str(exe) if exe.exists() else "rerun"
-    with tempfile.TemporaryDirectory(prefix="drs-rerun-") as home:
-        env = dict(os.environ, XDG_CONFIG_HOME=str(Path(home) / "config"),
-                   XDG_DATA_HOME=str(Path(home) / "data"))  # fmt: skip
-        subprocess.run([cli, "analytics", "disable"], env=env, capture_output=True,
-                       timeout=timeout, check=True)  # fmt: skip
-        return subprocess.run([cli, *args], env=env, capture_output=True, text=True,
-                              timeout=timeout)  # fmt: skip
 
 
 def check_connect_url(url: str) -> str:
@@ -227,8 +215,9 @@ class RerunRecorder:
         batch: int = 250,
         application_id: str = "drs",
     ) -> None:
-        if not (isinstance(max_draw_hz, (int, float)) and math.isfinite(max_draw_hz)
-                and max_draw_hz > 0):
+        if not (
+            isinstance(max_draw_hz, (int, float)) and math.isfinite(max_draw_hz) and max_draw_hz > 0
+        ):
             raise InputError(f"max_draw_hz must be a finite number > 0 Hz, got {max_draw_hz!r}")
         if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
             raise InputError(f"batch must be an int >= 1, got {batch!r}")
@@ -389,8 +378,11 @@ class RerunRecorder:
             raise InputError(f"t must have shape (n,) and q (n, 3), got {t.shape} and {q.shape}")
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
             raise InputError("t must be finite and non-decreasing")
-        force = (np.full(t.size, np.nan) if piston_force is None
-                 else np.asarray(piston_force, dtype=float))
+        force = (
+            np.full(t.size, np.nan)
+            if piston_force is None
+            else np.asarray(piston_force, dtype=float)
+        )
         if force.shape != t.shape:
             raise InputError(f"piston_force must have shape {t.shape}, got {force.shape}")
         self.flush()
@@ -470,7 +462,15 @@ class RerunRecorder:
 
 
 __all__ = [
-    "CONNECT_SCHEMES", "CONNECT_URL_EXAMPLE", "DRAWINGS", "SERIES", "STREAM_FLUSH_TIMEOUT_S",
-    "TIMELINE", "RerunLogError", "RerunRecorder", "check_connect_url", "check_new_rrd",
+    "CONNECT_SCHEMES",
+    "CONNECT_URL_EXAMPLE",
+    "DRAWINGS",
+    "SERIES",
+    "STREAM_FLUSH_TIMEOUT_S",
+    "TIMELINE",
+    "RerunLogError",
+    "RerunRecorder",
+    "check_connect_url",
+    "check_new_rrd",
     "default_blueprint",
 ]

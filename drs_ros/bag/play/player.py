@@ -1,0 +1,296 @@
+"""The player of ``drs-bag play``: one rclpy node publishing a bag's messages at their recorded
+times (see :mod:`drs_ros.bag.play`), and the verb's entry (``run``, ``main``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from drs_model.errors import DRSError
+
+from ..reader import scan
+from .index import BagIndex, index_bag, iter_bag
+from .offers import playback_qos, qos_overrides
+from .options import (
+    PROG,
+    PlayError,
+    PlayOptions,
+    add_arguments,
+    error_line,
+    options_from_args,
+    warn,
+)
+from .read_ahead import ReadAhead
+
+CLOCK_TOPIC = "/clock"
+PROGRESS_PERIOD_S = 0.25
+#: Longest single sleep of the player [s] (bounds the reaction to a stop request).
+MAX_SLEEP_S = 0.05
+
+
+class Player:
+    """Publishes a bag with one rclpy node (see the module docstring).
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+        The node owning the publishers (remapping rules apply to it).
+    index : BagIndex
+        The bag.
+    options : PlayOptions
+    stop : threading.Event
+        Set to stop playing (a signal).
+    overrides : dict, optional
+        Topic -> QoSProfile offered instead of the recorded offers (:func:`qos_overrides`).
+    """
+
+    def __init__(
+        self,
+        node,
+        index: BagIndex,
+        options: PlayOptions,
+        stop: threading.Event,
+        overrides: dict[str, Any] | None = None,
+    ):
+        from drs_ros.recording.msgdefs import message_class
+
+        self.node, self.index, self.options, self.stop = node, index, options, stop
+        self.publishers: dict[str, Any] = {}
+        self.stats: list[tuple[float, float]] = []
+        self.published = 0
+        wanted = set(options.topics) if options.topics else set(index.channels)
+        overrides = overrides or {}
+        for name in sorted(set(options.topics) - set(index.channels)):
+            warn(f"topic {name} is not in the bag")
+        for name in sorted(wanted & set(index.channels)):
+            ch = index.channels[name]
+            if options.clock_hz > 0 and name == CLOCK_TOPIC:
+                warn(f"not playing the recorded {CLOCK_TOPIC}: --clock publishes it")
+                continue
+            if ch.encoding != "cdr":
+                warn(f"skipping topic {name}: message encoding {ch.encoding!r} is not cdr")
+                continue
+            try:
+                msg_class = message_class(ch.type_name)
+            except DRSError as exc:
+                warn(
+                    f"skipping topic {name}: type {ch.type_name or '(no schema)'!r} is not "
+                    f"installed ({exc})"
+                )
+                continue
+            if name in overrides:
+                qos = overrides[name]
+            else:
+                qos, note = playback_qos(ch.offered_qos, name)
+                if note:
+                    warn(note)
+            try:
+                self.publishers[name] = node.create_publisher(msg_class, name, qos)
+            except Exception as exc:  # rclpy's own errors (type support, QoS, topic name)
+                warn(f"skipping topic {name}: cannot publish {ch.type_name} ({exc})")
+        self.clock_pub = None
+        if options.clock_hz > 0:
+            from rclpy.qos import QoSProfile, ReliabilityPolicy
+            from rosgraph_msgs.msg import Clock
+
+            self._clock_msg = Clock()
+            # rclcpp::ClockQoS, as the rosbag2 player uses: keep last 1, best effort.
+            self.clock_pub = node.create_publisher(
+                Clock, CLOCK_TOPIC, QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+            )
+
+    # -- time ----------------------------------------------------------------------------------
+    def _publish_clock(self, bag_ns: int) -> None:
+        stamp = self._clock_msg.clock
+        stamp.sec, stamp.nanosec = divmod(int(bag_ns), 1_000_000_000)
+        self.clock_pub.publish(self._clock_msg)
+
+    def _progress(self, bag_ns: int, loop_no: int) -> None:
+        span = max(self.index.end_ns - self.index.start_ns, 1)
+        pct = 100.0 * min(max((bag_ns - self.index.start_ns) / span, 0.0), 1.0)
+        loop = f"  loop {loop_no}" if self.options.loop else ""
+        sys.stderr.write(
+            f"\r[{PROG}] bag time {bag_ns / 1e9:.3f} s  {pct:5.1f} %  rate {self.options.rate:g}"
+            f"{loop}  "
+        )
+        sys.stderr.flush()
+
+    def _wait_until(self, wall_target: float, bag_of_wall, loop_no: int) -> bool:
+        """Sleep until ``wall_target`` (monotonic [s]), publishing /clock and progress on the
+        way; False if stopped."""
+        while not self.stop.is_set():
+            now = time.monotonic()
+            if self.clock_pub is not None and now >= self._next_clock:
+                self._publish_clock(bag_of_wall(now))
+                self._next_clock = max(self._next_clock + 1.0 / self.options.clock_hz, now)
+            if self.options.progress and now >= self._next_progress:
+                self._progress(bag_of_wall(now), loop_no)
+                self._next_progress = now + PROGRESS_PERIOD_S
+            remaining = wall_target - now
+            if remaining <= 0:
+                return True
+            wake = min(remaining, MAX_SLEEP_S)
+            if self.clock_pub is not None:
+                wake = min(wake, max(self._next_clock - now, 0.0))
+            if self.options.progress:
+                wake = min(wake, max(self._next_progress - now, 0.0))
+            self.stop.wait(wake)
+        return False
+
+    def _wait_for_subscribers(self) -> bool:
+        """Wait until every publisher has a matched subscription; False if stopped."""
+        while not self.stop.is_set():
+            pubs = [*self.publishers.values(), *([self.clock_pub] if self.clock_pub else [])]
+            if all(pub.get_subscription_count() > 0 for pub in pubs):
+                return True
+            self.stop.wait(0.02)
+        return False
+
+    # -- play ----------------------------------------------------------------------------------
+    def play(self) -> bool:
+        """Play the bag once (or until stopped, with ``--loop``); False if stopped."""
+        opts = self.options
+        self._next_clock = self._next_progress = time.monotonic()
+        loop_no = 0
+        while not self.stop.is_set():
+            loop_no += 1
+            if not self._play_once(loop_no):
+                return False
+            if not opts.loop:
+                return True
+        return False
+
+    def _play_once(self, loop_no: int) -> bool:
+        opts = self.options
+        start_ns = self.index.start_ns + int(round(opts.start_offset_s * 1e9))
+        wall0 = time.monotonic() + opts.delay_s
+
+        def bag_of_wall(now: float) -> int:
+            return start_ns + int(max(now - wall0, 0.0) * opts.rate * 1e9)
+
+        if not self._wait_until(wall0, bag_of_wall, loop_no):
+            return False
+        if opts.wait_for_subscribers and not self._wait_for_subscribers():
+            return False
+        wall0 = time.monotonic()
+        source = iter_bag(self.index, list(self.publishers), starting_at=start_ns)
+        reader = ReadAhead(source, opts.read_ahead, self.stop)
+        try:
+            for topic, log_ns, data in reader:
+                target = wall0 + (log_ns - start_ns) / opts.rate / 1e9
+                if not self._wait_until(target, bag_of_wall, loop_no):
+                    return False
+                actual = time.monotonic()
+                self.publishers[topic].publish(data)
+                self.published += 1
+                if opts.stats_json is not None:
+                    self.stats.append((target - wall0, actual - wall0))
+        finally:
+            reader.close()
+        if self.stop.is_set():  # the reader ended early on a stop request
+            return False
+        if opts.progress:
+            self._progress(self.index.end_ns, loop_no)
+        return True
+
+    def wait_for_acks(self) -> None:
+        """rosbag2's ``--wait-for-all-acked``: wait for reliable subscribers' acknowledgements."""
+        from rclpy.duration import Duration
+
+        ms = self.options.wait_acked_ms
+        if ms < 0:
+            return
+        deadline = None if ms == 0 else time.monotonic() + ms / 1000.0
+        for pub in self.publishers.values():
+            left = -1.0 if deadline is None else max(deadline - time.monotonic(), 0.0)
+            pub.wait_for_all_acked(Duration(seconds=left))
+
+    def write_stats(self) -> None:
+        """Write ``{"rate", "offsets": [[scheduled, actual], ...]}`` [s from play start]."""
+        if self.options.stats_json is None:
+            return
+        with open(self.options.stats_json, "w") as f:
+            json.dump(
+                {"rate": self.options.rate, "published": self.published, "offsets": self.stats}, f
+            )
+
+
+def play(options: PlayOptions) -> int:
+    """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag)."""
+    index = index_bag(options.bag)  # fails before DDS starts
+    path = options.qos_overrides_path
+    overrides = qos_overrides(path) if path else {}
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.signals import SignalHandlerOptions
+
+    stop = threading.Event()
+    previous = {
+        sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)
+    }
+    context = Context()
+    node = player = None
+    try:
+        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+        cli_args = ["--ros-args"] + [a for rule in options.remap for a in ("-r", rule)]
+        try:
+            node = rclpy.create_node(
+                "rosbag2_player", context=context, cli_args=cli_args if options.remap else None
+            )
+        except Exception as exc:  # rcl's RCLInvalidROSArgsError on a malformed --remap rule
+            reason = str(exc).split(", at ")[0]
+            raise PlayError(f"--remap {' '.join(options.remap)}: {reason}") from exc
+        player = Player(node, index, options, stop, overrides)
+        if player.play():
+            player.wait_for_acks()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if options.progress:
+            sys.stderr.write("\n")
+        if player is not None:
+            player.write_stats()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return 0
+
+
+def verify(path: str | Path) -> None:
+    """Read the whole bag once, every file of a split bag, as ``drs-bag check`` does (CRCs,
+    summary, ``metadata.yaml`` counts), so that a corrupt bag gets the same error before
+    anything is published."""
+    scan(path, exact=False)
+
+
+def run(args: argparse.Namespace, prog: str = PROG) -> int:
+    """Run ``play`` with parsed arguments; the exit status."""
+    try:
+        options = options_from_args(args)
+        verify(args.bag)
+        return play(options)
+    except DRSError as exc:
+        print(error_line(exc), file=sys.stderr)
+        return 2
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``drs-bag play`` on its own (``python -m drs_ros.bag.play``)."""
+    parser = argparse.ArgumentParser(
+        prog=PROG, description="Publish a rosbag2 MCAP bag onto ROS 2 topics (ros2 bag play)."
+    )
+    add_arguments(parser)
+    return run(parser.parse_args(argv))

@@ -1,0 +1,27 @@
+"""The ``drs`` ROS 2 node (``drs-node``, ``python -m drs_ros``): a thin adapter around
+:class:`drs_model.actuator.ActuatorSim`.
+
+Modules: ``adapter`` (:class:`DRSNode`: its topics, its life stages, the commands, the tick and
+what it publishes; the topics are listed there), ``parameters`` (the parameter table and its
+declaration), ``effect_record`` (the effect record and the diagnostics), ``recordings`` (the bag
+and the rerun recording), ``trajectory_cdr`` (a trajectory command read in place from its bytes),
+``managed`` (:class:`ManagedDRSNode`, the lifecycle node) and ``runner`` (``main``, the stop a
+signal asks for and the deadline loop). This module re-exports their public names.
+"""
+
+from .adapter import COMMANDS, DRSNode
+from .managed import ManagedDRSNode
+from .parameters import NODE_PARAMETERS, StartupError
+from .runner import StopRequest, main, run_deadline_loop, spin_until_stopped
+
+__all__ = [
+    "COMMANDS",
+    "NODE_PARAMETERS",
+    "DRSNode",
+    "ManagedDRSNode",
+    "StartupError",
+    "StopRequest",
+    "main",
+    "run_deadline_loop",
+    "spin_until_stopped",
+]

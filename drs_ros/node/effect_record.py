@@ -1,0 +1,232 @@
+"""The node's effect record and diagnostics.
+
+The effect record (``~/command_events``, docs/ros.md "Effect record") says what became of every
+command (accepted, refused or superseded, at which simulated instant) and of the node's own
+doings (a clock origin, a physics reset): with the recorded commands and parameters, a bag
+re-runs deterministically. Diagnostics (``/diagnostics``, ~1 Hz) report the cumulative counters
+and the troubles of the last few seconds (:class:`TroubleWindow`), so they recover once a trouble
+is over.
+
+:class:`EffectRecord` is a part of :class:`drs_ros.node.adapter.DRSNode` (its methods use the
+node's actuator, clock origin, publishers and recorder); it holds the counters.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import hashlib
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+from drs_model.errors import DRSError
+
+from .. import commands
+from ..conversions import command_event_msg, diagnostics_msg
+from ..names import CLOCK, REFUSED
+from ..recording.cdr import without_source_location
+
+#: Bytes of a malformed command kept (hex) in its effect record, for forensics.
+MALFORMED_BYTES_KEPT = 4096
+
+
+@dataclasses.dataclass
+class PendingCommand:
+    """A command received and recorded, waiting for the next physics step (newest wins)."""
+
+    key: str
+    topic: str
+    msg: object  # the decoded message (only messages that decode are ever pending)
+    sequence: int | None
+    received_ns: int
+    prepared: object = None  # commands.prepare's result (a trajectory's plan)
+    #: sequence numbers of the older commands of the topic this one replaced before a step
+    superseded: list = dataclasses.field(default_factory=list)
+
+
+def refusal_reason(exc: Exception) -> str:
+    """Why a command was refused: the model's own words, or the exception's type and text."""
+    return str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
+
+
+def error_text(exc: Exception) -> str:
+    """An exception's type and text, without the C++ source location rmw appends."""
+    return f"{type(exc).__name__}: {without_source_location(str(exc))}"
+
+
+class TroubleWindow:
+    """Troubles (refusals, missed deadlines, superseded commands...) of the last ``window_s``
+    seconds of node time, for diagnostics that recover once the trouble is over."""
+
+    def __init__(self, window_s: float) -> None:
+        self.window_ns = int(window_s * 1e9)
+        self._events: collections.deque[tuple[int, str, str]] = collections.deque()
+
+    def add(self, now_ns: int, kind: str, reason: str) -> None:
+        self._events.append((now_ns, kind, reason))
+
+    def recent(self, now_ns: int) -> dict[str, tuple[int, str]]:
+        """kind -> (count in the window, last reason)."""
+        while self._events and now_ns - self._events[0][0] > self.window_ns:
+            self._events.popleft()
+        out: dict[str, tuple[int, str]] = {}
+        for _t, kind, reason in self._events:
+            out[kind] = (out.get(kind, (0, ""))[0] + 1, reason)
+        return out
+
+
+class EffectRecord:
+    """The effect record and the diagnostics of the DRS node (a base class of ``DRSNode``)."""
+
+    def _start_counters(self, window_s: float) -> None:
+        """The counters for diagnostics (cumulative) and the window of recent troubles, from zero
+        (at configure)."""
+        self.refused = 0
+        self.accepted = 0
+        self.superseded = 0
+        self.received = 0
+        self.last_refusal = ""
+        self.refusals: collections.deque[str] = collections.deque(maxlen=100)
+        self.missed_deadlines = 0
+        self.dropped_steps = 0
+        self.ticks = 0
+        self.troubles = TroubleWindow(window_s)
+        self.clock_jumps = 0
+        self._cpu = {"model": 0.0, "publish": 0.0, "record": 0.0}
+
+    def _refuse_malformed(
+        self, topic: str, msg_type, data: bytes, exc: Exception, now_ns: int
+    ) -> None:
+        """Bytes that are no ``msg_type``: refused with the reason; the bytes themselves go into
+        the effect record (hex, for forensics), never onto the typed topic."""
+        type_name = f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
+        reason = self._refuse(
+            topic, f"<{len(data)} bytes>", f"not a valid {type_name} ({error_text(exc)})", now_ns
+        )
+        self._event(topic, REFUSED, DiagnosticStatus.WARN, reason, None, {
+            "value": f"<{len(data)} bytes>", "malformed": "true", "size": len(data),
+            "sha256": hashlib.sha256(data).hexdigest(),
+            "bytes_hex": data[:MALFORMED_BYTES_KEPT].hex(),
+        }, now_ns)  # fmt: skip
+
+    def _refuse_command(self, cmd: PendingCommand, exc: Exception, now_ns: int) -> None:
+        value = commands.describe(cmd.key, cmd.msg)
+        reason = self._refuse(cmd.key, value, refusal_reason(exc), now_ns)
+        self._event(
+            cmd.topic, REFUSED, DiagnosticStatus.WARN, reason, cmd, {"value": repr(value)}, now_ns
+        )
+
+    def _refuse(self, what: str, value, reason: str, now_ns: int) -> str:
+        self.refused += 1
+        self.last_refusal = f"{what} {value!r} refused: {reason}"
+        self.refusals.append(self.last_refusal)
+        self.troubles.add(now_ns, REFUSED, self.last_refusal)
+        self.get_logger().warning(self.last_refusal, throttle_duration_sec=1.0)
+        return self.last_refusal
+
+    def _event(
+        self,
+        source: str,
+        outcome: str,
+        level: bytes,
+        reason: str,
+        cmd: PendingCommand | None,
+        values: dict,
+        now_ns: int,
+    ) -> None:
+        """One record of the effect log: what happened, at which simulated instant. ``now_ns``
+        is the node time of the tick or callback it happens in (its log time in the bag)."""
+        record = {"sim_time": repr(self.sim.t), "step": self.sim.steps}
+        if cmd is not None:
+            record["sequence"] = "" if cmd.sequence is None else cmd.sequence
+            record["received_ns"] = cmd.received_ns
+        record.update(values)
+        stamp = now_ns if self._t0_ns is None else self._t0_ns + int(round(self.sim.t * 1e9))
+        msg = command_event_msg(stamp, source, outcome, level, reason, record)
+        data = self._serialize[DiagnosticArray](msg)
+        self.pub_events.publish(data)
+        self._record(self.topics[self.pub_events], data, now_ns)
+
+    def _record_clock_origin(
+        self, now_ns: int, level: bytes = DiagnosticStatus.OK, reason: str = "", **values
+    ) -> None:
+        """A ``clock`` record: the clock origin ``t0_ns`` now in force (at the first tick, after
+        dropped steps, after a clock jump), with ``values`` after it."""
+        self._event(CLOCK, CLOCK, level, reason, None, {"t0_ns": self._t0_ns, **values}, now_ns)
+
+    def diagnostics_values(self) -> dict[str, object]:
+        st = self.sim.state
+        rec = "off"
+        if self.recording_error:
+            rec = f"error: {self.recording_error}"
+        elif self.recorder is not None:
+            s = self.recorder.stats()
+            rec = f"{s.message_count} messages, {s.flush_count} flushes"
+        return {
+            "mode": st.mode,
+            "sim_time_s": f"{st.t:.6f}",
+            "stroke_m": f"{st.q[0]:.9g}",
+            "gap_m": f"{st.gap:.9g}",
+            "piston_force_N": f"{st.piston_force:.6g}",
+            "at_stop": st.at_stop or "none",
+            "dead_centre_distance_m": f"{st.dead_centre_distance:.6g}",
+            "transmission_cos": f"{st.transmission:.4f}",
+            "received_commands": self.received,
+            "accepted_commands": self.accepted,
+            "refused_commands": self.refused,
+            "superseded_commands": self.superseded,
+            "last_refusal": self.last_refusal or "none",
+            "missed_deadlines": self.missed_deadlines,
+            "dropped_steps": self.dropped_steps,
+            "clock_jumps": self.clock_jumps,
+            "callback_errors": self.callback_errors,
+            "ticks": self.ticks,
+            "recording": rec,
+            "cpu_model_s": f"{self._cpu['model']:.3f}",
+            "cpu_publish_s": f"{self._cpu['publish']:.3f}",
+            "cpu_record_s": f"{self._cpu['record']:.3f}",
+        }
+
+    def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
+        """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
+        if self.recording_error:
+            return DiagnosticStatus.ERROR, f"recording failed: {self.recording_error}"
+        recent = self.troubles.recent(now_ns)
+        if not recent:
+            return DiagnosticStatus.OK, f"mode {self.sim.mode}"
+        window = self.troubles.window_ns * 1e-9
+        parts = [f"{n} {kind.replace('_', ' ')} (last: {reason})"
+                 for kind, (n, reason) in sorted(recent.items())]  # fmt: skip
+        return DiagnosticStatus.WARN, f"in the last {window:g} s: " + "; ".join(parts)
+
+    def executor_error(self, exc: Exception) -> None:
+        """A callback (or the middleware taking a message for it) raised: counted, reported in
+        diagnostics, and the node goes on."""
+        reason = error_text(exc)
+        with self._lock:
+            self.callback_errors += 1
+            if self.configured:
+                self.troubles.add(self._now_ns(), "callback_error", reason)
+        self.get_logger().error(
+            f"a callback failed, the node goes on: {reason}", throttle_duration_sec=1.0
+        )
+
+    def _on_diagnostics(self) -> None:
+        now = self._now_ns()
+        with self._lock:  # the main thread may be stepping the actuator (deadline executor)
+            level, message = self.diagnostics_level(now)
+            values = self.diagnostics_values()
+        msg = diagnostics_msg(now, self.get_name(), level, message, values)
+        data = self._serialize[DiagnosticArray](msg)
+        self.pub_diag.publish(data)
+        self._record(self.topics[self.pub_diag], data, now)
+
+
+__all__ = [
+    "MALFORMED_BYTES_KEPT",
+    "EffectRecord",
+    "PendingCommand",
+    "TroubleWindow",
+    "error_text",
+    "refusal_reason",
+]

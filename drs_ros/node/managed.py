@@ -1,0 +1,56 @@
+"""The DRS node as a ROS 2 managed (lifecycle) node: ``drs-node --managed``."""
+
+from __future__ import annotations
+
+from rclpy.exceptions import ParameterException
+from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
+
+from drs_model.errors import DRSError
+
+from .adapter import DRSNode
+
+
+class ManagedDRSNode(LifecycleNodeMixin, DRSNode):
+    """The DRS node as a ROS 2 managed (lifecycle) node: ``drs-node --managed``.
+
+    It starts unconfigured; a lifecycle manager drives it over the standard ``~/change_state``
+    and ``~/get_state`` services: configure (validate the parameters, open the recorders),
+    activate (subscriptions, service, timers), deactivate (hold, publish nothing), cleanup
+    (finish the recordings), shutdown. A transition that fails logs the reason and returns
+    FAILURE, as the lifecycle design says.
+    """
+
+    def __init__(self, **kwargs) -> None:
+        DRSNode.__init__(self, managed=True, **kwargs)
+        LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
+
+    def _transition(self, name: str, action) -> TransitionCallbackReturn:
+        try:
+            action()
+        except (DRSError, ParameterException) as exc:
+            self.get_logger().error(f"{name} failed: {exc}")
+            if name == "configure":
+                self.discard_recordings()
+            return TransitionCallbackReturn.FAILURE
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("configure", self.configure)
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("activate", self.activate)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("deactivate", self.deactivate)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("cleanup", self.cleanup)
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("shutdown", self.cleanup if self.configured else lambda: None)
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return self._transition("error", self.cleanup if self.configured else lambda: None)
+
+
+__all__ = ["ManagedDRSNode"]

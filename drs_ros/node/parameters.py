@@ -1,0 +1,146 @@
+"""The node's parameters: the table of its own, the ``model.*`` ones of :class:`DRSParams`, their
+declaration (read-only, with ranges; a misspelt name is refused), the model's parameters they
+give, and every value the node runs with (what a re-run needs, recorded at start).
+"""
+
+from __future__ import annotations
+
+import difflib
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from drs_model.errors import DRSError
+from drs_model.overrides import from_file
+from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
+
+from ..names import DEFAULT_JOINT_NAMES
+
+#: How the node is driven (the ``executor`` parameter, read by ``main``):
+#: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and a
+#: SingleThreadedExecutor in a second thread serves subscriptions, the service and diagnostics
+#: (under ``use_sim_time`` the ticks follow ``/clock`` through a timer, as ``single`` does);
+#: ``single``: one SingleThreadedExecutor runs everything, the tick being an rclpy timer.
+#: rclpy's EventsExecutor is not offered: with the Jazzy wheels its timers never fired and it
+#: ignored SIGINT and SIGTERM (docs/ros.md, "Rate").
+EXECUTORS = ("deadline", "single")
+
+#: The node's own parameters: (name, default, description, valid range or choices). All read-only.
+NODE_PARAMETERS = (
+    ("physics_rate_hz", 1000.0, "fixed physics step rate [Hz]", (100.0, 20000.0)),
+    ("publish_rate_hz", 250.0, "joint-state publish rate [Hz], at most physics_rate_hz",
+     (1.0, 2000.0)),
+    ("joint_names", DEFAULT_JOINT_NAMES, "JointState names: piston, link, flap", None),
+    ("integrator", "rk4", "fixed-step method of force mode", None),
+    ("force_method", "virtual-work",
+     "inverse-dynamics formulation: newton-euler, lagrange, virtual-work", None),
+    ("force_limit", 2.0e4, "largest accepted |force command| [N]", (1.0, 1.0e6)),
+    ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
+     (1, 100000)),
+    ("frame_id", "drs_base", "frame of ~/markers: the seed's ground frame (x rearwards, y up)",
+     None),
+    ("markers_rate_hz", 30.0, "~/markers (and rerun drawing) rate [Hz], computed only when used",
+     (0.1, 1000.0)),
+    ("diagnostics_window", 5.0, "diagnostics report the troubles of the last this many s [s]",
+     (0.1, 3600.0)),
+    ("executor", "deadline",
+     "deadline (ticks on absolute deadlines, executor thread for the rest) or single", EXECUTORS),
+    ("bag_path", "", "MCAP bag directory ('' = no bag)", None),
+    ("rrd_path", "", "rerun .rrd file ('' = none)", None),
+    ("rerun_connect", "", "stream to a running rerun viewer on loopback, e.g. "
+     "rerun+http://127.0.0.1:9876/proxy ('' = none)", None),
+    ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
+    ("model_params_file", "", "TOML/YAML file of DRSParams overrides", None),
+)  # fmt: skip
+
+
+class StartupError(DRSError):
+    """The node refuses to start: a parameter or a recording path is wrong (the reason says)."""
+
+
+def declare_parameters(node: Node) -> frozenset[str]:
+    """Declare every parameter of :data:`NODE_PARAMETERS` and the ``model.*`` ones (read-only,
+    with their ranges); returns the names given to the node (``-p`` or ``--params-file``).
+
+    Raises :class:`StartupError` for a name given that the node does not know (with the closest
+    known one), and for a string outside its choices. An integer given for a float parameter is
+    taken as that float."""
+    known = [name for name, *_ in NODE_PARAMETERS]
+    # and the ones rclpy declares itself
+    known += [f"model.{name}" for name in NUMERIC_FIELDS]
+    known += [name for name in node._parameters if name not in known]
+    # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
+    # the only place a misspelt name (never declared, silently ignored) can be seen
+    overrides = node._parameter_overrides
+    given_names = frozenset(overrides)
+    for name in overrides:
+        if name not in known and not name.startswith("qos_overrides."):
+            close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise StartupError(f"unknown parameter {name!r}{hint} (known: {', '.join(known)})")
+    defaults = DRSParams()
+    table = [*NODE_PARAMETERS] + [
+        (f"model.{name}", float(getattr(defaults, name)), f"DRSParams.{name} (SI)", None)
+        for name in NUMERIC_FIELDS
+    ]
+    for name, default, description, valid in table:
+        desc = ParameterDescriptor(description=description, read_only=True)
+        if isinstance(default, float):
+            given = overrides.get(name)
+            if given is not None and given.type_ == Parameter.Type.INTEGER:
+                # -p rate:=500 means 500.0: an integer is a valid double
+                overrides[name] = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
+            if isinstance(valid, tuple):
+                desc.floating_point_range = [
+                    FloatingPointRange(from_value=valid[0], to_value=valid[1], step=0.0)
+                ]
+        elif isinstance(valid, tuple) and isinstance(default, int):
+            desc.integer_range = [IntegerRange(from_value=valid[0], to_value=valid[1], step=1)]
+        elif isinstance(valid, tuple):
+            desc.additional_constraints = f"one of {', '.join(valid)}"
+        node.declare_parameter(name, list(default) if isinstance(default, tuple) else default, desc)
+        if isinstance(valid, tuple) and isinstance(default, str):
+            value = node.get_parameter(name).value
+            if value not in valid:
+                raise StartupError(f"{name} must be one of {list(valid)}, got {value!r}")
+    return given_names
+
+
+def model_params(node: Node, given_names: frozenset[str]) -> DRSParams:
+    """The model's parameters: the seed's, then ``model_params_file``'s, then every
+    ``model.*`` parameter given to the node (``-p`` or a ROS ``--params-file``), whatever
+    its value: a value given is the value used, even when it equals a default."""
+    path = node.get_parameter("model_params_file").value
+    base = from_file(path) if path else DRSParams()
+    given = {name: node.get_parameter(f"model.{name}").value for name in NUMERIC_FIELDS
+             if f"model.{name}" in given_names}  # fmt: skip
+    if path:
+        over = [f"model.{k} {v!r} over {getattr(base, k)!r}" for k, v in given.items()
+                if v != getattr(base, k)]  # fmt: skip
+        if over:
+            node.get_logger().info(f"parameters given win over {path}: {', '.join(over)}")
+    return from_dict(given, base=base) if given else base
+
+
+def effective_parameters(node: Node, params: DRSParams) -> list[Parameter]:
+    """Every node parameter, the ``model.*`` ones at the values the model runs with (a
+    ``model_params_file`` included): what a re-run needs."""
+    out = []
+    for name in sorted(node._parameters):
+        if name.startswith("model."):
+            value = float(getattr(params, name.removeprefix("model.")))
+            out.append(Parameter(name, Parameter.Type.DOUBLE, value))
+        else:
+            out.append(node.get_parameter(name))
+    return out
+
+
+__all__ = [
+    "EXECUTORS",
+    "NODE_PARAMETERS",
+    "StartupError",
+    "declare_parameters",
+    "effective_parameters",
+    "model_params",
+]

@@ -1,0 +1,174 @@
+"""How ``drs-node`` runs: ``main`` (the console script), the stop a signal asks for
+(:class:`StopRequest`), and the two ways of driving the node: the deadline loop (ticks at absolute
+deadlines in the main thread, an executor thread for the rest) or one executor for everything.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+import time
+
+import rclpy
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from drs_model.errors import DRSError
+
+from .adapter import DRSNode
+from .managed import ManagedDRSNode
+
+#: How often [s] a thread holding the GIL offers it to the others (see main).
+GIL_SWITCH_INTERVAL_S = 0.0005
+
+
+class StopRequest:
+    """A stop asked for by SIGINT or SIGTERM (or by a caller), taken at a tick boundary.
+
+    rclpy's own signal handlers are not installed (``SignalHandlerOptions.NO``): Python's raise
+    ``KeyboardInterrupt`` at any bytecode (between a bag write and its count, say), and rclpy's
+    shut the context down under running callbacks. This handler only sets a flag, which the loops
+    read between ticks; the stop then runs in order: the loops end, the executor thread is joined,
+    the recordings are finished after the last write, the node is destroyed."""
+
+    def __init__(self) -> None:
+        self.requested = False  # a plain flag: setting it takes no lock a signal could interrupt
+        self.signal_name = ""
+
+    def __call__(self, signum=None, frame=None) -> None:
+        if signum is not None:
+            self.signal_name = signal.Signals(signum).name
+        self.requested = True
+
+    def install(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self)
+
+    def ignore_further(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+
+
+#: The longest a loop waits before it looks at the stop flag again [s].
+STOP_POLL_S = 0.05
+
+
+def spin_until_stopped(node: Node, executor, stop: StopRequest) -> None:
+    """Run ``executor``'s callbacks until ``stop`` is requested or the context ends. A callback
+    that raises is logged and counted, and the executor goes on: nothing a participant sends
+    (a message the middleware cannot take, say) ends the node's service of the others."""
+    while not stop.requested and executor.context.ok():
+        try:
+            executor.spin_once(timeout_sec=STOP_POLL_S)
+        except ExternalShutdownException:
+            return
+        except Exception as exc:  # noqa: BLE001
+            if not executor.context.ok():
+                return
+            note = getattr(node, "executor_error", None)
+            if note is not None:
+                note(exc)
+            else:
+                node.get_logger().error(f"callback failed: {type(exc).__name__}: {exc}")
+
+
+def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
+    """Drive ``node`` until ``stop`` is requested: ticks at absolute deadlines of the wall clock
+    in this thread, everything else in a SingleThreadedExecutor in a second thread, which is
+    joined before this returns. A late tick is counted by the node; the deadlines then resume
+    from now, so a stall does not cause a burst of catch-up ticks (the simulation catches up
+    within one tick).
+
+    Why: one rclpy timer at 250 Hz in a SingleThreadedExecutor rebuilds its wait set at every
+    wake-up, which cost more than the physics, the publishing and the recording together
+    (docs/ros.md, "Rate").
+    """
+    context = context or node.context
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    thread = threading.Thread(target=spin_until_stopped, args=(node, executor, stop),
+                              name="drs-executor")  # fmt: skip
+    thread.start()
+    period_ns = int(round(node.publish_period * 1e9))
+    deadline = time.monotonic_ns()
+    try:
+        while not stop.requested and context.ok():
+            deadline += period_ns
+            wait = deadline - time.monotonic_ns()
+            while wait > 0 and not stop.requested:  # a long period still sees a stop soon
+                time.sleep(min(wait * 1e-9, STOP_POLL_S))
+                wait = deadline - time.monotonic_ns()
+            if wait < -period_ns:
+                deadline = time.monotonic_ns()  # late by more than a period: resume from now
+            if stop.requested or not context.ok():
+                break
+            node.tick()
+    finally:
+        stop()  # the executor thread ends too, whatever ended this loop
+        thread.join()
+        executor.shutdown(timeout_sec=1.0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Console script ``drs-node [--managed]`` (``--ros-args -p name:=value`` or
+    ``--params-file FILE`` as usual). Returns 0 on SIGINT/SIGTERM, with both recordings
+    finished; 2 when the parameters or the recording paths are refused (one line on stderr,
+    nothing created)."""
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    args = list(sys.argv if argv is None else argv)
+    managed = (
+        "--managed" in args[: args.index("--ros-args")]
+        if "--ros-args" in args
+        else "--managed" in args
+    )
+    if managed:
+        args.remove("--managed")
+    stop = StopRequest()
+    stop.install()  # before rclpy starts: a signal during start-up is a stop too
+    # the executor thread's Python work (reading a large trajectory) hands the GIL to the
+    # real-time tick within this [s] when the tick wakes up (CPython's default: 5 ms, more than
+    # a publish period at 250 Hz)
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    node = None
+    rc = 0
+    try:
+        if managed:
+            node = ManagedDRSNode()
+        else:
+            node = DRSNode(tick_timer=False)
+        if (
+            not managed
+            and node.get_parameter("executor").value == "deadline"
+            and node.timer is None
+        ):
+            run_deadline_loop(node, stop)
+        else:
+            if not managed and node.timer is None:  # executor 'single': the tick is a timer
+                node.timer = node.create_timer(node.publish_period, node.tick)
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            spin_until_stopped(node, executor, stop)
+            executor.shutdown(timeout_sec=1.0)
+    except (DRSError, ParameterException) as exc:
+        print(f"drs-node: refused to start: {exc}", file=sys.stderr)
+        rc = 2
+    finally:
+        if node is not None:
+            if node.configured:
+                node.close_recordings()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    # the recordings are finished: a further SIGINT/SIGTERM (a second Ctrl-C) is ignored, not
+    # left to interpreter shutdown, which restores the default action (killed: exit -2)
+    stop.ignore_further()
+    if stop.signal_name:
+        print(f"drs-node: stopped by {stop.signal_name}, recordings finished", file=sys.stderr)
+    return rc
+
+
+__all__ = ["StopRequest", "main", "run_deadline_loop", "spin_until_stopped"]

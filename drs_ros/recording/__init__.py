@@ -1,0 +1,12 @@
+"""What the node records, and how: the bytes of the messages and the files that hold them.
+
+* ``cdr``: exact CDR serialisation, the bytes a ROS 2 subscriber receives;
+* ``msgdefs``: rosbag2's schema text and RIHS01 type hashes of a message type;
+* ``qos``: QoS profiles as the ``offered_qos_profiles`` channel metadata holds them;
+* ``mcap_recorder``: the rosbag2-compatible MCAP recorder (``errors``: its error);
+* ``rerun_recorder``: the rerun recording of the mechanism and its time series;
+* ``rerun_cli``: the rerun command line (``rerun rrd verify``) with its analytics off.
+
+The modules are imported one by one (``from drs_ros.recording import cdr``): rerun and mcap load
+only where they are used.
+"""
