@@ -78,6 +78,7 @@ from .conversions import (
 )
 from .drawing import moving_drawings, still_drawings
 from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSEDED
+from .stack import STACK_COMMANDS, STACK_PARAMETERS, NodeHooks, StackLayer
 
 QOS_DEPTH = 10
 #: The still outlines (FIA box, main wing, pylon) are in ~/markers once per this [s] of sim time.
@@ -85,7 +86,8 @@ STILL_MARKERS_PERIOD_S = 1.0
 #: Ticks between two questions to DDS whether the optional topics have listeners.
 LISTENER_CHECK_TICKS = 25
 #: The command topics (``~/<key>``) and their message types.
-COMMANDS = {"stroke_cmd": Float64, "force_cmd": Float64, "trajectory_cmd": JointTrajectory}
+COMMANDS = {"stroke_cmd": Float64, "force_cmd": Float64, "trajectory_cmd": JointTrajectory,
+            **STACK_COMMANDS}  # fmt: skip
 #: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
 COMMAND_QOS_DEPTH = 10
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
@@ -123,7 +125,7 @@ NODE_PARAMETERS = (
      "rerun+http://127.0.0.1:9876/proxy ('' = none)", None),
     ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
     ("model_params_file", "", "TOML/YAML file of DRSParams overrides", None),
-)  # fmt: skip
+) + STACK_PARAMETERS  # fmt: skip
 #: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
 CLOCK_WAIT_WARNING_S = 2.0
 #: A wall clock that moves this much [s] more or less than the steady clock between two ticks
@@ -250,7 +252,7 @@ class DRSNode(Node):
                                        gp("frame_id").value)  # fmt: skip
 
         qos = QoSProfile(depth=QOS_DEPTH)
-        self.pub_joints = self.create_publisher(JointState, "/joint_states", qos)
+        self.pub_joints = self.create_publisher(JointState, gp("joint_states_topic").value, qos)
         self.pub_force = self.create_publisher(Float64, "~/piston_force", qos)
         self.pub_gap = self.create_publisher(Float64, "~/flap_gap", qos)
         # JointState has no acceleration field; with it a bag replays the piston force exactly
@@ -275,6 +277,13 @@ class DRSNode(Node):
         # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
         self.topics = {pub: pub.topic_name for pub in self._own_publishers}
         self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
+        # ---- issue 20 layer (drs_ros.stack): description, TF, the action, JointState commands
+        self.stack = StackLayer(self, NodeHooks(
+            event=lambda source, outcome, level, reason, values, now: self._event(
+                source, outcome, level, reason, None, values, now),
+            record=self._record, receive=self._receive, now_ns=self._now_ns))
+        self.command_topics.update(self.stack.command_topics)
+        # ----
         self._serialize = {
             cls: cdr.serializer(cls) for cls in (JointState, DiagnosticArray, MarkerArray)
         }
@@ -312,6 +321,7 @@ class DRSNode(Node):
         except Exception:
             self.discard_recordings()
             raise
+        self.stack.start(self._now_ns())  # issue 20 layer: description and static TF, once
         self.configured = True
         self.get_logger().info(
             f"drs node configured: physics {physics_hz:g} Hz, publish {publish_hz:g} Hz, stroke "
@@ -348,11 +358,13 @@ class DRSNode(Node):
                 0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
         self._last_tick_ns = None  # the time inactive is no missed deadline
+        self.stack.activate()  # issue 20 layer: JointState commands, goals taken
         self.active = True
 
     def deactivate(self) -> None:
         """Stop taking commands and publishing; the actuator holds its state (no time passes)."""
         self.active = False
+        self.stack.deactivate()  # issue 20 layer: goals aborted, no JointState commands
         for timer in (self.timer, self.diag_timer, self.clock_watch):
             if timer is not None:
                 self.destroy_timer(timer)
@@ -373,6 +385,7 @@ class DRSNode(Node):
         """Finish the recordings and drop the publishers and the actuator."""
         if self.active:
             self.deactivate()
+        self.stack.cleanup()  # issue 20 layer
         self.close_recordings()
         self.recorder = self.rerun = None
         for pub in self._own_publishers:
@@ -515,6 +528,8 @@ class DRSNode(Node):
         for key, topic in self.command_topics.items():
             register(topic, COMMANDS[key], qos=QoSProfile(depth=COMMAND_QOS_DEPTH))
         register(self.service_event_topic, SetBool.Event, qos=QoSProfile(depth=100))
+        for topic, msg_type, qos in self.stack.recorded_topics():  # issue 20 layer
+            register(topic, msg_type, qos=qos)
         register("/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000))
         now = self._now_ns()
         event = parameter_event_msg(self.get_fully_qualified_name(), self.effective_parameters(),
@@ -840,6 +855,7 @@ class DRSNode(Node):
         self._cpu["publish"] += t1 - t
         for pub, data in out:
             self._record(self.topics[pub], data, now_ns)
+        self.stack.publish(st, stamp, now_ns)  # issue 20 layer: /tf, the action's feedback
         if self.rerun is not None and not self.recording_error:
             try:
                 self.rerun.log_state(st.t, st.q, st.piston_force)
