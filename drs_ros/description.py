@@ -238,8 +238,8 @@ def ros2_control_block(
     return (
         f'<ros2_control name={quoteattr(name)} type="system"><hardware>'
         "<plugin>joint_state_topic_hardware_interface/JointStateTopicSystem</plugin>"
-        f"<param name=\"joint_commands_topic\">{commands_topic}</param>"
-        f"<param name=\"joint_states_topic\">{states_topic}</param>"
+        f'<param name="joint_commands_topic">{commands_topic}</param>'
+        f'<param name="joint_states_topic">{states_topic}</param>'
         "</hardware>"
         f'<joint name="{piston}"><command_interface name="position"/>'
         '<command_interface name="effort"/><state_interface name="position"/>'
@@ -290,9 +290,9 @@ def robot_description(
         *_outline_visuals("pylon", still["pylon"]),
         "</link>",
         f'<link name="{fr.piston}">{_inertial(p.m_pist, pts["G1"][1], p.Iz_pist)}'
-        f'{_bar_visual("piston", p.L1)}</link>',
+        f"{_bar_visual('piston', p.L1)}</link>",
         f'<link name="{fr.link}">{_inertial(p.m_link, pts["G2"][1], p.Iz_link)}'
-        f'{_bar_visual("link", p.L2)}</link>',
+        f"{_bar_visual('link', p.L2)}</link>",
         f'<link name="{fr.flap}">{_inertial(p.m_wing, pts["G3"][1], p.Iz_wing)}',
         *_outline_visuals("flap", flap_outline, origin=(off, 0.0)),
         "</link>",
