@@ -139,20 +139,33 @@ def _z_rotation(angle: float) -> tuple[float, float, float, float]:
 Transform = tuple[str, str, tuple[float, float, float], tuple[float, float, float, float]]
 
 
-def moving_transforms(q, p: DRSParams, frames: Frames) -> list[Transform]:
+@dataclass(frozen=True)
+class JointOrigins:
+    """Where each joint sits in its parent frame [m] (``kinematics.point_table``): the piston's
+    at A in the base frame, the link's at B in the piston frame, the flap's at D in the base
+    frame. The URDF's ``<origin>`` elements and the published transforms both come from here."""
+
+    piston: tuple[float, float]
+    link: tuple[float, float]
+    flap: tuple[float, float]
+
+    @classmethod
+    def of(cls, p: DRSParams) -> JointOrigins:
+        return cls(_local(p, "A"), _local(p, "B"), _local(p, "D"))
+
+
+def moving_transforms(q, origins: JointOrigins, frames: Frames) -> list[Transform]:
     """The transforms of the three joints at configuration ``q = [s, psi1, psi3]``, as
-    robot_state_publisher computes them from the description: the piston frame at P, the link's
-    at B (angle psi1), the flap's at D (angle psi3); points from ``kinematics.point_positions``."""
-    q = np.asarray(q, dtype=float)
-    pts = kinematics.point_positions(q, p, ("P", "B", "D"))
-    (px, py), (bx, by), (dx, dy) = pts["P"], pts["B"], pts["D"]
-    no_turn = (0.0, 0.0, 0.0, 1.0)
+    robot_state_publisher computes them from the description: each joint's origin composed with
+    its motion (the piston along +y by ``s``, the link and the flap about z by ``psi1``,
+    ``psi3``). Scalar arithmetic: this runs at every published joint state."""
+    s, psi1, psi3 = float(q[0]), float(q[1]), float(q[2])
+    (ax, ay), (bx, by), (dx, dy) = origins.piston, origins.link, origins.flap
     return [
-        (frames.base, frames.piston, (float(px), float(py), 0.0), no_turn),
-        (frames.piston, frames.link, (float(bx - px), float(by - py), 0.0),
-         _z_rotation(float(q[1]))),
-        (frames.base, frames.flap, (float(dx), float(dy), 0.0), _z_rotation(float(q[2]))),
-    ]  # fmt: skip
+        (frames.base, frames.piston, (ax, ay + s, 0.0), (0.0, 0.0, 0.0, 1.0)),
+        (frames.piston, frames.link, (bx, by, 0.0), _z_rotation(psi1)),
+        (frames.base, frames.flap, (dx, dy, 0.0), _z_rotation(psi3)),
+    ]
 
 
 def fixed_transforms(p: DRSParams, frames: Frames) -> list[Transform]:
@@ -272,6 +285,7 @@ def robot_description(
         A ``<ros2_control>`` element to include (:func:`ros2_control_block`), or ``""``.
     """
     fr = Frames.of(joint_names, base_frame)
+    origin = JointOrigins.of(p)
     lim = joint_limits(p, force_limit)
     piston, link, flap = joint_names
     still = still_drawings(p)
@@ -300,13 +314,13 @@ def robot_description(
         f'<link name="{fr.flap_pin}"/>',
         f'<link name="{fr.flap_tip}"/>',
         f'<joint name="{piston}" type="prismatic"><parent link="{fr.base}"/>'
-        f'<child link="{fr.piston}"/><origin xyz="{_xyz(*pts["A"][1])}" rpy="0.0 0.0 0.0"/>'
+        f'<child link="{fr.piston}"/><origin xyz="{_xyz(*origin.piston)}" rpy="0.0 0.0 0.0"/>'
         f'<axis xyz="0.0 1.0 0.0"/>{_limit(lim[0])}</joint>',
         f'<joint name="{link}" type="revolute"><parent link="{fr.piston}"/>'
-        f'<child link="{fr.link}"/><origin xyz="{_xyz(*pts["B"][1])}" rpy="0.0 0.0 0.0"/>'
+        f'<child link="{fr.link}"/><origin xyz="{_xyz(*origin.link)}" rpy="0.0 0.0 0.0"/>'
         f'<axis xyz="0.0 0.0 1.0"/>{_limit(lim[1])}</joint>',
         f'<joint name="{flap}" type="revolute"><parent link="{fr.base}"/>'
-        f'<child link="{fr.flap}"/><origin xyz="{_xyz(*pts["D"][1])}" rpy="0.0 0.0 0.0"/>'
+        f'<child link="{fr.flap}"/><origin xyz="{_xyz(*origin.flap)}" rpy="0.0 0.0 0.0"/>'
         f'<axis xyz="0.0 0.0 1.0"/>{_limit(lim[2])}</joint>',
     ]
     for parent, child, xyz, _q in fixed_transforms(p, fr):
@@ -322,6 +336,7 @@ def robot_description(
 __all__ = [
     "Frames",
     "JointLimit",
+    "JointOrigins",
     "SEED_FRAME_IN_REP103_RPY",
     "Transform",
     "fixed_transforms",

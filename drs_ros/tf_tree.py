@@ -70,6 +70,7 @@ class TfPublisher:
                  record: Callable[[str, bytes, int], object]) -> None:  # fmt: skip
         self.params = params
         self.frames = description.Frames.of(joint_names, base_frame)
+        self.origins = description.JointOrigins.of(params)
         self.urdf = description.robot_description(params, joint_names, base_frame, force_limit,
                                                   ros2_control)  # fmt: skip
         self.static = description.fixed_transforms(params, self.frames)
@@ -81,9 +82,8 @@ class TfPublisher:
         self.pub_static = node.create_publisher(TFMessage, "/tf_static", LATCHED_QOS)
         self.pub_tf = node.create_publisher(TFMessage, "/tf", TF_QOS)
         self._tf = cdr.serializer(TFMessage)
-        self._msg = TFMessage(transforms=[transform_msg(t, 0) for t in
-                                          description.moving_transforms(
-                                              [0.0, 0.0, 0.0], params, self.frames)])  # fmt: skip
+        zero = description.moving_transforms([0.0, 0.0, 0.0], self.origins, self.frames)
+        self._msg = TFMessage(transforms=[transform_msg(t, 0) for t in zero])
 
     @property
     def publishers(self) -> tuple:
@@ -109,7 +109,7 @@ class TfPublisher:
         stamp = time_msg(stamp_ns)
         for msg, (_p, _c, (x, y, z), (qx, qy, qz, qw)) in zip(
             self._msg.transforms,
-            description.moving_transforms(q, self.params, self.frames),
+            description.moving_transforms(q, self.origins, self.frames),
             strict=True,
         ):
             msg.header.stamp = stamp
