@@ -19,7 +19,11 @@ the closed (10 mm gap) and open (50 mm gap) positions. A commanded force that dr
 stop is not refused: the flap stops there (a perfectly inelastic contact: the velocity into the stop
 is removed), the stop carries the excess load, and ``at_stop`` says which stop. A force that pulls
 the flap away from the stop releases it. The closed stop sits 1.75 mm above the dead centre, so the
-mechanism can never be driven through the dead centre.
+mechanism can never be driven through the dead centre. A step that fails as a whole (at a low
+physics rate, dt up to 10 ms) or ends on or past a stop is taken again in sub-steps, so that the
+stop is the one the motion reaches, at the time it reaches it, and the rest of the step goes on
+from there (``ActuatorSim._split_step``); force mode never raises from :meth:`ActuatorSim.step`.
+A step longer than :data:`MAX_FORCE_STEP` (1 ms) is always taken in sub-steps of at most 1 ms.
 
 Commands are validated at the boundary: a refused command raises a :class:`DRSError` subclass with
 the reason and leaves the actuator unchanged.
@@ -32,13 +36,27 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels
 from . import kinematics as kin
-from .errors import InputError, StrokeRangeError
+from .errors import (
+    InputError,
+    IntegrationError,
+    SingularConfigurationError,
+    StrokeRangeError,
+)
 from .params import DRSParams
-from .profile import QuinticSegment, quintic_move
+from .profile import QuinticPath, QuinticSegment, TrajectoryPlan, plan_trajectory, quintic_move
 
 MODES = ("hold", "stroke", "force")
+#: Longest integrator step [s] of force mode: a longer physics step (a rate below 1 kHz) is taken
+#: in equal sub-steps no longer than this (a 10 ms RK4 step can carry the flap, which crosses its
+#: stroke in ~5 ms under a large force, past a stop and back within the step).
+MAX_FORCE_STEP = 1e-3
+#: Halvings of a sub-step that meets a stop: the contact is located to ``MAX_FORCE_STEP / 2**10``.
+SEARCH_LEVELS = 10
+#: Contacts resolved within one step; after the last the flap stays on its stop for the step.
+MAX_CONTACTS_PER_STEP = 4
+#: What the fixed-step integrator raises for a step it refuses (past a stop, non-finite).
+_REFUSED_STEP = (StrokeRangeError, SingularConfigurationError, IntegrationError)
 
 
 @dataclass(frozen=True)
@@ -105,6 +123,11 @@ class ActuatorSim:
         self._scalar_force = (
             FusedInverseDynamics.from_params(p) if force_method == "virtual-work" else None
         )
+        # force mode: a step of at most MAX_FORCE_STEP is first tried whole (the real-time loop's
+        # common case); a longer one, or one that fails or meets a stop, in `_pieces` equal
+        # sub-steps (at least two, none longer than MAX_FORCE_STEP), halved where needed
+        self._whole_steps = self.dt <= MAX_FORCE_STEP * (1.0 + 1e-9)
+        self._pieces = max(2, math.ceil(self.dt / MAX_FORCE_STEP * (1.0 - 1e-9)))
         self._stepper = None
         # built now, not at the first force command: importing the integrators (scipy.integrate)
         # mid-run stalls a real-time loop for ~0.4 s
@@ -119,7 +142,7 @@ class ActuatorSim:
         self._t_reset = float(t)
         self.steps = 0
         self.mode = "hold"
-        self._segments: tuple[QuinticSegment, ...] = ()
+        self._path: QuinticPath | None = None
         self._settled = False
         self._target: float | None = None
         self._force_cmd = 0.0
@@ -184,74 +207,65 @@ class ActuatorSim:
                 f"the move to {target!r} m from s = {s0:.6g} m at {v0:.3g} m/s would leave "
                 f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"
             )
-        self._segments, self._target, self.mode = (seg,), target, "stroke"
+        self._path, self._target, self.mode = QuinticPath.of_segment(seg), target, "stroke"
         self._settled = False
         self._at_stop = None
         return seg
 
-    def command_trajectory(self, times, strokes, rates=None) -> tuple[QuinticSegment, ...]:
+    def plan_trajectory(self, times, strokes, rates=None) -> TrajectoryPlan:
+        """:func:`drs_model.profile.plan_trajectory` for this actuator's parameters: validate a
+        trajectory and build all of it that does not depend on the actuator's state (all but
+        the first one or two segments), for a later :meth:`command_trajectory` ``(plan)``.
+
+        Reads only the actuator's parameters, which never change: it may run in another thread
+        while the actuator steps (the node: in the subscription callback, outside its tick).
+        Raises as :meth:`command_trajectory` does, except for the first segment(s)' paths.
+        """
+        return plan_trajectory(self.p, times, strokes, rates)
+
+    def command_trajectory(self, times, strokes=None, rates=None) -> QuinticPath:
         """Follow a trajectory of the piston: reach ``strokes[k]`` [m] at ``times[k]`` [s from
         now] with rate ``rates[k]`` [m/s] (default: the mean of the neighbouring slopes, and rest
         at the last point), through one quintic per interval starting from the current state.
 
+        ``times`` may instead be a :class:`~drs_model.profile.TrajectoryPlan` from
+        :meth:`plan_trajectory` (``strokes`` and ``rates`` then omitted): only the segments
+        that depend on the current state (the first, and with default rates the second) are
+        built and checked here, in microseconds; given arrays, this plans first (a few ms for
+        10,000 points). The result is the same to the bit either way.
+
         Refused (nothing changes) unless the times strictly increase from > 0, every value is
-        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it. A
-        trajectory ends at rest: a last point with a non-zero rate is refused (holding a stroke
-        at a speed is no state the mechanism can be in).
+        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it
+        (checked at 65 instants per segment); at most 10,000 points. A trajectory ends at rest:
+        a last point with a non-zero rate is refused (holding a stroke at a speed is no state
+        the mechanism can be in). Where several segments leave the range, the one named is the
+        first of those built without the state, else the first of the others.
+
+        Returns the path followed (a sequence of :class:`QuinticSegment`, built on access).
         """
-        t = np.asarray(times, dtype=float).ravel()
-        s = np.asarray(strokes, dtype=float).ravel()
-        n = t.size
-        if n == 0 or n > 10_000 or s.size != n:
-            raise InputError(
-                f"a trajectory needs 1..10000 points with one stroke per time, got {n} times and "
-                f"{s.size} strokes"
-            )
-        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
-            raise InputError("trajectory times and strokes must be finite")
-        if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
-            raise InputError(
-                f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
-            )
-        kin.check_stroke(s, self.p)
-        if rates is None:
-            knots_t = np.concatenate([[0.0], t])
-            knots_s = np.concatenate([[self._q[0]], s])
-            v = np.zeros(n)
-            if n > 1:  # interior points: the slope across the neighbours (a C1 path)
-                v[:-1] = (knots_s[2:] - knots_s[:-2]) / (knots_t[2:] - knots_t[:-2])
-        else:
-            v = np.asarray(rates, dtype=float).ravel()
-            if v.size != n or not np.all(np.isfinite(v)):
-                raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
-            if v[-1] != 0.0:
+        if isinstance(times, TrajectoryPlan):
+            if strokes is not None or rates is not None:
                 raise InputError(
-                    f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
-                    "give 0 (or no velocities)"
+                    "command_trajectory takes a TrajectoryPlan alone or times and strokes "
+                    "(and rates), not both"
                 )
-        segs = []
-        s0, v0, a0, t0 = self._q[0], self._qd[0], self._qdd[0], self.t
-        for k in range(n):
-            seg = QuinticSegment.between(t0, self.t + t[k] - t0, s0, s[k], v0, v[k], a0, 0.0)
-            path = seg.evaluate(np.linspace(seg.t0, seg.t1, 65))[0]
-            if path.min() < self.s_min - 1e-12 or path.max() > self.s_max + 1e-12:
-                raise StrokeRangeError(
-                    f"the trajectory leaves [s_min, s_max] = [{self.s_min:.9g}, "
-                    f"{self.s_max:.9g}] m on its way to point {k} (of 0..{n - 1}), reaching "
-                    f"{path.min():.6g}..{path.max():.6g} m"
+            plan = times
+            if plan.limits != (self.s_min, self.s_max):
+                raise InputError(
+                    f"the trajectory plan was checked against [s_min, s_max] = "
+                    f"[{plan.limits[0]:.9g}, {plan.limits[1]:.9g}] m, this actuator's stroke "
+                    f"range is [{self.s_min:.9g}, {self.s_max:.9g}] m: plan it with its params"
                 )
-            segs.append(seg)
-            s0, v0, a0, t0 = float(s[k]), float(v[k]), 0.0, seg.t1
-        self._segments, self._target, self.mode = tuple(segs), float(s[-1]), "stroke"
+        else:
+            if strokes is None:
+                raise InputError("command_trajectory needs strokes with its times")
+            plan = plan_trajectory(self.p, times, strokes, rates)
+        head = plan.head(float(self._q[0]), float(self._qd[0]), float(self._qdd[0]))
+        path = QuinticPath.of_plan(plan, self.t, head)
+        self._path, self._target, self.mode = path, float(plan.strokes[-1]), "stroke"
         self._settled = False
         self._at_stop = None
-        return self._segments
-
-    def _active_segment(self) -> QuinticSegment:
-        for seg in self._segments:
-            if self.t <= seg.t1 + 1e-12:
-                return seg
-        return self._segments[-1]
+        return path
 
     def command_drs(self, open_flap: bool) -> QuinticSegment:
         """Open (True) or close (False) with the seed's manoeuvre times."""
@@ -274,7 +288,7 @@ class ActuatorSim:
             stepper.reset(psi3=self._q[2], psi3_dot=self._qd[2], t=self.t)
         self._force_cmd = force
         self._force = force
-        self.mode, self._segments, self._target = "force", (), None
+        self.mode, self._path, self._target = "force", None, None
 
     # ---- stepping ------------------------------------------------------------------------------
     def _ensure_stepper(self):
@@ -302,52 +316,121 @@ class ActuatorSim:
             self._step_force()
         elif self.mode == "stroke" and not self._settled:
             # past the last segment the end state no longer changes: computed once, then kept
-            if self.t >= self._segments[-1].t1:
+            if self.t >= self._path.t_end:
                 # every move ends at rest at its target: from its end on, that is the state
                 # exactly (the polynomial at t1 leaves ~1e-14 m/s of round-off)
                 self._settled = True
                 self._set_kinematic(self._target, 0.0, 0.0)
             else:
-                seg = self._active_segment()
-                s, v, a = kernels.quintic(min(max(self.t - seg.t0, 0.0), seg.duration),
-                                          seg.coeffs, 0)  # fmt: skip
+                s, v, a = self._path.at(self.t)  # the segment in force found by bisection
                 self._set_kinematic(s, v, a)
         # hold mode (and a settled move) keeps the state reset() or the last step computed
 
     def _flap_acceleration(self, psi3: float, psi3d: float) -> float:
         return self._stepper.form.accel(psi3, psi3d, self._force_cmd)
 
-    def _step_force(self) -> None:
-        from .errors import SingularConfigurationError
+    def _leaves_stop(self, stop: str) -> bool:
+        """Whether the flap, at rest on ``stop`` (the current state), is pulled away from it: the
+        free acceleration points away from the stop (psi3 decreases as the flap opens)."""
+        acc = self._flap_acceleration(self._q[2], 0.0)
+        return acc < 0.0 if stop == "closed" else acc > 0.0
 
+    def _step_force(self) -> None:
         stepper, f = self._stepper, self._force_cmd
         if self._at_stop is not None:
-            # resting on a stop: it stays unless the free acceleration points away from the stop
-            # (psi3 decreases as the flap opens)
-            acc = self._flap_acceleration(self._q[2], 0.0)
-            leaving = acc < 0.0 if self._at_stop == "closed" else acc > 0.0
-            if not leaving:
+            # resting on a stop: it stays unless the force pulls the flap away from it
+            if not self._leaves_stop(self._at_stop):
                 self._hold_at(self._at_stop)
                 return
             self._at_stop = None
-            stepper.reset(psi3=float(self._q[2]), psi3_dot=0.0, t=self.t - self.dt)
-        try:
-            st = stepper.step(f)
-        except (StrokeRangeError, SingularConfigurationError):
-            # the step would pass a stop (or the dead centre beyond the closed stop); one step
-            # cannot cross half the stroke, so the nearer stop is the one it hits
-            nearer_open = self._q[0] > 0.5 * (self.s_min + self.s_max)
-            self._hold_at("open" if nearer_open else "closed")
-            return
-        if st.s <= self.s_min or st.s >= self.s_max:
-            self._hold_at("closed" if st.s <= self.s_min else "open")
-            return
+            stepper.restore(self.t - self.dt, (self._q[2], 0.0))
+        st = None
+        if self._whole_steps:
+            try:
+                st = stepper.step(f)
+            except _REFUSED_STEP:
+                pass
+        if st is None or not self.s_min < st.s < self.s_max:
+            # a long step, or one that fails or ends on or past a stop (rare at 1 kHz)
+            st = self._split_step()
+            if st is None:
+                return  # on a stop at the end of the step
         q = (st.s, st.psi1, st.psi3)
         qd = (st.s_dot, st.psi1_dot, st.psi3_dot)
         psi3dd = self._flap_acceleration(st.psi3, st.psi3_dot)
         self._q, self._qd = q, qd
         self._qdd = kin.accelerations_from_flap_scalar(q, qd, psi3dd, self.p)
         self._force = f
+
+    def _split_step(self):
+        """This step (from ``self._q``, ``self._qd`` at ``t - dt``) in sub-steps: a contact with
+        a stop is found from the motion, the flap placed on the stop it reaches (perfectly
+        inelastic), and the rest of the step goes on from there (resting on the stop, or leaving
+        it if the force pulls the flap away).
+
+        Sub-steps are ``dt / m`` [s] (``m >= 2``, the least with ``dt / m <= MAX_FORCE_STEP``);
+        one that fails or ends on or past a stop is halved, down to :data:`SEARCH_LEVELS`
+        halvings (~1 us at 1 ms), and grows back once past: at the finest the stop its end lies
+        on or past is the one reached. If even a finest
+        sub-step is refused (no state to read), the flap goes on the stop its motion points to:
+        the sign of ``psi3'`` at the last good state, else of ``psi3''`` there, else the nearer
+        stop. At most :data:`MAX_CONTACTS_PER_STEP` contacts per step; after the last the flap
+        stays on its stop for the rest of the step. Deterministic: the same state, force and
+        ``dt`` give the same sub-steps and the same bits.
+
+        Returns the integrator's state at the end of the step (in free flight), or None with
+        the flap placed on a stop.
+        """
+        stepper, f = self._stepper, self._force_cmd
+        top = 1 << SEARCH_LEVELS  # the largest sub-step, in units of the finest
+        total = self._pieces * top  # the step, in the same units
+        unit = self.dt / total
+        t_start = self.t - self.dt
+        stepper.restore(t_start, (self._q[2], self._qd[2]))
+        pos, size, contacts, stop = 0, top, 0, None
+        while pos < total:
+            if stop is not None:
+                if contacts >= MAX_CONTACTS_PER_STEP or not self._leaves_stop(stop):
+                    return None
+                # pulled away at once: on from rest at the stop, with the largest sub-step
+                # that fits the time already taken
+                stepper.restore(t_start + pos * unit, (self._q[2], 0.0))
+                self._at_stop = stop = None
+                size = min(top, pos & -pos)
+            before = stepper.state
+            try:
+                st = stepper.step_by(f, size * unit)
+            except _REFUSED_STEP:
+                st = None
+            if st is not None and self.s_min < st.s < self.s_max:
+                pos += size
+                while size < top and pos % (size << 1) == 0:  # back to the larger sub-step
+                    size <<= 1
+                continue
+            if st is not None:  # ended on or past a stop: back to where the sub-step began
+                stepper.restore(before.t, (before.psi3, before.psi3_dot))
+            if size > 1:
+                size >>= 1
+                continue
+            stop = self._stop_reached(st, before)
+            self._hold_at(stop)
+            contacts += 1
+            pos += size
+        return None if stop is not None else stepper.state
+
+    def _stop_reached(self, st, before) -> str:
+        """The stop a finest sub-step reaches: the one its end lies on or past; if the sub-step
+        was refused (``st`` None), the one the motion at ``before`` points to."""
+        if st is not None:
+            return "closed" if st.s <= self.s_min else "open"
+        direction = before.psi3_dot
+        if direction == 0.0:
+            direction = self._flap_acceleration(before.psi3, 0.0)
+        if direction < 0.0:
+            return "open"  # psi3 decreases as the flap opens
+        if direction > 0.0:
+            return "closed"
+        return "open" if before.s > 0.5 * (self.s_min + self.s_max) else "closed"
 
     def _hold_at(self, stop: str) -> None:
         s = self.s_min if stop == "closed" else self.s_max

@@ -12,12 +12,16 @@ s''' is not, which an integrator with error control sees as a kink.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from array import array
+from bisect import bisect_left
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import InputError, StrokeRangeError
 from .kernels import NUMPY
+from .kernels import quintic as _quintic
 from .kinematics import stroke_limits
 from .params import DRSParams
 
@@ -174,3 +178,293 @@ def quintic_move(
             f"target stroke {s_target!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
         )
     return QuinticSegment.between(t0, duration, s0, s_target, v0, 0.0, a0, 0.0)
+
+
+# ---- trajectories: many quintics end to end (ActuatorSim.command_trajectory) --------------------
+#: The most points a trajectory may have.
+MAX_TRAJECTORY_POINTS = 10_000
+#: Samples per segment (both ends included) at which a trajectory's path is checked against
+#: ``[s_min, s_max]``.
+PATH_SAMPLES = 65
+#: Tolerance [m] of that check (and of the strokes' range check).
+PATH_TOL = 1e-12
+#: A time within this [s] after a segment's end still belongs to that segment.
+_END_SLACK = 1e-12
+
+
+def quintic_coefficients_array(duration, s0, s1, v0=0.0, v1=0.0, a0=0.0, a1=0.0) -> np.ndarray:
+    """:func:`quintic_coefficients` of many segments at once: the same closed form on arrays
+    (broadcast together; ``duration`` [s] > 0, positions [m], velocities [m/s], accelerations
+    [m/s^2], not checked here). Returns shape ``(n, 6)``, local-time coefficients ``a_0..a_5``."""
+    T = np.asarray(duration, dtype=float)
+    s0, s1, v0, v1, a0, a1 = np.broadcast_arrays(T, s0, s1, v0, v1, a0, a1)[1:]
+    h = s1 - s0
+    T2, T3 = T * T, T * T * T
+    out = np.empty(T.shape + (6,))
+    out[..., 0], out[..., 1], out[..., 2] = s0, v0, a0 / 2.0
+    out[..., 3] = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T2) / (2 * T3)
+    out[..., 4] = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T2) / (2 * T3 * T)
+    out[..., 5] = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T2) / (2 * T3 * T2)
+    return out
+
+
+def path_extremes(coeffs: np.ndarray, durations: np.ndarray, chunk: int = 2048):
+    """Smallest and largest stroke [m] of each quintic ``coeffs[k]`` (local time) over
+    ``PATH_SAMPLES`` equally spaced instants of ``[0, durations[k]]``, all segments at once (in
+    chunks of ``chunk`` segments, so memory stays bounded). Returns two arrays of shape
+    ``(n,)``."""
+    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
+    durations = np.asarray(durations, dtype=float).ravel()
+    u = np.linspace(0.0, 1.0, PATH_SAMPLES)
+    lo, hi = np.empty(len(durations)), np.empty(len(durations))
+    for a in range(0, len(durations), chunk):
+        c = coeffs[a : a + chunk]
+        tau = durations[a : a + chunk, None] * u
+        s = c[:, 5:6] * tau
+        for j in (4, 3, 2, 1):
+            s += c[:, j : j + 1]
+            s *= tau
+        s += c[:, 0:1]
+        lo[a : a + chunk], hi[a : a + chunk] = s.min(axis=1), s.max(axis=1)
+    return lo, hi
+
+
+#: Power basis (in u = tau / T) -> Bernstein basis of degree 5: ``b_j = sum_k C(j,k)/C(5,k) d_k``.
+_TO_BERNSTEIN = np.array(
+    [[math.comb(j, k) / math.comb(5, k) if k <= j else 0.0 for k in range(6)] for j in range(6)]
+)
+
+
+def check_paths(coeffs, durations, limits: tuple[float, float], first: int = 0, n=None) -> None:
+    """Raise :class:`StrokeRangeError` if the path of a quintic ``coeffs[i]`` (local time, on
+    ``[0, durations[i]]``) leaves ``limits = (s_min, s_max)`` [m] by more than 1e-12 m at one of
+    :data:`PATH_SAMPLES` equally spaced instants, naming the first such segment (segment
+    ``first + i`` leads to point ``first + i`` of ``0..n-1``).
+
+    Only segments whose Bernstein control points leave the range are sampled: the others' paths
+    lie inside the control points' convex hull, so their samples are inside too.
+    """
+    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
+    durations = np.asarray(durations, dtype=float).ravel()
+    s_min, s_max = limits
+    n = len(durations) + first if n is None else n
+    bern = (coeffs * np.vander(durations, 6, increasing=True)) @ _TO_BERNSTEIN.T
+    suspect = np.flatnonzero((bern.min(axis=1) < s_min) | (bern.max(axis=1) > s_max))
+    if not suspect.size:
+        return
+    lo, hi = path_extremes(coeffs[suspect], durations[suspect])
+    bad = np.flatnonzero((lo < s_min - PATH_TOL) | (hi > s_max + PATH_TOL))
+    if bad.size:
+        i = int(bad[0])
+        raise StrokeRangeError(
+            f"the trajectory leaves [s_min, s_max] = [{s_min:.9g}, {s_max:.9g}] m on its way "
+            f"to point {first + int(suspect[i])} (of 0..{n - 1}), reaching "
+            f"{lo[i]:.6g}..{hi[i]:.6g} m"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class TrajectoryPlan:
+    """A validated trajectory, the part of ``ActuatorSim.command_trajectory`` that does not depend
+    on the actuator's state (made by :func:`plan_trajectory`).
+
+    Point ``k`` is reached at ``times[k]`` [s after the command] at stroke ``strokes[k]`` [m]
+    with rate ``rates[k]`` [m/s], at rest in acceleration; segment ``k`` is the quintic from
+    point ``k - 1`` (point ``-1`` being the actuator's state when commanded) to point ``k``.
+    The first ``n_head`` segments depend on that state (the first always; with derived rates
+    also the second, since the first point's rate is the slope from the start stroke to the
+    second point: ``rates[0]`` is then NaN here): they are built and checked when commanded.
+    The others are built here, as coefficients in local time, and their paths checked.
+
+    Immutable and independent of any actuator: it can be made in another thread, before the
+    tick that commands it, and commanded any number of times (to actuators of the same
+    parameters: ``limits`` must match theirs).
+    """
+
+    times: np.ndarray
+    strokes: np.ndarray
+    rates: np.ndarray
+    derived_rates: bool
+    limits: tuple[float, float]  # (s_min, s_max) [m] the paths were checked against
+    n_head: int
+    # for the stepping loop, as array('d') (Python floats on access, bisect; no per-element
+    # objects, so nothing for the garbage collector to walk): per segment the start and
+    # duration [s], the end + 1e-12 [s] (relative to the command), the flat coefficients (6 per
+    # segment; NaN for the head segments)
+    starts: array = field(repr=False)
+    durations: array = field(repr=False)
+    ends: array = field(repr=False)
+    coeffs: array = field(repr=False)
+
+    def __len__(self) -> int:
+        return len(self.durations)
+
+    def head(self, s0: float, v0: float, a0: float) -> np.ndarray:
+        """The first ``n_head`` segments' coefficients, shape ``(n_head, 6)``, from the state
+        ``(s0, v0, a0)`` [m, m/s, m/s^2] the trajectory starts in. Raises
+        :class:`StrokeRangeError` if one of their paths leaves ``[s_min, s_max]``."""
+        t, s, v, m = self.times, self.strokes, self.rates, self.n_head
+        v_first = float(v[0])
+        if self.derived_rates and t.size > 1:  # the slope from the start stroke to point 1
+            v_first = (float(s[1]) - s0) / (float(t[1]) - 0.0)
+        dur = np.array(self.durations[:m])
+        if m == 1:
+            c = quintic_coefficients_array(dur, s0, s[0], v0, v_first, a0)
+        else:
+            c = quintic_coefficients_array(dur, [s0, s[0]], s[:2], [v0, v_first],
+                                           [v_first, v[1]], [a0, 0.0])  # fmt: skip
+        check_paths(c, dur, self.limits, 0, t.size)
+        return c
+
+
+def plan_trajectory(p: DRSParams, times, strokes, rates=None) -> TrajectoryPlan:
+    """Validate a trajectory and build what does not depend on the actuator's state.
+
+    Parameters
+    ----------
+    p : DRSParams
+        The actuator's parameters (its stroke range ``[s_min, s_max]``).
+    times : array_like, shape (n,)
+        Arrival times [s after the command], strictly increasing from > 0; ``1 <= n <= 10000``.
+    strokes : array_like, shape (n,)
+        Strokes [m] to pass at those times, each in ``[s_min, s_max]``.
+    rates : array_like, shape (n,), optional
+        Piston rates [m/s] at the points, the last 0 (a trajectory ends at rest). Default: the
+        slope across the neighbouring points (a C1 path; the first point's uses the stroke the
+        actuator is at when commanded) and rest at the last point.
+
+    Returns
+    -------
+    TrajectoryPlan
+        For ``ActuatorSim.command_trajectory(plan)``, which builds and checks only the
+        state-dependent first segment(s).
+
+    Raises
+    ------
+    InputError
+        Wrong sizes, a non-finite value, times not strictly increasing from > 0, a last rate
+        other than 0.
+    StrokeRangeError
+        A stroke outside ``[s_min, s_max]``, or a segment whose path leaves it (checked at
+        :data:`PATH_SAMPLES` instants per segment, to 1e-12 m).
+
+    Cost: a few ms for 10,000 points (numpy over all segments at once).
+    """
+    t = np.asarray(times, dtype=float).ravel()
+    s = np.asarray(strokes, dtype=float).ravel()
+    n = t.size
+    if n == 0 or n > MAX_TRAJECTORY_POINTS or s.size != n:
+        raise InputError(
+            f"a trajectory needs 1..{MAX_TRAJECTORY_POINTS} points with one stroke per time, got "
+            f"{n} times and {s.size} strokes"
+        )
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
+        raise InputError("trajectory times and strokes must be finite")
+    if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
+        raise InputError(
+            f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
+        )
+    limits = stroke_limits(p)
+    lo, hi = limits
+    out = (s < lo - PATH_TOL) | (s > hi + PATH_TOL)
+    if np.any(out):
+        raise StrokeRangeError(
+            f"stroke {float(s[out][0])!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
+        )
+    derived = rates is None
+    if derived:
+        v = np.zeros(n)
+        if n > 1:  # interior points: the slope across the neighbours; the first one's needs
+            v[0] = math.nan  # the start stroke (built when commanded)
+            v[1:-1] = (s[2:] - s[:-2]) / (t[2:] - t[:-2])
+        n_head = min(n, 2)
+    else:
+        v = np.asarray(rates, dtype=float).ravel()
+        if v.size != n or not np.all(np.isfinite(v)):
+            raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
+        if v[-1] != 0.0:
+            raise InputError(
+                f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
+                "give 0 (or no velocities)"
+            )
+        n_head = 1
+    t_prev = np.concatenate([[0.0], t[:-1]])
+    dur = t - t_prev
+    coeffs = np.full((n, 6), math.nan)
+    if n > n_head:
+        k = slice(n_head, n)
+        coeffs[k] = quintic_coefficients_array(dur[k], s[n_head - 1 : -1], s[k],
+                                               v[n_head - 1 : -1], v[k])  # fmt: skip
+        check_paths(coeffs[k], dur[k], limits, n_head, n)
+    for a in (t, s, v):
+        a.flags.writeable = False
+    return TrajectoryPlan(
+        t, s, v, derived, limits, n_head, starts=_doubles(t_prev), durations=_doubles(dur),
+        ends=_doubles(t + _END_SLACK), coeffs=_doubles(coeffs),
+    )  # fmt: skip
+
+
+def _doubles(values: np.ndarray) -> array:
+    out = array("d")
+    out.frombytes(np.ascontiguousarray(values, dtype=float).tobytes())
+    return out
+
+
+class QuinticPath(Sequence):
+    """Quintic segments end to end from ``t_start`` [s] (absolute time), as
+    ``ActuatorSim`` follows them: a sequence of :class:`QuinticSegment` (built on access), with
+    the segment in force at a time found by bisection (:meth:`at`).
+
+    Made by :meth:`of_segment` (one move) or :meth:`of_plan` (a trajectory: the plan's
+    segments, the first ``n_head`` replaced by the ones built from the actuator's state; the
+    plan's lists are shared, not copied).
+    """
+
+    __slots__ = ("t_start", "t_end", "_starts", "_durations", "_ends", "_head", "_tail", "_n_head")
+
+    def __init__(self, t_start, t_end, starts, durations, ends, head, tail, n_head) -> None:
+        self.t_start, self.t_end = float(t_start), float(t_end)
+        self._starts, self._durations, self._ends = starts, durations, ends
+        self._head, self._tail, self._n_head = head, tail, n_head
+
+    @classmethod
+    def of_segment(cls, seg: QuinticSegment) -> QuinticPath:
+        """One segment (``t_end`` is the segment's ``t1``)."""
+        return cls(seg.t0, seg.t1, [0.0], [seg.duration], [seg.duration + _END_SLACK],
+                   list(seg.coeffs), None, 1)  # fmt: skip
+
+    @classmethod
+    def of_plan(cls, plan: TrajectoryPlan, t_start: float, head: np.ndarray) -> QuinticPath:
+        """The plan's segments from ``t_start`` [s], the first ``plan.n_head`` being ``head``
+        (shape ``(n_head, 6)``)."""
+        return cls(t_start, t_start + float(plan.times[-1]), plan.starts, plan.durations,
+                   plan.ends, np.asarray(head, dtype=float).ravel().tolist(), plan.coeffs,
+                   plan.n_head)  # fmt: skip
+
+    def __len__(self) -> int:
+        return len(self._durations)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return tuple(self[i] for i in range(*k.indices(len(self))))
+        n = len(self)
+        if not -n <= k < n:
+            raise IndexError(f"segment {k} of a path of {n}")
+        k %= n
+        c = self._head if k < self._n_head else self._tail
+        return QuinticSegment(self.t_start + self._starts[k], self._durations[k],
+                              tuple(c[6 * k : 6 * k + 6]))  # fmt: skip
+
+    def segment_index(self, t: float) -> int:
+        """The segment in force at time ``t`` [s]: the first ending at or after ``t`` (within
+        1e-12 s), the last after the end."""
+        return min(bisect_left(self._ends, t - self.t_start), len(self._durations) - 1)
+
+    def at(self, t: float) -> tuple[float, float, float]:
+        """``(s, s', s'')`` [m, m/s, m/s^2] at time ``t`` [s] (scalar, the stepping loop's)."""
+        tr = t - self.t_start
+        k = bisect_left(self._ends, tr)
+        if k >= len(self._durations):
+            k = len(self._durations) - 1
+        tau = min(max(tr - self._starts[k], 0.0), self._durations[k])
+        return _quintic(tau, self._head if k < self._n_head else self._tail, 6 * k)

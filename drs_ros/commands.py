@@ -37,7 +37,14 @@ class TrajectoryMove:
     strokes: tuple[float, ...]
     rates: tuple[float, ...] | None = None
 
-    def apply(self, sim):
+    def plan(self, sim):
+        """The state-independent part (:meth:`ActuatorSim.plan_trajectory`): outside the tick."""
+        return sim.plan_trajectory(self.times, self.strokes, self.rates)
+
+    def apply(self, sim, plan=None):
+        """Follow it from the current state; ``plan`` from :meth:`plan` (same result to the bit)."""
+        if plan is not None:
+            return sim.command_trajectory(plan)
         return sim.command_trajectory(self.times, self.strokes, self.rates)
 
     def record(self) -> dict[str, str]:
@@ -90,16 +97,28 @@ def describe(key: str, msg) -> object:
     return msg.data
 
 
-def apply(sim, key: str, msg, piston_joint: str):
+def prepare(sim, key: str, msg, piston_joint: str):
+    """The part of applying ``msg`` that does not depend on the actuator's state, done before
+    the physics step that applies it (in the node, outside its real-time tick): a trajectory's
+    plan (:meth:`~drs_model.actuator.ActuatorSim.plan_trajectory`, bounded work, refusals
+    raised here). None for the other commands."""
+    if key == "trajectory_cmd":
+        return sim.plan_trajectory(*trajectory_points(msg, piston_joint))
+    return None
+
+
+def apply(sim, key: str, msg, piston_joint: str, prepared=None):
     """Apply command ``msg`` of kind ``key`` to ``sim`` (an ActuatorSim); returns what the
-    actuator returns (the move's segments, or None for a force)."""
+    actuator returns (the move's segments, or None for a force). ``prepared``: what
+    :func:`prepare` returned for it, if it was called (the result is the same to the bit)."""
     if key == "stroke_cmd":
         return sim.command_stroke(msg.data)
     if key == "force_cmd":
         return sim.command_force(msg.data)
     if key == "trajectory_cmd":
-        times, strokes, rates = trajectory_points(msg, piston_joint)
-        return sim.command_trajectory(times, strokes, rates)
+        if prepared is None:
+            prepared = prepare(sim, key, msg, piston_joint)
+        return sim.command_trajectory(prepared)
     if key == SERVICE_KEY:
         return sim.command_drs(bool(msg.data))
     if key == "joint_commands":
@@ -120,4 +139,5 @@ __all__ = [
     "apply",
     "describe",
     "move_from_record",
+    "prepare",
 ]

@@ -6,18 +6,77 @@
    command; a trajectory; a force step; one bad command (NaN, refused with a reason);
 3. stops it with SIGINT (it finishes both recordings and exits 0);
 4. runs ``drs-check`` on the bag, reads the ``.rrd`` back, and prints a short summary.
+
+``--name`` must be a plain name (no path separator, not ``.`` or ``..``, no leading ``-``). A
+previous run's ``OUT/NAME/`` and ``OUT/NAME.rrd`` are replaced only if they are what a run makes
+(a bag directory holding only ``metadata.yaml`` and ``.mcap`` files; a regular ``.rrd`` file);
+anything else there is left alone and the demo refuses to start (exit status 2, one line).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import signal
+import stat
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+from drs_model.errors import DRSError
+
+
+class DemoError(DRSError, ValueError):
+    """The demo's arguments would name or replace something the demo did not make."""
+
+
+def check_name(name: str) -> str:
+    """``name`` if it is a plain file name (``OUT/NAME`` stays inside ``OUT``), else
+    :class:`DemoError`."""
+    if (
+        not name
+        or name in (".", "..")
+        or "/" in name
+        or (os.altsep and os.altsep in name)
+        or os.sep in name
+        or "\0" in name
+        or name.startswith("-")
+    ):
+        raise DemoError(
+            f"--name must be a plain name (no path separator, not '.' or '..', not empty, no "
+            f"leading '-'), got {name!r}"
+        )
+    return name
+
+
+def remove_previous_run(bag: Path, rrd: Path) -> None:
+    """Delete a previous run's bag directory and ``.rrd``, and nothing else.
+
+    ``bag`` is removed only if it is a directory (not a link) holding nothing but
+    ``metadata.yaml`` and ``*.mcap`` regular files; ``rrd`` only if it is a regular file named
+    ``*.rrd``. Anything else raises :class:`DemoError` before anything is deleted.
+    """
+    bag_files: list[Path] = []
+    if os.path.lexists(bag):
+        mode = bag.lstat().st_mode
+        if not stat.S_ISDIR(mode):
+            raise DemoError(f"{str(bag)!r} exists and is not a bag directory: not replacing it")
+        for entry in bag.iterdir():
+            is_bag_file = entry.name == "metadata.yaml" or entry.suffix == ".mcap"
+            if not (is_bag_file and stat.S_ISREG(entry.lstat().st_mode)):
+                raise DemoError(
+                    f"{str(bag)!r} holds {entry.name!r}, which a drs bag does not: not a bag "
+                    "directory a demo made, not replacing it"
+                )
+            bag_files.append(entry)
+    if os.path.lexists(rrd) and not (rrd.suffix == ".rrd" and stat.S_ISREG(rrd.lstat().st_mode)):
+        raise DemoError(f"{str(rrd)!r} exists and is not a regular .rrd file: not replacing it")
+    for entry in bag_files:
+        entry.unlink()
+    if bag_files or os.path.lexists(bag):
+        bag.rmdir()
+    rrd.unlink(missing_ok=True)
 
 
 def _env(domain: int, log_dir: Path) -> dict[str, str]:
@@ -176,10 +235,14 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     out = Path(args.out)
-    bag, rrd, log_dir = out / args.name, out / f"{args.name}.rrd", out / ".ros-log"
-    shutil.rmtree(bag, ignore_errors=True)
-    rrd.unlink(missing_ok=True)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        name = check_name(args.name)
+        bag, rrd, log_dir = out / name, out / f"{name}.rrd", out / ".ros-log"
+        remove_previous_run(bag, rrd)
+        out.mkdir(parents=True, exist_ok=True)
+    except (DemoError, OSError) as exc:
+        print(f"drs-demo: error: {exc}", file=sys.stderr)
+        return 2
     env = _env(args.domain, log_dir)
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_LOG_DIR")})
     cmd = [

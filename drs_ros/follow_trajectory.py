@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory
@@ -183,25 +183,22 @@ class ActiveGoal:
 
     handle: object
     move: TrajectoryMove
-    segments: tuple
+    path: object  # drs_model.profile.QuinticPath, as the actuator follows it
     t_start: float
     tolerances: Tolerances
     first_sample: bool = True
-    fields: dict = field(default_factory=dict)
 
     @property
     def t_end(self) -> float:
-        return self.segments[-1].t1
+        return self.path.t_end
 
     def desired(self, t: float) -> tuple[float, float, float]:
-        """The planned ``(s, s', s'')`` [m, m/s, m/s^2] at simulated time ``t``."""
+        """The planned ``(s, s', s'')`` [m, m/s, m/s^2] at simulated time ``t`` (at rest at the
+        last point from its time on, as the actuator is)."""
         if t >= self.t_end:
             return self.move.strokes[-1], 0.0, 0.0
-        for seg in self.segments:
-            if t <= seg.t1:
-                s, v, a = seg.evaluate(max(t, seg.t0))
-                return float(s), float(v), float(a)
-        raise AssertionError("unreachable")  # pragma: no cover
+        s, v, a = self.path.at(t)
+        return float(s), float(v), float(a)
 
 
 def _violation(kind: str, joint: str, err: tuple[float, float, float], tol) -> str:
@@ -231,8 +228,10 @@ class FollowJointTrajectoryServer:
     """
 
     def __init__(self, node, sim, joint: str, defaults: Tolerances,
-                 event: Callable[..., None], hold_duration: float) -> None:  # fmt: skip
+                 event: Callable[..., None], hold_duration: float,
+                 now_ns: Callable[[], int]) -> None:  # fmt: skip
         self.node, self.sim, self.joint = node, sim, joint
+        self._now_ns = now_ns
         self.defaults = defaults
         self._event = event
         self.hold_duration = hold_duration
@@ -259,9 +258,17 @@ class FollowJointTrajectoryServer:
         return GoalResponse.ACCEPT if self.active_flag else GoalResponse.REJECT
 
     def _on_accepted(self, handle) -> None:
-        """Not executed here: the next tick validates it and gives it to the actuator."""
+        """Validated and planned here, outside the tick (the plan reads only the actuator's
+        parameters; ~4 ms for 10,000 points); the next tick gives it to the actuator."""
+        try:
+            move = plan_goal(handle.request, self.joint, self._now_ns())
+            entry = (handle, move, move.plan(self.sim))
+        except GoalError as exc:
+            entry = (handle, exc, None)
+        except DRSError as exc:
+            entry = (handle, GoalError(Result.INVALID_GOAL, str(exc)), None)
         with self._lock:
-            self._incoming.append(handle)
+            self._incoming.append(entry)
 
     def _finished(self, handle):
         """Runs once a goal's outcome is known (scheduled by :meth:`_end`)."""
@@ -310,11 +317,12 @@ class FollowJointTrajectoryServer:
         st = self.sim.state
         return st.mode == "stroke" and abs(goal.desired(st.t)[0] - st.q[0]) <= FOLLOWING_TOL
 
-    def _start(self, handle, now_ns: int) -> None:
+    def _start(self, handle, move, plan, now_ns: int) -> None:
         goal_msg = handle.request
         try:
-            move = plan_goal(goal_msg, self.joint, now_ns)
-            segments = move.apply(self.sim)
+            if isinstance(move, GoalError):
+                raise move
+            path = move.apply(self.sim, plan)  # the state-dependent first segments: checked now
         except GoalError as exc:
             code, why = exc.code, str(exc)
         except DRSError as exc:
@@ -327,7 +335,7 @@ class FollowJointTrajectoryServer:
                 self._end(self.goal.handle, "aborted", Result.INVALID_GOAL,
                           "Current goal preempted by new incoming action.", now_ns)  # fmt: skip
             handle._update_state(_rclpy.GoalEvent.EXECUTE)
-            self.goal = ActiveGoal(handle, move, tuple(segments), self.sim.t, tolerances)
+            self.goal = ActiveGoal(handle, move, path, self.sim.t, tolerances)
             values = {**move.record(), "goal_id": _uuid(handle)}
             self._event(ACCEPTED, DiagnosticStatus.OK, "", values, now_ns)
             return
@@ -339,11 +347,11 @@ class FollowJointTrajectoryServer:
         """At a publish: take new goals, send feedback, judge tolerances, end goals."""
         with self._lock:
             incoming, self._incoming = self._incoming, []
-        for handle in incoming:
+        for handle, move, plan in incoming:
             if handle.is_cancel_requested:  # cancelled before it started: nothing to hold
                 self._end(handle, "canceled", Result.SUCCESSFUL, "", now_ns)
             else:
-                self._start(handle, now_ns)
+                self._start(handle, move, plan, now_ns)
         goal = self.goal
         if goal is None:
             return
@@ -395,7 +403,8 @@ class FollowJointTrajectoryServer:
         self.active_flag = False
         with self._lock:
             incoming, self._incoming = self._incoming, []
-        ends = [*incoming, *([self.goal.handle] if self.goal is not None else [])]
+        ends = [entry[0] for entry in incoming]
+        ends += [self.goal.handle] if self.goal is not None else []
         self.goal = None
         for handle in ends:
             self._end(handle, "aborted", Result.INVALID_GOAL,

@@ -148,6 +148,7 @@ class PendingCommand:
     msg: object  # the decoded message (only messages that decode are ever pending)
     sequence: int | None
     received_ns: int
+    prepared: object = None  # commands.prepare's result (a trajectory's plan)
     #: sequence numbers of the older commands of the topic this one replaced before a step
     superseded: list = dataclasses.field(default_factory=list)
 
@@ -567,27 +568,34 @@ class DRSNode(Node):
         return self.get_clock().now().nanoseconds
 
     def _receive(self, key: str, data: bytes) -> None:
-        """A raw command arrived: record it, keep it as the newest of its topic."""
-        with self._lock:
-            self._receive_locked(key, data)
-
-    def _receive_locked(self, key: str, data: bytes) -> None:
+        """A raw command arrived (executor thread): decode it and do the state-free part of its
+        work here, outside the lock the real-time tick takes (a 10,000-point trajectory is
+        planned in ~4 ms), then record it and keep it as the newest of its topic."""
         now = self._now_ns()
         topic = self.command_topics[key]
-        self.received += 1
         try:
             msg = deserialize_message(data, COMMANDS[key])
         except Exception as exc:  # noqa: BLE001 - any bytes from any participant: refused, kept
-            self._refuse_malformed(topic, COMMANDS[key], data, exc, now)
+            with self._lock:
+                self.received += 1
+                self._refuse_malformed(topic, COMMANDS[key], data, exc, now)
             return
-        # only bytes that decode go on the typed topic: the bag stays readable by every reader
-        seq = self._record(topic, data, now)
-        cmd = PendingCommand(key, topic, msg, seq, now)
-        older = self._pending.get(key)
-        if older is not None:  # counted and recorded (one record per step) when the step comes
-            cmd.superseded = older.superseded
-            cmd.superseded.append(older.sequence)
-        self._pending[key] = cmd
+        try:
+            prepared, refusal = commands.prepare(self.sim, key, msg, self.joint_names[0]), None
+        except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
+            prepared, refusal = None, exc
+        with self._lock:
+            self.received += 1
+            # only bytes that decode go on the typed topic: the bag stays readable by all readers
+            cmd = PendingCommand(key, topic, msg, self._record(topic, data, now), now, prepared)
+            if refusal is not None:
+                self._refuse_command(cmd, refusal, now)
+                return
+            older = self._pending.get(key)
+            if older is not None:  # counted and recorded (one record per step) when it comes
+                cmd.superseded = older.superseded
+                cmd.superseded.append(older.sequence)
+            self._pending[key] = cmd
 
     def _refuse_malformed(
         self, topic: str, msg_type, data: bytes, exc: Exception, now_ns: int
@@ -622,26 +630,24 @@ class DRSNode(Node):
                 self._event(cmd.topic, SUPERSEDED, DiagnosticStatus.STALE, reason, None, {
                     "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
                 }, now_ns)  # fmt: skip
-            value = commands.describe(cmd.key, cmd.msg)
             try:
-                commands.apply(self.sim, cmd.key, cmd.msg, self.joint_names[0])
+                commands.apply(self.sim, cmd.key, cmd.msg, self.joint_names[0], cmd.prepared)
             except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
-                why = str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
-                reason = self._refuse(cmd.key, value, why, now_ns)
-                self._event(
-                    cmd.topic,
-                    REFUSED,
-                    DiagnosticStatus.WARN,
-                    reason,
-                    cmd,
-                    {"value": repr(value)},
-                    now_ns,
-                )
+                self._refuse_command(cmd, exc, now_ns)
                 continue
             self.accepted += 1
+            value = commands.describe(cmd.key, cmd.msg)
             self._event(
                 cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, {"value": repr(value)}, now_ns
             )
+
+    def _refuse_command(self, cmd: PendingCommand, exc: Exception, now_ns: int) -> None:
+        value = commands.describe(cmd.key, cmd.msg)
+        why = str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
+        reason = self._refuse(cmd.key, value, why, now_ns)
+        self._event(
+            cmd.topic, REFUSED, DiagnosticStatus.WARN, reason, cmd, {"value": repr(value)}, now_ns
+        )
 
     def _refuse(self, what: str, value, reason: str, now_ns: int) -> str:
         self.refused += 1
@@ -1012,6 +1018,10 @@ class StopRequest:
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, self)
 
+    def ignore_further(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+
 
 #: The longest a loop waits before it looks at the stop flag again [s].
 STOP_POLL_S = 0.05
@@ -1119,6 +1129,9 @@ def main(argv: list[str] | None = None) -> int:
                 node.close_recordings()
             node.destroy_node()
         rclpy.try_shutdown()
+    # the recordings are finished: a further SIGINT/SIGTERM (a second Ctrl-C) is ignored, not
+    # left to interpreter shutdown, which restores the default action (killed: exit -2)
+    stop.ignore_further()
     if stop.signal_name:
         print(f"drs-node: stopped by {stop.signal_name}, recordings finished", file=sys.stderr)
     return rc

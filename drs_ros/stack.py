@@ -104,7 +104,7 @@ class StackLayer:
         )
         self.action = FollowJointTrajectoryServer(
             node, node.sim, self.joint_names[0], self.defaults, self._action_event,
-            hold_duration=node.params.T_opening,
+            hold_duration=node.params.T_opening, now_ns=hooks.now_ns,
         )  # fmt: skip
         self.sub_commands = None
 

@@ -50,13 +50,17 @@ def manoeuvre_states(params, n: int = 200):
     return t, state.q, state.qd
 
 
-def write_drs_bag(bag_dir, params, *, n: int = 200, corrupt=None, recorder_kwargs=None):
+def write_drs_bag(
+    bag_dir, params, *, n: int = 200, corrupt=None, recorder_kwargs=None, samples=None
+):
     """Record a manoeuvre as the node would: /joint_states, /drs/flap_gap, /drs/piston_force.
 
     Parameters
     ----------
     corrupt : tuple (index, joint, delta), optional
         Add ``delta`` to the logged position of ``joint`` (0..2) of sample ``index``.
+    samples : range, optional
+        Record only these of the ``n`` samples (one file of a split recording); all by default.
 
     Returns
     -------
@@ -81,7 +85,7 @@ def write_drs_bag(bag_dir, params, *, n: int = 200, corrupt=None, recorder_kwarg
         rec.register_topic("/joint_states", JointState, 10)
         rec.register_topic("/drs/flap_gap", Float64, 10)
         rec.register_topic("/drs/piston_force", "std_msgs/msg/Float64", 10)
-        for k in range(n):
+        for k in range(n) if samples is None else samples:
             ns = t0_ns + int(round(t[k] * 1e9))
             msg = JointState()
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 1_000_000_000)

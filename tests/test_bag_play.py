@@ -630,15 +630,19 @@ def test_start_offset_skips_the_beginning(tmp_path):
 
 
 def test_copy_of_the_example_bag_directory_plays_by_its_metadata(tmp_path):
-    """A bag directory is read through its metadata.yaml's file list."""
-    from drs_ros.bag.play import BagReadError, bag_files
+    """A bag directory is read through its metadata.yaml's file list (the reader's resolver,
+    which the player uses)."""
+    from drs_ros.bag.play import BagReadError, index_bag
+    from drs_ros.bag.reader import resolve
 
     copy = tmp_path / "copy"
     shutil.copytree(EXAMPLE, copy)
-    assert bag_files(copy) == tuple(copy / p.name for p in sorted(EXAMPLE.glob("*.mcap")))
+    files = tuple(copy / p.name for p in sorted(EXAMPLE.glob("*.mcap")))
+    assert resolve(copy, require_metadata=False).files == files
+    assert index_bag(copy).files == files
     (copy / next(EXAMPLE.glob("*.mcap")).name).unlink()
-    with pytest.raises(BagReadError, match="missing"):
-        bag_files(copy)
+    with pytest.raises(BagReadError, match="which the bag directory does not hold"):
+        index_bag(copy)
 
 
 # ---- QoS as rosbag2 offers it -------------------------------------------------------------------

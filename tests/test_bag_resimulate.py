@@ -87,3 +87,141 @@ def test_bad_set_is_refused_with_a_reason(tmp_path):
     assert rc == 2 and "unknown parameter(s) ['m_wnig']" in err
     rc, err = resimulate(str(EXAMPLE), "--set", "m_wing")
     assert rc == 2 and "--set expects NAME=VALUE" in err
+
+
+# ---- a RESET is re-run like any other record; the recorded parameters as recorded (issue 16) ---
+T0_NS = 1_700_000_000_000_000_000
+
+
+def write_bag_with_a_reset(bag_dir, params) -> dict:
+    """The bag the node recorded, before issue 16, for: stroke 46 mm, then -5 kN at 100 Hz
+    physics (its model raised IntegrationError in the first force step, so the node held the
+    flap there and recorded a RESET), then 20 mm, +600 N, -20 kN. Written tick by tick as
+    ``DrsNode._tick_locked`` does (one physics step per 10 ms tick), with the node's own message
+    helpers: the effect record (command_event_msg), the parameters (parameter_event), the
+    joint states (joint_state_msg). Today's model takes that step, so the RESET is written
+    where the node wrote it, with the stroke it held. Returns what was written."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from rcl_interfaces.msg import ParameterEvent
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+
+    from drs_model.actuator import ActuatorSim
+    from drs_model.errors import DRSError
+    from drs_model.params import NUMERIC_FIELDS
+    from drs_ros import commands
+    from drs_ros.bag.effects import parameter_event
+    from drs_ros.conversions import command_event_msg, float_msg, joint_state_msg
+    from drs_ros.names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS, RESET
+    from drs_ros.recording import McapRecorder
+
+    tp, names, hz = DEFAULT_TOPICS, list(DEFAULT_JOINT_NAMES), 100.0
+    node_params = {"physics_rate_hz": hz, "publish_rate_hz": hz, "force_limit": 2.0e4,
+                   "integrator": "rk4", "force_method": "virtual-work", "joint_names": names,
+                   **{f"model.{k}": float(getattr(params, k)) for k in NUMERIC_FIELDS}}  # fmt: skip
+    sim = ActuatorSim(params, dt=1.0 / hz)
+    schedule = {1: ("stroke_cmd", 0.046), 30: ("force_cmd", -5000.0), 50: ("stroke_cmd", 0.02),
+                80: ("force_cmd", 600.0), 120: ("force_cmd", -20000.0)}  # fmt: skip
+    reset_tick, written = 30, {"resets": [], "states": {}}
+    with McapRecorder(bag_dir, flush_thread=False) as rec:
+        rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
+        rec.register_topic(tp["command_events"], DiagnosticArray, 100)
+        rec.register_topic(tp["joint_states"], JointState, 10)
+        rec.register_topic(tp["piston_force"], Float64, 10)
+        rec.register_topic(tp["flap_gap"], Float64, 10)
+        for key in ("stroke_cmd", "force_cmd"):
+            rec.register_topic(tp[key], Float64, 10)
+        rec.write(tp["parameter_events"], parameter_event("/drs", node_params, T0_NS), T0_NS)
+
+        def event(now, source, outcome, level, reason, values):
+            record = {"sim_time": repr(sim.t), "step": sim.steps, **values}
+            stamp = T0_NS + int(round(sim.t * 1e9))
+            msg = command_event_msg(stamp, source, outcome, level, reason, record)
+            rec.write(tp["command_events"], msg, now)
+
+        def hold(now: int, s_before: float, reason: str) -> None:  # the node's except DRSError
+            s_hold = min(max(s_before, sim.s_min), sim.s_max)
+            sim.reset(sim.t, s_hold)
+            event(now, RESET, RESET, DiagnosticStatus.WARN, f"step 'force' refused: {reason}",
+                  {"stroke": repr(s_hold)})  # fmt: skip
+            written["resets"].append((sim.t, s_hold))
+
+        for tick in range(151):
+            now = T0_NS + tick * 10_000_000
+            if tick == 0:
+                event(now, CLOCK, CLOCK, DiagnosticStatus.OK, "", {"t0_ns": T0_NS})
+            if tick in schedule:  # arrived half a tick earlier, applied at this tick
+                key, value = schedule[tick]
+                received = now - 5_000_000
+                seq = rec.write(tp[key], Float64(data=value), received)
+                commands.apply(sim, key, Float64(data=value), names[0])
+                event(now, tp[key], ACCEPTED, DiagnosticStatus.OK, "",
+                      {"sequence": seq, "received_ns": received, "value": repr(value)})  # fmt: skip
+            s_before = float(sim.state.q[0])
+            if tick == reset_tick:  # as it ran then: the model of the time raised in this step
+                try:
+                    sim.step()  # today's model takes it
+                except DRSError:
+                    pass
+                hold(now, s_before, "fixed step rk4 (dt = 0.01 s) diverged: non-finite state")
+            elif tick > 0:
+                try:
+                    sim.advance(1)
+                except DRSError as exc:
+                    hold(now, s_before, str(exc))
+            st = sim.state
+            stamp = T0_NS + int(round(st.t * 1e9))
+            rec.write(tp["joint_states"], joint_state_msg(st, names, stamp), now)
+            rec.write(tp["piston_force"], float_msg(st.piston_force), now)
+            rec.write(tp["flap_gap"], float_msg(st.gap), now)
+            written["states"][tick] = st
+    return written
+
+
+def test_a_bag_with_a_reset_re_runs_exactly(tmp_path, params):
+    """The RESET is applied at its recorded step with its recorded stroke, and the run goes on
+    from there: every signal re-runs with zero deviation, no note. (Today's model would not
+    hold at 46 mm under -5 kN but close the flap: without the RESET the re-run deviates by
+    ~46 mm; with the model of the time, the re-run itself raised at that step.)"""
+    require_rclpy()
+    written = write_bag_with_a_reset(tmp_path / "reset", params)
+    ((t_reset, s_hold),) = written["resets"]
+    assert t_reset == pytest.approx(0.30) and s_hold == 0.046
+    states = written["states"]
+    assert states[40].mode == "hold" and states[40].q[0] == 0.046
+    assert states[110].at_stop == "open" and states[150].at_stop == "closed"  # moves after it
+    rc, report = resimulate(str(tmp_path / "reset"), "--json")
+    assert rc == 0, report
+    rows = {r["signal"]: r for r in report["signals"]}
+    assert rows["stroke"]["samples"] == 151 and rows["gap"]["samples"] == 151
+    assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows
+    assert not report["notes"], report["notes"]
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {},  # every value the seed's
+        {"m_wing": 3.0, "Iz_wing": 0.0096},  # Iz_wing equal to the seed's, not m_wing L^2 / 3
+        {"m_link": 0.05, "Iz_link": 0.0375 * 0.05**2 / 12.0},  # likewise for the link
+        {"m_wing": 3.0},  # Iz_wing follows m_wing (0.0144)
+    ],
+    ids=["seed", "m_wing-Iz_wing-seed", "m_link-Iz_link-seed", "m_wing"],
+)
+def test_recorded_model_parameters_are_rebuilt_exactly(params, overrides):
+    """Every recorded model.* value goes to the re-run as recorded, through the message the
+    node records (a ParameterEvent): the rebuilt DRSParams equals the run's, field by field."""
+    require_rclpy()
+    import dataclasses
+
+    from drs_model.params import NUMERIC_FIELDS, from_dict
+    from drs_ros.bag.effects import model_params_from, parameter_event, parameter_values
+
+    run = from_dict(overrides)
+    values = {"physics_rate_hz": 1000.0, "integrator": "rk4",
+              **{f"model.{k}": float(getattr(run, k)) for k in NUMERIC_FIELDS}}  # fmt: skip
+    got = model_params_from(parameter_values(parameter_event("/drs", values, 0)))
+    for f in dataclasses.fields(run):
+        assert getattr(got, f.name) == getattr(run, f.name), f.name
+    if "Iz_wing" in overrides:
+        assert got.Iz_wing == 0.0096 and got.m_wing == 3.0

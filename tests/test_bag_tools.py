@@ -13,17 +13,19 @@
 
 from __future__ import annotations
 
+import json
 import random
 import shutil
 import signal
+import struct
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
-from node_support import domain_for, node_env
-from ros_support import require_module, require_rclpy
+from node_support import domain_for, node_env, wait_for_file_growth
+from ros_support import require_module, require_rclpy, write_drs_bag
 
 pytestmark = pytest.mark.ros
 
@@ -170,7 +172,9 @@ def test_sigkill_then_recover_gives_a_bag_every_reader_reads(tmp_path, request):
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     try:
-        time.sleep(4.0)  # well past start-up, with flushes behind it
+        # well past start-up (which takes seconds on a loaded machine), with flushes behind it
+        assert wait_for_file_growth(tmp_path / "bag" / "bag_0.mcap", timeout=60)
+        time.sleep(2.0)
     finally:
         kill_ns = time.time_ns()
         proc.send_signal(signal.SIGKILL)
@@ -255,3 +259,288 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
         else:
             with pytest.raises(BagReadError, match=r"bytes where its CDR serialisation is"):
                 scan(tmp_path / name)
+
+
+# ---- metadata.yaml: malformed is one line and exit status 2, for every verb ----------------------
+def _example_metadata() -> dict:
+    import yaml
+
+    return yaml.safe_load((EXAMPLE / "metadata.yaml").read_text())
+
+
+def _malformed(kind: str):
+    """The text (or bytes) of a malformed metadata.yaml, and words the error must hold."""
+    import yaml
+
+    meta = _example_metadata()
+    info = meta["rosbag2_bagfile_information"]
+    if kind == "not_yaml":
+        return "rosbag2_bagfile_information: [unclosed\n  - : :\n", "not YAML"
+    if kind == "not_utf8":
+        return b"\xff\xfe\x00rosbag2", "cannot be read"
+    if kind == "empty":
+        return "", "not a mapping"
+    if kind == "a_list":
+        return "- 1\n- 2\n", "not a mapping"
+    if kind == "no_key":
+        return yaml.safe_dump({"other": info}), "no key 'rosbag2_bagfile_information'"
+    if kind == "info_not_mapping":
+        return "rosbag2_bagfile_information: 3\n", "must be a mapping"
+    if kind == "count_not_int":
+        info["topics_with_message_count"][1]["message_count"] = "many"
+        words = "topics_with_message_count[1].message_count must be an integer >= 0, got 'many'"
+    elif kind == "negative_total":
+        info["message_count"] = -5
+        words = "message_count must be an integer >= 0, got -5"
+    elif kind == "no_topic_metadata":
+        del info["topics_with_message_count"][0]["topic_metadata"]
+        words = "topics_with_message_count[0].topic_metadata is missing"
+    elif kind == "files_not_a_list":
+        info["relative_file_paths"] = "example_0.mcap"
+        words = "relative_file_paths must be a non-empty list"
+    elif kind == "file_outside":
+        info["relative_file_paths"] = ["/etc/passwd"]
+        words = "must name a file inside the bag directory"
+    elif kind == "no_starting_time":
+        del info["starting_time"]
+        words = "starting_time is missing"
+    else:
+        raise AssertionError(kind)
+    return yaml.safe_dump(meta, sort_keys=False), words
+
+
+MALFORMED = ["not_yaml", "not_utf8", "empty", "a_list", "no_key", "info_not_mapping",
+             "count_not_int", "negative_total", "no_topic_metadata", "files_not_a_list",
+             "file_outside", "no_starting_time"]  # fmt: skip
+VERBS = ["info", "check", "recover", "resimulate", "play"]
+
+
+def _bag_with_metadata(tmp_path: Path, kind: str) -> tuple[Path, str]:
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    (bag / "example_0.mcap").symlink_to(EXAMPLE / "example_0.mcap")
+    text, words = _malformed(kind)
+    meta = bag / "metadata.yaml"
+    meta.write_bytes(text) if isinstance(text, bytes) else meta.write_text(text)
+    return bag, words
+
+
+@pytest.mark.parametrize("kind", MALFORMED)
+def test_a_malformed_metadata_yaml_is_one_line_and_status_2_for_every_verb(kind, tmp_path, capsys):
+    """Every verb, in process (drs_ros.bag.cli.main): exit 2, one stderr line naming the file and
+    what is wrong, nothing written (recover's output is not created)."""
+    require_rclpy()
+    from drs_ros.bag.cli import main
+
+    bag, words = _bag_with_metadata(tmp_path, kind)
+    for verb in VERBS:
+        extra = ["-o", str(tmp_path / "out")] if verb == "recover" else []
+        status = main([verb, str(bag), *extra])
+        err = capsys.readouterr().err
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert status == 2, (verb, err)
+        assert len(lines) == 1 and lines[0].startswith(f"drs-bag {verb}: error: "), (verb, err)
+        assert str(bag / "metadata.yaml") in lines[0] and words in lines[0], (verb, lines[0])
+        assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("kind", ["not_yaml", "count_not_int"])
+def test_a_malformed_metadata_yaml_gives_no_traceback(kind, tmp_path):
+    require_rclpy()
+    bag, words = _bag_with_metadata(tmp_path, kind)
+    res = run_tool("drs_ros.bag.cli", "check", str(bag))
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], res.stderr
+
+
+# ---- a failing callback is the caller's, not the bag's -------------------------------------------
+def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
+    """A callback raising on the 50th message: the scan raises MessageCallbackError (caused by
+    the callback's exception) with or without ``recover``: never a BagReadError, never a scan
+    ended as if the file were truncated there."""
+    require_rclpy()
+    from drs_ros.bag.reader import BagReadError, scan
+
+    rec, *_ = write_drs_bag(tmp_path / "bag", params, n=100,
+                            recorder_kwargs={"flush_messages": 30})  # fmt: skip
+    bug = ValueError("the caller's own bug")
+    seen: list = []
+
+    def callback(message) -> None:
+        seen.append(message)
+        if len(seen) == 50:
+            raise bug
+
+    for recover in (False, True):
+        seen.clear()
+        try:
+            result = scan(rec.bag_dir, callback, recover=recover)
+        except Exception as exc:  # noqa: BLE001 - what it is is the test
+            raised = exc
+        else:
+            pytest.fail(f"recover={recover}: the callback's error ended the scan as damage to "
+                        f"the file: {result.reason!r}, {result.message_count} kept")  # fmt: skip
+        assert not isinstance(raised, BagReadError), f"reported as the bag's fault: {raised}"
+        assert type(raised).__name__ == "MessageCallbackError" and raised.__cause__ is bug
+        assert (raised.topic, raised.offset) == (seen[-1].topic, seen[-1].offset)
+        assert "ValueError: the caller's own bug" in str(raised) and "\n" not in str(raised)
+    assert scan(rec.bag_dir).complete  # the file itself is intact
+
+
+def _bag_of_an_uninstalled_type(bag: Path) -> None:
+    """/joint_states recorded as a type this machine does not have: intact, undecodable here."""
+    from drs_ros.recording import McapRecorder
+
+    with McapRecorder(bag, flush_thread=False) as rec:
+        rec.register_recorded_topic("/joint_states", "drs_test_msgs/msg/Unknown", b"float64 x",
+                                    "ros2msg", [], "")  # fmt: skip
+        for k in range(20):
+            rec.write("/joint_states", b"\x00\x01\x00\x00" + struct.pack("<d", k),
+                      1_700_000_000_000_000_000 + k * 1_000_000)  # fmt: skip
+
+
+def test_check_reports_its_own_failure_apart_from_corruption(tmp_path):
+    """check must decode /joint_states; a type it cannot decode is its failure (exit 4, one
+    line), not the file's (exit 2) nor a truncation (--recover: exit 3). recover copies the
+    whole bag (it decodes nothing)."""
+    require_rclpy()
+    bag = tmp_path / "bag"
+    _bag_of_an_uninstalled_type(bag)
+    for extra in ([], ["--recover"]):
+        res = run_tool("drs_ros.bag.cli", "check", str(bag), *extra)
+        lines = res.stderr.strip().splitlines()
+        assert res.returncode == 4, (extra, res.stdout[-1000:], res.stderr)
+        assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+        assert lines[0].startswith("drs-bag check: internal error (not a verdict on the bag): ")
+        assert "/joint_states" in lines[0] and "passed every check of the file" in lines[0]
+    res = run_tool("drs_ros.bag.cli", "recover", str(bag), "-o", str(tmp_path / "copy"), "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["per_topic"] == {"/joint_states": 20}
+
+
+def test_recover_that_cannot_write_its_output_leaves_nothing(tmp_path):
+    """The output cannot grow past 64 KiB (RLIMIT_FSIZE, a real EFBIG from the kernel): the copy
+    fails inside the scan's callback. recover must say it could not write OUT (exit 2, one
+    line), not that the source is damaged, and leave no truncated OUT behind."""
+    require_rclpy()
+    import resource
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64 * 1024, 64 * 1024))
+
+    out = tmp_path / "out"
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "recover", str(EXAMPLE), "-o", str(out)],
+        capture_output=True, text=True, timeout=120, preexec_fn=limit,
+    )  # fmt: skip
+    assert res.returncode == 2, (res.stdout[-1000:], res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert f"cannot write the recovered bag {str(out)!r}" in lines[0], lines[0]
+    assert not out.exists()
+
+
+# ---- split bags ---------------------------------------------------------------------------------
+def _split_bag(tmp_path: Path, params, *, killed: bool, n: int = 240) -> tuple[Path, int]:
+    """A bag split as rosbag2 splits it, ``split/split_0.mcap`` (samples 0..n/2) and
+    ``split/split_1.mcap`` (the rest); ``killed``: the second file cut at 60 % and no
+    metadata.yaml (the recorder was SIGKILLed while writing it). Returns the bag and the number
+    of messages of the first file."""
+    import yaml
+
+    half = n // 2
+    parts = []
+    for i, samples in enumerate((range(0, half), range(half, n))):
+        rec, *_ = write_drs_bag(tmp_path / f"part{i}", params, n=n, samples=samples,
+                                recorder_kwargs={"flush_messages": 45})  # fmt: skip
+        parts.append(rec)
+    bag = tmp_path / "split"
+    bag.mkdir()
+    for i, rec in enumerate(parts):
+        data = rec.path.read_bytes()
+        if killed and i == 1:
+            data = data[: int(len(data) * 0.6)]
+        (bag / f"split_{i}.mcap").write_bytes(data)
+    if not killed:
+        metas = [rec.bag_metadata() for rec in parts]
+        meta = metas[0]
+        for topic, other in zip(meta["topics_with_message_count"],
+                                metas[1]["topics_with_message_count"], strict=True):  # fmt: skip
+            topic["message_count"] += other["message_count"]
+        meta["message_count"] += metas[1]["message_count"]
+        meta["relative_file_paths"] = ["split_0.mcap", "split_1.mcap"]
+        meta["files"] = []
+        (bag / "metadata.yaml").write_text(
+            yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
+        )
+    return bag, 3 * half
+
+
+def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
+    from drs_ros.bag.reader import BagReadError, resolve
+
+    for k in (10, 0, 2, 1, 11):
+        (tmp_path / f"run_{k}.mcap").write_bytes(b"")
+    bag = resolve(tmp_path, require_metadata=False)
+    assert [f.name for f in bag.files] == [f"run_{k}.mcap" for k in (0, 1, 2, 10, 11)]
+    assert bag.bag_dir == tmp_path and bag.metadata is None
+    with pytest.raises(BagReadError, match="run_0.mcap, run_1.mcap, .*drs-bag recover"):
+        resolve(tmp_path)
+
+
+def test_check_and_info_read_every_file_of_a_split_bag(tmp_path, params, capsys):
+    require_rclpy()
+    from drs_ros.bag import check
+    from drs_ros.bag.cli import main
+
+    bag, _first = _split_bag(tmp_path, params, killed=False)
+    assert check.main([str(bag), "--json"]) == 0, capsys.readouterr().err
+    report = json.loads(capsys.readouterr().out)
+    assert report["messages"] == {"/joint_states": 240, "/drs/flap_gap": 240,
+                                  "/drs/piston_force": 240}  # fmt: skip
+    assert main(["info", str(bag), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["files"] == ["split_0.mcap", "split_1.mcap"]
+    # metadata.yaml's counts are checked against the sum over the files
+    meta = bag / "metadata.yaml"
+    meta.write_text(meta.read_text().replace("message_count: 720", "message_count: 719"))
+    assert check.main([str(bag)]) == 2
+    assert "counts 719 messages, its 2 files hold 720" in capsys.readouterr().err
+
+
+def test_recover_keeps_every_file_of_a_killed_split_bag(tmp_path, params):
+    """split_0.mcap complete, split_1.mcap cut (SIGKILL): the recovered bag holds every message
+    of the first file and the readable part of the second, in order, byte for byte; check
+    passes on it and rosbags reads it."""
+    require_rclpy()
+    require_module("rosbags")
+    from drs_ros.bag.reader import scan
+
+    bag, first = _split_bag(tmp_path, params, killed=True)
+    res = run_tool("drs_ros.bag.cli", "check", str(bag), "--recover", "--json")
+    assert res.returncode == 3, res.stderr
+    assert sum(json.loads(res.stdout)["messages"].values()) > first  # both files were read
+    out = tmp_path / "fixed"
+    res = run_tool("drs_ros.bag.cli", "recover", str(bag), "-o", str(out), "--json")
+    assert res.returncode == 3, res.stderr
+    report = json.loads(res.stdout)
+    files = report["files"]
+    assert [Path(f["file"]).name for f in files] == ["split_0.mcap", "split_1.mcap"]
+    assert files[0]["complete"] and files[0]["messages"] == first and files[0]["bytes_lost"] == 0
+    assert not files[1]["complete"] and 0 < files[1]["messages"] < first
+    assert files[1]["bytes_lost"] > 0 and "split_1.mcap" in report["reason"]
+    assert report["messages"] == first + files[1]["messages"]
+    text = run_tool("drs_ros.bag.cli", "recover", str(bag), "-o", str(tmp_path / "again"))
+    assert "split_0.mcap: complete" in text.stdout and "split_1.mcap: " in text.stdout
+
+    # what was written is what the two files hold, in order (times, sequences, bytes)
+    source: list = []
+    scan(bag, source.append, recover=True)
+    copied: list = []
+    assert scan(out, copied.append).complete
+    key = [(m.topic, m.log_time, m.publish_time, m.sequence, m.data) for m in source]
+    assert [(m.topic, m.log_time, m.publish_time, m.sequence, m.data) for m in copied] == key
+    assert len(key) == report["messages"]
+    assert run_tool("drs_ros.bag.cli", "check", str(out)).returncode == 0
+    assert judge_with_rosbags(out) == report["per_topic"]

@@ -226,3 +226,26 @@ def test_fixed_step_arguments(params):
     with pytest.raises(InputError, match="either s or psi3"):
         integ.reset(s=0.01, psi3=1.0)
     assert issubclass(StrokeRangeError, DRSError)
+
+
+def test_step_by_and_restore_for_a_search_inside_a_step(params):
+    """``step_by(f, h)`` is ``h``-sized :meth:`step` (two halves agree with one whole step to
+    RK4's local error, and ``h = dt`` is ``step`` to the bit); ``restore`` goes back to a state
+    exactly, so a step taken again from it gives the same bits."""
+    whole = FixedStepIntegrator(params, 1e-3)
+    whole.reset(s=S0)
+    halves = FixedStepIntegrator(params, 1e-3)
+    halves.reset(s=S0)
+    a = whole.step(F_CONST)
+    halves.step_by(F_CONST, 5e-4)
+    b = halves.step_by(F_CONST, 5e-4)
+    assert b.t == a.t and abs(b.s - a.s) < 1e-9 and b.s != a.s
+    start = whole.state
+    once = whole.step_by(F_CONST, 1e-3)
+    back = whole.restore(start.t, (start.psi3, start.psi3_dot))
+    assert back == start
+    assert whole.step(F_CONST) == once
+    with pytest.raises(InputError, match=r"h must be a finite number in \(0, dt = 0\.001\] s"):
+        whole.step_by(F_CONST, 2e-3)
+    with pytest.raises(InputError, match="t and y must be finite"):
+        whole.restore(0.0, (math.nan, 0.0))

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from trajectory_support import scalar_segments
 
 from drs_model.errors import InputError, StrokeRangeError
 from drs_model.kinematics import stroke_limits
@@ -123,3 +124,94 @@ def test_bad_moves(params):
         drs_manoeuvre(params).evaluate(np.array([0.0, math.inf]))
     # the limits themselves are accepted
     quintic_move(params, s_max, 0.01, s0=s_min)
+
+
+# ---- trajectory plans (issue 16): all segments at once, the state-dependent ones apart ---------
+@given(
+    n=st.integers(1, 40),
+    seed=st.integers(0, 2**31),
+    with_rates=st.booleans(),
+    start=st.floats(0.0, 1.0),
+)
+@settings(max_examples=60, deadline=None)
+def test_a_plan_builds_the_segments_of_the_boundary_conditions(params, n, seed, with_rates, start):
+    """Vectorised over all segments, the plan + head give the coefficients of the segment-by-
+    segment closed form (quintic_coefficients) to 1e-9 relative, and each segment meets its
+    points' stroke and rate (to 1e-12 m, 1e-9 m/s)."""
+    from drs_model.profile import QuinticPath, plan_trajectory
+
+    s_min, s_max = stroke_limits(params)
+    rng = np.random.default_rng(seed)
+    times = np.cumsum(rng.uniform(0.005, 0.05, n))
+    strokes = rng.uniform(s_min + 0.1 * (s_max - s_min), s_max - 0.1 * (s_max - s_min), n)
+    rates = None
+    if with_rates:
+        rates = rng.uniform(-0.3, 0.3, n)
+        rates[-1] = 0.0
+    s0 = s_min + start * (s_max - s_min)
+    try:
+        plan = plan_trajectory(params, times, strokes, rates)
+        path = QuinticPath.of_plan(plan, 0.0, plan.head(s0, 0.0, 0.0))
+    except StrokeRangeError:
+        return  # an overshooting path (checked against the actuator's refusals elsewhere)
+    ref = scalar_segments(times, strokes, rates, s0)
+    assert len(path) == n and plan.n_head == (1 if with_rates or n == 1 else 2)
+    for seg, want in zip(path, ref, strict=True):
+        assert seg.t0 == pytest.approx(want.t0, abs=1e-15)
+        assert seg.duration == pytest.approx(want.duration, rel=1e-15)
+        scale = np.abs(want.coeffs) + 1e-300
+        np.testing.assert_array_less(
+            np.abs(np.subtract(seg.coeffs, want.coeffs)), 1e-9 * scale + 1e-15
+        )
+    for k in range(n):
+        s, v, a = path.at(float(times[k]))
+        assert s == pytest.approx(strokes[k], abs=1e-12)
+        if rates is not None:
+            assert v == pytest.approx(rates[k], abs=1e-9)
+
+
+def test_segment_lookup_by_bisection_matches_a_scan(params):
+    """The segment in force at a time is the first ending at or after it (within 1e-12 s):
+    bisection over 10,000 segments agrees with a linear scan, at the joints too."""
+    from drs_model.profile import QuinticPath, plan_trajectory
+
+    s_min, s_max = stroke_limits(params)
+    n = 10_000
+    times = 1e-3 * np.arange(1, n + 1)
+    strokes = 0.5 * (s_min + s_max) + 0.01 * np.sin(times * 20)
+    plan = plan_trajectory(params, times, strokes)
+    path = QuinticPath.of_plan(plan, 2.0, plan.head(0.03, 0.0, 0.0))
+    ends = [path.t_start + e for e in plan.times]
+    rng = np.random.default_rng(1)
+    probes = np.concatenate([rng.uniform(1.9, 12.1, 300), np.array(ends[:50]) + 1e-13,
+                             np.array(ends[:50]) - 1e-9])  # fmt: skip
+    for t in probes:
+        scan = next((k for k, e in enumerate(ends) if t - path.t_start <= plan.ends[k]), n - 1)
+        assert path.segment_index(float(t)) == scan
+        if path.t_start <= t <= path.t_end:
+            assert path[scan].t0 - 1e-12 <= t <= path[scan].t1 + 1e-12
+    assert path[-1].t1 == pytest.approx(path.t_end, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("times", "strokes", "rates", "error", "match"),
+    [
+        ([0.01, 0.01], [0.02, 0.03], None, InputError, r"times must increase strictly from > 0 s"),
+        ([0.0], [0.02], None, InputError, r"times must increase strictly from > 0 s"),
+        ([0.01], [0.2], None, StrokeRangeError, r"stroke 0\.2 m is outside \[s_min, s_max\]"),
+        ([0.01], [math.nan], None, InputError, r"must be finite"),
+        ([], [], None, InputError, r"needs 1\.\.10000 points"),
+        (np.arange(1, 10_002) * 1e-3, np.full(10_001, 0.02), None, InputError,
+         r"needs 1\.\.10000 points with one stroke per time, got 10001 times"),
+        ([0.01], [0.02], [math.inf], InputError, r"rates must be 1 finite values"),
+        ([0.01, 0.02], [0.02, 0.03], [0.1, 0.2], InputError, r"must end at rest"),
+        # a later segment that overshoots is refused by the plan alone (no state needed)
+        ([0.01, 0.02, 0.03], [0.02, 0.045, 0.046], [0.0, 2.0, 0.0], StrokeRangeError,
+         r"leaves \[s_min, s_max\].* on its way to point 2 \(of 0\.\.2\)"),
+    ],
+)  # fmt: skip
+def test_a_plan_refuses_what_the_actuator_refuses(params, times, strokes, rates, error, match):
+    from drs_model.profile import plan_trajectory
+
+    with pytest.raises(error, match=match):
+        plan_trajectory(params, times, strokes, rates)

@@ -301,6 +301,32 @@ class FixedStepIntegrator:
         """Step once per force in ``forces``; returns the states (convenience for tests)."""
         return [self.step(f) for f in forces]
 
+    # ---- a search inside one step (issue 16: ActuatorSim finds where a stop is reached) ---------
+    def step_by(self, force, h: float) -> StepState:
+        """Advance by ``h`` [s] (``0 < h <= dt``) instead of ``dt``: the same method and the same
+        checks as :meth:`step`, which it is (raises and keeps the state alike)."""
+        h = float(h)
+        if not (math.isfinite(h) and 0.0 < h <= self.dt):
+            raise InputError(f"h must be a finite number in (0, dt = {self.dt:g}] s, got {h!r}")
+        dt, self.dt = self.dt, h
+        try:
+            return self.step(force)
+        finally:
+            self.dt = dt
+
+    def restore(self, t: float, y) -> StepState:
+        """Put the integrator at time ``t`` [s] in state ``y`` (the formulation's coordinates,
+        as :attr:`y` gives them), exactly and without :meth:`reset`'s constraint checks (which
+        cost ~0.4 ms): to go back to a state it held (:attr:`state` gives ``psi3`` and
+        ``psi3_dot``, the ``"psi3"`` formulation's ``y``). Raises :class:`InputError` for a
+        non-finite value."""
+        y = tuple(float(v) for v in y)
+        if not (math.isfinite(t) and all(math.isfinite(v) for v in y)):
+            raise InputError(f"t and y must be finite, got t = {t!r}, y = {list(y)}")
+        state = self._make_state(float(t), y)
+        self._y, self._t, self._state = y, float(t), state
+        return state
+
 
 def fixed_step_trajectory(
     integ: FixedStepIntegrator, force: Callable[[float], float], n_steps: int

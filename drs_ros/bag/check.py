@@ -15,8 +15,11 @@ discrepancy per topic:
   velocities, reported only unless ``--force-model-tol`` is given.
 
 Exit status: 0 verified and every check within tolerance; 1 a model check failed; 2 the bag is
-missing, unreadable, corrupt or inconsistent (one line on stderr); 3 ``--recover`` checked the
-readable part of a damaged bag (it stopped early: the report says where and why).
+missing, unreadable, corrupt or inconsistent, or its ``metadata.yaml`` is malformed (one line on
+stderr); 3 ``--recover`` checked the readable part of a damaged bag (it stopped early: the report
+says where and why); 4 the check itself failed on a message that passed every check of the file
+(e.g. a checked topic of a type that is not installed): one line ``internal error``, no verdict
+on the bag.
 """
 
 from __future__ import annotations
@@ -38,12 +41,12 @@ from drs_model.kinematics import gap as model_gap
 from drs_model.params import DRSParams, from_file
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from .reader import BagReadError, scan
+from .reader import BagReadError, MessageCallbackError, scan
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
 #: Exit statuses.
-EXIT_OK, EXIT_FAILED, EXIT_UNREADABLE, EXIT_RECOVERED = 0, 1, 2, 3
+EXIT_OK, EXIT_FAILED, EXIT_UNREADABLE, EXIT_RECOVERED, EXIT_INTERNAL = 0, 1, 2, 3, 4
 
 
 class ForceModelError(DRSError):
@@ -84,6 +87,9 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> 
     BagReadError
         The bag is missing, unreadable, corrupt or inconsistent (with ``recover``: nothing of it
         is readable).
+    MessageCallbackError
+        Decoding a message that passed the file's checks failed (its type is not installed):
+        not a fault of the bag.
     """
     from rclpy.serialization import deserialize_message
 
@@ -186,8 +192,9 @@ def _worst(err: np.ndarray, t: np.ndarray) -> tuple[float, float, int]:
 def _result(name, topic, unit, err, t, tol, note="") -> CheckResult:
     worst, at, n = _worst(np.asarray(err, dtype=float), t)
     if n == 0:
-        return CheckResult(name, topic, unit, 0, math.nan, math.nan, tol, "skipped",
-                           note or "no samples")
+        return CheckResult(
+            name, topic, unit, 0, math.nan, math.nan, tol, "skipped", note or "no samples"
+        )
     return CheckResult(name, topic, unit, n, worst, at, tol, "ok" if worst <= tol else "FAIL", note)
 
 
@@ -227,8 +234,20 @@ def load_force_model(spec: str | None = None) -> tuple[Callable, str]:
     return func, f"model {spec}"
 
 
-def _logged_acceleration_force(q, qd, effort, t, log, accel_msgs, p, force_model, force_tol,
-                               max_match_s, accel_topic, force_note) -> CheckResult:
+def _logged_acceleration_force(
+    q,
+    qd,
+    effort,
+    t,
+    log,
+    accel_msgs,
+    p,
+    force_model,
+    force_tol,
+    max_match_s,
+    accel_topic,
+    force_note,
+) -> CheckResult:
     """The piston force of the logged motion with the logged piston acceleration: exact.
 
     Each joint state is paired with the acceleration logged nearest in time; ``qdd`` follows from
@@ -249,15 +268,33 @@ def _logged_acceleration_force(q, qd, effort, t, log, accel_msgs, p, force_model
     use &= np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1)
     name = "piston force vs model, logged accel."
     if not use.any():
-        return CheckResult(name, accel_topic, "N", 0, math.nan, math.nan, force_tol, "skipped",
-                           "no joint state paired with an acceleration off the end stops")
+        return CheckResult(
+            name,
+            accel_topic,
+            "N",
+            0,
+            math.nan,
+            math.nan,
+            force_tol,
+            "skipped",
+            "no joint state paired with an acceleration off the end stops",
+        )
     try:
         qdd = solve_acceleration(q[use], qd[use], sdd[use], p, "s")
         model = np.asarray(force_model(q[use], qd[use], qdd, p), dtype=float).reshape(-1)
     except DRSError as exc:
-        return CheckResult(name, accel_topic, "N", int(use.sum()), math.inf, math.nan, force_tol,
-                           "FAIL", f"the force model refuses the logged motion: {exc}")
-    note = (f"{force_note}; {int(on_stop.sum())} samples resting on an end stop left out")
+        return CheckResult(
+            name,
+            accel_topic,
+            "N",
+            int(use.sum()),
+            math.inf,
+            math.nan,
+            force_tol,
+            "FAIL",
+            f"the force model refuses the logged motion: {exc}",
+        )
+    note = f"{force_note}; {int(on_stop.sum())} samples resting on an end stop left out"
     return _result(name, accel_topic, "N", np.abs(effort[use] - model), t[use], force_tol, note)
 
 
@@ -306,19 +343,41 @@ def check_bag(
     t, log, q, qd, effort, skipped = joint_arrays(data.messages.get(js_topic, []), joint_names)
     note = f"{skipped} message(s) without the joints {list(joint_names)}" if skipped else ""
     out = [
-        _result("loop constraint |Phi(q)|", js_topic, "m",
-                np.max(np.abs(constraint(q, p)), axis=-1) if len(q) else [], t, tol, note),
-        _result("velocity constraint |Phi_q qd|", js_topic, "m/s",
-                np.max(np.abs(constraint_velocity_term(q, qd, p)), axis=-1) if len(q) else [],
-                t, tol, note),
+        _result(
+            "loop constraint |Phi(q)|",
+            js_topic,
+            "m",
+            np.max(np.abs(constraint(q, p)), axis=-1) if len(q) else [],
+            t,
+            tol,
+            note,
+        ),
+        _result(
+            "velocity constraint |Phi_q qd|",
+            js_topic,
+            "m/s",
+            np.max(np.abs(constraint_velocity_term(q, qd, p)), axis=-1) if len(q) else [],
+            t,
+            tol,
+            note,
+        ),
     ]
     if len(q):
         finite = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1)
         n_bad = int((~finite).sum())
-        out.append(CheckResult(
-            "finite joint states", js_topic, "count", len(q), float(n_bad),
-            float(t[~finite][0]) if n_bad else math.nan, 0.0, "FAIL" if n_bad else "ok",
-            f"{n_bad} joint states hold NaN/inf" if n_bad else ""))
+        out.append(
+            CheckResult(
+                "finite joint states",
+                js_topic,
+                "count",
+                len(q),
+                float(n_bad),
+                float(t[~finite][0]) if n_bad else math.nan,
+                0.0,
+                "FAIL" if n_bad else "ok",
+                f"{n_bad} joint states hold NaN/inf" if n_bad else "",
+            )
+        )
     max_ns = max_match_s * 1e9
 
     def scalar_topic(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -332,21 +391,59 @@ def check_bag(
 
     vals, idx, ok = scalar_topic("flap_gap")
     err = np.where(ok, np.abs(vals - model_gap(q[idx], p)), np.nan) if ok.any() else []
-    out.append(_result("gap vs kinematics.gap(q)", tp["flap_gap"], "m", err,
-                       t[idx] if len(idx) else [], tol))
+    out.append(
+        _result(
+            "gap vs kinematics.gap(q)", tp["flap_gap"], "m", err, t[idx] if len(idx) else [], tol
+        )
+    )
     model = None
     accel_msgs = data.messages.get(tp["piston_acceleration"], [])
     if force_model is not None and accel_msgs and len(q):
-        out.append(_logged_acceleration_force(q, qd, effort, t, log, accel_msgs, p, force_model,
-                                              force_tol, max_match_s, tp["piston_acceleration"],
-                                              force_note))
+        out.append(
+            _logged_acceleration_force(
+                q,
+                qd,
+                effort,
+                t,
+                log,
+                accel_msgs,
+                p,
+                force_model,
+                force_tol,
+                max_match_s,
+                tp["piston_acceleration"],
+                force_note,
+            )
+        )
         return out
     if force_model is None:
-        out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
-                               force_tol, "skipped", force_note or "skipped: no force model"))
+        out.append(
+            CheckResult(
+                "piston force vs model",
+                js_topic,
+                "N",
+                0,
+                math.nan,
+                math.nan,
+                force_tol,
+                "skipped",
+                force_note or "skipped: no force model",
+            )
+        )
     elif len(q) < 3:
-        out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
-                               force_tol, "skipped", "fewer than 3 joint states"))
+        out.append(
+            CheckResult(
+                "piston force vs model",
+                js_topic,
+                "N",
+                0,
+                math.nan,
+                math.nan,
+                force_tol,
+                "skipped",
+                "fewer than 3 joint states",
+            )
+        )
     else:
         order = np.argsort(t, kind="stable")
         ts, qs, qds, fs = t[order], q[order], qd[order], effort[order]
@@ -359,23 +456,69 @@ def check_bag(
             try:
                 model = np.asarray(force_model(qs, qds, qdd, p), dtype=float).reshape(-1)
             except DRSError as exc:
-                out.append(CheckResult("piston force vs model", js_topic, "N", len(ts), math.inf,
-                                       math.nan, force_tol, "FAIL",
-                                       f"the force model refuses the logged motion: {exc}"))
+                out.append(
+                    CheckResult(
+                        "piston force vs model",
+                        js_topic,
+                        "N",
+                        len(ts),
+                        math.inf,
+                        math.nan,
+                        force_tol,
+                        "FAIL",
+                        f"the force model refuses the logged motion: {exc}",
+                    )
+                )
         elif force_model is not None:
-            out.append(CheckResult("piston force vs model", js_topic, "N", 0, math.nan, math.nan,
-                                   force_tol, "skipped", "fewer than 3 usable joint states"))
+            out.append(
+                CheckResult(
+                    "piston force vs model",
+                    js_topic,
+                    "N",
+                    0,
+                    math.nan,
+                    math.nan,
+                    force_tol,
+                    "skipped",
+                    "fewer than 3 usable joint states",
+                )
+            )
     if force_model is not None and model is not None:
-        note = (f"{force_note}; qdd by finite differences of the logged qd, peak |F| "
-                f"{np.nanmax(np.abs(model)):.4g} N")
+        note = (
+            f"{force_note}; qdd by finite differences of the logged qd, peak |F| "
+            f"{np.nanmax(np.abs(model)):.4g} N"
+        )
         if force_model_tol is None:
-            res = _result("piston force vs model", js_topic, "N", np.abs(fs - model), ts, math.inf,
-                          note + "; informational, set a tolerance to enforce")
-            out.append(CheckResult(**{**asdict(res), "tol": math.nan,
-                                      "status": "info" if res.samples else res.status}))
+            res = _result(
+                "piston force vs model",
+                js_topic,
+                "N",
+                np.abs(fs - model),
+                ts,
+                math.inf,
+                note + "; informational, set a tolerance to enforce",
+            )
+            out.append(
+                CheckResult(
+                    **{
+                        **asdict(res),
+                        "tol": math.nan,
+                        "status": "info" if res.samples else res.status,
+                    }
+                )
+            )
         else:
-            out.append(_result("piston force vs model", js_topic, "N", np.abs(fs - model), ts,
-                               force_model_tol, note))
+            out.append(
+                _result(
+                    "piston force vs model",
+                    js_topic,
+                    "N",
+                    np.abs(fs - model),
+                    ts,
+                    force_model_tol,
+                    note,
+                )
+            )
     return out
 
 
@@ -389,14 +532,18 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
     stamps = [_stamp_s(ln, m) for msgs in data.messages.values() for ln, m in msgs[:1]]
     t0 = min(stamps) if stamps else 0.0
-    head = f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} " \
-           f"{'tol':>9}  status"
+    head = (
+        f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} "
+        f"{'tol':>9}  status"
+    )
     lines += ["", head, "-" * len(head)]
     for r in results:
         err = "-" if math.isnan(r.max_error) else f"{r.max_error:.3e}"
         at = "-" if math.isnan(r.at_time_s) else f"{r.at_time_s - t0:.6f}"
-        row = (f"{r.name + ' [' + r.unit + ']':<38} {r.topic:<20} {r.samples:>7} {err:>11} "
-               f"{at:>12} {r.tol:>9.2g}  {r.status}")
+        row = (
+            f"{r.name + ' [' + r.unit + ']':<38} {r.topic:<20} {r.samples:>7} {err:>11} "
+            f"{at:>12} {r.tol:>9.2g}  {r.status}"
+        )
         lines.append(row + (f"  ({r.note})" if r.note else ""))
     return "\n".join(lines)
 
@@ -423,28 +570,57 @@ def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The options of ``drs-bag check``."""
     ap.add_argument("bag", help="bag directory or .mcap file")
-    ap.add_argument("--tol", type=float, default=1e-6,
-                    help="tolerance of the kinematic checks [m, m/s] (default 1e-6)")
-    ap.add_argument("--force-tol", type=float, default=1.0,
-                    help="tolerance of the force checks [N] (default 1)")
+    ap.add_argument(
+        "--tol",
+        type=float,
+        default=1e-6,
+        help="tolerance of the kinematic checks [m, m/s] (default 1e-6)",
+    )
+    ap.add_argument(
+        "--force-tol", type=float, default=1.0, help="tolerance of the force checks [N] (default 1)"
+    )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
-    ap.add_argument("--recover", action="store_true",
-                    help="check the readable part of a damaged bag (exit status 3 if damaged)")
-    ap.add_argument("--params", help="parameter file (.toml/.yaml) of the recorded run (default: "
-                    "the model parameters the bag recorded, else the seed's)")
-    ap.add_argument("--force-model", default=None,
-                    help="piston force hook module:function f(q, qd, qdd, params) [N] "
-                    "(default: drs_model.inverse)")
-    ap.add_argument("--force-model-tol", type=float, default=None,
-                    help="tolerance [N] of the finite-difference force check (default: report)")
-    ap.add_argument("--joint-names", default=",".join(DEFAULT_JOINT_NAMES),
-                    help="joint names of [s, psi1, psi3], comma-separated")
-    ap.add_argument("--max-match", type=float, default=1e-3,
-                    help="largest time offset [s] pairing a scalar topic with a joint state")
+    ap.add_argument(
+        "--recover",
+        action="store_true",
+        help="check the readable part of a damaged bag (exit status 3 if damaged)",
+    )
+    ap.add_argument(
+        "--params",
+        help="parameter file (.toml/.yaml) of the recorded run (default: "
+        "the model parameters the bag recorded, else the seed's)",
+    )
+    ap.add_argument(
+        "--force-model",
+        default=None,
+        help="piston force hook module:function f(q, qd, qdd, params) [N] "
+        "(default: drs_model.inverse)",
+    )
+    ap.add_argument(
+        "--force-model-tol",
+        type=float,
+        default=None,
+        help="tolerance [N] of the finite-difference force check (default: report)",
+    )
+    ap.add_argument(
+        "--joint-names",
+        default=",".join(DEFAULT_JOINT_NAMES),
+        help="joint names of [s, psi1, psi3], comma-separated",
+    )
+    ap.add_argument(
+        "--max-match",
+        type=float,
+        default=1e-3,
+        help="largest time offset [s] pairing a scalar topic with a joint state",
+    )
     for key in CHECK_TOPICS:
         default = DEFAULT_TOPICS[key]
-        ap.add_argument(f"--{key.replace('_', '-')}-topic", dest=f"topic_{key}", default=default,
-                        help=f"(default {default})")
+        ap.add_argument(
+            f"--{key.replace('_', '-')}-topic",
+            dest=f"topic_{key}",
+            default=default,
+            help=f"(default {default})",
+        )
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
@@ -457,8 +633,11 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
         if len(names) != 3:
             raise BagReadError(f"--joint-names needs 3 names (s, psi1, psi3), got {list(names)}")
         force_model, force_note = load_force_model(args.force_model)
-        data = read_bag(args.bag, list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]],
-                        recover=args.recover)
+        data = read_bag(
+            args.bag,
+            list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]],
+            recover=args.recover,
+        )
         if args.params:
             params = from_file(args.params)
         else:
@@ -466,9 +645,21 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
                 data.messages.get(DEFAULT_TOPICS["parameter_events"], [])
             )
             data.notes.append(f"model parameters: {origin}")
-        results = check_bag(data, params, tol=args.tol, force_tol=args.force_tol, topics=topics,
-                            joint_names=names, force_model=force_model, force_note=force_note,
-                            max_match_s=args.max_match, force_model_tol=args.force_model_tol)
+        results = check_bag(
+            data,
+            params,
+            tol=args.tol,
+            force_tol=args.force_tol,
+            topics=topics,
+            joint_names=names,
+            force_model=force_model,
+            force_note=force_note,
+            max_match_s=args.max_match,
+            force_model_tol=args.force_model_tol,
+        )
+    except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
+        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
+        return EXIT_INTERNAL
     except DRSError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_UNREADABLE
@@ -481,9 +672,10 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
 def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:
     """``drs-bag check`` / ``drs-check``; returns the exit status."""
     ap = argparse.ArgumentParser(
-        prog=prog, description="Verify every byte of a recorded DRS bag and check it against "
+        prog=prog,
+        description="Verify every byte of a recorded DRS bag and check it against "
         "the model. Exit status: 0 ok, 1 a check failed, 2 unreadable or corrupt, 3 damaged "
-        "(--recover read its readable part)."
+        "(--recover read its readable part), 4 internal error (no verdict on the bag).",
     )
     add_arguments(ap)
     return run(ap.parse_args(argv), prog)

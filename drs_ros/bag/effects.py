@@ -66,11 +66,13 @@ def recorded_node_parameters(messages: Sequence, node: str = "/drs") -> dict[str
 
 
 def model_params_from(values: dict[str, object]) -> DRSParams:
-    """DRSParams from recorded ``model.<field>`` values (outlines, drawing only, stay default)."""
+    """DRSParams from recorded ``model.<field>`` values, every one passed to ``from_dict`` as
+    recorded: a value equal to the seed's is the run's all the same (a run with ``m_wing = 3``
+    and ``Iz_wing = 0.0096``, the seed's value, had that inertia, not the ``m_wing L_wing^2 / 3
+    = 0.0144`` a missing ``Iz_wing`` would derive). The outlines (drawing only, never recorded)
+    stay the seed's."""
     model = {k.removeprefix("model."): v for k, v in values.items() if k.startswith("model.")}
-    defaults = DRSParams()
-    changed = {k: v for k, v in model.items() if v != getattr(defaults, k, None)}
-    return from_dict(changed) if changed else defaults
+    return from_dict(model) if model else DRSParams()
 
 
 def recorded_model_params(messages: Sequence, node: str = "/drs") -> tuple[DRSParams, str]:
@@ -99,8 +101,15 @@ def effect_records(messages: Sequence) -> list[EffectRecord]:
     for log_ns, msg in messages:
         for status in msg.status:
             values = {kv.key: kv.value for kv in status.values}
-            out.append(EffectRecord(status.name, values.get("outcome", ""),
-                                    float(values.get("sim_time", "nan")), values, log_ns))
+            out.append(
+                EffectRecord(
+                    status.name,
+                    values.get("outcome", ""),
+                    float(values.get("sim_time", "nan")),
+                    values,
+                    log_ns,
+                )
+            )
     return out
 
 

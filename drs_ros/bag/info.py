@@ -1,7 +1,8 @@
 """``drs-bag info BAG``: what a bag holds, printed as ``ros2 bag info`` prints it.
 
 From ``metadata.yaml`` when the bag directory has one (as ``ros2 bag info`` does), else from a
-scan of the file (a bare ``.mcap``, or an unfinished recording: then said so).
+scan of the files (a bare ``.mcap``, or an unfinished recording, split or not: then said so).
+A malformed ``metadata.yaml`` is an error (exit status 2, one line naming the file and the field).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 from drs_model.errors import DRSError
 
 from .. import msgdefs
-from .reader import BagReadError, resolve, scan
+from .reader import resolve, scan
 
 _INDENT = " " * 19
 SERVICE_EVENT_TOPIC_SUFFIX = "/_service_event"
@@ -45,36 +46,43 @@ def _is_service_event(topic: str, type_name: str) -> bool:
 
 
 def bag_summary(path: str | Path) -> dict:
-    """Files, size, storage, distro, start [ns], duration [ns], and topics with type and count."""
-    mcap_path, bag_dir, meta = resolve(path, require_metadata=False)
-    if meta is not None:
-        topics = [(t["topic_metadata"]["name"], t["topic_metadata"]["type"],
-                   int(t["message_count"]), t["topic_metadata"].get("serialization_format", "cdr"))
+    """Files, size, storage, distro, start [ns], duration [ns], and topics with type and count.
+
+    Raises
+    ------
+    BagReadError
+        The bag cannot be found or read, or its ``metadata.yaml`` is malformed.
+    """
+    bag = resolve(path, require_metadata=False)
+    meta = bag.metadata
+    if meta is not None:  # checked by the resolver (drs_ros.bag.reader.read_metadata)
+        topics = [(t["topic_metadata"]["name"], t["topic_metadata"]["type"], t["message_count"],
+                   t["topic_metadata"].get("serialization_format", "cdr"))
                   for t in meta["topics_with_message_count"]]  # fmt: skip
-        files = [bag_dir / f for f in meta["relative_file_paths"]]
         return {
-            "files": [f.name for f in files],
-            "size": sum(f.stat().st_size for f in files if f.exists()),
+            "files": [f.name for f in bag.files],
+            "size": sum(f.stat().st_size for f in bag.files),
             "storage": meta.get("storage_identifier", "mcap"),
             "distro": meta.get("ros_distro") or "unknown",
-            "start_ns": int(meta["starting_time"]["nanoseconds_since_epoch"]),
-            "duration_ns": int(meta["duration"]["nanoseconds"]),
+            "start_ns": meta["starting_time"]["nanoseconds_since_epoch"],
+            "duration_ns": meta["duration"]["nanoseconds"],
             "topics": topics,
             "source": "metadata.yaml",
         }
-    result = scan(mcap_path, recover=True, exact=False)
+    result = scan(path, recover=True, exact=False)
     topics = [(c.topic, c.type_name, result.counts.get(c.topic, 0), c.message_encoding)
               for c in result.channels.values()]  # fmt: skip
     start = result.start_ns or 0
+    source = "the files" if result.parts else "the file"
     return {
-        "files": [mcap_path.name],
+        "files": [f.name for f in bag.files],
         "size": result.file_size,
         "storage": "mcap",
         "distro": "unknown",
         "start_ns": start,
         "duration_ns": (result.end_ns or start) - start,
         "topics": topics,
-        "source": "the file" + ("" if result.complete else f" (incomplete: {result.reason})"),
+        "source": source + ("" if result.complete else f" (incomplete: {result.reason})"),
     }
 
 
@@ -116,8 +124,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace, prog: str = "drs-bag info") -> int:
     try:
         info = bag_summary(args.bag)
-    except (DRSError, OSError, KeyError, TypeError, ValueError) as exc:
-        msg = str(exc) if isinstance(exc, BagReadError) else f"{args.bag}: {exc}"
+    except (DRSError, OSError) as exc:
+        msg = str(exc) if isinstance(exc, DRSError) else f"{args.bag}: {exc}"
         print(f"{prog}: error: {msg}", file=sys.stderr)
         return 2
     print(json.dumps(info, indent=2) if args.json else format_info(info))

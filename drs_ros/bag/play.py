@@ -59,7 +59,7 @@ import yaml
 
 from drs_model.errors import DRSError
 
-from .reader import BagReadError, scan
+from .reader import BagReadError, resolve, scan
 
 PROG = "drs-bag play"
 #: rosbag2's default ``--read-ahead-queue-size``.
@@ -271,35 +271,6 @@ class BagIndex:
     message_count: int
 
 
-def bag_files(path: str | Path) -> tuple[Path, ...]:
-    """The ``.mcap`` files of a bag, in play order.
-
-    A directory: the files its ``metadata.yaml`` lists (``relative_file_paths``), else its
-    ``*.mcap`` files sorted by name. A file: itself.
-    """
-    path = Path(path)
-    if path.is_file():
-        return (path,)
-    if not path.is_dir():
-        raise BagReadError(f"{str(path)!r}: no such bag file or directory")
-    meta = path / "metadata.yaml"
-    if meta.is_file():
-        try:
-            info = yaml.safe_load(meta.read_text())["rosbag2_bagfile_information"]
-            files = tuple(path / name for name in info["relative_file_paths"])
-        except (yaml.YAMLError, OSError, KeyError, TypeError) as exc:
-            raise BagReadError(f"{str(meta)!r}: unreadable rosbag2 metadata ({exc})") from exc
-        missing = [str(f) for f in files if not f.is_file()]
-        if missing:
-            raise BagReadError(f"{str(meta)!r} lists missing files: {', '.join(missing)}")
-        if files:
-            return files
-    files = tuple(sorted(path.glob("*.mcap")))
-    if not files:
-        raise BagReadError(f"{str(path)!r}: bag directory holds no .mcap file")
-    return files
-
-
 def _read_failure(path: Path, exc: Exception) -> BagReadError:
     return BagReadError(
         f"{str(path)!r}: not MCAP, truncated or corrupt ({type(exc).__name__}: "
@@ -336,7 +307,7 @@ def index_bag(path: str | Path) -> BagIndex:
     BagReadError
         Missing path, not MCAP, truncated (no summary) or corrupt.
     """
-    files = bag_files(path)
+    files = resolve(path, require_metadata=False).files
     channels: dict[str, Channel] = {}
     start, end, count = INFINITE_NS, -1, 0
     for file in files:
@@ -851,14 +822,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def verify(path: str | Path) -> None:
-    """Read the whole bag once, as ``drs-bag check`` does (CRCs, summary, counts), so that a
-    corrupt bag gets the same error before anything is published."""
-    files = bag_files(path)
-    if len(files) == 1:
-        scan(path, exact=False)
-    else:  # a split bag: each file on its own (the reader's metadata check is single-file)
-        for f in files:
-            scan(f, exact=False)
+    """Read the whole bag once, every file of a split bag, as ``drs-bag check`` does (CRCs,
+    summary, ``metadata.yaml`` counts), so that a corrupt bag gets the same error before
+    anything is published."""
+    scan(path, exact=False)
 
 
 def run(args: argparse.Namespace, prog: str = PROG) -> int:

@@ -11,21 +11,30 @@
 * every message: its channel is known, and its bytes are exactly its CDR serialisation: it is
   decoded by the installed type support (``rclpy.serialization.deserialize_message``) and
   serialised again by :mod:`drs_ros.cdr`; trailing bytes or non-zero padding are an error;
-* a bag directory's ``metadata.yaml``: present, naming the file, and its per-topic counts equal
-  to what was read.
+* a bag directory's ``metadata.yaml``: present, well formed (:func:`read_metadata`), naming files
+  that exist, and its per-topic counts equal to what was read from all of them.
+
+A bag split into several files (``name_0.mcap``, ``name_1.mcap``... as rosbag2 splits) is read
+file by file, in order (:func:`resolve` is the one place that finds a bag's files).
 
 With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
-reports where and why it stopped, instead of raising.
+reports where and why it stopped, instead of raising; in a split bag each file is read up to its
+own first problem.
+
+Only the file decides a :class:`BagReadError`. An exception raised by the caller's ``on_message``
+callback says nothing about the file: it is raised as :class:`MessageCallbackError` (its cause is
+the callback's exception), with or without ``recover``, and never ends a scan as a truncation.
 
 No state beyond the scan's own result; rclpy is used only for its type support.
 """
 
 from __future__ import annotations
 
+import re
 import struct
 import zlib
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -43,10 +52,39 @@ class BagReadError(DRSError):
     inconsistent with its summary or ``metadata.yaml``, or holding inexact message bytes."""
 
 
+class BagMetadataError(BagReadError):
+    """A bag directory's ``metadata.yaml`` is unreadable, not YAML, or not a rosbag2 bag's
+    metadata (a missing key, or a value of the wrong type or range). The message names the file
+    and the field."""
+
+
+class MessageCallbackError(DRSError):
+    """The caller's ``on_message`` callback of :func:`scan` raised on a message that passed every
+    check of the file: a failure of the caller (a bug, a type it cannot handle, its output that
+    cannot be written), not of the bag. Never a :class:`BagReadError`; ``__cause__`` is the
+    callback's exception.
+
+    Attributes
+    ----------
+    path : Path
+        The ``.mcap`` file being read.
+    topic : str
+    index : int
+        1-based number of the message on its topic in that file.
+    offset : int
+        File offset of the message (of its chunk) [bytes].
+    """
+
+    def __init__(self, message: str, path: Path, topic: str, index: int, offset: int):
+        super().__init__(message)
+        self.path, self.topic, self.index, self.offset = path, topic, index, offset
+
+
 @dataclass(frozen=True)
 class RecordedMessage:
-    """One message as recorded: topic, type, times [ns], sequence, exact bytes, and the file
-    offset of the record (of its chunk, for a chunked message) [bytes]."""
+    """One message as recorded: topic, type, times [ns], sequence, exact bytes, the file offset
+    of the record (of its chunk, for a chunked message) [bytes], and its channel as declared in
+    the file (schema and metadata: what a copy of the message needs)."""
 
     topic: str
     type_name: str
@@ -55,6 +93,7 @@ class RecordedMessage:
     sequence: int
     data: bytes
     offset: int
+    channel: ChannelInfo | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass
@@ -77,28 +116,33 @@ class BagScan:
     Attributes
     ----------
     path : Path
-        The ``.mcap`` file.
+        The ``.mcap`` file; for a bag split into several files, the bag directory.
     bag_dir : Path or None
         The bag directory (None for a bare file).
     channels : dict
-        channel id -> :class:`ChannelInfo`, in the order they appear.
+        channel id -> :class:`ChannelInfo`, in the order they appear (for a split bag: the first
+        channel of each topic, numbered from 1 in order of appearance).
     counts : dict
-        topic -> messages read (every topic).
+        topic -> messages read (every topic; summed over the files of a split bag).
     complete : bool
-        The whole file was read and verified (footer, summary, magic).
+        The whole bag was read and verified (footer, summary, magic of every file).
     stopped_at : int or None
-        With ``recover``: the offset [bytes] where reading stopped.
+        With ``recover``: the offset [bytes] where reading stopped (of the first file that
+        stopped early, for a split bag).
     reason : str
-        With ``recover``: why it stopped ('' when complete).
+        With ``recover``: why it stopped ('' when complete; for a split bag, every file that
+        stopped early, by name).
     last_good_offset : int
-        End of the last record read completely [bytes].
+        End of the last record read completely [bytes] (of a single file).
     file_size : int
-        [bytes].
+        [bytes] (the sum over the files of a split bag).
     start_ns, end_ns : int or None
         Earliest and latest ``log_time`` read.
     metadata : dict or None
         ``rosbag2_bagfile_information`` of ``metadata.yaml``, if there is one.
     notes : list of str
+    parts : list of BagScan
+        A split bag's scans, one per file in order (empty for a single file).
     """
 
     path: Path
@@ -114,47 +158,189 @@ class BagScan:
     end_ns: int | None = None
     metadata: dict[str, Any] | None = None
     notes: list[str] = field(default_factory=list)
+    parts: list[BagScan] = field(default_factory=list)
 
     @property
     def message_count(self) -> int:
         return sum(self.counts.values())
 
+    @property
+    def file_scans(self) -> list[BagScan]:
+        """One scan per file, in order: ``parts``, or this scan for a single file."""
+        return self.parts or [self]
 
-def resolve(
-    path: str | Path, require_metadata: bool = True
-) -> tuple[Path, Path | None, dict | None]:
-    """``(mcap file, bag directory or None, metadata or None)`` of a bag directory or a file.
 
-    A bag directory must hold ``metadata.yaml`` (unless ``require_metadata`` is False: a
-    recording killed before it finished has none) naming one ``.mcap`` file.
+@dataclass(frozen=True)
+class BagFiles:
+    """A bag's files, as :func:`resolve` found them.
+
+    Attributes
+    ----------
+    files : tuple of Path
+        The ``.mcap`` files, in recording order (one for a file or an unsplit bag).
+    bag_dir : Path or None
+        The bag directory (None for a bare file).
+    metadata : dict or None
+        The checked ``rosbag2_bagfile_information`` of ``metadata.yaml`` (:func:`read_metadata`),
+        None when there is none.
+    """
+
+    files: tuple[Path, ...]
+    bag_dir: Path | None
+    metadata: dict[str, Any] | None
+
+
+_SPLIT_INDEX = re.compile(r"(.*?)(\d+)")
+
+
+def _file_order(path: Path) -> tuple[str, int, str]:
+    """rosbag2's split order: ``name_2.mcap`` before ``name_10.mcap`` (numerically)."""
+    found = _SPLIT_INDEX.fullmatch(path.stem)
+    return (found[1], int(found[2]), path.name) if found else (path.stem, -1, path.name)
+
+
+def resolve(path: str | Path, require_metadata: bool = True) -> BagFiles:
+    """The files of a bag directory or a file, in order: the one resolver of the bag tools.
+
+    A bag directory's files are those its ``metadata.yaml`` lists (``relative_file_paths``, in
+    that order; every one must exist). Without ``metadata.yaml`` (a recording killed before it
+    finished) the directory is refused unless ``require_metadata`` is False; then its ``*.mcap``
+    files are taken in rosbag2's split order (``name_0``, ``name_1``, ..., ``name_10``). A file is
+    a bag of one file.
+
+    Raises
+    ------
+    BagReadError
+        No such path; a directory without ``metadata.yaml`` (with ``require_metadata``) or without
+        any ``.mcap`` file; a listed file that does not exist.
+    BagMetadataError
+        ``metadata.yaml`` is malformed (:func:`read_metadata`).
     """
     path = Path(path)
     if path.is_dir():
         meta_path = path / "metadata.yaml"
         if not meta_path.is_file():
-            files = sorted(path.glob("*.mcap"))
+            files = tuple(sorted(path.glob("*.mcap"), key=_file_order))
             if require_metadata:
-                hint = (f"; {files[0].name} may be an unfinished recording: "
-                        f"drs-bag recover {path} -o OUT" if files else "")  # fmt: skip
+                hint = (
+                    f"; {', '.join(f.name for f in files)} may be an unfinished recording: "
+                    f"drs-bag recover {path} -o OUT"
+                    if files
+                    else ""
+                )
                 raise BagReadError(f"{str(path)!r}: no metadata.yaml in the bag directory{hint}")
             if not files:
                 raise BagReadError(f"{str(path)!r}: bag directory holds no .mcap file")
-            return files[0], path, None
-        try:
-            meta = yaml.safe_load(meta_path.read_text())["rosbag2_bagfile_information"]
-            files = [path / f for f in meta["relative_file_paths"]]
-        except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
-            raise BagReadError(f"{str(meta_path)!r}: not a rosbag2 metadata file ({exc})") from exc
-        if len(files) != 1:
+            return BagFiles(files, path, None)
+        meta = read_metadata(meta_path)
+        files = tuple(path / name for name in meta["relative_file_paths"])
+        missing = [f.name for f in files if not f.is_file()]
+        if missing:
             raise BagReadError(
-                f"{str(meta_path)!r}: names {len(files)} files; only single-file bags are read"
+                f"{str(meta_path)!r}: lists {', '.join(missing)}, which the bag directory does "
+                "not hold"
             )
-        if not files[0].is_file():
-            raise BagReadError(f"{str(meta_path)!r}: names {files[0].name}, which does not exist")
-        return files[0], path, meta
+        return BagFiles(files, path, meta)
     if not path.is_file():
         raise BagReadError(f"{str(path)!r}: no such bag file or directory")
-    return path, None, None
+    return BagFiles((path,), None, None)
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def read_metadata(meta_path: str | Path) -> dict[str, Any]:
+    """The ``rosbag2_bagfile_information`` of a ``metadata.yaml``, checked as far as the bag tools
+    read it.
+
+    Required: a mapping ``rosbag2_bagfile_information`` holding ``relative_file_paths`` (a
+    non-empty list of file names inside the bag directory), ``message_count`` (an integer >= 0),
+    ``topics_with_message_count`` (a list of ``{topic_metadata: {name, type: str,
+    serialization_format: str (optional)}, message_count: int >= 0}``),
+    ``starting_time.nanoseconds_since_epoch`` and ``duration.nanoseconds`` (integers >= 0 [ns]).
+    Optional: ``storage_identifier`` (``mcap``: the only storage read), ``ros_distro`` (a string).
+
+    Raises
+    ------
+    BagMetadataError
+        Naming the file and the first field that is missing or wrong, with its value.
+    """
+    where = str(meta_path)
+
+    def bad(text: str) -> BagMetadataError:
+        return BagMetadataError(f"{where!r}: not a rosbag2 metadata file: {text}")
+
+    try:
+        data = yaml.safe_load(Path(meta_path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BagMetadataError(f"{where!r}: cannot be read ({exc})") from exc
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        raise bad(f"not YAML ({problem}{at})") from exc
+    if not isinstance(data, dict):
+        raise bad(f"the document is {type(data).__name__}, not a mapping")
+    key = "rosbag2_bagfile_information"
+    if key not in data:
+        raise bad(f"no key {key!r} (keys: {_shown(sorted(map(str, data)))})")
+    meta = data[key]
+
+    def mapping(value: Any, name: str) -> dict:
+        if not isinstance(value, dict):
+            raise bad(f"{name} must be a mapping, got {_shown(value)}")
+        return value
+
+    def get(parent: dict, name: str, field_name: str) -> Any:
+        if field_name not in parent:
+            raise bad(f"{name}.{field_name} is missing")
+        return parent[field_name]
+
+    def count(value: Any, name: str) -> None:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise bad(f"{name} must be an integer >= 0, got {_shown(value)}")
+
+    def text(value: Any, name: str) -> None:
+        if not isinstance(value, str) or not value:
+            raise bad(f"{name} must be a non-empty string, got {_shown(value)}")
+
+    mapping(meta, key)
+    files = get(meta, key, "relative_file_paths")
+    if not isinstance(files, list) or not files:
+        raise bad(f"{key}.relative_file_paths must be a non-empty list, got {_shown(files)}")
+    for i, name in enumerate(files):
+        text(name, f"{key}.relative_file_paths[{i}]")
+        if Path(name).is_absolute() or ".." in Path(name).parts:
+            raise bad(
+                f"{key}.relative_file_paths[{i}] must name a file inside the bag directory, "
+                f"got {_shown(name)}"
+            )
+    count(get(meta, key, "message_count"), f"{key}.message_count")
+    topics = get(meta, key, "topics_with_message_count")
+    if not isinstance(topics, list):
+        raise bad(f"{key}.topics_with_message_count must be a list, got {_shown(topics)}")
+    for i, entry in enumerate(topics):
+        name = f"{key}.topics_with_message_count[{i}]"
+        mapping(entry, name)
+        topic = mapping(get(entry, name, "topic_metadata"), f"{name}.topic_metadata")
+        text(get(topic, f"{name}.topic_metadata", "name"), f"{name}.topic_metadata.name")
+        text(get(topic, f"{name}.topic_metadata", "type"), f"{name}.topic_metadata.type")
+        if "serialization_format" in topic:
+            text(topic["serialization_format"], f"{name}.topic_metadata.serialization_format")
+        count(get(entry, name, "message_count"), f"{name}.message_count")
+    for field_name, unit in (("starting_time", "nanoseconds_since_epoch"),
+                             ("duration", "nanoseconds")):  # fmt: skip
+        value = mapping(get(meta, key, field_name), f"{key}.{field_name}")
+        count(get(value, f"{key}.{field_name}", unit), f"{key}.{field_name}.{unit}")
+    storage = meta.get("storage_identifier", "mcap")
+    if storage != "mcap":
+        raise bad(f"{key}.storage_identifier is {_shown(storage)}: only 'mcap' bags are read")
+    distro = meta.get("ros_distro")
+    if distro is not None and not isinstance(distro, str):
+        raise bad(f"{key}.ros_distro must be a string, got {_shown(distro)}")
+    return meta
 
 
 def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]:
@@ -184,7 +370,7 @@ def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]
             return f"does not decode as {type_name} ({type(exc).__name__}: {exc})"
         if again == data:
             return ""
-        tail = data[len(again):]
+        tail = data[len(again) :]
         if data.startswith(again) and len(tail) <= cdr.MAX_TRANSPORT_PADDING and not any(tail):
             padded[type_name] = padded.get(type_name, 0) + 1  # DDS's padding, not a leak
             return ""
@@ -213,10 +399,11 @@ def scan(
         Bag directory or ``.mcap`` file.
     on_message : callable, optional
         Called with each :class:`RecordedMessage` of ``topics`` (all topics by default), in file
-        order.
+        order, file after file, once the message passed its checks.
     recover : bool
         Keep what was read before a truncation or corruption instead of raising (a directory
-        without ``metadata.yaml`` is then accepted too).
+        without ``metadata.yaml`` is then accepted too). In a split bag every file is read up to
+        its own first problem; a file with nothing readable is reported in ``reason``.
     exact : bool
         Verify that every message's bytes are its exact CDR serialisation.
     topics : iterable of str, optional
@@ -225,8 +412,84 @@ def scan(
     Raises
     ------
     BagReadError
-        Without ``recover``: any problem; with it: nothing readable at all.
+        Without ``recover``: any problem of the bag; with it: nothing readable at all.
+    BagMetadataError
+        ``metadata.yaml`` is malformed (a :class:`BagReadError`).
+    MessageCallbackError
+        ``on_message`` raised (with or without ``recover``): the scan ends there, and nothing is
+        said about the rest of the bag.
     """
+    bag = resolve(path, require_metadata=not recover)
+    wanted = None if topics is None else set(topics)
+    padded: dict[str, int] = {}
+    check = _exact_checker(padded) if exact else None
+    unverified: set[str] = set()
+    parts: list[BagScan] = []
+    for file in bag.files:
+        try:
+            part = _scan_file(file, bag.bag_dir, on_message, recover, check, wanted, unverified)
+        except BagReadError as exc:
+            if not recover or len(bag.files) == 1:
+                raise
+            reason = str(exc).split(": ", 1)[-1]
+            part = BagScan(file, bag.bag_dir, stopped_at=0, file_size=file.stat().st_size,
+                           reason=reason, notes=[f"nothing readable: {reason}"])  # fmt: skip
+        parts.append(part)
+    out = parts[0] if len(parts) == 1 else _combine(bag, parts)
+    if recover and out.message_count == 0 and not out.complete:
+        raise BagReadError(f"{str(out.path)!r}: nothing recoverable in any file: {out.reason}")
+    out.metadata = bag.metadata
+    if bag.metadata is not None and out.complete:
+        _check_metadata(out, bag.metadata, bag.bag_dir / "metadata.yaml")
+    if out.complete and unverified:
+        out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
+    if out.complete and padded:
+        out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
+                         f"their exact CDR: {padded}")  # fmt: skip
+    return out
+
+
+def _combine(bag: BagFiles, parts: list[BagScan]) -> BagScan:
+    """One result of a split bag's per-file scans (see :class:`BagScan`)."""
+    out = BagScan(bag.bag_dir, bag.bag_dir, parts=parts)
+    first: dict[str, tuple[ChannelInfo, Path]] = {}
+    for part in parts:
+        for channel in part.channels.values():
+            known = first.get(channel.topic)
+            if known is None:
+                first[channel.topic] = (channel, part.path)
+                out.channels[len(first)] = replace(channel, id=len(first))
+            elif known[0].type_name != channel.type_name:
+                raise BagReadError(
+                    f"{str(bag.bag_dir)!r}: {channel.topic} is {known[0].type_name} in "
+                    f"{known[1].name} and {channel.type_name} in {part.path.name}"
+                )
+        for topic, n in part.counts.items():
+            out.counts[topic] = out.counts.get(topic, 0) + n
+        for t in (part.start_ns, part.end_ns):
+            if t is not None:
+                out.start_ns = t if out.start_ns is None else min(out.start_ns, t)
+                out.end_ns = t if out.end_ns is None else max(out.end_ns, t)
+        out.file_size += part.file_size
+        out.notes += [f"{part.path.name}: {note}" for note in part.notes]
+    stopped = [part for part in parts if not part.complete]
+    out.complete = not stopped
+    if stopped:
+        out.stopped_at, out.last_good_offset = stopped[0].stopped_at, stopped[0].last_good_offset
+        out.reason = "; ".join(f"{part.path.name}: {part.reason}" for part in stopped)
+    return out
+
+
+def _scan_file(
+    mcap_path: Path,
+    bag_dir: Path | None,
+    on_message: Callable[[RecordedMessage], None] | None,
+    recover: bool,
+    check: Callable[[str, bytes], str | None] | None,
+    wanted: set[str] | None,
+    unverified: set[str],
+) -> BagScan:
+    """Read and verify one ``.mcap`` file (everything of :func:`scan` but ``metadata.yaml``)."""
     from mcap.exceptions import McapError
     from mcap.records import (
         Channel,
@@ -240,12 +503,7 @@ def scan(
     )
     from mcap.stream_reader import StreamReader, breakup_chunk
 
-    mcap_path, bag_dir, meta = resolve(path, require_metadata=not recover)
-    out = BagScan(mcap_path, bag_dir, metadata=meta, file_size=mcap_path.stat().st_size)
-    wanted = None if topics is None else set(topics)
-    padded: dict[str, int] = {}
-    check = _exact_checker(padded) if exact else None
-    unverified: set[str] = set()
+    out = BagScan(mcap_path, bag_dir, file_size=mcap_path.stat().st_size)
     schemas: dict[int, Schema] = {}
     chunk_offsets: dict[int, int] = {}
     stats: Statistics | None = None
@@ -268,12 +526,23 @@ def scan(
             elif problem:
                 fail(f"message {out.counts.get(channel.topic, 0) + 1} of {channel.topic} "
                      f"(chunk at offset {at}) {problem}")  # fmt: skip
-        out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
+        n = out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
         out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
         out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
         if on_message is not None and (wanted is None or channel.topic in wanted):
-            on_message(RecordedMessage(channel.topic, channel.type_name, rec.log_time,
-                                       rec.publish_time, rec.sequence, bytes(rec.data), at))
+            message = RecordedMessage(channel.topic, channel.type_name, rec.log_time,
+                                      rec.publish_time, rec.sequence, bytes(rec.data), at,
+                                      channel)  # fmt: skip
+            try:
+                on_message(message)
+            except Exception as exc:  # the caller's failure, not the file's: never a verdict
+                said = " ".join(str(exc).split()) or "(no message)"
+                raise MessageCallbackError(
+                    f"{str(mcap_path)!r}: message {n} of {channel.topic} (offset {at}) passed "
+                    f"every check of the file, then the caller's on_message callback raised "
+                    f"{type(exc).__name__}: {said}",
+                    mcap_path, channel.topic, n, at,
+                ) from exc  # fmt: skip
 
     def data_record(rec, at: int) -> None:
         """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
@@ -365,14 +634,7 @@ def scan(
             f"{str(mcap_path)!r}: {len(chunk_offsets)} chunks were read, the summary indexes "
             f"{len(chunk_indexes)}"
         )
-    if meta is not None:
-        _check_metadata(out, meta)
     out.complete = True
-    if unverified:
-        out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
-    if padded:
-        out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
-                         f"their exact CDR: {padded}")  # fmt: skip
     return out
 
 
@@ -381,8 +643,13 @@ def _add_channel(out: BagScan, schemas, record, fail) -> None:
     if schema is None and record.schema_id != 0:
         fail(f"channel {record.topic} names schema {record.schema_id}, never declared")
     out.channels[record.id] = ChannelInfo(
-        record.id, record.topic, schema.name if schema else "", schema.encoding if schema else "",
-        bytes(schema.data) if schema else b"", record.message_encoding, dict(record.metadata),
+        record.id,
+        record.topic,
+        schema.name if schema else "",
+        schema.encoding if schema else "",
+        bytes(schema.data) if schema else b"",
+        record.message_encoding,
+        dict(record.metadata),
     )
     out.counts.setdefault(record.topic, 0)
 
@@ -400,26 +667,28 @@ def _check_summary(f, footer, size: int, fail) -> None:
              f"offset {footer.summary_start} give {crc:#010x})")  # fmt: skip
 
 
-def _check_metadata(out: BagScan, meta: dict) -> None:
-    listed = {t["topic_metadata"]["name"]: int(t["message_count"])
-              for t in meta.get("topics_with_message_count", [])}  # fmt: skip
+def _check_metadata(out: BagScan, meta: dict, meta_path: Path) -> None:
+    """``metadata.yaml``'s counts (checked by :func:`read_metadata`) against what was read."""
+    where = str(meta_path)
+    held = "the file holds" if not out.parts else f"its {len(out.parts)} files hold"
+    listed: dict[str, int] = {}
+    for t in meta["topics_with_message_count"]:
+        name = t["topic_metadata"]["name"]
+        listed[name] = listed.get(name, 0) + t["message_count"]
     for topic, n in listed.items():
         if out.counts.get(topic) is None:
-            raise BagReadError(f"metadata.yaml lists {topic} ({n} messages); the file has no such "
-                               "topic")  # fmt: skip
+            raise BagReadError(f"{where!r}: lists {topic} ({n} messages); {held} no such topic")
         if out.counts[topic] != n:
             raise BagReadError(
-                f"metadata.yaml counts {n} messages on {topic}, the file holds {out.counts[topic]} "
+                f"{where!r}: counts {n} messages on {topic}, {held} {out.counts[topic]} "
                 f"({n - out.counts[topic]:+d})"
             )
     extra = sorted(set(out.counts) - set(listed))
     if extra:
-        raise BagReadError(f"metadata.yaml does not list the topics {extra} of the file")
-    total = int(meta.get("message_count", -1))
+        raise BagReadError(f"{where!r}: does not list the topics {extra} of the bag")
+    total = meta["message_count"]
     if total != out.message_count:
-        raise BagReadError(
-            f"metadata.yaml counts {total} messages, the file holds {out.message_count}"
-        )
+        raise BagReadError(f"{where!r}: counts {total} messages, {held} {out.message_count}")
 
 
 def _describe(exc: BaseException, where: str) -> str:
@@ -440,5 +709,16 @@ def _recovered_note(out: BagScan) -> None:
     )
 
 
-__all__ = ["MCAP_MAGIC", "BagReadError", "BagScan", "ChannelInfo", "RecordedMessage", "resolve",
-           "scan"]  # fmt: skip
+__all__ = [
+    "MCAP_MAGIC",
+    "BagFiles",
+    "BagMetadataError",
+    "BagReadError",
+    "BagScan",
+    "ChannelInfo",
+    "MessageCallbackError",
+    "RecordedMessage",
+    "read_metadata",
+    "resolve",
+    "scan",
+]

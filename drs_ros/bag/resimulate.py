@@ -4,15 +4,20 @@ Re-runs a recorded run in a fresh :class:`drs_model.actuator.ActuatorSim` (no DD
 parameters the node recorded at start (``/parameter_events``; ``--set`` / ``--params`` change
 them), it feeds the recorded commands in at the simulated instants the effect record
 (``~/command_events``) says they took effect: the stroke, force and trajectory commands (their
-recorded bytes, by sequence number), the service calls, and the node's own physics resets.
+recorded bytes, by sequence number), the service calls, and the node's own physics resets (a
+``reset`` record: the flap held at its recorded stroke at its recorded time, as the node did when
+its model refused a step; a step the re-run's model refuses is held the same way, with a note if
+the run did not).
 Superseded and refused commands are left out, as they were in the run. It then compares the
 recorded ``/joint_states``, piston force and gap with the re-simulated ones, sample by sample
 (each recorded stamp is ``t0 + simulated time``; the clock records give ``t0``), and reports the
 largest deviation per signal with its time.
 
 Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
-read, or holds no effect record (it was recorded before drs recorded when commands took effect)
-or no parameters.
+read (or its ``metadata.yaml`` is malformed), or holds no effect record (it was recorded before
+drs recorded when commands took effect) or no parameters; 4 decoding a message that passed every
+check of the file failed (a type that is not installed): one line ``internal error``, no verdict
+on the bag.
 """
 
 from __future__ import annotations
@@ -25,8 +30,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
 from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, from_dict, from_file
@@ -34,7 +37,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, assignment_overrides, fr
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
 from .effects import effect_records, model_params_from, recorded_node_parameters
-from .reader import BagReadError, scan
+from .reader import BagReadError, MessageCallbackError, scan
 
 #: signal -> (unit, default tolerance)
 SIGNALS = {
@@ -74,13 +77,24 @@ def read_run(bag: str | Path) -> RecordedRun:
               tp["piston_force"], tp["flap_gap"], *cmd_topics}  # fmt: skip
     got: dict[str, list] = {t: [] for t in wanted}
     cmds: dict = {}
+    # the clock origin in force for each joint state, in the order the node wrote them (a clock
+    # record is written before the states of its tick); log times alone cannot say it once the
+    # node clock has jumped back
+    origin: list = [None]
+    state_origins: list = []
 
     def keep(m) -> None:
         msg = deserialize_message(m.data, msgdefs.message_class(m.type_name))
         if m.topic in cmd_topics:
             cmds[(m.topic, m.sequence)] = msg
-        else:
-            got[m.topic].append((m.log_time, msg))
+            return
+        got[m.topic].append((m.log_time, msg))
+        if m.topic == tp["command_events"]:
+            for r in effect_records([(m.log_time, msg)]):
+                if r.outcome == CLOCK:
+                    origin[0] = int(r.values["t0_ns"])
+        elif m.topic == tp["joint_states"]:
+            state_origins.append(origin[0])
 
     scan(bag, keep, topics=wanted)
     params = recorded_node_parameters(got[tp["parameter_events"]])
@@ -96,7 +110,7 @@ def read_run(bag: str | Path) -> RecordedRun:
         )
     return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds,
                        got[tp["joint_states"]], got[tp["piston_force"]],
-                       got[tp["flap_gap"]])  # fmt: skip
+                       got[tp["flap_gap"]], {"state_origins": state_origins})  # fmt: skip
 
 
 def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
@@ -112,11 +126,19 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
     """Re-run the recorded commands; returns the re-simulated samples by step index and notes."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
-    sim = ActuatorSim(model, dt=dt, force_limit=float(np_["force_limit"]),
-                      integrator=str(np_["integrator"]), force_method=str(np_["force_method"]))
+    sim = ActuatorSim(
+        model,
+        dt=dt,
+        force_limit=float(np_["force_limit"]),
+        integrator=str(np_["integrator"]),
+        force_method=str(np_["force_method"]),
+    )
     piston = list(np_["joint_names"])[0]
     states: dict[int, tuple] = {}
     notes: list[str] = []
+
+    # the steps at which the run's model refused to go on and the node held the flap
+    reset_steps = {int(round(r.sim_time / dt)) for r in run.records if r.outcome == RESET}
 
     def keep() -> None:
         st = sim.state
@@ -125,7 +147,17 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
 
     def advance_to(t: float) -> None:
         while sim.t < t - 0.5 * dt:
-            sim.step()
+            try:
+                sim.step()
+            except DRSError as exc:
+                # the re-run's model refuses to go on: hold where it is, as the node does
+                # (node.py, _tick_locked); the run's RESET record, if it has one here, follows
+                s_hold = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
+                sim.reset(sim.t, s_hold)
+                if int(round(sim.t / dt)) not in reset_steps:
+                    notes.append(f"at {sim.t:.6f} s the re-run's model refuses a step the "
+                                 f"run took ({exc}); held at {s_hold!r} m as the node "
+                                 "would")  # fmt: skip
             keep()
 
     keep()
@@ -134,8 +166,16 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
         if r.outcome not in (ACCEPTED, RESET):
             continue
         advance_to(r.sim_time)
-        if r.outcome == RESET:  # the node resets inside a tick, then publishes the reset state
-            sim.reset(sim.t, float(r.values["stroke"]))
+        if r.outcome == RESET:
+            # the node's model refused a step; the node held the flap at the recorded stroke at
+            # that step's time and published that state: the same here, whether or not this
+            # model refuses the step (a later model may take it)
+            if abs(sim.t - r.sim_time) > 0.5 * dt:
+                raise ResimulationError(
+                    f"the effect record resets at {r.sim_time!r} s, which the re-run passed "
+                    f"({sim.t!r} s): the records are out of order"
+                )
+            sim.reset(r.sim_time, float(r.values["stroke"]))
             keep()
             continue
         key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
@@ -166,15 +206,13 @@ class _Value:
 
 def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
     """``log_time -> physics step`` of each recorded joint state: its stamp is ``t0 +`` simulated
-    time, ``t0`` being the clock origin in force when it was logged (a stall moves it)."""
-    origins = sorted((r.log_time, int(r.values["t0_ns"])) for r in run.records
-                     if r.outcome == CLOCK)  # fmt: skip
-    if not origins:
-        raise ResimulationError("the effect record holds no clock origin (t0)")
-    logs = np.array([o[0] for o in origins])
+    time, ``t0`` being the clock origin in force when the node wrote it (a stall or a clock jump
+    moves it; the origins come in write order from :func:`read_run`)."""
+    origins = run.extra.get("state_origins")
+    if not origins or origins[0] is None:
+        raise ResimulationError("the effect record holds no clock origin (t0) before the states")
     out = {}
-    for log, m in run.joint_states:
-        t0 = origins[max(int(np.searchsorted(logs, log, side="right")) - 1, 0)][1]
+    for (log, m), t0 in zip(run.joint_states, origins, strict=True):
         stamp = m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
         out[log] = int(round((stamp - t0) * 1e-9 / dt))
     return out
@@ -267,14 +305,27 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", help="bag directory or .mcap file recorded by drs-node")
-    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                    help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5",
+    )
     ap.add_argument("--params", help="a .toml/.yaml file of model parameters for the re-run")
     ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory")
-    ap.add_argument("--tol", type=float, default=1e-9,
-                    help="tolerance of the joint states and the gap [m, rad, /s] (default 1e-9)")
-    ap.add_argument("--force-tol", type=float, default=1e-6,
-                    help="tolerance of the piston force [N] (default 1e-6)")
+    ap.add_argument(
+        "--tol",
+        type=float,
+        default=1e-9,
+        help="tolerance of the joint states and the gap [m, rad, /s] (default 1e-9)",
+    )
+    ap.add_argument(
+        "--force-tol",
+        type=float,
+        default=1e-6,
+        help="tolerance of the piston force [N] (default 1e-6)",
+    )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
 
 
@@ -288,6 +339,9 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
         rows = compare(recorded, result, tolerances)
         if args.output:
             write_bag(args.output, recorded, result, model)
+    except MessageCallbackError as exc:  # our own failure on an intact message
+        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
+        return 4
     except (DRSError, BagReadError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2

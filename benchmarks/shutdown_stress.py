@@ -1,0 +1,117 @@
+"""Shutdown stress: stop the node at random moments under load, many times; every stop must be
+clean (issue 16; the test ``tests/test_node_robustness.py`` runs 30 stops, this runs more).
+
+Each round starts ``--parallel`` nodes (loopback-only DDS, 500 Hz publish, MCAP bag and rerun
+recording), streams stroke commands at them and sends each SIGINT or SIGTERM at a random moment
+0.1..1.6 s after its bag appears, while two processes keep both cores busy. A stop is good when
+the node exits 0, its bag passes ``drs-bag check`` (every byte read, metadata.yaml counting what
+the file holds) and its recording passes ``rerun rrd verify``. Prints the counts of each failure
+and exits 1 if any.
+
+Usage: ``python benchmarks/shutdown_stress.py [--stops 120] [--parallel 3] [--seed 16]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import random
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+
+def start_node(bag: Path, env: dict) -> subprocess.Popen:
+    args = [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={bag}",
+            "-p", f"rrd_path:={bag}.rrd", "-p", "publish_rate_hz:=500.0",
+            "-p", "flush_period:=0.1"]  # fmt: skip
+    return subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--stops", type=int, default=120)
+    ap.add_argument("--parallel", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=16)
+    ap.add_argument("--domain", type=int, default=77)
+    args = ap.parse_args(argv)
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    work = Path(tempfile.mkdtemp(prefix="drs-stress-"))
+    env = dict(os.environ, ROS_DOMAIN_ID=str(args.domain), ROS_LOG_DIR=str(work / "log"))
+
+    import rclpy
+    from rclpy.node import Node
+    from std_msgs.msg import Float64
+
+    from drs_model.kinematics import stroke_limits
+    from drs_model.params import DRSParams
+    from drs_ros.bag.cli import main as bag_main
+    from drs_ros.rerun_log import run_rerun_cli
+
+    rng = random.Random(args.seed)
+    lo, hi = stroke_limits(DRSParams())
+    code = "while True: pass"
+    burners = [subprocess.Popen([sys.executable, "-c", code]) for _ in range(2)]
+    rclpy.init(domain_id=args.domain)
+    client = Node("stress_client")
+    cmd = client.create_publisher(Float64, "/drs/stroke_cmd", 10)
+    failures: Counter = Counter()
+    done = 0
+    t_start = time.monotonic()
+    try:
+        while done < args.stops:
+            names = [f"s{done + i}" for i in range(min(args.parallel, args.stops - done))]
+            procs = {n: start_node(work / n, env) for n in names}
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline and not all(
+                (work / n / f"{n}_0.mcap").exists() for n in names
+            ):
+                time.sleep(0.05)
+            at = {n: time.monotonic() + 0.1 + 1.5 * rng.random() for n in names}
+            sent: set = set()
+            while len(sent) < len(names):
+                cmd.publish(Float64(data=lo + (hi - lo) * rng.random()))
+                rclpy.spin_once(client, timeout_sec=0.005)
+                for n in names:
+                    if n not in sent and time.monotonic() >= at[n]:
+                        procs[n].send_signal(rng.choice([signal.SIGINT, signal.SIGTERM]))
+                        sent.add(n)
+            for n, proc in procs.items():
+                try:
+                    _, err = proc.communicate(timeout=60)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    _, err = proc.communicate()
+                    failures["hung"] += 1
+                if proc.returncode != 0:
+                    failures[f"exit {proc.returncode}"] += 1
+                    print(f"{n}: exit {proc.returncode}: {err[-500:]}", file=sys.stderr)
+                with contextlib.redirect_stdout(io.StringIO()):  # the tables: not wanted here
+                    checked = bag_main(["check", str(work / n)])
+                if checked != 0:
+                    failures["bag check"] += 1
+                if run_rerun_cli(["rrd", "verify", f"{work / n}.rrd"]).returncode != 0:
+                    failures["rrd verify"] += 1
+                done += 1
+            print(f"{done}/{args.stops} stops, failures so far: {dict(failures) or 'none'}",
+                  file=sys.stderr)  # fmt: skip
+    finally:
+        client.destroy_node()
+        rclpy.try_shutdown()
+        for b in burners:
+            b.kill()
+    minutes = (time.monotonic() - t_start) / 60
+    print(f"{done} stops in {minutes:.1f} min, both cores busy: "
+          f"{sum(failures.values())} failed {dict(failures) or ''}")  # fmt: skip
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
