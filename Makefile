@@ -34,7 +34,7 @@ test: $(STAMP)
 	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest
 
 lint: $(STAMP)
-	$(BIN)/ruff check drs_model drs_ros tests benchmarks
+	$(BIN)/ruff check drs_model drs_ros tests benchmarks interfaces
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/work_precision.py
