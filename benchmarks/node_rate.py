@@ -40,7 +40,41 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / CLK_TCK
 
 
-def measure(executor: str, publish_hz: float, duration: float, domain: int, tmp: Path) -> dict:
+def big_trajectory(n: int = 10_000, span_s: float = 5.0):
+    """The largest trajectory the node takes: ``n`` points of a 2 Hz sine of the stroke over
+    ``span_s`` [s], ending at rest at its start (mid-stroke)."""
+    import numpy as np
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from drs_model.kinematics import stroke_limits
+    from drs_model.params import DRSParams
+
+    lo, hi = stroke_limits(DRSParams())
+    t = span_s * np.arange(1, n + 1) / n
+    s = 0.5 * (lo + hi) + 0.3 * (hi - lo) * np.sin(2 * np.pi * 2.0 * t)
+    s[-1] = 0.5 * (lo + hi)
+    msg = JointTrajectory(joint_names=["drs_piston", "drs_link", "drs_flap"])
+    for tk, sk in zip(t, s, strict=True):
+        sec, ns = divmod(int(round(tk * 1e9)), 10**9)
+        msg.points.append(
+            JointTrajectoryPoint(
+                positions=[float(sk), 0.0, 0.0], time_from_start=Duration(sec=sec, nanosec=ns)
+            )
+        )
+    return msg
+
+
+def measure(
+    executor: str,
+    publish_hz: float,
+    duration: float,
+    domain: int,
+    tmp: Path,
+    load: str = "commands",
+) -> dict:
+    """One run. ``load``: ``commands`` (open, close, stroke, force, one every 100 ms) or
+    ``trajectory`` (a 10,000-point trajectory every second, each replacing the last)."""
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.context import Context
@@ -50,7 +84,7 @@ def measure(executor: str, publish_hz: float, duration: float, domain: int, tmp:
     from std_msgs.msg import Float64
     from std_srvs.srv import SetBool
 
-    out = tmp / f"{executor}-{publish_hz:g}"
+    out = tmp / f"{executor}-{publish_hz:g}-{load}"
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     proc = subprocess.Popen(
         [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"executor:={executor}",
@@ -72,6 +106,10 @@ def measure(executor: str, publish_hz: float, duration: float, domain: int, tmp:
     client = driver.create_client(SetBool, "/drs/drs")
     stroke = driver.create_publisher(Float64, "/drs/stroke_cmd", 10)
     force = driver.create_publisher(Float64, "/drs/force_cmd", 10)
+    from trajectory_msgs.msg import JointTrajectory
+
+    trajectory = driver.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+    big = big_trajectory() if load == "trajectory" else None
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(driver)
 
@@ -89,7 +127,10 @@ def measure(executor: str, publish_hz: float, duration: float, domain: int, tmp:
         k = 0
         while time.monotonic() - wall0 < duration:
             step = k % 5
-            if step == 0:
+            if big is not None:
+                if k % 10 == 0:
+                    trajectory.publish(big)
+            elif step == 0:
                 client.call_async(SetBool.Request(data=True))
             elif step == 1:
                 client.call_async(SetBool.Request(data=False))
@@ -120,6 +161,7 @@ def measure(executor: str, publish_hz: float, duration: float, domain: int, tmp:
     ticks = max(delta("ticks", int), 1)
     stats = {
         "executor": executor,
+        "load": load,
         "publish_rate_hz": publish_hz,
         "wall_s": wall,
         "cpu_share_of_core": cpu / wall,
@@ -203,24 +245,39 @@ def median_run(runs: list[dict]) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=12.0, help="wall seconds per run")
-    ap.add_argument("--rounds", type=int, default=3,
-                    help="repeats of single and deadline at 250 Hz, interleaved (median quoted)")
+    ap.add_argument(
+        "--rounds",
+        type=int,
+        default=3,
+        help="repeats of single and deadline at 250 Hz, interleaved (median quoted)",
+    )
     ap.add_argument("--quick", action="store_true", help="5 s per run, 1 round")
+    ap.add_argument(
+        "--trajectory",
+        action="store_true",
+        help="only: deadline at 250 Hz under the command cycle and under a "
+        "10,000-point trajectory a second, interleaved",
+    )
     ap.add_argument("--domain", type=int, default=91)
     ap.add_argument("--json", default="benchmarks/results/node_rate.json")
     args = ap.parse_args(argv)
     duration, rounds = (5.0, 1) if args.quick else (args.duration, args.rounds)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    by_config: dict[tuple[str, float], list[dict]] = {}
-    plan = [("single", 250.0), ("deadline", 250.0)] * rounds + [
-        ("deadline", 100.0), ("deadline", 500.0), ("deadline", 1000.0)]
+    by_config: dict[tuple[str, float, str], list[dict]] = {}
+    plan = [("single", 250.0, "commands"), ("deadline", 250.0, "commands")] * rounds + [
+        ("deadline", 100.0, "commands"),
+        ("deadline", 500.0, "commands"),
+        ("deadline", 1000.0, "commands"),
+    ]
+    if args.trajectory:
+        plan = [("deadline", 250.0, "commands"), ("deadline", 250.0, "trajectory")] * rounds
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         os.environ.setdefault("ROS_LOG_DIR", str(tmp / "log"))
-        for k, (executor, hz) in enumerate(plan):
-            r = measure(executor, hz, duration, args.domain, tmp / str(k))
-            by_config.setdefault((executor, hz), []).append(r)
-            print(f"{executor:>8} {hz:6.0f} Hz: CPU {100 * r['cpu_share_of_core']:5.1f} % of a "
+        for k, (executor, hz, load) in enumerate(plan):
+            r = measure(executor, hz, duration, args.domain, tmp / str(k), load)
+            by_config.setdefault((executor, hz, load), []).append(r)
+            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10}: CPU {100 * r['cpu_share_of_core']:5.1f} % of a "
                   f"core, missed {r['missed_deadlines']}/{r['ticks']} "
                   f"({100 * r['missed_share']:.2f} %), per cycle: model "
                   f"{r['us_per_cycle_model']:.0f} us, publish {r['us_per_cycle_publish']:.0f} us, "
@@ -228,6 +285,17 @@ def main(argv: list[str] | None = None) -> int:
                   flush=True)  # fmt: skip
         write = recorder_cost(20000, 5, tmp)
     rows = [median_run(runs) for runs in by_config.values()]
+    if args.trajectory:
+        for r in rows:
+            print(
+                f"deadline 250 Hz under {r['load']}: missed deadlines per run "
+                f"{[round(100 * x, 2) for x in r['missed_share_runs']]} %, CPU per run "
+                f"{[round(100 * x, 1) for x in r['cpu_share_runs']]} % of a core"
+            )
+        out = Path(args.json).with_name("node_rate_trajectory.json")
+        out.write_text(json.dumps({"runs": rows}, indent=2))
+        print(f"wrote {out}")
+        return 0
     single, deadline = rows[0], rows[1]
     ratio = single["cpu_share_of_core"] / deadline["cpu_share_of_core"]
     print(f"\nmedians of {rounds} interleaved runs at 250 Hz publish: single "
@@ -235,12 +303,16 @@ def main(argv: list[str] | None = None) -> int:
           f"{100 * deadline['cpu_share_of_core']:.1f} % of a core (ratio {ratio:.2f}x); missed "
           f"{100 * single['missed_share']:.2f} % and {100 * deadline['missed_share']:.2f} % "
           f"(target: deadline <= 15 % of a core, <= 0.1 % missed)")  # fmt: skip
-    print(f"recorder: exact CDR + write {write['ours_us_per_msg']:.1f} us/msg, rclpy "
-          f"serialize_message + bare mcap {write['bare_us_per_msg']:.1f} us/msg "
-          f"(ratio {write['ratio']:.2f})")
-    print(f"bytes per message, rclpy serialize_message -> exact: trajectory (2 points) "
-          f"{write['trajectory_bytes_rclpy']} -> {write['trajectory_bytes_exact']}, reactions "
-          f"{write['reactions_bytes_rclpy']} -> {write['reactions_bytes_exact']}")
+    print(
+        f"recorder: exact CDR + write {write['ours_us_per_msg']:.1f} us/msg, rclpy "
+        f"serialize_message + bare mcap {write['bare_us_per_msg']:.1f} us/msg "
+        f"(ratio {write['ratio']:.2f})"
+    )
+    print(
+        f"bytes per message, rclpy serialize_message -> exact: trajectory (2 points) "
+        f"{write['trajectory_bytes_rclpy']} -> {write['trajectory_bytes_exact']}, reactions "
+        f"{write['reactions_bytes_rclpy']} -> {write['reactions_bytes_exact']}"
+    )
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"runs": rows, "single_over_deadline": ratio, "recorder": write},

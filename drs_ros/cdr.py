@@ -280,6 +280,12 @@ def serialize(msg) -> bytes:
 MAX_TRANSPORT_PADDING = 3
 
 
+def decode_exact(data: bytes, msg_class: type):
+    """The ``msg_class`` message whose exact CDR is ``data`` (plus at most 3 zero bytes of
+    transport padding, see :func:`exact_bytes`); :class:`CdrError` for anything else."""
+    return _decode_exact(data, msg_class)[0]
+
+
 def exact_bytes(data: bytes, msg_class: type) -> bytes:
     """``data`` (as a raw subscription received it) without the transport's padding.
 
@@ -288,20 +294,26 @@ def exact_bytes(data: bytes, msg_class: type) -> bytes:
     serialises to: ``data`` must be that, possibly followed by such padding; anything else
     raises :class:`CdrError`.
     """
+    return _decode_exact(data, msg_class)[1]
+
+
+def _decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
     from rclpy.serialization import deserialize_message
 
     try:
-        exact = serializer(msg_class)(deserialize_message(data, msg_class))
+        msg = deserialize_message(data, msg_class)
+        exact = serializer(msg_class)(msg)
     except Exception as exc:  # noqa: BLE001 - any decode failure is the data's
-        raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {exc}") from exc
+        why = str(exc).split(", at /")[0]  # rmw appends its C++ source location
+        raise CdrError(f"{len(data)} bytes do not decode as {msg_class.__name__}: {why}") from exc
     tail = data[len(exact):]
     if not data.startswith(exact) or len(tail) > MAX_TRANSPORT_PADDING or any(tail):
         raise CdrError(
             f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
             f"{msg_class.__name__} plus at most {MAX_TRANSPORT_PADDING} zero bytes of padding"
         )
-    return exact
+    return msg, exact
 
 
-__all__ = ["CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "exact_bytes", "flat_packer",
-           "serialize", "serializer"]
+__all__ = ["CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "decode_exact", "exact_bytes",
+           "flat_packer", "serialize", "serializer"]

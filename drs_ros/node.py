@@ -33,6 +33,7 @@ from __future__ import annotations
 import collections
 import dataclasses
 import difflib
+import functools
 import hashlib
 import math
 import os
@@ -54,7 +55,6 @@ from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallba
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
-from rclpy.serialization import deserialize_message
 from rclpy.service_introspection import ServiceIntrospectionState
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
@@ -79,6 +79,7 @@ from .conversions import (
 from .drawing import moving_drawings, still_drawings
 from .names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, REFUSED, RESET, SUPERSEDED
 from .stack import STACK_COMMANDS, STACK_PARAMETERS, NodeHooks, StackLayer
+from .trajectory_cdr import read_joint_trajectory
 
 QOS_DEPTH = 10
 #: The still outlines (FIA box, main wing, pylon) are in ~/markers once per this [s] of sim time.
@@ -131,6 +132,8 @@ CLOCK_WAIT_WARNING_S = 2.0
 #: A wall clock that moves this much [s] more or less than the steady clock between two ticks
 #: has jumped (NTP slews far slower: 0.5 ms/s at most).
 CLOCK_JUMP_THRESHOLD_S = 0.01
+#: How often [s] a thread holding the GIL offers it to the others (see main).
+GIL_SWITCH_INTERVAL_S = 0.0005
 #: Bytes of a malformed command kept (hex) in its effect record, for forensics.
 MALFORMED_BYTES_KEPT = 4096
 
@@ -289,6 +292,12 @@ class DRSNode(Node):
             cls: cdr.serializer(cls) for cls in (JointState, DiagnosticArray, MarkerArray)
         }
         self._pack_float64 = cdr.flat_packer(Float64)
+        # a command is taken only as its exact CDR (plus transport padding), what every reader
+        # of the bag decodes; a trajectory is read in place (rclpy's decoder would hold the GIL
+        # for ~100 ms on 10,000 points, a stall of the real-time tick)
+        self._decode = {key: functools.partial(cdr.decode_exact, msg_class=cls)
+                        for key, cls in COMMANDS.items()}  # fmt: skip
+        self._decode["trajectory_cmd"] = read_joint_trajectory
         self._joint_state = JointState(name=self.joint_names)  # filled in place at each publish
         self._listened = {self.pub_reactions: False, self.pub_markers: False}
 
@@ -574,7 +583,7 @@ class DRSNode(Node):
         now = self._now_ns()
         topic = self.command_topics[key]
         try:
-            msg = deserialize_message(data, COMMANDS[key])
+            msg = self._decode[key](data)
         except Exception as exc:  # noqa: BLE001 - any bytes from any participant: refused, kept
             with self._lock:
                 self.received += 1
@@ -1099,6 +1108,10 @@ def main(argv: list[str] | None = None) -> int:
         args.remove("--managed")
     stop = StopRequest()
     stop.install()  # before rclpy starts: a signal during start-up is a stop too
+    # the executor thread's Python work (reading a large trajectory) hands the GIL to the
+    # real-time tick within this [s] when the tick wakes up (CPython's default: 5 ms, more than
+    # a publish period at 250 Hz)
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     rc = 0
