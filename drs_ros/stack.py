@@ -20,9 +20,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from rclpy.qos import QoSProfile
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from . import description
+from . import cdr, description
 from .follow_trajectory import FollowJointTrajectoryServer, Tolerances
 from .tf_tree import TfPublisher
 
@@ -107,6 +108,7 @@ class StackLayer:
             hold_duration=node.params.T_opening, now_ns=hooks.now_ns,
         )  # fmt: skip
         self.sub_commands = None
+        self._canonical = cdr.serializer(JointState)
 
     # ---- what the node asks ----------------------------------------------------------------------
     @property
@@ -125,11 +127,24 @@ class StackLayer:
 
     def activate(self) -> None:
         self.sub_commands = self.node.create_subscription(
-            JointState, self.commands_topic,
-            lambda data: self.hooks.receive("joint_commands", data),
+            JointState, self.commands_topic, self._on_joint_command,
             QoSProfile(depth=COMMAND_QOS_DEPTH), raw=True,
         )  # fmt: skip
         self.action.active_flag = True
+
+    def _on_joint_command(self, data: bytes) -> None:
+        """A JointState command's bytes, with its alignment padding zeroed, into the node's queue.
+
+        Fast DDS leaves the padding between a JointState's strings and its arrays uninitialised
+        (6-7 non-zero bytes of 84 from an rclpy publisher, measured): bytes no exact-CDR check
+        accepts, though the message is well formed. The values are taken as they arrived and
+        re-serialised once (:mod:`drs_ros.cdr`), so the node decodes, records and re-runs the
+        message's exact CDR. Bytes that do not decode go on unchanged: the node refuses them."""
+        try:
+            data = self._canonical(deserialize_message(data, JointState))
+        except Exception:  # noqa: BLE001 - malformed: the node's own intake says why
+            pass
+        self.hooks.receive("joint_commands", data)
 
     def deactivate(self) -> None:
         self.action.deactivate(self.hooks.now_ns())

@@ -420,3 +420,34 @@ def test_a_bag_of_the_action_tf_and_joint_commands_checks_and_re_runs(ros_contex
     report = json.loads(again.stdout)
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
     assert not report["notes"]
+
+
+def test_a_joint_command_with_uninitialised_padding_is_taken_and_recorded_exact(
+    ros_context, tmp_path
+):
+    """Fast DDS leaves a JointState's alignment padding uninitialised; such a command is well
+    formed: it is taken, and the bag holds its exact CDR (padding zero)."""
+    from drs_ros import cdr
+    from drs_ros.bag.check import read_bag
+
+    bag = tmp_path / "bag"
+    stack = Stack(ros_context, [Parameter("bag_path", value=str(bag))])
+    try:
+        stack.ready()
+        exact = cdr.serializer(JointState)(joint_command(["drs_piston"], position=[0.025]))
+        dirty = bytearray(exact)
+        assert dirty[17:20] == b"\0\0\0"  # the padding after the empty frame_id's terminator
+        dirty[17:20] = b"\xab\xcd\xef"
+        raw = stack.client.create_publisher(JointState, "/drs/joint_commands", 10)
+        assert spin_until(stack.exec, lambda: raw.get_subscription_count() > 0, 3.0)
+        raw.publish(bytes(dirty))
+        assert spin_until(stack.exec, lambda: stack.joints[-1].position[0] == 0.025, 3.0)
+        assert stack.node.refused == 0
+    finally:
+        stack.close()
+    from drs_ros.bag.reader import scan
+
+    recorded = []
+    scan(bag, lambda m: recorded.append(bytes(m.data)), topics={"/drs/joint_commands"})
+    assert recorded == [exact]
+    read_bag(bag, ["/drs/joint_commands"])  # and the bag verifies, every byte
