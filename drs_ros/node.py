@@ -579,21 +579,22 @@ class DRSNode(Node):
     def _receive(self, key: str, data: bytes) -> None:
         """A raw command arrived (executor thread): decode it and do the state-free part of its
         work here, outside the lock the real-time tick takes (a 10,000-point trajectory is
-        planned in ~4 ms), then record it and keep it as the newest of its topic."""
-        now = self._now_ns()
+        planned in ~4 ms), then record it and keep it as the newest of its topic. Its log time
+        is taken under the lock: no tick logged after it applies an older command of its topic."""
         topic = self.command_topics[key]
         try:
             msg = self._decode[key](data)
         except Exception as exc:  # noqa: BLE001 - any bytes from any participant: refused, kept
             with self._lock:
                 self.received += 1
-                self._refuse_malformed(topic, COMMANDS[key], data, exc, now)
+                self._refuse_malformed(topic, COMMANDS[key], data, exc, self._now_ns())
             return
         try:
             prepared, refusal = commands.prepare(self.sim, key, msg, self.joint_names[0]), None
         except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
             prepared, refusal = None, exc
         with self._lock:
+            now = self._now_ns()
             self.received += 1
             # only bytes that decode go on the typed topic: the bag stays readable by all readers
             cmd = PendingCommand(key, topic, msg, self._record(topic, data, now), now, prepared)

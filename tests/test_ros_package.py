@@ -12,6 +12,7 @@ import signal
 import stat
 import subprocess
 import sys
+import time
 import tomllib
 import zipfile
 from pathlib import Path
@@ -266,6 +267,7 @@ def test_colcon_build_then_drs_node_from_the_install_space(tmp_path, request, sy
         # the first flush already holds the robot description (~30 kB): wait for a later one
         grew = grew and wait_for_file_growth(mcap, timeout=30.0,
                                              min_size=mcap.stat().st_size + 2000)  # fmt: skip
+        time.sleep(1.0)  # the first flush may come before the first tick on a loaded machine
         node.send_signal(signal.SIGINT)
         node_out, _ = node.communicate(timeout=30)
     finally:
