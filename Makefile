@@ -13,9 +13,16 @@ export ROS_LOG_DIR ?= $(CURDIR)/.ros-log
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
-$(STAMP): pyproject.toml | $(BIN)/python
+# tf2_msgs and control_msgs have no PyPI wheel: interfaces/build.py builds them from upstream's
+# definitions with the ROS build tools of interfaces/build-requirements.txt (docs/ros.md).
+INTERFACES := $(wildcard interfaces/*/package.xml interfaces/*/CMakeLists.txt interfaces/*/msg/*.msg \
+	interfaces/*/action/*.action) interfaces/build.py interfaces/wheel_targets.cmake \
+	interfaces/build-requirements.txt
+
+$(STAMP): pyproject.toml $(INTERFACES) | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev,fast]"
+	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev,fast]" -r interfaces/build-requirements.txt
+	$(BIN)/python interfaces/build.py --quiet
 	# numba's on-disk cache, filled once here: no test, demo or node start compiles on a cold cache
 	$(BIN)/python -m drs_model.compiled
 	touch $(STAMP)
@@ -29,7 +36,7 @@ test: $(STAMP)
 	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest
 
 lint: $(STAMP)
-	$(BIN)/ruff check drs_model drs_ros tests benchmarks
+	$(BIN)/ruff check drs_model drs_ros tests benchmarks interfaces
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/work_precision.py

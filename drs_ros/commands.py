@@ -1,13 +1,19 @@
 """How a received command acts on the actuator: one place for the node and the re-simulation.
 
 A command is known by its key (the topic's last name: ``stroke_cmd``, ``force_cmd``,
-``trajectory_cmd``) or ``drs`` (the service). :func:`apply` hands its content to
+``trajectory_cmd``, ``joint_commands``), ``drs`` (the service) or ``follow_joint_trajectory``
+(the action: a :class:`TrajectoryMove` or :class:`StrokeMove` the action server decided on,
+rebuilt from its effect record by :func:`move_from_record`). :func:`apply` hands its content to
 :class:`drs_model.actuator.ActuatorSim`; a refusal raises the model's :class:`DRSError` with the
 reason, and leaves the actuator unchanged.
 """
 
 from __future__ import annotations
 
+import ast
+from dataclasses import dataclass
+
+from . import joint_commands
 from .conversions import trajectory_points
 
 #: key -> message type name of the command topics.
@@ -15,8 +21,66 @@ COMMAND_TYPES = {
     "stroke_cmd": "std_msgs/msg/Float64",
     "force_cmd": "std_msgs/msg/Float64",
     "trajectory_cmd": "trajectory_msgs/msg/JointTrajectory",
+    "joint_commands": "sensor_msgs/msg/JointState",
 }
 SERVICE_KEY = "drs"
+#: The FollowJointTrajectory action's moves (no topic: the effect record holds them).
+ACTION_KEY = "follow_joint_trajectory"
+
+
+@dataclass(frozen=True)
+class TrajectoryMove:
+    """A trajectory of the piston as the actuator takes it: reach ``strokes[k]`` [m] at
+    ``times[k]`` [s from now] with ``rates[k]`` [m/s] (None: the actuator's default rates)."""
+
+    times: tuple[float, ...]
+    strokes: tuple[float, ...]
+    rates: tuple[float, ...] | None = None
+
+    def plan(self, sim):
+        """The state-independent part (:meth:`ActuatorSim.plan_trajectory`): outside the tick."""
+        return sim.plan_trajectory(self.times, self.strokes, self.rates)
+
+    def apply(self, sim, plan=None):
+        """Follow it from the current state; ``plan`` from :meth:`plan` (same result to the bit)."""
+        if plan is not None:
+            return sim.command_trajectory(plan)
+        return sim.command_trajectory(self.times, self.strokes, self.rates)
+
+    def record(self) -> dict[str, str]:
+        """The effect record's values: exact (Python repr), so a re-run takes the same move."""
+        return {"value": f"<{len(self.times)} points>", "times": repr(list(self.times)),
+                "strokes": repr(list(self.strokes)),
+                "rates": repr(None if self.rates is None else list(self.rates))}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class StrokeMove:
+    """Move to ``target`` [m] in ``duration`` [s] from the current state (a hold or a stop)."""
+
+    target: float
+    duration: float
+
+    def apply(self, sim):
+        return sim.command_stroke(self.target, self.duration)
+
+    def record(self) -> dict[str, str]:
+        return {"value": "hold", "target": repr(self.target), "duration": repr(self.duration)}
+
+
+def move_from_record(values: dict[str, str]) -> TrajectoryMove | StrokeMove:
+    """The move an effect record of the action holds (the inverse of ``record()``)."""
+    if values.get("value") == "hold":
+        return StrokeMove(float(values["target"]), float(values["duration"]))
+    rates = ast.literal_eval(values["rates"])
+    return TrajectoryMove(tuple(ast.literal_eval(values["times"])),
+                          tuple(ast.literal_eval(values["strokes"])),
+                          None if rates is None else tuple(rates))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class _Data:
+    data: float
 
 
 def describe(key: str, msg) -> object:
@@ -25,6 +89,11 @@ def describe(key: str, msg) -> object:
         return f"<{len(msg.points)} points>"
     if key == SERVICE_KEY:
         return bool(msg.data)
+    if key == "joint_commands":
+        return (f"<JointState {list(msg.name)} position {list(msg.position)} "
+                f"effort {list(msg.effort)}>")  # fmt: skip
+    if key == ACTION_KEY:
+        return msg.record()["value"]
     return msg.data
 
 
@@ -52,7 +121,13 @@ def apply(sim, key: str, msg, piston_joint: str, prepared=None):
         return sim.command_trajectory(prepared)
     if key == SERVICE_KEY:
         return sim.command_drs(bool(msg.data))
-    raise KeyError(f"unknown command {key!r}; known: {sorted([*COMMAND_TYPES, SERVICE_KEY])}")
+    if key == "joint_commands":
+        sub, value = joint_commands.to_command(msg, piston_joint)
+        return apply(sim, sub, _Data(value), piston_joint)
+    if key == ACTION_KEY:
+        return msg.apply(sim)
+    known = sorted([*COMMAND_TYPES, SERVICE_KEY, ACTION_KEY])
+    raise KeyError(f"unknown command {key!r}; known: {known}")
 
 
 def hold(sim) -> float:
@@ -64,4 +139,15 @@ def hold(sim) -> float:
     return s_hold
 
 
-__all__ = ["COMMAND_TYPES", "SERVICE_KEY", "apply", "describe", "hold", "prepare"]
+__all__ = [
+    "ACTION_KEY",
+    "COMMAND_TYPES",
+    "SERVICE_KEY",
+    "StrokeMove",
+    "TrajectoryMove",
+    "apply",
+    "describe",
+    "hold",
+    "move_from_record",
+    "prepare",
+]

@@ -3,7 +3,8 @@
 1. starts ``drs-node`` as a process (loopback-only DDS, its own domain) recording
    ``bags/demo/`` (MCAP + metadata.yaml) and ``bags/demo.rrd``;
 2. drives it from a second node: open, hold, close through the ``~/drs`` service; a stroke
-   command; a trajectory; a force step; one bad command (NaN, refused with a reason);
+   command; a trajectory; a FollowJointTrajectory goal; a force step; one bad command (NaN,
+   refused with a reason);
 3. stops it with SIGINT (it finishes both recordings and exits 0);
 4. runs ``drs-check`` on the bag, reads the ``.rrd`` back, and prints a short summary.
 
@@ -180,6 +181,8 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
             )
         trajectory.publish(msg)
         spin(0.3)
+        _say(f"action -> {follow(node, ex, 0.015, 0.05, timeout)}")
+        spin(0.1)
         _say("force  -> 1500 N step (forward dynamics, onto the open stop)")
         force.publish(Float64(data=1500.0))
         spin(0.3)
@@ -194,6 +197,36 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
         node.destroy_node()
         rclpy.try_shutdown(context=ctx)
     return seen
+
+
+def follow(node, ex, stroke: float, seconds: float, timeout: float) -> str:
+    """Send one FollowJointTrajectory goal as a motion client would; its result, in words."""
+    from control_msgs.action import FollowJointTrajectory
+    from rclpy.action import ActionClient
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    client = ActionClient(node, FollowJointTrajectory, "/drs/follow_joint_trajectory")
+    if not client.wait_for_server(timeout_sec=timeout):
+        raise RuntimeError("the node's ~/follow_joint_trajectory did not appear")
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = ["drs_piston"]
+    point = JointTrajectoryPoint(positions=[stroke])
+    point.time_from_start.nanosec = int(round(seconds * 1e9))
+    goal.trajectory.points = [point]
+    feedback: list = []
+    sent = client.send_goal_async(goal, feedback_callback=feedback.append)
+    end = time.monotonic() + timeout
+    while not sent.done() and time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.01)
+    result = sent.result().get_result_async()
+    while not result.done() and time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.01)
+    if not result.done():
+        raise RuntimeError("no FollowJointTrajectory result")
+    res = result.result().result
+    client.destroy()
+    return (f"{stroke * 1e3:g} mm in {seconds * 1e3:g} ms (FollowJointTrajectory): error_code "
+            f"{res.error_code}, {res.error_string!r}, {len(feedback)} feedback messages")
 
 
 def _rrd_scalar_rows(path: Path) -> int:

@@ -23,6 +23,11 @@ DEFAULT_TOPICS = MappingProxyType({
     "stroke_cmd": "/drs/stroke_cmd",
     "force_cmd": "/drs/force_cmd",
     "trajectory_cmd": "/drs/trajectory_cmd",
+    "joint_commands": "/drs/joint_commands",
+    "follow_joint_trajectory": "/drs/follow_joint_trajectory",
+    "robot_description": "/robot_description",
+    "tf": "/tf",
+    "tf_static": "/tf_static",
     "drs_service": "/drs/drs",
     "drs_service_event": "/drs/drs/_service_event",
 })

@@ -38,6 +38,9 @@ ROS_DEPENDENCIES = {
     "rcl_interfaces",
     "service_msgs",
     "builtin_interfaces",
+    "tf2_msgs",
+    "control_msgs",
+    "action_msgs",
 }
 #: rosdep keys of the PyPI dependencies that have one.
 ROSDEP_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "pyyaml": "python3-yaml"}
@@ -258,13 +261,11 @@ def test_colcon_build_then_drs_node_from_the_install_space(tmp_path, request, sy
         text=True,
     )
     try:
-        grew = wait_for_file_growth(bag / "bag_0.mcap", timeout=30.0, min_size=2000)
-        if grew:
-            # the first flush can come while the node still starts (it holds what the start
-            # records, not ticks; a SIGINT then stops the node before its recordings are open
-            # for good): the next one holds ticks
-            first = (bag / "bag_0.mcap").stat().st_size
-            grew = wait_for_file_growth(bag / "bag_0.mcap", timeout=30.0, min_size=first + 1)
+        mcap = bag / "bag_0.mcap"
+        grew = wait_for_file_growth(mcap, timeout=30.0, min_size=2000)
+        # the first flush already holds the robot description (~30 kB): wait for a later one
+        grew = grew and wait_for_file_growth(mcap, timeout=30.0,
+                                             min_size=mcap.stat().st_size + 2000)  # fmt: skip
         node.send_signal(signal.SIGINT)
         node_out, _ = node.communicate(timeout=30)
     finally:

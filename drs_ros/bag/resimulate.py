@@ -180,6 +180,8 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
         key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
         if key == commands.SERVICE_KEY:
             msg = _Value(r.values["value"] == "True")
+        elif key == commands.ACTION_KEY:  # the action's moves are in the record itself
+            msg = commands.move_from_record(r.values)
         else:
             msg = run.commands.get((r.source, int(r.values["sequence"])))
             if msg is None:

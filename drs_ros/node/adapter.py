@@ -61,6 +61,7 @@ from ..conversions import (
 from ..drawing import moving_drawings, still_drawings
 from ..names import ACCEPTED, REFUSED, RESET, SUPERSEDED
 from ..recording import cdr, msgdefs
+from ..stack import NodeHooks, StackLayer
 from .effect_record import EffectRecord, PendingCommand, refusal_reason
 from .parameters import StartupError, declare_parameters, effective_parameters, model_params
 from .recordings import NodeRecordings
@@ -166,7 +167,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
                                        gp("frame_id").value)  # fmt: skip
 
         qos = QoSProfile(depth=QOS_DEPTH)
-        self.pub_joints = self.create_publisher(JointState, "/joint_states", qos)
+        self.pub_joints = self.create_publisher(JointState, gp("joint_states_topic").value, qos)
         self.pub_force = self.create_publisher(Float64, "~/piston_force", qos)
         self.pub_gap = self.create_publisher(Float64, "~/flap_gap", qos)
         # JointState has no acceleration field; with it a bag replays the piston force exactly
@@ -191,6 +192,12 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
         self.topics = {pub: pub.topic_name for pub in self._own_publishers}
         self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
+        # in a vehicle stack (drs_ros.stack): description, TF, the action, JointState commands
+        self.stack = StackLayer(self, NodeHooks(
+            event=lambda source, outcome, level, reason, values, now: self._event(
+                source, outcome, level, reason, None, values, now),
+            record=self._record, receive=self._receive, now_ns=self._now_ns))  # fmt: skip
+        self.command_topics.update(self.stack.command_topics)
         self._serialize = {
             cls: cdr.serializer(cls) for cls in (JointState, DiagnosticArray, MarkerArray)
         }
@@ -222,6 +229,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         except Exception:
             self.discard_recordings()
             raise
+        self.stack.start(self._now_ns())  # the robot description and the static TF, once
         self.configured = True
         self.get_logger().info(
             f"drs node configured: physics {physics_hz:g} Hz, publish {publish_hz:g} Hz, stroke "
@@ -258,11 +266,13 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
                 0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
         self._last_tick_ns = None  # the time inactive is no missed deadline
+        self.stack.activate()  # JointState commands, goals taken
         self.active = True
 
     def deactivate(self) -> None:
         """Stop taking commands and publishing; the actuator holds its state (no time passes)."""
         self.active = False
+        self.stack.deactivate()  # goals aborted, no JointState commands
         for timer in (self.timer, self.diag_timer, self.clock_watch):
             if timer is not None:
                 self.destroy_timer(timer)
@@ -283,6 +293,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         """Finish the recordings and drop the publishers and the actuator."""
         if self.active:
             self.deactivate()
+        self.stack.cleanup()
         self.close_recordings()
         self.recorder = self.rerun = None
         for pub in self._own_publishers:
@@ -304,6 +315,8 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         for key, topic in self.command_topics.items():
             register(topic, COMMANDS[key], qos=QoSProfile(depth=COMMAND_QOS_DEPTH))
         register(self.service_event_topic, SetBool.Event, qos=QoSProfile(depth=100))
+        for topic, msg_type, qos in self.stack.recorded_topics():
+            register(topic, msg_type, qos=qos)
         register("/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000))
         now = self._now_ns()
         event = parameter_event_msg(
@@ -537,6 +550,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         self._cpu["publish"] += t1 - t
         for pub, data in out:
             self._record(self.topics[pub], data, now_ns)
+        self.stack.publish(st, stamp, now_ns)  # /tf, the action's feedback
         if self.rerun is not None and not self.recording_error:
             try:
                 self.rerun.log_state(st.t, st.q, st.piston_force)

@@ -16,6 +16,7 @@ from drs_model.overrides import from_file
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from ..names import DEFAULT_JOINT_NAMES
+from ..stack import STACK_PARAMETERS
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
 #: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and a
@@ -52,7 +53,7 @@ NODE_PARAMETERS = (
      "rerun+http://127.0.0.1:9876/proxy ('' = none)", None),
     ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
     ("model_params_file", "", "TOML/YAML file of DRSParams overrides", None),
-)  # fmt: skip
+) + STACK_PARAMETERS  # fmt: skip
 
 
 class StartupError(DRSError):

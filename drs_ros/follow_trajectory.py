@@ -1,0 +1,428 @@
+"""``~/follow_joint_trajectory``: control_msgs/action/FollowJointTrajectory, served as
+ros2_control's joint_trajectory_controller (Jazzy) serves it.
+
+The controller's joint is the piston (``joint_names[0]``); the link and the flap are passive
+joints of the closed loop, driven through it. What follows is joint_trajectory_controller's
+behaviour (``joint_trajectory_controller.cpp`` and ``tolerances.hpp``, branch jazzy), except
+where a line says otherwise:
+
+* **Validation** (JTC's ``validate_trajectory_msg``): the goal must name exactly the
+  controller's joints (no partial goals, no unknown or passive joint, no multi-DOF joint), have
+  points, strictly increasing ``time_from_start``, positions (and velocities / accelerations,
+  if any) one per joint, no efforts, and end at rest; a non-zero ``header.stamp`` starts the
+  trajectory then, and a trajectory that ends before now is refused. Then the actuator must
+  accept it (the stroke range, a path that stays in it). *Difference:* JTC rejects an invalid
+  goal without a reason (a rejected ROS 2 goal carries no result); drs accepts it and aborts it
+  at once with the error code the action defines (``INVALID_JOINTS``, ``INVALID_GOAL``,
+  ``OLD_HEADER_TIMESTAMP``) and the reason in ``error_string``, so a client learns why. An
+  invalid goal, like JTC's rejected one, leaves the active goal running.
+* **Tolerances** (``get_segment_tolerances``): the node's defaults (``path_tolerance``,
+  ``goal_tolerance`` [m], ``stopped_velocity_tolerance`` [m/s], ``goal_time_tolerance`` [s],
+  JTC's ``constraints.*``), overridden per goal: a value > 0 replaces the default, 0 keeps it,
+  -1 erases it; an unknown joint or another negative value makes the goal use the defaults.
+  While the trajectory runs, the path tolerance applies (position, velocity, acceleration); from
+  its last point on, the goal tolerance (position, and velocity by default
+  ``stopped_velocity_tolerance``): within it, the goal SUCCEEDS; outside it for longer than
+  ``goal_time_tolerance`` (when that is not 0), it aborts with ``GOAL_TOLERANCE_VIOLATED``; a
+  path violation aborts with ``PATH_TOLERANCE_VIOLATED``. The error string says which joint,
+  which quantity, by how much.
+* **Feedback** at the publish rate: ``desired`` (the trajectory as the actuator plans it, from the
+  goal's acceptance), ``actual`` (the actuator's state), ``error = desired - actual``.
+* **Preemption:** a new valid goal aborts the active one with ``INVALID_GOAL``, "Current goal
+  preempted by new incoming action.", and takes over.
+* **Cancel:** accepted; the goal ends CANCELED and the piston holds the position where it was
+  (a quintic back to it, at rest, in ``T_opening``; if that path would leave the stroke range, a
+  stop straight ahead instead).
+* **Other commands** (the topics, the service, JointState commands) act on the actuator as they
+  always do, latest wins; a goal whose trajectory they replaced is judged by its tolerances as
+  JTC judges it. An abort or a cancel holds the piston only while the goal's own trajectory is
+  what the actuator does: it never undoes a newer command.
+* The simulated piston follows its trajectory exactly, so ``error`` stays 0 unless another
+  command takes the actuator (as with ros2_control's mock hardware).
+
+Every move the server gives the actuator (a goal's trajectory, a hold) is an accepted record of
+the effect log (source: the action's name, the move's exact values), every invalid goal a refused
+one, and every goal's end a ``result`` record, so a bag re-runs the action's goals exactly.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from action_msgs.msg import GoalStatus
+from control_msgs.action import FollowJointTrajectory
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from drs_model.errors import DRSError, InputError
+
+from .commands import StrokeMove, TrajectoryMove
+from .conversions import time_msg, trajectory_points
+from .names import ACCEPTED, REFUSED
+
+Result = FollowJointTrajectory.Result
+#: JTC's "-1 erases a tolerance" (compared within float epsilon, as JTC does).
+ERASE = -1.0
+FLOAT_EPS = 1.1920928955078125e-07
+#: A goal "drives" the actuator while the piston is this close to the goal's plan [m].
+FOLLOWING_TOL = 1e-9
+#: Effect-record outcome of a goal's end.
+RESULT = "result"
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """One joint's tolerances (0: not enforced), as JTC's ``SegmentTolerances``."""
+
+    path_position: float = 0.0
+    path_velocity: float = 0.0
+    path_acceleration: float = 0.0
+    goal_position: float = 0.0
+    goal_velocity: float = 0.0
+    goal_acceleration: float = 0.0
+    goal_time: float = 0.0
+
+
+class GoalError(DRSError):
+    """A goal refused with an error code of FollowJointTrajectory.Result."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+def _resolve(default: float, given: float) -> float:
+    """JTC's ``resolve_tolerance_source``."""
+    if given > 0.0:
+        return given
+    if abs(given - ERASE) < FLOAT_EPS:
+        return 0.0
+    if given < 0.0:
+        raise ValueError(f"illegal tolerance value {given!r}")
+    return default
+
+
+def goal_tolerances(goal, defaults: Tolerances, joint: str) -> tuple[Tolerances, str]:
+    """The goal's tolerances over the defaults (JTC's ``get_segment_tolerances``); returns them
+    and a note when the goal's were unusable and the defaults apply (as JTC logs)."""
+    given_time = goal.goal_time_tolerance.sec + 1e-9 * goal.goal_time_tolerance.nanosec
+    try:
+        values = dict(vars(defaults))
+        values["goal_time"] = _resolve(defaults.goal_time, given_time)
+        for kind, entries in (("path", goal.path_tolerance), ("goal", goal.goal_tolerance)):
+            for tol in entries:
+                if tol.name != joint:
+                    raise ValueError(f"joint {tol.name!r} of goal.{kind}_tolerance is not "
+                                     f"the controller's ({joint!r})")  # fmt: skip
+                for q in ("position", "velocity", "acceleration"):
+                    key = f"{kind}_{q}"
+                    values[key] = _resolve(getattr(defaults, key), getattr(tol, q))
+    except ValueError as exc:
+        return defaults, f"{exc}: the default tolerances apply"
+    return Tolerances(**values), ""
+
+
+def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
+    """The piston's move of a FollowJointTrajectory goal, times from now [s]; raises
+    :class:`GoalError` with JTC's check and the code of the action's result."""
+    traj = goal.trajectory
+    names = list(traj.joint_names)
+    if list(goal.multi_dof_trajectory.joint_names):
+        raise GoalError(Result.INVALID_JOINTS, "multi-DOF joints "
+                        f"{list(goal.multi_dof_trajectory.joint_names)} are not joints of this "
+                        f"controller; its only joint is {joint!r}")  # fmt: skip
+    if names != [joint]:
+        others = [n for n in names if n != joint] or names
+        raise GoalError(
+            Result.INVALID_JOINTS,
+            f"joints {names} don't match the controller's joints [{joint!r}]"
+            + (f": {others} are not controlled (the link and the flap are passive joints of the "
+               "closed loop, moved through the piston)" if others else ""),
+        )  # fmt: skip
+    if not traj.points:
+        raise GoalError(Result.INVALID_GOAL, "empty trajectory received")
+    last = traj.points[-1]
+    if any(abs(v) > FLOAT_EPS for v in last.velocities):
+        raise GoalError(Result.INVALID_GOAL, f"velocity of the last trajectory point of {joint} "
+                        f"is not zero: {list(last.velocities)[0]!r}")  # fmt: skip
+    if any(len(pt.effort) for pt in traj.points):
+        raise GoalError(Result.INVALID_GOAL, "trajectories with effort fields are only supported "
+                        "for controllers using the 'effort' command interface")  # fmt: skip
+    try:
+        times, strokes, rates = trajectory_points(traj, joint)
+    except InputError as exc:
+        raise GoalError(Result.INVALID_GOAL, str(exc)) from exc
+    start_ns = traj.header.stamp.sec * 1_000_000_000 + traj.header.stamp.nanosec
+    if start_ns != 0:
+        shift = (start_ns - now_ns) * 1e-9
+        if times[-1] + shift < 0.0:
+            raise GoalError(Result.OLD_HEADER_TIMESTAMP, "received a trajectory with non-zero "
+                            f"start time that ends in the past ({-(times[-1] + shift):.6g} s "
+                            "ago)")  # fmt: skip
+        keep = [k for k, t in enumerate(times) if t + shift > 0.0]  # points still to come
+        times = [times[k] + shift for k in keep]
+        strokes = [strokes[k] for k in keep]
+        rates = None if rates is None else [rates[k] for k in keep]
+    return TrajectoryMove(tuple(times), tuple(strokes), None if rates is None else tuple(rates))
+
+
+def _point(s: float, v: float, a: float, t: float) -> JointTrajectoryPoint:
+    pt = JointTrajectoryPoint(positions=[s], velocities=[v], accelerations=[a])
+    pt.time_from_start.sec = int(t // 1)
+    pt.time_from_start.nanosec = int(round((t - t // 1) * 1e9)) % 1_000_000_000
+    return pt
+
+
+@dataclass
+class ActiveGoal:
+    """A goal whose trajectory the actuator took at simulated time ``t_start`` [s]."""
+
+    handle: object
+    move: TrajectoryMove
+    path: object  # drs_model.profile.QuinticPath, as the actuator follows it
+    t_start: float
+    tolerances: Tolerances
+    first_sample: bool = True
+
+    @property
+    def t_end(self) -> float:
+        return self.path.t_end
+
+    def desired(self, t: float) -> tuple[float, float, float]:
+        """The planned ``(s, s', s'')`` [m, m/s, m/s^2] at simulated time ``t`` (at rest at the
+        last point from its time on, as the actuator is)."""
+        if t >= self.t_end:
+            return self.move.strokes[-1], 0.0, 0.0
+        s, v, a = self.path.at(t)
+        return float(s), float(v), float(a)
+
+
+def _violation(kind: str, joint: str, err: tuple[float, float, float], tol) -> str:
+    """The first tolerance ``err`` (position, velocity, acceleration) exceeds, or ''."""
+    for name, e, t, unit in zip(("position", "velocity", "acceleration"), err, tol,
+                                ("m", "m/s", "m/s^2"), strict=True):  # fmt: skip
+        if t > 0.0 and abs(e) > t:
+            return f"{joint} {name} error {e:.6g} {unit} exceeds the {kind} tolerance {t:g} {unit}"
+    return ""
+
+
+class FollowJointTrajectoryServer:
+    """The action server of one node: goals are taken by the executor, acted on at ticks.
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+    sim : drs_model.actuator.ActuatorSim
+        The actuator (touched only from :meth:`update`, under the node's tick).
+    joint : str
+        The piston joint's name.
+    defaults : Tolerances
+    event : callable
+        ``event(outcome, level, reason, values, now_ns)``: a record of the effect log.
+    hold_duration : float
+        Duration [s] of the move that holds the piston after a cancel.
+    """
+
+    def __init__(self, node, sim, joint: str, defaults: Tolerances,
+                 event: Callable[..., None], hold_duration: float,
+                 now_ns: Callable[[], int]) -> None:  # fmt: skip
+        self.node, self.sim, self.joint = node, sim, joint
+        self._now_ns = now_ns
+        self.defaults = defaults
+        self._event = event
+        self.hold_duration = hold_duration
+        self.active_flag = False
+        self._lock = threading.Lock()
+        self._incoming: list = []
+        self._outcomes: dict[str, tuple] = {}
+        self.goal: ActiveGoal | None = None
+        self.results: dict[str, int] = {}
+        self.server = ActionServer(
+            node,
+            FollowJointTrajectory,
+            "~/follow_joint_trajectory",
+            execute_callback=self._finished,
+            goal_callback=self._on_goal,
+            handle_accepted_callback=self._on_accepted,
+            cancel_callback=lambda _handle: CancelResponse.ACCEPT,
+        )
+        self.name = node.resolve_topic_name("~/follow_joint_trajectory")
+
+    # ---- executor thread -----------------------------------------------------------------------
+    def _on_goal(self, _goal) -> GoalResponse:
+        # JTC: "Can't accept new action goals. Controller is not running."
+        return GoalResponse.ACCEPT if self.active_flag else GoalResponse.REJECT
+
+    def _on_accepted(self, handle) -> None:
+        """Validated and planned here, outside the tick (the plan reads only the actuator's
+        parameters; ~4 ms for 10,000 points); the next tick gives it to the actuator."""
+        try:
+            move = plan_goal(handle.request, self.joint, self._now_ns())
+            entry = (handle, move, move.plan(self.sim))
+        except GoalError as exc:
+            entry = (handle, exc, None)
+        except DRSError as exc:
+            entry = (handle, GoalError(Result.INVALID_GOAL, str(exc)), None)
+        with self._lock:
+            self._incoming.append(entry)
+
+    def _finished(self, handle):
+        """Runs once a goal's outcome is known (scheduled by :meth:`_end`)."""
+        with self._lock:
+            status, result = self._outcomes.pop(_uuid(handle))
+        if status == "succeeded":
+            handle.succeed()
+        elif status == "canceled":
+            handle.canceled()
+        else:
+            handle.abort()
+        return result
+
+    # ---- ticks ---------------------------------------------------------------------------------
+    def _end(self, handle, status: str, code: int, message: str, now_ns: int) -> None:
+        """End a goal: the executor sets its terminal state and sends the result."""
+        with self._lock:
+            self._outcomes[_uuid(handle)] = (status, Result(error_code=code,
+                                                            error_string=message))  # fmt: skip
+        if handle.status == GoalStatus.STATUS_ACCEPTED:  # a goal ends from EXECUTING
+            handle._update_state(_rclpy.GoalEvent.EXECUTE)
+        # rclpy runs the execute callback in a task of the executor: the terminal state and the
+        # result are set there (a callback that awaited the outcome instead would keep the
+        # Jazzy executor busy, since it resumes every pending task at every spin)
+        self.server.notify_execute(handle, self._finished)
+        self.results[status] = self.results.get(status, 0) + 1
+        level = DiagnosticStatus.OK if status == "succeeded" else DiagnosticStatus.WARN
+        self._event(RESULT, level, f"{status}: {message}" if message else status,
+                    {"goal_id": _uuid(handle), "status": status, "error_code": code,
+                     "error_string": message}, now_ns)  # fmt: skip
+
+    def _hold(self, now_ns: int) -> None:
+        """Hold the piston where it is (JTC's ``set_hold_position``), as a smooth move."""
+        st = self.sim.state
+        s, v = float(st.q[0]), float(st.qd[0])
+        stop = min(max(s + 0.5 * v * self.hold_duration, self.sim.s_min), self.sim.s_max)
+        for move in (StrokeMove(s, self.hold_duration), StrokeMove(stop, self.hold_duration)):
+            try:
+                move.apply(self.sim)
+            except DRSError:
+                continue
+            self._event(ACCEPTED, DiagnosticStatus.OK, "hold", move.record(), now_ns)
+            return
+
+    def _following(self, goal: ActiveGoal) -> bool:
+        st = self.sim.state
+        return st.mode == "stroke" and abs(goal.desired(st.t)[0] - st.q[0]) <= FOLLOWING_TOL
+
+    def _start(self, handle, move, plan, now_ns: int) -> None:
+        goal_msg = handle.request
+        try:
+            if isinstance(move, GoalError):
+                raise move
+            path = move.apply(self.sim, plan)  # the state-dependent first segments: checked now
+        except GoalError as exc:
+            code, why = exc.code, str(exc)
+        except DRSError as exc:
+            code, why = Result.INVALID_GOAL, str(exc)
+        else:
+            tolerances, note = goal_tolerances(goal_msg, self.defaults, self.joint)
+            if note:
+                self.node.get_logger().warning(f"goal {_uuid(handle)}: {note}")
+            if self.goal is not None:  # JTC's preempt_active_goal
+                self._end(self.goal.handle, "aborted", Result.INVALID_GOAL,
+                          "Current goal preempted by new incoming action.", now_ns)  # fmt: skip
+            handle._update_state(_rclpy.GoalEvent.EXECUTE)
+            self.goal = ActiveGoal(handle, move, path, self.sim.t, tolerances)
+            values = {**move.record(), "goal_id": _uuid(handle)}
+            self._event(ACCEPTED, DiagnosticStatus.OK, "", values, now_ns)
+            return
+        self._event(REFUSED, DiagnosticStatus.WARN, f"error_code {code}: {why}",
+                    {"goal_id": _uuid(handle), "error_code": code}, now_ns)  # fmt: skip
+        self._end(handle, "aborted", code, why, now_ns)
+
+    def update(self, stamp_ns: int, now_ns: int) -> None:
+        """At a publish: take new goals, send feedback, judge tolerances, end goals."""
+        with self._lock:
+            incoming, self._incoming = self._incoming, []
+        for handle, move, plan in incoming:
+            if handle.is_cancel_requested:  # cancelled before it started: nothing to hold
+                self._end(handle, "canceled", Result.SUCCESSFUL, "", now_ns)
+            else:
+                self._start(handle, move, plan, now_ns)
+        goal = self.goal
+        if goal is None:
+            return
+        if goal.handle.is_cancel_requested:  # JTC: setCanceled, then hold the position
+            following = self._following(goal)
+            self.goal = None
+            self._end(goal.handle, "canceled", Result.SUCCESSFUL, "", now_ns)
+            if following:
+                self._hold(now_ns)
+            return
+        st = self.sim.state
+        t = st.t
+        want = goal.desired(t)
+        have = (float(st.q[0]), float(st.qd[0]), float(st.qdd[0]))
+        err = tuple(w - h for w, h in zip(want, have, strict=True))
+        tol = goal.tolerances
+        before_last = t < goal.t_end
+        path = ""
+        if before_last or goal.first_sample:
+            path = _violation("path", self.joint, err, (tol.path_position, tol.path_velocity,
+                                                         tol.path_acceleration))  # fmt: skip
+        goal.first_sample = False
+        outside = ""
+        if not before_last:
+            outside = _violation("goal", self.joint, err, (tol.goal_position, tol.goal_velocity,
+                                                            tol.goal_acceleration))  # fmt: skip
+        fb = FollowJointTrajectory.Feedback(joint_names=[self.joint])
+        fb.header.stamp = time_msg(stamp_ns)
+        since = t - goal.t_start
+        fb.desired, fb.actual, fb.error = (_point(*want, since), _point(*have, since),
+                                           _point(*err, since))  # fmt: skip
+        goal.handle.publish_feedback(fb)
+        if path:
+            self.goal = None
+            self._end(goal.handle, "aborted", Result.PATH_TOLERANCE_VIOLATED,
+                      f"Aborted due to path tolerance violation: {path}", now_ns)  # fmt: skip
+        elif not before_last and not outside:
+            self.goal = None
+            self._end(goal.handle, "succeeded", Result.SUCCESSFUL, "Goal successfully reached!",
+                      now_ns)  # fmt: skip
+        elif not before_last and tol.goal_time != 0.0 and t - goal.t_end > tol.goal_time:
+            self.goal = None
+            self._end(goal.handle, "aborted", Result.GOAL_TOLERANCE_VIOLATED,
+                      f"Aborted due to goal_time_tolerance exceeding by {t - goal.t_end:.6g} "
+                      f"seconds: {outside}", now_ns)  # fmt: skip
+
+    def deactivate(self, now_ns: int) -> None:
+        """JTC's on_deactivate: the active goal (and any not yet started) is aborted."""
+        self.active_flag = False
+        with self._lock:
+            incoming, self._incoming = self._incoming, []
+        ends = [entry[0] for entry in incoming]
+        ends += [self.goal.handle] if self.goal is not None else []
+        self.goal = None
+        for handle in ends:
+            self._end(handle, "aborted", Result.INVALID_GOAL,
+                      "Current goal cancelled during deactivate transition.", now_ns)  # fmt: skip
+
+    def destroy(self) -> None:
+        self.server.destroy()
+
+
+def _uuid(handle) -> str:
+    return bytes(handle.goal_id.uuid).hex()
+
+
+__all__ = [
+    "ActiveGoal",
+    "FollowJointTrajectoryServer",
+    "GoalError",
+    "Tolerances",
+    "goal_tolerances",
+    "plan_goal",
+]

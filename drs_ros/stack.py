@@ -1,0 +1,163 @@
+"""What the node offers a vehicle stack (issue 20), as one object the node drives.
+
+* the robot description and TF (:mod:`drs_ros.tf_tree`, :mod:`drs_ros.description`);
+* ``~/follow_joint_trajectory``, joint_trajectory_controller's action
+  (:mod:`drs_ros.follow_trajectory`);
+* ros2_control's topic interface: JointState commands in on ``joint_commands_topic``
+  (:mod:`drs_ros.joint_commands`), the joint states out on ``joint_states_topic``.
+
+The node builds one :class:`StackLayer` in ``configure``, and calls it in ``activate``,
+``deactivate``, ``cleanup`` and at every publish (``publish``). The layer owns its publishers,
+its subscription and the action server; it reaches the node's effect record, recorder and
+command queue only through the :class:`NodeHooks` it is given, so the node's own structure can
+change around it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from rclpy.qos import QoSProfile
+from sensor_msgs.msg import JointState
+
+from . import description
+from .follow_trajectory import FollowJointTrajectoryServer, Tolerances
+from .tf_tree import TfPublisher
+
+#: The node parameters of these features: (name, default, description, valid range or choices),
+#: as the node's table holds its own. JTC's ``constraints.*`` are the tolerance defaults.
+STACK_PARAMETERS = (
+    ("publish_tf", True, "publish /tf, /tf_static and /robot_description (false when "
+     "robot_state_publisher does it from ros2_control's joint states)", None),
+    ("mount_frame", "base_link", "parent frame of frame_id on the car (REP 105); '' = none",
+     None),
+    ("mount_xyz", (0.0, 0.0, 0.0), "position of frame_id in mount_frame [m]", None),
+    ("mount_rpy", description.SEED_FRAME_IN_REP103_RPY,
+     "roll, pitch, yaw of frame_id in mount_frame [rad] (default: the seed's x rearwards, "
+     "y up in REP 103's x forward, z up)", None),
+    ("joint_commands_topic", "~/joint_commands",
+     "sensor_msgs/JointState commands by joint name (ros2_control's JointStateTopicSystem "
+     "joint_commands_topic)", None),
+    ("joint_states_topic", "/joint_states",
+     "where the joint states go (JointStateTopicSystem's joint_states_topic)", None),
+    ("path_tolerance", 0.0, "default path tolerance of the piston [m] (0 = none; JTC's "
+     "constraints.<joint>.trajectory)", (0.0, 1.0)),
+    ("goal_tolerance", 0.0, "default goal tolerance of the piston [m] (0 = none; JTC's "
+     "constraints.<joint>.goal)", (0.0, 1.0)),
+    ("stopped_velocity_tolerance", 0.01, "default goal velocity tolerance [m/s] (JTC's "
+     "constraints.stopped_velocity_tolerance)", (0.0, 100.0)),
+    ("goal_time_tolerance", 0.0, "default time past a trajectory's end to reach the goal "
+     "tolerance [s] (0 = wait; JTC's constraints.goal_time)", (0.0, 3600.0)),
+)  # fmt: skip
+#: The command topics of these features and their message types (the node's ``COMMANDS``).
+STACK_COMMANDS = {"joint_commands": JointState}
+#: The command queue's depth (as the node's other command topics).
+COMMAND_QOS_DEPTH = 10
+
+
+@dataclass(frozen=True)
+class NodeHooks:
+    """What the layer needs of the node.
+
+    ``event(source, outcome, level, reason, values, now_ns)``: a record of the effect log;
+    ``record(topic, data, now_ns)``: exact bytes into the bag; ``receive(key, data)``: raw bytes
+    of a command topic, into the node's latest-wins queue; ``now_ns()``: the node clock.
+    """
+
+    event: Callable[..., None]
+    record: Callable[[str, bytes, int], object]
+    receive: Callable[[str, bytes], None]
+    now_ns: Callable[[], int]
+
+
+class StackLayer:
+    """The features of :mod:`drs_ros.stack` for one configured node."""
+
+    def __init__(self, node, hooks: NodeHooks) -> None:
+        gp = node.get_parameter
+        self.node, self.hooks = node, hooks
+        self.joint_names = list(node.joint_names)
+        self.commands_topic = node.resolve_topic_name(gp("joint_commands_topic").value)
+        self.states_topic = node.resolve_topic_name(gp("joint_states_topic").value)
+        for name in ("mount_xyz", "mount_rpy"):
+            value = list(gp(name).value)
+            if len(value) != 3 or not all(math.isfinite(v) for v in value):
+                from rclpy.exceptions import ParameterException
+
+                raise ParameterException(f"{name} must be 3 finite numbers, got {value}", [name])
+        self.tf = None
+        if gp("publish_tf").value:
+            mount_frame = gp("mount_frame").value
+            mount = ((mount_frame, list(gp("mount_xyz").value), list(gp("mount_rpy").value))
+                     if mount_frame else None)  # fmt: skip
+            control = description.ros2_control_block(self.joint_names, self.commands_topic,
+                                                     self.states_topic)  # fmt: skip
+            self.tf = TfPublisher(node, node.params, self.joint_names, node.frame_id,
+                                  node.sim.force_limit, mount, control, hooks.record)  # fmt: skip
+        self.defaults = Tolerances(
+            path_position=gp("path_tolerance").value,
+            goal_position=gp("goal_tolerance").value,
+            goal_velocity=gp("stopped_velocity_tolerance").value,
+            goal_time=gp("goal_time_tolerance").value,
+        )
+        self.action = FollowJointTrajectoryServer(
+            node, node.sim, self.joint_names[0], self.defaults, self._action_event,
+            hold_duration=node.params.T_opening, now_ns=hooks.now_ns,
+        )  # fmt: skip
+        self.sub_commands = None
+
+    # ---- what the node asks ----------------------------------------------------------------------
+    @property
+    def command_topics(self) -> dict[str, str]:
+        """Command key -> resolved topic (merged into the node's ``command_topics``)."""
+        return {"joint_commands": self.commands_topic}
+
+    def recorded_topics(self) -> list[tuple[str, type, QoSProfile]]:
+        """The topics the layer publishes and records, with their types and offered QoS."""
+        return [] if self.tf is None else self.tf.recorded_topics()
+
+    def start(self, now_ns: int) -> None:
+        """After the recorder knows the topics: the description and the static transforms."""
+        if self.tf is not None:
+            self.tf.start(now_ns, now_ns)
+
+    def activate(self) -> None:
+        self.sub_commands = self.node.create_subscription(
+            JointState, self.commands_topic, self._on_joint_command,
+            QoSProfile(depth=COMMAND_QOS_DEPTH), raw=True,
+        )  # fmt: skip
+        self.action.active_flag = True
+
+    def _on_joint_command(self, data: bytes) -> None:
+        """A JointState command's bytes into the node's queue: the node's intake decodes them,
+        takes any alignment padding (Fast DDS leaves it uninitialised in what rclpy publishers
+        send) and records the exact CDR, or refuses them with the reason."""
+        self.hooks.receive("joint_commands", data)
+
+    def deactivate(self) -> None:
+        self.action.deactivate(self.hooks.now_ns())
+        if self.sub_commands is not None:
+            self.node.destroy_subscription(self.sub_commands)
+            self.sub_commands = None
+
+    def cleanup(self) -> None:
+        if self.sub_commands is not None:
+            self.deactivate()
+        self.action.destroy()
+        if self.tf is not None:
+            self.tf.destroy()
+
+    def publish(self, state, stamp_ns: int, now_ns: int) -> None:
+        """At every published joint state: TF, then the action's goals and feedback."""
+        if self.tf is not None:
+            self.tf.publish(state.q, stamp_ns, now_ns)
+        self.action.update(stamp_ns, now_ns)
+
+    def _action_event(self, outcome: str, level: bytes, reason: str, values: dict,
+                      now_ns: int) -> None:  # fmt: skip
+        self.hooks.event(self.action.name, outcome, level, reason, values, now_ns)
+
+
+__all__ = ["COMMAND_QOS_DEPTH", "STACK_COMMANDS", "STACK_PARAMETERS", "NodeHooks", "StackLayer"]

@@ -1,0 +1,129 @@
+"""The robot description and TF, as robot_state_publisher would publish them for drs.
+
+* ``/robot_description`` (std_msgs/String, transient local, depth 1): the URDF
+  (:func:`drs_ros.description.robot_description`) of the ``DRSParams`` the node runs, once;
+* ``/tf_static`` (tf2_msgs/TFMessage, transient local, depth 1): the fixed frames, once: the base
+  frame on the car (``mount_frame``, ``mount_xyz``, ``mount_rpy``; none when ``mount_frame`` is
+  ``""``) and the fixed frames of the description (the two halves of the cut pin, the flap tip);
+* ``/tf`` (tf2_msgs/TFMessage, depth 100): the three joints' transforms at every published joint
+  state, stamped with the joint state's stamp.
+
+Messages are serialised once by :mod:`drs_ros.recording.cdr`, published as those bytes and
+handed to the caller's recorder as the same bytes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+from geometry_msgs.msg import TransformStamped
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from std_msgs.msg import String
+from tf2_msgs.msg import TFMessage
+
+from drs_model.params import DRSParams
+
+from . import description
+from .conversions import time_msg
+from .recording import cdr
+
+#: QoS of /tf_static and /robot_description: tf2's StaticTransformBroadcaster and
+#: robot_state_publisher publish them transient local, depth 1 (a late subscriber gets them).
+LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: QoS of /tf: tf2's TransformBroadcaster (keep last 100).
+TF_QOS = QoSProfile(depth=100)
+
+
+def transform_msg(transform: description.Transform, stamp_ns: int) -> TransformStamped:
+    parent, child, (x, y, z), (qx, qy, qz, qw) = transform
+    msg = TransformStamped(child_frame_id=child)
+    msg.header.frame_id = parent
+    msg.header.stamp = time_msg(stamp_ns)
+    t = msg.transform
+    t.translation.x, t.translation.y, t.translation.z = x, y, z
+    t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w = qx, qy, qz, qw
+    return msg
+
+
+class TfPublisher:
+    """Publishes the description, the static and the moving transforms of one node.
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+        Creates the publishers.
+    params : DRSParams
+    joint_names : sequence of 3 str
+    base_frame : str
+        The description's root (the node's ``frame_id``).
+    force_limit : float
+        The piston joint's effort limit [N].
+    mount : tuple or None
+        ``(mount_frame, xyz, rpy)``, or None for no mount transform.
+    ros2_control : str
+        A ``<ros2_control>`` element for the description.
+    record : callable
+        ``record(topic, data, now_ns)``: the node's recorder (exact bytes).
+    """
+
+    def __init__(self, node, params: DRSParams, joint_names: Sequence[str], base_frame: str,
+                 force_limit: float, mount, ros2_control: str,
+                 record: Callable[[str, bytes, int], object]) -> None:  # fmt: skip
+        self.params = params
+        self.frames = description.Frames.of(joint_names, base_frame)
+        self.origins = description.JointOrigins.of(params)
+        self.urdf = description.robot_description(params, joint_names, base_frame, force_limit,
+                                                  ros2_control)  # fmt: skip
+        self.static = description.fixed_transforms(params, self.frames)
+        if mount is not None:
+            self.static.insert(0, description.mount_transform(mount[0], base_frame, *mount[1:]))
+        self._record = record
+        self._node = node
+        self.pub_description = node.create_publisher(String, "/robot_description", LATCHED_QOS)
+        self.pub_static = node.create_publisher(TFMessage, "/tf_static", LATCHED_QOS)
+        self.pub_tf = node.create_publisher(TFMessage, "/tf", TF_QOS)
+        self._tf = cdr.serializer(TFMessage)
+        zero = description.moving_transforms([0.0, 0.0, 0.0], self.origins, self.frames)
+        self._msg = TFMessage(transforms=[transform_msg(t, 0) for t in zero])
+
+    @property
+    def publishers(self) -> tuple:
+        return self.pub_description, self.pub_static, self.pub_tf
+
+    def recorded_topics(self) -> list[tuple[str, type, QoSProfile]]:
+        return [(pub.topic_name, pub.msg_type, LATCHED_QOS if pub is not self.pub_tf else TF_QOS)
+                for pub in self.publishers]  # fmt: skip
+
+    def start(self, stamp_ns: int, now_ns: int) -> None:
+        """Publish (and record) the description and the static transforms, once."""
+        out = [
+            (self.pub_description, cdr.serializer(String)(String(data=self.urdf))),
+            (self.pub_static, self._tf(TFMessage(transforms=[transform_msg(t, stamp_ns)
+                                                             for t in self.static]))),
+        ]  # fmt: skip
+        for pub, data in out:
+            pub.publish(data)
+            self._record(pub.topic_name, data, now_ns)
+
+    def publish(self, q, stamp_ns: int, now_ns: int) -> None:
+        """Publish (and record) the joints' transforms at configuration ``q``."""
+        stamp = time_msg(stamp_ns)
+        for msg, (_p, _c, (x, y, z), (qx, qy, qz, qw)) in zip(
+            self._msg.transforms,
+            description.moving_transforms(q, self.origins, self.frames),
+            strict=True,
+        ):
+            msg.header.stamp = stamp
+            t = msg.transform
+            t.translation.x, t.translation.y, t.translation.z = x, y, z
+            t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w = qx, qy, qz, qw
+        data = self._tf(self._msg)
+        self.pub_tf.publish(data)
+        self._record(self.pub_tf.topic_name, data, now_ns)
+
+    def destroy(self) -> None:
+        for pub in self.publishers:
+            self._node.destroy_publisher(pub)
+
+
+__all__ = ["LATCHED_QOS", "TF_QOS", "TfPublisher", "transform_msg"]
