@@ -68,10 +68,11 @@ def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
     assert params.m_wing == 0.6
     q = np.array([m.position for _, m in data.messages["/joint_states"]])
     assert q.shape[1] == 3
-    # lighter: the same moves need a smaller peak piston force than the run recorded
+    # lighter: the same moves need less piston force than the run recorded (summed over the
+    # samples: a 250 Hz sampling may miss the 0.9 ms peak, and force mode's is the command's)
     recorded = read_bag(node_bag, ["/joint_states"]).messages["/joint_states"]
-    peak = max(abs(m.effort[0]) for _, m in recorded)
-    assert max(abs(m.effort[0]) for _, m in data.messages["/joint_states"]) < peak
+    light = data.messages["/joint_states"]
+    assert sum(abs(m.effort[0]) for _, m in light) < sum(abs(m.effort[0]) for _, m in recorded)
 
 
 def test_a_bag_without_the_effect_record_gets_a_clear_message(tmp_path, params):
