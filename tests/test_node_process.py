@@ -129,9 +129,31 @@ def test_use_sim_time_without_clock_says_so(tmp_path, request):
     """With use_sim_time and no /clock the node publishes nothing: it must say why."""
     proc = start_node(tmp_path, request, "use_sim_time:=true")
     try:
-        time.sleep(5.0)
+        # from the node's start on (its start-up, numba's cache included, varies with the load)
+        started = _read_until(proc, "drs node configured", timeout=60.0)
+        time.sleep(3.0)
     finally:
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=30)
+    out = started + out
     assert proc.returncode == 0, out[-2000:]
     assert "no /clock message arrived in 2 s" in out
+
+
+def _read_until(proc: subprocess.Popen, text: str, timeout: float) -> str:
+    """The output of ``proc`` up to and including the first line holding ``text`` (or all of
+    it if ``timeout`` [s] passes first)."""
+    import selectors
+
+    seen = []
+    end = time.monotonic() + timeout
+    with selectors.DefaultSelector() as sel:
+        sel.register(proc.stdout, selectors.EVENT_READ)
+        while time.monotonic() < end and sel.select(timeout=end - time.monotonic()):
+            line = proc.stdout.readline()
+            if not line:
+                break
+            seen.append(line)
+            if text in line:
+                break
+    return "".join(seen)

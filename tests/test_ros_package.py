@@ -12,6 +12,7 @@ import signal
 import stat
 import subprocess
 import sys
+import time
 import tomllib
 import zipfile
 from pathlib import Path
@@ -266,6 +267,8 @@ def test_colcon_build_then_drs_node_from_the_install_space(tmp_path, request, sy
         # the first flush already holds the robot description (~30 kB): wait for a later one
         grew = grew and wait_for_file_growth(mcap, timeout=30.0,
                                              min_size=mcap.stat().st_size + 2000)  # fmt: skip
+        # let it tick after that flush, as the clean-exit tests do
+        time.sleep(1.0)
         node.send_signal(signal.SIGINT)
         node_out, _ = node.communicate(timeout=30)
     finally:
