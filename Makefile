@@ -21,7 +21,7 @@ INTERFACES := $(wildcard interfaces/*/package.xml interfaces/*/CMakeLists.txt in
 
 $(STAMP): pyproject.toml $(INTERFACES) | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev,fast]" -r interfaces/build-requirements.txt
+	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev,fast,fleet]" -r interfaces/build-requirements.txt
 	$(BIN)/python interfaces/build.py --quiet
 	# numba's on-disk cache, filled once here: no test, demo or node start compiles on a cold cache
 	$(BIN)/python -m drs_model.compiled

@@ -7,7 +7,8 @@ accelerations, gap, limits), ``profile`` (quintic manoeuvre), ``bodies`` (mass m
 ``inverse`` (inverse dynamics, three formulations), ``forward`` (forward dynamics: forces,
 formulations, the scipy and fixed-step drivers), ``compiled`` (numba's builds of the kernels and
 the compiled RK driver; optional), ``actuator`` (the fixed-step actuator the node runs),
-``coriolis`` (rotating-frame kinematics of seed 000), ``plotting`` (figures).
+``coriolis`` (rotating-frame kinematics of seed 000), ``plotting`` (figures), ``cluster`` (the
+Dask client for many runs at once).
 """
 
 import importlib
@@ -17,11 +18,13 @@ from .errors import (
     AssemblyError,
     ConstraintDriftError,
     ConvergenceError,
+    DaskUnavailableError,
     DRSError,
     InputError,
     IntegrationError,
     NumbaUnavailableError,
     ParameterError,
+    SchedulerUnreachableError,
     SingularConfigurationError,
     StrokeRangeError,
 )
@@ -84,6 +87,7 @@ __all__ = [
     "ConvergenceError",
     "DRSError",
     "DRSParams",
+    "DaskUnavailableError",
     "DegenerateGeometryError",
     "FixedStepIntegrator",
     "FusedInverseDynamics",
@@ -95,6 +99,7 @@ __all__ = [
     "NumbaUnavailableError",
     "ParameterError",
     "QuinticSegment",
+    "SchedulerUnreachableError",
     "SingularConfigurationError",
     "StepForce",
     "StrokeRangeError",

@@ -47,3 +47,12 @@ class ConstraintDriftError(IntegrationError):
 
 class NumbaUnavailableError(DRSError, ImportError):
     """The compiled paths need numba, which is not installed (``pip install 'drs[fast]'``)."""
+
+
+class DaskUnavailableError(DRSError, ImportError):
+    """Many runs at once need dask.distributed, which is not installed (``pip install
+    'drs[fleet]'``)."""
+
+
+class SchedulerUnreachableError(DRSError, ConnectionError):
+    """No Dask scheduler answered at the address given."""
