@@ -14,6 +14,7 @@ handed to the caller's recorder as the same bytes.
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable, Sequence
 
 from geometry_msgs.msg import TransformStamped
@@ -43,6 +44,61 @@ def transform_msg(transform: description.Transform, stamp_ns: int) -> TransformS
     t.translation.x, t.translation.y, t.translation.z = x, y, z
     t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w = qx, qy, qz, qw
     return msg
+
+
+class MovingTransformsPacker:
+    """The exact CDR of a TFMessage of transforms whose frames never change, in one
+    ``struct.pack``: ``pack(stamp_ns, [(x, y, z, qx, qy, qz, qw), ...])`` (~6 us, against ~30 us to
+    fill the message and serialise it field by field at every published joint state).
+
+    The layout follows the CDR rules of :mod:`drs_ros.recording.cdr` (each primitive aligned to its
+    size counted from the end of the encapsulation header; strings as a uint32 length with the
+    NUL, the bytes, the NUL), and is checked against its serialiser once, here."""
+
+    def __init__(self, frame_pairs: Sequence[tuple[str, str]]) -> None:
+        fmt, self._template, self._slots = ["<4sI"], [cdr.CDR_LE_HEADER, len(frame_pairs)], []
+        offset = 4  # after the sequence's count
+
+        def field(code: str, size: int, value=None) -> None:
+            nonlocal offset
+            pad = -offset % size
+            fmt.append(f"{pad}x{code}" if pad else code)
+            offset += pad + (size if code[-1] != "s" else int(code[:-1]))
+            if value is None:
+                self._slots.append(len(self._template))
+            self._template.append(value)
+
+        for parent, child in frame_pairs:
+            field("i", 4)  # stamp: sec
+            field("I", 4)  # nanosec
+            for name in (parent, child):
+                raw = name.encode() + b"\0"
+                field("I", 4, len(raw))
+                field(f"{len(raw)}s", 1, raw)
+            for _ in range(7):  # translation x, y, z; rotation x, y, z, w
+                field("d", 8)
+        self._struct = struct.Struct("".join(fmt))
+        prototype = TFMessage(transforms=[
+            transform_msg((p, c, (1.0, 2.0, 3.0), (0.5, 0.5, 0.5, 0.5)), 1_234_567_890_123)
+            for p, c in frame_pairs
+        ])  # fmt: skip
+        values = [(1.0, 2.0, 3.0, 0.5, 0.5, 0.5, 0.5)] * len(frame_pairs)
+        if self.pack(1_234_567_890_123, values) != cdr.serialize(prototype):
+            raise cdr.CdrError("the packed TFMessage layout differs from its CDR serialisation")
+
+    def pack(self, stamp_ns: int, values: Sequence[Sequence[float]]) -> bytes:
+        """CDR bytes of the transforms, all stamped ``stamp_ns`` [ns], with ``values[k]`` the
+        translation [m] and rotation quaternion of the k-th frame pair."""
+        sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)  # as conversions.time_msg
+        args = self._template.copy()
+        numbers = []
+        for v in values:
+            numbers.append(sec)
+            numbers.append(nanosec)
+            numbers.extend(v)
+        for slot, number in zip(self._slots, numbers, strict=True):
+            args[slot] = number
+        return self._struct.pack(*args)
 
 
 class TfPublisher:
@@ -84,7 +140,7 @@ class TfPublisher:
         self.pub_tf = node.create_publisher(TFMessage, "/tf", TF_QOS)
         self._tf = cdr.serializer(TFMessage)
         zero = description.moving_transforms([0.0, 0.0, 0.0], self.origins, self.frames)
-        self._msg = TFMessage(transforms=[transform_msg(t, 0) for t in zero])
+        self._moving = MovingTransformsPacker([(parent, child) for parent, child, *_ in zero])
 
     @property
     def publishers(self) -> tuple:
@@ -107,17 +163,8 @@ class TfPublisher:
 
     def publish(self, q, stamp_ns: int, now_ns: int) -> None:
         """Publish (and record) the joints' transforms at configuration ``q``."""
-        stamp = time_msg(stamp_ns)
-        for msg, (_p, _c, (x, y, z), (qx, qy, qz, qw)) in zip(
-            self._msg.transforms,
-            description.moving_transforms(q, self.origins, self.frames),
-            strict=True,
-        ):
-            msg.header.stamp = stamp
-            t = msg.transform
-            t.translation.x, t.translation.y, t.translation.z = x, y, z
-            t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w = qx, qy, qz, qw
-        data = self._tf(self._msg)
+        moving = description.moving_transforms(q, self.origins, self.frames)
+        data = self._moving.pack(stamp_ns, [(*xyz, *quat) for _p, _c, xyz, quat in moving])
         self.pub_tf.publish(data)
         self._record(self.pub_tf.topic_name, data, now_ns)
 
@@ -126,4 +173,4 @@ class TfPublisher:
             self._node.destroy_publisher(pub)
 
 
-__all__ = ["LATCHED_QOS", "TF_QOS", "TfPublisher", "transform_msg"]
+__all__ = ["LATCHED_QOS", "TF_QOS", "MovingTransformsPacker", "TfPublisher", "transform_msg"]
