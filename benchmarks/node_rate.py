@@ -15,7 +15,8 @@ interleaved over ``--rounds`` repeats (the median is quoted: the cores are share
 CDR + MCAP write) against rclpy's serialize_message + a bare mcap writer, and the bytes per
 message of both serialisations.
 
-Usage: ``python benchmarks/node_rate.py [--duration 12] [--rounds 3] [--quick]``
+Usage: ``python benchmarks/node_rate.py [--duration 12] [--rounds 3] [--quick]
+[--trajectory | --tf-cost]``
 """
 
 from __future__ import annotations
@@ -72,9 +73,11 @@ def measure(
     domain: int,
     tmp: Path,
     load: str = "commands",
+    node_args: tuple[str, ...] = (),
 ) -> dict:
     """One run. ``load``: ``commands`` (open, close, stroke, force, one every 100 ms) or
-    ``trajectory`` (a 10,000-point trajectory every second, each replacing the last)."""
+    ``trajectory`` (a 10,000-point trajectory every second, each replacing the last).
+    ``node_args``: more ``name:=value`` parameters of the node."""
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.context import Context
@@ -89,7 +92,7 @@ def measure(
     proc = subprocess.Popen(
         [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"executor:={executor}",
          "-p", f"publish_rate_hz:={publish_hz}", "-p", f"bag_path:={out / 'bag'}",
-         "-p", f"rrd_path:={out / 'run.rrd'}"],
+         "-p", f"rrd_path:={out / 'run.rrd'}", *[a for v in node_args for a in ("-p", v)]],
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     ctx = Context()
@@ -258,12 +261,18 @@ def main(argv: list[str] | None = None) -> int:
         help="only: deadline at 250 Hz under the command cycle and under a "
         "10,000-point trajectory a second, interleaved",
     )
+    ap.add_argument(
+        "--tf-cost",
+        action="store_true",
+        help="only: deadline at 250 Hz under the command cycle with publish_tf true and false, "
+        "interleaved (what /tf costs)",
+    )
     ap.add_argument("--domain", type=int, default=91)
     ap.add_argument("--json", default="benchmarks/results/node_rate.json")
     args = ap.parse_args(argv)
     duration, rounds = (5.0, 1) if args.quick else (args.duration, args.rounds)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    by_config: dict[tuple[str, float, str], list[dict]] = {}
+    by_config: dict[tuple, list[dict]] = {}
     plan = [("single", 250.0, "commands"), ("deadline", 250.0, "commands")] * rounds + [
         ("deadline", 100.0, "commands"),
         ("deadline", 500.0, "commands"),
@@ -271,13 +280,18 @@ def main(argv: list[str] | None = None) -> int:
     ]
     if args.trajectory:
         plan = [("deadline", 250.0, "commands"), ("deadline", 250.0, "trajectory")] * rounds
+    if args.tf_cost:
+        plan = [("deadline", 250.0, "commands", ("publish_tf:=true",)),
+                ("deadline", 250.0, "commands", ("publish_tf:=false",))] * rounds  # fmt: skip
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         os.environ.setdefault("ROS_LOG_DIR", str(tmp / "log"))
-        for k, (executor, hz, load) in enumerate(plan):
-            r = measure(executor, hz, duration, args.domain, tmp / str(k), load)
-            by_config.setdefault((executor, hz, load), []).append(r)
-            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10}: CPU "
+        for k, (executor, hz, load, *more) in enumerate(plan):
+            node_args = more[0] if more else ()
+            r = measure(executor, hz, duration, args.domain, tmp / str(k), load, node_args)
+            r["node_args"] = list(node_args)
+            by_config.setdefault((executor, hz, load, node_args), []).append(r)
+            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10} {' '.join(node_args)}: CPU "
                   f"{100 * r['cpu_share_of_core']:5.1f} % of a core, missed "
                   f"{r['missed_deadlines']}/{r['ticks']} "
                   f"({100 * r['missed_share']:.2f} %), per cycle: model "
@@ -286,6 +300,17 @@ def main(argv: list[str] | None = None) -> int:
                   flush=True)  # fmt: skip
         write = recorder_cost(20000, 5, tmp)
     rows = [median_run(runs) for runs in by_config.values()]
+    if args.tf_cost:
+        on, off = rows
+        share_on, share_off = on["cpu_share_of_core"], off["cpu_share_of_core"]
+        per_cycle_us = 1e6 * (share_on - share_off) / 250.0
+        print(f"deadline 250 Hz, medians of {rounds}: publish_tf true {100 * share_on:.1f} %, "
+              f"false {100 * share_off:.1f} % of a core: /tf costs {per_cycle_us:.0f} us of CPU "
+              "a publish cycle")  # fmt: skip
+        out = Path(args.json).with_name("node_rate_tf.json")
+        out.write_text(json.dumps({"runs": rows}, indent=2))
+        print(f"wrote {out}")
+        return 0
     if args.trajectory:
         for r in rows:
             print(
