@@ -44,6 +44,25 @@ OUTCOMES = {
     FAILED: "integration failed",
 }
 
+#: What a failed run's driver status means (:mod:`drs_model.compiled.rk`).
+DRIVER_FAILURES = {
+    rk.STEP_COLLAPSE: "the step size collapsed",
+    rk.MIN_STEP: "a step below the minimum step",
+    rk.NONFINITE_STATE: "a non-finite state",
+    rk.NONFINITE_FORCE: "a non-finite force",
+    rk.SINGULAR: "the link turned horizontal (cos psi1 < 0.05)",
+    rk.DEAD_CENTRE: "the dead centre",
+    rk.TOO_MANY_STEPS: "too many steps",
+}
+
+
+def describe(outcome: int, status: int) -> str:
+    """The text of a run's outcome (:data:`OUTCOMES`), with the driver's reason when it failed."""
+    if outcome != FAILED:
+        return OUTCOMES[outcome]
+    return f"integration failed: {DRIVER_FAILURES.get(status, f'status {status}')}"
+
+
 #: The crossing step is integrated again in steps of at most this fraction of it.
 _REFINE = 64.0
 #: Bisection steps on the crossing step (2^-60 of a step: far below the interpolant's error).

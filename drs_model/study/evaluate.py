@@ -191,7 +191,6 @@ def evaluate(design: DRSParams, scene: Scene, fields, values) -> dict[str, np.nd
         )
         out[f"{name}_time"][target] = times
         text[f"{name}_status"][target] = [
-            crossing.OUTCOMES[int(o)] if o != crossing.FAILED else f"integration failed ({s})"
-            for o, s in zip(outcome, status, strict=True)
+            crossing.describe(int(o), int(s)) for o, s in zip(outcome, status, strict=True)
         ]
     return out
