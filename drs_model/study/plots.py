@@ -6,6 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
+# the one matplotlib set-up of drs_model: Agg figures without pyplot, 256-colour PNGs
+from ..plotting import _figure, _save
+
 #: How each result is shown: column -> (label, scale to the shown unit, unit).
 DISPLAY = {
     "peak_force": ("peak piston force", 1e-3, "kN"),
@@ -18,20 +21,11 @@ DISPLAY = {
 }
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")  # files only: no display needed
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def histograms(columns: dict[str, np.ndarray], path: Path, title: str) -> Path:
     """One histogram per result of :data:`DISPLAY` (finite values only), as a PNG at ``path``."""
-    plt = _pyplot()
     names = list(DISPLAY)
-    fig, axes = plt.subplots(2, 4, figsize=(14, 6.5))
+    fig = _figure((14.0, 6.5), 110)
+    axes = fig.subplots(2, 4)
     for ax, name in zip(axes.ravel(), names, strict=False):
         label, scale, unit = DISPLAY[name]
         x = columns[name][np.isfinite(columns[name])] * scale
@@ -40,21 +34,18 @@ def histograms(columns: dict[str, np.ndarray], path: Path, title: str) -> Path:
         ax.set_xlabel(unit)
     axes.ravel()[-1].axis("off")
     fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
     return path
 
 
 def sensitivity(indices: dict, fields, path: Path, title: str) -> Path:
     """Bars of the first-order and total Sobol' index of each field, per result, the fields sorted
     by total index, as a PNG at ``path``. ``indices``: result name -> :class:`.Indices`."""
-    plt = _pyplot()
     names = [n for n in DISPLAY if indices.get(n) is not None]
     cols = min(4, max(1, len(names)))
     rows = max(1, -(-len(names) // cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 0.45 * len(fields) * rows + 2.2),
-                             squeeze=False)  # fmt: skip
+    fig = _figure((3.6 * cols, 0.45 * len(fields) * rows + 2.2), 110)
+    axes = fig.subplots(rows, cols, squeeze=False)
     for ax, name in zip(axes.ravel(), names, strict=False):
         ind = indices[name]
         order = np.argsort(ind.total_order)
@@ -69,7 +60,5 @@ def sensitivity(indices: dict, fields, path: Path, title: str) -> Path:
     if names:
         axes.ravel()[0].legend(loc="lower right", fontsize=8)
     fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
     return path
