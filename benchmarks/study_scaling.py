@@ -4,13 +4,14 @@ cost against the single-run floor, and the scheduler's overhead per task.
 * floor: the same rows, the same chunks, evaluated in this process one chunk after another
   (:func:`drs_model.study.evaluate`, no Dask): what a study cannot beat on one core;
 * study: :func:`drs_model.study.run_study` on an embedded LocalCluster of 1 and of 2
-  single-threaded worker processes, each cluster started once and warmed by a small study first
-  (its start-up, ~2-4 s, and the workers' numba cache loads are not counted: a long study pays
-  them once); the whole call is timed (design, tasks, gathering, Sobol' indices);
+  single-threaded worker processes, one cluster at a time (an idle one burns ~0.3 core), each
+  warmed by a small study first (its start-up, ~2-4 s, and the workers' numba cache loads are not
+  counted: a long study pays them once); the whole call is timed (design, tasks, gathering,
+  Sobol' indices);
 * the Python share: building each sample's DRSParams (the only per-sample Python) against the
   whole evaluation, in this process;
 * CPU seconds (psutil), besides the wall clock: of the worker processes (the evaluation), and of
-  this process (the client and both embedded schedulers) with the nannies (the overhead), per
+  this process (the client and the embedded scheduler) with the nannies (the overhead), per
   run: the workers' CPU per sample against the floor's says whether the work itself grows on
   Dask, whatever else runs on the machine;
 * scheduler overhead: a no-op task mapped many times through :func:`drs_model.cluster.map_unordered`
@@ -20,7 +21,7 @@ The three timings are interleaved (floor, 1 worker, 2 workers, again) and the me
 the machine has 2 cores and is shared, so a single run says little. Wall clock
 (``time.perf_counter``): a cluster's work happens in other processes.
 
-Run: ``.venv/bin/python benchmarks/study_scaling.py [--samples 128] [--repeats 5] [--chunk 64]``
+Run: ``.venv/bin/python benchmarks/study_scaling.py [--samples 256] [--repeats 5] [--chunk 128]``
 (writes ``benchmarks/results/study_scaling.json``).
 """
 
@@ -57,7 +58,7 @@ def _cpu(pid: int | None = None) -> float:
 def cpu_seconds(pids) -> tuple[float, float]:
     """User + system CPU seconds so far: ``(the worker processes, this process and the
     nannies)``; ``pids = (workers, nannies)``. This process holds the client and the embedded
-    schedulers (also the floor's evaluation, which then counts as 'workers')."""
+    scheduler (also the floor's evaluation, which then counts as 'workers')."""
     workers, nannies = pids
     if not workers:
         return _cpu(), 0.0
@@ -81,7 +82,7 @@ def floor(spec, chunk: int) -> tuple[float, tuple[float, float]]:
 
 
 def on_cluster(client, spec, chunk: int, pids) -> tuple[float, tuple[float, float]]:
-    """(wall, (workers' CPU, client + schedulers + nannies CPU)) seconds of the whole study."""
+    """(wall, (workers' CPU, client + scheduler + nannies CPU)) seconds of the whole study."""
     c0, t0 = cpu_seconds(pids), time.perf_counter()
     run_study(spec, client=client, chunk=chunk, progress=False)
     c1 = cpu_seconds(pids)
@@ -109,9 +110,9 @@ def task_overhead(client, tasks: int) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--spec", default=str(ROOT / "config" / "study.toml"))
-    ap.add_argument("--samples", type=int, default=128, help="base samples (runs: n (d + 2))")
+    ap.add_argument("--samples", type=int, default=256, help="base samples (runs: n (d + 2))")
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--chunk", type=int, default=64)
+    ap.add_argument("--chunk", type=int, default=128)
     ap.add_argument("--tasks", type=int, default=2000, help="no-op tasks for the overhead")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "study_scaling.json"))
     args = ap.parse_args()
@@ -123,25 +124,31 @@ def main() -> None:
     floor(small, args.chunk)  # this process's numba loads
     times = {"floor": [], "1 worker": [], "2 workers": []}
     cpu = {k: [] for k in times}  # the workers' CPU seconds (the floor: this process's)
-    other = {k: [] for k in times}  # client, schedulers and nannies
-    with dask_client(jobs=1) as one, dask_client(jobs=2) as two:
-        pids = {"1 worker": cluster_pids(one), "2 workers": cluster_pids(two)}
-        for key, client in (("1 worker", one), ("2 workers", two)):
-            on_cluster(client, small, args.chunk, pids[key])  # the workers' numba loads
+    other = {k: [] for k in times}  # client, scheduler and nannies
+    with dask_client(jobs=1) as one:
         overhead = [task_overhead(one, args.tasks) for _ in range(3)]
-        for r in range(args.repeats):
-            for key, run in (
-                ("floor", lambda: floor(spec, args.chunk)),
-                ("1 worker", lambda: on_cluster(one, spec, args.chunk, pids["1 worker"])),
-                ("2 workers", lambda: on_cluster(two, spec, args.chunk, pids["2 workers"])),
-            ):
-                wall, (cpu_s, other_s) = run()
-                times[key].append(wall)
-                cpu[key].append(cpu_s)
-                other[key].append(other_s)
-            done = ", ".join(f"{k} {v[-1]:.2f} s ({cpu[k][-1]:.2f} s CPU)"
-                             for k, v in times.items())  # fmt: skip
-            print(f"  repeat {r + 1}: {done}")
+
+    def study_on(jobs: int) -> tuple[float, tuple[float, float]]:
+        # one cluster at a time: an idle LocalCluster burns ~0.3 core (heartbeats, the nannies'
+        # memory monitors), which a 2-core machine cannot spare
+        with dask_client(jobs=jobs) as client:
+            pids = cluster_pids(client)
+            on_cluster(client, small, args.chunk, pids)  # the workers' numba loads
+            return on_cluster(client, spec, args.chunk, pids)
+
+    for r in range(args.repeats):
+        for key, run in (
+            ("floor", lambda: floor(spec, args.chunk)),
+            ("1 worker", lambda: study_on(1)),
+            ("2 workers", lambda: study_on(2)),
+        ):
+            wall, (cpu_s, other_s) = run()
+            times[key].append(wall)
+            cpu[key].append(cpu_s)
+            other[key].append(other_s)
+        done = ", ".join(f"{k} {v[-1]:.2f} s ({cpu[k][-1]:.2f} s CPU)"
+                         for k, v in times.items())  # fmt: skip
+        print(f"  repeat {r + 1}: {done}")
     py, total = python_share(spec)
     med = {k: statistics.median(v) for k, v in times.items()}
     med_cpu = {k: statistics.median(v) for k, v in cpu.items()}
@@ -180,7 +187,7 @@ def main() -> None:
           result["worker_cpu_ms_per_sample"].items()) + f"; 1 worker / floor "
           f"{result['one_worker_over_floor_cpu']:.3f}, 2 workers / 1 worker "
           f"{result['cpu_two_over_one_worker']:.3f}")  # fmt: skip
-    print("client + schedulers + nannies, CPU per sample: " + ", ".join(
+    print("client + scheduler + nannies, CPU per sample: " + ", ".join(
           f"{k} {v:.3f} ms" for k, v in result["other_cpu_ms_per_sample"].items()))  # fmt: skip
     print(f"DRSParams per sample (Python): {result['python_parameters_ms_per_sample']:.3f} ms, "
           f"{100 * result['python_parameters_share']:.1f} % of the evaluation")  # fmt: skip

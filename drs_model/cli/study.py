@@ -27,7 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", metavar="DIR", default="study",
                    help="directory of study.parquet, histograms.png, sensitivity.png")  # fmt: skip
     p.add_argument("--chunk", type=int, default=None, metavar="ROWS",
-                   help="samples per Dask task (default 64)")  # fmt: skip
+                   help="samples per Dask task (default 128)")  # fmt: skip
     p.set_defaults(func=run_study_command)
 
 

@@ -24,8 +24,8 @@ from .evaluate import RESULT_COLUMNS, TEXT_COLUMNS, evaluate
 from .sensitivity import Indices, sobol
 from .spec import StudySpec
 
-#: Rows per task unless told: ~0.1-0.2 s of work, far above Dask's ~1 ms per task.
-DEFAULT_CHUNK = 64
+#: Rows per task unless told: ~0.25 s of work, against ~6-10 ms of Dask per task (measured).
+DEFAULT_CHUNK = 128
 
 
 def evaluate_chunk(values: np.ndarray, *, design, scene, fields) -> dict[str, np.ndarray]:
