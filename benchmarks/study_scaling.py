@@ -8,8 +8,9 @@ cost against the single-run floor, and the scheduler's overhead per task.
   warmed by a small study first (its start-up, ~2-4 s, and the workers' numba cache loads are not
   counted: a long study pays them once); the whole call is timed (design, tasks, gathering,
   Sobol' indices);
-* the Python share: building each sample's DRSParams (the only per-sample Python) against the
-  whole evaluation, in this process;
+* the Python share: the per-sample stage (each sample's DRSParams and its constants,
+  :func:`drs_model.study.evaluate.prepare`: the only per-sample Python) against the whole
+  evaluation, in this process;
 * CPU seconds (psutil), besides the wall clock: of the worker processes (the evaluation), and of
   this process (the client and the embedded scheduler) with the nannies (the overhead), per
   run: the workers' CPU per sample against the floor's says whether the work itself grows on
@@ -40,7 +41,7 @@ import psutil
 from drs_model.cluster import dask_client, map_unordered
 from drs_model.study import evaluate, read_spec, run_study
 from drs_model.study.design import design
-from drs_model.study.evaluate import _parameters
+from drs_model.study.evaluate import prepare
 from drs_model.study.run import chunks
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -90,10 +91,11 @@ def on_cluster(client, spec, chunk: int, pids) -> tuple[float, tuple[float, floa
 
 
 def python_share(spec) -> tuple[float, float]:
-    """(seconds building the rows' DRSParams, seconds evaluating them), in this process."""
+    """(seconds of the per-sample Python stage, :func:`drs_model.study.evaluate.prepare`, seconds
+    of the whole evaluation), in this process."""
     rows = design(spec).values
     t0 = time.perf_counter()
-    _parameters(spec.design, spec.fields, rows)
+    prepare(spec.design, spec.fields, rows)
     t1 = time.perf_counter()
     evaluate(spec.design, spec.scene, spec.fields, rows)
     return t1 - t0, time.perf_counter() - t1
@@ -189,7 +191,7 @@ def main() -> None:
           f"{result['cpu_two_over_one_worker']:.3f}")  # fmt: skip
     print("client + scheduler + nannies, CPU per sample: " + ", ".join(
           f"{k} {v:.3f} ms" for k, v in result["other_cpu_ms_per_sample"].items()))  # fmt: skip
-    print(f"DRSParams per sample (Python): {result['python_parameters_ms_per_sample']:.3f} ms, "
+    print(f"per-sample Python (prepare): {result['python_parameters_ms_per_sample']:.3f} ms, "
           f"{100 * result['python_parameters_share']:.1f} % of the evaluation")  # fmt: skip
     print(f"scheduler overhead: {result['scheduler_overhead_ms_per_task']:.3f} ms per task")
     out = Path(args.out)

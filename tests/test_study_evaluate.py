@@ -10,6 +10,8 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from drs_model.cli import main as drs_main
@@ -164,3 +166,29 @@ def test_a_force_below_the_holding_force_does_not_open():
     assert got["closing_status"][0] == "ok"
     short = evaluate(DESIGN, Scene(horizon=0.005), ("m_wing",), [[2.0]])
     assert short["opening_status"][0] == "not within the horizon"  # it takes ~13 ms
+
+
+_ROWS = np.column_stack(
+    [
+        0.05 + np.random.default_rng(1).normal(0.0, 2e-5, 24),
+        2.0 + np.random.default_rng(2).uniform(-0.1, 0.1, 24),
+    ]
+)
+
+
+@pytest.fixture(scope="module")
+def whole_batch():
+    return evaluate(DESIGN, Scene(grid=1001), ("L2", "m_wing"), _ROWS)
+
+
+@settings(
+    max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(st.lists(st.integers(0, len(_ROWS) - 1), min_size=1, max_size=9))
+def test_a_row_does_not_depend_on_its_batch(whole_batch, picks):
+    """Any rows, in any order, repeated or not, give the bits they give in the whole batch: a
+    study's numbers do not depend on its chunks or on how Dask groups them."""
+    idx = np.array(picks)
+    got = evaluate(DESIGN, Scene(grid=1001), ("L2", "m_wing"), _ROWS[idx])
+    for name in RESULT_COLUMNS:
+        assert np.array_equal(got[name], whole_batch[name][idx]), name

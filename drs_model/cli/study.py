@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import InputError
 from ._common import Output, add_json, table
 
 
@@ -36,8 +35,6 @@ def run_study_command(args) -> Output:
     from ..study.run import DEFAULT_CHUNK, spec_summary
 
     spec = read_spec(args.spec)
-    if args.jobs is not None and args.jobs < 1:
-        raise InputError(f"--jobs must be >= 1, got {args.jobs}")
     result = run_study(
         spec,
         jobs=args.jobs,

@@ -19,14 +19,16 @@ The stops and the manoeuvre's strokes are the **design's** (the nominal paramete
 strokes): the piston runs the stroke it was built for, and a sample's tolerances change what that
 stroke does (at the nominal design the gap errors are zero and the forces are ``drs peak``'s).
 
-Only the parameters are built per sample, in Python (:class:`DRSParams` validates each one, and
-its assembly check gives a sample that does not assemble its reason); every computation after that
-runs on the whole batch: the force on an ``(n, grid)`` array by the numba gufunc of
-:func:`drs_model.kernels.fused_manoeuvre_force`, the refinements vectorised, the forward runs in one
-compiled call per direction.
+Only the parameters are built per sample, in Python (:func:`prepare`: :class:`DRSParams` validates
+each one, and its assembly check gives a sample that does not assemble its reason; then its
+constants are read); every computation after that runs on the whole batch: the force on an
+``(n, grid)`` array by the numba gufunc of :func:`drs_model.kernels.fused_manoeuvre_force`, the
+refinements vectorised, the forward runs in one compiled call per direction.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from scipy.optimize import elementwise as scipy_elementwise
@@ -65,17 +67,49 @@ XATOL_S = 1e-12
 STOP_ALLOWANCE_M = 1e-9
 
 
-def _parameters(design: DRSParams, fields, values):
-    """Each row's parameters, or its reason: ``(params list with None, errors list)``."""
-    params, errors = [], []
+class Prepared(NamedTuple):
+    """The per-sample stage of :func:`evaluate`: each row's reason (None when it has
+    parameters), and for the rows with parameters (``rows``, their indices) their kernel
+    constants (k, 21), manoeuvre constants (k, 18) over the design's strokes, gap constants
+    (k, 2), dead centre [m] (k,) and manoeuvre duration [s] (k,)."""
+
+    errors: list
+    rows: np.ndarray
+    consts: np.ndarray
+    profile: np.ndarray
+    gap_consts: np.ndarray
+    s_dead: np.ndarray
+    t_total: np.ndarray
+
+
+def prepare(design: DRSParams, fields, values) -> Prepared:
+    """The only per-sample Python of a study: build each row's :class:`DRSParams` (its checks
+    give a sample that does not assemble its reason) and read its constants."""
+    s_lo, s_hi = stroke_limits(design)
+    errors, good = [], []
     for row in values:
         try:
-            params.append(design.replace(**dict(zip(fields, (float(v) for v in row), strict=True))))
+            good.append(design.replace(**dict(zip(fields, (float(v) for v in row), strict=True))))
             errors.append(None)
         except DRSError as exc:
-            params.append(None)
             errors.append(f"{type(exc).__name__}: {exc}")
-    return params, errors
+    # the manoeuvre depends on the sample through its three durations only
+    manoeuvres: dict[tuple[float, float, float], tuple[float, ...]] = {}
+    profile = []
+    for p in good:
+        key = (p.T_opening, p.T_still, p.T_closing)
+        if key not in manoeuvres:
+            manoeuvres[key] = drs_manoeuvre(p, s_lo, s_hi).constants()
+        profile.append(manoeuvres[key])
+    return Prepared(
+        errors,
+        np.array([i for i, e in enumerate(errors) if e is None], dtype=np.int64),
+        np.array([model_constants(p) for p in good]).reshape(-1, kernels.N_CONSTANTS),
+        np.array(profile).reshape(-1, kernels.N_PROFILE_CONSTANTS),
+        np.array([p.gap_constants for p in good]).reshape(-1, 2),
+        np.array([min(p.singular_strokes, key=lambda s: abs(s - s_lo)) for p in good]),
+        np.array([p.T_total for p in good]),
+    )
 
 
 def _refine(times, values, objective):
@@ -115,19 +149,14 @@ def evaluate(design: DRSParams, scene: Scene, fields, values) -> dict[str, np.nd
     out = {name: np.full(n, np.nan) for name in RESULT_COLUMNS}
     text = {name: np.full(n, None, dtype=object) for name in TEXT_COLUMNS}
     out.update(text)
-    params, errors = _parameters(design, fields, values)
-    text["error"][:] = errors
-    ok = np.array([p is not None for p in params], dtype=bool)
-    if not ok.any():
+    prep = prepare(design, fields, values)
+    text["error"][:] = prep.errors
+    rows = prep.rows
+    if rows.size == 0:
         return out
-    good = [p for p in params if p is not None]
+    consts, profile, gap_consts = prep.consts, prep.profile, prep.gap_consts
+    s_dead, t_total = prep.s_dead, prep.t_total
     s_lo, s_hi = stroke_limits(design)
-    consts = np.array([model_constants(p) for p in good])
-    profile = np.array([drs_manoeuvre(p, s_lo, s_hi).constants() for p in good])
-    gap_consts = np.array([p.gap_constants for p in good])
-    s_dead = np.array([min(p.singular_strokes, key=lambda s: abs(s - s_lo)) for p in good])
-    t_total = np.array([p.T_total for p in good])
-    rows = np.flatnonzero(ok)
 
     # ---- the stops: position of each sample's geometry at the design's strokes
     ends = {}

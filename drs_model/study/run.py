@@ -11,6 +11,7 @@ A chunk whose task fails (a worker lost) gives its rows the task's error: never 
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -156,8 +157,8 @@ def summary(result: StudyResult) -> dict:
     cols = result.columns
     errors = [e for e in cols["error"] if e is not None]
     reasons: dict[str, int] = {}
-    for e in errors:
-        head = e.split(":")[0] + ": " + e.split(":", 1)[1].strip()[:70] if ":" in e else e
+    for e in errors:  # grouped by their words: the numbers differ from sample to sample
+        head = re.sub(r"-?\d[\d.e+-]*", "#", e)
         reasons[head] = reasons.get(head, 0) + 1
     spread = {}
     for name in RESULT_COLUMNS:

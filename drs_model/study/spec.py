@@ -129,6 +129,15 @@ class Scene:
     grid: int = 5001
     rtol: float = 1e-10
 
+    def __post_init__(self) -> None:
+        for name in ("opening_force", "closing_force", "horizon", "rtol"):
+            object.__setattr__(self, name, _number(f"[scene] {name}", getattr(self, name)))
+        _integer("[scene] grid", self.grid, 3)
+        if not self.horizon > 0.0:
+            raise StudySpecError(f"[scene] horizon must be > 0 s, got {self.horizon!r}")
+        if not 0.0 < self.rtol < 1.0:
+            raise StudySpecError(f"[scene] rtol must lie in (0, 1), got {self.rtol!r}")
+
 
 @dataclass(frozen=True)
 class StudySpec:
@@ -166,17 +175,7 @@ def parse_spec(data: Mapping[str, Any]) -> StudySpec:
     )
     scene_table = _keys("[scene]", data.get("scene", {}), tuple(Scene.__dataclass_fields__))
     design = from_dict(_keys("[design]", data.get("design", {}), NUMERIC_FIELDS))
-    scene = Scene(
-        opening_force=_number("[scene] opening_force", scene_table.get("opening_force", 3000.0)),
-        closing_force=_number("[scene] closing_force", scene_table.get("closing_force", 0.0)),
-        horizon=_number("[scene] horizon", scene_table.get("horizon", 0.2)),
-        grid=_integer("[scene] grid", scene_table.get("grid", 5001), 3),
-        rtol=_number("[scene] rtol", scene_table.get("rtol", 1e-10)),
-    )
-    if not scene.horizon > 0.0:
-        raise StudySpecError(f"[scene] horizon must be > 0 s, got {scene.horizon!r}")
-    if not 0.0 < scene.rtol < 1.0:
-        raise StudySpecError(f"[scene] rtol must lie in (0, 1), got {scene.rtol!r}")
+    scene = Scene(**scene_table)  # validated by Scene itself
     params = data["parameters"]
     if not isinstance(params, Mapping):
         raise StudySpecError(f"[parameters] must hold one table per field, got {params!r}")
