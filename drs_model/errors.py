@@ -56,3 +56,8 @@ class DaskUnavailableError(DRSError, ImportError):
 
 class SchedulerUnreachableError(DRSError, ConnectionError):
     """No Dask scheduler answered at the address given."""
+
+
+class StudySpecError(InputError):
+    """A study specification (``drs study SPEC.toml``) is invalid: an unknown table, key,
+    parameter or distribution, or a bad value; the message names it and the valid ones."""

@@ -22,7 +22,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -142,6 +142,22 @@ def real_number(name: str, value: Any) -> float:
 
 
 def _tuple_points(value: Any, name: str) -> tuple[tuple[float, float], ...]:
+    """``value`` as a tuple of ``(x, y)`` floats [m], checked. A tuple is converted once per
+    process (every :meth:`DRSParams.replace` passes the same outlines on: ~0.2 ms a copy)."""
+    if isinstance(value, tuple):
+        try:
+            return _tuple_points_once(value, name)
+        except TypeError:  # an unhashable element: convert it as any sequence
+            pass
+    return _points(value, name)
+
+
+@lru_cache(maxsize=32)
+def _tuple_points_once(value: tuple, name: str) -> tuple[tuple[float, float], ...]:
+    return _points(value, name)
+
+
+def _points(value: Any, name: str) -> tuple[tuple[float, float], ...]:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:

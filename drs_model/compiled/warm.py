@@ -6,10 +6,15 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
+
+from ..bodies import model_constants
 from ..forward.fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator
 from ..forward.forces import ManoeuvreForce
 from ..inverse import FusedInverseDynamics
+from ..kinematics import flap_angle_limits
 from ..params import DRSParams
+from ..study.crossing import crossing_times
 from . import ufuncs
 from .simulate import simulate_compiled
 
@@ -35,4 +40,8 @@ def warm_up(p: DRSParams | None = None) -> float:
     integ.form.accel(1.0, 0.0, 0.0)
     for fn in ufuncs.SIGNATURES:
         ufuncs.gufunc(fn)
+    # the study's batch of forward runs (drs study): one opening run of the nominal flap
+    psi3_closed, psi3_open = flap_angle_limits(p)
+    crossing_times([psi3_closed], [psi3_open], np.array([model_constants(p)]),
+                   ([integ.s_min - 1e-9], [integ.s_max]), True, 3000.0, 0.001)  # fmt: skip
     return time.perf_counter() - t0
