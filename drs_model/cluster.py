@@ -77,11 +77,18 @@ def dask_client(
     n = default_jobs() if jobs is None else jobs
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise InputError(f"jobs must be a whole number >= 1, got {jobs!r}")
-    # processes: each run holds the GIL; no dashboard: a batch tool must not take a port
+    # processes: each run holds the GIL. Loopback only; no dashboard, and the scheduler's HTTP
+    # server (its health routes, started even without a dashboard) on a free port rather than
+    # 8787, which a second cluster on the machine would find taken
     with (
         distributed.LocalCluster(
-            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
-        ) as cluster,  # fmt: skip
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            scheduler_kwargs={"dashboard_address": ":0"},
+        ) as cluster,
         distributed.Client(cluster) as client,
     ):
         yield client
