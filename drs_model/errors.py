@@ -47,3 +47,14 @@ class ConstraintDriftError(IntegrationError):
 
 class NumbaUnavailableError(DRSError, ImportError):
     """The compiled paths need numba, which is not installed (``pip install 'drs[fast]'``)."""
+
+
+class StiffStepError(IntegrationError):
+    """An explicit step of a stiff model (the hydraulic rung's oil column) is longer than its
+    stability limit: refused before it is taken, with the step, the limit and the frequency that
+    sets it in the message, instead of a silent blow-up."""
+
+
+class UnsupportedCommandError(DRSError, ValueError):
+    """A fidelity rung cannot represent this command (a force on the kinematic rung, which has no
+    forces): the message names the rung and the rungs that can."""

@@ -35,4 +35,9 @@ def warm_up(p: DRSParams | None = None) -> float:
     integ.form.accel(1.0, 0.0, 0.0)
     for fn in ufuncs.SIGNATURES:
         ufuncs.gufunc(fn)
+    from ..fidelity.hydraulic import HydraulicRung
+    from ..fidelity.hydraulic_steps import STEP_METHODS
+
+    for method in STEP_METHODS:  # the hydraulic rung's compiled steps
+        HydraulicRung(p, 1e-3, method=method).step()
     return time.perf_counter() - t0
