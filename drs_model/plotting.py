@@ -267,3 +267,36 @@ def plot_slotted_link(
     path = out / "slotted_link.png"
     _save(fig, path)
     return [path]
+
+
+# ---- the fidelity ladder ----------------------------------------------------------------------
+def plot_fidelity(rows, path, dpi: int = 100) -> Path:
+    """The fidelity chart: per scene, each rung's largest gap error against the hydraulic
+    reference [m] over its cost per simulated second [s/s] (log-log; an exact zero drawn at the
+    floor), as a PNG at ``path``."""
+    path = Path(path)
+    _out_dir(path.parent)
+    scenes = list(dict.fromkeys(r.scene for r in rows))
+    fig = _figure((4.0 * len(scenes), 3.6), dpi)
+    axes = fig.subplots(1, len(scenes), squeeze=False)[0]
+    floor = 1e-9
+    markers = {"kinematic": "o", "quasi-static": "s", "rigid": "D", "hydraulic": "^"}
+    for ax, scene in zip(axes, scenes, strict=True):
+        for r in rows:
+            if r.scene != scene or r.errors is None or not math.isfinite(r.cost_per_second):
+                continue
+            err = max(r.errors["gap"], floor)
+            ax.loglog(r.cost_per_second, err, markers.get(r.rung, "x"), label=r.label)
+            ax.annotate(r.label, (r.cost_per_second, err), fontsize=7, xytext=(3, 3),
+                        textcoords="offset points")  # fmt: skip
+        ref = next((r for r in rows if r.scene == scene and r.errors is None and not r.refused),
+                   None)  # fmt: skip
+        if ref is not None:
+            ax.axvline(ref.cost_per_second, color="grey", lw=0.8, ls="--")
+        ax.set_title(scene, fontsize=9)
+        ax.set_xlabel("cost per simulated second [s/s]", fontsize=8)
+        ax.set_ylabel("max gap error vs hydraulic [m]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(True, which="both", lw=0.3)
+    _save(fig, path)
+    return path
