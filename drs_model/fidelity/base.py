@@ -57,7 +57,7 @@ class RungMixin:
         snapshot (~20 us): what a scene samples every step."""
         return self.t, float(self._q[0]), float(self._q[2]), float(self._force)
 
-    @property
-    def state(self) -> RungState:
-        st = super().state
-        return RungState(**{**st.__dict__, "rung": self.name})
+    state_type = RungState
+
+    def _state_extras(self) -> dict:
+        return {"rung": self.name}

@@ -106,6 +106,9 @@ class HydraulicRung(RungMixin, ActuatorSim):
         stability limit raises :class:`StiffStepError` (the state is kept).
     stability_fraction : float
         In (0, 1]: the fraction of the stable RK4 sub-step taken (a tighter run).
+    guard : bool
+        Refuse an RK4 sub-step above the stability limit (default). Off only for
+        ``benchmarks/hydraulic_stability.py``, which measures where RK4 really blows up.
     """
 
     name = "hydraulic"
@@ -121,6 +124,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         method: str = "rk4",
         substep: float | None = None,
         stability_fraction: float = 1.0,
+        guard: bool = True,
     ) -> None:
         if method not in STEP_METHODS:
             raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
@@ -129,6 +133,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         if not (math.isfinite(stability_fraction) and 0.0 < stability_fraction <= 1.0):
             raise InputError(f"stability_fraction must be in (0, 1], got {stability_fraction!r}")
         self.stability_fraction = float(stability_fraction)
+        self.guard = bool(guard)
         self.hydraulic = HydraulicParams() if hydraulic is None else hydraulic
         self.method = method
         self.substep = substep
@@ -183,18 +188,15 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self._force = pa * h[hk.AREA_A] - pb * h[hk.AREA_B] - hk.friction_force(qd[0], h)
         self._at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
 
-    @property
-    def state(self) -> RungState:
-        st = ActuatorSim.state.fget(self)
-        b, bd, pa, pb, xv = (float(v) for v in self._y)
-        return RungState(
-            **{**st.__dict__, "at_stop": self._at_stop},
-            rung=self.name,
-            pressure_a=pa,
-            pressure_b=pb,
-            spool=xv if self.hydraulic.spool_time_constant > 0.0 or self._spool_held else None,
-            supply_pressure=self.supply_pressure(self.t),
-        )
+    def _state_extras(self) -> dict:
+        _, _, pa, pb, xv = (float(v) for v in self._y)
+        return {
+            "rung": self.name,
+            "pressure_a": pa,
+            "pressure_b": pb,
+            "spool": xv if self.hydraulic.spool_time_constant > 0.0 or self._spool_held else None,
+            "supply_pressure": self.supply_pressure(self.t),
+        }
 
     @property
     def y(self) -> np.ndarray:
@@ -289,7 +291,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         )
         if self._explicit:
             limit = RK4_LIMIT / rate
-            if self.substep is not None and self.substep > limit:
+            if self.guard and self.substep is not None and self.substep > limit:
                 raise StiffStepError(
                     f"an explicit {self.method} sub-step of {self.substep:.3g} s exceeds the "
                     f"stability limit {limit:.3g} s of the stiffest mode ({rate:.4g} rad/s, "
