@@ -222,6 +222,34 @@ class HydraulicRung(RungMixin, ActuatorSim):
             raise InputError(f"ramp_time must be a finite number >= 0 s, got {ramp_time!r}")
         self._supply = (self.t, self.supply_pressure(self.t), self.t + ramp_time, float(pressure))
 
+    def stick_valve(self, stuck: bool = True) -> None:
+        """The spool sticks where it is (``stuck``) or moves again: a stuck valve."""
+        self._spool_held = bool(stuck)
+
+    def set_leak(self, coefficient: float) -> None:
+        """An extra leak from each chamber to the outside [m^3/(s Pa)] from now on, on top of
+        ``HydraulicParams.leak_to_outside`` (0 ends it)."""
+        self._set_fault_constant(hk.C_LEAK_EXT, "leak", coefficient,
+                                 self.hydraulic.leak_to_outside)  # fmt: skip
+
+    def jam(self, friction: float) -> None:
+        """An extra Coulomb (and breakaway) friction [N] on the rod from now on: a jammed flap
+        (0 ends it)."""
+        self._set_fault_constant(hk.F_COULOMB, "jam friction", friction,
+                                 self.hydraulic.coulomb_friction)  # fmt: skip
+        self._set_fault_constant(hk.F_BREAKAWAY, "jam friction", friction,
+                                 self.hydraulic.breakaway_friction)  # fmt: skip
+
+    def _set_fault_constant(self, index: int, what: str, extra: float, base: float) -> None:
+        if not (isinstance(extra, (int, float)) and math.isfinite(extra) and extra >= 0.0):
+            raise InputError(f"{what} must be a finite number >= 0, got {extra!r}")
+        h = list(self._h)
+        h[index] = base + float(extra)
+        if index in (hk.F_COULOMB, hk.F_BREAKAWAY) and h[hk.V_STRIBECK] <= 0.0:
+            raise InputError(f"{what} needs stribeck_velocity > 0 in HydraulicParams")
+        self._h = tuple(h)
+        self.__dict__.pop("_consts", None)  # rebuilt from self._h at the next step
+
     def lose_supply(self, ramp_time: float = 0.0, close: bool = True) -> None:
         """The supply falls to the return pressure over ``ramp_time`` [s]. With ``close`` (the
         DRS controller's fail-safe reaction) the servo is commanded closed, which opens the
