@@ -18,7 +18,7 @@ from types import MappingProxyType
 
 from ..errors import InputError
 from .base import RungMixin, RungState
-from .hydraulic import HydraulicRung, equilibrium_state, hydraulic_constants, solve_hydraulic
+from .hydraulic import HydraulicRung, equilibrium_state, hydraulic_constants
 from .hydraulic_params import HydraulicParams
 from .kinematic import KinematicRung
 from .quasi_static import QuasiStaticRung
@@ -58,5 +58,4 @@ __all__ = [
     "equilibrium_state",
     "hydraulic_constants",
     "make_rung",
-    "solve_hydraulic",
 ]

@@ -11,15 +11,11 @@ method (:mod:`~drs_model.fidelity.hydraulic_steps`): ``"rk4"`` by default (expli
 sub-step checked against the oil column's stability limit, and refused with
 :class:`~drs_model.errors.StiffStepError` above it), or the L-stable ``"ros2"`` and
 ``"linearly-implicit-euler"``.
-
-Offline, :func:`solve_hydraulic` integrates the same right-hand side with scipy's ``solve_ivp``
-(``Radau`` by default): the reference of the convergence and energy tests and of the chart.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from functools import cached_property
 
 import numpy as np
@@ -351,43 +347,3 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self.t = t1
         self._y = np.asarray(y, dtype=float)
         self._update_outputs()
-
-
-def solve_hydraulic(
-    p: DRSParams,
-    hp: HydraulicParams,
-    t_span: tuple[float, float],
-    y0,
-    reference: Callable[[float], tuple[float, float, float, float, float]],
-    method: str = "Radau",
-    rtol: float = 1e-8,
-    atol=None,
-    t_eval=None,
-    max_step: float = math.inf,
-):
-    """The hydraulic rung's equations by ``scipy.integrate.solve_ivp`` (the offline reference).
-
-    ``reference(t)`` gives ``(mode, s_ref, v_ref, f_ref, ps)`` (mode: ``MODE_STROKE`` or
-    ``MODE_FORCE`` of :mod:`~drs_model.fidelity.hydraulic_kernels`). ``atol`` defaults to
-    ``(1e-9 rad, 1e-6 rad/s, 1 Pa, 1 Pa, 1e-9)`` scaled by ``rtol / 1e-8``. Returns scipy's
-    result (``dense_output`` on).
-    """
-    from scipy.integrate import solve_ivp
-
-    c, h = model_constants(p), hydraulic_constants(hp, p)
-
-    def fun(t, y):
-        mode, s_ref, v_ref, f_ref, ps = reference(t)
-        return hk.hydraulic_derivatives(*y, mode, s_ref, v_ref, f_ref, ps, 0.0, c, h)
-
-    if atol is None:
-        atol = np.array([1e-9, 1e-6, 1.0, 1.0, 1e-9]) * (rtol / 1e-8)
-    sol = solve_ivp(
-        fun, t_span, np.asarray(y0, dtype=float), method=method, rtol=rtol, atol=atol,
-        t_eval=t_eval, dense_output=True, max_step=max_step,
-    )  # fmt: skip
-    if not sol.success:
-        from ..errors import IntegrationError
-
-        raise IntegrationError(f"solve_ivp ({method}) failed on the hydraulic rung: {sol.message}")
-    return sol
