@@ -172,11 +172,18 @@ class ActuatorSim:
     def _arrays(self) -> kin.KinematicState:
         return kin.KinematicState(np.array([self._q]), np.array([self._qd]), np.array([self._qdd]))
 
+    #: The snapshot's type (a subclass adds fields: :class:`drs_model.fidelity.RungState`).
+    state_type = ActuatorState
+
+    def _state_extras(self) -> dict:
+        """The snapshot's fields beyond :class:`ActuatorState`'s (none here)."""
+        return {}
+
     @property
     def state(self) -> ActuatorState:
         q = np.array(self._q)
         psi1, psi3 = self._q[1], self._q[2]
-        return ActuatorState(
+        return self.state_type(
             t=self.t,
             q=q,
             qd=np.array(self._qd),
@@ -188,6 +195,7 @@ class ActuatorSim:
             target=self._target,
             dead_centre_distance=self._q[0] - self.s_dead,
             transmission=abs(math.cos(psi1 - psi3)),
+            **self._state_extras(),
         )
 
     # ---- commands ------------------------------------------------------------------------------

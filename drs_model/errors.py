@@ -61,3 +61,14 @@ class SchedulerUnreachableError(DRSError, ConnectionError):
 class StudySpecError(InputError):
     """A study specification (``drs study SPEC.toml``) is invalid: an unknown table, key,
     parameter or distribution, or a bad value; the message names it and the valid ones."""
+
+
+class StiffStepError(IntegrationError):
+    """An explicit step of a stiff model (the hydraulic rung's oil column) is longer than its
+    stability limit: refused before it is taken, with the step, the limit and the frequency that
+    sets it in the message, instead of a silent blow-up."""
+
+
+class UnsupportedCommandError(DRSError, ValueError):
+    """A fidelity rung cannot represent this command (a force on the kinematic rung, which has no
+    forces): the message names the rung and the rungs that can."""

@@ -267,3 +267,50 @@ def plot_slotted_link(
     path = out / "slotted_link.png"
     _save(fig, path)
     return [path]
+
+
+# ---- the fidelity ladder ----------------------------------------------------------------------
+def plot_fidelity(rows, path, dpi: int = 100) -> Path:
+    """The fidelity chart: per scene, each rung's largest gap error against the hydraulic
+    reference [m] over its cost per simulated second [s/s] (log-log; an exact zero drawn at the
+    floor), as a PNG at ``path``."""
+    path = Path(path)
+    _out_dir(path.parent)
+    scenes = list(dict.fromkeys(r.scene for r in rows))
+    cols = min(3, len(scenes))
+    rows_n = math.ceil(len(scenes) / cols)
+    fig = _figure((4.2 * cols, 3.4 * rows_n), dpi)
+    grid = fig.subplots(rows_n, cols, squeeze=False).ravel()
+    for ax in grid[len(scenes) :]:
+        ax.set_visible(False)
+    axes = grid[: len(scenes)]
+    floor = 1e-9
+    markers = {"kinematic": "o", "quasi-static": "s", "rigid": "D", "hydraulic": "^"}
+    labels = list(dict.fromkeys(r.label for r in rows if r.errors is not None))
+    colours = {label: f"C{i}" for i, label in enumerate(labels)}  # one colour per run
+    for ax, scene in zip(axes, scenes, strict=True):
+        for r in rows:
+            if r.scene != scene or r.errors is None or not math.isfinite(r.cost_per_second):
+                continue
+            err = max(r.errors["gap"], floor)
+            ax.loglog(r.cost_per_second, err, markers.get(r.rung, "x"), color=colours[r.label],
+                      label=r.label, alpha=0.8)  # fmt: skip
+        ref = next((r for r in rows if r.scene == scene and r.errors is None and not r.refused),
+                   None)  # fmt: skip
+        if ref is not None:
+            ax.axvline(ref.cost_per_second, color="grey", lw=0.8, ls="--")
+        ax.set_title(scene, fontsize=9)
+        ax.set_xlabel("cost per simulated second [s/s]", fontsize=8)
+        ax.set_ylabel("max gap error vs hydraulic [m]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(True, which="both", lw=0.3)
+    handles, names = [], []
+    for ax in axes:
+        for h, n in zip(*ax.get_legend_handles_labels(), strict=True):
+            if n not in names:
+                handles.append(h)
+                names.append(n)
+    fig.legend(handles, names, loc="lower right", fontsize=8,
+               title="dashed: the reference's cost", title_fontsize=7)  # fmt: skip
+    _save(fig, path)
+    return path

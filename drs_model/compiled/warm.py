@@ -44,4 +44,9 @@ def warm_up(p: DRSParams | None = None) -> float:
     psi3_closed, psi3_open = flap_angle_limits(p)
     crossing_times([psi3_closed], [psi3_open], np.array([model_constants(p)]),
                    ([integ.s_min - 1e-9], [integ.s_max]), True, 3000.0, 0.001)  # fmt: skip
+    from ..fidelity.hydraulic import HydraulicRung
+    from ..fidelity.hydraulic_steps import STEP_METHODS
+
+    for method in STEP_METHODS:  # the hydraulic rung's compiled steps
+        HydraulicRung(p, 1e-3, method=method).step()
     return time.perf_counter() - t0

@@ -358,4 +358,3 @@ class FixedStepIntegrator:
         state = self._make_state(float(t), y)
         self._y, self._t, self._state = y, float(t), state
         return state
-

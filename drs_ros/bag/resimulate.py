@@ -1,6 +1,7 @@
 """``drs-bag resimulate BAG``: the model against a recorded run.
 
-Re-runs a recorded run in a fresh :class:`drs_model.actuator.ActuatorSim` (no DDS): with the
+Re-runs a recorded run in a fresh :class:`drs_model.actuator.ActuatorSim` (no DDS), on the rung
+of :mod:`drs_model.fidelity` the node recorded (``--fidelity`` picks another): with the
 parameters the node recorded at start (``/parameter_events``; ``--set`` / ``--params`` change
 them), it feeds the recorded commands in at the simulated instants the effect record
 (``~/command_events``) says they took effect: the stroke, force and trajectory commands (their
@@ -30,8 +31,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
+from drs_model.fidelity import RUNGS, make_rung
 from drs_model.overrides import assignment_overrides, from_file
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
@@ -122,13 +123,16 @@ def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | N
     return from_dict(overrides, model) if overrides else model
 
 
-def resimulate(run: RecordedRun, model: DRSParams) -> dict:
-    """Re-run the recorded commands; returns the re-simulated samples by step index and notes."""
+def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) -> dict:
+    """Re-run the recorded commands on the recorded rung (``rigid`` for a bag recorded before the
+    ``fidelity`` parameter), or on ``fidelity``; returns the re-simulated samples by step index
+    and notes."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
-    sim = ActuatorSim(
+    sim = make_rung(
+        fidelity or str(np_.get("fidelity", "rigid")),
         model,
-        dt=dt,
+        dt,
         force_limit=float(np_["force_limit"]),
         integrator=str(np_["integrator"]),
         force_method=str(np_["force_method"]),
@@ -284,6 +288,7 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
     tp = DEFAULT_TOPICS
     values = dict(run.node_parameters)
     values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
+    values["fidelity"] = result["sim"].name  # the rung it ran on (--fidelity)
     with McapRecorder(out, flush_thread=False) as rec:
         rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
         first = run.joint_states[0][0] if run.joint_states else 0
@@ -317,6 +322,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5",
     )
     ap.add_argument("--params", help="a .toml/.yaml file of model parameters for the re-run")
+    ap.add_argument(
+        "--fidelity",
+        choices=list(RUNGS),
+        help="re-run on this rung of the fidelity ladder (default: the one recorded)",
+    )
     ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory")
     ap.add_argument(
         "--tol",
@@ -339,7 +349,7 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
     try:
         recorded = read_run(args.bag)
         model = run_params(recorded.node_parameters, args.set, args.params)
-        result = resimulate(recorded, model)
+        result = resimulate(recorded, model, args.fidelity)
         rows = compare(recorded, result, tolerances)
         if args.output:
             write_bag(args.output, recorded, result, model)
@@ -354,10 +364,12 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
         result["notes"].append(f"wrote the re-simulated run to {args.output}")
     if args.json:
         print(json.dumps({"bag": str(args.bag), "ok": ok, "signals": rows,
-                          "notes": result["notes"], "changed": args.set}, indent=2,
+                          "notes": result["notes"], "changed": args.set,
+                          "fidelity": args.fidelity}, indent=2,
                          default=lambda x: None))  # fmt: skip
     else:
-        print(f"re-simulated {args.bag}" + (f" with {', '.join(args.set)}" if args.set else ""))
+        print(f"re-simulated {args.bag}" + (f" with {', '.join(args.set)}" if args.set else "")
+              + (f" on the {args.fidelity} rung" if args.fidelity else ""))  # fmt: skip
         print(f"{'signal':<14} {'unit':<6} {'n':>6} {'max deviation':>14} {'at t [s]':>10} "
               f"{'tol':>8}  status")  # fmt: skip
         for r in rows:

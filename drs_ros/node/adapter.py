@@ -1,4 +1,7 @@
-"""The ``drs`` ROS 2 node: a thin adapter around :class:`drs_model.actuator.ActuatorSim`.
+"""The ``drs`` ROS 2 node: a thin adapter around :class:`drs_model.actuator.ActuatorSim` (or
+another rung of :mod:`drs_model.fidelity`, the ``fidelity`` parameter; the hydraulic rung adds
+``~/pressure_piston_side``, ``~/pressure_rod_side``, ``~/supply_pressure`` (FluidPressure) and
+``~/valve_spool`` (Float64)).
 
 Topics (``~`` is the node namespace, ``/drs/...`` by default):
 
@@ -36,6 +39,7 @@ import threading
 import time
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.msg import ParameterEvent
 from rclpy.clock import Clock, ClockType
@@ -43,13 +47,13 @@ from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.service_introspection import ServiceIntrospectionState
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
+from sensor_msgs.msg import FluidPressure, JointState
+from std_msgs.msg import Float64, Header
 from std_srvs.srv import SetBool
 from visualization_msgs.msg import MarkerArray
 
-from drs_model.actuator import ActuatorSim
 from drs_model.errors import DRSError
+from drs_model.fidelity import HydraulicRung, make_rung
 
 from .. import commands
 from ..conversions import (
@@ -144,9 +148,11 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
                 f"joint_names must hold 3 names (piston, link, flap), got {self.joint_names}",
                 ["joint_names"],
             )
-        self.sim = ActuatorSim(
+        self.fidelity = gp("fidelity").value
+        self.sim = make_rung(
+            self.fidelity,
             self.params,
-            dt=self.physics_dt,
+            self.physics_dt,
             force_limit=gp("force_limit").value,
             integrator=gp("integrator").value,
             force_method=gp("force_method").value,
@@ -178,6 +184,13 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         self.pub_events = self.create_publisher(
             DiagnosticArray, "~/command_events", QoSProfile(depth=100)
         )
+        # the hydraulic rung's chamber pressures, supply pressure and valve spool
+        self.pub_hydraulic = ()
+        if isinstance(self.sim, HydraulicRung):
+            self.pub_hydraulic = tuple(
+                self.create_publisher(msg_type, f"~/{name}", qos)
+                for name, msg_type in HYDRAULIC_TOPICS
+            )
         self._own_publishers = (
             self.pub_joints,
             self.pub_force,
@@ -187,6 +200,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             self.pub_markers,
             self.pub_diag,
             self.pub_events,
+            *self.pub_hydraulic,
         )
         self.service_name = self.resolve_service_name("~/drs")
         # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
@@ -199,7 +213,8 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             record=self._record, receive=self._receive, now_ns=self._now_ns))  # fmt: skip
         self.command_topics.update(self.stack.command_topics)
         self._serialize = {
-            cls: cdr.serializer(cls) for cls in (JointState, DiagnosticArray, MarkerArray)
+            cls: cdr.serializer(cls)
+            for cls in (JointState, DiagnosticArray, MarkerArray, FluidPressure)
         }
         self._pack_float64 = cdr.flat_packer(Float64)
         # a command is taken if it decodes and is as long as its exact CDR (plus transport
@@ -532,6 +547,8 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             (self.pub_gap, pack(st.gap)),
             (self.pub_accel, pack(st.qdd[0])),
         ]  # fmt: skip
+        if self.pub_hydraulic:
+            out += self._hydraulic_messages(st, stamp)
         if self.ticks % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
             self._listened = {pub: pub.get_subscription_count() > 0
                               for pub in (self.pub_reactions, self.pub_markers)}  # fmt: skip
@@ -558,6 +575,21 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
                 self.recording_error = f"rerun: {exc}"
         self._cpu["record"] += time.process_time() - t1
 
+    def _hydraulic_messages(self, st, stamp: int) -> list[tuple]:
+        """The hydraulic rung's pressures (sensor_msgs/FluidPressure [Pa], stamped like the joint
+        states, in ``frame_id``) and its spool (std_msgs/Float64, -1..1; NaN without spool lag,
+        where the spool is the servo's command itself)."""
+        header = Header(stamp=Time(sec=stamp // 1_000_000_000, nanosec=stamp % 1_000_000_000),
+                        frame_id=self.frame_id)  # fmt: skip
+        pa, pb, ps, spool = self.pub_hydraulic
+        ser = self._serialize[FluidPressure]
+        return [
+            (pa, ser(FluidPressure(header=header, fluid_pressure=st.pressure_a))),
+            (pb, ser(FluidPressure(header=header, fluid_pressure=st.pressure_b))),
+            (ps, ser(FluidPressure(header=header, fluid_pressure=st.supply_pressure))),
+            (spool, self._pack_float64(math.nan if st.spool is None else st.spool)),
+        ]
+
     def _markers(self, st, stamp: int) -> MarkerArray:
         """The mechanism at state ``st`` as RViz and Foxglove draw it (drs_ros.drawing)."""
         lines, pins, force_at = moving_drawings(st.q[None, :], self.params)
@@ -575,4 +607,12 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         )
 
 
-__all__ = ["COMMANDS", "DRSNode"]
+#: The hydraulic rung's topics (under the node's name): chamber pressures, supply, spool.
+HYDRAULIC_TOPICS = (
+    ("pressure_piston_side", FluidPressure),
+    ("pressure_rod_side", FluidPressure),
+    ("supply_pressure", FluidPressure),
+    ("valve_spool", Float64),
+)
+
+__all__ = ["COMMANDS", "DRSNode", "HYDRAULIC_TOPICS"]

@@ -12,6 +12,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from drs_model.errors import DRSError
+from drs_model.fidelity import RUNGS
 from drs_model.overrides import from_file
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
@@ -27,6 +28,10 @@ from ..stack import STACK_PARAMETERS
 #: ignored SIGINT and SIGTERM (docs/ros.md, "Rate").
 EXECUTORS = ("deadline", "single")
 
+#: The rungs of the fidelity ladder the node runs (drs_model.fidelity.RUNGS; ``auto`` is not
+#: offered yet).
+FIDELITIES = tuple(RUNGS)
+
 #: The node's own parameters: (name, default, description, valid range or choices). All read-only.
 NODE_PARAMETERS = (
     ("physics_rate_hz", 1000.0, "fixed physics step rate [Hz]", (100.0, 20000.0)),
@@ -36,6 +41,8 @@ NODE_PARAMETERS = (
     ("integrator", "rk4", "fixed-step method of force mode", None),
     ("force_method", "fused",
      "inverse-dynamics formulation: fused, newton-euler, lagrange, virtual-work", None),
+    ("fidelity", "rigid",
+     "model rung: kinematic, quasi-static, rigid or hydraulic (docs/fidelity.md)", FIDELITIES),
     ("force_limit", 2.0e4, "largest accepted |force command| [N]", (1.0, 1.0e6)),
     ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
      (1, 100000)),
@@ -139,6 +146,7 @@ def effective_parameters(node: Node, params: DRSParams) -> list[Parameter]:
 
 __all__ = [
     "EXECUTORS",
+    "FIDELITIES",
     "NODE_PARAMETERS",
     "StartupError",
     "declare_parameters",

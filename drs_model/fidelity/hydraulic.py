@@ -1,0 +1,349 @@
+"""The ``hydraulic`` rung: the rigid mechanism driven by a double-acting cylinder through a servo
+valve, with the position servo loop that turns the commanded moves into valve commands
+(equations: :mod:`~drs_model.fidelity.hydraulic_kernels`; constants and their sources:
+:class:`~drs_model.fidelity.hydraulic_params.HydraulicParams`).
+
+Commands are :class:`~drs_model.actuator.ActuatorSim`'s: a stroke move or trajectory becomes the
+servo's reference (the same quintic the other rungs follow exactly), a force command the force
+loop's reference; :meth:`HydraulicRung.lose_supply` drops the supply pressure to the return
+pressure (a step or a ramp). Each physics step ``dt`` is taken in sub-steps of a fixed-step
+method (:mod:`~drs_model.fidelity.hydraulic_steps`): ``"rk4"`` by default (explicit: each
+sub-step checked against the oil column's stability limit, and refused with
+:class:`~drs_model.errors.StiffStepError` above it), or the L-stable ``"ros2"`` and
+``"linearly-implicit-euler"``.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+
+import numpy as np
+
+from .. import kernels
+from .. import kinematics as kin
+from ..actuator import ActuatorSim
+from ..bodies import model_constants
+from ..errors import InputError, StiffStepError
+from ..inverse import FusedInverseDynamics
+from ..params import DRSParams
+from . import hydraulic_kernels as hk
+from .base import RungMixin, RungState
+from .compiled import compiled_kernel
+from .hydraulic_params import HydraulicParams
+from .hydraulic_steps import RK4_LIMIT, STEP_METHODS
+
+#: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
+#: at any step); at 0.1 ms ``ros2`` keeps the stroke within 3e-5 m of the tight reference on the
+#: open-hold-close scene (docs/fidelity.md).
+DEFAULT_IMPLICIT_SUBSTEP = 1e-4
+
+
+def hydraulic_constants(hp: HydraulicParams, p: DRSParams) -> tuple[float, ...]:
+    """The constants vector of :mod:`~drs_model.fidelity.hydraulic_kernels` for ``hp`` and the
+    stroke limits of ``p`` (indexed ``AREA_A`` ... ``K_FORCE`` there)."""
+    s_min, s_max = kin.stroke_limits(p)
+    out = [0.0] * hk.N_HYDRAULIC_CONSTANTS
+    out[hk.AREA_A], out[hk.AREA_B] = hp.piston_area, hp.rod_side_area
+    out[hk.VOL_A0], out[hk.VOL_B0] = hp.dead_volume_piston_side, hp.dead_volume_rod_side
+    out[hk.BETA] = hp.bulk_modulus
+    out[hk.K_EDGE], out[hk.PORT_RATIO] = hp.orifice_coefficient, hp.port_ratio
+    out[hk.P_LAMINAR] = hp.valve_laminar_pressure
+    out[hk.LINEAR_LAW] = 1.0 if hp.flow_law == "linear" else 0.0
+    out[hk.Q_NO_LOAD] = hp.no_load_flow
+    out[hk.TAU_SPOOL] = hp.spool_time_constant
+    out[hk.P_RELIEF], out[hk.K_RELIEF] = hp.relief_pressure, hp.relief_flow_gain
+    out[hk.C_LEAK_AB], out[hk.C_LEAK_EXT] = hp.leak_across_piston, hp.leak_to_outside
+    out[hk.P_RETURN] = hp.return_pressure
+    out[hk.C_VISCOUS], out[hk.F_COULOMB] = hp.viscous_friction, hp.coulomb_friction
+    out[hk.F_BREAKAWAY], out[hk.V_STRIBECK] = hp.breakaway_friction, hp.stribeck_velocity
+    out[hk.V_SMOOTH] = hp.friction_smoothing_velocity
+    out[hk.K_STOP], out[hk.C_STOP] = hp.stop_stiffness, hp.stop_damping
+    out[hk.S_MIN], out[hk.S_MAX] = s_min, s_max
+    out[hk.K_POSITION], out[hk.K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
+    out[hk.K_FORCE] = hp.force_gain
+    return tuple(float(x) for x in out)
+
+
+def equilibrium_state(s: float, p: DRSParams, hp: HydraulicParams, ps: float | None = None):
+    """``y = (psi3, 0, p_A, p_B, 0)`` at rest at stroke ``s`` [m]: the chamber pressures give the
+    static piston force (:class:`~drs_model.inverse.FusedInverseDynamics` at rest) and sit
+    symmetrically about the valve's null, ``p_A + p_B = p_s + p_r``."""
+    ps = hp.supply_pressure if ps is None else ps
+    force = FusedInverseDynamics.from_params(p).force(s, 0.0, 0.0)
+    a, b = hp.piston_area, hp.rod_side_area
+    pa = (force + (ps + hp.return_pressure) * b) / (a + b)
+    pb = ps + hp.return_pressure - pa
+    psi3 = float(kin.solve_position(s, p)[..., 2])
+    return np.array([psi3, 0.0, pa, pb, 0.0])
+
+
+class HydraulicRung(RungMixin, ActuatorSim):
+    """The hydraulic actuator behind the rung interface (module docstring).
+
+    Parameters
+    ----------
+    p : DRSParams
+    dt : float
+        Physics step [s].
+    force_limit : float
+        Largest accepted |force command| [N].
+    hydraulic : HydraulicParams, optional
+        Default: the documented defaults.
+    method : str
+        A key of :data:`~drs_model.fidelity.hydraulic_steps.STEP_METHODS`; ``"rk4"`` (default)
+        at its largest stable sub-step is both the most accurate and the cheapest on the
+        standard scenes (docs/fidelity.md: 1.6e-6 m and 10 N from the tight reference at 9 %
+        of a core at 1 kHz; ``ros2`` needs 20 us sub-steps and 42 % for the same accuracy).
+    substep : float, optional
+        Longest sub-step [s]. Default: for ``"rk4"`` ``stability_fraction`` times the largest
+        stable one at each step's start (``RK4_LIMIT / stiffest_rate``); for the implicit
+        methods :data:`DEFAULT_IMPLICIT_SUBSTEP`. Given with ``"rk4"``, a sub-step above the
+        stability limit raises :class:`StiffStepError` (the state is kept).
+    stability_fraction : float
+        In (0, 1]: the fraction of the stable RK4 sub-step taken (a tighter run).
+    guard : bool
+        Refuse an RK4 sub-step above the stability limit (default). Off only for
+        ``benchmarks/hydraulic_stability.py``, which measures where RK4 really blows up.
+    """
+
+    name = "hydraulic"
+
+    def __init__(
+        self,
+        p: DRSParams,
+        dt: float = 1e-3,
+        force_limit: float = 2.0e4,
+        integrator: str = "rk4",
+        force_method: str = "fused",
+        hydraulic: HydraulicParams | None = None,
+        method: str = "rk4",
+        substep: float | None = None,
+        stability_fraction: float = 1.0,
+        guard: bool = True,
+    ) -> None:
+        if method not in STEP_METHODS:
+            raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
+        if substep is not None and not (math.isfinite(substep) and substep > 0.0):
+            raise InputError(f"substep must be a finite number > 0 s, got {substep!r}")
+        if not (math.isfinite(stability_fraction) and 0.0 < stability_fraction <= 1.0):
+            raise InputError(f"stability_fraction must be in (0, 1], got {stability_fraction!r}")
+        self.stability_fraction = float(stability_fraction)
+        self.guard = bool(guard)
+        self.hydraulic = HydraulicParams() if hydraulic is None else hydraulic
+        self.method = method
+        self.substep = substep
+        self._explicit = STEP_METHODS[method][1]
+        self._c = model_constants(p)
+        self._h = hydraulic_constants(self.hydraulic, p)
+        super().__init__(p, dt, force_limit, integrator, force_method)
+
+    @cached_property
+    def _step_fn(self):
+        return compiled_kernel(STEP_METHODS[self.method][0])
+
+    @cached_property
+    def _rate_fn(self):
+        return compiled_kernel(hk.stiffest_rate)
+
+    @cached_property
+    def _consts(self):
+        return np.array(self._c), np.array(self._h)
+
+    # ---- state ----------------------------------------------------------------------------------
+    def reset(self, t: float = 0.0, s: float | None = None) -> RungState:
+        """At rest at stroke ``s`` (default closed), pressures in equilibrium, full supply."""
+        s = self.s_min if s is None else float(kin.check_stroke(s, self.p))
+        self._y = equilibrium_state(s, self.p, self.hydraulic)
+        self._hold_stroke = s
+        hp = self.hydraulic
+        self._supply = (float(t), hp.supply_pressure, float(t), hp.supply_pressure)
+        self._spool_held = False
+        super().reset(t, s)
+        self._update_outputs()
+        return self.state
+
+    def _update_outputs(self) -> None:
+        """``q, qd, qdd``, the piston force and the stop from the hydraulic state ``self._y``."""
+        c, h = self._c, self._h
+        b, bd, pa, pb, xv = (float(v) for v in self._y)
+        s_ref, v_ref = self._reference(self.t)
+        ps = self.supply_pressure(self.t)
+        mode = hk.MODE_FORCE if self.mode == "force" else hk.MODE_STROKE
+        _, bdd, _, _, _ = hk.hydraulic_derivatives(
+            b, bd, pa, pb, xv, mode, s_ref, v_ref, self._force_cmd, ps, float(self._spool_held),
+            c, h,
+        )  # fmt: skip
+        s, psi1, _, _ = kernels.psi3_configuration(b, c)
+        q = (s, psi1, b)
+        sin1, cos1 = math.sin(psi1), math.cos(psi1)
+        u0, u1, _, _ = kernels.flap_rates(sin1, cos1, math.sin(b), math.cos(b), c)
+        qd = (u0 * bd, u1 * bd, bd)
+        self._q, self._qd = q, qd
+        self._qdd = kin.accelerations_from_flap_scalar(q, qd, bdd, self.p)
+        self._force = pa * h[hk.AREA_A] - pb * h[hk.AREA_B] - hk.friction_force(qd[0], h)
+        self._at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
+
+    def _state_extras(self) -> dict:
+        _, _, pa, pb, xv = (float(v) for v in self._y)
+        return {
+            "rung": self.name,
+            "pressure_a": pa,
+            "pressure_b": pb,
+            "spool": xv if self.hydraulic.spool_time_constant > 0.0 or self._spool_held else None,
+            "supply_pressure": self.supply_pressure(self.t),
+        }
+
+    @property
+    def y(self) -> np.ndarray:
+        """The hydraulic state ``(psi3, psi3', p_A, p_B, x_v)`` (a copy)."""
+        return self._y.copy()
+
+    # ---- supply and faults ---------------------------------------------------------------------
+    def supply_pressure(self, t: float) -> float:
+        """The supply pressure [Pa] at time ``t`` [s] (a ramp between two set values)."""
+        t0, p0, t1, p1 = self._supply
+        if t >= t1:
+            return p1
+        if t <= t0:
+            return p0
+        return p0 + (p1 - p0) * (t - t0) / (t1 - t0)
+
+    def set_supply_pressure(self, pressure: float, ramp_time: float = 0.0) -> None:
+        """The supply pressure goes from its present value to ``pressure`` [Pa] over
+        ``ramp_time`` [s] from now."""
+        if not (math.isfinite(pressure) and pressure >= 0.0):
+            raise InputError(f"supply pressure must be a finite number >= 0 Pa, got {pressure!r}")
+        if not (math.isfinite(ramp_time) and ramp_time >= 0.0):
+            raise InputError(f"ramp_time must be a finite number >= 0 s, got {ramp_time!r}")
+        self._supply = (self.t, self.supply_pressure(self.t), self.t + ramp_time, float(pressure))
+
+    def stick_valve(self, stuck: bool = True) -> None:
+        """The spool sticks where it is (``stuck``) or moves again: a stuck valve."""
+        self._spool_held = bool(stuck)
+
+    def set_leak(self, coefficient: float) -> None:
+        """An extra leak from each chamber to the outside [m^3/(s Pa)] from now on, on top of
+        ``HydraulicParams.leak_to_outside`` (0 ends it)."""
+        self._set_fault_constant(hk.C_LEAK_EXT, "leak", coefficient,
+                                 self.hydraulic.leak_to_outside)  # fmt: skip
+
+    def jam(self, friction: float) -> None:
+        """An extra Coulomb (and breakaway) friction [N] on the rod from now on: a jammed flap
+        (0 ends it)."""
+        self._set_fault_constant(hk.F_COULOMB, "jam friction", friction,
+                                 self.hydraulic.coulomb_friction)  # fmt: skip
+        self._set_fault_constant(hk.F_BREAKAWAY, "jam friction", friction,
+                                 self.hydraulic.breakaway_friction)  # fmt: skip
+
+    def _set_fault_constant(self, index: int, what: str, extra: float, base: float) -> None:
+        if not (isinstance(extra, (int, float)) and math.isfinite(extra) and extra >= 0.0):
+            raise InputError(f"{what} must be a finite number >= 0, got {extra!r}")
+        h = list(self._h)
+        h[index] = base + float(extra)
+        if index in (hk.F_COULOMB, hk.F_BREAKAWAY) and h[hk.V_STRIBECK] <= 0.0:
+            raise InputError(f"{what} needs stribeck_velocity > 0 in HydraulicParams")
+        self._h = tuple(h)
+        self.__dict__.pop("_consts", None)  # rebuilt from self._h at the next step
+
+    def lose_supply(self, ramp_time: float = 0.0, close: bool = True) -> None:
+        """The supply falls to the return pressure over ``ramp_time`` [s]. With ``close`` (the
+        DRS controller's fail-safe reaction) the servo is commanded closed, which opens the
+        piston side to return so that the air load can push the oil out; without it the servo
+        holds its reference, the valve stays near its null and the trapped oil holds the flap
+        (it then moves only as fast as the oil leaks)."""
+        self.set_supply_pressure(self.hydraulic.return_pressure, ramp_time)
+        if close:
+            self.command_drs(False)
+
+    # ---- commands ------------------------------------------------------------------------------
+    def command_force(self, force: float) -> None:
+        """The force loop's reference [N] from now on (validated as by ActuatorSim)."""
+        super().command_force(force)
+        self._force = self._rod_force()
+        self._at_stop = None
+
+    def command_stroke(self, target: float, duration: float | None = None):
+        """A move of the servo's reference to ``target`` [m], planned from the reference (not
+        from the rod, which lags it and may sit a micrometre inside a compliant stop)."""
+        return self._from_reference(ActuatorSim.command_stroke, target, duration)
+
+    def command_trajectory(self, times, strokes=None, rates=None):
+        """A trajectory of the servo's reference, planned from the reference."""
+        return self._from_reference(ActuatorSim.command_trajectory, times, strokes, rates)
+
+    def _from_reference(self, command, *args):
+        actual = self._q, self._qd, self._qdd
+        if self.mode == "stroke" and self.t < self._path.t_end:
+            s, v, a = self._path.at(self.t)
+        else:
+            s, v, a = min(max(self._reference(self.t)[0], self.s_min), self.s_max), 0.0, 0.0
+        self._q, self._qd, self._qdd = kin.kinematic_state_scalar(s, v, a, self.p)
+        try:
+            return command(self, *args)
+        finally:
+            self._q, self._qd, self._qdd = actual
+
+    def _rod_force(self) -> float:
+        pa, pb = float(self._y[2]), float(self._y[3])
+        return (
+            pa * self._h[hk.AREA_A]
+            - pb * self._h[hk.AREA_B]
+            - hk.friction_force(float(self._qd[0]), self._h)
+        )
+
+    def _reference(self, t: float) -> tuple[float, float]:
+        """The servo's stroke reference ``(s_ref, v_ref)`` [m, m/s] at ``t`` [s]."""
+        if self.mode == "stroke":
+            if t >= self._path.t_end:
+                return self._target, 0.0
+            s, v, _ = self._path.at(t)
+            return s, v
+        if self.mode == "hold":
+            return self._hold_stroke, 0.0
+        return float(self._q[0]), 0.0  # force mode: the position reference is unused
+
+    # ---- stepping ------------------------------------------------------------------------------
+    def _advance_one(self) -> None:
+        t0 = self.t
+        t1 = self._t_reset + (self.steps + 1) * self.dt
+        c, h = self._consts
+        y = self._y
+        mode = hk.MODE_FORCE if self.mode == "force" else hk.MODE_STROKE
+        rate = self._rate_fn(
+            float(y[0]), float(y[2]), float(y[3]), float(y[4]), self.supply_pressure(t0), c, h
+        )
+        if self._explicit:
+            limit = RK4_LIMIT / rate
+            if self.guard and self.substep is not None and self.substep > limit:
+                raise StiffStepError(
+                    f"an explicit {self.method} sub-step of {self.substep:.3g} s exceeds the "
+                    f"stability limit {limit:.3g} s of the stiffest mode ({rate:.4g} rad/s, "
+                    f"h * rate must stay <= {RK4_LIMIT}): use substep <= {limit:.3g} s or an "
+                    "implicit method ('ros2', 'linearly-implicit-euler')"
+                )
+            longest = self.stability_fraction * limit if self.substep is None else self.substep
+        else:
+            longest = DEFAULT_IMPLICIT_SUBSTEP if self.substep is None else self.substep
+        n = max(1, math.ceil((t1 - t0) / longest * (1.0 - 1e-12)))
+        hsub = (t1 - t0) / n
+        held = 1.0 if self._spool_held else 0.0
+        f_ref = self._force_cmd
+        for k in range(n):
+            ta = t0 + k * hsub
+            s0, v0 = self._reference(ta)
+            sm, vm = self._reference(ta + 0.5 * hsub)
+            s1, v1 = self._reference(ta + hsub)
+            y = self._step_fn(
+                y, mode, s0, v0, sm, vm, s1, v1, f_ref, self.supply_pressure(ta),
+                self.supply_pressure(ta + hsub), held, hsub, c, h,
+            )  # fmt: skip
+        if not np.all(np.isfinite(y)):
+            raise StiffStepError(
+                f"the hydraulic state became non-finite in a step of {self.dt:.3g} s "
+                f"({n} sub-steps of {hsub:.3g} s, method {self.method!r}) at t = {t0:.6g} s"
+            )
+        self.steps += 1
+        self.t = t1
+        self._y = np.asarray(y, dtype=float)
+        self._update_outputs()

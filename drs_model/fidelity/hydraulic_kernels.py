@@ -1,0 +1,255 @@
+r"""The hydraulic rung's formulas, each once, as plain Python on floats (numba compiles them as
+they are, like :mod:`drs_model.kernels`).
+
+State ``y = (psi3, psi3', p_A, p_B, x_v)``: the flap angle [rad] and rate [rad/s] (the rigid
+mechanism in its regular coordinate, :func:`drs_model.kernels.psi3_acceleration`), the pressures
+of the piston-side (A) and rod-side (B) chambers [Pa], and the normalised spool position.
+
+Equations (Merritt, "Hydraulic Control Systems"; ``s`` and ``s' = u_s psi3'`` from the psi3
+kinematics):
+
+.. math::
+
+    V_A = V_{A0} + A_A (s - s_{min}), \quad V_B = V_{B0} + A_B (s_{max} - s)
+
+    \dot p_A = \frac{\beta}{V_A} (Q_A - A_A \dot s - Q_{AB} - Q_{A,ext} - Q_{A,relief})
+
+    \dot p_B = \frac{\beta}{V_B} (Q_B + A_B \dot s + Q_{AB} - Q_{B,ext} - Q_{B,relief})
+
+    F = p_A A_A - p_B A_B - F_{friction}(\dot s) + F_{stop}(s, \dot s)
+
+    \ddot\psi_3 = \psi_3''(\psi_3, \dot\psi_3, F), \qquad
+    \dot x_v = (u - x_v) / \tau_v \quad (x_v = u \text{ when } \tau_v = 0)
+
+The valve's four metering edges (P->A and B->T open for ``x_v > 0``, P->B and A->T for
+``x_v < 0``) each pass ``Q = k x dp / sqrt(|dp| + p_lam)``: the turbulent orifice law
+``k x sign(dp) sqrt(|dp|)`` above ``p_lam``, laminar (linear) below it, smooth through zero.
+The linear law (the ideal valve) passes ``k_q x`` whatever the pressures. The servo loop: in
+stroke mode ``u = K_ff v_ref A_A / Q_nl + K_p (s_ref - s)``, in force mode
+``u = K_f (F_ref - (p_A A_A - p_B A_B))``, clipped to [-1, 1].
+"""
+
+from __future__ import annotations
+
+import math
+
+from .. import kernels
+
+# indices of the hydraulic constants vector (:func:`drs_model.fidelity.hydraulic.constants`)
+AREA_A, AREA_B, VOL_A0, VOL_B0, BETA = 0, 1, 2, 3, 4
+K_EDGE, PORT_RATIO, P_LAMINAR, LINEAR_LAW, Q_NO_LOAD = 5, 6, 7, 8, 9
+TAU_SPOOL, P_RELIEF, K_RELIEF, C_LEAK_AB, C_LEAK_EXT, P_RETURN = 10, 11, 12, 13, 14, 15
+C_VISCOUS, F_COULOMB, F_BREAKAWAY, V_STRIBECK, V_SMOOTH = 16, 17, 18, 19, 20
+K_STOP, C_STOP, S_MIN, S_MAX = 21, 22, 23, 24
+K_POSITION, K_FEEDFORWARD, K_FORCE = 25, 26, 27
+N_HYDRAULIC_CONSTANTS = 28
+
+#: Distance from a stop [m] within which :func:`stiffest_rate` counts the stop's stiffness.
+STOP_MARGIN = 5e-4
+
+#: Servo modes (the ``mode`` argument): follow a stroke reference, or a force reference.
+MODE_STROKE, MODE_FORCE = 0.0, 1.0
+
+
+def edge_flow(k, opening, dp, p_laminar, linear, q_lin):
+    """Flow [m^3/s] through one metering edge of ``opening`` (0..1) under the drop ``dp`` [Pa]:
+    the smoothed orifice law, or ``q_lin * opening`` for the linear (ideal) law."""
+    if opening <= 0.0:
+        return 0.0
+    if linear > 0.5:
+        return q_lin * opening
+    return k * opening * dp / math.sqrt(abs(dp) + p_laminar)
+
+
+def valve_flows(xv, pa, pb, ps, h):
+    """``(Q_PA, Q_AT, Q_PB, Q_BT)`` [m^3/s]: the flows through the four metering edges at spool
+    ``xv`` with chamber pressures ``pa``, ``pb`` and supply ``ps`` [Pa] (each positive in its
+    edge's named direction; negative is backflow)."""
+    k, r, plam, lin, q = h[K_EDGE], h[PORT_RATIO], h[P_LAMINAR], h[LINEAR_LAW], h[Q_NO_LOAD]
+    pr = h[P_RETURN]
+    pos, neg = max(xv, 0.0), max(-xv, 0.0)
+    return (
+        edge_flow(k, pos, ps - pa, plam, lin, q),
+        edge_flow(k, neg, pa - pr, plam, lin, q),
+        edge_flow(k * r, neg, ps - pb, plam, lin, q * r),
+        edge_flow(k * r, pos, pb - pr, plam, lin, q * r),
+    )
+
+
+def edge_slope(k, opening, dp, p_laminar):
+    """``dQ/d(dp)`` [m^3/(s Pa)] of :func:`edge_flow`'s orifice law at ``dp`` [Pa]."""
+    a = abs(dp) + p_laminar
+    return k * opening * (0.5 * abs(dp) + p_laminar) / (a * math.sqrt(a))
+
+
+def relief_flow(p, h):
+    """Flow [m^3/s] from a chamber at ``p`` [Pa] through its relief valve to return."""
+    return h[K_RELIEF] * max(p - h[P_RELIEF], 0.0)
+
+
+def friction_force(sd, h):
+    """Piston friction [N] opposing the rod speed ``sd`` [m/s]: viscous plus a Coulomb term
+    with a Stribeck peak, smoothed by ``tanh(sd / v_smooth)``."""
+    coulomb = h[F_COULOMB]
+    if coulomb == 0.0 and h[F_BREAKAWAY] == 0.0:
+        return h[C_VISCOUS] * sd
+    r = sd / h[V_STRIBECK]
+    level = coulomb + (h[F_BREAKAWAY] - coulomb) * math.exp(-r * r)
+    return h[C_VISCOUS] * sd + level * math.tanh(sd / h[V_SMOOTH])
+
+
+def stop_force(s, sd, h):
+    """Contact force [N] of the compliant end stops on the rod (along +s): a spring-damper while
+    the rod is past ``s_min`` or ``s_max``, never pulling."""
+    below = h[S_MIN] - s
+    if below > 0.0:
+        return max(h[K_STOP] * below - h[C_STOP] * sd, 0.0)
+    above = s - h[S_MAX]
+    if above > 0.0:
+        return -max(h[K_STOP] * above + h[C_STOP] * sd, 0.0)
+    return 0.0
+
+
+def chamber_volumes(s, h):
+    """``(V_A, V_B)`` [m^3] at stroke ``s`` [m]."""
+    return (h[VOL_A0] + h[AREA_A] * (s - h[S_MIN]), h[VOL_B0] + h[AREA_B] * (h[S_MAX] - s))
+
+
+def servo_command(mode, s, s_ref, v_ref, f_ref, f_hyd, h):
+    """Valve command ``u`` in [-1, 1] of the servo loop (module docstring)."""
+    if mode > 0.5:
+        u = h[K_FORCE] * (f_ref - f_hyd)
+    else:
+        u = h[K_FEEDFORWARD] * v_ref * h[AREA_A] / h[Q_NO_LOAD] + h[K_POSITION] * (s_ref - s)
+    return min(max(u, -1.0), 1.0)
+
+
+def hydraulic_derivatives(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
+    """``d/dt (psi3, psi3', p_A, p_B, x_v)`` (module docstring) with the servo references
+    (``s_ref`` [m], ``v_ref`` [m/s], ``f_ref`` [N]) and the supply pressure ``ps`` [Pa];
+    ``spool_held > 0.5`` freezes the spool where it is (a stuck valve). NaN where the mechanism
+    does not assemble."""
+    s, _, us, _ = kernels.psi3_configuration(b, c)
+    sd = us * bd
+    f_hyd = pa * h[AREA_A] - pb * h[AREA_B]
+    if spool_held > 0.5:
+        x, dx = xv, 0.0
+    else:
+        u = servo_command(mode, s, s_ref, v_ref, f_ref, f_hyd, h)
+        if h[TAU_SPOOL] > 0.0:
+            x, dx = xv, (u - xv) / h[TAU_SPOOL]
+        else:
+            x, dx = u, 0.0
+    q_pa, q_at, q_pb, q_bt = valve_flows(x, pa, pb, ps, h)
+    q_ab = h[C_LEAK_AB] * (pa - pb)
+    pr = h[P_RETURN]
+    va, vb = chamber_volumes(s, h)
+    dpa = (
+        h[BETA]
+        / va
+        * (q_pa - q_at - h[AREA_A] * sd - q_ab - h[C_LEAK_EXT] * (pa - pr) - relief_flow(pa, h))
+    )
+    dpb = (
+        h[BETA]
+        / vb
+        * (q_pb - q_bt + h[AREA_B] * sd + q_ab - h[C_LEAK_EXT] * (pb - pr) - relief_flow(pb, h))
+    )
+    force = f_hyd - friction_force(sd, h) + stop_force(s, sd, h)
+    return bd, kernels.psi3_acceleration(b, bd, force, c), dpa, dpb, dx
+
+
+def stiffest_rate(b, pa, pb, xv, ps, c, h):
+    """An upper estimate of the fastest rate [1/s] of the linearised hydraulic rung at this
+    state: the oil column's natural frequency with the end stop's stiffness added where the rod
+    is in contact, ``sqrt((beta (A_A^2 / V_A + A_B^2 / V_B) + k_stop) / m_eff)`` with the
+    mechanism's inertia reflected to the rod, ``m_eff = u.M.u / u_s^2``; or the fastest decay
+    (spool, friction, pressure relaxation through the valve, leaks and relief), whichever is
+    larger."""
+    sb, cb, s, sa, ca, _ = kernels.psi3_position(b, c)
+    u0, u1, w0, w1 = kernels.flap_rates(sa, ca, sb, cb, c)
+    umu = kernels.projected_dynamics(sa, ca, sb, cb, b, u0, u1, 1.0, w0, w1, 0.0, c)[0]
+    m_eff = umu / (u0 * u0)
+    va, vb = chamber_volumes(s, h)
+    va, vb = max(va, 1e-3 * h[VOL_A0] + 1e-12), max(vb, 1e-3 * h[VOL_B0] + 1e-12)
+    k_oil = h[BETA] * (h[AREA_A] ** 2 / va + h[AREA_B] ** 2 / vb)
+    # the stop counts from STOP_MARGIN before contact: a step that starts there may reach it
+    contact = s < h[S_MIN] + STOP_MARGIN or s > h[S_MAX] - STOP_MARGIN
+    omega = math.sqrt((k_oil + (h[K_STOP] if contact else 0.0)) / m_eff)
+    damping = h[C_VISCOUS] + (h[C_STOP] if contact else 0.0)
+    if h[F_BREAKAWAY] > 0.0:
+        damping += h[F_BREAKAWAY] / h[V_SMOOTH]
+    decay = damping / m_eff
+    # pressure relaxation: beta / V times the slope of the chamber's outflow in its pressure
+    # (each metering edge fully open at its present drop, since the spool may open within the
+    # step; the leaks, the relief)
+    slope_a = h[C_LEAK_AB] + h[C_LEAK_EXT] + (h[K_RELIEF] if pa > h[P_RELIEF] else 0.0)
+    slope_b = h[C_LEAK_AB] + h[C_LEAK_EXT] + (h[K_RELIEF] if pb > h[P_RELIEF] else 0.0)
+    if h[LINEAR_LAW] < 0.5:
+        pos, neg, plam = 1.0, 1.0, h[P_LAMINAR]
+        k, kb = h[K_EDGE], h[K_EDGE] * h[PORT_RATIO]
+        slope_a += edge_slope(k, pos, ps - pa, plam) + edge_slope(k, neg, pa - h[P_RETURN], plam)
+        slope_b += edge_slope(kb, neg, ps - pb, plam) + edge_slope(kb, pos, pb - h[P_RETURN], plam)
+    decay = max(decay, h[BETA] * max(slope_a / va, slope_b / vb))
+    if h[TAU_SPOOL] > 0.0:
+        decay = max(decay, 1.0 / h[TAU_SPOOL])
+    return max(omega, decay)
+
+
+def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
+    """Powers [W] at one instant: ``(supply, valve_loss, leak_loss, relief_loss, compression,
+    piston, friction_loss, stop)``.
+
+    ``supply = ps Q_P - p_r Q_T`` is the hydraulic power the supply delivers (``Q_T``: all
+    that returns to the reservoir, through the valve, the outside leaks and the relief
+    valves); the valve edges,
+    the leaks and the relief valves dissipate their flow times their pressure drop;
+    ``compression = p_A V_A p_A' / beta + p_B V_B p_B' / beta`` is stored in the oil (and given
+    back); ``piston = (p_A A_A - p_B A_B) s'`` reaches the rod, of which friction dissipates
+    ``F_friction s'`` and the stops take ``F_stop s'`` back. Identity (the continuity equations
+    times the pressures): ``supply = valve + leak + relief + compression + piston``."""
+    s, _, us, _ = kernels.psi3_configuration(b, c)
+    sd = us * bd
+    f_hyd = pa * h[AREA_A] - pb * h[AREA_B]
+    if spool_held > 0.5 or h[TAU_SPOOL] > 0.0:
+        x = xv
+    else:
+        x = servo_command(mode, s, s_ref, v_ref, f_ref, f_hyd, h)
+    q_pa, q_at, q_pb, q_bt = valve_flows(x, pa, pb, ps, h)
+    pr = h[P_RETURN]
+    q_ext = h[C_LEAK_EXT] * ((pa - pr) + (pb - pr))
+    q_relief = relief_flow(pa, h) + relief_flow(pb, h)
+    supply = ps * (q_pa + q_pb) - pr * (q_at + q_bt + q_ext + q_relief)
+    valve = q_pa * (ps - pa) + q_at * (pa - pr) + q_pb * (ps - pb) + q_bt * (pb - pr)
+    leak = h[C_LEAK_AB] * (pa - pb) ** 2 + h[C_LEAK_EXT] * ((pa - pr) ** 2 + (pb - pr) ** 2)
+    relief = relief_flow(pa, h) * (pa - pr) + relief_flow(pb, h) * (pb - pr)
+    _, _, dpa, dpb, _ = hydraulic_derivatives(
+        b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h
+    )
+    va, vb = chamber_volumes(s, h)
+    compression = (pa * va * dpa + pb * vb * dpb) / h[BETA]
+    return (
+        supply,
+        valve,
+        leak,
+        relief,
+        compression,
+        f_hyd * sd,
+        friction_force(sd, h) * sd,
+        stop_force(s, sd, h) * sd,
+    )
+
+
+#: Every kernel of this module (registered with numba by :mod:`drs_model.fidelity.compiled`).
+KERNELS = (
+    edge_flow,
+    edge_slope,
+    valve_flows,
+    relief_flow,
+    friction_force,
+    stop_force,
+    chamber_volumes,
+    servo_command,
+    hydraulic_derivatives,
+    stiffest_rate,
+    power_balance,
+)

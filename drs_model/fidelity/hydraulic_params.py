@@ -1,0 +1,194 @@
+"""Parameters of the hydraulic rung: cylinder, oil, servo valve, relief, leakage, friction, end
+stops and the position servo loop, as one frozen dataclass with documented defaults and sources.
+
+Sources of the defaults (SI units throughout):
+
+* Supply: F1 control hydraulics run at a few hundred bar from one engine-driven pump (gearshift,
+  clutch, DRS); Moog's E024 subminiature servovalve, the F1 part, is rated for 210 bar maximum
+  (Machine Design, "Ultralight servohydraulics for Formula 1", 2006). Supply 210 bar, return
+  5 bar (a pressurised reservoir's back pressure: an estimate).
+* Valve: the same E024 is rated 7.5 l/min at a 70 bar valve drop (35 bar per metering edge).
+  Spool lag: a first-order time constant of 0.8 ms (a small servovalve's ~200 Hz bandwidth, the
+  class Moog lists for its subminiature valves: an estimate, not a datasheet value).
+* Oil: effective bulk modulus 1.4 GPa (mineral oil is 1.4-1.8 GPa pure, lower with entrained air
+  and hose compliance: Merritt, "Hydraulic Control Systems", ch. 2), density 850 kg/m^3.
+* Cylinder: bore 16 mm, rod 8 mm (our sizing: 210 bar on the 2.0 cm^2 piston gives 4.2 kN, 4x the
+  1.0 kN static load at the closed stop); dead volumes of 2 cm^3 a side (ports, a short hose:
+  an estimate).
+* Relief: cracks at 250 bar (1.2x supply, the usual setting), flow gain 1e-10 m^3/(s Pa)
+  (20 bar over the cracking pressure passes 12 l/min: an estimate).
+* Leakage: across the piston seal 1e-13 m^3/(s Pa) (0.12 l/min at 200 bar: a worn-in servo
+  cylinder's figure, an estimate); none to the outside.
+* Friction: viscous 200 N s/m, Coulomb 40 N, breakaway 60 N, Stribeck velocity 10 mm/s,
+  smoothed with ``tanh(v / 5 mm/s)``: a PTFE-sealed servo cylinder of this size (estimates of
+  the usual order, a few % of the load).
+* End stops: stiffness 5e7 N/m, damping 2e4 N s/m (a steel stop through a thin elastomer pad:
+  estimates).
+* Servo loop: proportional position gain 200 (spool per m of stroke error: a loop crossover near
+  200 rad/s, well under the oil column's ~3000 rad/s), velocity feed-forward on (gain 1), force
+  mode gain 1/2000 per N (full spool at 2 kN of force error).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import ParameterError
+from ..params import real_number
+
+#: Flow laws of the valve: ``"orifice"`` (turbulent, ``Q ~ x sqrt(dp)``) or ``"linear"`` (the
+#: ideal valve: flow proportional to the spool at the no-load flow gain, whatever the pressures).
+FLOW_LAWS = ("orifice", "linear")
+
+
+@dataclass(frozen=True)
+class HydraulicParams:
+    """Every constant of the hydraulic rung (module docstring: the sources).
+
+    Pressures in Pa, volumes in m^3, flows in m^3/s, lengths in m, forces in N, times in s. The
+    spool position is normalised: -1..1 (1 opens supply to the piston side, extending the rod and
+    opening the flap).
+    """
+
+    supply_pressure: float = 210e5
+    return_pressure: float = 5e5
+    bulk_modulus: float = 1.4e9
+    oil_density: float = 850.0
+    bore_diameter: float = 0.016
+    rod_diameter: float = 0.008
+    dead_volume_piston_side: float = 2e-6
+    dead_volume_rod_side: float = 2e-6
+    valve_rated_flow: float = 7.5 / 60000.0
+    valve_rated_pressure_drop: float = 70e5
+    #: Port B's metering edges relative to port A's; default: the area ratio (a valve matched to
+    #: the differential cylinder, so that both chambers see the same pressure drop).
+    valve_port_ratio: float | None = None
+    #: Below this pressure drop [Pa] the orifice law turns laminar (linear), so that the flow is
+    #: smooth through zero.
+    valve_laminar_pressure: float = 1e5
+    flow_law: str = "orifice"
+    spool_time_constant: float = 0.8e-3
+    relief_pressure: float = 250e5
+    relief_flow_gain: float = 1e-10
+    leak_across_piston: float = 1e-13
+    leak_to_outside: float = 0.0
+    viscous_friction: float = 200.0
+    coulomb_friction: float = 40.0
+    breakaway_friction: float = 60.0
+    stribeck_velocity: float = 0.01
+    friction_smoothing_velocity: float = 0.005
+    stop_stiffness: float = 5e7
+    stop_damping: float = 2e4
+    position_gain: float = 200.0
+    velocity_feedforward: float = 1.0
+    force_gain: float = 1.0 / 2000.0
+
+    _POSITIVE = (
+        "bulk_modulus", "oil_density", "bore_diameter", "valve_rated_flow",
+        "valve_rated_pressure_drop", "valve_laminar_pressure", "supply_pressure",
+    )  # fmt: skip
+    _NON_NEGATIVE = (
+        "rod_diameter", "dead_volume_piston_side", "dead_volume_rod_side", "spool_time_constant",
+        "relief_flow_gain", "leak_across_piston", "leak_to_outside", "viscous_friction",
+        "coulomb_friction", "breakaway_friction", "stop_stiffness", "stop_damping",
+        "position_gain", "velocity_feedforward", "force_gain", "return_pressure",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "flow_law":
+                if value not in FLOW_LAWS:
+                    raise ParameterError(f"flow_law must be one of {FLOW_LAWS}, got {value!r}")
+                continue
+            if value is None:
+                continue
+            object.__setattr__(self, f.name, real_number(f.name, value))
+        for name in self._POSITIVE:
+            if getattr(self, name) <= 0.0:
+                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        for name in self._NON_NEGATIVE:
+            if getattr(self, name) < 0.0:
+                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.rod_diameter >= self.bore_diameter:
+            raise ParameterError(
+                f"rod_diameter must be < bore_diameter = {self.bore_diameter!r} m, got "
+                f"{self.rod_diameter!r}"
+            )
+        if not self.return_pressure < self.supply_pressure:
+            raise ParameterError(
+                f"return_pressure must be < supply_pressure = {self.supply_pressure!r} Pa, got "
+                f"{self.return_pressure!r}"
+            )
+        if self.relief_pressure <= self.return_pressure:
+            raise ParameterError(
+                f"relief_pressure must be > return_pressure = {self.return_pressure!r} Pa, got "
+                f"{self.relief_pressure!r}"
+            )
+        if self.breakaway_friction < self.coulomb_friction:
+            raise ParameterError(
+                f"breakaway_friction must be >= coulomb_friction = {self.coulomb_friction!r} N, "
+                f"got {self.breakaway_friction!r}"
+            )
+        if self.coulomb_friction > 0.0 or self.breakaway_friction > 0.0:
+            for name in ("stribeck_velocity", "friction_smoothing_velocity"):
+                if getattr(self, name) <= 0.0:
+                    raise ParameterError(
+                        f"{name} must be > 0 m/s with Coulomb friction, got {getattr(self, name)!r}"
+                    )
+        if self.valve_port_ratio is not None and self.valve_port_ratio <= 0.0:
+            raise ParameterError(f"valve_port_ratio must be > 0, got {self.valve_port_ratio!r}")
+
+    # ---- derived ------------------------------------------------------------------------------
+    @property
+    def piston_area(self) -> float:
+        """Piston-side area [m^2] (pressure there extends the rod: opens the flap)."""
+        return math.pi * self.bore_diameter**2 / 4.0
+
+    @property
+    def rod_side_area(self) -> float:
+        """Annulus area on the rod side [m^2]."""
+        return math.pi * (self.bore_diameter**2 - self.rod_diameter**2) / 4.0
+
+    @property
+    def orifice_coefficient(self) -> float:
+        """``k`` of one metering edge, ``Q = k x sqrt(dp)`` [m^3/(s sqrt(Pa))] at full spool: the
+        rated flow at half the rated valve drop (two edges in series share it)."""
+        return self.valve_rated_flow / math.sqrt(0.5 * self.valve_rated_pressure_drop)
+
+    @property
+    def no_load_flow(self) -> float:
+        """Flow into the piston side at full spool with no load [m^3/s]: each edge drops half of
+        ``supply - return``. The linear (ideal) valve's flow gain."""
+        return self.orifice_coefficient * math.sqrt(
+            0.5 * (self.supply_pressure - self.return_pressure)
+        )
+
+    @property
+    def no_load_speed(self) -> float:
+        """Rod speed at full spool with no load [m/s] (extending)."""
+        return self.no_load_flow / self.piston_area
+
+    @property
+    def port_ratio(self) -> float:
+        """Port B's metering edges relative to port A's: ``valve_port_ratio`` if set, else the
+        area ratio ``A_B / A_A``."""
+        if self.valve_port_ratio is not None:
+            return self.valve_port_ratio
+        return self.rod_side_area / self.piston_area
+
+    def replace(self, **overrides: Any) -> HydraulicParams:
+        """A copy with ``overrides`` (validated)."""
+        unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(self)})
+        if unknown:
+            raise ParameterError(
+                f"unknown hydraulic parameter(s) {unknown}; valid names: "
+                f"{sorted(f.name for f in dataclasses.fields(self))}"
+            )
+        return dataclasses.replace(self, **overrides)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}

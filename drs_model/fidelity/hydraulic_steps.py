@@ -1,0 +1,101 @@
+r"""Fixed steps of the hydraulic rung: explicit RK4 and two linearly implicit (Rosenbrock) methods,
+each one plain function of floats and small numpy arrays (numba compiles them as they are).
+
+The rung is stiff: the oil column rings at ``w_h = sqrt(beta A^2 (1/V_A + 1/V_B) / m_eff)``
+(several thousand rad/s with the defaults, more with stiffer oil or smaller chambers). An
+explicit method is stable only while ``h w`` stays inside its stability region: RK4 reaches
+2.83 on the imaginary axis and 2.79 on the negative real one, so a step is refused
+(:class:`~drs_model.errors.StiffStepError`) when ``h`` times
+:func:`~drs_model.fidelity.hydraulic_kernels.stiffest_rate` exceeds :data:`RK4_LIMIT`.
+
+The Rosenbrock methods solve with ``W = I - gamma h J`` (``J``: the Jacobian of the right-hand
+side by forward differences) and are L-stable, so any step is stable; the step then sets only the
+accuracy:
+
+* ``"linearly-implicit-euler"``: ``W k = f(y0)``, ``y1 = y0 + h k`` (order 1, ``gamma = 1``);
+* ``"ros2"`` (Verwer et al. 1999, SIAM J. Sci. Comput. 20:1456): ``gamma = 1 + 1/sqrt(2)``,
+  ``W k1 = f(y0)``, ``W k2 = f(y0 + h k1) - 2 k1``, ``y1 = y0 + h (3 k1 + k2) / 2`` (order 2).
+
+Each step function takes the state ``y`` (5 floats, :mod:`~drs_model.fidelity.hydraulic_kernels`),
+the servo references at the start, middle and end of the step (``s0, v0, sm, vm, s1, v1``), the
+force reference, the supply pressure at the start and end, the spool-held flag, the step ``h``
+and the constants, and returns the new state as a float64 array of 5.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .hydraulic_kernels import hydraulic_derivatives
+
+#: Largest ``h * stiffest_rate`` an RK4 step may take (its stability interval is 2.79 on the
+#: negative real axis and 2.83 on the imaginary one; the margin covers the estimate's error).
+RK4_LIMIT = 2.5
+
+#: Relative perturbation of the forward-difference Jacobian.
+JACOBIAN_EPS = 1e-7
+
+
+def _f(y, mode, s_ref, v_ref, f_ref, ps, held, c, h):
+    d = hydraulic_derivatives(
+        y[0], y[1], y[2], y[3], y[4], mode, s_ref, v_ref, f_ref, ps, held, c, h
+    )
+    out = np.empty(5)
+    for i in range(5):
+        out[i] = d[i]
+    return out
+
+
+def rk4_step(y, mode, s0, v0, sm, vm, s1, v1, f_ref, ps0, ps1, held, dt, c, h):
+    """One classic Runge-Kutta step of ``dt`` [s] (explicit, order 4)."""
+    psm = 0.5 * (ps0 + ps1)
+    k1 = _f(y, mode, s0, v0, f_ref, ps0, held, c, h)
+    k2 = _f(y + 0.5 * dt * k1, mode, sm, vm, f_ref, psm, held, c, h)
+    k3 = _f(y + 0.5 * dt * k2, mode, sm, vm, f_ref, psm, held, c, h)
+    k4 = _f(y + dt * k3, mode, s1, v1, f_ref, ps1, held, c, h)
+    return y + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
+def jacobian(y, f0, mode, s_ref, v_ref, f_ref, ps, held, c, h):
+    """``df/dy`` (5 x 5) by forward differences around ``y`` (``f0 = f(y)``)."""
+    jac = np.empty((5, 5))
+    for j in range(5):
+        dy = JACOBIAN_EPS * max(abs(y[j]), 1.0 if j != 2 and j != 3 else 1e5)
+        yp = y.copy()
+        yp[j] += dy
+        fp = _f(yp, mode, s_ref, v_ref, f_ref, ps, held, c, h)
+        for i in range(5):
+            jac[i, j] = (fp[i] - f0[i]) / dy
+    return jac
+
+
+def linearly_implicit_euler_step(y, mode, s0, v0, sm, vm, s1, v1, f_ref, ps0, ps1, held, dt, c, h):
+    """One linearly implicit Euler step (Rosenbrock, order 1, L-stable); the references at the
+    step's end, where the implicit step evaluates its stiff part."""
+    f0 = _f(y, mode, s1, v1, f_ref, ps1, held, c, h)
+    w = np.eye(5) - dt * jacobian(y, f0, mode, s1, v1, f_ref, ps1, held, c, h)
+    return y + dt * np.linalg.solve(w, f0)
+
+
+ROS2_GAMMA = 1.0 + 1.0 / np.sqrt(2.0)
+
+
+def ros2_step(y, mode, s0, v0, sm, vm, s1, v1, f_ref, ps0, ps1, held, dt, c, h):
+    """One ROS2 step (Rosenbrock, order 2, L-stable; module docstring)."""
+    f0 = _f(y, mode, s0, v0, f_ref, ps0, held, c, h)
+    w = np.eye(5) - ROS2_GAMMA * dt * jacobian(y, f0, mode, s0, v0, f_ref, ps0, held, c, h)
+    k1 = np.linalg.solve(w, f0)
+    f1 = _f(y + dt * k1, mode, s1, v1, f_ref, ps1, held, c, h)
+    k2 = np.linalg.solve(w, f1 - 2.0 * k1)
+    return y + dt * (1.5 * k1 + 0.5 * k2)
+
+
+#: The fixed-step methods of the hydraulic rung: name -> (step function, explicit, order).
+STEP_METHODS = {
+    "rk4": (rk4_step, True, 4),
+    "linearly-implicit-euler": (linearly_implicit_euler_step, False, 1),
+    "ros2": (ros2_step, False, 2),
+}
+
+#: Every kernel of this module (registered with numba by :mod:`drs_model.fidelity.compiled`).
+KERNELS = (_f, rk4_step, jacobian, linearly_implicit_euler_step, ros2_step)

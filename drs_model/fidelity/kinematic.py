@@ -1,0 +1,72 @@
+"""The ``kinematic`` rung: the stroke follows each command through its quintic move; positions,
+rates and gap from the closed forms (:mod:`drs_model.kinematics`), no forces.
+
+The cheapest rung: what a lap simulation needs (the gap, at 1 kHz, for hours). It moves exactly
+as the ``rigid`` rung does in stroke mode (both follow :class:`~drs_model.profile.QuinticPath`),
+and refuses what needs forces (a force command, a supply loss) with
+:class:`~drs_model.errors.UnsupportedCommandError`. ``piston_force`` is NaN.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..actuator import ActuatorSim
+from .base import RungMixin
+
+
+class KinematicRung(RungMixin, ActuatorSim):
+    """Positions and rates from the commanded moves alone (module docstring)."""
+
+    name = "kinematic"
+    has_forces = False
+
+    def _inverse_force(self) -> float:
+        return math.nan
+
+    def command_force(self, force: float) -> None:
+        self.refuse(f"a force command ({force!r} N)")
+
+    def skip_to(self, t: float) -> None:
+        """Jump to the step at (or just before) time ``t`` [s] at once: the kinematic rung has no
+        state to integrate, its state at any time is the commanded path's."""
+        n = int(math.floor((t - self._t_reset) / self.dt + 1e-9))
+        if n <= self.steps:
+            return
+        self.steps = n - 1
+        self._advance_one()
+
+    def samples(self, times: np.ndarray) -> np.ndarray:
+        """The stroke [m] at ``times`` [s] (sorted, none before now and none past the next
+        command) from the path in force, on arrays: the batch path of a scene."""
+        times = np.asarray(times, dtype=float)
+        s = np.full(times.shape, float(self._q[0]))
+        if self.mode != "stroke" or self._settled:
+            return s
+        path = self._path
+        s[times >= path.t_end] = self._target
+        for seg in path:
+            inside = (times >= seg.t0) & (times < seg.t1)
+            if inside.any():
+                s[inside] = seg.evaluate(times[inside])[0]
+        return s
+
+
+def batch_strokes(rung: KinematicRung, events, times: np.ndarray) -> np.ndarray:
+    """The stroke [m] at every time of ``times`` [s] (sorted, from the rung's time on) under the
+    commands ``events`` (``(t, apply)`` pairs, ``apply(rung)`` issues one command): the rung
+    jumps from command to command and evaluates each stretch between them on arrays."""
+    out = np.empty(times.shape)
+    bounds = [e[0] for e in events] + [math.inf]
+    start = 0
+    # a command at t acts on the steps after t: the sample at t is the state before it
+    k_stop = int(np.searchsorted(times, bounds[0], side="right"))
+    out[start:k_stop] = rung.samples(times[start:k_stop])
+    for i, (t_event, apply) in enumerate(events):
+        rung.skip_to(t_event)
+        apply(rung)
+        start, k_stop = k_stop, int(np.searchsorted(times, bounds[i + 1], side="right"))
+        out[start:k_stop] = rung.samples(times[start:k_stop])
+    return out
