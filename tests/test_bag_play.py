@@ -504,7 +504,7 @@ def test_progress_line_on_a_terminal_only(tmp_path, request):
     assert res.returncode == 0 and res.stderr == "", res.stderr
 
 
-def test_a_corrupt_chunk_found_while_playing_exits_2_in_one_line(tmp_path, request):
+def test_a_corrupt_chunk_found_while_playing_exits_2_in_one_line(ros_context, tmp_path, request):
     _types, messages = recorded(EXAMPLE)
     data = bytearray((next(EXAMPLE.glob("*.mcap"))).read_bytes())
     mcap_reader = require_module("mcap.reader")
@@ -515,10 +515,18 @@ def test_a_corrupt_chunk_found_while_playing_exits_2_in_one_line(tmp_path, reque
     data[middle : middle + 16] = bytes(b ^ 0xFF for b in data[middle : middle + 16])
     bad = tmp_path / "corrupt.mcap"
     bad.write_bytes(bytes(data))
-    proc = start_play(tmp_path, request, str(bad), "--rate", "20")
-    _out, err = proc.communicate(timeout=60)
+    played = ("/joint_states", "/drs/piston_force")
+    before = sum(1 for topic in played for t, _ in messages[topic] if t < last.message_start_time)
+    sub = RawSubscriber(ros_context, {t: _types[t] for t in played})
+    try:
+        proc = start_play(tmp_path, request, str(bad), "--rate", "20", *START, "--topics", *played)
+        _out, err = receive_until_exit(sub, proc, before)
+    finally:
+        sub.close()
     assert proc.returncode == 2, err
     assert_one_error_line(err, str(bad))
+    # play did not read the whole bag first: what comes before the corrupt chunk was published
+    assert sub.count() > 0, "nothing was published before the corrupt chunk"
 
 
 def assert_one_error_line(err: str, path: str) -> None:

@@ -29,10 +29,10 @@ from drs_model.errors import DRSError
 from drs_model.overrides import from_file
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from .decoded import BagData, read_bag
+from .decoded import BagData, stream_bag
 from .files import BagReadError
-from .model_checks import CheckResult, check_bag, load_force_model, stamp_s
-from .reader import MessageCallbackError
+from .model_checks import CheckResult, ModelChecker, load_force_model
+from .reader import MessageCallbackError, first_message
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
@@ -47,8 +47,7 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     for topic, n in sorted(data.counts.items()):
         lines.append(f"  {topic:<28} {n:>8} messages")
     # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
-    stamps = [stamp_s(ln, m) for msgs in data.messages.values() for ln, m in msgs[:1]]
-    t0 = min(stamps) if stamps else 0.0
+    t0 = min(data.first_stamp_s.values(), default=0.0)
     head = (
         f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} "
         f"{'tol':>9}  status"
@@ -140,30 +139,37 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         )
 
 
-def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
-    """Run ``drs-bag check``; returns the exit status (see the module docstring)."""
+def recorded_params(bag) -> tuple:
+    """The model parameters the bag recorded (the node's first parameter event, found by a
+    look-ahead that stops there) and where they came from, else the seed's."""
+    from .decoded import decoder
     from .effects import recorded_model_params
 
+    decode = decoder()
+    node = "/drs"
+
+    def node_parameters(m) -> bool:
+        event = decode(m)
+        return event.node == node and bool(event.new_parameters)
+
+    first = first_message(bag, DEFAULT_TOPICS["parameter_events"], node_parameters)
+    events = [] if first is None else [(first.log_time, decode(first))]
+    return recorded_model_params(events, node)
+
+
+def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
+    """Run ``drs-bag check``; returns the exit status (see the module docstring)."""
     topics = {key: getattr(args, f"topic_{key}") for key in CHECK_TOPICS}
     names = tuple(n.strip() for n in args.joint_names.split(",") if n.strip())
     try:
         if len(names) != 3:
             raise BagReadError(f"--joint-names needs 3 names (s, psi1, psi3), got {list(names)}")
         force_model, force_note = load_force_model(args.force_model)
-        data = read_bag(
-            args.bag,
-            list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]],
-            recover=args.recover,
-        )
         if args.params:
-            params = from_file(args.params)
+            params, origin = from_file(args.params), None
         else:
-            params, origin = recorded_model_params(
-                data.messages.get(DEFAULT_TOPICS["parameter_events"], [])
-            )
-            data.notes.append(f"model parameters: {origin}")
-        results = check_bag(
-            data,
+            params, origin = recorded_params(args.bag)
+        checker = ModelChecker(
             params,
             tol=args.tol,
             force_tol=args.force_tol,
@@ -174,6 +180,11 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
             max_match_s=args.max_match,
             force_model_tol=args.force_model_tol,
         )
+        data = stream_bag(args.bag, list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]],
+                          checker.add, recover=args.recover)  # fmt: skip
+        if origin is not None:
+            data.notes.append(f"model parameters: {origin}")
+        results = checker.results()
     except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
         print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
         return EXIT_INTERNAL

@@ -371,7 +371,7 @@ def _scan_file(
             _add_channel(out, schemas, rec, fail)
 
     errors = (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
-              UnicodeDecodeError)  # fmt: skip
+              UnicodeDecodeError, *_decompression_errors())  # fmt: skip
     try:
         with open(mcap_path, "rb") as f:
             head = f.read(8)
@@ -455,6 +455,14 @@ def _scan_file(
     return out
 
 
+def _decompression_errors() -> tuple[type[BaseException], ...]:
+    """What the chunk decompressors raise on corrupt data: zstandard's ``ZstdError``, lz4's
+    ``RuntimeError`` (both are dependencies of the ros extra, as mcap reads through them)."""
+    import zstandard
+
+    return (zstandard.ZstdError, RuntimeError)
+
+
 def _add_channel(out: BagScan, schemas, record, fail) -> None:
     schema = schemas.get(record.schema_id)
     if schema is None and record.schema_id != 0:
@@ -469,6 +477,51 @@ def _add_channel(out: BagScan, schemas, record, fail) -> None:
         dict(record.metadata),
     )
     out.counts.setdefault(record.topic, 0)
+
+
+def first_message(
+    path: str | Path, topic: str, accept: Callable[[RecordedMessage], bool] = lambda m: True
+) -> RecordedMessage | None:
+    """The first message of ``topic`` that ``accept`` takes, reading the bag's files in order a
+    chunk at a time and stopping there (a look-ahead, e.g. for the parameters a run recorded at
+    its start). Nothing is verified: a damaged or unreadable file ends the search (None), and
+    :func:`scan` says why."""
+    from mcap.records import Channel, Chunk, Message, Schema
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    try:
+        files = resolve(path, require_metadata=False).files
+    except BagReadError:
+        return None
+    for file in files:
+        schemas: dict[int, Any] = {}
+        channels: dict[int, Any] = {}
+        try:
+            with open(file, "rb") as f:
+                if f.read(8) != MCAP_MAGIC:
+                    return None
+                f.seek(0)
+                for record in StreamReader(f, validate_crcs=True, emit_chunks=True).records:
+                    inner = breakup_chunk(record, True) if isinstance(record, Chunk) else [record]
+                    for rec in inner:
+                        if isinstance(rec, Schema):
+                            schemas[rec.id] = rec
+                        elif isinstance(rec, Channel):
+                            channels[rec.id] = rec
+                        elif isinstance(rec, Message):
+                            channel = channels.get(rec.channel_id)
+                            if channel is None or channel.topic != topic:
+                                continue
+                            schema = schemas.get(channel.schema_id)
+                            message = RecordedMessage(
+                                topic, schema.name if schema else "", rec.log_time,
+                                rec.publish_time, rec.sequence, bytes(rec.data), 0,
+                            )  # fmt: skip
+                            if accept(message):
+                                return message
+        except Exception:  # noqa: BLE001 - the verifying scan reports the damage
+            return None
+    return None
 
 
 def _check_summary(f, footer, size: int, fail) -> None:
@@ -533,5 +586,6 @@ __all__ = [
     "ChannelInfo",
     "MessageCallbackError",
     "RecordedMessage",
+    "first_message",
     "scan",
 ]
