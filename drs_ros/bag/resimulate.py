@@ -25,8 +25,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,53 +52,45 @@ SIGNALS = {
 }  # fmt: skip
 
 
+#: Re-simulated steps kept behind the latest one asked for (a recorded state is compared with
+#: the step its stamp names; a bag in the node's order never looks back more than a few).
+STATE_WINDOW = 65536
+
+
 class ResimulationError(DRSError):
     """The bag cannot be re-simulated (no effect record, no parameters, a missing command)."""
 
 
 @dataclass
 class RecordedRun:
-    """What a re-run needs from a bag, and what it is compared with."""
+    """What a re-run needs from a bag (the parameters, the effect record, the commands); the
+    signals it is compared with are streamed from ``bag`` by :func:`compare`."""
 
     node_parameters: dict
     records: list
     commands: dict = field(default_factory=dict)  # (topic, sequence) -> message
-    joint_states: list = field(default_factory=list)  # (log_ns, JointState)
-    forces: list = field(default_factory=list)
-    gaps: list = field(default_factory=list)
-    extra: dict = field(default_factory=dict)
+    bag: Path | None = None
+    counts: dict = field(default_factory=dict)  # topic -> messages in the bag
 
 
 def read_run(bag: str | Path) -> RecordedRun:
-    """Verify the bag and collect the parameters, the effect record, the commands and the
-    signals to compare."""
+    """Verify the bag (every byte, :func:`drs_ros.bag.reader.scan`) and collect the
+    parameters, the effect record and the commands (the signals are read by :func:`compare`)."""
     tp = DEFAULT_TOPICS
     cmd_topics = {tp[k] for k in commands.COMMAND_TYPES}
-    wanted = {tp["parameter_events"], tp["command_events"], tp["joint_states"],
-              tp["piston_force"], tp["flap_gap"], *cmd_topics}  # fmt: skip
-    got: dict[str, list] = {t: [] for t in wanted}
+    wanted = {tp["parameter_events"], tp["command_events"], *cmd_topics}
+    got: dict[str, list] = {tp["parameter_events"]: [], tp["command_events"]: []}
     cmds: dict = {}
-    # the clock origin in force for each joint state, in the order the node wrote them (a clock
-    # record is written before the states of its tick); log times alone cannot say it once the
-    # node clock has jumped back
-    origin: list = [None]
-    state_origins: list = []
     decode = decoder()
 
     def keep(m) -> None:
         msg = decode(m)
         if m.topic in cmd_topics:
             cmds[(m.topic, m.sequence)] = msg
-            return
-        got[m.topic].append((m.log_time, msg))
-        if m.topic == tp["command_events"]:
-            for r in effect_records([(m.log_time, msg)]):
-                if r.outcome == CLOCK:
-                    origin[0] = int(r.values["t0_ns"])
-        elif m.topic == tp["joint_states"]:
-            state_origins.append(origin[0])
+        else:
+            got[m.topic].append((m.log_time, msg))
 
-    scan(bag, keep, topics=wanted)
+    result = scan(bag, keep, topics=wanted)
     params = recorded_node_parameters(got[tp["parameter_events"]])
     if params is None:
         raise ResimulationError(
@@ -108,9 +102,8 @@ def read_run(bag: str | Path) -> RecordedRun:
             f"{bag}: the bag has no effect record ({tp['command_events']}): it was recorded before "
             "drs recorded when each command took effect, so it cannot be re-run exactly"
         )
-    return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds,
-                       got[tp["joint_states"]], got[tp["piston_force"]],
-                       got[tp["flap_gap"]], {"state_origins": state_origins})  # fmt: skip
+    return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds, Path(bag),
+                       dict(result.counts))  # fmt: skip
 
 
 def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
@@ -123,7 +116,8 @@ def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | N
 
 
 def resimulate(run: RecordedRun, model: DRSParams) -> dict:
-    """Re-run the recorded commands; returns the re-simulated samples by step index and notes."""
+    """The re-run of the recorded commands, step by step as :func:`compare` asks for its states
+    (``state_at(step)``), and its notes: memory holds the last :data:`STATE_WINDOW` steps."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
     sim = ActuatorSim(
@@ -161,9 +155,9 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
 
     keep()
     service = DEFAULT_TOPICS["drs_service"]
-    for r in run.records:
-        if r.outcome not in (ACCEPTED, RESET):
-            continue
+
+    def apply(r) -> None:
+        """Advance to the instant ``r`` took effect and act on it as the node did."""
         advance_to(r.sim_time)
         if r.outcome == RESET:
             # the node's model refused a step; the node held the flap at the recorded stroke at
@@ -176,7 +170,7 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
                 )
             sim.reset(r.sim_time, float(r.values["stroke"]))
             keep()
-            continue
+            return
         key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
         if key == commands.SERVICE_KEY:
             msg = _Value(r.values["value"] == "True")
@@ -195,7 +189,30 @@ def resimulate(run: RecordedRun, model: DRSParams) -> dict:
             notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
                          f"{r.values.get('value', '')}: {exc}")  # fmt: skip
         # no keep(): the node published this step's state before the command acted on it
-    return {"sim": sim, "states": states, "dt": dt, "notes": notes, "advance_to": advance_to}
+
+    pending = [r for r in run.records if r.outcome in (ACCEPTED, RESET)]
+    applied = [0]  # records of ``pending`` acted on so far
+
+    def state_at(k: int):
+        """The re-simulated state of step ``k`` (None if the re-run has none there): every
+        record up to that step acted on first (a reset at ``k`` replaces its state); states more
+        than :data:`STATE_WINDOW` steps before ``k`` are forgotten."""
+        while applied[0] < len(pending) and int(round(pending[applied[0]].sim_time / dt)) <= k:
+            applied[0] += 1
+            apply(pending[applied[0] - 1])
+        advance_to(k * dt)
+        while states and next(iter(states)) < k - STATE_WINDOW:
+            del states[next(iter(states))]
+        return states.get(k)
+
+    def finish() -> None:
+        """Act on the records after the last compared state (their notes belong to the run)."""
+        while applied[0] < len(pending):
+            applied[0] += 1
+            apply(pending[applied[0] - 1])
+
+    return {"sim": sim, "states": states, "dt": dt, "notes": notes, "advance_to": advance_to,
+            "state_at": state_at, "finish": finish}  # fmt: skip
 
 
 @dataclass
@@ -208,30 +225,27 @@ def _stamp_ns(msg) -> int:
     return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
 
 
-def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
-    """``log_time -> physics step`` of each recorded joint state: its stamp is ``t0 +`` simulated
-    time, ``t0`` being the clock origin in force when the node wrote it (a stall or a clock jump
-    moves it; the origins come in write order from :func:`read_run`)."""
-    origins = run.extra.get("state_origins")
-    if not origins or origins[0] is None:
-        raise ResimulationError("the effect record holds no clock origin (t0) before the states")
-    out = {}
-    for (log, m), t0 in zip(run.joint_states, origins, strict=True):
-        stamp = _stamp_ns(m)
-        out[log] = int(round((stamp - t0) * 1e-9 / dt))
-    return out
+def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
+            on_state: Callable | None = None) -> list[dict]:  # fmt: skip
+    """Largest deviation per signal between the recorded and the re-simulated samples, the
+    recorded ones streamed from the bag (a second read, a chunk at a time).
 
-
-def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> list[dict]:
-    """Largest deviation per signal between the recorded and the re-simulated samples."""
-    dt, states = result["dt"], result["states"]
-    steps = joint_state_steps(run, dt)
-    result["advance_to"](max(steps.values(), default=0) * dt)
-    result["by_log"] = {log: states[k] for log, k in steps.items() if k in states}
+    Each recorded joint state's step: its stamp is ``t0 +`` simulated time, ``t0`` being the
+    clock origin in force when the node wrote it (a clock record is written before the states
+    of its tick; a stall or a clock jump moves it, so log times alone cannot say it).
+    ``on_state(log_ns, joint_state, state)`` is called for each joint state with its
+    re-simulated state (None where the re-run has none).
+    """
+    tp = DEFAULT_TOPICS
+    dt, state_at = result["dt"], result["state_at"]
     rows = {name: {"signal": name, "unit": unit, "max_deviation": 0.0, "at_time_s": math.nan,
                    "samples": 0, "tol": tolerances[name]}
             for name, (unit, _) in SIGNALS.items()}  # fmt: skip
-    missing = 0
+    missing = [0]
+    origin: list = [None]
+    seen = [0]
+    recent: dict[int, int] = {}  # log time -> step of the latest joint states
+    decode = decoder()
 
     def note(name: str, dev: float, t: float) -> None:
         row = rows[name]
@@ -239,39 +253,70 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> lis
         if not dev <= row["max_deviation"]:  # NaN counts as the worst
             row["max_deviation"], row["at_time_s"] = dev, t
 
-    for log, m in run.joint_states:
-        k = steps[log]
-        state = states.get(k)
-        if state is None:
-            missing += 1
-            continue
-        q, qd, force, _gap, _acc = state
-        names = ("stroke", "link_angle", "flap_angle")
-        for i, name in enumerate(names):
-            note(name, abs(m.position[i] - q[i]), k * dt)
-        for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
-            note(name, abs(m.velocity[i] - qd[i]), k * dt)
-        note("piston_force", abs(m.effort[0] - force), k * dt)
-    # the Float64 topics are published in the same tick, logged at the same node time
-    for topic_msgs, name, idx in ((run.forces, "piston_force", 2), (run.gaps, "gap", 3)):
-        for log, m in topic_msgs:
-            k = steps.get(log)
-            if k is None or k not in states:
-                continue
-            note(name, abs(m.data - states[k][idx]), k * dt)
+    scalar = {tp["piston_force"]: ("piston_force", 2), tp["flap_gap"]: ("gap", 3)}
+
+    def take(m) -> None:
+        msg = decode(m)
+        if m.topic == tp["command_events"]:
+            for r in effect_records([(m.log_time, msg)]):
+                if r.outcome == CLOCK:
+                    origin[0] = int(r.values["t0_ns"])
+            return
+        if m.topic == tp["joint_states"]:
+            if seen[0] == 0 and origin[0] is None:
+                raise ResimulationError(
+                    "the effect record holds no clock origin (t0) before the states"
+                )
+            seen[0] += 1
+            k = int(round((_stamp_ns(msg) - origin[0]) * 1e-9 / dt))
+            recent[m.log_time] = k
+            if len(recent) > STATE_WINDOW:
+                del recent[next(iter(recent))]
+            state = state_at(k)
+            if on_state is not None:
+                on_state(m.log_time, msg, state)
+            if state is None:
+                missing[0] += 1
+                return
+            q, qd, force, _gap, _acc = state
+            for i, name in enumerate(("stroke", "link_angle", "flap_angle")):
+                note(name, abs(msg.position[i] - q[i]), k * dt)
+            for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
+                note(name, abs(msg.velocity[i] - qd[i]), k * dt)
+            note("piston_force", abs(msg.effort[0] - force), k * dt)
+            return
+        # the Float64 topics are published in the same tick, logged at the same node time
+        name, idx = scalar[m.topic]
+        k = recent.get(m.log_time)
+        state = None if k is None else state_at(k)
+        if state is not None:
+            note(name, abs(msg.data - state[idx]), k * dt)
+
+    topics = {tp["command_events"], tp["joint_states"], *scalar}
+    try:
+        scan(run.bag, take, exact=False, topics=topics)
+    except MessageCallbackError as exc:  # the re-run's own refusal: a verdict, not a crash
+        if isinstance(exc.__cause__, ResimulationError):
+            raise exc.__cause__ from None
+        raise
+    if seen[0] == 0:
+        raise ResimulationError("the effect record holds no clock origin (t0) before the states")
+    result["finish"]()
     out = list(rows.values())
     for row in out:
         row["ok"] = bool(row["max_deviation"] <= row["tol"])
         if math.isnan(row["at_time_s"]):
             row["at_time_s"] = None
-    if missing:
-        result["notes"].append(f"{missing} recorded joint states have no re-simulated step")
+    if missing[0]:
+        result["notes"].append(f"{missing[0]} recorded joint states have no re-simulated step")
     return out
 
 
-def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams) -> None:
-    """The re-simulated run as a new bag: the parameters it ran with, then joint states, force,
-    gap and acceleration at the recorded stamps (so ``drs-bag check`` checks it too)."""
+@contextmanager
+def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams):
+    """The re-simulated run as a new bag, written as :func:`compare` goes (its ``on_state``):
+    the parameters it ran with, then joint states, force, gap and acceleration at the recorded
+    stamps (so ``drs-bag check`` checks it too). Nothing is left of it if the re-run fails."""
     from rcl_interfaces.msg import ParameterEvent
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
@@ -284,27 +329,40 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
     tp = DEFAULT_TOPICS
     values = dict(run.node_parameters)
     values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
-    with McapRecorder(out, flush_thread=False) as rec:
-        rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
-        first = run.joint_states[0][0] if run.joint_states else 0
-        rec.write(tp["parameter_events"], parameter_event("/drs", values, first), first)
-        rec.register_topic(tp["joint_states"], JointState, 10)
-        for key in ("piston_force", "flap_gap", "piston_acceleration"):
-            rec.register_topic(tp[key], Float64, 10)
-        for log, m in run.joint_states:
-            stamp = _stamp_ns(m)
-            state = result["by_log"].get(log)
-            if state is None:
-                continue
-            q, qd, force, gap, acc = state
-            js = JointState(name=names, position=[float(x) for x in q],
-                            velocity=[float(x) for x in qd],
-                            effort=[float(force), math.nan, math.nan])  # fmt: skip
-            js.header.stamp = time_msg(stamp)
-            rec.write(tp["joint_states"], js, log)
-            rec.write(tp["piston_force"], float_msg(force), log)
-            rec.write(tp["flap_gap"], float_msg(gap), log)
-            rec.write(tp["piston_acceleration"], float_msg(acc), log)
+    made = not Path(out).exists()
+    rec = McapRecorder(out, flush_thread=False)
+    first = [True]
+
+    def write(log: int, m, state) -> None:
+        if first[0]:  # the parameters, at the first joint state's log time
+            first[0] = False
+            rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
+            rec.write(tp["parameter_events"], parameter_event("/drs", values, log), log)
+            rec.register_topic(tp["joint_states"], JointState, 10)
+            for key in ("piston_force", "flap_gap", "piston_acceleration"):
+                rec.register_topic(tp[key], Float64, 10)
+        if state is None:
+            return
+        q, qd, force, gap, acc = state
+        js = JointState(name=names, position=[float(x) for x in q],
+                        velocity=[float(x) for x in qd],
+                        effort=[float(force), math.nan, math.nan])  # fmt: skip
+        js.header.stamp = time_msg(_stamp_ns(m))
+        rec.write(tp["joint_states"], js, log)
+        rec.write(tp["piston_force"], float_msg(force), log)
+        rec.write(tp["flap_gap"], float_msg(gap), log)
+        rec.write(tp["piston_acceleration"], float_msg(acc), log)
+
+    try:
+        yield write
+    except BaseException:
+        rec.discard()
+        if made:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    if first[0]:  # no joint state: the parameters alone
+        write(0, None, None)
+    rec.finish()
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -340,9 +398,11 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
         recorded = read_run(args.bag)
         model = run_params(recorded.node_parameters, args.set, args.params)
         result = resimulate(recorded, model)
-        rows = compare(recorded, result, tolerances)
-        if args.output:
-            write_bag(args.output, recorded, result, model)
+        with ExitStack() as stack:
+            on_state = None
+            if args.output:
+                on_state = stack.enter_context(bag_writer(args.output, recorded, model))
+            rows = compare(recorded, result, tolerances, on_state)
     except MessageCallbackError as exc:  # our own failure on an intact message
         print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
         return 4
@@ -370,4 +430,12 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
     return 0 if ok else 1
 
 
-__all__ = ["ResimulationError", "add_arguments", "compare", "read_run", "resimulate", "run"]
+__all__ = [
+    "ResimulationError",
+    "add_arguments",
+    "bag_writer",
+    "compare",
+    "read_run",
+    "resimulate",
+    "run",
+]
