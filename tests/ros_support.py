@@ -97,3 +97,32 @@ def write_drs_bag(
             rec.write("/drs/flap_gap", Float64(data=float(gaps[k])), ns)
             rec.write("/drs/piston_force", Float64(data=float(force[k])), ns)
     return rec, t, q, qd, force
+
+
+def mcap_to_db3(src, dst, max_messages: int | None = None):
+    """Copy an MCAP bag (a file or a bag directory of one file) into a new rosbag2 sqlite3 bag
+    directory ``dst`` with rosbags' writer (an independent writer: the bytes, topics, types,
+    definitions and hashes as recorded); ``max_messages`` stops early. Returns ``dst``."""
+    from pathlib import Path
+
+    from mcap.reader import make_reader
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    src = Path(src)
+    path = next(src.glob("*.mcap")) if src.is_dir() else src
+    with open(path, "rb") as f, Writer(dst, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        conns = {}
+        for cid, ch in summary.channels.items():
+            schema = summary.schemas[ch.schema_id]
+            rihs01 = ch.metadata.get("topic_type_hash") or "RIHS01_" + "0" * 64
+            conns[cid] = w.add_connection(ch.topic, schema.name, msgdef=schema.data.decode(),
+                                          rihs01=rihs01,
+                                          serialization_format=ch.message_encoding)  # fmt: skip
+        messages = reader.iter_messages(log_time_order=False)  # the file's order, kept
+        for n, (_schema, channel, message) in enumerate(messages):
+            if max_messages is not None and n >= max_messages:
+                break
+            w.write(conns[channel.id], message.log_time, message.data)
+    return Path(dst)
