@@ -126,3 +126,38 @@ def mcap_to_db3(src, dst, max_messages: int | None = None):
                 break
             w.write(conns[channel.id], message.log_time, message.data)
     return Path(dst)
+
+
+def write_split_bag(tmp_path, params, *, killed: bool, n: int = 240):
+    """A bag split as rosbag2 splits it, ``split/split_0.mcap`` (samples 0..n/2) and
+    ``split/split_1.mcap`` (the rest); ``killed``: the second file cut at 60 % and no
+    metadata.yaml (the recorder was SIGKILLed while writing it). Returns the bag and the number
+    of messages of the first file."""
+    import yaml
+
+    half = n // 2
+    parts = []
+    for i, samples in enumerate((range(0, half), range(half, n))):
+        rec, *_ = write_drs_bag(tmp_path / f"part{i}", params, n=n, samples=samples,
+                                recorder_kwargs={"flush_messages": 45})  # fmt: skip
+        parts.append(rec)
+    bag = tmp_path / "split"
+    bag.mkdir()
+    for i, rec in enumerate(parts):
+        data = rec.path.read_bytes()
+        if killed and i == 1:
+            data = data[: int(len(data) * 0.6)]
+        (bag / f"split_{i}.mcap").write_bytes(data)
+    if not killed:
+        metas = [rec.bag_metadata() for rec in parts]
+        meta = metas[0]
+        for topic, other in zip(meta["topics_with_message_count"],
+                                metas[1]["topics_with_message_count"], strict=True):  # fmt: skip
+            topic["message_count"] += other["message_count"]
+        meta["message_count"] += metas[1]["message_count"]
+        meta["relative_file_paths"] = ["split_0.mcap", "split_1.mcap"]
+        meta["files"] = []
+        (bag / "metadata.yaml").write_text(
+            yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
+        )
+    return bag, 3 * half

@@ -35,6 +35,8 @@ class BagData:
     first_stamp_s : dict
         topic -> stamp [s] of its first message (header stamp, else log time), for each topic
         asked for that has one.
+    start_ns, end_ns : int or None
+        Earliest and latest log time of the messages read (every topic) [ns].
     """
 
     path: Path
@@ -43,6 +45,8 @@ class BagData:
     recovered: bool = False
     notes: list[str] = field(default_factory=list)
     first_stamp_s: dict[str, float] = field(default_factory=dict)
+    start_ns: int | None = None
+    end_ns: int | None = None
 
 
 def stamp_s(log_ns: int, msg) -> float:
@@ -106,7 +110,8 @@ def stream_bag(
     if result.complete:
         notes.insert(0, f"verified: {result.message_count} messages, every byte read "
                         "(CRCs, summary, metadata.yaml, exact CDR)")  # fmt: skip
-    return BagData(result.path, {}, dict(result.counts), not result.complete, notes, first)
+    return BagData(result.path, {}, dict(result.counts), not result.complete, notes, first,
+                   result.start_ns, result.end_ns)  # fmt: skip
 
 
 def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> BagData:

@@ -39,6 +39,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
+from . import fleet
 from .decoded import decoder
 from .effects import effect_records, model_params_from, recorded_node_parameters
 from .files import BagReadError
@@ -71,6 +72,8 @@ class RecordedRun:
     commands: dict = field(default_factory=dict)  # (topic, sequence) -> message
     bag: Path | None = None
     counts: dict = field(default_factory=dict)  # topic -> messages in the bag
+    start_ns: int | None = None  # earliest and latest log time [ns]
+    end_ns: int | None = None
 
 
 def read_run(bag: str | Path) -> RecordedRun:
@@ -103,7 +106,7 @@ def read_run(bag: str | Path) -> RecordedRun:
             "drs recorded when each command took effect, so it cannot be re-run exactly"
         )
     return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds, Path(bag),
-                       dict(result.counts))  # fmt: skip
+                       dict(result.counts), result.start_ns, result.end_ns)  # fmt: skip
 
 
 def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
@@ -366,7 +369,12 @@ def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams):
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("bag", help="bag directory or .mcap file recorded by drs-node")
+    ap.add_argument(
+        "bag",
+        nargs="+",
+        help="bag directory, .mcap or .db3 file recorded by drs-node; several, directories "
+        "searched for bags, or globs re-run a fleet (one row per bag)",
+    )
     ap.add_argument(
         "--set",
         action="append",
@@ -375,7 +383,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5",
     )
     ap.add_argument("--params", help="a .toml/.yaml file of model parameters for the re-run")
-    ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory")
+    ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory; "
+                    "with many bags, FILE.parquet: the table, one row per bag")  # fmt: skip
     ap.add_argument(
         "--tol",
         type=float,
@@ -389,35 +398,85 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="tolerance of the piston force [N] (default 1e-6)",
     )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
+    fleet.add_fleet_arguments(ap)
 
 
-def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
+@dataclass
+class ResimulationOutcome:
+    """What re-running one bag gave: exit status (see the module docstring), the rows of
+    :func:`compare`, the notes, the error line ('' when none), the recorded run and the model."""
+
+    status: int
+    rows: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    error: str = ""
+    run: RecordedRun | None = None
+    model: DRSParams | None = None
+
+
+def resimulate_one(bag, args: argparse.Namespace, output: str | None = None) -> ResimulationOutcome:
+    """Re-run one bag with the options of ``drs-bag resimulate`` (``args``), writing the
+    re-simulated bag to ``output`` if given; never raises for the bag's faults."""
     tolerances = {name: (args.force_tol if unit == "N" else args.tol)
                   for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+    recorded = model = None
     try:
-        recorded = read_run(args.bag)
+        recorded = read_run(bag)
         model = run_params(recorded.node_parameters, args.set, args.params)
         result = resimulate(recorded, model)
         with ExitStack() as stack:
             on_state = None
-            if args.output:
-                on_state = stack.enter_context(bag_writer(args.output, recorded, model))
+            if output:
+                on_state = stack.enter_context(bag_writer(output, recorded, model))
             rows = compare(recorded, result, tolerances, on_state)
     except MessageCallbackError as exc:  # our own failure on an intact message
-        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
-        return 4
+        return ResimulationOutcome(4, error=f"internal error (not a verdict on the bag): {exc}",
+                                   run=recorded, model=model)  # fmt: skip
     except (DRSError, BagReadError) as exc:
-        print(f"{prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return ResimulationOutcome(2, error=f"error: {exc}", run=recorded, model=model)
     ok = all(r["ok"] for r in rows)
-    if args.output:
-        result["notes"].append(f"wrote the re-simulated run to {args.output}")
+    if output:
+        result["notes"].append(f"wrote the re-simulated run to {output}")
+    return ResimulationOutcome(0 if ok else 1, rows, result["notes"], "", recorded, model)
+
+
+VERDICTS = {0: "PASS", 1: "DEVIATES", 2: "UNREADABLE", 4: "INTERNAL ERROR"}
+
+
+def fleet_row(bag: str, args: argparse.Namespace) -> dict:
+    """Re-run one bag of a fleet (a Dask task): its row of the table (see
+    :mod:`drs_ros.bag.fleet`): verdict, exit status, error, each signal's largest deviation,
+    counts, the notes and the model parameters of the re-run."""
+    outcome = resimulate_one(bag, args)
+    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error)
+    for name, (unit, _) in SIGNALS.items():
+        row[f"{name}_deviation_{unit.replace('/', '_')}"] = math.nan
+    for r in outcome.rows:
+        unit = r["unit"].replace("/", "_")
+        row[f"{r['signal']}_deviation_{unit}"] = float(r["max_deviation"])
+    run = outcome.run
+    if run is not None:
+        row.update(fleet.count_columns(run.counts, run.start_ns, run.end_ns, False))
+    row["notes"] = list(outcome.notes)
+    row.update(fleet.param_columns(outcome.model))
+    return row
+
+
+def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
+    if fleet.is_fleet(args):
+        return fleet.run_fleet(fleet_row, args, prog, "re-simulated",
+                               ("messages", "stroke_deviation_m", "piston_force_deviation_N"))
+    outcome = resimulate_one(args.bag[0], args, args.output)
+    if outcome.error:
+        print(f"{prog}: {outcome.error}", file=sys.stderr)
+        return outcome.status
+    rows, notes, ok = outcome.rows, outcome.notes, outcome.status == 0
     if args.json:
-        print(json.dumps({"bag": str(args.bag), "ok": ok, "signals": rows,
-                          "notes": result["notes"], "changed": args.set}, indent=2,
+        print(json.dumps({"bag": str(args.bag[0]), "ok": ok, "signals": rows,
+                          "notes": notes, "changed": args.set}, indent=2,
                          default=lambda x: None))  # fmt: skip
     else:
-        print(f"re-simulated {args.bag}" + (f" with {', '.join(args.set)}" if args.set else ""))
+        print(f"re-simulated {args.bag[0]}" + (f" with {', '.join(args.set)}" if args.set else ""))
         print(f"{'signal':<14} {'unit':<6} {'n':>6} {'max deviation':>14} {'at t [s]':>10} "
               f"{'tol':>8}  status")  # fmt: skip
         for r in rows:
@@ -425,9 +484,9 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
             print(f"{r['signal']:<14} {r['unit']:<6} {r['samples']:>6} "
                   f"{r['max_deviation']:>14.3e} {at:>10} {r['tol']:>8.1e}  "
                   f"{'ok' if r['ok'] else 'DEVIATES'}")  # fmt: skip
-        for n in result["notes"]:
+        for n in notes:
             print(f"note: {n}")
-    return 0 if ok else 1
+    return outcome.status
 
 
 __all__ = [
@@ -435,7 +494,9 @@ __all__ = [
     "add_arguments",
     "bag_writer",
     "compare",
+    "fleet_row",
     "read_run",
     "resimulate",
+    "resimulate_one",
     "run",
 ]
