@@ -155,6 +155,9 @@ def write_split_bag(tmp_path, params, *, killed: bool, n: int = 240):
                                 metas[1]["topics_with_message_count"], strict=True):  # fmt: skip
             topic["message_count"] += other["message_count"]
         meta["message_count"] += metas[1]["message_count"]
+        end = (metas[1]["starting_time"]["nanoseconds_since_epoch"]
+               + metas[1]["duration"]["nanoseconds"])  # fmt: skip
+        meta["duration"]["nanoseconds"] = end - meta["starting_time"]["nanoseconds_since_epoch"]
         meta["relative_file_paths"] = ["split_0.mcap", "split_1.mcap"]
         meta["files"] = []
         (bag / "metadata.yaml").write_text(

@@ -136,3 +136,50 @@ def test_a_bad_table_path_or_no_bag_is_one_line_and_status_2(fleet_dir, tmp_path
     empty.mkdir()
     assert check.main([str(empty), "--jobs", "1"]) == 2
     assert "no bag under" in capsys.readouterr().err
+
+
+def test_index_catalogues_from_summaries_what_check_reads_from_every_byte(fleet_dir, tmp_path,
+                                                                         capsys):  # fmt: skip
+    """The catalogue's columns equal the check table's for every readable bag (the same counts,
+    start and duration, from metadata.yaml or the MCAP summary or the sqlite3 tables instead of
+    every message); an unfinished recording without a summary is a row with its error; DuckDB
+    queries the file."""
+    duckdb = require_module("duckdb")
+    from drs_ros.bag import check
+    from drs_ros.bag.cli import main
+
+    root = tmp_path / "season"  # the module's directory, and two bags more
+    shutil.copytree(fleet_dir, root)
+    (root / "bare").mkdir()
+    shutil.copy(next(EXAMPLE.glob("*.mcap")), root / "bare" / "bare_0.mcap")  # no metadata.yaml
+    (root / "unfinished").mkdir()
+    data = next(EXAMPLE.glob("*.mcap")).read_bytes()
+    (root / "unfinished" / "unfinished_0.mcap").write_bytes(data[: len(data) // 2])
+    catalogue = tmp_path / "catalogue.parquet"
+    assert main(["index", str(root), "-o", str(catalogue)]) == 1  # one row has an error
+    assert "catalogued 7 bags" in capsys.readouterr().out
+    assert check.main([str(root), "--jobs", "2", "-o", str(tmp_path / "t.parquet")]) == 1
+    capsys.readouterr()
+    rows = {Path(r["bag"]).name: r for r in _table(catalogue)}
+    checked = {Path(r["bag"]).name: r for r in _table(tmp_path / "t.parquet")}
+    assert list(rows) == list(checked)
+    assert rows["bare"]["source"] == "MCAP summary" and rows["sqlite"]["storage"] == "sqlite3"
+    assert "no readable MCAP summary" in rows["unfinished"]["error"]
+    for name, row in rows.items():
+        if checked[name]["error"] is None:
+            for column in ("storage", "messages", "start_ns", "duration_s"):
+                assert row[column] == checked[name][column], (name, column)
+            assert sorted(row["counts"]) == sorted(checked[name]["counts"]), name
+    # the summary of the truncated copy still says what its metadata.yaml says: the index
+    # is no check
+    assert rows["damaged"]["error"] is None and checked["damaged"]["verdict"] == "UNREADABLE"
+    query = (f"SELECT storage, count(*) AS bags, sum(counts['/joint_states']) AS joint_states "
+             f"FROM '{catalogue}' WHERE error IS NULL GROUP BY storage ORDER BY storage")
+    got = duckdb.sql(query).fetchall()
+    want: dict[str, list] = {}
+    for row in rows.values():
+        if row["error"] is None:
+            entry = want.setdefault(row["storage"], [0, 0])
+            entry[0] += 1
+            entry[1] += dict(row["counts"]).get("/joint_states", 0)
+    assert got == [(k, *v) for k, v in sorted(want.items())]

@@ -180,8 +180,8 @@ def run_rows(row_function: Callable, bags: Sequence[str], args: argparse.Namespa
 
 
 def to_table(rows: list[dict]):
-    """The rows as a ``pyarrow.Table`` (columns in the order of the first row; ``counts`` a
-    map of topic to messages, ``notes`` a list of strings)."""
+    """The rows as a ``pyarrow.Table`` (columns in the order they first appear; a dict value a
+    map column, e.g. ``counts`` of topic to messages; a list a list of strings)."""
     import pyarrow as pa
 
     columns: dict[str, None] = {}
@@ -190,19 +190,20 @@ def to_table(rows: list[dict]):
     data = {c: [row.get(c) for row in rows] for c in columns}
     fields = []
     for name, values in data.items():
-        if name == "counts":
-            fields.append(pa.field(name, pa.map_(pa.string(), pa.int64())))
+        sample = next((v for v in values if v not in (None, {}, [])), None)
+        if isinstance(sample, dict):  # topic -> count or type: a map column
+            inner = next(iter(sample.values()))
+            kind = pa.map_(pa.string(), pa.int64() if isinstance(inner, int) else pa.string())
             data[name] = [list((v or {}).items()) for v in values]
-        elif name == "notes":
-            fields.append(pa.field(name, pa.list_(pa.string())))
+        elif isinstance(sample, list) or name == "notes":
+            kind = pa.list_(pa.string())
         else:
-            sample = next((v for v in values if v is not None), None)
             kind = (pa.bool_() if isinstance(sample, bool) else
                     pa.int64() if isinstance(sample, int) else
                     pa.float64() if isinstance(sample, float) else pa.string())  # fmt: skip
             if kind == pa.float64():
                 data[name] = [None if v is None else float(v) for v in values]
-            fields.append(pa.field(name, kind))
+        fields.append(pa.field(name, kind))
     return pa.table(data, schema=pa.schema(fields))
 
 
