@@ -265,7 +265,8 @@ def fleet_row(bag: str, args: argparse.Namespace) -> dict:
     if data is not None:
         row.update(fleet.count_columns(data.counts, data.start_ns, data.end_ns, data.recovered))
         row["notes"] = data.notes
-    row.update((outcome.stats or RunStats()).row())
+    figures = (outcome.stats or RunStats()).row()
+    row.update(figures if data is not None else dict.fromkeys(figures))  # unread: nulls
     row.update(fleet.param_columns(outcome.params))
     return row
 

@@ -144,7 +144,9 @@ def read_metadata(meta_path: str | Path) -> dict[str, Any]:
         return BagMetadataError(f"{where!r}: not a rosbag2 metadata file: {text}")
 
     try:
-        data = yaml.safe_load(Path(meta_path).read_text(encoding="utf-8"))
+        # libyaml's safe loader when PyYAML has it (13x faster: a catalogue reads thousands)
+        data = yaml.load(Path(meta_path).read_text(encoding="utf-8"),
+                         Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))  # fmt: skip
     except (OSError, UnicodeDecodeError) as exc:
         raise BagMetadataError(f"{where!r}: cannot be read ({exc})") from exc
     except yaml.YAMLError as exc:

@@ -181,7 +181,7 @@ def run_rows(row_function: Callable, bags: Sequence[str], args: argparse.Namespa
 
 def to_table(rows: list[dict]):
     """The rows as a ``pyarrow.Table`` (columns in the order they first appear; a dict value a
-    map column, e.g. ``counts`` of topic to messages; a list a list of strings)."""
+    map column, e.g. ``counts`` of topic to messages; a list a list of strings; a NaN a null)."""
     import pyarrow as pa
 
     columns: dict[str, None] = {}
@@ -201,8 +201,8 @@ def to_table(rows: list[dict]):
             kind = (pa.bool_() if isinstance(sample, bool) else
                     pa.int64() if isinstance(sample, int) else
                     pa.float64() if isinstance(sample, float) else pa.string())  # fmt: skip
-            if kind == pa.float64():
-                data[name] = [None if v is None else float(v) for v in values]
+            if kind == pa.float64():  # NaN (nothing to say) is a null: a missing value
+                data[name] = [None if v is None or v != v else float(v) for v in values]
         fields.append(pa.field(name, kind))
     return pa.table(data, schema=pa.schema(fields))
 
