@@ -8,6 +8,12 @@ an error naming the offset and the topic. Then the model checks
 and velocity constraints of the joint states, the gap, the piston force from the inverse
 dynamics.
 
+The bag is read a chunk at a time and the model checks run block by block
+(:class:`drs_ros.bag.model_checks.ModelChecker`): memory does not grow with the bag. MCAP and
+sqlite3 (``.db3``) bags are read. Many bags (several paths, a directory of bags, a glob, ``-o
+FILE.parquet``, ``--jobs``, ``--scheduler``) are checked on Dask, one row per bag
+(:func:`fleet_row`, :mod:`drs_ros.bag.fleet`).
+
 Exit status: 0 verified and every check within tolerance; 1 a model check failed; 2 the bag is
 missing, unreadable, corrupt or inconsistent, or its ``metadata.yaml`` is malformed (one line on
 stderr); 3 ``--recover`` checked the readable part of a damaged bag (it stopped early: the report

@@ -19,6 +19,10 @@ A bag split into several files (``name_0.mcap``, ``name_1.mcap``... as rosbag2 s
 file by file, in order (:func:`drs_ros.bag.files.resolve` is the one place that finds a bag's
 files).
 
+A sqlite3 bag (rosbag2's ``.db3`` storage, :mod:`drs_ros.bag.sqlite`) is read row by row in
+the order rosbag2 wrote it, after SQLite's integrity check of every page, with the same message
+checks and the same ``metadata.yaml`` counts.
+
 With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
 reports where and why it stopped, instead of raising; in a split bag each file is read up to its
 own first problem.

@@ -13,6 +13,11 @@ recorded ``/joint_states``, piston force and gap with the re-simulated ones, sam
 (each recorded stamp is ``t0 + simulated time``; the clock records give ``t0``), and reports the
 largest deviation per signal with its time.
 
+The bag is read twice, a chunk at a time: first (verifying every byte) the parameters, the effect
+record and the commands; then the signals, while the re-run advances as they ask and keeps only
+the last :data:`STATE_WINDOW` steps. Many bags run on Dask, one row per bag (:func:`fleet_row`,
+:mod:`drs_ros.bag.fleet`).
+
 Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
 read (or its ``metadata.yaml`` is malformed), or holds no effect record (it was recorded before
 drs recorded when commands took effect) or no parameters; 4 decoding a message that passed every
