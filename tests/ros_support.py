@@ -97,3 +97,70 @@ def write_drs_bag(
             rec.write("/drs/flap_gap", Float64(data=float(gaps[k])), ns)
             rec.write("/drs/piston_force", Float64(data=float(force[k])), ns)
     return rec, t, q, qd, force
+
+
+def mcap_to_db3(src, dst, max_messages: int | None = None):
+    """Copy an MCAP bag (a file or a bag directory of one file) into a new rosbag2 sqlite3 bag
+    directory ``dst`` with rosbags' writer (an independent writer: the bytes, topics, types,
+    definitions and hashes as recorded); ``max_messages`` stops early. Returns ``dst``."""
+    from pathlib import Path
+
+    from mcap.reader import make_reader
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    src = Path(src)
+    path = next(src.glob("*.mcap")) if src.is_dir() else src
+    with open(path, "rb") as f, Writer(dst, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        conns = {}
+        for cid, ch in summary.channels.items():
+            schema = summary.schemas[ch.schema_id]
+            rihs01 = ch.metadata.get("topic_type_hash") or "RIHS01_" + "0" * 64
+            conns[cid] = w.add_connection(ch.topic, schema.name, msgdef=schema.data.decode(),
+                                          rihs01=rihs01,
+                                          serialization_format=ch.message_encoding)  # fmt: skip
+        messages = reader.iter_messages(log_time_order=False)  # the file's order, kept
+        for n, (_schema, channel, message) in enumerate(messages):
+            if max_messages is not None and n >= max_messages:
+                break
+            w.write(conns[channel.id], message.log_time, message.data)
+    return Path(dst)
+
+
+def write_split_bag(tmp_path, params, *, killed: bool, n: int = 240):
+    """A bag split as rosbag2 splits it, ``split/split_0.mcap`` (samples 0..n/2) and
+    ``split/split_1.mcap`` (the rest); ``killed``: the second file cut at 60 % and no
+    metadata.yaml (the recorder was SIGKILLed while writing it). Returns the bag and the number
+    of messages of the first file."""
+    import yaml
+
+    half = n // 2
+    parts = []
+    for i, samples in enumerate((range(0, half), range(half, n))):
+        rec, *_ = write_drs_bag(tmp_path / f"part{i}", params, n=n, samples=samples,
+                                recorder_kwargs={"flush_messages": 45})  # fmt: skip
+        parts.append(rec)
+    bag = tmp_path / "split"
+    bag.mkdir()
+    for i, rec in enumerate(parts):
+        data = rec.path.read_bytes()
+        if killed and i == 1:
+            data = data[: int(len(data) * 0.6)]
+        (bag / f"split_{i}.mcap").write_bytes(data)
+    if not killed:
+        metas = [rec.bag_metadata() for rec in parts]
+        meta = metas[0]
+        for topic, other in zip(meta["topics_with_message_count"],
+                                metas[1]["topics_with_message_count"], strict=True):  # fmt: skip
+            topic["message_count"] += other["message_count"]
+        meta["message_count"] += metas[1]["message_count"]
+        end = (metas[1]["starting_time"]["nanoseconds_since_epoch"]
+               + metas[1]["duration"]["nanoseconds"])  # fmt: skip
+        meta["duration"]["nanoseconds"] = end - meta["starting_time"]["nanoseconds_since_epoch"]
+        meta["relative_file_paths"] = ["split_0.mcap", "split_1.mcap"]
+        meta["files"] = []
+        (bag / "metadata.yaml").write_text(
+            yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
+        )
+    return bag, 3 * half

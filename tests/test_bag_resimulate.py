@@ -230,3 +230,32 @@ def test_recorded_model_parameters_are_rebuilt_exactly(params, overrides):
         assert getattr(got, f.name) == getattr(run, f.name), f.name
     if "Iz_wing" in overrides:
         assert got.Iz_wing == 0.0096 and got.m_wing == 3.0
+
+
+def test_a_window_of_a_few_steps_re_runs_as_the_whole_run(monkeypatch):
+    """The re-run keeps only the steps near the one asked for (bounded memory): with a window
+    of 3 steps instead of 65536 the comparison of the example bag, its notes and the written
+    bag's states are the same."""
+    require_rclpy()
+    from drs_ros.bag import resimulate as module
+
+    def rerun():
+        run = module.read_run(EXAMPLE)
+        result = module.resimulate(run, module.run_params(run.node_parameters))
+        written = []
+        tolerances = {name: tol for name, (_unit, tol) in module.SIGNALS.items()}
+        rows = module.compare(run, result, tolerances,
+                              lambda log, m, state: written.append((log, state)))  # fmt: skip
+        return rows, result["notes"], written, len(result["states"])
+
+    rows, notes, written, held = rerun()
+    monkeypatch.setattr(module, "STATE_WINDOW", 3)
+    rows_w, notes_w, written_w, held_w = rerun()
+    assert rows_w == rows and notes_w == notes
+    assert len(written_w) == len(written) > 500
+    for (log, a), (log_w, b) in zip(written, written_w, strict=True):
+        assert log == log_w and (a is None) == (b is None)
+        if a is not None:
+            for x, y in zip(a, b, strict=True):
+                np.testing.assert_array_equal(x, y)
+    assert held_w <= 5 < held  # what the window holds at the end

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 from node_support import domain_for, node_env, wait_for_file_growth
-from ros_support import require_module, require_rclpy, write_drs_bag
+from ros_support import require_module, require_rclpy, write_drs_bag, write_split_bag
 
 pytestmark = pytest.mark.ros
 
@@ -444,41 +444,6 @@ def test_recover_that_cannot_write_its_output_leaves_nothing(tmp_path):
 
 
 # ---- split bags ---------------------------------------------------------------------------------
-def _split_bag(tmp_path: Path, params, *, killed: bool, n: int = 240) -> tuple[Path, int]:
-    """A bag split as rosbag2 splits it, ``split/split_0.mcap`` (samples 0..n/2) and
-    ``split/split_1.mcap`` (the rest); ``killed``: the second file cut at 60 % and no
-    metadata.yaml (the recorder was SIGKILLed while writing it). Returns the bag and the number
-    of messages of the first file."""
-    import yaml
-
-    half = n // 2
-    parts = []
-    for i, samples in enumerate((range(0, half), range(half, n))):
-        rec, *_ = write_drs_bag(tmp_path / f"part{i}", params, n=n, samples=samples,
-                                recorder_kwargs={"flush_messages": 45})  # fmt: skip
-        parts.append(rec)
-    bag = tmp_path / "split"
-    bag.mkdir()
-    for i, rec in enumerate(parts):
-        data = rec.path.read_bytes()
-        if killed and i == 1:
-            data = data[: int(len(data) * 0.6)]
-        (bag / f"split_{i}.mcap").write_bytes(data)
-    if not killed:
-        metas = [rec.bag_metadata() for rec in parts]
-        meta = metas[0]
-        for topic, other in zip(meta["topics_with_message_count"],
-                                metas[1]["topics_with_message_count"], strict=True):  # fmt: skip
-            topic["message_count"] += other["message_count"]
-        meta["message_count"] += metas[1]["message_count"]
-        meta["relative_file_paths"] = ["split_0.mcap", "split_1.mcap"]
-        meta["files"] = []
-        (bag / "metadata.yaml").write_text(
-            yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
-        )
-    return bag, 3 * half
-
-
 def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
     from drs_ros.bag.files import BagReadError, resolve
 
@@ -491,12 +456,12 @@ def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
         resolve(tmp_path)
 
 
-def test_check_and_info_read_every_file_of_a_split_bag(tmp_path, params, capsys):
+def test_check_and_info_read_every_file_of_awrite_split_bag(tmp_path, params, capsys):
     require_rclpy()
     from drs_ros.bag import check
     from drs_ros.bag.cli import main
 
-    bag, _first = _split_bag(tmp_path, params, killed=False)
+    bag, _first = write_split_bag(tmp_path, params, killed=False)
     assert check.main([str(bag), "--json"]) == 0, capsys.readouterr().err
     report = json.loads(capsys.readouterr().out)
     assert report["messages"] == {"/joint_states": 240, "/drs/flap_gap": 240,
@@ -511,7 +476,7 @@ def test_check_and_info_read_every_file_of_a_split_bag(tmp_path, params, capsys)
     assert "counts 719 messages, its 2 files hold 720" in capsys.readouterr().err
 
 
-def test_recover_keeps_every_file_of_a_killed_split_bag(tmp_path, params):
+def test_recover_keeps_every_file_of_a_killedwrite_split_bag(tmp_path, params):
     """split_0.mcap complete, split_1.mcap cut (SIGKILL): the recovered bag holds every message
     of the first file and the readable part of the second, in order, byte for byte; check
     passes on it and rosbags reads it."""
@@ -519,7 +484,7 @@ def test_recover_keeps_every_file_of_a_killed_split_bag(tmp_path, params):
     require_module("rosbags")
     from drs_ros.bag.reader import scan
 
-    bag, first = _split_bag(tmp_path, params, killed=True)
+    bag, first = write_split_bag(tmp_path, params, killed=True)
     res = run_tool("drs_ros.bag.cli", "check", str(bag), "--recover", "--json")
     assert res.returncode == 3, res.stderr
     assert sum(json.loads(res.stdout)["messages"].values()) > first  # both files were read

@@ -8,6 +8,12 @@ an error naming the offset and the topic. Then the model checks
 and velocity constraints of the joint states, the gap, the piston force from the inverse
 dynamics.
 
+The bag is read a chunk at a time and the model checks run block by block
+(:class:`drs_ros.bag.model_checks.ModelChecker`): memory does not grow with the bag. MCAP and
+sqlite3 (``.db3``) bags are read. Many bags (several paths, a directory of bags, a glob, ``-o
+FILE.parquet``, ``--jobs``, ``--scheduler``) are checked on Dask, one row per bag
+(:func:`fleet_row`, :mod:`drs_ros.bag.fleet`).
+
 Exit status: 0 verified and every check within tolerance; 1 a model check failed; 2 the bag is
 missing, unreadable, corrupt or inconsistent, or its ``metadata.yaml`` is malformed (one line on
 stderr); 3 ``--recover`` checked the readable part of a damaged bag (it stopped early: the report
@@ -23,16 +29,19 @@ import json
 import math
 import sys
 from collections.abc import Sequence
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, field
 
 from drs_model.errors import DRSError
 from drs_model.overrides import from_file
+from drs_model.params import DRSParams
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from .decoded import BagData, read_bag
+from . import fleet
+from .decoded import BagData, stream_bag
 from .files import BagReadError
-from .model_checks import CheckResult, check_bag, load_force_model, stamp_s
-from .reader import MessageCallbackError
+from .model_checks import CheckResult, ModelChecker, load_force_model
+from .reader import MessageCallbackError, first_message
+from .run_stats import STATS_TOPICS, RunStats
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
@@ -47,8 +56,7 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     for topic, n in sorted(data.counts.items()):
         lines.append(f"  {topic:<28} {n:>8} messages")
     # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
-    stamps = [stamp_s(ln, m) for msgs in data.messages.values() for ln, m in msgs[:1]]
-    t0 = min(stamps) if stamps else 0.0
+    t0 = min(data.first_stamp_s.values(), default=0.0)
     head = (
         f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} "
         f"{'tol':>9}  status"
@@ -86,7 +94,12 @@ def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The options of ``drs-bag check``."""
-    ap.add_argument("bag", help="bag directory or .mcap file")
+    ap.add_argument(
+        "bag",
+        nargs="+",
+        help="bag directory, .mcap or .db3 file; several, directories searched for bags, or globs "
+        "check a fleet (one row per bag)",
+    )
     ap.add_argument(
         "--tol",
         type=float,
@@ -138,32 +151,57 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
             default=default,
             help=f"(default {default})",
         )
+    fleet.add_fleet_arguments(ap, "-o", "--output")
 
 
-def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
-    """Run ``drs-bag check``; returns the exit status (see the module docstring)."""
+def recorded_params(bag) -> tuple:
+    """The model parameters the bag recorded (the node's first parameter event, found by a
+    look-ahead that stops there) and where they came from, else the seed's."""
+    from .decoded import decoder
     from .effects import recorded_model_params
 
+    decode = decoder()
+    node = "/drs"
+
+    def node_parameters(m) -> bool:
+        event = decode(m)
+        return event.node == node and bool(event.new_parameters)
+
+    first = first_message(bag, DEFAULT_TOPICS["parameter_events"], node_parameters)
+    events = [] if first is None else [(first.log_time, decode(first))]
+    return recorded_model_params(events, node)
+
+
+@dataclass
+class CheckOutcome:
+    """What checking one bag gave: the exit status (see the module docstring), the bag's data
+    and the checks' results (None and empty when it could not be read), the error line (''
+    when there is none), the model parameters used, and the run's figures (``stats=True``)."""
+
+    status: int
+    data: BagData | None = None
+    results: list[CheckResult] = field(default_factory=list)
+    error: str = ""
+    params: DRSParams | None = None
+    stats: RunStats | None = None
+
+
+def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcome:
+    """Check one bag with the options of ``drs-bag check`` (``args``); never raises for the
+    bag's faults (they are the outcome's status and error)."""
     topics = {key: getattr(args, f"topic_{key}") for key in CHECK_TOPICS}
     names = tuple(n.strip() for n in args.joint_names.split(",") if n.strip())
+    figures = RunStats() if stats else None
+    params = None
     try:
         if len(names) != 3:
             raise BagReadError(f"--joint-names needs 3 names (s, psi1, psi3), got {list(names)}")
         force_model, force_note = load_force_model(args.force_model)
-        data = read_bag(
-            args.bag,
-            list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]],
-            recover=args.recover,
-        )
         if args.params:
-            params = from_file(args.params)
+            params, origin = from_file(args.params), None
         else:
-            params, origin = recorded_model_params(
-                data.messages.get(DEFAULT_TOPICS["parameter_events"], [])
-            )
-            data.notes.append(f"model parameters: {origin}")
-        results = check_bag(
-            data,
+            params, origin = recorded_params(bag)
+        checker = ModelChecker(
             params,
             tol=args.tol,
             force_tol=args.force_tol,
@@ -174,16 +212,83 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
             max_match_s=args.max_match,
             force_model_tol=args.force_model_tol,
         )
+        wanted = list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]]
+
+        def take(topic: str, log_ns: int, msg) -> None:
+            if topic in wanted:
+                checker.add(topic, log_ns, msg)
+            if figures is not None:
+                figures.add(topic, log_ns, msg)
+
+        read = wanted + ([t for t in STATS_TOPICS if t not in wanted] if stats else [])
+        data = stream_bag(bag, read, take, recover=args.recover)
+        data.first_stamp_s = {t: v for t, v in data.first_stamp_s.items() if t in wanted}
+        if origin is not None:
+            data.notes.append(f"model parameters: {origin}")
+        results = checker.results()
     except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
-        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
-        return EXIT_INTERNAL
+        return CheckOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): "
+                            f"{exc}", params=params)  # fmt: skip
     except DRSError as exc:
-        print(f"{prog}: error: {exc}", file=sys.stderr)
-        return EXIT_UNREADABLE
-    print(to_json(data, results) if args.json else format_table(data, results))
+        return CheckOutcome(EXIT_UNREADABLE, error=f"error: {exc}", params=params)
     if any(r.status == "FAIL" for r in results):
-        return EXIT_FAILED
-    return EXIT_RECOVERED if data.recovered else EXIT_OK
+        status = EXIT_FAILED
+    else:
+        status = EXIT_RECOVERED if data.recovered else EXIT_OK
+    return CheckOutcome(status, data, results, "", params, figures)
+
+
+#: Table columns of each check's result: check name -> column prefix.
+CHECK_COLUMNS = {
+    "loop constraint |Phi(q)|": "loop_constraint_m",
+    "velocity constraint |Phi_q qd|": "velocity_constraint_m_s",
+    "finite joint states": "nonfinite_joint_states",
+    "gap vs kinematics.gap(q)": "gap_vs_model_m",
+    "piston force vs model, logged accel.": "piston_force_vs_model_n",
+    "piston force vs model": "piston_force_vs_model_n",
+}
+#: Columns of the printed summary of a fleet.
+SUMMARY_COLUMNS = ("messages", "duration_s", "peak_force_n", "largest_gap_m", "refused_commands",
+                   "missed_deadlines")  # fmt: skip
+VERDICTS = {EXIT_OK: "PASS", EXIT_FAILED: "FAIL", EXIT_UNREADABLE: "UNREADABLE",
+            EXIT_RECOVERED: "RECOVERED", EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
+
+
+def fleet_row(bag: str, args: argparse.Namespace) -> dict:
+    """Check one bag of a fleet (a Dask task): its row of the table (see
+    :mod:`drs_ros.bag.fleet`): verdict, exit status, error, each check's worst error and
+    status, counts, the run's figures (:class:`RunStats`) and the model parameters used."""
+    outcome = check_one(bag, args, stats=True)
+    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error)
+    for column in dict.fromkeys(CHECK_COLUMNS.values()):
+        row[column] = math.nan
+        row[f"{column}_status"] = None
+    for r in outcome.results:
+        column = CHECK_COLUMNS.get(r.name)
+        if column is not None:
+            row[column], row[f"{column}_status"] = r.max_error, r.status
+    data = outcome.data
+    if data is not None:
+        row.update(fleet.count_columns(data.counts, data.start_ns, data.end_ns, data.recovered))
+        row["notes"] = data.notes
+    figures = (outcome.stats or RunStats()).row()
+    row.update(figures if data is not None else dict.fromkeys(figures))  # unread: nulls
+    row.update(fleet.param_columns(outcome.params))
+    return row
+
+
+def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
+    """Run ``drs-bag check``; returns the exit status (see the module docstring). Many bags
+    (or a table, or a cluster) go to :func:`drs_ros.bag.fleet.run_fleet`."""
+    if fleet.is_fleet(args):
+        return fleet.run_fleet(fleet_row, args, prog, "checked", SUMMARY_COLUMNS)
+    outcome = check_one(args.bag[0], args)
+    if outcome.error:
+        print(f"{prog}: {outcome.error}", file=sys.stderr)
+        return outcome.status
+    data, results = outcome.data, outcome.results
+    print(to_json(data, results) if args.json else format_table(data, results))
+    return outcome.status
 
 
 def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:

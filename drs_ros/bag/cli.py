@@ -7,7 +7,11 @@
   (:mod:`drs_ros.bag.recover`);
 * ``drs-bag resimulate BAG``: re-run the recorded commands in the model and compare
   (:mod:`drs_ros.bag.resimulate`);
-* ``drs-bag play BAG``: publish the recorded messages onto ROS 2 topics (:mod:`drs_ros.bag.play`).
+* ``drs-bag play BAG``: publish the recorded messages onto ROS 2 topics (:mod:`drs_ros.bag.play`);
+* ``drs-bag index DIR -o catalogue.parquet``: a table of many bags from their summaries alone
+  (:mod:`drs_ros.bag.catalogue`).
+
+``check`` and ``resimulate`` take many bags too (a fleet, on Dask: :mod:`drs_ros.bag.fleet`).
 
 Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status``.
 """
@@ -27,6 +31,7 @@ VERBS = {
     "recover": ("drs_ros.bag.recover", "make a killed or truncated recording a complete bag"),
     "resimulate": ("drs_ros.bag.resimulate", "re-run a recorded run in the model and compare"),
     "play": ("drs_ros.bag.play", "publish a bag onto ROS 2 topics (as ros2 bag play)"),
+    "index": ("drs_ros.bag.catalogue", "catalogue many bags from their summaries (Parquet)"),
 }
 
 

@@ -1,9 +1,10 @@
 """The messages of a verified bag, decoded: what ``drs-bag check``, ``drs-bag resimulate`` and
 the tests read.
 
-:func:`read_bag` verifies the whole bag (:func:`drs_ros.bag.reader.scan`: every byte, every
-file) and decodes the messages of the topics asked for with the installed type support
-(:func:`decoder`).
+:func:`stream_bag` verifies the whole bag (:func:`drs_ros.bag.reader.scan`: every byte, every
+file, a chunk at a time) and hands each message of the topics asked for, decoded with the
+installed type support (:func:`decoder`), to a callback that keeps what it needs: memory does not
+grow with the bag. :func:`read_bag` keeps every decoded message (small bags, tests).
 """
 
 from __future__ import annotations
@@ -31,6 +32,11 @@ class BagData:
         The bag is damaged and only its readable part was read (``--recover``).
     notes : list of str
         What the reader had to say (verification, truncation point...).
+    first_stamp_s : dict
+        topic -> stamp [s] of its first message (header stamp, else log time), for each topic
+        asked for that has one.
+    start_ns, end_ns : int or None
+        Earliest and latest log time of the messages read (every topic) [ns].
     """
 
     path: Path
@@ -38,6 +44,18 @@ class BagData:
     counts: dict[str, int] = field(default_factory=dict)
     recovered: bool = False
     notes: list[str] = field(default_factory=list)
+    first_stamp_s: dict[str, float] = field(default_factory=dict)
+    start_ns: int | None = None
+    end_ns: int | None = None
+
+
+def stamp_s(log_ns: int, msg) -> float:
+    """A message's header stamp [s], or its log time for a message without one."""
+    header = getattr(msg, "header", None)
+    stamp = getattr(header, "stamp", None)
+    if stamp is not None and (stamp.sec or stamp.nanosec):
+        return stamp.sec + stamp.nanosec * 1e-9
+    return log_ns * 1e-9
 
 
 def decoder() -> Callable[[RecordedMessage], object]:
@@ -58,8 +76,46 @@ def decoder() -> Callable[[RecordedMessage], object]:
     return decode
 
 
+def stream_bag(
+    path: str | Path,
+    topics: Sequence[str],
+    on_decoded: Callable[[str, int, object], None],
+    recover: bool = False,
+) -> BagData:
+    """Verify a whole bag (:func:`drs_ros.bag.reader.scan`) and call ``on_decoded(topic,
+    log_time_ns, message)`` for each message of ``topics``, in file order, holding none of them
+    (``messages`` of the result is empty).
+
+    Raises
+    ------
+    BagReadError
+        The bag is missing, unreadable, corrupt or inconsistent (with ``recover``: nothing of it
+        is readable).
+    MessageCallbackError
+        Decoding a message that passed the file's checks failed (its type is not installed), or
+        ``on_decoded`` raised: not a fault of the bag.
+    """
+    wanted = set(topics)
+    decode = decoder()
+    first: dict[str, float] = {}
+
+    def take(m: RecordedMessage) -> None:
+        msg = decode(m)
+        if m.topic not in first:
+            first[m.topic] = stamp_s(m.log_time, msg)
+        on_decoded(m.topic, m.log_time, msg)
+
+    result = scan(path, take, recover=recover, topics=wanted)
+    notes = list(result.notes)
+    if result.complete:
+        notes.insert(0, f"verified: {result.message_count} messages, every byte read "
+                        "(CRCs, summary, metadata.yaml, exact CDR)")  # fmt: skip
+    return BagData(result.path, {}, dict(result.counts), not result.complete, notes, first,
+                   result.start_ns, result.end_ns)  # fmt: skip
+
+
 def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> BagData:
-    """Verify a whole bag (:func:`drs_ros.bag.reader.scan`) and decode the messages of ``topics``.
+    """Verify a whole bag and keep every decoded message of ``topics`` (:func:`stream_bag`).
 
     Raises
     ------
@@ -70,19 +126,11 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> 
         Decoding a message that passed the file's checks failed (its type is not installed):
         not a fault of the bag.
     """
-    wanted = set(topics)
     messages: dict[str, list] = {t: [] for t in topics}
-    decode = decoder()
-
-    def keep(m: RecordedMessage) -> None:
-        messages[m.topic].append((m.log_time, decode(m)))
-
-    result = scan(path, keep, recover=recover, topics=wanted)
-    notes = list(result.notes)
-    if result.complete:
-        notes.insert(0, f"verified: {result.message_count} messages, every byte read "
-                        "(CRCs, summary, metadata.yaml, exact CDR)")  # fmt: skip
-    return BagData(result.path, messages, dict(result.counts), not result.complete, notes)
+    data = stream_bag(path, topics, lambda topic, log, msg: messages[topic].append((log, msg)),
+                      recover)  # fmt: skip
+    data.messages = messages
+    return data
 
 
-__all__ = ["BagData", "decoder", "read_bag"]
+__all__ = ["BagData", "decoder", "read_bag", "stamp_s", "stream_bag"]

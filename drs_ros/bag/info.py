@@ -77,7 +77,7 @@ def bag_summary(path: str | Path) -> dict:
     return {
         "files": [f.name for f in bag.files],
         "size": result.file_size,
-        "storage": "mcap",
+        "storage": bag.storage,
         "distro": "unknown",
         "start_ns": start,
         "duration_ns": (result.end_ns or start) - start,

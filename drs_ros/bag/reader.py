@@ -19,6 +19,10 @@ A bag split into several files (``name_0.mcap``, ``name_1.mcap``... as rosbag2 s
 file by file, in order (:func:`drs_ros.bag.files.resolve` is the one place that finds a bag's
 files).
 
+A sqlite3 bag (rosbag2's ``.db3`` storage, :mod:`drs_ros.bag.sqlite`) is read row by row in
+the order rosbag2 wrote it, after SQLite's integrity check of every page, with the same message
+checks and the same ``metadata.yaml`` counts.
+
 With ``recover=True`` the scan keeps what it read before a truncation or a corrupt record and
 reports where and why it stopped, instead of raising; in a split bag each file is read up to its
 own first problem.
@@ -242,7 +246,9 @@ def scan(
     check = _exact_checker(padded) if exact else None
     unverified: set[str] = set()
     parts: list[BagScan] = []
-    for file in bag.files:
+    if bag.storage == "sqlite3":  # one result for the bag (its files are one database to rosbags)
+        parts.append(_scan_sqlite(bag, on_message, check, wanted, unverified))
+    for file in bag.files if bag.storage == "mcap" else ():
         try:
             part = _scan_file(file, bag.bag_dir, on_message, recover, check, wanted, unverified)
         except BagReadError as exc:
@@ -333,33 +339,7 @@ def _scan_file(
         raise BagReadError(f"{str(mcap_path)!r}: {msg}")
 
     def take(rec, at: int) -> None:
-        channel = out.channels.get(rec.channel_id)
-        if channel is None:
-            fail(f"a message at offset {at} names channel {rec.channel_id}, never declared")
-        if check is not None:
-            problem = check(channel.type_name, rec.data)
-            if problem is None:
-                unverified.add(channel.type_name)
-            elif problem:
-                fail(f"message {out.counts.get(channel.topic, 0) + 1} of {channel.topic} "
-                     f"(chunk at offset {at}) {problem}")  # fmt: skip
-        n = out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
-        out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
-        out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
-        if on_message is not None and (wanted is None or channel.topic in wanted):
-            message = RecordedMessage(channel.topic, channel.type_name, rec.log_time,
-                                      rec.publish_time, rec.sequence, bytes(rec.data), at,
-                                      channel)  # fmt: skip
-            try:
-                on_message(message)
-            except Exception as exc:  # the caller's failure, not the file's: never a verdict
-                said = " ".join(str(exc).split()) or "(no message)"
-                raise MessageCallbackError(
-                    f"{str(mcap_path)!r}: message {n} of {channel.topic} (offset {at}) passed "
-                    f"every check of the file, then the caller's on_message callback raised "
-                    f"{type(exc).__name__}: {said}",
-                    mcap_path, channel.topic, n, at,
-                ) from exc  # fmt: skip
+        _take(out, rec, at, mcap_path, check, unverified, on_message, wanted)
 
     def data_record(rec, at: int) -> None:
         """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
@@ -371,7 +351,7 @@ def _scan_file(
             _add_channel(out, schemas, rec, fail)
 
     errors = (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
-              UnicodeDecodeError)  # fmt: skip
+              UnicodeDecodeError, *_decompression_errors())  # fmt: skip
     try:
         with open(mcap_path, "rb") as f:
             head = f.read(8)
@@ -455,6 +435,82 @@ def _scan_file(
     return out
 
 
+def _decompression_errors() -> tuple[type[BaseException], ...]:
+    """What the chunk decompressors raise on corrupt data: zstandard's ``ZstdError``, lz4's
+    ``RuntimeError`` (both are dependencies of the ros extra, as mcap reads through them)."""
+    import zstandard
+
+    return (zstandard.ZstdError, RuntimeError)
+
+
+def _take(
+    out: BagScan,
+    rec,
+    at: int,
+    path: Path,
+    check: Callable[[str, bytes], str | None] | None,
+    unverified: set[str],
+    on_message: Callable[[RecordedMessage], None] | None,
+    wanted: set[str] | None,
+) -> None:
+    """One message record (``channel_id``, ``log_time``, ``publish_time``, ``sequence``,
+    ``data``) read at offset ``at`` of ``path``: its channel known, its bytes exact, counted, and
+    handed to ``on_message`` (whose failure is a :class:`MessageCallbackError`)."""
+    channel = out.channels.get(rec.channel_id)
+    if channel is None:
+        raise BagReadError(f"{str(path)!r}: a message at offset {at} names channel "
+                           f"{rec.channel_id}, never declared")  # fmt: skip
+    if check is not None:
+        problem = check(channel.type_name, rec.data)
+        if problem is None:
+            unverified.add(channel.type_name)
+        elif problem:
+            raise BagReadError(f"{str(path)!r}: message {out.counts.get(channel.topic, 0) + 1} "
+                               f"of {channel.topic} (chunk at offset {at}) {problem}")  # fmt: skip
+    n = out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
+    out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
+    out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
+    if on_message is not None and (wanted is None or channel.topic in wanted):
+        message = RecordedMessage(channel.topic, channel.type_name, rec.log_time,
+                                  rec.publish_time, rec.sequence, bytes(rec.data), at,
+                                  channel)  # fmt: skip
+        try:
+            on_message(message)
+        except Exception as exc:  # the caller's failure, not the file's: never a verdict
+            said = " ".join(str(exc).split()) or "(no message)"
+            raise MessageCallbackError(
+                f"{str(path)!r}: message {n} of {channel.topic} (offset {at}) passed "
+                f"every check of the file, then the caller's on_message callback raised "
+                f"{type(exc).__name__}: {said}",
+                path, channel.topic, n, at,
+            ) from exc  # fmt: skip
+
+
+def _scan_sqlite(
+    bag: BagFiles,
+    on_message: Callable[[RecordedMessage], None] | None,
+    check: Callable[[str, bytes], str | None] | None,
+    wanted: set[str] | None,
+    unverified: set[str],
+) -> BagScan:
+    """Read and verify a sqlite3 bag (:mod:`drs_ros.bag.sqlite`): every page of each database
+    (SQLite's integrity check), then every message, in time order, as :func:`_scan_file` does
+    (its row number in the file is its ``offset``)."""
+    from . import sqlite
+
+    path = bag.bag_dir if bag.bag_dir is not None else bag.files[0]
+    out = BagScan(path, bag.bag_dir, file_size=sum(f.stat().st_size for f in bag.files))
+    for file in bag.files:
+        sqlite.check_integrity(file)
+    for channel in sqlite.channels(bag):
+        out.channels[channel["id"]] = ChannelInfo(**channel)
+        out.counts.setdefault(channel["topic"], 0)
+    for row, rec in enumerate(sqlite.iter_rows(bag), start=1):
+        _take(out, rec, row, path, check, unverified, on_message, wanted)
+    out.complete = True
+    return out
+
+
 def _add_channel(out: BagScan, schemas, record, fail) -> None:
     schema = schemas.get(record.schema_id)
     if schema is None and record.schema_id != 0:
@@ -469,6 +525,66 @@ def _add_channel(out: BagScan, schemas, record, fail) -> None:
         dict(record.metadata),
     )
     out.counts.setdefault(record.topic, 0)
+
+
+def first_message(
+    path: str | Path, topic: str, accept: Callable[[RecordedMessage], bool] = lambda m: True
+) -> RecordedMessage | None:
+    """The first message of ``topic`` that ``accept`` takes, reading the bag's files in order a
+    chunk at a time and stopping there (a look-ahead, e.g. for the parameters a run recorded at
+    its start). Nothing is verified: a damaged or unreadable file ends the search (None), and
+    :func:`scan` says why."""
+    from mcap.records import Channel, Chunk, Message, Schema
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    try:
+        bag = resolve(path, require_metadata=False)
+        if bag.storage == "sqlite3":
+            return _first_row(bag, topic, accept)
+    except BagReadError:
+        return None
+    for file in bag.files:
+        schemas: dict[int, Any] = {}
+        channels: dict[int, Any] = {}
+        try:
+            with open(file, "rb") as f:
+                if f.read(8) != MCAP_MAGIC:
+                    return None
+                f.seek(0)
+                for record in StreamReader(f, validate_crcs=True, emit_chunks=True).records:
+                    inner = breakup_chunk(record, True) if isinstance(record, Chunk) else [record]
+                    for rec in inner:
+                        if isinstance(rec, Schema):
+                            schemas[rec.id] = rec
+                        elif isinstance(rec, Channel):
+                            channels[rec.id] = rec
+                        elif isinstance(rec, Message):
+                            channel = channels.get(rec.channel_id)
+                            if channel is None or channel.topic != topic:
+                                continue
+                            schema = schemas.get(channel.schema_id)
+                            message = RecordedMessage(
+                                topic, schema.name if schema else "", rec.log_time,
+                                rec.publish_time, rec.sequence, bytes(rec.data), 0,
+                            )  # fmt: skip
+                            if accept(message):
+                                return message
+        except Exception:  # noqa: BLE001 - the verifying scan reports the damage
+            return None
+    return None
+
+
+def _first_row(bag: BagFiles, topic: str, accept) -> RecordedMessage | None:
+    """:func:`first_message` of a sqlite3 bag."""
+    from . import sqlite
+
+    types = {c["id"]: c["type_name"] for c in sqlite.channels(bag)}
+    for rec in sqlite.iter_rows(bag, topics={topic}):
+        message = RecordedMessage(topic, types[rec.channel_id], rec.log_time, rec.publish_time,
+                                  rec.sequence, rec.data, 0)  # fmt: skip
+        if accept(message):
+            return message
+    return None
 
 
 def _check_summary(f, footer, size: int, fail) -> None:
@@ -533,5 +649,6 @@ __all__ = [
     "ChannelInfo",
     "MessageCallbackError",
     "RecordedMessage",
+    "first_message",
     "scan",
 ]

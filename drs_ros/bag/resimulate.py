@@ -14,6 +14,11 @@ recorded ``/joint_states``, piston force and gap with the re-simulated ones, sam
 (each recorded stamp is ``t0 + simulated time``; the clock records give ``t0``), and reports the
 largest deviation per signal with its time.
 
+The bag is read twice, a chunk at a time: first (verifying every byte) the parameters, the effect
+record and the commands; then the signals, while the re-run advances as they ask and keeps only
+the last :data:`STATE_WINDOW` steps. Many bags run on Dask, one row per bag (:func:`fleet_row`,
+:mod:`drs_ros.bag.fleet`).
+
 Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
 read (or its ``metadata.yaml`` is malformed), or holds no effect record (it was recorded before
 drs recorded when commands took effect) or no parameters; 4 decoding a message that passed every
@@ -26,8 +31,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,6 +45,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
+from . import fleet
 from .decoded import decoder
 from .effects import effect_records, model_params_from, recorded_node_parameters
 from .files import BagReadError
@@ -51,53 +59,47 @@ SIGNALS = {
 }  # fmt: skip
 
 
+#: Re-simulated steps kept behind the latest one asked for (a recorded state is compared with
+#: the step its stamp names; a bag in the node's order never looks back more than a few).
+STATE_WINDOW = 65536
+
+
 class ResimulationError(DRSError):
     """The bag cannot be re-simulated (no effect record, no parameters, a missing command)."""
 
 
 @dataclass
 class RecordedRun:
-    """What a re-run needs from a bag, and what it is compared with."""
+    """What a re-run needs from a bag (the parameters, the effect record, the commands); the
+    signals it is compared with are streamed from ``bag`` by :func:`compare`."""
 
     node_parameters: dict
     records: list
     commands: dict = field(default_factory=dict)  # (topic, sequence) -> message
-    joint_states: list = field(default_factory=list)  # (log_ns, JointState)
-    forces: list = field(default_factory=list)
-    gaps: list = field(default_factory=list)
-    extra: dict = field(default_factory=dict)
+    bag: Path | None = None
+    counts: dict = field(default_factory=dict)  # topic -> messages in the bag
+    start_ns: int | None = None  # earliest and latest log time [ns]
+    end_ns: int | None = None
 
 
 def read_run(bag: str | Path) -> RecordedRun:
-    """Verify the bag and collect the parameters, the effect record, the commands and the
-    signals to compare."""
+    """Verify the bag (every byte, :func:`drs_ros.bag.reader.scan`) and collect the
+    parameters, the effect record and the commands (the signals are read by :func:`compare`)."""
     tp = DEFAULT_TOPICS
     cmd_topics = {tp[k] for k in commands.COMMAND_TYPES}
-    wanted = {tp["parameter_events"], tp["command_events"], tp["joint_states"],
-              tp["piston_force"], tp["flap_gap"], *cmd_topics}  # fmt: skip
-    got: dict[str, list] = {t: [] for t in wanted}
+    wanted = {tp["parameter_events"], tp["command_events"], *cmd_topics}
+    got: dict[str, list] = {tp["parameter_events"]: [], tp["command_events"]: []}
     cmds: dict = {}
-    # the clock origin in force for each joint state, in the order the node wrote them (a clock
-    # record is written before the states of its tick); log times alone cannot say it once the
-    # node clock has jumped back
-    origin: list = [None]
-    state_origins: list = []
     decode = decoder()
 
     def keep(m) -> None:
         msg = decode(m)
         if m.topic in cmd_topics:
             cmds[(m.topic, m.sequence)] = msg
-            return
-        got[m.topic].append((m.log_time, msg))
-        if m.topic == tp["command_events"]:
-            for r in effect_records([(m.log_time, msg)]):
-                if r.outcome == CLOCK:
-                    origin[0] = int(r.values["t0_ns"])
-        elif m.topic == tp["joint_states"]:
-            state_origins.append(origin[0])
+        else:
+            got[m.topic].append((m.log_time, msg))
 
-    scan(bag, keep, topics=wanted)
+    result = scan(bag, keep, topics=wanted)
     params = recorded_node_parameters(got[tp["parameter_events"]])
     if params is None:
         raise ResimulationError(
@@ -109,9 +111,8 @@ def read_run(bag: str | Path) -> RecordedRun:
             f"{bag}: the bag has no effect record ({tp['command_events']}): it was recorded before "
             "drs recorded when each command took effect, so it cannot be re-run exactly"
         )
-    return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds,
-                       got[tp["joint_states"]], got[tp["piston_force"]],
-                       got[tp["flap_gap"]], {"state_origins": state_origins})  # fmt: skip
+    return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds, Path(bag),
+                       dict(result.counts), result.start_ns, result.end_ns)  # fmt: skip
 
 
 def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
@@ -124,9 +125,10 @@ def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | N
 
 
 def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) -> dict:
-    """Re-run the recorded commands on the recorded rung (``rigid`` for a bag recorded before the
-    ``fidelity`` parameter), or on ``fidelity``; returns the re-simulated samples by step index
-    and notes."""
+    """The re-run of the recorded commands on the recorded rung (``rigid`` for a bag recorded
+    before the ``fidelity`` parameter), or on ``fidelity``, step by step as :func:`compare` asks
+    for its states (``state_at(step)``), and its notes: memory holds the last
+    :data:`STATE_WINDOW` steps."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
     sim = make_rung(
@@ -165,9 +167,9 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
 
     keep()
     service = DEFAULT_TOPICS["drs_service"]
-    for r in run.records:
-        if r.outcome not in (ACCEPTED, RESET):
-            continue
+
+    def apply(r) -> None:
+        """Advance to the instant ``r`` took effect and act on it as the node did."""
         advance_to(r.sim_time)
         if r.outcome == RESET:
             # the node's model refused a step; the node held the flap at the recorded stroke at
@@ -180,7 +182,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
                 )
             sim.reset(r.sim_time, float(r.values["stroke"]))
             keep()
-            continue
+            return
         key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
         if key == commands.SERVICE_KEY:
             msg = _Value(r.values["value"] == "True")
@@ -199,7 +201,30 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
             notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
                          f"{r.values.get('value', '')}: {exc}")  # fmt: skip
         # no keep(): the node published this step's state before the command acted on it
-    return {"sim": sim, "states": states, "dt": dt, "notes": notes, "advance_to": advance_to}
+
+    pending = [r for r in run.records if r.outcome in (ACCEPTED, RESET)]
+    applied = [0]  # records of ``pending`` acted on so far
+
+    def state_at(k: int):
+        """The re-simulated state of step ``k`` (None if the re-run has none there): every
+        record up to that step acted on first (a reset at ``k`` replaces its state); states more
+        than :data:`STATE_WINDOW` steps before ``k`` are forgotten."""
+        while applied[0] < len(pending) and int(round(pending[applied[0]].sim_time / dt)) <= k:
+            applied[0] += 1
+            apply(pending[applied[0] - 1])
+        advance_to(k * dt)
+        while states and next(iter(states)) < k - STATE_WINDOW:
+            del states[next(iter(states))]
+        return states.get(k)
+
+    def finish() -> None:
+        """Act on the records after the last compared state (their notes belong to the run)."""
+        while applied[0] < len(pending):
+            applied[0] += 1
+            apply(pending[applied[0] - 1])
+
+    return {"sim": sim, "states": states, "dt": dt, "notes": notes, "advance_to": advance_to,
+            "state_at": state_at, "finish": finish}  # fmt: skip
 
 
 @dataclass
@@ -212,30 +237,27 @@ def _stamp_ns(msg) -> int:
     return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
 
 
-def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
-    """``log_time -> physics step`` of each recorded joint state: its stamp is ``t0 +`` simulated
-    time, ``t0`` being the clock origin in force when the node wrote it (a stall or a clock jump
-    moves it; the origins come in write order from :func:`read_run`)."""
-    origins = run.extra.get("state_origins")
-    if not origins or origins[0] is None:
-        raise ResimulationError("the effect record holds no clock origin (t0) before the states")
-    out = {}
-    for (log, m), t0 in zip(run.joint_states, origins, strict=True):
-        stamp = _stamp_ns(m)
-        out[log] = int(round((stamp - t0) * 1e-9 / dt))
-    return out
+def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
+            on_state: Callable | None = None) -> list[dict]:  # fmt: skip
+    """Largest deviation per signal between the recorded and the re-simulated samples, the
+    recorded ones streamed from the bag (a second read, a chunk at a time).
 
-
-def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> list[dict]:
-    """Largest deviation per signal between the recorded and the re-simulated samples."""
-    dt, states = result["dt"], result["states"]
-    steps = joint_state_steps(run, dt)
-    result["advance_to"](max(steps.values(), default=0) * dt)
-    result["by_log"] = {log: states[k] for log, k in steps.items() if k in states}
+    Each recorded joint state's step: its stamp is ``t0 +`` simulated time, ``t0`` being the
+    clock origin in force when the node wrote it (a clock record is written before the states
+    of its tick; a stall or a clock jump moves it, so log times alone cannot say it).
+    ``on_state(log_ns, joint_state, state)`` is called for each joint state with its
+    re-simulated state (None where the re-run has none).
+    """
+    tp = DEFAULT_TOPICS
+    dt, state_at = result["dt"], result["state_at"]
     rows = {name: {"signal": name, "unit": unit, "max_deviation": 0.0, "at_time_s": math.nan,
                    "samples": 0, "tol": tolerances[name]}
             for name, (unit, _) in SIGNALS.items()}  # fmt: skip
-    missing = 0
+    missing = [0]
+    origin: list = [None]
+    seen = [0]
+    recent: dict[int, int] = {}  # log time -> step of the latest joint states
+    decode = decoder()
 
     def note(name: str, dev: float, t: float) -> None:
         row = rows[name]
@@ -243,39 +265,70 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> lis
         if not dev <= row["max_deviation"]:  # NaN counts as the worst
             row["max_deviation"], row["at_time_s"] = dev, t
 
-    for log, m in run.joint_states:
-        k = steps[log]
-        state = states.get(k)
-        if state is None:
-            missing += 1
-            continue
-        q, qd, force, _gap, _acc = state
-        names = ("stroke", "link_angle", "flap_angle")
-        for i, name in enumerate(names):
-            note(name, abs(m.position[i] - q[i]), k * dt)
-        for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
-            note(name, abs(m.velocity[i] - qd[i]), k * dt)
-        note("piston_force", abs(m.effort[0] - force), k * dt)
-    # the Float64 topics are published in the same tick, logged at the same node time
-    for topic_msgs, name, idx in ((run.forces, "piston_force", 2), (run.gaps, "gap", 3)):
-        for log, m in topic_msgs:
-            k = steps.get(log)
-            if k is None or k not in states:
-                continue
-            note(name, abs(m.data - states[k][idx]), k * dt)
+    scalar = {tp["piston_force"]: ("piston_force", 2), tp["flap_gap"]: ("gap", 3)}
+
+    def take(m) -> None:
+        msg = decode(m)
+        if m.topic == tp["command_events"]:
+            for r in effect_records([(m.log_time, msg)]):
+                if r.outcome == CLOCK:
+                    origin[0] = int(r.values["t0_ns"])
+            return
+        if m.topic == tp["joint_states"]:
+            if seen[0] == 0 and origin[0] is None:
+                raise ResimulationError(
+                    "the effect record holds no clock origin (t0) before the states"
+                )
+            seen[0] += 1
+            k = int(round((_stamp_ns(msg) - origin[0]) * 1e-9 / dt))
+            recent[m.log_time] = k
+            if len(recent) > STATE_WINDOW:
+                del recent[next(iter(recent))]
+            state = state_at(k)
+            if on_state is not None:
+                on_state(m.log_time, msg, state)
+            if state is None:
+                missing[0] += 1
+                return
+            q, qd, force, _gap, _acc = state
+            for i, name in enumerate(("stroke", "link_angle", "flap_angle")):
+                note(name, abs(msg.position[i] - q[i]), k * dt)
+            for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
+                note(name, abs(msg.velocity[i] - qd[i]), k * dt)
+            note("piston_force", abs(msg.effort[0] - force), k * dt)
+            return
+        # the Float64 topics are published in the same tick, logged at the same node time
+        name, idx = scalar[m.topic]
+        k = recent.get(m.log_time)
+        state = None if k is None else state_at(k)
+        if state is not None:
+            note(name, abs(msg.data - state[idx]), k * dt)
+
+    topics = {tp["command_events"], tp["joint_states"], *scalar}
+    try:
+        scan(run.bag, take, exact=False, topics=topics)
+    except MessageCallbackError as exc:  # the re-run's own refusal: a verdict, not a crash
+        if isinstance(exc.__cause__, ResimulationError):
+            raise exc.__cause__ from None
+        raise
+    if seen[0] == 0:
+        raise ResimulationError("the effect record holds no clock origin (t0) before the states")
+    result["finish"]()
     out = list(rows.values())
     for row in out:
         row["ok"] = bool(row["max_deviation"] <= row["tol"])
         if math.isnan(row["at_time_s"]):
             row["at_time_s"] = None
-    if missing:
-        result["notes"].append(f"{missing} recorded joint states have no re-simulated step")
+    if missing[0]:
+        result["notes"].append(f"{missing[0]} recorded joint states have no re-simulated step")
     return out
 
 
-def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams) -> None:
-    """The re-simulated run as a new bag: the parameters it ran with, then joint states, force,
-    gap and acceleration at the recorded stamps (so ``drs-bag check`` checks it too)."""
+@contextmanager
+def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams, rung: str):
+    """The re-simulated run as a new bag, written as :func:`compare` goes (its ``on_state``):
+    the parameters it ran with, then joint states, force, gap and acceleration at the recorded
+    stamps (so ``drs-bag check`` checks it too). Nothing is left of it if the re-run fails."""
     from rcl_interfaces.msg import ParameterEvent
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
@@ -288,32 +341,50 @@ def write_bag(out: str | Path, run: RecordedRun, result: dict, model: DRSParams)
     tp = DEFAULT_TOPICS
     values = dict(run.node_parameters)
     values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
-    values["fidelity"] = result["sim"].name  # the rung it ran on (--fidelity)
-    with McapRecorder(out, flush_thread=False) as rec:
-        rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
-        first = run.joint_states[0][0] if run.joint_states else 0
-        rec.write(tp["parameter_events"], parameter_event("/drs", values, first), first)
-        rec.register_topic(tp["joint_states"], JointState, 10)
-        for key in ("piston_force", "flap_gap", "piston_acceleration"):
-            rec.register_topic(tp[key], Float64, 10)
-        for log, m in run.joint_states:
-            stamp = _stamp_ns(m)
-            state = result["by_log"].get(log)
-            if state is None:
-                continue
-            q, qd, force, gap, acc = state
-            js = JointState(name=names, position=[float(x) for x in q],
-                            velocity=[float(x) for x in qd],
-                            effort=[float(force), math.nan, math.nan])  # fmt: skip
-            js.header.stamp = time_msg(stamp)
-            rec.write(tp["joint_states"], js, log)
-            rec.write(tp["piston_force"], float_msg(force), log)
-            rec.write(tp["flap_gap"], float_msg(gap), log)
-            rec.write(tp["piston_acceleration"], float_msg(acc), log)
+    values["fidelity"] = rung  # the rung it ran on (--fidelity)
+    made = not Path(out).exists()
+    rec = McapRecorder(out, flush_thread=False)
+    first = [True]
+
+    def write(log: int, m, state) -> None:
+        if first[0]:  # the parameters, at the first joint state's log time
+            first[0] = False
+            rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
+            rec.write(tp["parameter_events"], parameter_event("/drs", values, log), log)
+            rec.register_topic(tp["joint_states"], JointState, 10)
+            for key in ("piston_force", "flap_gap", "piston_acceleration"):
+                rec.register_topic(tp[key], Float64, 10)
+        if state is None:
+            return
+        q, qd, force, gap, acc = state
+        js = JointState(name=names, position=[float(x) for x in q],
+                        velocity=[float(x) for x in qd],
+                        effort=[float(force), math.nan, math.nan])  # fmt: skip
+        js.header.stamp = time_msg(_stamp_ns(m))
+        rec.write(tp["joint_states"], js, log)
+        rec.write(tp["piston_force"], float_msg(force), log)
+        rec.write(tp["flap_gap"], float_msg(gap), log)
+        rec.write(tp["piston_acceleration"], float_msg(acc), log)
+
+    try:
+        yield write
+    except BaseException:
+        rec.discard()
+        if made:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    if first[0]:  # no joint state: the parameters alone
+        write(0, None, None)
+    rec.finish()
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("bag", help="bag directory or .mcap file recorded by drs-node")
+    ap.add_argument(
+        "bag",
+        nargs="+",
+        help="bag directory, .mcap or .db3 file recorded by drs-node; several, directories "
+        "searched for bags, or globs re-run a fleet (one row per bag)",
+    )
     ap.add_argument(
         "--set",
         action="append",
@@ -327,7 +398,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         choices=list(RUNGS),
         help="re-run on this rung of the fidelity ladder (default: the one recorded)",
     )
-    ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory")
+    ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory; "
+                    "with many bags, FILE.parquet: the table, one row per bag")  # fmt: skip
     ap.add_argument(
         "--tol",
         type=float,
@@ -341,34 +413,96 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="tolerance of the piston force [N] (default 1e-6)",
     )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
+    fleet.add_fleet_arguments(ap)
+
+
+@dataclass
+class ResimulationOutcome:
+    """What re-running one bag gave: exit status (see the module docstring), the rows of
+    :func:`compare`, the notes, the error line ('' when none), the recorded run and the model."""
+
+    status: int
+    rows: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    error: str = ""
+    run: RecordedRun | None = None
+    model: DRSParams | None = None
+
+
+def resimulate_one(bag, args: argparse.Namespace, output: str | None = None) -> ResimulationOutcome:
+    """Re-run one bag with the options of ``drs-bag resimulate`` (``args``), writing the
+    re-simulated bag to ``output`` if given; never raises for the bag's faults."""
+    tolerances = {name: (args.force_tol if unit == "N" else args.tol)
+                  for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+    recorded = model = None
+    try:
+        recorded = read_run(bag)
+        model = run_params(recorded.node_parameters, args.set, args.params)
+        result = resimulate(recorded, model, getattr(args, "fidelity", None))
+        with ExitStack() as stack:
+            on_state = None
+            if output:
+                on_state = stack.enter_context(
+                    bag_writer(output, recorded, model, result["sim"].name)
+                )
+            rows = compare(recorded, result, tolerances, on_state)
+    except MessageCallbackError as exc:  # our own failure on an intact message
+        return ResimulationOutcome(4, error=f"internal error (not a verdict on the bag): {exc}",
+                                   run=recorded, model=model)  # fmt: skip
+    except (DRSError, BagReadError) as exc:
+        return ResimulationOutcome(2, error=f"error: {exc}", run=recorded, model=model)
+    ok = all(r["ok"] for r in rows)
+    if output:
+        result["notes"].append(f"wrote the re-simulated run to {output}")
+    return ResimulationOutcome(0 if ok else 1, rows, result["notes"], "", recorded, model)
+
+
+VERDICTS = {0: "PASS", 1: "DEVIATES", 2: "UNREADABLE", 4: "INTERNAL ERROR"}
+
+
+def fleet_row(bag: str, args: argparse.Namespace) -> dict:
+    """Re-run one bag of a fleet (a Dask task): its row of the table (see
+    :mod:`drs_ros.bag.fleet`): verdict, exit status, error, each signal's largest deviation,
+    counts, the notes and the model parameters of the re-run."""
+    outcome = resimulate_one(bag, args)
+    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error)
+    for name, (unit, _) in SIGNALS.items():
+        row[f"{name}_deviation_{unit.replace('/', '_')}"] = math.nan
+    for r in outcome.rows:
+        unit = r["unit"].replace("/", "_")
+        row[f"{r['signal']}_deviation_{unit}"] = float(r["max_deviation"])
+    run = outcome.run
+    if run is not None:
+        row.update(fleet.count_columns(run.counts, run.start_ns, run.end_ns, False))
+    row["notes"] = list(outcome.notes)
+    # the rung of the re-run: asked for, or the one the bag recorded
+    recorded_rung = None if run is None else str(run.node_parameters.get("fidelity", "rigid"))
+    row["fidelity"] = getattr(args, "fidelity", None) or recorded_rung
+    row.update(fleet.param_columns(outcome.model))
+    return row
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
-    tolerances = {name: (args.force_tol if unit == "N" else args.tol)
-                  for name, (unit, _) in SIGNALS.items()}  # fmt: skip
-    try:
-        recorded = read_run(args.bag)
-        model = run_params(recorded.node_parameters, args.set, args.params)
-        result = resimulate(recorded, model, args.fidelity)
-        rows = compare(recorded, result, tolerances)
-        if args.output:
-            write_bag(args.output, recorded, result, model)
-    except MessageCallbackError as exc:  # our own failure on an intact message
-        print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
-        return 4
-    except (DRSError, BagReadError) as exc:
-        print(f"{prog}: error: {exc}", file=sys.stderr)
-        return 2
-    ok = all(r["ok"] for r in rows)
-    if args.output:
-        result["notes"].append(f"wrote the re-simulated run to {args.output}")
+    if fleet.is_fleet(args):
+        return fleet.run_fleet(
+            fleet_row,
+            args,
+            prog,
+            "re-simulated",
+            ("messages", "stroke_deviation_m", "piston_force_deviation_N"),
+        )
+    outcome = resimulate_one(args.bag[0], args, args.output)
+    if outcome.error:
+        print(f"{prog}: {outcome.error}", file=sys.stderr)
+        return outcome.status
+    rows, notes, ok = outcome.rows, outcome.notes, outcome.status == 0
     if args.json:
-        print(json.dumps({"bag": str(args.bag), "ok": ok, "signals": rows,
-                          "notes": result["notes"], "changed": args.set,
+        print(json.dumps({"bag": str(args.bag[0]), "ok": ok, "signals": rows,
+                          "notes": notes, "changed": args.set,
                           "fidelity": args.fidelity}, indent=2,
                          default=lambda x: None))  # fmt: skip
     else:
-        print(f"re-simulated {args.bag}" + (f" with {', '.join(args.set)}" if args.set else "")
+        print(f"re-simulated {args.bag[0]}" + (f" with {', '.join(args.set)}" if args.set else "")
               + (f" on the {args.fidelity} rung" if args.fidelity else ""))  # fmt: skip
         print(f"{'signal':<14} {'unit':<6} {'n':>6} {'max deviation':>14} {'at t [s]':>10} "
               f"{'tol':>8}  status")  # fmt: skip
@@ -377,9 +511,19 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
             print(f"{r['signal']:<14} {r['unit']:<6} {r['samples']:>6} "
                   f"{r['max_deviation']:>14.3e} {at:>10} {r['tol']:>8.1e}  "
                   f"{'ok' if r['ok'] else 'DEVIATES'}")  # fmt: skip
-        for n in result["notes"]:
+        for n in notes:
             print(f"note: {n}")
-    return 0 if ok else 1
+    return outcome.status
 
 
-__all__ = ["ResimulationError", "add_arguments", "compare", "read_run", "resimulate", "run"]
+__all__ = [
+    "ResimulationError",
+    "add_arguments",
+    "bag_writer",
+    "compare",
+    "fleet_row",
+    "read_run",
+    "resimulate",
+    "resimulate_one",
+    "run",
+]

@@ -31,10 +31,12 @@ Memory stays bounded whatever the bag's size: the file is read chunk by chunk in
 that stays at most ``--read-ahead-queue-size`` messages ahead. A file without chunk indexes is
 read in file order (which rosbag2 writes in log-time order).
 
-A topic whose type is not installed (or whose channel is not ``cdr``) is skipped with one warning
-line. A missing, truncated, corrupt or non-MCAP bag ends the player with one line on stderr and
-exit status 2. SIGINT or SIGTERM stop it cleanly (exit 0). On a terminal, a progress line shows
-the bag time, the percentage played and the rate.
+Play starts once the summaries of the bag's files are read (a few KiB at their ends), not after
+reading the whole bag: each chunk's CRC is checked when it is played, and a corrupt chunk ends the
+play there. A topic whose type is not installed (or whose channel is not ``cdr``) is skipped with
+one warning line. A missing, truncated, corrupt or non-MCAP bag ends the player with one line on
+stderr and exit status 2. SIGINT or SIGTERM stop it cleanly (exit 0). On a terminal, a progress
+line shows the bag time, the percentage played and the rate.
 
 Exit status: 0 played (or stopped by a signal), 2 the bag cannot be read or an option is invalid.
 

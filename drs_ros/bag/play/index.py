@@ -1,5 +1,6 @@
 """A bag as the player reads it: the summaries of its files (channels, time range, count), and its
-messages streamed in log-time order, a chunk at a time.
+messages streamed in log-time order, a chunk at a time (an MCAP bag), or a database cursor at a
+time (a sqlite3 bag, through rosbags).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ class BagIndex:
     start_ns: int
     end_ns: int
     message_count: int
+    storage: str = "mcap"
 
 
 def _read_failure(path: Path, exc: Exception) -> BagReadError:
@@ -72,7 +74,10 @@ def index_bag(path: str | Path) -> BagIndex:
     BagReadError
         Missing path, not MCAP, truncated (no summary) or corrupt.
     """
-    files = resolve(path, require_metadata=False).files
+    bag = resolve(path, require_metadata=False)
+    if bag.storage == "sqlite3":
+        return _index_sqlite(bag)
+    files = bag.files
     channels: dict[str, Channel] = {}
     start, end, count = math.inf, -1, 0  # no message yet
     for file in files:
@@ -102,6 +107,51 @@ def index_bag(path: str | Path) -> BagIndex:
     return BagIndex(files, channels, start, end, count)
 
 
+def _index_sqlite(bag) -> BagIndex:
+    """:func:`index_bag` of a sqlite3 bag: its topics (:mod:`drs_ros.bag.sqlite`), and its time
+    range and count from the ``messages`` table (its timestamp index, no row read)."""
+    import sqlite3
+
+    from .. import sqlite
+
+    channels = {c["topic"]: Channel(c["topic"], c["type_name"], c["message_encoding"],
+                                    c["metadata"].get("offered_qos_profiles") or None)
+                for c in sqlite.channels(bag)}  # fmt: skip
+    start, end, count = math.inf, -1, 0
+    for file in bag.files:
+        try:
+            with sqlite3.connect(f"file:{file}?mode=ro&immutable=1", uri=True) as db:
+                first, last, n = db.execute(
+                    "SELECT min(timestamp), max(timestamp), count(*) FROM messages"
+                ).fetchone()
+            db.close()
+        except sqlite3.Error as exc:
+            raise _read_failure(file, exc) from exc
+        if n:
+            start, end, count = min(start, first), max(end, last), count + n
+    if end < 0:
+        start = end = 0
+    return BagIndex(bag.files, channels, int(start), int(end), count, "sqlite3")
+
+
+def _iter_sqlite(index: BagIndex, topics: Sequence[str], starting_at: int | None):
+    """:func:`iter_bag` of a sqlite3 bag: rosbags' reader, file by file, in time order."""
+    from rosbags.rosbag2 import Reader
+
+    for file in index.files:
+        try:
+            with Reader(file) as reader:
+                wanted = [c for c in reader.connections if c.topic in set(topics)]
+                if not wanted:
+                    continue
+                for conn, timestamp, data in reader.messages(wanted, start=starting_at):
+                    yield conn.topic, timestamp, bytes(data)
+        except DRSError:
+            raise
+        except Exception as exc:  # rosbags' or apsw's error on a damaged database
+            raise _read_failure(file, exc) from exc
+
+
 def iter_bag(
     index: BagIndex, topics: Sequence[str], starting_at: int | None = None
 ) -> Iterator[tuple[str, int, bytes]]:
@@ -113,6 +163,9 @@ def iter_bag(
     """
     from mcap.reader import make_reader
 
+    if index.storage == "sqlite3":
+        yield from _iter_sqlite(index, topics, starting_at)
+        return
     wanted = sorted(topics)
     for file in index.files:
         try:

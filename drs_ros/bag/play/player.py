@@ -12,12 +12,10 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from drs_model.errors import DRSError
 
-from ..reader import scan
 from .index import BagIndex, index_bag, iter_bag
 from .offers import playback_qos, qos_overrides
 from .options import (
@@ -269,18 +267,12 @@ def play(options: PlayOptions) -> int:
     return 0
 
 
-def verify(path: str | Path) -> None:
-    """Read the whole bag once, every file of a split bag, as ``drs-bag check`` does (CRCs,
-    summary, ``metadata.yaml`` counts), so that a corrupt bag gets the same error before
-    anything is published."""
-    scan(path, exact=False)
-
-
 def run(args: argparse.Namespace, prog: str = PROG) -> int:
     """Run ``play`` with parsed arguments; the exit status."""
     try:
         options = options_from_args(args)
-        verify(args.bag)
+        # no reading ahead of the whole bag: the summaries are read before DDS starts, every
+        # chunk's CRC as it is played (a corrupt chunk ends the play then, exit status 2)
         return play(options)
     except DRSError as exc:
         print(error_line(exc), file=sys.stderr)

@@ -1,0 +1,91 @@
+"""What a recorded run did, in a few numbers, for a table of many bags: the peak piston force,
+the largest flap gap, the longest interval between joint states, the refused and superseded
+commands, the missed deadlines. Fed one decoded message at a time (nothing is kept), like
+:class:`drs_ros.bag.model_checks.ModelChecker`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..names import DEFAULT_TOPICS, REFUSED, SUPERSEDED
+from .decoded import stamp_s
+from .effects import effect_records
+
+#: The topics :class:`RunStats` reads.
+STATS_TOPICS = tuple(DEFAULT_TOPICS[k] for k in ("joint_states", "flap_gap", "command_events",
+                                                 "diagnostics"))  # fmt: skip
+
+
+@dataclass
+class RunStats:
+    """Running figures of a recorded run (NaN or 0 where the bag holds nothing to say it).
+
+    Attributes
+    ----------
+    peak_force_n : float
+        Largest ``|effort|`` of the piston in ``/joint_states`` [N].
+    peak_force_at_s : float
+        Its header stamp [s].
+    largest_gap_m : float
+        Largest ``/drs/flap_gap`` [m].
+    longest_interval_s : float
+        Longest time between consecutive ``/joint_states`` stamps [s] (a dropout).
+    refused, superseded : int
+        Commands the effect record (``/drs/command_events``) says were refused, superseded.
+    missed_deadlines : int
+        The node's ``missed_deadlines`` counter in its last ``/diagnostics`` (its largest value).
+    """
+
+    peak_force_n: float = math.nan
+    peak_force_at_s: float = math.nan
+    largest_gap_m: float = math.nan
+    longest_interval_s: float = math.nan
+    refused: int = 0
+    superseded: int = 0
+    missed_deadlines: int = 0
+    _last_stamp: float | None = None
+
+    def add(self, topic: str, log_ns: int, msg) -> None:
+        """One decoded message (topics other than :data:`STATS_TOPICS` are ignored)."""
+        tp = DEFAULT_TOPICS
+        if topic == tp["joint_states"]:
+            t = stamp_s(log_ns, msg)
+            if self._last_stamp is not None:
+                step = t - self._last_stamp
+                if math.isnan(self.longest_interval_s) or step > self.longest_interval_s:
+                    self.longest_interval_s = step
+            self._last_stamp = t
+            if len(msg.effort):
+                force = abs(float(msg.effort[0]))
+                if math.isfinite(force) and not force <= self.peak_force_n:
+                    self.peak_force_n, self.peak_force_at_s = force, t
+        elif topic == tp["flap_gap"]:
+            gap = float(msg.data)
+            if math.isfinite(gap) and not gap <= self.largest_gap_m:
+                self.largest_gap_m = gap
+        elif topic == tp["command_events"]:
+            for record in effect_records([(log_ns, msg)]):
+                self.refused += record.outcome == REFUSED
+                self.superseded += record.outcome == SUPERSEDED
+        elif topic == tp["diagnostics"]:
+            for status in msg.status:
+                for kv in status.values:
+                    if kv.key == "missed_deadlines" and kv.value.isdigit():
+                        self.missed_deadlines = max(self.missed_deadlines, int(kv.value))
+
+    def row(self) -> dict[str, float | int]:
+        """The figures as table columns."""
+        return {
+            "peak_force_n": self.peak_force_n,
+            "peak_force_at_s": self.peak_force_at_s,
+            "largest_gap_m": self.largest_gap_m,
+            "longest_interval_s": self.longest_interval_s,
+            "refused_commands": self.refused,
+            "superseded_commands": self.superseded,
+            "missed_deadlines": self.missed_deadlines,
+        }
+
+
+__all__ = ["STATS_TOPICS", "RunStats"]
