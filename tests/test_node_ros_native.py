@@ -271,6 +271,10 @@ def test_the_parameter_file_round_trip(tmp_path, request):
     recorded = recorded_node_parameters(data.messages["/parameter_events"])
     assert recorded["publish_rate_hz"] == 125.0 and recorded["model.m_wing"] == 2.5
     assert recorded["model.Iz_wing"] == pytest.approx(2.5 * 0.12**2 / 3, rel=1e-15)  # derived
+    for name, value in params.pop("fault").items():  # healthy, as the file gives them
+        for sub, v in value.items() if isinstance(value, dict) else [(None, value)]:
+            key = f"fault.{name}" if sub is None else f"fault.{name}.{sub}"
+            assert recorded[key] == v, key
     for name, value in params.items():
         if name != "model":
             have = recorded[name]

@@ -29,11 +29,12 @@ import numpy as np
 from ..errors import InputError, UnsupportedCommandError
 from .sensor_faults import SensorFaults, StrokeSensor
 
-#: fault name -> (healthy value, what it is). The node's parameters are ``fault.<name>``.
+#: fault name -> (healthy value, what it is). The node's parameters are ``fault.<name>``; faults
+#: set together act in this order (the ramp before the supply loss it shapes).
 FAULTS = MappingProxyType(
     {
-        "supply_loss": (False, "the hydraulic supply is lost (true) or back (false)"),
         "supply_loss_ramp_s": (0.0, "time [s] the supply takes to fall (or rise), >= 0"),
+        "supply_loss": (False, "the hydraulic supply is lost (true) or back (false)"),
         "stuck_valve": (False, "the servo valve's spool sticks where it is"),
         "leak_m3_per_s_per_pa": (0.0, "extra leak of each chamber to the outside [m^3/(s Pa)]"),
         "jam_friction_n": (0.0, "extra Coulomb and breakaway friction on the rod [N]"),

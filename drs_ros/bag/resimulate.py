@@ -33,13 +33,21 @@ from pathlib import Path
 
 from drs_model.errors import DRSError
 from drs_model.fidelity import RUNGS, make_rung
+from drs_model.fidelity.faults import RunFaults
 from drs_model.overrides import assignment_overrides, from_file
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
 from .decoded import decoder
-from .effects import effect_records, model_params_from, recorded_node_parameters
+from .effects import (
+    apply_fault_record,
+    effect_records,
+    is_fault_record,
+    model_params_from,
+    recorded_node_parameters,
+    recorded_rung,
+)
 from .files import BagReadError
 from .reader import MessageCallbackError, scan
 
@@ -130,7 +138,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
     sim = make_rung(
-        fidelity or str(np_.get("fidelity", "rigid")),
+        fidelity or recorded_rung(np_, run.records),
         model,
         dt,
         force_limit=float(np_["force_limit"]),
@@ -138,6 +146,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
         force_method=str(np_["force_method"]),
     )
     piston = list(np_["joint_names"])[0]
+    faults = RunFaults(sim)  # the faults set at run time, and the stroke as published
     states: dict[int, tuple] = {}
     notes: list[str] = []
 
@@ -146,7 +155,9 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
 
     def keep() -> None:
         st = sim.state
-        states[int(round(st.t / dt))] = (st.q.copy(), st.qd.copy(), st.piston_force, st.gap,
+        q = st.q.copy()
+        q[0] = faults.published_stroke(st.t, q[0])  # a sensor fault changes what was published
+        states[int(round(st.t / dt))] = (q, st.qd.copy(), st.piston_force, st.gap,
                                          st.qdd[0])  # fmt: skip
 
     def advance_to(t: float) -> None:
@@ -180,6 +191,13 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
                 )
             sim.reset(r.sim_time, float(r.values["stroke"]))
             keep()
+            continue
+        if is_fault_record(r):  # a fault set at run time, applied at its tick as the node did
+            try:
+                apply_fault_record(faults, r)
+            except DRSError as exc:
+                notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
+                             f"{r.values.get('value', '')}: {exc}")  # fmt: skip
             continue
         key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
         if key == commands.SERVICE_KEY:
@@ -226,6 +244,14 @@ def joint_state_steps(run: RecordedRun, dt: float) -> dict[int, int]:
     return out
 
 
+def _deviation(recorded: float, rerun: float) -> float:
+    """``|recorded - rerun|``; 0 where both are NaN (a sensor's dropout, a kinematic rung's
+    force: the same sample), NaN where one only is."""
+    if math.isnan(recorded) and math.isnan(rerun):
+        return 0.0
+    return abs(recorded - rerun)
+
+
 def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> list[dict]:
     """Largest deviation per signal between the recorded and the re-simulated samples."""
     dt, states = result["dt"], result["states"]
@@ -252,17 +278,17 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float]) -> lis
         q, qd, force, _gap, _acc = state
         names = ("stroke", "link_angle", "flap_angle")
         for i, name in enumerate(names):
-            note(name, abs(m.position[i] - q[i]), k * dt)
+            note(name, _deviation(m.position[i], q[i]), k * dt)
         for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
-            note(name, abs(m.velocity[i] - qd[i]), k * dt)
-        note("piston_force", abs(m.effort[0] - force), k * dt)
+            note(name, _deviation(m.velocity[i], qd[i]), k * dt)
+        note("piston_force", _deviation(m.effort[0], force), k * dt)
     # the Float64 topics are published in the same tick, logged at the same node time
     for topic_msgs, name, idx in ((run.forces, "piston_force", 2), (run.gaps, "gap", 3)):
         for log, m in topic_msgs:
             k = steps.get(log)
             if k is None or k not in states:
                 continue
-            note(name, abs(m.data - states[k][idx]), k * dt)
+            note(name, _deviation(m.data, states[k][idx]), k * dt)
     out = list(rows.values())
     for row in out:
         row["ok"] = bool(row["max_deviation"] <= row["tol"])
