@@ -36,12 +36,15 @@ DEFAULT_TOPICS = MappingProxyType({
 ACCEPTED, REFUSED, SUPERSEDED = "accepted", "refused", "superseded"
 #: Records of the node's own doings in the effect record: the clock origin, a physics reset.
 CLOCK, RESET = "clock", "reset"
+#: The record of ``fidelity: auto``'s choice (its ``rung`` and what was ``asked``).
+FIDELITY = "fidelity"
 
 __all__ = [
     "ACCEPTED",
     "CLOCK",
     "DEFAULT_JOINT_NAMES",
     "DEFAULT_TOPICS",
+    "FIDELITY",
     "REFUSED",
     "RESET",
     "SUPERSEDED",

@@ -207,8 +207,11 @@ def test_a_failing_configure_is_reported_and_leaves_nothing(ros_context, tmp_pat
 
 def test_the_parameter_file_holds_every_parameter_at_its_default(ros_context):
     values = yaml.safe_load(CONFIG.read_text())["/drs"]["ros__parameters"]
-    flat = {k: v for k, v in values.items() if k != "model"}
+    flat = {k: v for k, v in values.items() if k not in ("model", "fault")}
     flat.update({f"model.{k}": v for k, v in values["model"].items()})
+    for k, v in values["fault"].items():  # fault.sensor.* nest one level deeper
+        subs = v.items() if isinstance(v, dict) else [(None, v)]
+        flat.update({f"fault.{k}" + ("" if s is None else f".{s}"): x for s, x in subs})
     # the derived inertias are shown commented out: given, they would no longer follow their
     # mass and length (a value given is the value used)
     derived = re.findall(r"^      # (Iz_\w+): (\S+)$", CONFIG.read_text(), re.M)
@@ -271,6 +274,10 @@ def test_the_parameter_file_round_trip(tmp_path, request):
     recorded = recorded_node_parameters(data.messages["/parameter_events"])
     assert recorded["publish_rate_hz"] == 125.0 and recorded["model.m_wing"] == 2.5
     assert recorded["model.Iz_wing"] == pytest.approx(2.5 * 0.12**2 / 3, rel=1e-15)  # derived
+    for name, value in params.pop("fault").items():  # healthy, as the file gives them
+        for sub, v in value.items() if isinstance(value, dict) else [(None, value)]:
+            key = f"fault.{name}" if sub is None else f"fault.{name}.{sub}"
+            assert recorded[key] == v, key
     for name, value in params.items():
         if name != "model":
             have = recorded[name]

@@ -8,10 +8,18 @@ turns such records back into values; it holds no state.
 
 from __future__ import annotations
 
+import ast
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from drs_model.errors import DRSError
+from drs_model.fidelity.faults import FAULTS, RunFaults
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
+
+from ..names import FIDELITY
+
+#: The prefix of the node's fault parameters, the source of their effect records.
+FAULT_PREFIX = "fault."
 
 #: rcl_interfaces/ParameterType values -> the ParameterValue field holding the value.
 _VALUE_FIELDS = {
@@ -116,8 +124,45 @@ def effect_records(messages: Sequence) -> list[EffectRecord]:
     return out
 
 
+class MissingRecordError(DRSError):
+    """The effect record lacks a record the run's parameters say it must hold."""
+
+
+def recorded_rung(node_parameters: dict, records: Sequence[EffectRecord]) -> str:
+    """The rung a run ran on: its ``fidelity`` parameter (``rigid`` for a bag recorded before
+    it), or, for ``auto``, the rung its ``fidelity`` record says it chose."""
+    fidelity = str(node_parameters.get("fidelity", "rigid"))
+    if fidelity != "auto":
+        return fidelity
+    chosen = [r.values["rung"] for r in records if r.source == FIDELITY]
+    if not chosen:
+        raise MissingRecordError(
+            "fidelity auto, but the effect record holds no 'fidelity' record of the rung "
+            "chosen: the run never stepped"
+        )
+    return chosen[0]
+
+
+def is_fault_record(record: EffectRecord) -> bool:
+    """Whether ``record`` is a fault set at run time (source ``fault.<name>``)."""
+    name = record.source.removeprefix(FAULT_PREFIX)
+    return record.source.startswith(FAULT_PREFIX) and name in FAULTS
+
+
+def apply_fault_record(faults: RunFaults, record: EffectRecord) -> None:
+    """Apply the fault an accepted record says took effect, to ``faults`` (of the re-run's
+    rung, at the record's simulated instant, where the caller has brought it). The value is the
+    record's ``repr`` of it (a bool, an int or a float, which ``repr`` gives back exactly)."""
+    faults.apply(record.source.removeprefix(FAULT_PREFIX), ast.literal_eval(record.values["value"]))
+
+
 __all__ = [
+    "FAULT_PREFIX",
     "EffectRecord",
+    "MissingRecordError",
+    "apply_fault_record",
+    "is_fault_record",
+    "recorded_rung",
     "effect_records",
     "model_params_from",
     "parameter_event",

@@ -40,6 +40,7 @@ from pathlib import Path
 
 from drs_model.errors import DRSError
 from drs_model.fidelity import RUNGS, make_rung
+from drs_model.fidelity.faults import RunFaults
 from drs_model.overrides import assignment_overrides, from_file
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
@@ -47,7 +48,14 @@ from .. import commands
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
 from . import fleet
 from .decoded import decoder
-from .effects import effect_records, model_params_from, recorded_node_parameters
+from .effects import (
+    apply_fault_record,
+    effect_records,
+    is_fault_record,
+    model_params_from,
+    recorded_node_parameters,
+    recorded_rung,
+)
 from .files import BagReadError
 from .reader import MessageCallbackError, scan
 
@@ -132,7 +140,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
     sim = make_rung(
-        fidelity or str(np_.get("fidelity", "rigid")),
+        fidelity or recorded_rung(np_, run.records),
         model,
         dt,
         force_limit=float(np_["force_limit"]),
@@ -140,6 +148,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
         force_method=str(np_["force_method"]),
     )
     piston = list(np_["joint_names"])[0]
+    faults = RunFaults(sim)  # the faults set at run time, and the stroke as published
     states: dict[int, tuple] = {}
     notes: list[str] = []
 
@@ -148,7 +157,9 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
 
     def keep() -> None:
         st = sim.state
-        states[int(round(st.t / dt))] = (st.q.copy(), st.qd.copy(), st.piston_force, st.gap,
+        q = st.q.copy()
+        q[0] = faults.published_stroke(st.t, q[0])  # a sensor fault changes what was published
+        states[int(round(st.t / dt))] = (q, st.qd.copy(), st.piston_force, st.gap,
                                          st.qdd[0])  # fmt: skip
 
     def advance_to(t: float) -> None:
@@ -182,6 +193,13 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
                 )
             sim.reset(r.sim_time, float(r.values["stroke"]))
             keep()
+            return
+        if is_fault_record(r):  # a fault set at run time, applied at its tick as the node did
+            try:
+                apply_fault_record(faults, r)
+            except DRSError as exc:
+                notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
+                             f"{r.values.get('value', '')}: {exc}")  # fmt: skip
             return
         key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
         if key == commands.SERVICE_KEY:
@@ -235,6 +253,14 @@ class _Value:
 def _stamp_ns(msg) -> int:
     """A message's header stamp [ns]."""
     return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+
+def _deviation(recorded: float, rerun: float) -> float:
+    """``|recorded - rerun|``; 0 where both are NaN (a sensor's dropout, a kinematic rung's
+    force: the same sample), NaN where one only is."""
+    if math.isnan(recorded) and math.isnan(rerun):
+        return 0.0
+    return abs(recorded - rerun)
 
 
 def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
@@ -292,17 +318,17 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
                 return
             q, qd, force, _gap, _acc = state
             for i, name in enumerate(("stroke", "link_angle", "flap_angle")):
-                note(name, abs(msg.position[i] - q[i]), k * dt)
+                note(name, _deviation(msg.position[i], q[i]), k * dt)
             for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
-                note(name, abs(msg.velocity[i] - qd[i]), k * dt)
-            note("piston_force", abs(msg.effort[0] - force), k * dt)
+                note(name, _deviation(msg.velocity[i], qd[i]), k * dt)
+            note("piston_force", _deviation(msg.effort[0], force), k * dt)
             return
         # the Float64 topics are published in the same tick, logged at the same node time
         name, idx = scalar[m.topic]
         k = recent.get(m.log_time)
         state = None if k is None else state_at(k)
         if state is not None:
-            note(name, abs(msg.data - state[idx]), k * dt)
+            note(name, _deviation(msg.data, state[idx]), k * dt)
 
     topics = {tp["command_events"], tp["joint_states"], *scalar}
     try:
@@ -476,8 +502,8 @@ def fleet_row(bag: str, args: argparse.Namespace) -> dict:
         row.update(fleet.count_columns(run.counts, run.start_ns, run.end_ns, False))
     row["notes"] = list(outcome.notes)
     # the rung of the re-run: asked for, or the one the bag recorded
-    recorded_rung = None if run is None else str(run.node_parameters.get("fidelity", "rigid"))
-    row["fidelity"] = getattr(args, "fidelity", None) or recorded_rung
+    rung = None if run is None else recorded_rung(run.node_parameters, run.records)
+    row["fidelity"] = getattr(args, "fidelity", None) or rung
     row.update(fleet.param_columns(outcome.model))
     return row
 

@@ -54,6 +54,8 @@ from visualization_msgs.msg import MarkerArray
 
 from drs_model.errors import DRSError
 from drs_model.fidelity import HydraulicRung, make_rung
+from drs_model.fidelity.auto import choose_rung
+from drs_model.fidelity.faults import RunFaults
 
 from .. import commands
 from ..conversions import (
@@ -63,10 +65,11 @@ from ..conversions import (
     reactions_msg,
 )
 from ..drawing import moving_drawings, still_drawings
-from ..names import ACCEPTED, REFUSED, RESET, SUPERSEDED
+from ..names import ACCEPTED, FIDELITY, REFUSED, RESET, SUPERSEDED
 from ..recording import cdr, msgdefs
 from ..stack import NodeHooks, StackLayer
 from .effect_record import EffectRecord, PendingCommand, refusal_reason
+from .faults import NodeFaults, declare_fault_parameters
 from .parameters import StartupError, declare_parameters, effective_parameters, model_params
 from .recordings import NodeRecordings
 from .trajectory_cdr import read_joint_trajectory
@@ -87,7 +90,7 @@ CLOCK_WAIT_WARNING_S = 2.0
 CLOCK_JUMP_THRESHOLD_S = 0.01
 
 
-class DRSNode(EffectRecord, NodeRecordings, Node):
+class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
     """The DRS actuator node. Keyword arguments go to :class:`rclpy.node.Node`.
 
     Its life has the stages of a ROS 2 managed node, which
@@ -112,6 +115,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         super().__init__("drs", **kwargs)
         # callbacks may run in an executor thread while the main thread ticks
         self._lock = threading.Lock()
+        declare_fault_parameters(self)  # writable: the only parameters that change at run time
         self._given_parameters = declare_parameters(self)
         self._wall_clock = not self.get_parameter("use_sim_time").value
         self._tick_timer = tick_timer
@@ -149,14 +153,18 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
                 ["joint_names"],
             )
         self.fidelity = gp("fidelity").value
-        self.sim = make_rung(
-            self.fidelity,
+        # auto: rigid until the subscribers are seen (activate, _choose_fidelity)
+        self._auto_deadline = None
+        self._make_rung = lambda rung: make_rung(
+            rung,
             self.params,
             self.physics_dt,
             force_limit=gp("force_limit").value,
             integrator=gp("integrator").value,
             force_method=gp("force_method").value,
         )
+        self.sim = self._make_rung("rigid" if self.fidelity == "auto" else self.fidelity)
+        self._start_faults()
         self.max_catch_up = int(gp("max_catch_up_steps").value)
         # a tick late by one period must still catch up, or every tick would drop steps
         needed = math.ceil(2.0 * physics_hz / publish_hz)
@@ -186,7 +194,7 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         )
         # the hydraulic rung's chamber pressures, supply pressure and valve spool
         self.pub_hydraulic = ()
-        if isinstance(self.sim, HydraulicRung):
+        if isinstance(self.sim, HydraulicRung) or self.fidelity == "auto":
             self.pub_hydraulic = tuple(
                 self.create_publisher(msg_type, f"~/{name}", qos)
                 for name, msg_type in HYDRAULIC_TOPICS
@@ -281,6 +289,9 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
                 0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
         self._last_tick_ns = None  # the time inactive is no missed deadline
+        if self.fidelity == "auto" and self.sim.t == 0.0 and self.ticks == 0:
+            wait = self.get_parameter("fidelity_auto_discovery_s").value
+            self._auto_deadline = time.monotonic() + wait
         self.stack.activate()  # JointState commands, goals taken
         self.active = True
 
@@ -409,6 +420,8 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
     def _on_drs_locked(self, request, response):
         # a service call takes effect at once: the simulation is between two physics steps
         now = self._now_ns()
+        if self._auto_deadline is not None:  # a call before auto chose: choose now
+            self._choose_fidelity(now)
         self._apply_pending(now)  # commands that arrived earlier act first, as they would have
         value = commands.describe(commands.SERVICE_KEY, request)
         try:
@@ -469,6 +482,10 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         now = self._now_ns()
         if now == 0:  # use_sim_time before the first /clock message
             return
+        if self._auto_deadline is not None:
+            if time.monotonic() < self._auto_deadline:
+                return  # auto: the subscribers are still being discovered
+            self._choose_fidelity(now)
         mono = time.monotonic_ns()
         if self._t0_ns is None:
             self._t0_ns = now - int(round(self.sim.t * 1e9))
@@ -490,6 +507,8 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         t = time.process_time()
         if self._pending:
             self._apply_pending(now)
+        if self._pending_faults:
+            self._apply_faults(now)
         target = (now - self._t0_ns) * 1e-9
         due = int(math.floor((target - self.sim.t) / self.physics_dt + 1e-9))
         if due > self.max_catch_up:
@@ -511,6 +530,32 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         self._cpu["model"] += time.process_time() - t
         if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)
             self._publish(now)
+
+    def _choose_fidelity(self, now_ns: int) -> None:
+        """``fidelity: auto``: the cheapest rung that meets ``fidelity_tolerance`` and
+        ``fidelity_force_tolerance`` for what the node's subscribers ask
+        (:func:`drs_model.fidelity.auto.choose_rung`), chosen once, before the first step, and
+        recorded (source ``fidelity``) so that a re-run takes the same rung."""
+        self._auto_deadline = None
+        asked = {kind for pub, kind in self._asked_by_topic() if pub.get_subscription_count()}
+        gp = self.get_parameter
+        rung = choose_rung(asked, gp("fidelity_tolerance").value,
+                           gp("fidelity_force_tolerance").value)  # fmt: skip
+        if rung != self.sim.name:
+            self.sim = self._make_rung(rung)
+            self.faults = RunFaults(self.sim)  # none applied yet: they act at ticks
+            if getattr(self.stack, "action", None) is not None:
+                self.stack.action.sim = self.sim
+        self.get_logger().info(f"fidelity auto: {rung} for {sorted(asked) or 'nothing'} asked")
+        self._event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None,
+                    {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
+
+    def _asked_by_topic(self) -> list[tuple]:
+        """What a subscriber of each publisher asks of the model (drs_model.fidelity.auto)."""
+        out = [(self.pub_joints, "gap"), (self.pub_gap, "gap"), (self.pub_markers, "gap"),
+               (self.pub_force, "force"), (self.pub_accel, "force"),
+               (self.pub_reactions, "force")]  # fmt: skip
+        return out + [(pub, "hydraulics") for pub in self.pub_hydraulic]
 
     def _check_clock_jump(self, now: int, mono: int) -> None:
         """A node clock that jumps (the system clock stepped by NTP or by hand; ``/clock`` going
@@ -542,12 +587,12 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
         pack = self._pack_float64
         out = [
             (self.pub_joints, self._serialize[JointState](
-                joint_state_msg(st, self.joint_names, stamp, self._joint_state))),
+                self._published_joint_state(st, stamp))),
             (self.pub_force, pack(st.piston_force)),
             (self.pub_gap, pack(st.gap)),
             (self.pub_accel, pack(st.qdd[0])),
         ]  # fmt: skip
-        if self.pub_hydraulic:
+        if self.pub_hydraulic and isinstance(self.sim, HydraulicRung):
             out += self._hydraulic_messages(st, stamp)
         if self.ticks % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
             self._listened = {pub: pub.get_subscription_count() > 0
@@ -574,6 +619,14 @@ class DRSNode(EffectRecord, NodeRecordings, Node):
             except Exception as exc:  # noqa: BLE001
                 self.recording_error = f"rerun: {exc}"
         self._cpu["record"] += time.process_time() - t1
+
+    def _published_joint_state(self, st, stamp: int) -> JointState:
+        """The joint states as the (possibly faulty) stroke sensor reports them: a sensor fault
+        changes the piston's position only, never the simulation."""
+        msg = joint_state_msg(st, self.joint_names, stamp, self._joint_state)
+        if not self.faults.sensor_healthy:
+            msg.position[0] = self.faults.published_stroke(st.t, float(st.q[0]))
+        return msg
 
     def _hydraulic_messages(self, st, stamp: int) -> list[tuple]:
         """The hydraulic rung's pressures (sensor_msgs/FluidPressure [Pa], stamped like the joint

@@ -176,6 +176,7 @@ class EffectRecord:
             "refused_commands": self.refused,
             "superseded_commands": self.superseded,
             "last_refusal": self.last_refusal or "none",
+            "faults": self.faults_text(),
             "missed_deadlines": self.missed_deadlines,
             "dropped_steps": self.dropped_steps,
             "clock_jumps": self.clock_jumps,

@@ -28,9 +28,9 @@ from ..stack import STACK_PARAMETERS
 #: ignored SIGINT and SIGTERM (docs/ros.md, "Rate").
 EXECUTORS = ("deadline", "single")
 
-#: The rungs of the fidelity ladder the node runs (drs_model.fidelity.RUNGS; ``auto`` is not
-#: offered yet).
-FIDELITIES = tuple(RUNGS)
+#: The rungs of the fidelity ladder the node runs (drs_model.fidelity.RUNGS), and ``auto``: the
+#: cheapest that meets the tolerances for what the subscribers ask (drs_model.fidelity.auto).
+FIDELITIES = (*RUNGS, "auto")
 
 #: The node's own parameters: (name, default, description, valid range or choices). All read-only.
 NODE_PARAMETERS = (
@@ -42,7 +42,15 @@ NODE_PARAMETERS = (
     ("force_method", "fused",
      "inverse-dynamics formulation: fused, newton-euler, lagrange, virtual-work", None),
     ("fidelity", "rigid",
-     "model rung: kinematic, quasi-static, rigid or hydraulic (docs/fidelity.md)", FIDELITIES),
+     "model rung: kinematic, quasi-static, rigid, hydraulic or auto (docs/fidelity.md)",
+     FIDELITIES),
+    ("fidelity_tolerance", 5e-4, "auto: largest gap error [m] against the hydraulic rung",
+     (1e-9, 1.0)),
+    ("fidelity_force_tolerance", 2000.0,
+     "auto: largest piston force error [N] against the hydraulic rung", (1e-3, 1e6)),
+    ("fidelity_auto_discovery_s", 1.0,
+     "auto: time [s] after activation the node waits for subscribers before it chooses",
+     (0.0, 60.0)),
     ("force_limit", 2.0e4, "largest accepted |force command| [N]", (1.0, 1.0e6)),
     ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
      (1, 100000)),

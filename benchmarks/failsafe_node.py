@@ -1,0 +1,129 @@
+"""The fail-safe through the node, per rung: a node opens the flap (``~/drs`` true), holds it,
+and then the supply is lost at run time (``fault.supply_loss`` set through the parameter
+service, with ``fault.supply_loss_ramp_s``); how long the air load takes to close the flap.
+
+The time runs from the simulated instant the fault took effect (its effect record) to the gap's
+first falling within 5 % of its travel from closed, read at every physics step of the bag's
+exact re-run (``drs-bag resimulate``'s model run, checked to reproduce the published states).
+
+Usage: ``python benchmarks/failsafe_node.py [--ramp 0.0] [--json]``; writes
+``benchmarks/results/failsafe_node.json`` (``failsafe_node_ramp<R>s.json`` with a ramp). Sets
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and uses ROS_DOMAIN_ID (0) unless given ``--domain``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNGS = ("quasi-static", "rigid", "hydraulic")  # kinematic refuses the fault (no forces)
+
+
+def run_node(rung: str, bag: Path, ramp: float, domain: int) -> dict:
+    """One node run on ``rung``, recorded to ``bag``; what the parameter service answered."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+    from std_srvs.srv import SetBool
+
+    from drs_ros.node import DRSNode
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=domain)
+    node = DRSNode(context=ctx, parameter_overrides=[
+        Parameter("fidelity", value=rung), Parameter("bag_path", value=str(bag)),
+        Parameter("publish_rate_hz", value=250.0)])  # fmt: skip
+    client = rclpy.create_node("failsafe_client", context=ctx)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(client)
+
+    def spin(seconds: float, done=None) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end and not (done and done()):
+            ex.spin_once(timeout_sec=0.01)
+
+    try:
+        drs = client.create_client(SetBool, "/drs/drs")
+        params = AsyncParameterClient(client, "/drs")
+        assert drs.wait_for_service(timeout_sec=10.0) and params.wait_for_services(10.0)
+        fut = drs.call_async(SetBool.Request(data=True))
+        spin(5.0, fut.done)
+        spin(0.4)  # open (the hydraulic rung takes ~55 ms) and hold
+        fut = params.set_parameters_atomically([
+            Parameter("fault.supply_loss_ramp_s", value=ramp),
+            Parameter("fault.supply_loss", value=True)])  # fmt: skip
+        spin(5.0, fut.done)
+        result = fut.result().result
+        spin(0.6)
+        return {"successful": result.successful, "reason": result.reason}
+    finally:
+        node.close_recordings()
+        ex.shutdown()
+        client.destroy_node()
+        node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+
+
+def closing_time(bag: Path) -> dict:
+    """From the bag: the fault's simulated instant, the re-run's deviation from the recording,
+    and the time to 5 % of the gap's travel from closed."""
+    from drs_model.params import DRSParams
+    from drs_ros.bag.resimulate import SIGNALS, compare, read_run, resimulate, run_params
+
+    run = read_run(bag)
+    model = run_params(run.node_parameters)
+    result = resimulate(run, model)
+    rows = compare(run, result, {k: tol for k, (_, tol) in SIGNALS.items()})
+    (fault,) = [r for r in run.records if r.source == "fault.supply_loss"]
+    p = model if isinstance(model, DRSParams) else DRSParams()
+    threshold = p.gap_closed + 0.05 * (p.gap_open - p.gap_closed)
+    dt = result["dt"]
+    k0 = int(round(fault.sim_time / dt))
+    states = result["states"]
+    closed = [k for k in sorted(states) if k > k0 and states[k][3] <= threshold]
+    return {
+        "fault_sim_time_s": fault.sim_time,
+        "gap_at_fault_m": states[k0][3],
+        "closing_time_s": (closed[0] - k0) * dt if closed else None,
+        "rerun_exact": all(r["max_deviation"] == 0.0 for r in rows),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--ramp", type=float, default=0.0, help="supply loss ramp [s]")
+    ap.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", 0)))
+    ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    args = ap.parse_args()
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    out = {"ramp_s": args.ramp, "rungs": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        for rung in RUNGS:
+            bag = Path(tmp) / rung
+            answer = run_node(rung, bag, args.ramp, args.domain)
+            row = dict(answer)
+            if answer["successful"]:
+                row.update(closing_time(bag))
+            out["rungs"][rung] = row
+            if not args.json:
+                print(rung, row)
+        answer = run_node("kinematic", Path(tmp) / "kinematic", args.ramp, args.domain)
+        out["rungs"]["kinematic"] = answer
+        if not args.json:
+            print("kinematic", answer)
+    name = "failsafe_node.json" if args.ramp == 0.0 else f"failsafe_node_ramp{args.ramp:g}s.json"
+    results = ROOT / "benchmarks" / "results" / name
+    results.write_text(json.dumps(out, indent=2) + "\n")
+    if args.json:
+        print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,160 @@
+"""The faults in force on a rung, set one by one at a physics step (the node's ``fault.*``
+parameters, a bag's re-run): supply loss (a step or a ramp), a stuck valve, a leak, a jammed flap,
+and the stroke sensor's faults (:mod:`~drs_model.fidelity.sensor_faults`).
+
+:class:`RunFaults` checks a value (type, range, and whether the rung can model it) before it
+acts, applies it to the rung, and turns the true stroke into the published one. What each rung
+makes of a fault (docs/fidelity.md, "Faults at run time"):
+
+* ``supply_loss``: ``hydraulic``: the supply falls to the return pressure over
+  ``supply_loss_ramp_s`` and the servo is commanded closed (:meth:`HydraulicRung.lose_supply`);
+  back on, it rises to the supply pressure over the same ramp. ``rigid`` and ``quasi-static``:
+  the documented equivalent, a zero piston force from now on (the air load closes the flap);
+  back on, nothing changes until the next command. ``kinematic``: refused (no forces).
+* ``stuck_valve``, ``leak_m3_per_s_per_pa``, ``jam_friction_n``: ``hydraulic`` only; refused
+  on the other rungs, which model no valve, no oil and no friction.
+* ``sensor.*``: every rung; they change the published stroke only, never the simulation.
+
+A healthy value (the default) is accepted on every rung.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from types import MappingProxyType
+
+import numpy as np
+
+from ..errors import InputError, UnsupportedCommandError
+from .sensor_faults import SensorFaults, StrokeSensor
+
+#: fault name -> (healthy value, what it is). The node's parameters are ``fault.<name>``; faults
+#: set together act in this order (the ramp before the supply loss it shapes).
+FAULTS = MappingProxyType(
+    {
+        "supply_loss_ramp_s": (0.0, "time [s] the supply takes to fall (or rise), >= 0"),
+        "supply_loss": (False, "the hydraulic supply is lost (true) or back (false)"),
+        "stuck_valve": (False, "the servo valve's spool sticks where it is"),
+        "leak_m3_per_s_per_pa": (0.0, "extra leak of each chamber to the outside [m^3/(s Pa)]"),
+        "jam_friction_n": (0.0, "extra Coulomb and breakaway friction on the rod [N]"),
+        "sensor.bias_m": (0.0, "bias added to the published stroke [m]"),
+        "sensor.noise_std_m": (0.0, "standard deviation of the published stroke's noise [m]"),
+        "sensor.noise_seed": (0, "seed of the noise and dropouts (each draw: seed and step)"),
+        "sensor.dropout": (0.0, "probability a published stroke is lost (NaN), in [0, 1]"),
+        "sensor.frozen": (False, "the published stroke repeats the value of the step set"),
+    }
+)
+
+#: The faults only the hydraulic rung models.
+HYDRAULIC_ONLY = ("stuck_valve", "leak_m3_per_s_per_pa", "jam_friction_n")
+
+
+class RunFaults:
+    """The faults in force on ``sim`` (a rung of :data:`~drs_model.fidelity.RUNGS`) and the
+    stroke sensor that reports it."""
+
+    def __init__(self, sim) -> None:
+        self.sim = sim
+        self.values = {name: healthy for name, (healthy, _) in FAULTS.items()}
+        self.sensor = StrokeSensor(SensorFaults())
+
+    def check(self, name: str, value):
+        """``value`` as the fault ``name`` takes it; raises :class:`InputError` for a bad value
+        and :class:`UnsupportedCommandError` for a fault this rung cannot model."""
+        if name not in FAULTS:
+            raise InputError(f"unknown fault {name!r} (known: {', '.join(FAULTS)})")
+        healthy = FAULTS[name][0]
+        if isinstance(healthy, bool):
+            if not isinstance(value, bool):
+                raise InputError(f"fault {name} must be true or false, got {value!r}")
+        elif isinstance(healthy, int):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+                raise InputError(f"fault {name} must be an integer >= 0, got {value!r}")
+            value = int(value)
+        else:
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise InputError(f"fault {name} must be a number, got {value!r}")
+            value = float(value)
+            if not math.isfinite(value):
+                raise InputError(f"fault {name} must be finite, got {value!r}")
+            if name == "sensor.dropout" and not 0.0 <= value <= 1.0:
+                raise InputError(f"fault {name} must be in [0, 1], got {value!r}")
+            if name != "sensor.bias_m" and value < 0.0:
+                raise InputError(f"fault {name} must be >= 0, got {value!r}")
+        if value == healthy:
+            return value
+        rung = getattr(self.sim, "name", "rigid")
+        if name in HYDRAULIC_ONLY and rung != "hydraulic":
+            raise UnsupportedCommandError(
+                f"the {rung!r} rung cannot model fault {name}: it has no valve, oil or "
+                "friction; run fidelity 'hydraulic'"
+            )
+        if name == "supply_loss" and not getattr(self.sim, "has_forces", True):
+            raise UnsupportedCommandError(
+                f"the {rung!r} rung cannot model fault {name}: it models no forces; use "
+                "'quasi-static', 'rigid' or 'hydraulic'"
+            )
+        return value
+
+    def apply(self, name: str, value) -> None:
+        """Set fault ``name`` to ``value`` now (at the rung's present step); checked first, and a
+        refused value changes nothing."""
+        value = self.check(name, value)
+        sim = self.sim
+        hydraulic = getattr(sim, "name", "") == "hydraulic"
+        ramp = self.values["supply_loss_ramp_s"]
+        if name == "supply_loss":
+            if value:
+                if hydraulic:
+                    sim.lose_supply(ramp)
+                else:  # rigid, quasi-static: the documented equivalent, no piston force
+                    sim.lose_supply()
+            elif hydraulic and self.values["supply_loss"]:
+                sim.set_supply_pressure(sim.hydraulic.supply_pressure, ramp)
+        elif name == "stuck_valve":
+            if hydraulic:
+                sim.stick_valve(value)
+        elif name == "leak_m3_per_s_per_pa":
+            if hydraulic:
+                sim.set_leak(value)
+        elif name == "jam_friction_n":
+            if hydraulic:
+                sim.jam(value)
+        elif name == "sensor.frozen":
+            if value and not self.values["sensor.frozen"]:
+                t, s, _, _ = sim.sample()
+                held = self.sensor.read(t, self._step(t), s)
+                # a frozen sensor outputs a value: a dropout at the freezing step holds the
+                # biased stroke instead
+                self.sensor._held = s + self.sensor.faults.bias if math.isnan(held) else held
+                self.sensor.faults = replace(self.sensor.faults, frozen_from=t)
+            elif not value:
+                self.sensor.faults = replace(self.sensor.faults, frozen_from=math.inf)
+        elif name.startswith("sensor."):
+            field = {"sensor.bias_m": "bias", "sensor.noise_std_m": "noise",
+                     "sensor.noise_seed": "seed", "sensor.dropout": "dropout"}[name]  # fmt: skip
+            self.sensor.faults = replace(self.sensor.faults, **{field: value})
+        self.values[name] = value
+
+    def _step(self, t: float) -> int:
+        return int(round(t / self.sim.dt))
+
+    @property
+    def sensor_healthy(self) -> bool:
+        """Whether the published stroke is the true one."""
+        return all(self.values[n] == FAULTS[n][0] for n in FAULTS if n.startswith("sensor."))
+
+    def published_stroke(self, t: float, stroke: float) -> float:
+        """The stroke [m] the sensor reports at simulated time ``t`` [s] for the true ``stroke``
+        (each draw a function of the seed and the step ``round(t / dt)``)."""
+        if self.sensor_healthy:
+            return stroke
+        return self.sensor.read(t, self._step(t), stroke)
+
+    def active(self) -> dict:
+        """The faults set away from healthy, ``name -> value``."""
+        return {n: v for n, v in self.values.items() if v != FAULTS[n][0]}
+
+
+__all__ = ["FAULTS", "HYDRAULIC_ONLY", "RunFaults"]

@@ -1,0 +1,129 @@
+"""The node's faults as run-time parameters ``fault.<name>`` (the faults of
+:data:`drs_model.fidelity.faults.FAULTS`), the only parameters that may change while it runs.
+
+A change is checked when it is set (a bad value, or a fault the rung cannot model, is refused
+with the reason in the ``SetParametersResult`` and in the effect record; the node goes on),
+recorded on ``/parameter_events`` (rclpy publishes it; the node's bag gets the same change), and
+applied at the next tick, before the physics steps: its effect record (``~/command_events``,
+source ``fault.<name>``) gives the simulated instant, from which ``drs-bag resimulate`` applies it
+again. Values given at start (``-p fault.x:=...``) act at the first tick the same way.
+
+:class:`NodeFaults` is a part of :class:`drs_ros.node.adapter.DRSNode`.
+"""
+
+from __future__ import annotations
+
+from diagnostic_msgs.msg import DiagnosticStatus
+from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent, SetParametersResult
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from drs_model.errors import DRSError
+from drs_model.fidelity.faults import FAULTS, RunFaults
+
+from ..conversions import time_msg
+from ..names import ACCEPTED, REFUSED
+
+#: The prefix of the fault parameters.
+FAULT_PREFIX = "fault."
+
+
+def fault_parameter_names() -> list[str]:
+    """``fault.<name>`` for every fault, in :data:`FAULTS` order."""
+    return [FAULT_PREFIX + name for name in FAULTS]
+
+
+def declare_fault_parameters(node: Node) -> None:
+    """Declare the ``fault.*`` parameters (writable, healthy by default). An integer given for a
+    float one is taken as that float, as for the node's other parameters."""
+    overrides = node._parameter_overrides
+    for name, (healthy, description) in FAULTS.items():
+        full = FAULT_PREFIX + name
+        given = overrides.get(full)
+        if isinstance(healthy, float) and given is not None:
+            if given.type_ == Parameter.Type.INTEGER:
+                overrides[full] = Parameter(full, Parameter.Type.DOUBLE, float(given.value))
+        node.declare_parameter(full, healthy, ParameterDescriptor(
+            description=f"fault (run time, docs/fidelity.md): {description}"))  # fmt: skip
+
+
+class NodeFaults:
+    """The fault parameters of the DRS node (a base class of ``DRSNode``)."""
+
+    def _start_faults(self) -> None:
+        """At configure: the faults of the new actuator, and the values given at start pending
+        for the first tick."""
+        self.faults = RunFaults(self.sim)
+        self._pending_faults: list[tuple[str, object]] = [
+            (name, self.get_parameter(name).value)
+            for name in fault_parameter_names()
+            if self.get_parameter(name).value != FAULTS[name.removeprefix(FAULT_PREFIX)][0]
+        ]
+        if not getattr(self, "_fault_callbacks", False):  # once, though configured again
+            self._fault_callbacks = True
+            self.add_on_set_parameters_callback(self._on_set_faults)
+            self.add_post_set_parameters_callback(self._record_parameter_change)
+
+    def _on_set_faults(self, params: list[Parameter]) -> SetParametersResult:
+        """Check every fault of a ``set_parameters`` call; all are taken or none (the first
+        refusal's reason)."""
+        checked = []
+        if not self.configured and any(p.name.startswith(FAULT_PREFIX) for p in params):
+            return SetParametersResult(
+                successful=False, reason="faults are set on a configured node only"
+            )
+        with self._lock:
+            now = self._now_ns()
+            for p in params:
+                if not p.name.startswith(FAULT_PREFIX):
+                    continue  # the others are read-only: rclpy refuses them itself
+                name = p.name.removeprefix(FAULT_PREFIX)
+                try:
+                    value = self.faults.check(name, p.value)
+                except DRSError as exc:
+                    reason = self._refuse(p.name, p.value, str(exc), now)
+                    self._event(p.name, REFUSED, DiagnosticStatus.WARN, reason, None,
+                                {"value": repr(p.value)}, now)  # fmt: skip
+                    return SetParametersResult(successful=False, reason=reason)
+                checked.append((p.name, value))
+            order = list(fault_parameter_names())
+            self._pending_faults.extend(sorted(checked, key=lambda nv: order.index(nv[0])))
+        return SetParametersResult(successful=True)
+
+    def _record_parameter_change(self, params: list[Parameter]) -> None:
+        """The change rclpy publishes on /parameter_events, in the node's bag as well."""
+        if self.recorder is None:
+            return
+        with self._lock:
+            now = self._now_ns()
+            event = ParameterEvent(
+                stamp=time_msg(now),
+                node=self.get_fully_qualified_name(),
+                changed_parameters=[p.to_parameter_msg() for p in params],
+            )
+            self.recorder.write("/parameter_events", event, now)
+
+    def _apply_faults(self, now_ns: int) -> None:
+        """Apply the faults set since the last tick, in the order set (a ramp set with a supply
+        loss in one call comes first: :data:`FAULTS` order within a call)."""
+        pending, self._pending_faults = self._pending_faults, []
+        for full, value in pending:
+            name = full.removeprefix(FAULT_PREFIX)
+            try:
+                self.faults.apply(name, value)
+            except DRSError as exc:  # checked when set: only a rung changed since would refuse
+                reason = self._refuse(full, value, str(exc), now_ns)
+                self._event(full, REFUSED, DiagnosticStatus.WARN, reason, None,
+                            {"value": repr(value)}, now_ns)  # fmt: skip
+                continue
+            self.troubles.add(now_ns, "fault", f"{full} = {value!r}")
+            self._event(full, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)},
+                        now_ns)  # fmt: skip
+
+    def faults_text(self) -> str:
+        """The faults in force, for diagnostics ('none' when healthy)."""
+        active = self.faults.active()
+        return ", ".join(f"{k}={v!r}" for k, v in active.items()) or "none"
+
+
+__all__ = ["FAULT_PREFIX", "NodeFaults", "declare_fault_parameters", "fault_parameter_names"]
