@@ -3,10 +3,12 @@
 A client floods ``~/stroke_cmd`` at 10 kHz for 2 s, then sends one final command. The bag's
 effect record (``~/command_events``) says when each command took effect; checked from it:
 
-* the node is on the final command's path within 2 publish periods of its arrival;
+* the node is on the final command's path from the first tick after its arrival;
 * every command that took effect was the newest of its topic when it did (none waited behind a
-  newer one), and none was older than 2 publish periods (plus the lateness of its own tick,
-  which the node counts as a missed deadline);
+  newer one), and took effect at the first tick after it arrived (no tick, known from the
+  joint states logged at the ticks' node times, passed it by). How long that tick took to come
+  is the machine's load, not the node's order: a p99 of 2 publish periods, asserted before,
+  failed at 9.1 ms on a quiet CI machine;
 * every command the node received is in the bag, and is accepted, refused or superseded;
 * the superseded ones are counted in the diagnostics.
 """
@@ -18,6 +20,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 from node_support import domain_for, node_env
 from ros_support import require_rclpy
@@ -84,7 +87,11 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     assert proc.returncode == 0, out[-2000:]
     assert sent >= 15_000  # the flood really was ~10 kHz
 
-    data = read_bag(bag, ["/drs/stroke_cmd", "/drs/command_events", "/diagnostics"])
+    data = read_bag(bag, ["/drs/stroke_cmd", "/drs/command_events", "/diagnostics",
+                          "/joint_states"])  # fmt: skip
+    # the node's ticks: each logs its joint state at the tick's node time, the time its effects
+    # are logged at too
+    ticks = np.sort([log for log, _ in data.messages["/joint_states"]])
     commands = data.messages["/drs/stroke_cmd"]
     received = [log for log, _ in commands]
     records = [r for r in effect_records(data.messages["/drs/command_events"])
@@ -93,23 +100,24 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     superseded = sum(int(r.values["count"]) for r in records if r.outcome == "superseded")
     # every command received is recorded, and is accounted for exactly once
     assert len(received) == len(took_effect) + superseded
-    period_ns = 1e9 / PUBLISH_HZ
     by_sequence = {seq: log for seq, log in enumerate(received, start=1)}
-    delays = []
+
+    def ticks_between(after_ns: int, before_ns: int) -> int:
+        return int(np.searchsorted(ticks, before_ns) - np.searchsorted(ticks, after_ns, "right"))
+
     for r in took_effect:
         arrived = by_sequence[int(r.values["sequence"])]
         assert arrived == int(r.values["received_ns"])
         # newest: nothing else arrived on the topic between it and its effect
         newer = [t for t in received if arrived < t < r.log_time]
         assert not newer, f"a command took effect {len(newer)} newer commands late"
-        delays.append(r.log_time - arrived)
-    delays.sort()
-    # no stale command: within 2 publish periods, but for a tick that was itself late
-    assert delays[int(0.99 * (len(delays) - 1))] <= 2 * period_ns
-    assert delays[-1] <= 2 * period_ns + 50e6
+        # never stale: it acts at the first tick after it arrived, however late that tick is
+        # on a loaded machine (the time between ticks is the machine's; the order is the node's)
+        late = ticks_between(arrived, r.log_time)
+        assert late == 0, f"a command took effect {late} ticks after the first it could"
     last = took_effect[-1]
     assert last.outcome == "accepted" and float(last.values["value"]) == final
-    assert last.log_time - received[-1] <= 2 * period_ns
+    assert ticks_between(received[-1], last.log_time) == 0
     assert joints[-1].position[0] == pytest.approx(final, abs=1e-12)  # it got there
     diag = {kv.key: kv.value for kv in data.messages["/diagnostics"][-1][1].status[0].values}
     assert int(diag["superseded_commands"]) == superseded > 0
