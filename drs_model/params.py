@@ -141,6 +141,17 @@ def real_number(name: str, value: Any) -> float:
     return value
 
 
+def check_signs(obj: Any, positive: tuple[str, ...], non_negative: tuple[str, ...]) -> None:
+    """:class:`ParameterError` naming the first field of ``obj`` in ``positive`` that is not
+    > 0 or in ``non_negative`` that is < 0. Shared by every frozen parameter dataclass."""
+    for name in positive:
+        if getattr(obj, name) <= 0.0:
+            raise ParameterError(f"{name} must be > 0, got {getattr(obj, name)!r}")
+    for name in non_negative:
+        if getattr(obj, name) < 0.0:
+            raise ParameterError(f"{name} must be >= 0, got {getattr(obj, name)!r}")
+
+
 def _tuple_points(value: Any, name: str) -> tuple[tuple[float, float], ...]:
     """``value`` as a tuple of ``(x, y)`` floats [m], checked. A tuple is converted once per
     process (every :meth:`DRSParams.replace` passes the same outlines on: ~0.2 ms a copy)."""
@@ -249,12 +260,7 @@ class DRSParams:
         for name in self._LENGTHS:
             if getattr(self, name) <= 0.0:
                 raise ParameterError(f"{name} must be > 0 m, got {getattr(self, name)!r}")
-        for name in self._POSITIVE:
-            if getattr(self, name) <= 0.0:
-                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
-        for name in self._NON_NEGATIVE:
-            if getattr(self, name) < 0.0:
-                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        check_signs(self, self._POSITIVE, self._NON_NEGATIVE)
         if not 0.0 < self.gap_closed < self.gap_open:
             raise ParameterError(
                 f"gaps must satisfy 0 < gap_closed < gap_open, got gap_closed={self.gap_closed!r}, "

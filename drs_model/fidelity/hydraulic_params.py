@@ -37,7 +37,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import ParameterError
-from ..params import real_number
+from ..params import check_signs, real_number
 
 #: Flow laws of the valve: ``"orifice"`` (turbulent, ``Q ~ x sqrt(dp)``) or ``"linear"`` (the
 #: ideal valve: flow proportional to the spool at the no-load flow gain, whatever the pressures).
@@ -107,12 +107,7 @@ class HydraulicParams:
             if value is None:
                 continue
             object.__setattr__(self, f.name, real_number(f.name, value))
-        for name in self._POSITIVE:
-            if getattr(self, name) <= 0.0:
-                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)!r}")
-        for name in self._NON_NEGATIVE:
-            if getattr(self, name) < 0.0:
-                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        check_signs(self, self._POSITIVE, self._NON_NEGATIVE)
         if self.rod_diameter >= self.bore_diameter:
             raise ParameterError(
                 f"rod_diameter must be < bore_diameter = {self.bore_diameter!r} m, got "
