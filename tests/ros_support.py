@@ -164,3 +164,16 @@ def write_split_bag(tmp_path, params, *, killed: bool, n: int = 240):
             yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
         )
     return bag, 3 * half
+
+
+def resimulate_json(*args) -> tuple[int, dict]:
+    """``drs-bag resimulate ARGS --json`` as a process: its exit status (0 or 1, asserted) and
+    its report."""
+    import json
+    import subprocess
+    import sys
+
+    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", *args, "--json"],
+                         capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert res.returncode in (0, 1), res.stderr
+    return res.returncode, json.loads(res.stdout)

@@ -5,14 +5,11 @@ and re-simulated exactly by ``drs-bag resimulate``."""
 
 from __future__ import annotations
 
-import json
 import math
-import subprocess
-import sys
 
 import pytest
 from node_support import spin_for, spin_until
-from ros_support import require_rclpy
+from ros_support import require_rclpy, resimulate_json
 
 pytestmark = pytest.mark.ros
 
@@ -39,13 +36,6 @@ STEPS = (
       Parameter("fault.supply_loss_ramp_s", value=0.05)], True),
     ([Parameter("fault.sensor.frozen", value=True)], True),
 )  # fmt: skip
-
-
-def _resimulate(*args):
-    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", *args, "--json"],
-                         capture_output=True, text=True, timeout=300)  # fmt: skip
-    assert res.returncode in (0, 1), res.stderr
-    return res.returncode, json.loads(res.stdout)
 
 
 @pytest.fixture(scope="module")
@@ -137,12 +127,12 @@ def test_each_fault_is_recorded_where_it_took_effect(faulty_bag):
 
 def test_a_bag_with_faults_re_runs_exactly(faulty_bag):
     bag, _, _, _ = faulty_bag
-    rc, report = _resimulate(str(bag))
+    rc, report = resimulate_json(str(bag))
     assert rc == 0, report
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
     assert all(r["samples"] > 20 for r in report["signals"]), report["signals"]
     # on the rigid rung the hydraulic faults are refused, each said
-    rc, report = _resimulate(str(bag), "--fidelity", "rigid")
+    rc, report = resimulate_json(str(bag), "--fidelity", "rigid")
     assert any("fault.stuck_valve" in n and "cannot model" in n for n in report["notes"])
 
 
@@ -213,7 +203,7 @@ def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monk
                  if r.source == "fidelity"]  # fmt: skip
     assert choice.values["rung"] == "kinematic" and choice.values["asked"] == "gap"
     assert choice.sim_time == 0.0
-    rc, report = _resimulate(str(tmp_path / "bag"))
+    rc, report = resimulate_json(str(tmp_path / "bag"))
     assert rc == 0 and report["signals"][0]["samples"] > 20, report
     # every signal to the bit (the kinematic rung's force is NaN in both)
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]

@@ -3,13 +3,9 @@ and spool on standard message types, recorded, and ``drs-bag resimulate --fideli
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-
 import pytest
 from node_support import spin_for, spin_until
-from ros_support import require_rclpy
+from ros_support import require_rclpy, resimulate_json
 
 pytestmark = pytest.mark.ros
 
@@ -26,13 +22,6 @@ from drs_ros.node.parameters import StartupError  # noqa: E402
 
 HYDRAULIC = ("/drs/pressure_piston_side", "/drs/pressure_rod_side", "/drs/supply_pressure",
              "/drs/valve_spool")  # fmt: skip
-
-
-def _resimulate(*args):
-    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", *args, "--json"],
-                         capture_output=True, text=True, timeout=300)  # fmt: skip
-    assert res.returncode in (0, 1), res.stderr
-    return res.returncode, json.loads(res.stdout)
 
 
 @pytest.fixture(scope="module")
@@ -105,10 +94,10 @@ def test_the_hydraulic_node_publishes_and_records_its_pressures(hydraulic_bag):
 
 def test_a_hydraulic_bag_re_runs_exactly_and_on_another_rung(hydraulic_bag):
     bag, _ = hydraulic_bag
-    rc, report = _resimulate(str(bag))
+    rc, report = resimulate_json(str(bag))
     assert rc == 0, report
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
-    rc, report = _resimulate(str(bag), "--fidelity", "rigid")
+    rc, report = resimulate_json(str(bag), "--fidelity", "rigid")
     assert rc == 1 and report["fidelity"] == "rigid"
     rows = {r["signal"]: r for r in report["signals"]}
     assert rows["stroke"]["max_deviation"] > 0.01  # the rigid rung opens in 10 ms, not ~55 ms
@@ -117,7 +106,7 @@ def test_a_hydraulic_bag_re_runs_exactly_and_on_another_rung(hydraulic_bag):
 def test_a_rigid_bag_re_runs_on_the_kinematic_rung(node_bag):
     """The demo's bag (rigid, with force commands): on the kinematic rung the force commands are
     refused, which the report says, and the positions of the stroke moves stay."""
-    rc, report = _resimulate(str(node_bag), "--fidelity", "kinematic")
+    rc, report = resimulate_json(str(node_bag), "--fidelity", "kinematic")
     assert rc == 1
     assert any("'kinematic' rung cannot represent a force command" in n for n in report["notes"])
 
