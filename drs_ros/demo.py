@@ -25,10 +25,11 @@ import sys
 import time
 from pathlib import Path
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
+from drs_ros.errors import DRSRosError
 
 
-class DemoError(DRSError, ValueError):
+class DemoError(DRSRosError, ValueError):
     """The demo's arguments would name or replace something the demo did not make."""
 
 
@@ -275,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except (DemoError, OSError) as exc:
         print(f"drs-demo: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     env = _env(args.domain, log_dir)
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_LOG_DIR")})
     cmd = [
@@ -303,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
         out_text, _ = node.communicate(timeout=20)
         print(out_text)
         _say(f"FAILED driving the node: {exc}")
-        return 1
+        return EXIT_FAILED
     node.send_signal(signal.SIGINT)
     try:
         node_out, _ = node.communicate(timeout=30)
@@ -336,7 +337,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  rerun rrd verify                    : {'ok' if rc_verify == 0 else 'FAILED'}")
     print(f"  drs-bag check                       : {'PASS' if rc_check == 0 else 'FAIL'}")
     ok = node.returncode == 0 and rc_check == 0 and rc_verify == 0 and rows > 0 and refusals
-    return 0 if ok else 1
+    return EXIT_OK if ok else EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover

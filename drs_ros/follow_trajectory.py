@@ -62,6 +62,7 @@ from drs_model.errors import DRSError, InputError
 
 from .commands import StrokeMove, TrajectoryMove
 from .conversions import time_msg, trajectory_points
+from .errors import DRSRosError
 from .names import ACCEPTED, REFUSED
 
 Result = FollowJointTrajectory.Result
@@ -87,7 +88,7 @@ class Tolerances:
     goal_time: float = 0.0
 
 
-class GoalError(DRSError):
+class GoalError(DRSRosError):
     """A goal refused with an error code of FollowJointTrajectory.Result."""
 
     def __init__(self, code: int, message: str) -> None:

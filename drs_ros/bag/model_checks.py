@@ -25,6 +25,7 @@ from drs_model.errors import DRSError
 from drs_model.kinematics import gap as model_gap
 from drs_model.params import DRSParams
 
+from ..errors import UsageError
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 from .decoded import BagData, stamp_s
 
@@ -32,8 +33,8 @@ from .decoded import BagData, stamp_s
 FORCE_CHECK = "piston force vs model"
 
 
-class ForceModelError(DRSError):
-    """The piston-force hook cannot be loaded or fails on the logged motion."""
+class ForceModelError(UsageError):
+    """The piston-force hook (``--force-model``) cannot be loaded."""
 
 
 @dataclass(frozen=True)

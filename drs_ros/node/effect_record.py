@@ -23,6 +23,7 @@ from drs_model.errors import DRSError
 
 from .. import commands
 from ..conversions import command_event_msg, diagnostics_msg
+from ..errors import DRSRosError
 from ..names import CLOCK, REFUSED
 from ..recording.cdr import without_source_location
 
@@ -46,7 +47,7 @@ class PendingCommand:
 
 def refusal_reason(exc: Exception) -> str:
     """Why a command was refused: the model's own words, or the exception's type and text."""
-    return str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
+    return str(exc) if isinstance(exc, (DRSError, DRSRosError)) else f"{type(exc).__name__}: {exc}"
 
 
 def error_text(exc: Exception) -> str:

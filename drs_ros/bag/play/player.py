@@ -14,8 +14,9 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE, EXIT_USAGE
 
+from ..files import BagReadError
 from .index import BagIndex, index_bag, iter_bag
 from .offers import playback_qos, qos_overrides
 from .options import (
@@ -59,7 +60,7 @@ class Player:
         stop: threading.Event,
         overrides: dict[str, Any] | None = None,
     ):
-        from drs_ros.recording.msgdefs import message_class
+        from drs_ros.recording.msgdefs import MessageDefinitionError, message_class
 
         self.node, self.index, self.options, self.stop = node, index, options, stop
         self.publishers: dict[str, Any] = {}
@@ -79,7 +80,7 @@ class Player:
                 continue
             try:
                 msg_class = message_class(ch.type_name)
-            except DRSError as exc:
+            except MessageDefinitionError as exc:
                 warn(
                     f"skipping topic {name}: type {ch.type_name or '(no schema)'!r} is not "
                     f"installed ({exc})"
@@ -264,7 +265,7 @@ def play(options: PlayOptions) -> int:
         rclpy.try_shutdown(context=context)
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-    return 0
+    return EXIT_OK
 
 
 def run(args: argparse.Namespace, prog: str = PROG) -> int:
@@ -274,9 +275,12 @@ def run(args: argparse.Namespace, prog: str = PROG) -> int:
         # no reading ahead of the whole bag: the summaries are read before DDS starts, every
         # chunk's CRC as it is played (a corrupt chunk ends the play then, exit status 2)
         return play(options)
-    except DRSError as exc:
+    except PlayError as exc:  # an option (argparse's exit status for a usage error)
         print(error_line(exc), file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    except BagReadError as exc:
+        print(error_line(exc), file=sys.stderr)
+        return EXIT_UNREADABLE
 
 
 def main(argv: Sequence[str] | None = None) -> int:
