@@ -27,6 +27,7 @@ from pathlib import Path
 
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from drs_ros.errors import DRSRosError
+from drs_ros.timestamps import ns_from_seconds, set_ns
 
 
 class DemoError(DRSRosError, ValueError):
@@ -99,7 +100,6 @@ def _say(text: str) -> None:
 def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
     """Run the scripted scenario against a running node; returns what the driver observed."""
     import rclpy
-    from builtin_interfaces.msg import Duration
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
@@ -175,11 +175,9 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
         _say("traj   -> 30 mm at 20 ms, 10 mm at 40 ms, 25 mm at 60 ms (JointTrajectory)")
         msg = JointTrajectory(joint_names=["drs_piston"])
         for t_ms, s in ((20, 0.030), (40, 0.010), (60, 0.025)):
-            msg.points.append(
-                JointTrajectoryPoint(
-                    positions=[s], time_from_start=Duration(sec=0, nanosec=t_ms * 1_000_000)
-                )
-            )
+            point = JointTrajectoryPoint(positions=[s])
+            set_ns(point.time_from_start, t_ms * 1_000_000)
+            msg.points.append(point)
         trajectory.publish(msg)
         spin(0.3)
         _say(f"action -> {follow(node, ex, 0.015, 0.05, timeout)}")
@@ -212,7 +210,7 @@ def follow(node, ex, stroke: float, seconds: float, timeout: float) -> str:
     goal = FollowJointTrajectory.Goal()
     goal.trajectory.joint_names = ["drs_piston"]
     point = JointTrajectoryPoint(positions=[stroke])
-    point.time_from_start.nanosec = int(round(seconds * 1e9))
+    set_ns(point.time_from_start, ns_from_seconds(seconds))  # nanosec < 1e9, whatever seconds
     goal.trajectory.points = [point]
     feedback: list = []
     sent = client.send_goal_async(goal, feedback_callback=feedback.append)

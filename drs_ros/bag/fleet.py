@@ -36,6 +36,7 @@ from drs_model.errors import DRSError
 from drs_model.params import NUMERIC_FIELDS
 
 from ..errors import DRSRosError
+from ..timestamps import seconds_from_ns
 
 _BAG_SUFFIXES = (".mcap", ".db3")
 _GLOB_CHARS = set("*?[")
@@ -144,7 +145,8 @@ def _storage(bag: str) -> str | None:
 def count_columns(counts: dict[str, int], start_ns: int | None, end_ns: int | None,
                   recovered: bool) -> dict[str, Any]:  # fmt: skip
     """Messages in all, per topic, the first log time [ns] and the duration [s]."""
-    duration = (end_ns - start_ns) * 1e-9 if start_ns is not None and end_ns is not None else None
+    duration = (seconds_from_ns(end_ns - start_ns)
+                if start_ns is not None and end_ns is not None else None)  # fmt: skip
     return {"messages": sum(counts.values()), "counts": dict(counts), "start_ns": start_ns,
             "duration_s": math.nan if duration is None else duration,
             "recovered": bool(recovered)}  # fmt: skip

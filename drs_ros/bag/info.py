@@ -16,6 +16,7 @@ from pathlib import Path
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 
 from ..recording import msgdefs
+from ..timestamps import split_ns
 from .files import BagReadError, resolve
 from .reader import scan
 
@@ -33,7 +34,7 @@ def _size(n: int) -> str:
 
 
 def _point(ns: int) -> str:
-    sec, frac = divmod(ns, 1_000_000_000)
+    sec, frac = split_ns(ns)
     tm = time.localtime(sec)
     return f"{time.strftime('%b %e %Y %H:%M:%S', tm)}.{frac:09d} ({sec}.{frac:09d})"
 
@@ -91,7 +92,7 @@ def format_info(info: dict) -> str:
     plain = [t for t in info["topics"] if not _is_service_event(t[0], t[1])]
     services = [t for t in info["topics"] if _is_service_event(t[0], t[1])]
     end = info["start_ns"] + info["duration_ns"]
-    sec, frac = divmod(info["duration_ns"], 1_000_000_000)
+    sec, frac = split_ns(info["duration_ns"])
     lines = [
         "",
         "Files:             " + f"\n{_INDENT}".join(info["files"]),

@@ -28,6 +28,7 @@ from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EX
 from ..recording.errors import RecordingError
 from ..recording.mcap_recorder import McapRecorder, check_new_bag
 from ..recording.qos import parse_qos_yaml
+from ..timestamps import split_ns
 from .files import BagReadError
 from .reader import ChannelInfo, MessageCallbackError, RecordedMessage, scan
 
@@ -162,7 +163,8 @@ def format_report(rep: dict) -> str:
                 )
     last = rep["last_log_time_ns"]
     if not rep["complete_source"] and last is not None:
-        lines.append(f"last recovered message logged at {last * 1e-9:.9f} s")
+        sec, nanosec = split_ns(last)  # exact: a float of epoch seconds keeps ~0.2 us
+        lines.append(f"last recovered message logged at {sec}.{nanosec:09d} s")
     return "\n".join(lines)
 
 

@@ -55,6 +55,7 @@ from .. import commands
 from ..errors import DRSRosError
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
 from ..recording.errors import RecordingError
+from ..timestamps import ns_of, seconds_from_ns
 from . import fleet
 from .decoded import decoder
 from .effects import (
@@ -262,7 +263,7 @@ class _Value:
 
 def _stamp_ns(msg) -> int:
     """A message's header stamp [ns]."""
-    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+    return ns_of(msg.header.stamp)
 
 
 def _deviation(recorded: float, rerun: float) -> float:
@@ -316,7 +317,7 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
                     "the effect record holds no clock origin (t0) before the states"
                 )
             seen[0] += 1
-            k = int(round((_stamp_ns(msg) - origin[0]) * 1e-9 / dt))
+            k = round(seconds_from_ns(_stamp_ns(msg) - origin[0]) / dt)
             recent[m.log_time] = k
             if len(recent) > STATE_WINDOW:
                 del recent[next(iter(recent))]

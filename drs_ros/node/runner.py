@@ -22,6 +22,7 @@ from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_REFUSED
 from drs_model.errors import DRSError
 
 from ..errors import DRSRosError
+from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
 
@@ -96,14 +97,14 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     thread = threading.Thread(target=spin_until_stopped, args=(node, executor, stop),
                               name="drs-executor")  # fmt: skip
     thread.start()
-    period_ns = int(round(node.publish_period * 1e9))
+    period_ns = ns_from_seconds(node.publish_period)
     deadline = time.monotonic_ns()
     try:
         while not stop.requested and context.ok():
             deadline += period_ns
             wait = deadline - time.monotonic_ns()
             while wait > 0 and not stop.requested:  # a long period still sees a stop soon
-                time.sleep(min(wait * 1e-9, STOP_POLL_S))
+                time.sleep(min(seconds_from_ns(wait), STOP_POLL_S))
                 wait = deadline - time.monotonic_ns()
             if wait < -period_ns:
                 deadline = time.monotonic_ns()  # late by more than a period: resume from now
