@@ -53,7 +53,7 @@ from visualization_msgs.msg import MarkerArray
 
 from drs_model.errors import DRSError
 from drs_model.fidelity import HydraulicRung, make_rung
-from drs_model.fidelity.auto import choose_rung
+from drs_model.fidelity.auto import choose_rung, ladder_errors
 from drs_model.fidelity.faults import RunFaults
 
 from .. import commands
@@ -154,8 +154,10 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
                 ["joint_names"],
             )
         self.fidelity = gp("fidelity").value
-        # auto: rigid until the subscribers are seen (activate, _choose_fidelity)
+        # auto: rigid until the subscribers are seen (activate, _choose_fidelity); each rung's
+        # errors measured now, for these parameters (a few seconds, once per parameters)
         self._auto_deadline = None
+        self._auto_errors = ladder_errors(self.params) if self.fidelity == "auto" else None
         self._make_rung = lambda rung: make_rung(
             rung,
             self.params,
@@ -533,15 +535,16 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             self._publish(now)
 
     def _choose_fidelity(self, now_ns: int) -> None:
-        """``fidelity: auto``: the cheapest rung that meets ``fidelity_tolerance`` and
-        ``fidelity_force_tolerance`` for what the node's subscribers ask
-        (:func:`drs_model.fidelity.auto.choose_rung`), chosen once, before the first step, and
-        recorded (source ``fidelity``) so that a re-run takes the same rung."""
+        """``fidelity: auto``: the lowest rung that meets ``fidelity_tolerance`` and
+        ``fidelity_force_tolerance`` for what the node's subscribers ask, by the errors measured
+        at configure for the node's parameters (:func:`drs_model.fidelity.auto.choose_rung`),
+        chosen once, before the first step, and recorded (source ``fidelity``) so that a re-run
+        takes the same rung."""
         self._auto_deadline = None
         asked = {kind for pub, kind in self._asked_by_topic() if pub.get_subscription_count()}
         gp = self.get_parameter
         rung = choose_rung(asked, gp("fidelity_tolerance").value,
-                           gp("fidelity_force_tolerance").value)  # fmt: skip
+                           gp("fidelity_force_tolerance").value, self._auto_errors)  # fmt: skip
         if rung != self.sim.name:
             self.sim = self._make_rung(rung)
             self.faults = RunFaults(self.sim)  # none applied yet: they act at ticks

@@ -30,7 +30,7 @@ from ..stack import STACK_PARAMETERS
 EXECUTORS = ("deadline", "single")
 
 #: The rungs of the fidelity ladder the node runs (drs_model.fidelity.RUNGS), and ``auto``: the
-#: cheapest that meets the tolerances for what the subscribers ask (drs_model.fidelity.auto).
+#: lowest rung that meets the tolerances for what the subscribers ask (drs_model.fidelity.auto).
 FIDELITIES = (*RUNGS, "auto")
 
 #: The node's own parameters: (name, default, description, valid range or choices). All read-only.
