@@ -16,6 +16,8 @@ from pathlib import Path
 
 from drs_model.errors import DRSError
 
+from ..errors import DRSRosError
+
 
 class NodeRecordings:
     """The bag and the rerun recording of the DRS node (a base class of ``DRSNode``)."""
@@ -58,7 +60,7 @@ class NodeRecordings:
         except Exception as exc:
             self._made_bag_dir = made_dir
             self.discard_recordings()
-            if isinstance(exc, DRSError):
+            if isinstance(exc, (DRSError, DRSRosError)):  # ours: its message says it all
                 raise
             raise RecordingError(f"cannot start the recordings: {exc}") from exc
         self._made_bag_dir = made_dir
