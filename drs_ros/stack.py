@@ -114,6 +114,15 @@ class StackLayer:
         """Command key -> resolved topic (merged into the node's ``command_topics``)."""
         return {"joint_commands": self.commands_topic}
 
+    def topic_names(self) -> dict[str, str]:
+        """Role -> resolved name of what the layer publishes and serves (the node's ``topics``
+        record)."""
+        names = {"follow_joint_trajectory": self.action.name}
+        if self.tf is not None:
+            names.update(tf=self.tf.pub_tf.topic_name, tf_static=self.tf.pub_static.topic_name,
+                         robot_description=self.tf.pub_description.topic_name)  # fmt: skip
+        return names
+
     def recorded_topics(self) -> list[tuple[str, type, QoSProfile]]:
         """The topics the layer publishes and records, with their types and offered QoS."""
         return [] if self.tf is None else self.tf.recorded_topics()

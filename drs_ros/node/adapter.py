@@ -65,7 +65,7 @@ from ..conversions import (
     time_msg,
 )
 from ..drawing import moving_drawings, still_drawings
-from ..names import ACCEPTED, FIDELITY, REFUSED, RESET, SUPERSEDED
+from ..names import ACCEPTED, FIDELITY, REFUSED, RESET, SUPERSEDED, TOPICS
 from ..recording import cdr, msgdefs
 from ..stack import NodeHooks, StackLayer
 from ..timestamps import ns_from_seconds, seconds_from_ns
@@ -255,6 +255,11 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         except Exception:
             self.discard_recordings()
             raise
+        # the first record: the node's name and its topics as resolved (remapping included), so
+        # that the bag's tools find them whatever the node was called
+        self._event(TOPICS, TOPICS, DiagnosticStatus.OK, "", None,
+                    {"node": self.get_fully_qualified_name(), **self.topic_names()},
+                    self._now_ns())  # fmt: skip
         self.stack.start(self._now_ns())  # the robot description and the static TF, once
         self.configured = True
         self.get_logger().info(
@@ -332,6 +337,23 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
     @property
     def service_event_topic(self) -> str:
         return f"{self.service_name}/_service_event"
+
+    def topic_names(self) -> dict[str, str]:
+        """Role (of :data:`drs_ros.names.NODE_TOPICS`) -> the name the node resolved it to,
+        remapping included: the ``topics`` record of the effect record."""
+        publishers = {"joint_states": self.pub_joints, "piston_force": self.pub_force,
+                      "flap_gap": self.pub_gap, "piston_acceleration": self.pub_accel,
+                      "joint_reactions": self.pub_reactions, "markers": self.pub_markers,
+                      "diagnostics": self.pub_diag, "command_events": self.pub_events}  # fmt: skip
+        names = {role: pub.topic_name for role, pub in publishers.items()}
+        if self.pub_hydraulic:  # the hydraulic rung's (or auto's) topics
+            names.update((role, pub.topic_name) for (role, _type), pub
+                         in zip(HYDRAULIC_TOPICS, self.pub_hydraulic, strict=True))  # fmt: skip
+        names.update(self.command_topics)
+        names.update(self.stack.topic_names())
+        names.update(drs_service=self.service_name, drs_service_event=self.service_event_topic,
+                     parameter_events="/parameter_events")  # fmt: skip
+        return names
 
     # ---- recordings ----------------------------------------------------------------------------
     def _register_recorded_topics(self) -> None:
