@@ -217,20 +217,17 @@ def test_play_bad_option_is_a_usage_error(capsys):
     assert "drs-bag play: error: --start-offset must be >= 0.0, got -1.0" in out
 
 
-def test_a_look_ahead_callback_that_raises_is_never_no_message():
-    """``first_message``'s callback is the caller's: its exception is raised, named, not taken
-    for "the bag has no such message" (check would fall back to the seed's parameters)."""
+def test_a_look_ahead_consumer_that_raises_is_never_no_message():
+    """The look-ahead (what finds a bag's node and its parameters) guards its reading only: an
+    exception of the code that consumes its messages comes out as it is, never taken for "the
+    bag has no such message" (check would fall back to the seed's parameters)."""
     require_rclpy()
-    from drs_ros.bag.reader import MessageCallbackError, first_message
+    from drs_ros.bag import look_ahead
 
-    assert first_message(EXAMPLE, "/parameter_events") is not None
-
-    def broken(message):
-        raise ValueError("a bug in the caller")
-
-    with pytest.raises(MessageCallbackError, match="a bug in the caller") as exc:
-        first_message(EXAMPLE, "/parameter_events", broken)
-    assert isinstance(exc.value.__cause__, ValueError)
+    assert next(look_ahead.messages(EXAMPLE, ["/parameter_events"]), None) is not None
+    with pytest.raises(ValueError, match="a bug in the caller"):
+        for _message in look_ahead.messages(EXAMPLE, ["/parameter_events"]):
+            raise ValueError("a bug in the caller")
 
 
 # ---- drs-node -----------------------------------------------------------------------------------

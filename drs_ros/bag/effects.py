@@ -65,12 +65,22 @@ def parameter_event(node: str, values: dict[str, object], stamp_ns: int):
     return ParameterEvent(stamp=time_msg(stamp_ns), node=node, new_parameters=params)
 
 
-def recorded_node_parameters(messages: Sequence, node: str = "/drs") -> dict[str, object] | None:
-    """The parameters ``node`` recorded at start (``(log_ns, ParameterEvent)`` pairs), or None."""
+def _start_event(messages: Sequence, node: str | None):
+    """The first ParameterEvent of ``(log_ns, event)`` pairs that lists new parameters, of
+    ``node`` (None: of any node)."""
     for _log_ns, event in messages:
-        if event.node == node and event.new_parameters:
-            return parameter_values(event)
+        if node in (None, event.node) and event.new_parameters:
+            return event
     return None
+
+
+def recorded_node_parameters(messages: Sequence,
+                             node: str | None = None) -> dict[str, object] | None:  # fmt: skip
+    """The parameters ``node`` (a fully qualified name; None: the first node that recorded any)
+    recorded at start (``(log_ns, ParameterEvent)`` pairs), or None. Which nodes a bag holds:
+    :func:`drs_ros.bag.nodes.bag_nodes`."""
+    event = _start_event(messages, node)
+    return None if event is None else parameter_values(event)
 
 
 def model_params_from(values: dict[str, object]) -> DRSParams:
@@ -86,12 +96,14 @@ def model_params_from(values: dict[str, object]) -> DRSParams:
     return from_dict(known) if known else DRSParams()
 
 
-def recorded_model_params(messages: Sequence, node: str = "/drs") -> tuple[DRSParams, str]:
-    """The model parameters a bag recorded, and where they came from (for the report)."""
-    values = recorded_node_parameters(messages, node)
-    if values is None:
+def recorded_model_params(messages: Sequence, node: str | None = None) -> tuple[DRSParams, str]:
+    """The model parameters a bag recorded (of ``node``, as :func:`recorded_node_parameters`),
+    and where they came from (for the report)."""
+    event = _start_event(messages, node)
+    if event is None:
         return DRSParams(), "the seed's (the bag recorded none)"
-    return model_params_from(values), f"recorded by {node} on /parameter_events"
+    origin = f"recorded by {event.node} on /parameter_events"
+    return model_params_from(parameter_values(event)), origin
 
 
 @dataclass(frozen=True)

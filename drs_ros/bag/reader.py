@@ -312,7 +312,6 @@ def _scan_file(
     unverified: set[str],
 ) -> BagScan:
     """Read and verify one ``.mcap`` file (everything of :func:`scan` but ``metadata.yaml``)."""
-    from mcap.exceptions import McapError
     from mcap.records import (
         Channel,
         Chunk,
@@ -349,8 +348,7 @@ def _scan_file(
         elif isinstance(rec, Channel):
             _add_channel(out, schemas, rec, fail)
 
-    errors = (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
-              UnicodeDecodeError, *_decompression_errors())  # fmt: skip
+    errors = mcap_read_errors()
     try:
         with open(mcap_path, "rb") as f:
             head = f.read(8)
@@ -432,6 +430,15 @@ def _scan_file(
         )
     out.complete = True
     return out
+
+
+def mcap_read_errors() -> tuple[type[BaseException], ...]:
+    """What reading damaged MCAP bytes raises, from the mcap library, the decompressors and the
+    file: the errors a reader of a bag means to catch (and no other)."""
+    from mcap.exceptions import McapError
+
+    return (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
+            UnicodeDecodeError, *_decompression_errors())  # fmt: skip
 
 
 def _decompression_errors() -> tuple[type[BaseException], ...]:
@@ -526,80 +533,6 @@ def _add_channel(out: BagScan, schemas, record, fail) -> None:
     out.counts.setdefault(record.topic, 0)
 
 
-def first_message(
-    path: str | Path, topic: str, accept: Callable[[RecordedMessage], bool] = lambda m: True
-) -> RecordedMessage | None:
-    """The first message of ``topic`` that ``accept`` takes, reading the bag's files in order a
-    chunk at a time and stopping there (a look-ahead, e.g. for the parameters a run recorded at
-    its start). Nothing is verified: a damaged or unreadable file ends the search (None), and
-    :func:`scan` says why. An exception of ``accept`` is the caller's failure, not the file's:
-    it is raised as :class:`MessageCallbackError`, never taken for "no such message"."""
-    from mcap.records import Channel, Chunk, Message, Schema
-    from mcap.stream_reader import StreamReader, breakup_chunk
-
-    try:
-        bag = resolve(path, require_metadata=False)
-        if bag.storage == "sqlite3":
-            return _first_row(bag, topic, accept)
-    except BagReadError:
-        return None
-    for file in bag.files:
-        schemas: dict[int, Any] = {}
-        channels: dict[int, Any] = {}
-        try:
-            with open(file, "rb") as f:
-                if f.read(8) != MCAP_MAGIC:
-                    return None
-                f.seek(0)
-                for record in StreamReader(f, validate_crcs=True, emit_chunks=True).records:
-                    inner = breakup_chunk(record, True) if isinstance(record, Chunk) else [record]
-                    for rec in inner:
-                        if isinstance(rec, Schema):
-                            schemas[rec.id] = rec
-                        elif isinstance(rec, Channel):
-                            channels[rec.id] = rec
-                        elif isinstance(rec, Message):
-                            channel = channels.get(rec.channel_id)
-                            if channel is None or channel.topic != topic:
-                                continue
-                            schema = schemas.get(channel.schema_id)
-                            message = RecordedMessage(
-                                topic, schema.name if schema else "", rec.log_time,
-                                rec.publish_time, rec.sequence, bytes(rec.data), 0,
-                            )  # fmt: skip
-                            if _accepts(accept, message, file):
-                                return message
-        except MessageCallbackError:
-            raise
-        except Exception:  # noqa: BLE001 - the mcap library's error on damage: scan reports it
-            return None
-    return None
-
-
-def _accepts(accept, message: RecordedMessage, file: Path) -> bool:
-    """``accept(message)``, its exception raised as :class:`MessageCallbackError`."""
-    try:
-        return bool(accept(message))
-    except Exception as exc:  # the caller's failure: named, never a verdict on the file
-        raise MessageCallbackError(
-            f"{str(file)!r}: the look-ahead's callback raised on a message of {message.topic} "
-            f"({type(exc).__name__}: {exc})", file, message.topic, 0, message.offset,
-        ) from exc  # fmt: skip
-
-
-def _first_row(bag: BagFiles, topic: str, accept) -> RecordedMessage | None:
-    """:func:`first_message` of a sqlite3 bag."""
-    from . import sqlite
-
-    types = {c["id"]: c["type_name"] for c in sqlite.channels(bag)}
-    for rec in sqlite.iter_rows(bag, topics={topic}):
-        message = RecordedMessage(topic, types[rec.channel_id], rec.log_time, rec.publish_time,
-                                  rec.sequence, rec.data, 0)  # fmt: skip
-        if _accepts(accept, message, bag.bag_dir or bag.files[0]):
-            return message
-    return None
-
-
 def _check_summary(f, footer, size: int, fail) -> None:
     """The footer's summary CRC: bytes from the summary start through summary_offset_start."""
     if footer.summary_start == 0 or footer.summary_crc == 0:
@@ -662,6 +595,6 @@ __all__ = [
     "ChannelInfo",
     "MessageCallbackError",
     "RecordedMessage",
-    "first_message",
+    "mcap_read_errors",
     "scan",
 ]
