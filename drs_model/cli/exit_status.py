@@ -29,10 +29,14 @@ EXIT_RECOVERED = 3
 #: The tool's own failure, no verdict on the input: a message that passed every check of the
 #: file made the checker fail, or the node stopped on an error of its own while running.
 EXIT_INTERNAL = 4
+#: ``drs-bag resimulate``: the bag, which reads, holds no run to re-run (it names no drs node,
+#: as another tool's bag, or its node took no command and never stepped): no verdict to give.
+EXIT_NOTHING_TO_RERUN = 5
 
 __all__ = [
     "EXIT_FAILED",
     "EXIT_INTERNAL",
+    "EXIT_NOTHING_TO_RERUN",
     "EXIT_OK",
     "EXIT_RECOVERED",
     "EXIT_REFUSED",

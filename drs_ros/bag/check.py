@@ -14,10 +14,15 @@ sqlite3 (``.db3``) bags are read. Many bags (several paths, a directory of bags,
 FILE.parquet``, ``--jobs``, ``--scheduler``) are checked on Dask, one row per bag
 (:func:`fleet_row`, :mod:`drs_ros.bag.fleet`).
 
+The run checked is the one of the drs node the bag names (:mod:`drs_ros.bag.nodes`), on its
+topics and with the parameters it recorded, whatever its name and remapping; the report says
+which node and where the parameters came from.
+
 Exit status (docs/cli.md): 0 verified and every check within tolerance; 1 a model check failed;
-2 a bad option (argparse's line, naming it), or the bag is missing, unreadable, corrupt or
-inconsistent, or its ``metadata.yaml`` is malformed, or the model refuses the parameters it is
-checked with (one line on stderr); 3 ``--recover`` checked the readable part of a damaged bag
+2 a bad option (argparse's line, naming it; or ``--node`` naming no drs node of the bag, or none
+of its several), or the bag is missing, unreadable, corrupt or inconsistent, or its
+``metadata.yaml`` is malformed, or the model refuses the parameters it is checked with (one line
+on stderr); 3 ``--recover`` checked the readable part of a damaged bag
 (it stopped early: the report says where and why); 4 the check itself failed on a message that
 passed every check of the file (e.g. a checked topic of a type that is not installed): one line
 ``internal error``, no verdict on the bag.
@@ -38,18 +43,30 @@ from drs_model.cli.exit_status import (
     EXIT_OK,
     EXIT_RECOVERED,
     EXIT_UNREADABLE,
+    EXIT_USAGE,
 )
 from drs_model.errors import DRSError
 from drs_model.overrides import from_file, parameter_file_argument
 from drs_model.params import DRSParams
 
-from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from . import fleet
+from ..names import DEFAULT_JOINT_NAMES
+from . import fleet, look_ahead
 from .decoded import BagData, stream_bag
+from .effects import model_params_from
 from .files import BagReadError
 from .model_checks import CheckResult, ForceModelError, ModelChecker, load_force_model
-from .reader import MessageCallbackError, first_message
-from .run_stats import STATS_TOPICS, RunStats
+from .nodes import (
+    BagNode,
+    NodeSelectionError,
+    add_node_arguments,
+    bag_nodes,
+    given_topics,
+    node_note,
+    resolve_topics,
+    select_node,
+)
+from .reader import MessageCallbackError
+from .run_stats import STATS_ROLES, RunStats
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
@@ -59,12 +76,14 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     """A plain-text report: counts per topic, then one row per check."""
     lines = [f"bag: {data.path}" + ("  (recovered prefix)" if data.recovered else "")]
     lines += [f"note: {n}" for n in data.notes]
+    width = max([28, *map(len, data.counts)])  # topic names as long as a namespace makes them
     for topic, n in sorted(data.counts.items()):
-        lines.append(f"  {topic:<28} {n:>8} messages")
+        lines.append(f"  {topic:<{width}} {n:>8} messages")
     # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
     t0 = min(data.first_stamp_s.values(), default=0.0)
+    tw = max([20, *(len(r.topic) for r in results)])
     head = (
-        f"{'check':<38} {'topic':<20} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} "
+        f"{'check':<38} {'topic':<{tw}} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} "
         f"{'tol':>9}  status"
     )
     lines += ["", head, "-" * len(head)]
@@ -72,15 +91,15 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
         err = "-" if math.isnan(r.max_error) else f"{r.max_error:.3e}"
         at = "-" if math.isnan(r.at_time_s) else f"{r.at_time_s - t0:.6f}"
         row = (
-            f"{r.name + ' [' + r.unit + ']':<38} {r.topic:<20} {r.samples:>7} {err:>11} "
+            f"{r.name + ' [' + r.unit + ']':<38} {r.topic:<{tw}} {r.samples:>7} {err:>11} "
             f"{at:>12} {r.tol:>9.2g}  {r.status}"
         )
         lines.append(row + (f"  ({r.note})" if r.note else ""))
     return "\n".join(lines)
 
 
-def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
-    """The report as JSON (NaN written as null)."""
+def to_json(data: BagData, results: Sequence[CheckResult], node: BagNode | None = None) -> str:
+    """The report as JSON (NaN written as null; ``node``: the drs node checked, if any)."""
 
     def clean(value):
         return None if isinstance(value, float) and math.isnan(value) else value
@@ -88,6 +107,7 @@ def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
     return json.dumps(
         {
             "bag": str(data.path),
+            "node": None if node is None else node.name,
             "recovered": data.recovered,
             "notes": data.notes,
             "messages": data.counts,
@@ -142,9 +162,10 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     )
     ap.add_argument(
         "--joint-names",
-        default=",".join(DEFAULT_JOINT_NAMES),
+        default=None,
         type=_joint_names_argument,
-        help="joint names of [s, psi1, psi3], comma-separated",
+        help="joint names of [s, psi1, psi3], comma-separated (default: the node's joint_names "
+        f"parameter as recorded, else {','.join(DEFAULT_JOINT_NAMES)})",
     )
     ap.add_argument(
         "--max-match",
@@ -152,14 +173,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         default=1e-3,
         help="largest time offset [s] pairing a scalar topic with a joint state",
     )
-    for key in CHECK_TOPICS:
-        default = DEFAULT_TOPICS[key]
-        ap.add_argument(
-            f"--{key.replace('_', '-')}-topic",
-            dest=f"topic_{key}",
-            default=default,
-            help=f"(default {default})",
-        )
+    add_node_arguments(ap, CHECK_TOPICS)
     fleet.add_fleet_arguments(ap, "-o", "--output")
 
 
@@ -185,29 +199,30 @@ def _force_model_argument(spec: str) -> str:
     return spec
 
 
-def recorded_params(bag) -> tuple:
-    """The model parameters the bag recorded (the node's first parameter event, found by a
-    look-ahead that stops there) and where they came from, else the seed's."""
-    from .decoded import decoder
-    from .effects import recorded_model_params
+def recorded_params(node: BagNode | None) -> tuple[DRSParams, str]:
+    """The model parameters ``node`` recorded at its start (its first parameter event), and
+    where they came from; else the seed's, and why."""
+    if node is None:
+        return DRSParams(), "the seed's (the bag names no drs node)"
+    if node.parameters is None:
+        return DRSParams(), f"the seed's (the bag recorded none for {node.name})"
+    return model_params_from(node.parameters), f"recorded by {node.name} on /parameter_events"
 
-    decode = decoder()
-    node = "/drs"
 
-    def node_parameters(m) -> bool:
-        event = decode(m)
-        return event.node == node and bool(event.new_parameters)
-
-    first = first_message(bag, DEFAULT_TOPICS["parameter_events"], node_parameters)
-    events = [] if first is None else [(first.log_time, decode(first))]
-    return recorded_model_params(events, node)
+def joint_names(args: argparse.Namespace, node: BagNode | None) -> tuple[str, ...]:
+    """``--joint-names``, else the node's recorded ``joint_names``, else the defaults."""
+    if args.joint_names is not None:
+        return _joint_names(args.joint_names)  # checked by argparse (_joint_names_argument)
+    recorded = (node.parameters or {}).get("joint_names") if node is not None else None
+    return tuple(recorded) if recorded else DEFAULT_JOINT_NAMES
 
 
 @dataclass
 class CheckOutcome:
     """What checking one bag gave: the exit status (see the module docstring), the bag's data
     and the checks' results (None and empty when it could not be read), the error line (''
-    when there is none), the model parameters used, and the run's figures (``stats=True``)."""
+    when there is none), the model parameters used, the run's figures (``stats=True``), and
+    the drs node checked (None: the bag names none)."""
 
     status: int
     data: BagData | None = None
@@ -215,21 +230,35 @@ class CheckOutcome:
     error: str = ""
     params: DRSParams | None = None
     stats: RunStats | None = None
+    node: BagNode | None = None
 
 
-def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcome:
-    """Check one bag with the options of ``drs-bag check`` (``args``); never raises for the
-    bag's faults (they are the outcome's status and error)."""
-    topics = {key: getattr(args, f"topic_{key}") for key in CHECK_TOPICS}
-    names = _joint_names(args.joint_names)  # checked by argparse (_joint_names_argument)
+def check_one(bag, args: argparse.Namespace, stats: bool = False,
+              node: BagNode | None = None) -> CheckOutcome:  # fmt: skip
+    """Check one bag with the options of ``drs-bag check`` (``args``), as the run of ``node``
+    (default: the node ``--node`` picks, :func:`drs_ros.bag.nodes.select_node`); never raises
+    for the bag's faults (they are the outcome's status and error)."""
+    try:
+        if node is None:
+            node = select_node(bag_nodes(bag), args.node, bag)
+    except NodeSelectionError as exc:
+        return CheckOutcome(EXIT_USAGE, error=f"error: {exc}")
+    named = resolve_topics(node, [*CHECK_TOPICS, *STATS_ROLES, "parameter_events"],
+                           given_topics(args, CHECK_TOPICS), look_ahead.channels(bag))
+    topics = {key: named.topics[key] for key in CHECK_TOPICS}
+    names = joint_names(args, node)
     force_model, force_note = load_force_model(args.force_model)  # and _force_model_argument
-    figures = RunStats() if stats else None
+    figures = None
+    if stats:
+        figures = RunStats(topics={r: named.topics[r] for r in STATS_ROLES},
+                           diagnostics_name=None if node is None else node.diagnostics_name,
+                           joint_names=names)  # fmt: skip
     params = None
     try:
         if args.params:
-            params, origin = from_file(args.params), None
+            params, origin = from_file(args.params), f"from {args.params} (--params)"
         else:
-            params, origin = recorded_params(bag)
+            params, origin = recorded_params(node)
         checker = ModelChecker(
             params,
             tol=args.tol,
@@ -241,7 +270,7 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
             max_match_s=args.max_match,
             force_model_tol=args.force_model_tol,
         )
-        wanted = list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]]
+        wanted = list(topics.values()) + [named.topics["parameter_events"]]
 
         def take(topic: str, log_ns: int, msg) -> None:
             if topic in wanted:
@@ -249,11 +278,11 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
             if figures is not None:
                 figures.add(topic, log_ns, msg)
 
-        read = wanted + ([t for t in STATS_TOPICS if t not in wanted] if stats else [])
+        read = wanted + ([t for t in figures.read if t not in wanted] if figures else [])
         data = stream_bag(bag, read, take, recover=args.recover)
         data.first_stamp_s = {t: v for t, v in data.first_stamp_s.items() if t in wanted}
-        if origin is not None:
-            data.notes.append(f"model parameters: {origin}")
+        data.notes += [node_note(node), *named.notes]
+        data.notes.append(f"model parameters: {origin}")
         results = checker.results()
     except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
         return CheckOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): "
@@ -268,7 +297,7 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
         status = EXIT_FAILED
     else:
         status = EXIT_RECOVERED if data.recovered else EXIT_OK
-    return CheckOutcome(status, data, results, "", params, figures)
+    return CheckOutcome(status, data, results, "", params, figures, node)
 
 
 #: Table columns of each check's result: check name -> column prefix.
@@ -287,12 +316,20 @@ VERDICTS = {EXIT_OK: "PASS", EXIT_FAILED: "FAIL", EXIT_UNREADABLE: "UNREADABLE",
             EXIT_RECOVERED: "RECOVERED", EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
 
 
-def fleet_row(bag: str, args: argparse.Namespace) -> dict:
-    """Check one bag of a fleet (a Dask task): its row of the table (see
-    :mod:`drs_ros.bag.fleet`): verdict, exit status, error, each check's worst error and
-    status, counts, the run's figures (:class:`RunStats`) and the model parameters used."""
-    outcome = check_one(bag, args, stats=True)
-    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error)
+def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
+    """Check one bag of a fleet (a Dask task): its rows of the table (see
+    :mod:`drs_ros.bag.fleet`), one per drs node it holds (the one ``--node`` names, if given):
+    verdict, exit status, error, each check's worst error and status, counts, the run's figures
+    (:class:`RunStats`) and the model parameters used."""
+    try:
+        nodes = fleet.row_nodes(bag, args.node)
+    except NodeSelectionError as exc:
+        return [fleet.no_node_row(bag, exc)]
+    return [_row(bag, check_one(bag, args, stats=True, node=node), node) for node in nodes]
+
+
+def _row(bag: str, outcome: CheckOutcome, node: BagNode | None) -> dict:
+    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error, node)
     for column in dict.fromkeys(CHECK_COLUMNS.values()):
         row[column] = math.nan
         row[f"{column}_status"] = None
@@ -320,7 +357,7 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
         print(f"{prog}: {outcome.error}", file=sys.stderr)
         return outcome.status
     data, results = outcome.data, outcome.results
-    print(to_json(data, results) if args.json else format_table(data, results))
+    print(to_json(data, results, outcome.node) if args.json else format_table(data, results))
     return outcome.status
 
 
@@ -329,9 +366,10 @@ def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:
     ap = argparse.ArgumentParser(
         prog=prog,
         description="Verify every byte of a recorded DRS bag and check it against "
-        "the model. Exit status (docs/cli.md): 0 ok, 1 a check failed, 2 a bad option or an "
-        "unreadable bag, 3 damaged (--recover read its readable part), 4 internal error (no "
-        "verdict on the bag).",
+        "the model. Exit status (docs/cli.md): 0 ok, 1 a check failed, 2 a bad option (or "
+        "--node naming no node of the bag, or none of its several) or an unreadable bag, "
+        "3 damaged (--recover read its readable part), 4 internal error (no verdict on the "
+        "bag).",
     )
     add_arguments(ap)
     return run(ap.parse_args(argv), prog)

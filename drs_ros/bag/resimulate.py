@@ -19,12 +19,18 @@ record and the commands; then the signals, while the re-run advances as they ask
 the last :data:`STATE_WINDOW` steps. Many bags run on Dask, one row per bag (:func:`fleet_row`,
 :mod:`drs_ros.bag.fleet`).
 
+The run is the one of the drs node the bag names (:mod:`drs_ros.bag.nodes`: ``--node`` picks one
+of several), with its topics as it recorded them, whatever its name and remapping.
+
 Exit status (docs/cli.md): 0 every deviation within its tolerance; 1 past a tolerance; 2 a bad
-option, the bag cannot be read (or its ``metadata.yaml`` is malformed), holds no effect record (it
-was recorded before drs recorded when commands took effect) or no parameters, or the model refuses
-the parameters of the re-run (the recorded ones with ``--params`` / ``--set``); 4 decoding a
-message that passed every check of the file failed (a type that is not installed): one line
-``internal error``, no verdict on the bag.
+option (or ``--node`` naming no drs node of the bag, or none of its several), the bag cannot be
+read (or its ``metadata.yaml`` is malformed), holds commands but no effect record (it was
+recorded before drs recorded when commands took effect) or no parameters of its node, or the
+model refuses the parameters of the re-run (the recorded ones with ``--params`` / ``--set``); 4
+decoding a message that passed every check of the file failed (a type that is not installed):
+one line ``internal error``, no verdict on the bag; 5 nothing to re-run: the bag names no drs
+node (another tool's bag), or its node took no command and never stepped (a bag that ``-o``
+wrote, say).
 """
 
 from __future__ import annotations
@@ -39,7 +45,14 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_UNREADABLE
+from drs_model.cli.exit_status import (
+    EXIT_FAILED,
+    EXIT_INTERNAL,
+    EXIT_NOTHING_TO_RERUN,
+    EXIT_OK,
+    EXIT_UNREADABLE,
+    EXIT_USAGE,
+)
 from drs_model.errors import DRSError
 from drs_model.fidelity import RUNGS, make_rung
 from drs_model.fidelity.faults import RunFaults
@@ -53,10 +66,10 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from .. import commands
 from ..errors import DRSRosError
-from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
+from ..names import ACCEPTED, CLOCK, RESET, TOPICS
 from ..recording.errors import RecordingError
 from ..timestamps import ns_of, seconds_from_ns
-from . import fleet
+from . import fleet, look_ahead
 from .decoded import decoder
 from .effects import (
     MissingRecordError,
@@ -64,10 +77,18 @@ from .effects import (
     effect_records,
     is_fault_record,
     model_params_from,
-    recorded_node_parameters,
     recorded_rung,
 )
 from .files import BagReadError
+from .nodes import (
+    BagNode,
+    NodeSelectionError,
+    add_node_arguments,
+    bag_nodes,
+    given_topics,
+    resolve_topics,
+    select_node,
+)
 from .reader import MessageCallbackError, scan
 
 #: signal -> (unit, default tolerance)
@@ -83,8 +104,21 @@ SIGNALS = {
 STATE_WINDOW = 65536
 
 
+#: The roles of the topics a re-run reads: the effect record, the commands, the signals.
+RUN_ROLES = ("command_events", *commands.COMMAND_TYPES, "drs_service", "follow_joint_trajectory",
+             "joint_states", "piston_force", "flap_gap", "piston_acceleration",
+             "parameter_events")  # fmt: skip
+#: The roles with a ``--<role>-topic`` option.
+TOPIC_OPTIONS = ("command_events", "joint_states", "piston_force", "flap_gap")
+
+
 class ResimulationError(DRSRosError):
     """The bag cannot be re-simulated (no effect record, no parameters, a missing command)."""
+
+
+class NothingToRerunError(ResimulationError):
+    """The bag holds no run of a drs node to re-run: it names no drs node, or its node took no
+    command and never stepped."""
 
 
 @dataclass
@@ -99,15 +133,46 @@ class RecordedRun:
     counts: dict = field(default_factory=dict)  # topic -> messages in the bag
     start_ns: int | None = None  # earliest and latest log time [ns]
     end_ns: int | None = None
+    node: str = "/drs"  # the node's fully qualified name
+    topics: dict = field(default_factory=dict)  # role -> topic (RUN_ROLES)
+
+    def command_key(self, source: str) -> str:
+        """The command (a key of :func:`drs_ros.commands.apply`) of an effect record's
+        ``source``: its topic, the service or the action, by the node's topic names."""
+        if source == self.topics.get("drs_service"):
+            return commands.SERVICE_KEY
+        keys = (*commands.COMMAND_TYPES, commands.ACTION_KEY)
+        by_topic = {self.topics[k]: k for k in keys if k in self.topics}
+        return by_topic.get(source, source.rsplit("/", 1)[-1])
 
 
-def read_run(bag: str | Path) -> RecordedRun:
-    """Verify the bag (every byte, :func:`drs_ros.bag.reader.scan`) and collect the
-    parameters, the effect record and the commands (the signals are read by :func:`compare`)."""
-    tp = DEFAULT_TOPICS
-    cmd_topics = {tp[k] for k in commands.COMMAND_TYPES}
-    wanted = {tp["parameter_events"], tp["command_events"], *cmd_topics}
-    got: dict[str, list] = {tp["parameter_events"]: [], tp["command_events"]: []}
+#: :func:`read_run`'s default node: the bag's only one.
+_FIND = object()
+
+
+def read_run(bag: str | Path, node=_FIND, topics: dict[str, str] | None = None) -> RecordedRun:
+    """Verify the bag (every byte, :func:`drs_ros.bag.reader.scan`: a damaged bag is its error
+    first) and collect the run of ``node`` (a :class:`~drs_ros.bag.nodes.BagNode`, None for a
+    bag that names none; default: the bag's only one): its parameters, effect record and
+    commands, on ``topics`` (role -> topic; default: the node's). The signals are read by
+    :func:`compare`.
+
+    Raises
+    ------
+    NodeSelectionError
+        ``node`` not given, and the bag holds several.
+    NothingToRerunError
+        No drs node (``node`` None), or one that took no command and never stepped.
+    ResimulationError
+        Commands without an effect record, or no parameters of the node.
+    """
+    if node is _FIND:
+        node = select_node(bag_nodes(bag), None, bag)
+    if topics is None:
+        topics = resolve_topics(node, RUN_ROLES).topics
+    cmd_topics = {topics[k] for k in commands.COMMAND_TYPES} if node is not None else set()
+    events_topic = topics["command_events"]
+    events: list = []
     cmds: dict = {}
     decode = decoder()
 
@@ -116,22 +181,33 @@ def read_run(bag: str | Path) -> RecordedRun:
         if m.topic in cmd_topics:
             cmds[(m.topic, m.sequence)] = msg
         else:
-            got[m.topic].append((m.log_time, msg))
+            events.append((m.log_time, msg))
 
-    result = scan(bag, keep, topics=wanted)
-    params = recorded_node_parameters(got[tp["parameter_events"]])
-    if params is None:
-        raise ResimulationError(
-            f"{bag}: the bag records no node parameters on /parameter_events: it was recorded "
-            "before drs recorded what it needs to re-run a bag (see docs/ros.md, Effect record)"
+    result = scan(bag, keep, topics={events_topic, *cmd_topics} if node is not None else ())
+    if node is None:  # a bag that reads, of another tool
+        raise NothingToRerunError(
+            f"{bag}: nothing to re-run: the bag names no drs node (no node parameters on "
+            "/parameter_events, no topics record): it holds no run of drs-node"
         )
-    if not got[tp["command_events"]]:
+    records = [r for r in effect_records(events) if r.source != TOPICS]
+    if not cmds and not any(r.outcome == CLOCK for r in records):
+        raise NothingToRerunError(
+            f"{bag}: nothing to re-run: {node.name} took no command and never stepped (no "
+            f"command, no clock record on {events_topic})"
+        )
+    if node.parameters is None:
         raise ResimulationError(
-            f"{bag}: the bag has no effect record ({tp['command_events']}): it was recorded before "
+            f"{bag}: the bag records no parameters of {node.name} on /parameter_events: it was "
+            "recorded before drs recorded what it needs to re-run a bag (see docs/ros.md, "
+            "Effect record)"
+        )
+    if not records:
+        raise ResimulationError(
+            f"{bag}: the bag has no effect record ({events_topic}): it was recorded before "
             "drs recorded when each command took effect, so it cannot be re-run exactly"
         )
-    return RecordedRun(params, effect_records(got[tp["command_events"]]), cmds, Path(bag),
-                       dict(result.counts), result.start_ns, result.end_ns)  # fmt: skip
+    return RecordedRun(node.parameters, records, cmds, Path(bag), dict(result.counts),
+                       result.start_ns, result.end_ns, node.name, dict(topics))  # fmt: skip
 
 
 def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
@@ -188,7 +264,6 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
             keep()
 
     keep()
-    service = DEFAULT_TOPICS["drs_service"]
 
     def apply(r) -> None:
         """Advance to the instant ``r`` took effect and act on it as the node did."""
@@ -212,7 +287,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
                 notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
                              f"{r.values.get('value', '')}: {exc}")  # fmt: skip
             return
-        key = commands.SERVICE_KEY if r.source == service else r.source.rsplit("/", 1)[-1]
+        key = run.command_key(r.source)
         if key == commands.SERVICE_KEY:
             msg = _Value(r.values["value"] == "True")
         elif key == commands.ACTION_KEY:  # the action's moves are in the record itself
@@ -285,7 +360,8 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
     ``on_state(log_ns, joint_state, state)`` is called for each joint state with its
     re-simulated state (None where the re-run has none).
     """
-    tp = DEFAULT_TOPICS
+    tp = run.topics
+    names = list(run.node_parameters.get("joint_names", []))
     dt, state_at = result["dt"], result["state_at"]
     rows = {name: {"signal": name, "unit": unit, "max_deviation": 0.0, "at_time_s": math.nan,
                    "samples": 0, "tol": tolerances[name]}
@@ -312,6 +388,8 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
                     origin[0] = int(r.values["t0_ns"])
             return
         if m.topic == tp["joint_states"]:
+            if names and list(msg.name) != names:
+                return  # another node's, on a topic they share
             if seen[0] == 0 and origin[0] is None:
                 raise ResimulationError(
                     "the effect record holds no clock origin (t0) before the states"
@@ -366,16 +444,17 @@ def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams, rung: str):
     """The re-simulated run as a new bag, written as :func:`compare` goes (its ``on_state``):
     the parameters it ran with, then joint states, force, gap and acceleration at the recorded
     stamps (so ``drs-bag check`` checks it too). Nothing is left of it if the re-run fails."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rcl_interfaces.msg import ParameterEvent
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
 
-    from ..conversions import float_msg, time_msg
+    from ..conversions import command_event_msg, float_msg, time_msg
     from ..recording.mcap_recorder import McapRecorder
     from .effects import parameter_event
 
     names = list(run.node_parameters["joint_names"])
-    tp = DEFAULT_TOPICS
+    tp = run.topics
     values = dict(run.node_parameters)
     values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
     values["fidelity"] = rung  # the rung it ran on (--fidelity)
@@ -387,7 +466,15 @@ def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams, rung: str):
         if first[0]:  # the parameters, at the first joint state's log time
             first[0] = False
             rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
-            rec.write(tp["parameter_events"], parameter_event("/drs", values, log), log)
+            rec.write(tp["parameter_events"], parameter_event(run.node, values, log), log)
+            # the node's name and the topics written, as a node's topics record gives them
+            written = {k: tp[k] for k in ("joint_states", "piston_force", "flap_gap",
+                                          "piston_acceleration", "parameter_events",
+                                          "command_events")}  # fmt: skip
+            rec.register_topic(tp["command_events"], DiagnosticArray, 100)
+            record = command_event_msg(log, TOPICS, TOPICS, DiagnosticStatus.OK, "",
+                                       {"node": run.node, **written})  # fmt: skip
+            rec.write(tp["command_events"], record, log)
             rec.register_topic(tp["joint_states"], JointState, 10)
             for key in ("piston_force", "flap_gap", "piston_acceleration"):
                 rec.register_topic(tp[key], Float64, 10)
@@ -452,6 +539,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="tolerance of the piston force [N] (default 1e-6)",
     )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
+    add_node_arguments(ap, TOPIC_OPTIONS)
     fleet.add_fleet_arguments(ap)
 
 
@@ -468,14 +556,23 @@ class ResimulationOutcome:
     model: DRSParams | None = None
 
 
-def resimulate_one(bag, args: argparse.Namespace, output: str | None = None) -> ResimulationOutcome:
-    """Re-run one bag with the options of ``drs-bag resimulate`` (``args``), writing the
-    re-simulated bag to ``output`` if given; never raises for the bag's faults."""
+def resimulate_one(bag, args: argparse.Namespace, output: str | None = None,
+                   node: BagNode | None = None) -> ResimulationOutcome:  # fmt: skip
+    """Re-run one bag with the options of ``drs-bag resimulate`` (``args``), the run of
+    ``node`` (default: the one ``--node`` picks), writing the re-simulated bag to ``output`` if
+    given; never raises for the bag's faults."""
     tolerances = {name: (args.force_tol if unit == "N" else args.tol)
                   for name, (unit, _) in SIGNALS.items()}  # fmt: skip
     recorded = model = None
     try:
-        recorded = read_run(bag)
+        if node is None:
+            node = select_node(bag_nodes(bag), args.node, bag)
+    except NodeSelectionError as exc:
+        return ResimulationOutcome(EXIT_USAGE, error=f"error: {exc}")
+    named = resolve_topics(node, RUN_ROLES, given_topics(args, TOPIC_OPTIONS),
+                           look_ahead.channels(bag))  # fmt: skip
+    try:
+        recorded = read_run(bag, node, named.topics)
         model = run_params(recorded.node_parameters, args.set, args.params)
         result = resimulate(recorded, model, getattr(args, "fidelity", None))
         with ExitStack() as stack:
@@ -488,6 +585,8 @@ def resimulate_one(bag, args: argparse.Namespace, output: str | None = None) -> 
     except MessageCallbackError as exc:  # our own failure on an intact message
         return ResimulationOutcome(EXIT_INTERNAL, error="internal error (not a verdict on the "
                                    f"bag): {exc}", run=recorded, model=model)  # fmt: skip
+    except NothingToRerunError as exc:
+        return ResimulationOutcome(EXIT_NOTHING_TO_RERUN, notes=named.notes, error=f"{exc}")
     except (BagReadError, MissingRecordError, ResimulationError) as exc:  # the bag's fault
         return ResimulationOutcome(EXIT_UNREADABLE, error=f"error: {exc}", run=recorded,
                                    model=model)  # fmt: skip
@@ -501,20 +600,30 @@ def resimulate_one(bag, args: argparse.Namespace, output: str | None = None) -> 
     ok = all(r["ok"] for r in rows)
     if output:
         result["notes"].append(f"wrote the re-simulated run to {output}")
-    return ResimulationOutcome(EXIT_OK if ok else EXIT_FAILED, rows, result["notes"], "",
-                               recorded, model)  # fmt: skip
+    notes = named.notes + result["notes"]
+    return ResimulationOutcome(EXIT_OK if ok else EXIT_FAILED, rows, notes, "", recorded, model)
 
 
 VERDICTS = {EXIT_OK: "PASS", EXIT_FAILED: "DEVIATES", EXIT_UNREADABLE: "UNREADABLE",
-            EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
+            EXIT_INTERNAL: "INTERNAL ERROR",
+            EXIT_NOTHING_TO_RERUN: "NOTHING TO RE-RUN"}  # fmt: skip
 
 
-def fleet_row(bag: str, args: argparse.Namespace) -> dict:
-    """Re-run one bag of a fleet (a Dask task): its row of the table (see
-    :mod:`drs_ros.bag.fleet`): verdict, exit status, error, each signal's largest deviation,
-    counts, the notes and the model parameters of the re-run."""
-    outcome = resimulate_one(bag, args)
-    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error)
+def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
+    """Re-run one bag of a fleet (a Dask task): its rows of the table (see
+    :mod:`drs_ros.bag.fleet`), one per drs node it holds (the one ``--node`` names, if given):
+    verdict, exit status, error, each signal's largest deviation, counts, the notes and the
+    model parameters of the re-run."""
+    try:
+        nodes = fleet.row_nodes(bag, args.node)
+    except NodeSelectionError as exc:
+        return [fleet.no_node_row(bag, exc)]
+    return [_row(bag, args, resimulate_one(bag, args, node=node), node) for node in nodes]
+
+
+def _row(bag: str, args: argparse.Namespace, outcome: ResimulationOutcome,
+         node: BagNode | None) -> dict:  # fmt: skip
+    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error, node)
     for name, (unit, _) in SIGNALS.items():
         row[f"{name}_deviation_{unit.replace('/', '_')}"] = math.nan
     for r in outcome.rows:
@@ -546,12 +655,14 @@ def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
         return outcome.status
     rows, notes, ok = outcome.rows, outcome.notes, outcome.status == 0
     if args.json:
-        print(json.dumps({"bag": str(args.bag[0]), "ok": ok, "signals": rows,
+        print(json.dumps({"bag": str(args.bag[0]), "node": outcome.run.node, "ok": ok,
+                          "signals": rows,
                           "notes": notes, "changed": args.set,
                           "fidelity": args.fidelity}, indent=2,
                          default=lambda x: None))  # fmt: skip
     else:
-        print(f"re-simulated {args.bag[0]}" + (f" with {', '.join(args.set)}" if args.set else "")
+        print(f"re-simulated {args.bag[0]}, the run of {outcome.run.node}"
+              + (f" with {', '.join(args.set)}" if args.set else "")
               + (f" on the {args.fidelity} rung" if args.fidelity else ""))  # fmt: skip
         print(f"{'signal':<14} {'unit':<6} {'n':>6} {'max deviation':>14} {'at t [s]':>10} "
               f"{'tol':>8}  status")  # fmt: skip

@@ -7,15 +7,15 @@ commands, the missed deadlines. Fed one decoded message at a time (nothing is ke
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 from ..names import DEFAULT_TOPICS, REFUSED, SUPERSEDED
 from .decoded import stamp_s
 from .effects import effect_records
 
-#: The topics :class:`RunStats` reads.
-STATS_TOPICS = tuple(DEFAULT_TOPICS[k] for k in ("joint_states", "flap_gap", "command_events",
-                                                 "diagnostics"))  # fmt: skip
+#: The roles of the topics :class:`RunStats` reads (of :data:`drs_ros.names.NODE_TOPICS`).
+STATS_ROLES = ("joint_states", "flap_gap", "command_events", "diagnostics")
 
 
 @dataclass
@@ -24,16 +24,25 @@ class RunStats:
 
     Attributes
     ----------
+    topics : Mapping
+        Role -> topic of the node's topics (:data:`STATS_ROLES`; the default node's unless
+        given: :func:`drs_ros.bag.nodes.resolve_topics`).
+    diagnostics_name : str or None
+        The node's status name in ``/diagnostics`` (another node's statuses there are not its);
+        None: every status.
+    joint_names : tuple or None
+        The node's joint names (another node's joint states on a shared topic are not its);
+        None: every joint state.
     peak_force_n : float
-        Largest ``|effort|`` of the piston in ``/joint_states`` [N].
+        Largest ``|effort|`` of the piston in the joint states [N].
     peak_force_at_s : float
         Its header stamp [s].
     largest_gap_m : float
-        Largest ``/drs/flap_gap`` [m].
+        Largest ``~/flap_gap`` [m].
     longest_interval_s : float
-        Longest time between consecutive ``/joint_states`` stamps [s] (a dropout).
+        Longest time between consecutive joint state stamps [s] (a dropout).
     refused, superseded : int
-        Commands the effect record (``/drs/command_events``) says were refused, superseded.
+        Commands the effect record (``~/command_events``) says were refused, superseded.
     missed_deadlines : int
         The node's ``missed_deadlines`` counter in its last ``/diagnostics`` (its largest value).
     """
@@ -45,12 +54,22 @@ class RunStats:
     refused: int = 0
     superseded: int = 0
     missed_deadlines: int = 0
+    topics: Mapping[str, str] = field(default_factory=lambda: dict(DEFAULT_TOPICS))
+    diagnostics_name: str | None = None
+    joint_names: tuple[str, ...] | None = None
     _last_stamp: float | None = None
 
+    @property
+    def read(self) -> list[str]:
+        """The topics it reads."""
+        return [self.topics[role] for role in STATS_ROLES]
+
     def add(self, topic: str, log_ns: int, msg) -> None:
-        """One decoded message (topics other than :data:`STATS_TOPICS` are ignored)."""
-        tp = DEFAULT_TOPICS
+        """One decoded message (topics other than :attr:`read` are ignored)."""
+        tp = self.topics
         if topic == tp["joint_states"]:
+            if self.joint_names is not None and tuple(msg.name) != self.joint_names:
+                return  # another node's
             t = stamp_s(log_ns, msg)
             if self._last_stamp is not None:
                 step = t - self._last_stamp
@@ -71,6 +90,8 @@ class RunStats:
                 self.superseded += record.outcome == SUPERSEDED
         elif topic == tp["diagnostics"]:
             for status in msg.status:
+                if self.diagnostics_name is not None and status.name != self.diagnostics_name:
+                    continue  # another node's
                 for kv in status.values:
                     if kv.key == "missed_deadlines" and kv.value.isdigit():
                         self.missed_deadlines = max(self.missed_deadlines, int(kv.value))
@@ -88,4 +109,4 @@ class RunStats:
         }
 
 
-__all__ = ["STATS_TOPICS", "RunStats"]
+__all__ = ["STATS_ROLES", "RunStats"]
