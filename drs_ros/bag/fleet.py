@@ -6,11 +6,18 @@ The bags are named by paths, directories (searched recursively: a directory hold
 :func:`drs_model.cluster.dask_client` (an embedded ``LocalCluster`` of ``--jobs`` worker processes,
 or the cluster at ``--scheduler``), run by the verb's row function, which never raises for the
 bag's faults: a damaged bag is a row with its error, never the end of the run. The result is one
-table, one row per bag in the order the bags were found, written as Parquet (``-o table.parquet``,
-pyarrow) and printed as a summary; a progress bar shows on a terminal.
+table, one row per drs node of each bag (:func:`row_nodes`: a bag of two actuators gives two
+rows; ``--node NAME`` keeps that node's), in the order the bags were found, written as Parquet
+(``-o table.parquet``, pyarrow) and printed as a summary; a progress bar shows on a terminal.
+
+A directory is walked once per real directory: a symbolic link to a directory already walked,
+or to one that holds it (a ``latest`` link in a season's tree), is not followed again, and a bag
+reached by two paths is one bag (by its resolved path), named by the first path that found it;
+a glob's ``**`` does not descend into linked directories.
 
 Columns every verb writes (:func:`base_row`, :func:`count_columns`, :func:`param_columns`):
-``bag``, ``verdict``, ``exit_status`` (what the verb alone would exit with), ``error`` (null when
+``bag``, ``node`` (the drs node's fully qualified name; null for a bag that names none),
+``verdict``, ``exit_status`` (what the verb alone would exit with), ``error`` (null when
 there is none), ``task_s`` (wall time of the task [s]), ``storage``, ``messages`` (all topics),
 ``counts`` (topic -> messages), ``start_ns``, ``duration_s``, ``recovered``, and ``param_<name>``
 (the model parameters used, SI units). The verb adds its own (:mod:`drs_ros.bag.check`,
@@ -23,7 +30,6 @@ which and why), 2 no bag was found, an option is invalid, or the table cannot be
 from __future__ import annotations
 
 import argparse
-import glob
 import math
 import sys
 import time
@@ -89,48 +95,93 @@ def is_fleet(args: argparse.Namespace) -> bool:
 
 
 def find_bags(specs: Sequence[str], missing_ok: bool = False) -> list[Path]:
-    """The bags ``specs`` name, in order, each once: files and bag directories as given, globs
-    expanded (sorted), other directories searched recursively (sorted).
+    """The bags ``specs`` name, in order, each once (by its resolved path; named by the first
+    path that found it): files and bag directories as given, globs expanded (sorted), other
+    directories searched recursively (sorted, real directories before links; a link to a
+    directory already searched, or to one being searched, is not followed).
 
     Raises
     ------
     FleetError
         A path that does not exist or a glob that matches nothing (unless ``missing_ok``).
     """
-    found: dict[Path, None] = {}
+    found: dict[Path, Path] = {}  # resolved path -> the path that found it first
+    walked: set[Path] = set()  # resolved directories searched (or being searched)
+
+    def add(path: Path) -> None:
+        found.setdefault(path.resolve(), path)
 
     def search(directory: Path) -> None:
+        real = directory.resolve()
+        if real in walked:
+            return  # a link back into the tree, or to a directory already searched
+        walked.add(real)
         if _is_bag(directory):
-            found[directory] = None
+            add(directory)
             return
-        for child in sorted(directory.iterdir()):
+        children = sorted(directory.iterdir(), key=lambda c: (c.is_symlink(), c.name))
+        for child in children:
             if child.is_dir():
                 search(child)
             elif child.suffix in _BAG_SUFFIXES:  # pragma: no cover - _is_bag took the dir
-                found[child] = None
+                add(child)
 
     for spec in specs:
-        matches = sorted(glob.glob(spec, recursive=True)) if _GLOB_CHARS & set(spec) else [spec]
+        matches = _glob(spec) if _GLOB_CHARS & set(spec) else [spec]
         if not matches and not missing_ok:
             raise FleetError(f"{spec!r} matches no file or directory")
         for match in matches:
             path = Path(match)
             if path.is_file():
                 if path.suffix in _BAG_SUFFIXES or path.name == "metadata.yaml":
-                    found[path.parent if path.name == "metadata.yaml" else path] = None
+                    add(path.parent if path.name == "metadata.yaml" else path)
             elif path.is_dir():
                 search(path)
             elif not missing_ok:
                 raise FleetError(f"{str(path)!r}: no such bag file or directory")
     # a file inside a bag directory that is also listed is that bag, not another
-    return [p for p in found if not (p.is_file() and p.parent in found)]
+    return [p for real, p in found.items() if not (real.is_file() and real.parent in found)]
 
 
-def base_row(bag: str, status: int, verdict: str, error: str) -> dict[str, Any]:
-    """The columns every verb's row starts with."""
-    return {"bag": str(bag), "verdict": verdict, "exit_status": int(status),
-            "error": error or None, "storage": _storage(bag), "messages": None, "counts": {},
-            "start_ns": None, "duration_s": math.nan, "recovered": None}  # fmt: skip
+def _glob(spec: str) -> list[str]:
+    """A glob's matches, sorted (pathlib's: its ``**`` does not descend into a linked directory,
+    where ``glob.glob``'s follows a link back up until the OS refuses, 2**40 paths for a tree
+    with two such links)."""
+    parts = Path(spec).parts
+    first = next(i for i, part in enumerate(parts) if _GLOB_CHARS & set(part))
+    base = Path(*parts[:first]) if first else Path()
+    return sorted(str(p) for p in base.glob(str(Path(*parts[first:]))))
+
+
+def row_nodes(bag: str, name: str | None) -> list:
+    """The drs nodes of ``bag`` that get a row (:class:`drs_ros.bag.nodes.BagNode`): the one
+    ``--node name`` picks, else every one; ``[None]`` for a bag that names none (one row).
+
+    Raises
+    ------
+    NodeSelectionError
+        ``name`` is given and names no node of the bag (:func:`no_node_row` is its row).
+    """
+    from .nodes import bag_nodes, select_node
+
+    nodes = bag_nodes(bag)
+    if name is not None:
+        return [select_node(nodes, name, bag)]
+    return list(nodes) or [None]
+
+
+def base_row(bag: str, status: int, verdict: str, error: str, node=None) -> dict[str, Any]:
+    """The columns every verb's row starts with (``node``: the row's drs node, or None)."""
+    return {"bag": str(bag), "node": None if node is None else node.name, "verdict": verdict,
+            "exit_status": int(status), "error": error or None, "storage": _storage(bag),
+            "messages": None, "counts": {}, "start_ns": None, "duration_s": math.nan,
+            "recovered": None}  # fmt: skip
+
+
+def no_node_row(bag: str, error: Exception) -> dict[str, Any]:
+    """The row of a bag that holds no drs node of the name ``--node`` gives (a usage error, exit
+    status 2, for that bag)."""
+    return base_row(bag, EXIT_USAGE, "NO SUCH NODE", f"error: {error}")
 
 
 def _storage(bag: str) -> str | None:
@@ -158,31 +209,34 @@ def param_columns(params) -> dict[str, float]:
             for k in NUMERIC_FIELDS}  # fmt: skip
 
 
-def timed_row(bag: str, row_function: Callable, args: argparse.Namespace) -> dict:
-    """``row_function(bag, args)`` with its wall time as ``task_s`` (what a worker runs)."""
+def timed_row(bag: str, row_function: Callable, args: argparse.Namespace) -> list[dict]:
+    """``row_function(bag, args)`` (a bag's rows) with its wall time as each row's ``task_s``
+    (what a worker runs)."""
     start = time.perf_counter()
-    row = row_function(bag, args)
-    row["task_s"] = time.perf_counter() - start
-    return row
+    rows = row_function(bag, args)
+    for row in rows:
+        row["task_s"] = time.perf_counter() - start
+    return rows
 
 
 def run_rows(row_function: Callable, bags: Sequence[str], args: argparse.Namespace,
              description: str, progress: bool | None = None) -> list[dict]:  # fmt: skip
-    """One row per bag, in order, computed on Dask (``args.jobs``, ``args.scheduler``); a task
-    that raised anyway is a row with its error."""
+    """The rows of each bag (one per drs node), in order, computed on Dask (``args.jobs``,
+    ``args.scheduler``); a task that raised anyway is a row with its error."""
     from drs_model.cluster import TaskFailure, dask_client, map_unordered
 
-    rows: list[dict | None] = [None] * len(bags)
+    rows: list[list[dict]] = [[] for _ in bags]
     with dask_client(args.scheduler, args.jobs) as client:
         for i, result in map_unordered(client, timed_row, bags, description=description,
                                        progress=progress, row_function=row_function,
                                        args=args):  # fmt: skip
             if isinstance(result, TaskFailure):
-                result = base_row(bags[i], EXIT_INTERNAL, "INTERNAL ERROR",
+                failed = base_row(bags[i], EXIT_INTERNAL, "INTERNAL ERROR",
                                   f"internal error: {result}")  # fmt: skip
-                result["task_s"] = math.nan
+                failed["task_s"] = math.nan
+                result = [failed]
             rows[i] = result
-    return [r for r in rows if r is not None]
+    return [row for bag_rows in rows for row in bag_rows]
 
 
 def to_table(rows: list[dict]):
@@ -197,11 +251,13 @@ def to_table(rows: list[dict]):
     fields = []
     for name, values in data.items():
         sample = next((v for v in values if v not in (None, {}, [])), None)
+        if sample is None:  # only empty values, if any: their kind is the column's
+            sample = next((v for v in values if v is not None), None)
         if isinstance(sample, dict):  # topic -> count or type: a map column
-            inner = next(iter(sample.values()))
+            inner = next(iter(sample.values()), 0)
             kind = pa.map_(pa.string(), pa.int64() if isinstance(inner, int) else pa.string())
             data[name] = [list((v or {}).items()) for v in values]
-        elif isinstance(sample, list) or name == "notes":
+        elif isinstance(sample, list) or name in ("notes", "nodes"):
             kind = pa.list_(pa.string())
         else:
             kind = (pa.bool_() if isinstance(sample, bool) else
@@ -214,12 +270,16 @@ def to_table(rows: list[dict]):
 
 
 def format_summary(rows: list[dict], columns: Sequence[str]) -> str:
-    """One line per bag (verdict, the ``columns`` given, the error), then the verdicts counted."""
+    """One line per row (bag, its drs node when the bags name any, verdict, the ``columns``
+    given, the error), then the verdicts counted."""
     lines = []
     width = max([len(r["bag"]) for r in rows] + [3])
-    head = f"{'bag':<{width}}  {'verdict':<14}" + "".join(f" {c:>14}" for c in columns)
+    nodes = [r.get("node") or "-" for r in rows]
+    node_width = max(len(n) for n in nodes) if any(r.get("node") for r in rows) else 0
+    named = f" {'node':<{node_width}} " if node_width else ""
+    head = f"{'bag':<{width}} {named} {'verdict':<14}" + "".join(f" {c:>14}" for c in columns)
     lines += [head, "-" * len(head)]
-    for r in rows:
+    for r, node in zip(rows, nodes, strict=True):
         cells = []
         for c in columns:
             v = r.get(c)
@@ -227,13 +287,16 @@ def format_summary(rows: list[dict], columns: Sequence[str]) -> str:
                 cells.append(f" {'-':>14}")
             else:
                 cells.append(f" {v:>14.4g}" if isinstance(v, float) else f" {v!s:>14}")
-        line = f"{r['bag']:<{width}}  {r['verdict']:<14}" + "".join(cells)
+        named = f" {node:<{node_width}} " if node_width else ""
+        line = f"{r['bag']:<{width}} {named} {r['verdict']:<14}" + "".join(cells)
         lines.append(line + (f"  {r['error']}" if r.get("error") else ""))
     tally: dict[str, int] = {}
     for r in rows:
         tally[r["verdict"]] = tally.get(r["verdict"], 0) + 1
+    bags = len({r["bag"] for r in rows})
+    counted = f"{bags} bags" + (f", {len(rows)} rows" if len(rows) != bags else "")
     lines.append("")
-    lines.append(f"{len(rows)} bags: " + ", ".join(f"{n} {v}" for v, n in sorted(tally.items())))
+    lines.append(f"{counted}: " + ", ".join(f"{n} {v}" for v, n in sorted(tally.items())))
     return "\n".join(lines)
 
 
@@ -274,7 +337,9 @@ __all__ = [
     "find_bags",
     "format_summary",
     "is_fleet",
+    "no_node_row",
     "param_columns",
+    "row_nodes",
     "run_fleet",
     "run_rows",
     "table_path",
