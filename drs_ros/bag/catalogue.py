@@ -2,9 +2,11 @@
 alone, for fast queries (DuckDB, pandas, pyarrow).
 
 For each bag :func:`drs_ros.bag.fleet.find_bags` finds, the columns of the fleet table that a
-summary can give, without decoding any message: ``bag``, ``storage``, ``source`` (where the
-figures come from), ``files``, ``size_bytes``, ``messages``, ``counts`` (topic -> messages),
-``topics`` (topic -> type), ``start_ns``, ``duration_s``, ``ros_distro`` and ``error``. They
+summary can give: ``bag``, ``storage``, ``source`` (where the figures come from), ``files``,
+``size_bytes``, ``messages``, ``counts`` (topic -> messages), ``topics`` (topic -> type),
+``start_ns``, ``duration_s``, ``ros_distro``, ``error``, and ``nodes``: the drs nodes the bag
+holds, by their fully qualified names (:func:`drs_ros.bag.nodes.bag_nodes`: the only messages
+decoded are the nodes' start records, from the chunks that hold them). They
 come from ``metadata.yaml`` (as ``ros2 bag info`` reads it), else from each MCAP file's summary
 section (its statistics and channels: a few KiB at the end of the file), else, for a ``.db3``,
 from the database's ``topics`` table and the ``messages`` table's count and time range. A bag
@@ -27,6 +29,7 @@ from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 
 from . import fleet
 from .files import BagReadError, resolve
+from .nodes import bag_nodes
 
 
 def _mcap_summary(files) -> tuple[dict, dict, int | None, int | None]:
@@ -92,7 +95,7 @@ def catalogue_row(bag: str | Path) -> dict[str, Any]:
     row: dict[str, Any] = {"bag": str(bag), "storage": None, "source": None, "files": [],
                            "size_bytes": None, "messages": None, "counts": {}, "topics": {},
                            "start_ns": None, "duration_s": math.nan, "ros_distro": None,
-                           "error": None}  # fmt: skip
+                           "error": None, "nodes": []}  # fmt: skip
     try:
         found = resolve(bag, require_metadata=False)
         row["storage"] = found.storage
@@ -118,6 +121,7 @@ def catalogue_row(bag: str | Path) -> dict[str, Any]:
         row.update(fleet.count_columns(counts, start, end, False))
         del row["recovered"]
         row["topics"] = types
+        row["nodes"] = [node.name for node in bag_nodes(found)]
     except (BagReadError, OSError) as exc:
         row["error"] = str(exc)
     return row

@@ -1,4 +1,5 @@
-"""``drs-bag info BAG``: what a bag holds, printed as ``ros2 bag info`` prints it.
+"""``drs-bag info BAG``: what a bag holds, printed as ``ros2 bag info`` prints it, then the drs
+nodes it holds, each with its topics by role (:mod:`drs_ros.bag.nodes`).
 
 From ``metadata.yaml`` when the bag directory has one (as ``ros2 bag info`` does), else from a
 scan of the files (a bare ``.mcap``, or an unfinished recording, split or not: then said so).
@@ -18,6 +19,7 @@ from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 from ..recording import msgdefs
 from ..timestamps import split_ns
 from .files import BagReadError, resolve
+from .nodes import bag_nodes, nodes_text
 from .reader import scan
 
 _INDENT = " " * 19
@@ -47,13 +49,21 @@ def _is_service_event(topic: str, type_name: str) -> bool:
 
 
 def bag_summary(path: str | Path) -> dict:
-    """Files, size, storage, distro, start [ns], duration [ns], and topics with type and count.
+    """Files, size, storage, distro, start [ns], duration [ns], topics with type and count, and
+    the drs nodes (``nodes``: name, topics by role, where they come from).
 
     Raises
     ------
     BagReadError
         The bag cannot be found or read, or its ``metadata.yaml`` is malformed.
     """
+    info = _files_summary(path)
+    info["nodes"] = [node.summary() for node in bag_nodes(path)]
+    return info
+
+
+def _files_summary(path: str | Path) -> dict:
+    """:func:`bag_summary` but the nodes."""
     bag = resolve(path, require_metadata=False)
     meta = bag.metadata
     if meta is not None:  # checked by the resolver (drs_ros.bag.files.read_metadata)
@@ -114,6 +124,10 @@ def format_info(info: dict) -> str:
     lines.append("Service information: " + f"\n{_INDENT}  ".join(rows))
     if info["source"] != "metadata.yaml":
         lines.append(f"(read from {info['source']}: no metadata.yaml)")
+    nodes = info.get("nodes", [])
+    lines.append(f"DRS nodes:         {len(nodes) or 'none named by the bag'}")
+    held = [t[0] for t in info["topics"]]
+    lines += [f"{_INDENT}{line}" for line in nodes_text(nodes, held)]
     return "\n".join(lines)
 
 

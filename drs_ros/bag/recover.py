@@ -5,8 +5,9 @@ checked, exact CDR bytes checked), every file of a split bag in order, each up t
 truncated or corrupt record, and copies every complete message into a new rosbag2 bag directory
 ``OUT`` (one MCAP file with its summary, plus ``metadata.yaml`` counting what was written):
 schemas, channel metadata, times and sequence numbers copied as they were. It then reports what
-was kept and what was lost, per file. Readers that need the summary (rosbags, mcap_ros2's seeking
-reader, ``ros2 bag``) read the result.
+was kept and what was lost, per file, and the drs nodes whose records it holds
+(:mod:`drs_ros.bag.nodes`: their names and topics). Readers that need the summary (rosbags,
+mcap_ros2's seeking reader, ``ros2 bag``) read the result.
 
 Exit status: 0 the result holds every message of a bag that was complete; 3 the bag was damaged
 and the result holds its readable part (the report says what was lost); 2 nothing was readable,
@@ -30,6 +31,7 @@ from ..recording.mcap_recorder import McapRecorder, check_new_bag
 from ..recording.qos import parse_qos_yaml
 from ..timestamps import split_ns
 from .files import BagReadError
+from .nodes import bag_nodes, nodes_text
 from .reader import ChannelInfo, MessageCallbackError, RecordedMessage, scan
 
 
@@ -134,6 +136,7 @@ def recover(bag: str | Path, out: str | Path) -> dict:
         "bytes_lost": sum(f["bytes_lost"] for f in files),
         "reason": result.reason,
         "files": files,
+        "nodes": [node.summary() for node in bag_nodes(out)],
     }
 
 
@@ -165,6 +168,9 @@ def format_report(rep: dict) -> str:
     if not rep["complete_source"] and last is not None:
         sec, nanosec = split_ns(last)  # exact: a float of epoch seconds keeps ~0.2 us
         lines.append(f"last recovered message logged at {sec}.{nanosec:09d} s")
+    nodes = rep.get("nodes", [])
+    lines.append(f"drs nodes: {len(nodes) or 'none named by the bag'}")
+    lines += [f"  {line}" for line in nodes_text(nodes, rep["per_topic"])]
     return "\n".join(lines)
 
 

@@ -16,6 +16,10 @@ decode and re-encode). Options have ``ros2 bag play``'s names and meanings (rosb
 * ``--wait-for-subscribers`` (not in ``ros2 bag play``): after ``--delay``, wait until every
   played topic (and ``/clock`` with ``--clock``) has a matched subscriber. DDS discovery on
   loopback took from 0.03 s to over 3 s here, so a fixed delay can lose the first messages.
+* ``--node NAME`` (not in ``ros2 bag play``): play only the topics of that drs node of the bag,
+  by the names it recorded them under, remapped or not (:mod:`drs_ros.bag.nodes`); a topic it
+  shares with other nodes (``/diagnostics``, ``/parameter_events``, ``/tf``) is played whole.
+  A name that is no drs node of the bag is an error listing the ones it holds (exit status 2).
 * ``--qos-profile-overrides-path FILE``: a YAML mapping of recorded topic names to (partial)
   profiles in the ``offered_qos_profiles`` spelling, offered instead of the adapted ones
   (e.g. ``/joint_states: {depth: 1000}``).

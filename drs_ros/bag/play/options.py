@@ -46,6 +46,7 @@ class PlayOptions:
     start_offset_s: float = 0.0
     delay_s: float = 0.0
     topics: tuple[str, ...] = ()
+    node: str | None = None
     clock_hz: float = 0.0
     remap: tuple[str, ...] = ()
     read_ahead: int = DEFAULT_READ_AHEAD
@@ -82,6 +83,7 @@ def options_from_args(args: argparse.Namespace) -> PlayOptions:
         start_offset_s=args.start_offset,
         delay_s=args.delay,
         topics=tuple(args.topics or ()),
+        node=args.node,
         clock_hz=args.clock or 0.0,
         remap=tuple(args.remap or ()),
         read_ahead=args.read_ahead_queue_size,
@@ -138,6 +140,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="extend",
         metavar="TOPIC",
         help="play only these topics (recorded names)",
+    )
+    parser.add_argument(
+        "--node",
+        default=None,
+        metavar="NAME",
+        help="play only the topics of this drs node (its fully qualified name or its name), as "
+        "the bag recorded them (with --topics: those of them); not in ros2 bag play",
     )
     parser.add_argument(
         "--clock",

@@ -16,6 +16,7 @@ from typing import Any
 
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE, EXIT_USAGE
 
+from ...errors import UsageError
 from ...timestamps import ns_from_seconds, seconds_from_ns, set_ns
 from ..files import BagReadError
 from .index import BagIndex, index_bag, iter_bag
@@ -226,6 +227,8 @@ class Player:
 def play(options: PlayOptions) -> int:
     """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag)."""
     index = index_bag(options.bag)  # fails before DDS starts
+    if options.node is not None:
+        options = node_options(options, index)
     path = options.qos_overrides_path
     overrides = qos_overrides(path) if path else {}
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -268,6 +271,23 @@ def play(options: PlayOptions) -> int:
     return EXIT_OK
 
 
+def node_options(options: PlayOptions, index: BagIndex) -> PlayOptions:
+    """``options`` playing only the topics of the drs node ``--node`` names (of ``--topics``, if
+    given), by the names the bag recorded them under (:mod:`drs_ros.bag.nodes`)."""
+    import dataclasses
+
+    from ..nodes import find_node
+
+    node = find_node(options.bag, options.node)
+    topics = [t for t in dict.fromkeys(node.topics.values()) if t in index.channels]
+    if options.topics:
+        topics = [t for t in topics if t in options.topics]
+    if not topics:
+        raise PlayError(f"--node {options.node}: {node.name} has no recorded topic to play"
+                        + (" among --topics" if options.topics else ""))  # fmt: skip
+    return dataclasses.replace(options, topics=tuple(sorted(topics)))
+
+
 def run(args: argparse.Namespace, prog: str = PROG) -> int:
     """Run ``play`` with parsed arguments; the exit status."""
     try:
@@ -275,7 +295,7 @@ def run(args: argparse.Namespace, prog: str = PROG) -> int:
         # no reading ahead of the whole bag: the summaries are read before DDS starts, every
         # chunk's CRC as it is played (a corrupt chunk ends the play then, exit status 2)
         return play(options)
-    except PlayError as exc:  # an option (argparse's exit status for a usage error)
+    except UsageError as exc:  # an option, --node's included (argparse's usage status)
         print(error_line(exc), file=sys.stderr)
         return EXIT_USAGE
     except BagReadError as exc:
