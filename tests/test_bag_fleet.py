@@ -183,3 +183,33 @@ def test_index_catalogues_from_summaries_what_check_reads_from_every_byte(fleet_
             entry[0] += 1
             entry[1] += dict(row["counts"]).get("/joint_states", 0)
     assert got == [(k, *v) for k, v in sorted(want.items())]
+
+
+def test_a_season_with_links_gives_each_bag_once(tmp_path, capsys):
+    """A season as it is kept: days of runs, ``latest`` linked to the last day, a link back up to
+    the season, a run linked from another day. Each bag once, under its real path, whether the
+    season is walked (check, index, resimulate) or globbed with ``**``."""
+    require_rclpy()
+    from drs_ros.bag.cli import main
+    from drs_ros.bag.fleet import find_bags
+
+    season = tmp_path / "season"
+    for day, runs in (("day1", ("run1", "run2")), ("day2", ("run3",))):
+        for run in runs:
+            shutil.copytree(EXAMPLE, season / day / run)
+    (season / "latest").symlink_to("day2")
+    (season / "day2" / "season").symlink_to("..")  # back up into itself
+    (season / "day2" / "best").symlink_to(season / "day1" / "run2")  # a bag by a second path
+    real = ["day1/run1", "day1/run2", "day2/run3"]
+    for spec in (season, season / "**" / "metadata.yaml", season / "*" / "*"):
+        found = find_bags([str(spec)])
+        assert [p.relative_to(season).as_posix() for p in found] == real, spec
+    assert main(["index", str(season), "-o", str(tmp_path / "catalogue.parquet")]) == 0
+    assert "catalogued 3 bags" in capsys.readouterr().out
+    for verb in ("check", "resimulate"):
+        table = tmp_path / f"{verb}.parquet"
+        assert main([verb, str(season), "--jobs", "1", "-o", str(table)]) == 0
+        rows = _table(table)
+        assert [Path(r["bag"]).relative_to(season).as_posix() for r in rows] == real
+        assert {(r["node"], r["verdict"]) for r in rows} == {("/drs", "PASS")}
+    assert "3 bags: 3 PASS" in capsys.readouterr().out

@@ -75,15 +75,40 @@ def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
     assert sum(abs(m.effort[0]) for _, m in light) < sum(abs(m.effort[0]) for _, m in recorded)
 
 
-def test_a_bag_without_the_effect_record_gets_a_clear_message(tmp_path, params):
+def test_a_bag_without_the_effect_record_gets_a_clear_message(tmp_path):
+    """The example's commands and parameters without its effect record (a bag of a drs that
+    did not record when commands took effect): no exact re-run, and it says why."""
     require_rclpy()
-    from ros_support import write_drs_bag
+    from bag_support import copy_bags
 
-    write_drs_bag(tmp_path / "old", params, n=50)
+    copy_bags([EXAMPLE], tmp_path / "old", leave_out=["/drs/command_events"])
     rc, err = resimulate(str(tmp_path / "old"))
     assert rc == 2 and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
     assert "recorded before drs recorded" in err
+
+
+def test_a_bag_of_another_tool_has_nothing_to_re_run(tmp_path, params):
+    """Joint states, gap and force as another recorder would hold them, no drs node named and no
+    command: not an unreadable bag (check reads it), nothing to re-run (exit status 5); in a
+    fleet, its own verdict."""
+    require_rclpy()
+    import pyarrow.parquet as pq
+    from ros_support import write_drs_bag
+
+    write_drs_bag(tmp_path / "runs" / "other", params, n=50)
+    rc, err = resimulate(str(tmp_path / "runs" / "other"))
+    assert rc == 5, err
+    assert len(err.strip().splitlines()) == 1 and "nothing to re-run" in err
+    assert "names no drs node" in err
+    check = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "check",
+                            str(tmp_path / "runs" / "other")],
+                           capture_output=True, text=True)  # fmt: skip
+    assert check.returncode == 0, check.stdout + check.stderr
+    rc, _ = resimulate(str(tmp_path / "runs"), "--jobs", "1", "-o", str(tmp_path / "t.parquet"))
+    (row,) = pq.read_table(tmp_path / "t.parquet").to_pylist()
+    assert (rc, row["verdict"], row["exit_status"], row["node"]) == (1, "NOTHING TO RE-RUN", 5,
+                                                                      None)  # fmt: skip
 
 
 def test_bad_set_is_refused_with_a_reason(tmp_path):
