@@ -108,13 +108,14 @@ def test_quasi_static_force_command_goes_to_the_balance_or_the_stop():
 
 # ---- the hydraulic rung -------------------------------------------------------------------------
 def _ideal(beta: float) -> HydraulicParams:
-    """Stiff oil at ``beta``, an ideal valve (linear flow law, no spool lag, 20x the flow so it
-    never saturates on the manoeuvre), no friction, no leak, no relief; a loop gain well under the
-    oil column's frequency at every beta (200 rad/s crossover)."""
+    """Stiff oil at ``beta`` without entrained air, an ideal valve (linear flow law, no spool
+    lag, 20x the flow so it never saturates on the manoeuvre), no friction, no leak, no relief; a
+    loop gain well under the oil column's frequency at every beta (200 rad/s crossover)."""
     return HydraulicParams(
         flow_law="linear", spool_time_constant=0.0, viscous_friction=0.0, coulomb_friction=0.0,
         breakaway_friction=0.0, leak_across_piston=0.0, relief_flow_gain=0.0,
         valve_rated_flow=20 * 7.5 / 60000, bulk_modulus=beta, position_gain=10.0,
+        entrained_air_fraction=0.0,
     )  # fmt: skip
 
 
@@ -206,7 +207,9 @@ def test_explicit_step_above_the_stiff_limit_is_refused():
 
 def test_the_stiff_limit_is_where_rk4_blows_up():
     """The estimate behind the refusal is sound and not idle: from a disturbed equilibrium, RK4
-    sub-steps at 0.9x the limit stay bounded and at 8x it blow up (what the refusal prevents).
+    sub-steps at 0.9x the limit settle and at 8x they do not: the oscillation grows until the
+    chamber cavitates (the vapour pressure bounds it from below) or the state is no longer
+    finite (what the refusal prevents).
     The estimate counts the valve fully open (it may open within a step), so at rest it is 2-5x
     below the measured blow-up."""
     rung = make_rung("hydraulic", P, 1e-3)
@@ -226,7 +229,7 @@ def test_the_stiff_limit_is_where_rk4_blows_up():
         return abs(y[2] - rung.y[2])
 
     assert run(0.9) < 5e5
-    assert run(8.0) == math.inf
+    assert run(8.0) > 1e7  # Pa: 20x the disturbance
 
 
 @pytest.mark.parametrize("method", ["ros2", "linearly-implicit-euler", "rk4"])

@@ -30,8 +30,9 @@ from ..params import DRSParams
 from . import hydraulic_kernels as hk
 from .base import RungMixin, RungState
 from .compiled import compiled_kernel
+from .hydraulic_events import EventLocator
 from .hydraulic_params import HydraulicParams
-from .hydraulic_steps import RK4_LIMIT, STEP_METHODS
+from .hydraulic_steps import RK4_LIMIT, STEP_METHODS, state_rate
 
 #: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
 #: at any step); at 0.1 ms ``ros2`` keeps the stroke within 3e-5 m of the tight reference on the
@@ -62,6 +63,10 @@ def hydraulic_constants(hp: HydraulicParams, p: DRSParams) -> tuple[float, ...]:
     out[hk.S_MIN], out[hk.S_MAX] = s_min, s_max
     out[hk.K_POSITION], out[hk.K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
     out[hk.K_FORCE] = hp.force_gain
+    out[hk.AIR_FRACTION] = hp.entrained_air_fraction
+    out[hk.P_AIR_SATURATION] = hp.air_saturation_pressure
+    out[hk.AIR_INDEX] = hp.air_polytropic_index
+    out[hk.P_VAPOUR] = hp.vapour_pressure
     return tuple(float(x) for x in out)
 
 
@@ -105,6 +110,11 @@ class HydraulicRung(RungMixin, ActuatorSim):
     guard : bool
         Refuse an RK4 sub-step above the stability limit (default). Off only for
         ``benchmarks/hydraulic_stability.py``, which measures where RK4 really blows up.
+    locate_events : bool
+        Split the sub-steps where the right-hand side is not smooth (a stop's contact, the
+        vapour pressure, the relief, the spool's null...: :class:`~.hydraulic_events.EventLocator`),
+        so that the method keeps its order across them: the chart's reference. Off by default
+        (the node's rung: cheaper, and within its tolerance).
     """
 
     name = "hydraulic"
@@ -121,6 +131,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         substep: float | None = None,
         stability_fraction: float = 1.0,
         guard: bool = True,
+        locate_events: bool = False,
     ) -> None:
         if method not in STEP_METHODS:
             raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
@@ -130,6 +141,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
             raise InputError(f"stability_fraction must be in (0, 1], got {stability_fraction!r}")
         self.stability_fraction = float(stability_fraction)
         self.guard = bool(guard)
+        self.locate_events = bool(locate_events)
         self.hydraulic = HydraulicParams() if hydraulic is None else hydraulic
         self.method = method
         self.substep = substep
@@ -181,11 +193,13 @@ class HydraulicRung(RungMixin, ActuatorSim):
         qd = (u0 * bd, u1 * bd, bd)
         self._q, self._qd = q, qd
         self._qdd = kin.accelerations_from_flap_scalar(q, qd, bdd, self.p)
+        pa, pb = hk.chamber_pressure(pa, h), hk.chamber_pressure(pb, h)
         self._force = pa * h[hk.AREA_A] - pb * h[hk.AREA_B] - hk.friction_force(qd[0], h)
         self._at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
 
     def _state_extras(self) -> dict:
-        _, _, pa, pb, xv = (float(v) for v in self._y)
+        xv = float(self._y[4])
+        pa, pb = self.chamber_pressures()
         return {
             "rung": self.name,
             "pressure_a": pa,
@@ -196,8 +210,22 @@ class HydraulicRung(RungMixin, ActuatorSim):
 
     @property
     def y(self) -> np.ndarray:
-        """The hydraulic state ``(psi3, psi3', p_A, p_B, x_v)`` (a copy)."""
+        """The hydraulic state ``(psi3, psi3', x_A, x_B, x_v)`` (a copy; ``x_A``, ``x_B`` are the
+        chamber pressures while no vapour cavity is open, :mod:`hydraulic_kernels`)."""
         return self._y.copy()
+
+    def chamber_pressures(self) -> tuple[float, float]:
+        """``(p_A, p_B)`` [Pa, absolute]: the chamber pressures, never below the vapour
+        pressure."""
+        h = self._h
+        return hk.chamber_pressure(float(self._y[2]), h), hk.chamber_pressure(float(self._y[3]), h)
+
+    def cavity_volumes(self) -> tuple[float, float]:
+        """``(V_cav,A, V_cav,B)`` [m^3]: the vapour cavities of the chambers (0 while full)."""
+        s, _, _, _ = kernels.psi3_configuration(float(self._y[0]), self._c)
+        va, vb = hk.chamber_volumes(s, self._h)
+        return (hk.cavity_volume(float(self._y[2]), va, self._h),
+                hk.cavity_volume(float(self._y[3]), vb, self._h))  # fmt: skip
 
     # ---- supply and faults ---------------------------------------------------------------------
     def supply_pressure(self, t: float) -> float:
@@ -285,7 +313,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
             self._q, self._qd, self._qdd = actual
 
     def _rod_force(self) -> float:
-        pa, pb = float(self._y[2]), float(self._y[3])
+        pa, pb = self.chamber_pressures()
         return (
             pa * self._h[hk.AREA_A]
             - pb * self._h[hk.AREA_B]
@@ -330,14 +358,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         held = 1.0 if self._spool_held else 0.0
         f_ref = self._force_cmd
         for k in range(n):
-            ta = t0 + k * hsub
-            s0, v0 = self._reference(ta)
-            sm, vm = self._reference(ta + 0.5 * hsub)
-            s1, v1 = self._reference(ta + hsub)
-            y = self._step_fn(
-                y, mode, s0, v0, sm, vm, s1, v1, f_ref, self.supply_pressure(ta),
-                self.supply_pressure(ta + hsub), held, hsub, c, h,
-            )  # fmt: skip
+            y = self._substep(y, t0 + k * hsub, hsub, mode, f_ref, held)
         if not np.all(np.isfinite(y)):
             raise StiffStepError(
                 f"the hydraulic state became non-finite in a step of {self.dt:.3g} s "
@@ -347,3 +368,49 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self.t = t1
         self._y = np.asarray(y, dtype=float)
         self._update_outputs()
+
+    def _substep(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
+        """One sub-step of ``hsub`` [s] from ``ta`` [s]; with ``locate_events``, split where the
+        right-hand side is not smooth (:func:`~.hydraulic_kernels.switching_functions`)."""
+        if self.locate_events:
+            return self._events.advance(y, ta, hsub, mode, f_ref, held)
+        return self._step_to(y, ta, hsub, mode, f_ref, held)
+
+    def _step_to(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
+        """One step of the method over ``[ta, ta + hsub]``, the references taken there."""
+        c, h = self._consts
+        s0, v0 = self._reference(ta)
+        sm, vm = self._reference(ta + 0.5 * hsub)
+        s1, v1 = self._reference(ta + hsub)
+        return self._step_fn(
+            y, mode, s0, v0, sm, vm, s1, v1, f_ref, self.supply_pressure(ta),
+            self.supply_pressure(ta + hsub), held, hsub, c, h,
+        )  # fmt: skip
+
+    def _refs(self, t: float):
+        """``(s_ref, v_ref, supply pressure)`` at ``t`` [s]."""
+        s_ref, v_ref = self._reference(t)
+        return s_ref, v_ref, self.supply_pressure(t)
+
+    def _switches(self, y, t: float, mode: float, f_ref: float, held: float):
+        c, h = self._consts
+        s_ref, v_ref, ps = self._refs(t)
+        return self._switch_fn(float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(y[4]),
+                               mode, s_ref, v_ref, f_ref, ps, held, c, h)  # fmt: skip
+
+    def _rate(self, y, t: float, mode: float, f_ref: float, held: float):
+        c, h = self._consts
+        s_ref, v_ref, ps = self._refs(t)
+        return self._rhs_fn(np.asarray(y, dtype=float), mode, s_ref, v_ref, f_ref, ps, held, c, h)
+
+    @cached_property
+    def _switch_fn(self):
+        return compiled_kernel(hk.switching_functions)
+
+    @cached_property
+    def _rhs_fn(self):
+        return compiled_kernel(state_rate)
+
+    @cached_property
+    def _events(self) -> EventLocator:
+        return EventLocator(self._step_to, self._switches, self._rate)
