@@ -9,7 +9,7 @@ measures the vapour cavity instead (:func:`chamber_pressure`, :func:`cavity_volu
 
 .. math::
 
-    p = \max(x, p_v), \qquad V_{cav} = V \, (p_v - x) / \beta_e(p_v) \quad (x < p_v)
+    p = \max(x, p_v), \qquad V_{cav} = V \, (p_v - x) / \beta \quad (x < p_v)
 
 Equations (Merritt, "Hydraulic Control Systems"; ``s`` and ``s' = u_s psi3'`` from the psi3
 kinematics):
@@ -30,7 +30,10 @@ kinematics):
 
 Above the vapour pressure the chamber equation is continuity, ``p' = beta_e / V (Q_in - V')``;
 below it the cavity takes the volume the oil does not fill (``V_cav' = V' - Q_in``, the pressure
-held at ``p_v``), and the two branches meet continuously at ``x = p_v``. The effective bulk
+held at ``p_v``). The state is continuous through ``x = p_v``; its rate changes there from the
+oil-air mixture's ``beta_e(p_v)`` to the oil's ``beta`` (the cavity is measured in the oil's
+scale, so that a step that overshoots the floor by some pressure opens a cavity as small as the
+oil's compression over that pressure; without air the rate is continuous). The effective bulk
 modulus of the oil with its entrained air (:func:`effective_bulk_modulus`, the model and its
 sources in :mod:`~drs_model.fidelity.hydraulic_params`), with ``phi = a (p_sat / p)^(1/n)`` the
 free air per volume of oil:
@@ -93,7 +96,7 @@ def cavity_volume(x, v, h):
     below = h[P_VAPOUR] - x
     if below <= 0.0:
         return 0.0
-    return v * below / effective_bulk_modulus(h[P_VAPOUR], h)
+    return v * below / h[BETA]
 
 
 def chamber_rate(x, v, v_rate, q_in, h):
@@ -103,7 +106,7 @@ def chamber_rate(x, v, v_rate, q_in, h):
     pv = h[P_VAPOUR]
     if x >= pv:
         return effective_bulk_modulus(x, h) / v * (q_in - v_rate)
-    return effective_bulk_modulus(pv, h) / v * (q_in - v_rate) + v_rate / v * (pv - x)
+    return h[BETA] / v * (q_in - v_rate) + v_rate / v * (pv - x)
 
 
 def edge_flow(k, opening, dp, p_laminar, linear, q_lin):
@@ -291,8 +294,7 @@ def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, 
         if x >= h[P_VAPOUR]:
             compression += x * v * dx / effective_bulk_modulus(x, h)
         else:
-            beta_v = effective_bulk_modulus(h[P_VAPOUR], h)
-            d_cavity = (dv * (h[P_VAPOUR] - x) - v * dx) / beta_v
+            d_cavity = (dv * (h[P_VAPOUR] - x) - v * dx) / h[BETA]
             cavitation -= h[P_VAPOUR] * d_cavity
     return (
         supply,
