@@ -19,7 +19,7 @@ from drs_model import kinematics as kin
 from drs_model.bodies import air_forces, kinetic_energy, model_constants, potential_energy
 from drs_model.fidelity import HydraulicParams, make_rung
 from drs_model.fidelity import hydraulic_kernels as hk
-from drs_model.fidelity.ladder import chamber_floor, event_times, measure
+from drs_model.fidelity.ladder import REFERENCE, chamber_floor, event_times, measure
 from drs_model.fidelity.scenes import SCENES, Scene, run_scene
 from drs_model.inverse import FusedInverseDynamics
 
@@ -120,17 +120,21 @@ def test_no_pressure_below_the_vapour_pressure(fault, options):
         assert np.min(pb) == pv and np.max(cav_b) > 1e-7  # m^3: a real cavity opened
 
 
-def test_every_standard_scene_stays_above_the_vapour_pressure():
+def test_only_the_supply_loss_cavitates_among_the_standard_scenes():
+    """The chart's reference (events located, a sixteenth of the stable sub-step) of every
+    standard scene but the lap (whose moves are the 100 ms scene's): the lowest pressures are at
+    or above the vapour pressure, and only the supply loss reaches it, on the rod side, for more
+    than 100 ms (the default rung also touches it for a step at the relief scene's impact on
+    the open stop: a crossing it does not resolve)."""
     for scene in SCENES.values():
-        if scene.repeat > 1:  # the lap, shortened to 9 s
-            scene = Scene(scene.name, 9.0, tuple((t / 10.0, a, x) for t, a, x in scene.events))
-        tr = run_scene("hydraulic", scene, P)
-        floor = chamber_floor(tr)
+        if scene.repeat > 1:
+            continue
+        floor = chamber_floor(run_scene("hydraulic", scene, P, **REFERENCE[2]))
         assert min(floor["lowest_pressure_a"], floor["lowest_pressure_b"]) >= 2e3, scene.name
-        cavitates = floor["time_at_floor_a"] + floor["time_at_floor_b"] > 0.0
-        # the supply loss, and the rod side for a step as the rod hits the open stop at full
-        # spool (relief); never in the servo's moves or the force step
-        assert cavitates == (scene.name in ("supply-loss", "relief")), (scene.name, floor)
+        if scene.name == "supply-loss":
+            assert floor["time_at_floor_a"] == 0.0 and floor["time_at_floor_b"] > 0.1, floor
+        else:
+            assert floor["time_at_floor_a"] == floor["time_at_floor_b"] == 0.0, scene.name
 
 
 # ---- the limit: no air, high pressure ------------------------------------------------------------
