@@ -20,7 +20,7 @@ from drs_model.bodies import air_forces, kinetic_energy, model_constants, potent
 from drs_model.fidelity import HydraulicParams, make_rung
 from drs_model.fidelity import hydraulic_kernels as hk
 from drs_model.fidelity.ladder import REFERENCE, chamber_floor, event_times, measure
-from drs_model.fidelity.scenes import SCENES, Scene, run_scene
+from drs_model.fidelity.scenes import SCENES, run_scene
 from drs_model.inverse import FusedInverseDynamics
 
 P = DRSParams()
