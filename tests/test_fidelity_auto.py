@@ -14,9 +14,6 @@ from drs_model.errors import InputError
 from drs_model.fidelity.auto import ASKED, LADDER_ERRORS, choose_rung
 
 RESULTS = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "fidelity.json"
-#: The cheapest rung of the measured table: stepped kinematic, rigid and quasi-static cost within
-#: microseconds a step of each other, and which of them measures cheapest follows the load.
-CHEAPEST = min(LADDER_ERRORS, key=lambda rung: LADDER_ERRORS[rung][2])
 
 
 def test_the_table_is_the_ladders_measurement():
@@ -37,8 +34,8 @@ def test_the_table_is_the_ladders_measurement():
 @pytest.mark.parametrize(
     ("asked", "force_tol", "rung"),
     [
-        (set(), 2e3, CHEAPEST),  # kinematic, rigid, quasi-static cost alike: the measured order
-        ({"gap"}, 2e3, CHEAPEST),
+        (set(), 2e3, "kinematic"),
+        ({"gap"}, 2e3, "kinematic"),
         ({"gap", "force"}, 2e3, "rigid"),  # rigid is cheaper than quasi-static, measured
         ({"force"}, 1.35e3, "quasi-static"),  # only quasi-static's 1.32 kN is within 1.35 kN
         ({"force"}, 100.0, "hydraulic"),  # the chart's 100 N: nothing but the cylinder

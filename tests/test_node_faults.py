@@ -189,29 +189,23 @@ def _auto_run(tmp_path, domain_key, topics, bag=True):
         rclpy.try_shutdown(context=ctx)
 
 
-def test_auto_takes_the_cheapest_rung_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monkeypatch):
-    """Only the gap asked: the cheapest rung of the ladder's measured table (kinematic, rigid and
-    quasi-static all meet the gap tolerance; which costs least was measured), and the bag
-    re-runs on it."""
+def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monkeypatch):
     from std_msgs.msg import Float64
 
-    from drs_model.fidelity.auto import choose_rung
     from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    cheapest = choose_rung({"gap"}, 5e-4, 2e3)
-    assert cheapest in ("kinematic", "rigid", "quasi-static")
     rung = _auto_run(tmp_path, "test_node_faults::auto_gap", {"/drs/flap_gap": Float64})
-    assert rung == cheapest
+    assert rung == "kinematic"
     data = read_bag(tmp_path / "bag", ["/drs/command_events"])
     (choice,) = [r for r in effect_records(data.messages["/drs/command_events"])
                  if r.source == "fidelity"]  # fmt: skip
-    assert choice.values["rung"] == cheapest and choice.values["asked"] == "gap"
+    assert choice.values["rung"] == "kinematic" and choice.values["asked"] == "gap"
     assert choice.sim_time == 0.0
     rc, report = resimulate_json(str(tmp_path / "bag"))
     assert rc == 0 and report["signals"][0]["samples"] > 20, report
-    # every signal to the bit (a kinematic rung's force is NaN in both)
+    # every signal to the bit (the kinematic rung's force is NaN in both)
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
 
 
