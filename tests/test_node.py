@@ -284,8 +284,8 @@ def test_a_failing_recorder_stops_recording_not_the_actuator(ros_context, tmp_pa
         node.sim.command_drs(True)
         ticks = node.ticks
         spin_until(ex, lambda: node.ticks > ticks + 10, 5.0)
-        assert "No space left on device" in node.recording_error
-        assert node.diagnostics_values()["recording"].startswith("error: OSError")
+        assert "No space left on device" in node.bag.health.failure
+        assert node.diagnostics_values()["bag"].startswith("failed: OSError")
         assert node.ticks > ticks + 10  # the actuator kept running
         assert node.sim.state.gap == pytest.approx(0.05, abs=1e-9)  # and opened
     finally:
