@@ -37,7 +37,7 @@ from .sensor_faults import SensorFaults, StrokeSensor
 #: set together act in this order (the ramp before the supply loss it shapes).
 FAULTS = MappingProxyType(
     {
-        "supply_loss_ramp_s": (0.0, "time [s] the supply takes to fall (or rise), >= 0"),
+        "supply_loss_ramp_s": (0.0, "time [s] the supply takes to fall (or rise)"),
         "supply_loss": (False, "the hydraulic supply is lost (true) or back (false)"),
         "stuck_valve": (False, "the servo valve's spool sticks where it is"),
         "leak_m3_per_s_per_pa": (0.0, "extra leak of each chamber to the outside [m^3/(s Pa)]"),
@@ -45,7 +45,7 @@ FAULTS = MappingProxyType(
         "sensor.bias_m": (0.0, "bias added to the published stroke [m]"),
         "sensor.noise_std_m": (0.0, "standard deviation of the published stroke's noise [m]"),
         "sensor.noise_seed": (0, "seed of the noise and dropouts (each draw: seed and step)"),
-        "sensor.dropout": (0.0, "probability a published stroke is lost (NaN), in [0, 1]"),
+        "sensor.dropout": (0.0, "probability a published stroke is lost (NaN)"),
         "sensor.frozen": (False, "the published stroke repeats the value of the step set"),
     }
 )
@@ -85,7 +85,8 @@ def describe_range(name: str) -> str:
     low, high, _ = FAULT_RANGES[name]
     unit = {"_s": " s", "_m": " m", "_n": " N", "_pa": " m^3/(s Pa)"}
     suffix = next((u for end, u in unit.items() if name.endswith(end)), "")
-    return f"[{low:g}, {high:g}]{suffix}"
+    return "[" + ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in (low, high)) + (
+        "]" + suffix)
 
 
 class RunFaults:
