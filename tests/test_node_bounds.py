@@ -188,3 +188,44 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
     assert scan(bag).complete
     verify = run_rerun_cli(["rrd", "verify", str(rrd)])
     assert verify.returncode == 0, verify.stderr[-1000:]
+
+
+def test_a_step_too_stiff_for_the_cap_holds_the_node_which_publishes_on(ros_context, tmp_path):
+    """Should a state need more sub-steps than the rung's cap (here forced: a cap of 1 while
+    the flap moves), the step is refused (TooStiffError), the node holds where it is, as for
+    any model refusal (effect record ``reset``, counted), and goes on ticking and publishing;
+    with the cap back, the next command moves it again."""
+    from node_support import spin_until
+    from rclpy.executors import SingleThreadedExecutor
+
+    from drs_ros.bag.decoded import read_bag
+    from drs_ros.bag.effects import effect_records
+    from drs_ros.node import DRSNode
+
+    node = DRSNode(context=ros_context, parameter_overrides=[
+        Parameter("fidelity", value="hydraulic"),
+        Parameter("bag_path", value=str(tmp_path / "bag"))])  # fmt: skip
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    try:
+        assert spin_until(ex, lambda: node.ticks > 5, 10.0)
+        node.sim._max_substeps = 1  # every step needs more
+        node.sim.command_drs(True)
+        ticks, refused = node.ticks, node.refused
+        assert spin_until(ex, lambda: node.ticks > ticks + 20, 10.0)
+        assert node.refused > refused and "too stiff" in node.last_refusal
+        held = node.sim.state.q[0]
+        node.sim._max_substeps = None  # the default cap again
+        node.sim.command_drs(True)
+        assert spin_until(ex, lambda: node.sim.state.q[0] > held + 1e-3, 10.0)
+    finally:
+        ex.shutdown()
+        lines = node.close_recordings()
+        node.destroy_node()
+    assert lines == []
+    records = effect_records(read_bag(tmp_path / "bag", ["/drs/command_events"])
+                             .messages["/drs/command_events"])  # fmt: skip
+    resets = [r for r in records if r.outcome == "reset"]
+    steps = [line for line in node.refusals if line.startswith("step ")]
+    assert resets and steps  # each refused step held the flap, with the rung's reason
+    assert all("too stiff for a physics step" in line for line in steps), steps[:3]
