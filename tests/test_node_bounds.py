@@ -149,8 +149,9 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
     """A tick of tens of thousands of expensive physics steps (the hydraulic rung at 20 kHz,
     the flap open under a 5 kN jam: ~18 sub-steps a step; the process stopped 3 s, so the next
     tick has 60,000 steps to catch up, several seconds of work): SIGINT or SIGTERM in its middle
-    ends the node within a second (the tick ends at the next physics step), with exit 0, the
-    bag read to its end and the .rrd verified by rerun."""
+    ends the node within a second (the tick ends at the next physics step, over a thousand
+    steps before its end), with exit 0, the bag read to its end and the .rrd verified by rerun.
+    With the stop read only between ticks, the SIGINT case fails: the tick runs to its end."""
     from drs_ros.bag.reader import scan
     from drs_ros.recording.rerun_cli import run_rerun_cli
 
@@ -182,7 +183,8 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
         out = stop_node(proc)
     assert proc.returncode == 0, out[-3000:]
     cut = re.search(r"the last tick ends after (\d+) of its (\d+) physics steps", out)
-    assert cut and int(cut[1]) < int(cut[2]) and int(cut[2]) > 20_000, out[-3000:]
+    # cut well before its end (60,000 steps after the stall; fewer if the node was behind)
+    assert cut and int(cut[2]) - int(cut[1]) > 1000, out[-3000:]
     assert took < 1.0, f"{sig.name} took {took:.2f} s to end the node"
     assert f"stopped by {sig.name}, recordings finished" in out
     assert scan(bag).complete
