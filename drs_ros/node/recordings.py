@@ -90,6 +90,14 @@ class RecordingHealth:
                 f"{self.last_error})"]  # fmt: skip
 
 
+def _unfinished(name: str, exc: Exception) -> str:
+    """The stop's line for a finish that raised: the recorders' own errors and I/O errors name
+    what the recording lacks; anything else (a bug) is named with its type."""
+    if isinstance(exc, OSError) or type(exc).__module__.startswith(("drs_model.", "drs_ros.")):
+        return str(exc)
+    return f"{name} is unfinished: {error_text(exc)}"
+
+
 class BagRecording:
     """The node's MCAP bag (a :class:`~drs_ros.recording.mcap_recorder.McapRecorder`) and its
     failures."""
@@ -132,8 +140,8 @@ class BagRecording:
         else:
             try:
                 self.recorder.finish()
-            except (OSError, DRSError) as exc:
-                lines.append(str(exc))
+            except Exception as exc:  # noqa: BLE001 - whatever it is, the stop names it
+                lines.append(_unfinished(self.health.name, exc))
         return lines + self.health.lost()
 
 
@@ -162,8 +170,8 @@ class RerunRecording:
         lines = []
         try:
             self.recorder.close()
-        except (OSError, RuntimeError, DRSError) as exc:  # the file sink's end is missing
-            lines.append(str(exc))
+        except Exception as exc:  # noqa: BLE001 - the file's end is missing: the stop names it
+            lines.append(_unfinished(self.health.name, exc))
         if self.health.failure and not lines:
             lines.append(f"{self.health.name} is incomplete: recording stopped "
                          f"({self.health.failure})")  # fmt: skip
