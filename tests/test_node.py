@@ -215,10 +215,14 @@ def test_parameters_are_declared_with_ranges(ros_context):
 
 
 def test_bad_model_parameter_is_refused_with_a_reason(ros_context):
+    """A refusal to start (drs_ros's StartupError) naming the node parameter, with the model's
+    reason (its ParameterError, the cause)."""
     from drs_model.errors import ParameterError
+    from drs_ros.node.parameters import StartupError
 
-    with pytest.raises(ParameterError, match=r"L2 must be > 0 m"):
+    with pytest.raises(StartupError, match=r"model\.L2:=-1\.0: L2 must be > 0 m") as exc:
         DRSNode(context=ros_context, parameter_overrides=[Parameter("model.L2", value=-1.0)])
+    assert isinstance(exc.value.__cause__, ParameterError)
 
 
 def test_use_sim_time_follows_clock(ros_context):

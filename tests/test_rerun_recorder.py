@@ -17,7 +17,6 @@ from ros_support import manoeuvre_states, require_module  # noqa: E402
 rr = require_module("rerun")
 
 from drs_model import kinematics  # noqa: E402
-from drs_model.errors import InputError  # noqa: E402
 from drs_ros.recording.rerun_recorder import (  # noqa: E402
     DRAWINGS,
     SERIES,
@@ -85,14 +84,14 @@ def test_log_state_streams_with_decimation(tmp_path, params):
 
 
 def test_rerun_input_errors(tmp_path, params):
-    with pytest.raises(InputError, match="max_draw_hz must be a finite number > 0"):
+    with pytest.raises(RerunLogError, match="max_draw_hz must be a finite number > 0"):
         RerunRecorder(tmp_path / "x.rrd", params, max_draw_hz=0.0)
     with RerunRecorder(tmp_path / "y.rrd", params) as rec:
-        with pytest.raises(InputError, match=r"t must have shape \(n,\) and q \(n, 3\)"):
+        with pytest.raises(RerunLogError, match=r"t must have shape \(n,\) and q \(n, 3\)"):
             rec.log_trajectory([0.0, 1.0], np.zeros((3, 3)))
-        with pytest.raises(InputError, match="non-decreasing"):
+        with pytest.raises(RerunLogError, match="non-decreasing"):
             rec.log_trajectory([1.0, 0.0], np.zeros((2, 3)))
-        with pytest.raises(InputError, match=r"q must hold \[s, psi1, psi3\]"):
+        with pytest.raises(RerunLogError, match=r"q must hold \[s, psi1, psi3\]"):
             rec.log_state(0.0, [0.0, 0.0])
 
 
@@ -299,7 +298,7 @@ def test_connect_url_off_loopback_is_refused(tmp_path, params, url, reason):
 
 
 def test_needs_a_file_or_a_url(params):
-    with pytest.raises(InputError, match="needs a path, a connect_url, or both"):
+    with pytest.raises(RerunLogError, match="needs a path, a connect_url, or both"):
         RerunRecorder(None, params)
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from drs_model.errors import DRSError
 
+from ..errors import DRSRosError
 from .effect_record import error_text
 
 
@@ -231,7 +232,7 @@ class NodeRecordings:
         except Exception as exc:
             self._made_bag_dir = made_dir
             self.discard_recordings()
-            if isinstance(exc, DRSError):
+            if isinstance(exc, (DRSError, DRSRosError)):  # ours: its message says it all
                 raise
             raise RecordingError(f"cannot start the recordings: {exc}") from exc
         self._made_bag_dir = made_dir

@@ -43,10 +43,10 @@ import rerun.blueprint as rrb
 
 from drs_model import kinematics
 from drs_model.constraints import PSI3, S
-from drs_model.errors import DRSError, InputError
 from drs_model.params import DRSParams
 
 from ..drawing import PIN_NAMES, moving_drawings, still_drawings
+from ..errors import DRSRosError
 from .rerun_sink import FileSinkWatch, RerunSinkError
 
 TIMELINE = "sim_time"
@@ -82,8 +82,8 @@ _COLORS = {
 }
 
 
-class RerunLogError(DRSError):
-    """The rerun recorder cannot do what was asked (e.g. it is closed)."""
+class RerunLogError(DRSRosError):
+    """The rerun recorder cannot do what was asked (it is closed, or an argument is invalid)."""
 
 
 def default_blueprint() -> rrb.Blueprint:
@@ -222,11 +222,11 @@ class RerunRecorder:
         if not (
             isinstance(max_draw_hz, (int, float)) and math.isfinite(max_draw_hz) and max_draw_hz > 0
         ):
-            raise InputError(f"max_draw_hz must be a finite number > 0 Hz, got {max_draw_hz!r}")
+            raise RerunLogError(f"max_draw_hz must be a finite number > 0 Hz, got {max_draw_hz!r}")
         if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
-            raise InputError(f"batch must be an int >= 1, got {batch!r}")
+            raise RerunLogError(f"batch must be an int >= 1, got {batch!r}")
         if path is None and connect_url is None:
-            raise InputError("RerunRecorder needs a path, a connect_url, or both; got neither")
+            raise RerunLogError("RerunRecorder needs a path, a connect_url, or both; got neither")
         self.connect_url = None if connect_url is None else check_connect_url(connect_url)
         self.path = None if path is None else check_new_rrd(path)
         #: Why the live stream could not be delivered at :meth:`close` (None: delivered or none).
@@ -336,7 +336,7 @@ class RerunRecorder:
         """
         self._check_open()
         if len(q) != 3:
-            raise InputError(f"q must hold [s, psi1, psi3], got {q!r}")
+            raise RerunLogError(f"q must hold [s, psi1, psi3], got {q!r}")
         t = float(t)
         draw = self._last_draw is None or t - self._last_draw >= self._draw_dt - 1e-12
         if draw:
@@ -382,16 +382,16 @@ class RerunRecorder:
         t = np.asarray(t, dtype=float)
         q = np.asarray(q, dtype=float)
         if t.ndim != 1 or q.shape != (t.size, 3):
-            raise InputError(f"t must have shape (n,) and q (n, 3), got {t.shape} and {q.shape}")
+            raise RerunLogError(f"t must have shape (n,) and q (n, 3), got {t.shape} and {q.shape}")
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
-            raise InputError("t must be finite and non-decreasing")
+            raise RerunLogError("t must be finite and non-decreasing")
         force = (
             np.full(t.size, np.nan)
             if piston_force is None
             else np.asarray(piston_force, dtype=float)
         )
         if force.shape != t.shape:
-            raise InputError(f"piston_force must have shape {t.shape}, got {force.shape}")
+            raise RerunLogError(f"piston_force must have shape {t.shape}, got {force.shape}")
         self.flush()
         idx = self._decimate(t)
         if idx.size:

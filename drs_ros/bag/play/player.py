@@ -12,9 +12,11 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE, EXIT_USAGE
 
 from ...stop_request import StopRequest
+from ...timestamps import ns_from_seconds, seconds_from_ns, set_ns
+from ..files import BagReadError
 from .index import BagIndex, index_bag, iter_bag
 from .offers import playback_qos, qos_overrides
 from .options import (
@@ -58,7 +60,7 @@ class Player:
         stop: StopRequest,
         overrides: dict[str, Any] | None = None,
     ):
-        from drs_ros.recording.msgdefs import message_class
+        from drs_ros.recording.msgdefs import MessageDefinitionError, message_class
 
         self.node, self.index, self.options, self.stop = node, index, options, stop
         self.publishers: dict[str, Any] = {}
@@ -78,7 +80,7 @@ class Player:
                 continue
             try:
                 msg_class = message_class(ch.type_name)
-            except DRSError as exc:
+            except MessageDefinitionError as exc:
                 warn(
                     f"skipping topic {name}: type {ch.type_name or '(no schema)'!r} is not "
                     f"installed ({exc})"
@@ -107,8 +109,7 @@ class Player:
 
     # -- time ----------------------------------------------------------------------------------
     def _publish_clock(self, bag_ns: int) -> None:
-        stamp = self._clock_msg.clock
-        stamp.sec, stamp.nanosec = divmod(int(bag_ns), 1_000_000_000)
+        set_ns(self._clock_msg.clock, bag_ns)
         self.clock_pub.publish(self._clock_msg)
 
     def _progress(self, bag_ns: int, loop_no: int) -> None:
@@ -116,8 +117,8 @@ class Player:
         pct = 100.0 * min(max((bag_ns - self.index.start_ns) / span, 0.0), 1.0)
         loop = f"  loop {loop_no}" if self.options.loop else ""
         sys.stderr.write(
-            f"\r[{PROG}] bag time {bag_ns / 1e9:.3f} s  {pct:5.1f} %  rate {self.options.rate:g}"
-            f"{loop}  "
+            f"\r[{PROG}] bag time {seconds_from_ns(bag_ns):.3f} s  {pct:5.1f} %  "
+            f"rate {self.options.rate:g}{loop}  "
         )
         sys.stderr.flush()
 
@@ -168,11 +169,11 @@ class Player:
 
     def _play_once(self, loop_no: int) -> bool:
         opts = self.options
-        start_ns = self.index.start_ns + int(round(opts.start_offset_s * 1e9))
+        start_ns = self.index.start_ns + ns_from_seconds(opts.start_offset_s)
         wall0 = time.monotonic() + opts.delay_s
 
         def bag_of_wall(now: float) -> int:
-            return start_ns + int(max(now - wall0, 0.0) * opts.rate * 1e9)
+            return start_ns + ns_from_seconds(max(now - wall0, 0.0) * opts.rate)
 
         if not self._wait_until(wall0, bag_of_wall, loop_no):
             return False
@@ -183,7 +184,7 @@ class Player:
         reader = ReadAhead(source, opts.read_ahead, self.stop)
         try:
             for topic, log_ns, data in reader:
-                target = wall0 + (log_ns - start_ns) / opts.rate / 1e9
+                target = wall0 + seconds_from_ns(log_ns - start_ns) / opts.rate
                 if not self._wait_until(target, bag_of_wall, loop_no):
                     return False
                 actual = time.monotonic()
@@ -239,7 +240,7 @@ def play(options: PlayOptions) -> int:
 def _play(options: PlayOptions, stop: StopRequest) -> int:
     index = index_bag(options.bag)  # fails before DDS starts
     if stop.requested:
-        return 0
+        return EXIT_OK
     path = options.qos_overrides_path
     overrides = qos_overrides(path) if path else {}
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -273,7 +274,7 @@ def _play(options: PlayOptions, stop: StopRequest) -> int:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
-    return 0
+    return EXIT_OK
 
 
 def run(args: argparse.Namespace, prog: str = PROG) -> int:
@@ -283,9 +284,12 @@ def run(args: argparse.Namespace, prog: str = PROG) -> int:
         # no reading ahead of the whole bag: the summaries are read before DDS starts, every
         # chunk's CRC as it is played (a corrupt chunk ends the play then, exit status 2)
         return play(options)
-    except DRSError as exc:
+    except PlayError as exc:  # an option (argparse's exit status for a usage error)
         print(error_line(exc), file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    except BagReadError as exc:
+        print(error_line(exc), file=sys.stderr)
+        return EXIT_UNREADABLE
 
 
 def main(argv: Sequence[str] | None = None) -> int:
