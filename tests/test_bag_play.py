@@ -115,6 +115,16 @@ def float64_cdr(value: float) -> bytes:
 
 
 # ---- subscriber and player ----------------------------------------------------------------------
+def _from_a_live_node(data: bytes) -> bool:
+    """A ParameterEvent that the player node or this test's node published about itself (every
+    rclpy node announces its parameters on /parameter_events when it starts; whether the test
+    hears it depends on how fast discovery is), not one played from the bag."""
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.serialization import deserialize_message
+
+    return deserialize_message(data, ParameterEvent).node in ("/rosbag2_player", "/bag_play_test")
+
+
 class RawSubscriber:
     """One node with a raw subscription per topic: what arrived, and when (monotonic [s])."""
 
@@ -138,6 +148,8 @@ class RawSubscriber:
 
     def _callback(self, topic):
         def store(data: bytes) -> None:
+            if topic == "/parameter_events" and _from_a_live_node(data):
+                return  # the player's own parameters (as rosbag2_player's), not the bag's
             self.arrival[topic].append(time.monotonic())
             self.received[topic].append(bytes(data))
 
