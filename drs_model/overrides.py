@@ -2,11 +2,16 @@
 TOML/YAML parameter files (of ``drs``, ``drs-bag`` and the node's ``model_params_file``).
 
 Each parser returns the ``name: value`` pairs it read; :func:`drs_model.params.from_dict` checks
-the names and values when it applies them.
+the names and values when it applies them. :func:`parameter_file_argument` and
+:func:`assignment_argument` are the argparse ``type=`` of ``--params`` and ``--set``: a file
+that cannot be read or parsed, or names no parameter, is argparse's usage error naming the
+option, before a tool reads anything else.
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -72,3 +77,32 @@ def file_overrides(path: str | Path) -> dict[str, Any]:
     if not isinstance(data, Mapping):
         raise ParameterError(f"parameter file {str(path)!r} must hold a table of name = value")
     return dict(data)
+
+
+def _known_names(names) -> None:
+    known = {f.name for f in dataclasses.fields(DRSParams)}
+    unknown = sorted(set(names) - known)
+    if unknown:
+        raise ParameterError(f"unknown parameter(s) {unknown}; valid names: {sorted(known)}")
+
+
+def parameter_file_argument(path: str) -> str:
+    """argparse ``type=`` of ``--params FILE``: ``path``, once the file reads and parses as a
+    table of known parameter names (their values are checked where they are applied, with the
+    parameters they join). Otherwise :class:`argparse.ArgumentTypeError` (argparse's usage error,
+    ``argument --params: ...``, exit status 2)."""
+    try:
+        _known_names(file_overrides(path))
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return path
+
+
+def assignment_argument(item: str) -> str:
+    """argparse ``type=`` of ``--set NAME=VALUE``: ``item``, once it has the form, names a
+    parameter and its value is a number; otherwise :class:`argparse.ArgumentTypeError`."""
+    try:
+        _known_names(assignment_overrides([item]))
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return item

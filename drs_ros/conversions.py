@@ -14,10 +14,13 @@ from std_msgs.msg import Float64
 from drs_model.actuator import ActuatorState
 from drs_model.inverse import REACTION_NAMES
 
+from .timestamps import ns_of, seconds_from_ns, split_ns
+
 
 def time_msg(ns: int) -> Time:
-    """builtin_interfaces/Time from integer nanoseconds."""
-    return Time(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
+    """builtin_interfaces/Time from integer nanoseconds (:func:`drs_ros.timestamps.split_ns`)."""
+    sec, nanosec = split_ns(ns)
+    return Time(sec=sec, nanosec=nanosec)
 
 
 def joint_state_msg(
@@ -80,7 +83,7 @@ def trajectory_points(msg, joint: str) -> tuple[list[float], list[float], list[f
                     f"trajectory point {k} has {size} {field} for {n} joint_names "
                     "(give none or one per joint)"
                 )
-        t = pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
+        t = seconds_from_ns(ns_of(pt.time_from_start))
         if times and t <= times[-1]:
             raise InputError(
                 f"trajectory time_from_start must increase strictly: point {k} at {t:g} s "

@@ -25,10 +25,12 @@ import sys
 import time
 from pathlib import Path
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
+from drs_ros.errors import DRSRosError
+from drs_ros.timestamps import ns_from_seconds, set_ns
 
 
-class DemoError(DRSError, ValueError):
+class DemoError(DRSRosError, ValueError):
     """The demo's arguments would name or replace something the demo did not make."""
 
 
@@ -98,7 +100,6 @@ def _say(text: str) -> None:
 def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
     """Run the scripted scenario against a running node; returns what the driver observed."""
     import rclpy
-    from builtin_interfaces.msg import Duration
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
@@ -174,11 +175,9 @@ def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
         _say("traj   -> 30 mm at 20 ms, 10 mm at 40 ms, 25 mm at 60 ms (JointTrajectory)")
         msg = JointTrajectory(joint_names=["drs_piston"])
         for t_ms, s in ((20, 0.030), (40, 0.010), (60, 0.025)):
-            msg.points.append(
-                JointTrajectoryPoint(
-                    positions=[s], time_from_start=Duration(sec=0, nanosec=t_ms * 1_000_000)
-                )
-            )
+            point = JointTrajectoryPoint(positions=[s])
+            set_ns(point.time_from_start, t_ms * 1_000_000)
+            msg.points.append(point)
         trajectory.publish(msg)
         spin(0.3)
         _say(f"action -> {follow(node, ex, 0.015, 0.05, timeout)}")
@@ -211,7 +210,7 @@ def follow(node, ex, stroke: float, seconds: float, timeout: float) -> str:
     goal = FollowJointTrajectory.Goal()
     goal.trajectory.joint_names = ["drs_piston"]
     point = JointTrajectoryPoint(positions=[stroke])
-    point.time_from_start.nanosec = int(round(seconds * 1e9))
+    set_ns(point.time_from_start, ns_from_seconds(seconds))  # nanosec < 1e9, whatever seconds
     goal.trajectory.points = [point]
     feedback: list = []
     sent = client.send_goal_async(goal, feedback_callback=feedback.append)
@@ -275,7 +274,7 @@ def main(argv: list[str] | None = None) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except (DemoError, OSError) as exc:
         print(f"drs-demo: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     env = _env(args.domain, log_dir)
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_LOG_DIR")})
     cmd = [
@@ -303,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
         out_text, _ = node.communicate(timeout=20)
         print(out_text)
         _say(f"FAILED driving the node: {exc}")
-        return 1
+        return EXIT_FAILED
     node.send_signal(signal.SIGINT)
     try:
         node_out, _ = node.communicate(timeout=30)
@@ -336,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  rerun rrd verify                    : {'ok' if rc_verify == 0 else 'FAILED'}")
     print(f"  drs-bag check                       : {'PASS' if rc_check == 0 else 'FAIL'}")
     ok = node.returncode == 0 and rc_check == 0 and rc_verify == 0 and rows > 0 and refusals
-    return 0 if ok else 1
+    return EXIT_OK if ok else EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -62,7 +62,9 @@ from drs_model.errors import DRSError, InputError
 
 from .commands import StrokeMove, TrajectoryMove
 from .conversions import time_msg, trajectory_points
+from .errors import DRSRosError
 from .names import ACCEPTED, REFUSED
+from .timestamps import ns_from_seconds, ns_of, seconds_from_ns, set_ns
 
 Result = FollowJointTrajectory.Result
 #: JTC's "-1 erases a tolerance" (compared within float epsilon, as JTC does).
@@ -87,7 +89,7 @@ class Tolerances:
     goal_time: float = 0.0
 
 
-class GoalError(DRSError):
+class GoalError(DRSRosError):
     """A goal refused with an error code of FollowJointTrajectory.Result."""
 
     def __init__(self, code: int, message: str) -> None:
@@ -109,7 +111,7 @@ def _resolve(default: float, given: float) -> float:
 def goal_tolerances(goal, defaults: Tolerances, joint: str) -> tuple[Tolerances, str]:
     """The goal's tolerances over the defaults (JTC's ``get_segment_tolerances``); returns them
     and a note when the goal's were unusable and the defaults apply (as JTC logs)."""
-    given_time = goal.goal_time_tolerance.sec + 1e-9 * goal.goal_time_tolerance.nanosec
+    given_time = seconds_from_ns(ns_of(goal.goal_time_tolerance))
     try:
         values = dict(vars(defaults))
         values["goal_time"] = _resolve(defaults.goal_time, given_time)
@@ -156,9 +158,9 @@ def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
         times, strokes, rates = trajectory_points(traj, joint)
     except InputError as exc:
         raise GoalError(Result.INVALID_GOAL, str(exc)) from exc
-    start_ns = traj.header.stamp.sec * 1_000_000_000 + traj.header.stamp.nanosec
+    start_ns = ns_of(traj.header.stamp)
     if start_ns != 0:
-        shift = (start_ns - now_ns) * 1e-9
+        shift = seconds_from_ns(start_ns - now_ns)
         if times[-1] + shift < 0.0:
             raise GoalError(Result.OLD_HEADER_TIMESTAMP, "received a trajectory with non-zero "
                             f"start time that ends in the past ({-(times[-1] + shift):.6g} s "
@@ -170,10 +172,11 @@ def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
     return TrajectoryMove(tuple(times), tuple(strokes), None if rates is None else tuple(rates))
 
 
-def _point(s: float, v: float, a: float, t: float) -> JointTrajectoryPoint:
+def _point(s: float, v: float, a: float, since_ns: int) -> JointTrajectoryPoint:
+    """A feedback point ``since_ns`` [ns] after the goal started (integer nanoseconds: a
+    float split of seconds is a whole second short just below one)."""
     pt = JointTrajectoryPoint(positions=[s], velocities=[v], accelerations=[a])
-    pt.time_from_start.sec = int(t // 1)
-    pt.time_from_start.nanosec = int(round((t - t // 1) * 1e9)) % 1_000_000_000
+    set_ns(pt.time_from_start, since_ns)
     return pt
 
 
@@ -380,9 +383,10 @@ class FollowJointTrajectoryServer:
                                                             tol.goal_acceleration))  # fmt: skip
         fb = FollowJointTrajectory.Feedback(joint_names=[self.joint])
         fb.header.stamp = time_msg(stamp_ns)
-        since = t - goal.t_start
-        fb.desired, fb.actual, fb.error = (_point(*want, since), _point(*have, since),
-                                           _point(*err, since))  # fmt: skip
+        # each instant to the nearest ns first: the difference is exact, whatever the floats' ulps
+        since_ns = ns_from_seconds(t) - ns_from_seconds(goal.t_start)
+        fb.desired, fb.actual, fb.error = (_point(*want, since_ns), _point(*have, since_ns),
+                                           _point(*err, since_ns))  # fmt: skip
         goal.handle.publish_feedback(fb)
         if path:
             self.goal = None

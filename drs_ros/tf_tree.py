@@ -27,6 +27,7 @@ from drs_model.params import DRSParams
 from . import description
 from .conversions import time_msg
 from .recording import cdr
+from .timestamps import split_ns
 
 #: QoS of /tf_static and /robot_description: tf2's StaticTransformBroadcaster and
 #: robot_state_publisher publish them transient local, depth 1 (a late subscriber gets them).
@@ -89,7 +90,7 @@ class MovingTransformsPacker:
     def pack(self, stamp_ns: int, values: Sequence[Sequence[float]]) -> bytes:
         """CDR bytes of the transforms, all stamped ``stamp_ns`` [ns], with ``values[k]`` the
         translation [m] and rotation quaternion of the k-th frame pair."""
-        sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)  # as conversions.time_msg
+        sec, nanosec = split_ns(stamp_ns)
         args = self._template.copy()
         numbers = []
         for v in values:

@@ -215,10 +215,14 @@ def test_parameters_are_declared_with_ranges(ros_context):
 
 
 def test_bad_model_parameter_is_refused_with_a_reason(ros_context):
+    """A refusal to start (drs_ros's StartupError) naming the node parameter, with the model's
+    reason (its ParameterError, the cause)."""
     from drs_model.errors import ParameterError
+    from drs_ros.node.parameters import StartupError
 
-    with pytest.raises(ParameterError, match=r"L2 must be > 0 m"):
+    with pytest.raises(StartupError, match=r"model\.L2:=-1\.0: L2 must be > 0 m") as exc:
         DRSNode(context=ros_context, parameter_overrides=[Parameter("model.L2", value=-1.0)])
+    assert isinstance(exc.value.__cause__, ParameterError)
 
 
 def test_use_sim_time_follows_clock(ros_context):
@@ -284,8 +288,8 @@ def test_a_failing_recorder_stops_recording_not_the_actuator(ros_context, tmp_pa
         node.sim.command_drs(True)
         ticks = node.ticks
         spin_until(ex, lambda: node.ticks > ticks + 10, 5.0)
-        assert "No space left on device" in node.recording_error
-        assert node.diagnostics_values()["recording"].startswith("error: OSError")
+        assert "No space left on device" in node.bag.health.failure
+        assert node.diagnostics_values()["bag"].startswith("failed: OSError")
         assert node.ticks > ticks + 10  # the actuator kept running
         assert node.sim.state.gap == pytest.approx(0.05, abs=1e-9)  # and opened
     finally:

@@ -289,8 +289,12 @@ def test_a_bad_value_in_the_parameter_file_is_refused_like_on_the_command_line(t
     values["/drs"]["ros__parameters"]["publish_rate_hz"] = 1.0e6
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump(values))
-    rc_file, _, _, err_file = _run_node(tmp_path, request, "--params-file", str(path))
-    rc_cli, _, _, err_cli = _run_node(tmp_path, request, "-p", "publish_rate_hz:=1000000.0")
+    # a refusal ends the node as soon as it has read its parameters; on a loaded machine the
+    # start-up alone (rclpy, numba's cache) can take seconds, so wait long for the exit
+    rc_file, _, _, err_file = _run_node(tmp_path, request, "--params-file", str(path),
+                                        seconds=60.0)  # fmt: skip
+    rc_cli, _, _, err_cli = _run_node(tmp_path, request, "-p", "publish_rate_hz:=1000000.0",
+                                      seconds=60.0)  # fmt: skip
     assert rc_file == rc_cli == 2
     line_file = [ln for ln in err_file.splitlines() if "refused to start" in ln]
     line_cli = [ln for ln in err_cli.splitlines() if "refused to start" in ln]

@@ -451,3 +451,51 @@ def test_a_joint_command_with_uninitialised_padding_is_taken_and_recorded_exact(
     scan(bag, lambda m: recorded.append(bytes(m.data)), topics={"/drs/joint_commands"})
     assert recorded == [exact]
     read_bag(bag, ["/drs/joint_commands"])  # and the bag verifies, every byte
+
+
+def test_feedback_times_are_exact_across_whole_seconds(ros_context):
+    """A goal of 2.5 s on a clock the test sets (use_sim_time; a tick every 4 ms of node time,
+    the publish period): the k-th feedback is exactly k publish periods after the goal started,
+    in its header stamp and in the ``time_from_start`` of desired, actual and error, across
+    1 s and 2 s. The goal starts at the node's simulated 0.156 s, where a float split of the
+    time since the start (``t // 1`` and the rounded fraction) gave 0 s 0 ns at 1 s."""
+    from rclpy.time import Time
+
+    from drs_ros.timestamps import ns_of
+
+    stack = Stack(ros_context, [Parameter("use_sim_time", value=True)])
+    node, clock = stack.node, stack.node.get_clock()
+    period_ns = round(node.publish_period * 1e9)
+    assert period_ns == 4_000_000
+    now = [1_000_000_000]
+
+    def tick():
+        clock.set_ros_time_override(Time(nanoseconds=now[0], clock_type=clock.clock_type))
+        node.tick()
+        now[0] += period_ns
+        stack.exec.spin_once(timeout_sec=0.0)
+
+    try:
+        for _ in range(39):  # the simulation reaches 0.152 s
+            tick()
+        assert node.sim.steps == 152
+        assert stack.action.wait_for_server(timeout_sec=5.0)
+        feedback = []
+        s0 = float(node.sim.state.q[0])
+        handle = stack.send(goal_of([(1.0, s0 + 0.01), (2.5, s0 + 0.02)]),
+                            lambda m: feedback.append(m.feedback))  # fmt: skip
+        result = handle.get_result_async()
+        while not result.done() and now[0] < 4_000_000_000:
+            seen = len(feedback)
+            tick()  # the first takes the goal, at step 156
+            spin_until(stack.exec, lambda seen=seen: len(feedback) > seen or result.done(), 2.0)
+        assert result.done() and result.result().status == GoalStatus.STATUS_SUCCEEDED
+    finally:
+        stack.close()
+    since = [ns_of(f.header.stamp) - ns_of(feedback[0].header.stamp) for f in feedback]
+    assert since == [k * period_ns for k in range(len(feedback))]  # none lost
+    for f, expected in zip(feedback, since, strict=True):
+        for point in (f.desired, f.actual, f.error):
+            assert ns_of(point.time_from_start) == expected
+            assert 0 <= point.time_from_start.nanosec < 1_000_000_000
+    assert {1_000_000_000, 2_000_000_000} <= set(since) and since[-1] >= 2_500_000_000

@@ -1,7 +1,9 @@
 """The ``drs`` command line: one module per subcommand group, each with ``register(subparsers)``.
 
-Every subcommand prints a readable table, or JSON with ``--json``. Errors of the model
-(:class:`~drs_model.errors.DRSError`) print one line on stderr and exit with status 2.
+Every subcommand prints a readable table, or JSON with ``--json``. A bad option is argparse's
+usage error (``--params`` and ``--set`` are read when parsed); an input the model refuses
+(:class:`~drs_model.errors.DRSError`) prints one line on stderr. Both exit with status 2
+(docs/cli.md, :mod:`drs_model.cli.exit_status`).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import sys
 
 from ..errors import DRSError
 from ._common import dumps
+from .exit_status import EXIT_OK, EXIT_REFUSED
 
 #: Subcommand modules of this package, in help order. Each defines ``register(subparsers)`` and
 #: sets ``func`` (returning an ``Output``) on its parsers.
@@ -35,9 +38,9 @@ def main(argv: list[str] | None = None) -> int:
         out = args.func(args)
     except DRSError as exc:
         print(f"drs {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_REFUSED
     print(dumps(out.data) if getattr(args, "json", False) else out.text)
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -12,7 +12,12 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..overrides import assignment_overrides, from_file
+from ..overrides import (
+    assignment_argument,
+    assignment_overrides,
+    from_file,
+    parameter_file_argument,
+)
 from ..params import DRSParams
 
 
@@ -33,12 +38,14 @@ def add_common(parser: argparse.ArgumentParser) -> None:
     """``--json``, ``--params FILE`` and ``--set NAME=VALUE`` for the subcommands of the DRS
     model (the Coriolis examples take their own options)."""
     add_json(parser)
-    parser.add_argument("--params", metavar="FILE", help="TOML/YAML file of DRSParams overrides")
+    parser.add_argument("--params", metavar="FILE", type=parameter_file_argument,
+                        help="TOML/YAML file of DRSParams overrides")  # fmt: skip
     parser.add_argument(
         "--set",
         metavar="NAME=VALUE",
         action="append",
         default=[],
+        type=assignment_argument,
         help="override one DRSParams value (repeatable), e.g. --set Iz_wing=0.08",
     )
 

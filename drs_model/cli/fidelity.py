@@ -8,6 +8,7 @@ import sys
 
 from ..errors import InputError
 from ..fidelity.ladder import DEFAULT_TOLERANCES, QUANTITIES, measure, needed_rung
+from ..fidelity.scenes import SCENES, STANDARD_SCENES
 from ._common import Output, add_common, load_params, table
 
 #: What a scene's subscribers ask for, for the "needs" table: gap only (a lap simulation), and
@@ -37,6 +38,11 @@ def register(sub: argparse._SubParsersAction) -> None:
             help=f"tolerance on the {name} error [{unit}] (default {DEFAULT_TOLERANCES[name]:g})",
         )  # fmt: skip
     p.add_argument(
+        "--scene", action="append", choices=list(SCENES), default=None, metavar="NAME",
+        help="run only this standard scene (repeatable; default all: "
+        f"{', '.join(SCENES)})",
+    )  # fmt: skip
+    p.add_argument(
         "--lap", type=float, default=None, metavar="SECONDS",
         help="shorten the gap stream's 90 s lap to SECONDS (a quick look)",
     )  # fmt: skip
@@ -58,7 +64,8 @@ def run_fidelity(args: argparse.Namespace) -> Output:
         if not args.json:
             print(f"[fidelity] {label}", file=sys.stderr, flush=True)
 
-    rows = measure(params, args.dt, lap_seconds=args.lap, progress=progress)
+    scenes = STANDARD_SCENES if not args.scene else tuple(SCENES[n] for n in args.scene)
+    rows = measure(params, args.dt, scenes=scenes, lap_seconds=args.lap, progress=progress)
     scenes = list(dict.fromkeys(r.scene for r in rows))
     needs = {
         scene: {ask: needed_rung(rows, scene, qs, tolerances) for ask, qs in ASKS.items()}

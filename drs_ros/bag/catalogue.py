@@ -23,7 +23,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 
 from . import fleet
 from .files import BagReadError, resolve
@@ -118,7 +118,7 @@ def catalogue_row(bag: str | Path) -> dict[str, Any]:
         row.update(fleet.count_columns(counts, start, end, False))
         del row["recovered"]
         row["topics"] = types
-    except (DRSError, OSError) as exc:
+    except (BagReadError, OSError) as exc:
         row["error"] = str(exc)
     return row
 
@@ -143,15 +143,15 @@ def run(args: argparse.Namespace, prog: str = "drs-bag index") -> int:
             pq.write_table(fleet.to_table(rows), args.output)
         except OSError as exc:
             raise fleet.FleetError(f"cannot write the catalogue {args.output!r}: {exc}") from exc
-    except DRSError as exc:
+    except fleet.FleetError as exc:  # -o, no bag found, or the catalogue cannot be written
         print(f"{prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     bad = [r for r in rows if r["error"]]
     for r in bad:
         print(f"{r['bag']}: {r['error']}", file=sys.stderr)
     print(f"catalogued {len(rows)} bags ({sum(r['messages'] or 0 for r in rows)} messages, "
           f"{len(bad)} with an error) into {args.output}")  # fmt: skip
-    return 1 if bad else 0
+    return EXIT_FAILED if bad else EXIT_OK
 
 
 def _progress(items):

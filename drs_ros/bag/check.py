@@ -14,12 +14,13 @@ sqlite3 (``.db3``) bags are read. Many bags (several paths, a directory of bags,
 FILE.parquet``, ``--jobs``, ``--scheduler``) are checked on Dask, one row per bag
 (:func:`fleet_row`, :mod:`drs_ros.bag.fleet`).
 
-Exit status: 0 verified and every check within tolerance; 1 a model check failed; 2 the bag is
-missing, unreadable, corrupt or inconsistent, or its ``metadata.yaml`` is malformed (one line on
-stderr); 3 ``--recover`` checked the readable part of a damaged bag (it stopped early: the report
-says where and why); 4 the check itself failed on a message that passed every check of the file
-(e.g. a checked topic of a type that is not installed): one line ``internal error``, no verdict
-on the bag.
+Exit status (docs/cli.md): 0 verified and every check within tolerance; 1 a model check failed;
+2 a bad option (argparse's line, naming it), or the bag is missing, unreadable, corrupt or
+inconsistent, or its ``metadata.yaml`` is malformed, or the model refuses the parameters it is
+checked with (one line on stderr); 3 ``--recover`` checked the readable part of a damaged bag
+(it stopped early: the report says where and why); 4 the check itself failed on a message that
+passed every check of the file (e.g. a checked topic of a type that is not installed): one line
+``internal error``, no verdict on the bag.
 """
 
 from __future__ import annotations
@@ -31,22 +32,27 @@ import sys
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
+from drs_model.cli.exit_status import (
+    EXIT_FAILED,
+    EXIT_INTERNAL,
+    EXIT_OK,
+    EXIT_RECOVERED,
+    EXIT_UNREADABLE,
+)
 from drs_model.errors import DRSError
-from drs_model.overrides import from_file
+from drs_model.overrides import from_file, parameter_file_argument
 from drs_model.params import DRSParams
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 from . import fleet
 from .decoded import BagData, stream_bag
 from .files import BagReadError
-from .model_checks import CheckResult, ModelChecker, load_force_model
+from .model_checks import CheckResult, ForceModelError, ModelChecker, load_force_model
 from .reader import MessageCallbackError, first_message
 from .run_stats import STATS_TOPICS, RunStats
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
-#: Exit statuses.
-EXIT_OK, EXIT_FAILED, EXIT_UNREADABLE, EXIT_RECOVERED, EXIT_INTERNAL = 0, 1, 2, 3, 4
 
 
 def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
@@ -117,12 +123,14 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     )
     ap.add_argument(
         "--params",
+        type=parameter_file_argument,
         help="parameter file (.toml/.yaml) of the recorded run (default: "
         "the model parameters the bag recorded, else the seed's)",
     )
     ap.add_argument(
         "--force-model",
         default=None,
+        type=_force_model_argument,
         help="piston force hook module:function f(q, qd, qdd, params) [N] "
         "(default: drs_model.inverse)",
     )
@@ -135,6 +143,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument(
         "--joint-names",
         default=",".join(DEFAULT_JOINT_NAMES),
+        type=_joint_names_argument,
         help="joint names of [s, psi1, psi3], comma-separated",
     )
     ap.add_argument(
@@ -152,6 +161,28 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
             help=f"(default {default})",
         )
     fleet.add_fleet_arguments(ap, "-o", "--output")
+
+
+def _joint_names(text: str) -> tuple[str, ...]:
+    return tuple(n.strip() for n in text.split(",") if n.strip())
+
+
+def _joint_names_argument(text: str) -> str:
+    """argparse ``type=`` of ``--joint-names``: three comma-separated names."""
+    if len(_joint_names(text)) != 3:
+        raise argparse.ArgumentTypeError(
+            f"needs 3 names (s, psi1, psi3), got {list(_joint_names(text))}"
+        )
+    return text
+
+
+def _force_model_argument(spec: str) -> str:
+    """argparse ``type=`` of ``--force-model``: a ``module:function`` that loads."""
+    try:
+        load_force_model(spec)
+    except ForceModelError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return spec
 
 
 def recorded_params(bag) -> tuple:
@@ -190,13 +221,11 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
     """Check one bag with the options of ``drs-bag check`` (``args``); never raises for the
     bag's faults (they are the outcome's status and error)."""
     topics = {key: getattr(args, f"topic_{key}") for key in CHECK_TOPICS}
-    names = tuple(n.strip() for n in args.joint_names.split(",") if n.strip())
+    names = _joint_names(args.joint_names)  # checked by argparse (_joint_names_argument)
+    force_model, force_note = load_force_model(args.force_model)  # and _force_model_argument
     figures = RunStats() if stats else None
     params = None
     try:
-        if len(names) != 3:
-            raise BagReadError(f"--joint-names needs 3 names (s, psi1, psi3), got {list(names)}")
-        force_model, force_note = load_force_model(args.force_model)
         if args.params:
             params, origin = from_file(args.params), None
         else:
@@ -229,8 +258,12 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
     except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
         return CheckOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): "
                             f"{exc}", params=params)  # fmt: skip
-    except DRSError as exc:
+    except BagReadError as exc:
         return CheckOutcome(EXIT_UNREADABLE, error=f"error: {exc}", params=params)
+    except DRSError as exc:  # the model refuses the parameters: --params's, or the bag's own
+        whose = f"--params {args.params!r}" if args.params else "the bag's recorded parameters"
+        return CheckOutcome(EXIT_UNREADABLE, error=f"error: the model refuses {whose}: {exc}",
+                            params=params)  # fmt: skip
     if any(r.status == "FAIL" for r in results):
         status = EXIT_FAILED
     else:
@@ -296,8 +329,9 @@ def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:
     ap = argparse.ArgumentParser(
         prog=prog,
         description="Verify every byte of a recorded DRS bag and check it against "
-        "the model. Exit status: 0 ok, 1 a check failed, 2 unreadable or corrupt, 3 damaged "
-        "(--recover read its readable part), 4 internal error (no verdict on the bag).",
+        "the model. Exit status (docs/cli.md): 0 ok, 1 a check failed, 2 a bad option or an "
+        "unreadable bag, 3 damaged (--recover read its readable part), 4 internal error (no "
+        "verdict on the bag).",
     )
     add_arguments(ap)
     return run(ap.parse_args(argv), prog)

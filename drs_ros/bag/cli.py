@@ -13,7 +13,8 @@
 
 ``check`` and ``resimulate`` take many bags too (a fleet, on Dask: :mod:`drs_ros.bag.fleet`).
 
-Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status``.
+Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status`` (the statuses of
+every verb: docs/cli.md, :mod:`drs_model.cli.exit_status`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ import importlib
 import os
 import sys
 from collections.abc import Sequence
+
+from drs_model.cli.exit_status import EXIT_OK
 
 #: verb -> (module, one-line help)
 VERBS = {
@@ -52,7 +55,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return module.run(args, prog=f"drs-bag {args.verb}")
     except BrokenPipeError:  # the reader of our output went away (drs-bag info | head)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
+        return EXIT_OK
 
 
 def check_alias(argv: Sequence[str] | None = None) -> int:

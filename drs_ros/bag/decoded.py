@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..timestamps import ns_of, seconds_from_ns
 from .reader import RecordedMessage, scan
 
 
@@ -54,8 +55,8 @@ def stamp_s(log_ns: int, msg) -> float:
     header = getattr(msg, "header", None)
     stamp = getattr(header, "stamp", None)
     if stamp is not None and (stamp.sec or stamp.nanosec):
-        return stamp.sec + stamp.nanosec * 1e-9
-    return log_ns * 1e-9
+        return seconds_from_ns(ns_of(stamp))
+    return seconds_from_ns(log_ns)
 
 
 def decoder() -> Callable[[RecordedMessage], object]:

@@ -12,10 +12,10 @@ import ast
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from drs_model.errors import DRSError
 from drs_model.fidelity.faults import FAULTS, RunFaults
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
+from ..errors import DRSRosError
 from ..names import FIDELITY
 
 #: The prefix of the node's fault parameters, the source of their effect records.
@@ -124,7 +124,7 @@ def effect_records(messages: Sequence) -> list[EffectRecord]:
     return out
 
 
-class MissingRecordError(DRSError):
+class MissingRecordError(DRSRosError):
     """The effect record lacks a record the run's parameters say it must hold."""
 
 

@@ -16,10 +16,10 @@ from typing import Any
 
 import yaml
 
-from drs_model.errors import DRSError
+from ..errors import DRSRosError
 
 
-class BagReadError(DRSError):
+class BagReadError(DRSRosError):
     """The bag cannot be read or is not what it claims: missing, not MCAP, truncated, corrupt,
     inconsistent with its summary or ``metadata.yaml``, or holding inexact message bytes."""
 

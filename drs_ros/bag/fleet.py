@@ -16,8 +16,8 @@ there is none), ``task_s`` (wall time of the task [s]), ``storage``, ``messages`
 (the model parameters used, SI units). The verb adds its own (:mod:`drs_ros.bag.check`,
 :mod:`drs_ros.bag.resimulate`).
 
-Exit status of a fleet run: 0 every bag passed, 1 any bag did not (the table says which and
-why), 2 no bag was found, an option is invalid, or the table cannot be written.
+Exit status of a fleet run (docs/cli.md): 0 every bag passed, 1 any bag did not (the table says
+which and why), 2 no bag was found, an option is invalid, or the table cannot be written.
 """
 
 from __future__ import annotations
@@ -31,14 +31,18 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
 from drs_model.errors import DRSError
 from drs_model.params import NUMERIC_FIELDS
+
+from ..errors import DRSRosError
+from ..timestamps import seconds_from_ns
 
 _BAG_SUFFIXES = (".mcap", ".db3")
 _GLOB_CHARS = set("*?[")
 
 
-class FleetError(DRSError):
+class FleetError(DRSRosError):
     """A fleet run cannot start: no bag found, or an invalid option."""
 
 
@@ -141,7 +145,8 @@ def _storage(bag: str) -> str | None:
 def count_columns(counts: dict[str, int], start_ns: int | None, end_ns: int | None,
                   recovered: bool) -> dict[str, Any]:  # fmt: skip
     """Messages in all, per topic, the first log time [ns] and the duration [s]."""
-    duration = (end_ns - start_ns) * 1e-9 if start_ns is not None and end_ns is not None else None
+    duration = (seconds_from_ns(end_ns - start_ns)
+                if start_ns is not None and end_ns is not None else None)  # fmt: skip
     return {"messages": sum(counts.values()), "counts": dict(counts), "start_ns": start_ns,
             "duration_s": math.nan if duration is None else duration,
             "recovered": bool(recovered)}  # fmt: skip
@@ -173,7 +178,8 @@ def run_rows(row_function: Callable, bags: Sequence[str], args: argparse.Namespa
                                        progress=progress, row_function=row_function,
                                        args=args):  # fmt: skip
             if isinstance(result, TaskFailure):
-                result = base_row(bags[i], 4, "INTERNAL ERROR", f"internal error: {result}")
+                result = base_row(bags[i], EXIT_INTERNAL, "INTERNAL ERROR",
+                                  f"internal error: {result}")  # fmt: skip
                 result["task_s"] = math.nan
             rows[i] = result
     return [r for r in rows if r is not None]
@@ -251,13 +257,13 @@ def run_fleet(row_function: Callable, args: argparse.Namespace, prog: str, done:
                 pq.write_table(to_table(rows), out)
             except OSError as exc:
                 raise FleetError(f"cannot write the table {out!r}: {exc}") from exc
-    except DRSError as exc:
+    except (FleetError, DRSError) as exc:  # the fleet's own, or the cluster's (--jobs, --scheduler)
         print(f"{prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     print(format_summary(rows, columns))
     if out:
         print(f"table: {out} ({len(rows)} rows)")
-    return 0 if all(r["exit_status"] == 0 for r in rows) else 1
+    return EXIT_OK if all(r["exit_status"] == EXIT_OK for r in rows) else EXIT_FAILED
 
 
 __all__ = [

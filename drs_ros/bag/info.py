@@ -13,10 +13,11 @@ import sys
 import time
 from pathlib import Path
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 
 from ..recording import msgdefs
-from .files import resolve
+from ..timestamps import split_ns
+from .files import BagReadError, resolve
 from .reader import scan
 
 _INDENT = " " * 19
@@ -33,7 +34,7 @@ def _size(n: int) -> str:
 
 
 def _point(ns: int) -> str:
-    sec, frac = divmod(ns, 1_000_000_000)
+    sec, frac = split_ns(ns)
     tm = time.localtime(sec)
     return f"{time.strftime('%b %e %Y %H:%M:%S', tm)}.{frac:09d} ({sec}.{frac:09d})"
 
@@ -41,7 +42,7 @@ def _point(ns: int) -> str:
 def _is_service_event(topic: str, type_name: str) -> bool:
     try:
         return topic.endswith(SERVICE_EVENT_TOPIC_SUFFIX) and msgdefs.is_service_event(type_name)
-    except DRSError:
+    except msgdefs.MessageDefinitionError:  # a type that is not installed: not a service event
         return False
 
 
@@ -91,7 +92,7 @@ def format_info(info: dict) -> str:
     plain = [t for t in info["topics"] if not _is_service_event(t[0], t[1])]
     services = [t for t in info["topics"] if _is_service_event(t[0], t[1])]
     end = info["start_ns"] + info["duration_ns"]
-    sec, frac = divmod(info["duration_ns"], 1_000_000_000)
+    sec, frac = split_ns(info["duration_ns"])
     lines = [
         "",
         "Files:             " + f"\n{_INDENT}".join(info["files"]),
@@ -124,12 +125,12 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace, prog: str = "drs-bag info") -> int:
     try:
         info = bag_summary(args.bag)
-    except (DRSError, OSError) as exc:
-        msg = str(exc) if isinstance(exc, DRSError) else f"{args.bag}: {exc}"
+    except (BagReadError, OSError) as exc:
+        msg = str(exc) if isinstance(exc, BagReadError) else f"{args.bag}: {exc}"
         print(f"{prog}: error: {msg}", file=sys.stderr)
-        return 2
+        return EXIT_UNREADABLE
     print(json.dumps(info, indent=2) if args.json else format_info(info))
-    return 0
+    return EXIT_OK
 
 
 __all__ = ["add_arguments", "bag_summary", "format_info", "run"]

@@ -25,15 +25,17 @@ from drs_model.errors import DRSError
 from drs_model.kinematics import gap as model_gap
 from drs_model.params import DRSParams
 
+from ..errors import UsageError
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
+from ..timestamps import ns_from_seconds
 from .decoded import BagData, stamp_s
 
 #: The name of the piston-force check from finite differences of the logged velocities.
 FORCE_CHECK = "piston force vs model"
 
 
-class ForceModelError(DRSError):
-    """The piston-force hook cannot be loaded or fails on the logged motion."""
+class ForceModelError(UsageError):
+    """The piston-force hook (``--force-model``) cannot be loaded."""
 
 
 @dataclass(frozen=True)
@@ -226,7 +228,7 @@ class ModelChecker:
         self.tp = {**DEFAULT_TOPICS, **(topics or {})}
         self.joint_names = tuple(joint_names)
         self.force_model, self.force_note = force_model, force_note
-        self.max_ns = max_match_s * 1e9
+        self.max_ns = ns_from_seconds(max_match_s)
         self.block_states = int(BLOCK_STATES if block_states is None else block_states)
         self.scalar_key = {self.tp["flap_gap"]: "gap", self.tp["piston_acceleration"]: "accel"}
         self._rows: list[tuple] = []

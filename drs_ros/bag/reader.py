@@ -43,8 +43,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from drs_model.errors import DRSError
-
+from ..errors import DRSRosError
 from .files import BagFiles, BagReadError, resolve
 
 #: The MCAP magic (8 bytes at both ends of a file).
@@ -52,7 +51,7 @@ MCAP_MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
 
 
-class MessageCallbackError(DRSError):
+class MessageCallbackError(DRSRosError):
     """The caller's ``on_message`` callback of :func:`scan` raised on a message that passed every
     check of the file: a failure of the caller (a bug, a type it cannot handle, its output that
     cannot be written), not of the bag. Never a :class:`BagReadError`; ``__cause__`` is the
@@ -180,7 +179,7 @@ def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]
         if cls is None:
             try:
                 cls = msgdefs.message_class(type_name)
-            except DRSError:
+            except msgdefs.MessageDefinitionError:
                 cls = False
             classes[type_name] = cls
         if cls is False:
@@ -533,7 +532,8 @@ def first_message(
     """The first message of ``topic`` that ``accept`` takes, reading the bag's files in order a
     chunk at a time and stopping there (a look-ahead, e.g. for the parameters a run recorded at
     its start). Nothing is verified: a damaged or unreadable file ends the search (None), and
-    :func:`scan` says why."""
+    :func:`scan` says why. An exception of ``accept`` is the caller's failure, not the file's:
+    it is raised as :class:`MessageCallbackError`, never taken for "no such message"."""
     from mcap.records import Channel, Chunk, Message, Schema
     from mcap.stream_reader import StreamReader, breakup_chunk
 
@@ -567,11 +567,24 @@ def first_message(
                                 topic, schema.name if schema else "", rec.log_time,
                                 rec.publish_time, rec.sequence, bytes(rec.data), 0,
                             )  # fmt: skip
-                            if accept(message):
+                            if _accepts(accept, message, file):
                                 return message
-        except Exception:  # noqa: BLE001 - the verifying scan reports the damage
+        except MessageCallbackError:
+            raise
+        except Exception:  # noqa: BLE001 - the mcap library's error on damage: scan reports it
             return None
     return None
+
+
+def _accepts(accept, message: RecordedMessage, file: Path) -> bool:
+    """``accept(message)``, its exception raised as :class:`MessageCallbackError`."""
+    try:
+        return bool(accept(message))
+    except Exception as exc:  # the caller's failure: named, never a verdict on the file
+        raise MessageCallbackError(
+            f"{str(file)!r}: the look-ahead's callback raised on a message of {message.topic} "
+            f"({type(exc).__name__}: {exc})", file, message.topic, 0, message.offset,
+        ) from exc  # fmt: skip
 
 
 def _first_row(bag: BagFiles, topic: str, accept) -> RecordedMessage | None:
@@ -582,7 +595,7 @@ def _first_row(bag: BagFiles, topic: str, accept) -> RecordedMessage | None:
     for rec in sqlite.iter_rows(bag, topics={topic}):
         message = RecordedMessage(topic, types[rec.channel_id], rec.log_time, rec.publish_time,
                                   rec.sequence, rec.data, 0)  # fmt: skip
-        if accept(message):
+        if _accepts(accept, message, bag.bag_dir or bag.files[0]):
             return message
     return None
 

@@ -23,11 +23,13 @@ import shutil
 import sys
 from pathlib import Path
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EXIT_UNREADABLE
 
 from ..recording.errors import RecordingError
 from ..recording.mcap_recorder import McapRecorder, check_new_bag
 from ..recording.qos import parse_qos_yaml
+from ..timestamps import split_ns
+from .files import BagReadError
 from .reader import ChannelInfo, MessageCallbackError, RecordedMessage, scan
 
 
@@ -161,7 +163,8 @@ def format_report(rep: dict) -> str:
                 )
     last = rep["last_log_time_ns"]
     if not rep["complete_source"] and last is not None:
-        lines.append(f"last recovered message logged at {last * 1e-9:.9f} s")
+        sec, nanosec = split_ns(last)  # exact: a float of epoch seconds keeps ~0.2 us
+        lines.append(f"last recovered message logged at {sec}.{nanosec:09d} s")
     return "\n".join(lines)
 
 
@@ -176,12 +179,12 @@ def run(args: argparse.Namespace, prog: str = "drs-bag recover") -> int:
         rep = recover(args.bag, args.output)
     except MessageCallbackError as exc:  # our own failure on an intact message
         print(f"{prog}: internal error (not a verdict on the bag): {exc}", file=sys.stderr)
-        return 4
-    except DRSError as exc:
+        return EXIT_INTERNAL
+    except (BagReadError, RecordingError) as exc:  # nothing readable, or OUT cannot be written
         print(f"{prog}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_UNREADABLE
     print(json.dumps(rep, indent=2) if args.json else format_report(rep))
-    return 0 if rep["complete_source"] else 3
+    return EXIT_OK if rep["complete_source"] else EXIT_RECOVERED
 
 
 __all__ = ["add_arguments", "format_report", "recover", "run"]

@@ -19,11 +19,12 @@ record and the commands; then the signals, while the re-run advances as they ask
 the last :data:`STATE_WINDOW` steps. Many bags run on Dask, one row per bag (:func:`fleet_row`,
 :mod:`drs_ros.bag.fleet`).
 
-Exit status: 0 every deviation within its tolerance; 1 past a tolerance; 2 the bag cannot be
-read (or its ``metadata.yaml`` is malformed), or holds no effect record (it was recorded before
-drs recorded when commands took effect) or no parameters; 4 decoding a message that passed every
-check of the file failed (a type that is not installed): one line ``internal error``, no verdict
-on the bag.
+Exit status (docs/cli.md): 0 every deviation within its tolerance; 1 past a tolerance; 2 a bad
+option, the bag cannot be read (or its ``metadata.yaml`` is malformed), holds no effect record (it
+was recorded before drs recorded when commands took effect) or no parameters, or the model refuses
+the parameters of the re-run (the recorded ones with ``--params`` / ``--set``); 4 decoding a
+message that passed every check of the file failed (a type that is not installed): one line
+``internal error``, no verdict on the bag.
 """
 
 from __future__ import annotations
@@ -38,17 +39,27 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_UNREADABLE
 from drs_model.errors import DRSError
 from drs_model.fidelity import RUNGS, make_rung
 from drs_model.fidelity.faults import RunFaults
-from drs_model.overrides import assignment_overrides, from_file
+from drs_model.overrides import (
+    assignment_argument,
+    assignment_overrides,
+    from_file,
+    parameter_file_argument,
+)
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from .. import commands
+from ..errors import DRSRosError
 from ..names import ACCEPTED, CLOCK, DEFAULT_TOPICS, RESET
+from ..recording.errors import RecordingError
+from ..timestamps import ns_of, seconds_from_ns
 from . import fleet
 from .decoded import decoder
 from .effects import (
+    MissingRecordError,
     apply_fault_record,
     effect_records,
     is_fault_record,
@@ -72,7 +83,7 @@ SIGNALS = {
 STATE_WINDOW = 65536
 
 
-class ResimulationError(DRSError):
+class ResimulationError(DRSRosError):
     """The bag cannot be re-simulated (no effect record, no parameters, a missing command)."""
 
 
@@ -252,7 +263,7 @@ class _Value:
 
 def _stamp_ns(msg) -> int:
     """A message's header stamp [ns]."""
-    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+    return ns_of(msg.header.stamp)
 
 
 def _deviation(recorded: float, rerun: float) -> float:
@@ -306,7 +317,7 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
                     "the effect record holds no clock origin (t0) before the states"
                 )
             seen[0] += 1
-            k = int(round((_stamp_ns(msg) - origin[0]) * 1e-9 / dt))
+            k = round(seconds_from_ns(_stamp_ns(msg) - origin[0]) / dt)
             recent[m.log_time] = k
             if len(recent) > STATE_WINDOW:
                 del recent[next(iter(recent))]
@@ -416,9 +427,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="NAME=VALUE",
+        type=assignment_argument,
         help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5",
     )
-    ap.add_argument("--params", help="a .toml/.yaml file of model parameters for the re-run")
+    ap.add_argument("--params", type=parameter_file_argument,
+                    help="a .toml/.yaml file of model parameters for the re-run")  # fmt: skip
     ap.add_argument(
         "--fidelity",
         choices=list(RUNGS),
@@ -473,17 +486,27 @@ def resimulate_one(bag, args: argparse.Namespace, output: str | None = None) -> 
                 )
             rows = compare(recorded, result, tolerances, on_state)
     except MessageCallbackError as exc:  # our own failure on an intact message
-        return ResimulationOutcome(4, error=f"internal error (not a verdict on the bag): {exc}",
+        return ResimulationOutcome(EXIT_INTERNAL, error="internal error (not a verdict on the "
+                                   f"bag): {exc}", run=recorded, model=model)  # fmt: skip
+    except (BagReadError, MissingRecordError, ResimulationError) as exc:  # the bag's fault
+        return ResimulationOutcome(EXIT_UNREADABLE, error=f"error: {exc}", run=recorded,
+                                   model=model)  # fmt: skip
+    except RecordingError as exc:  # -o OUT exists or cannot be written
+        return ResimulationOutcome(EXIT_UNREADABLE, error=f"error: -o: {exc}", run=recorded,
+                                   model=model)  # fmt: skip
+    except DRSError as exc:  # the model refuses the re-run's parameters (or the recorded rung's)
+        return ResimulationOutcome(EXIT_UNREADABLE, error="error: the model refuses the re-run "
+                                   f"(the recorded parameters with --params/--set): {exc}",
                                    run=recorded, model=model)  # fmt: skip
-    except (DRSError, BagReadError) as exc:
-        return ResimulationOutcome(2, error=f"error: {exc}", run=recorded, model=model)
     ok = all(r["ok"] for r in rows)
     if output:
         result["notes"].append(f"wrote the re-simulated run to {output}")
-    return ResimulationOutcome(0 if ok else 1, rows, result["notes"], "", recorded, model)
+    return ResimulationOutcome(EXIT_OK if ok else EXIT_FAILED, rows, result["notes"], "",
+                               recorded, model)  # fmt: skip
 
 
-VERDICTS = {0: "PASS", 1: "DEVIATES", 2: "UNREADABLE", 4: "INTERNAL ERROR"}
+VERDICTS = {EXIT_OK: "PASS", EXIT_FAILED: "DEVIATES", EXIT_UNREADABLE: "UNREADABLE",
+            EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
 
 
 def fleet_row(bag: str, args: argparse.Namespace) -> dict:

@@ -24,6 +24,7 @@ import numpy as np
 from drs_model.params import NUMERIC_FIELDS, DRSParams
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
+from ..timestamps import ns_from_seconds, split_ns
 
 #: Sample period of the recorded states [s] (the node's default publish rate is lower; 1 kHz is
 #: its physics rate).
@@ -74,7 +75,7 @@ def write_long_bag(
     p = params if params is not None else DRSParams()
     samples = cycle_samples(p)
     n = len(samples["t"])
-    period_ns = int(round(n * SAMPLE_PERIOD_S * 1e9))
+    period_ns = ns_from_seconds(n * SAMPLE_PERIOD_S)
     tp = DEFAULT_TOPICS
     states, scalars = [], []
     for i in range(n):
@@ -86,7 +87,7 @@ def write_long_bag(
         scalars.append([(tp[key], cdr.serializer(Float64)(float_msg(float(samples[name][i]))))
                         for key, name in (("flap_gap", "gap"), ("piston_force", "force"),
                                           ("piston_acceleration", "accel"))])  # fmt: skip
-    offsets = [int(round(t * 1e9)) for t in samples["t"]]
+    offsets = [ns_from_seconds(t) for t in samples["t"]]
     bulk = None
     if bulk_bytes > 0:
         image = Image(height=1, width=int(bulk_bytes), encoding="mono8", step=int(bulk_bytes),
@@ -107,12 +108,12 @@ def write_long_bag(
             for i in range(n):
                 ns = start + offsets[i]
                 data = states[i]
-                struct.pack_into("<iI", data, 4, *divmod(ns, 1_000_000_000))  # header.stamp
+                struct.pack_into("<iI", data, 4, *split_ns(ns))  # header.stamp
                 rec.write(tp["joint_states"], data, ns)
                 for topic, value in scalars[i]:
                     rec.write(topic, value, ns)
             if bulk is not None:
-                struct.pack_into("<iI", bulk, 4, *divmod(start, 1_000_000_000))
+                struct.pack_into("<iI", bulk, 4, *split_ns(start))
                 rec.write(BULK_TOPIC, bulk, start)
     return Path(bag_dir)
 

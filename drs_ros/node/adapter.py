@@ -39,7 +39,6 @@ import threading
 import time
 
 import numpy as np
-from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.msg import ParameterEvent
 from rclpy.clock import Clock, ClockType
@@ -54,7 +53,7 @@ from visualization_msgs.msg import MarkerArray
 
 from drs_model.errors import DRSError
 from drs_model.fidelity import HydraulicRung, make_rung
-from drs_model.fidelity.auto import choose_rung
+from drs_model.fidelity.auto import choose_rung, ladder_errors
 from drs_model.fidelity.faults import RunFaults
 
 from .. import commands
@@ -63,11 +62,13 @@ from ..conversions import (
     joint_state_msg,
     parameter_event_msg,
     reactions_msg,
+    time_msg,
 )
 from ..drawing import moving_drawings, still_drawings
 from ..names import ACCEPTED, FIDELITY, REFUSED, RESET, SUPERSEDED
 from ..recording import cdr, msgdefs
 from ..stack import NodeHooks, StackLayer
+from ..timestamps import ns_from_seconds, seconds_from_ns
 from .effect_record import EffectRecord, PendingCommand, refusal_reason
 from .faults import NodeFaults, declare_fault_parameters
 from .parameters import StartupError, declare_parameters, effective_parameters, model_params
@@ -122,6 +123,11 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         self.configured = self.active = False
         self.callback_errors = 0
         self.recorder = self.rerun = None
+        self.bag = self.rrd = None  # the recordings and their failures (NodeRecordings)
+        self.recording_problems: list[str] = []
+        #: The stop the node obeys within a tick (drs_ros.stop_request.StopRequest, set by
+        #: drs_ros.node.runner): a long tick ends at the next physics step once it is requested.
+        self.stop_request = None
         self.timer = self.diag_timer = self.clock_watch = None
         self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
         self.sub_drs_events = None
@@ -153,8 +159,10 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
                 ["joint_names"],
             )
         self.fidelity = gp("fidelity").value
-        # auto: rigid until the subscribers are seen (activate, _choose_fidelity)
+        # auto: rigid until the subscribers are seen (activate, _choose_fidelity); each rung's
+        # errors measured now, for these parameters (a few seconds, once per parameters)
         self._auto_deadline = None
+        self._auto_errors = ladder_errors(self.params) if self.fidelity == "auto" else None
         self._make_rung = lambda rung: make_rung(
             rung,
             self.params,
@@ -164,6 +172,8 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             force_method=gp("force_method").value,
         )
         self.sim = self._make_rung("rigid" if self.fidelity == "auto" else self.fidelity)
+        if isinstance(self.sim, HydraulicRung):  # a model too stiff for the physics rate: now
+            self.sim.check_stiffness()  # TooStiffError, not a refusal at every tick
         self._start_faults()
         self.max_catch_up = int(gp("max_catch_up_steps").value)
         # a tick late by one period must still catch up, or every tick would drop steps
@@ -488,19 +498,19 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             self._choose_fidelity(now)
         mono = time.monotonic_ns()
         if self._t0_ns is None:
-            self._t0_ns = now - int(round(self.sim.t * 1e9))
+            self._t0_ns = now - ns_from_seconds(self.sim.t)
             self._record_clock_origin(now)
         elif self._last_tick_ns is not None:
             self._check_clock_jump(now, mono)
         if (
             self._last_tick_ns is not None
-            and now - self._last_tick_ns > 1.5e9 * self.publish_period
+            and now - self._last_tick_ns > ns_from_seconds(1.5 * self.publish_period)
         ):
             self.missed_deadlines += 1
             self.troubles.add(
                 now,
                 "missed_deadline",
-                f"tick {(now - self._last_tick_ns) * 1e-6:.1f} ms after the last",
+                f"tick {seconds_from_ns(now - self._last_tick_ns) * 1e3:.1f} ms after the last",
             )
         self._last_tick_ns, self._last_tick_mono = now, mono
         self.ticks += 1
@@ -509,18 +519,18 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             self._apply_pending(now)
         if self._pending_faults:
             self._apply_faults(now)
-        target = (now - self._t0_ns) * 1e-9
+        target = seconds_from_ns(now - self._t0_ns)
         due = int(math.floor((target - self.sim.t) / self.physics_dt + 1e-9))
         if due > self.max_catch_up:
             # too far behind (a stall): drop the excess instead of spiralling
             dropped = due - self.max_catch_up
             self.dropped_steps += dropped
             self.troubles.add(now, "dropped_steps", f"{dropped} physics steps dropped")
-            self._t0_ns += int(round(dropped * self.physics_dt * 1e9))
+            self._t0_ns += ns_from_seconds(dropped * self.physics_dt)
             self._record_clock_origin(now, DiagnosticStatus.WARN, f"{dropped} steps dropped")
             due = self.max_catch_up
         try:
-            self.sim.advance(max(due, 0))
+            self._advance(due)
         except DRSError as exc:  # the model refuses to go on: hold where it is and say why
             reason = self._refuse("step", self.sim.mode, str(exc), now)
             s_hold = commands.hold(self.sim)
@@ -531,16 +541,31 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)
             self._publish(now)
 
+    def _advance(self, due: int) -> None:
+        """``due`` physics steps, one at a time, each bounded (the hydraulic rung caps its
+        sub-steps): a stop requested meanwhile ends the tick at the next step, so that a tick
+        that overruns (a stall, a catch-up of many steps) stays stoppable within one step."""
+        stop = self.stop_request
+        for k in range(due):
+            if stop is not None and stop.requested:
+                self.get_logger().info(
+                    f"stop requested: the last tick ends after {k} of its {due} physics steps, "
+                    f"at simulated time {self.sim.t:.6f} s"
+                )
+                return
+            self.sim.advance(1)
+
     def _choose_fidelity(self, now_ns: int) -> None:
-        """``fidelity: auto``: the cheapest rung that meets ``fidelity_tolerance`` and
-        ``fidelity_force_tolerance`` for what the node's subscribers ask
-        (:func:`drs_model.fidelity.auto.choose_rung`), chosen once, before the first step, and
-        recorded (source ``fidelity``) so that a re-run takes the same rung."""
+        """``fidelity: auto``: the lowest rung that meets ``fidelity_tolerance`` and
+        ``fidelity_force_tolerance`` for what the node's subscribers ask, by the errors measured
+        at configure for the node's parameters (:func:`drs_model.fidelity.auto.choose_rung`),
+        chosen once, before the first step, and recorded (source ``fidelity``) so that a re-run
+        takes the same rung."""
         self._auto_deadline = None
         asked = {kind for pub, kind in self._asked_by_topic() if pub.get_subscription_count()}
         gp = self.get_parameter
         rung = choose_rung(asked, gp("fidelity_tolerance").value,
-                           gp("fidelity_force_tolerance").value)  # fmt: skip
+                           gp("fidelity_force_tolerance").value, self._auto_errors)  # fmt: skip
         if rung != self.sim.name:
             self.sim = self._make_rung(rung)
             self.faults = RunFaults(self.sim)  # none applied yet: they act at ticks
@@ -565,7 +590,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         simulation until the clock caught up again."""
         if self._wall_clock:  # the wall clock against the steady one: any difference is a jump
             jump = (now - self._last_tick_ns) - (mono - self._last_tick_mono)
-            if abs(jump) < CLOCK_JUMP_THRESHOLD_S * 1e9:
+            if abs(jump) < ns_from_seconds(CLOCK_JUMP_THRESHOLD_S):
                 return
         else:  # /clock may run at any rate: only a step back is a jump
             if now >= self._last_tick_ns:
@@ -574,7 +599,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         self._t0_ns += jump
         self.clock_jumps += 1
         way = "forward" if jump > 0 else "back"
-        reason = f"node clock jumped {way} by {abs(jump) * 1e-9:.6g} s"
+        reason = f"node clock jumped {way} by {seconds_from_ns(abs(jump)):.6g} s"
         self.troubles.add(now, "clock_jump", reason)
         self.get_logger().warning(f"{reason}: the simulation goes on from its state")
         self._record_clock_origin(now, DiagnosticStatus.WARN, reason, jump_ns=jump)
@@ -583,7 +608,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
     def _publish(self, now_ns: int) -> None:
         t = time.process_time()
         st = self.sim.state
-        stamp = self._t0_ns + int(round(st.t * 1e9))
+        stamp = self._t0_ns + ns_from_seconds(st.t)
         pack = self._pack_float64
         out = [
             (self.pub_joints, self._serialize[JointState](
@@ -613,11 +638,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         for pub, data in out:
             self._record(self.topics[pub], data, now_ns)
         self.stack.publish(st, stamp, now_ns)  # /tf, the action's feedback
-        if self.rerun is not None and not self.recording_error:
-            try:
-                self.rerun.log_state(st.t, st.q, st.piston_force)
-            except Exception as exc:  # noqa: BLE001
-                self.recording_error = f"rerun: {exc}"
+        self._log_rerun(st)  # its own failures: never the bag's
         self._cpu["record"] += time.process_time() - t1
 
     def _published_joint_state(self, st, stamp: int) -> JointState:
@@ -632,8 +653,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         """The hydraulic rung's pressures (sensor_msgs/FluidPressure [Pa], stamped like the joint
         states, in ``frame_id``) and its spool (std_msgs/Float64, -1..1; NaN without spool lag,
         where the spool is the servo's command itself)."""
-        header = Header(stamp=Time(sec=stamp // 1_000_000_000, nanosec=stamp % 1_000_000_000),
-                        frame_id=self.frame_id)  # fmt: skip
+        header = Header(stamp=time_msg(stamp), frame_id=self.frame_id)
         pa, pb, ps, spool = self.pub_hydraulic
         ser = self._serialize[FluidPressure]
         return [

@@ -23,8 +23,10 @@ from drs_model.errors import DRSError
 
 from .. import commands
 from ..conversions import command_event_msg, diagnostics_msg
+from ..errors import DRSRosError
 from ..names import CLOCK, REFUSED
 from ..recording.cdr import without_source_location
+from ..timestamps import ns_from_seconds, seconds_from_ns
 
 #: Bytes of a malformed command kept (hex) in its effect record, for forensics.
 MALFORMED_BYTES_KEPT = 4096
@@ -46,7 +48,7 @@ class PendingCommand:
 
 def refusal_reason(exc: Exception) -> str:
     """Why a command was refused: the model's own words, or the exception's type and text."""
-    return str(exc) if isinstance(exc, DRSError) else f"{type(exc).__name__}: {exc}"
+    return str(exc) if isinstance(exc, (DRSError, DRSRosError)) else f"{type(exc).__name__}: {exc}"
 
 
 def error_text(exc: Exception) -> str:
@@ -59,7 +61,7 @@ class TroubleWindow:
     seconds of node time, for diagnostics that recover once the trouble is over."""
 
     def __init__(self, window_s: float) -> None:
-        self.window_ns = int(window_s * 1e9)
+        self.window_ns = ns_from_seconds(window_s)
         self._events: collections.deque[tuple[int, str, str]] = collections.deque()
 
     def add(self, now_ns: int, kind: str, reason: str) -> None:
@@ -141,7 +143,7 @@ class EffectRecord:
             record["sequence"] = "" if cmd.sequence is None else cmd.sequence
             record["received_ns"] = cmd.received_ns
         record.update(values)
-        stamp = now_ns if self._t0_ns is None else self._t0_ns + int(round(self.sim.t * 1e9))
+        stamp = now_ns if self._t0_ns is None else self._t0_ns + ns_from_seconds(self.sim.t)
         msg = command_event_msg(stamp, source, outcome, level, reason, record)
         data = self._serialize[DiagnosticArray](msg)
         self.pub_events.publish(data)
@@ -156,12 +158,6 @@ class EffectRecord:
 
     def diagnostics_values(self) -> dict[str, object]:
         st = self.sim.state
-        rec = "off"
-        if self.recording_error:
-            rec = f"error: {self.recording_error}"
-        elif self.recorder is not None:
-            s = self.recorder.stats()
-            rec = f"{s.message_count} messages, {s.flush_count} flushes"
         return {
             "mode": st.mode,
             "sim_time_s": f"{st.t:.6f}",
@@ -182,7 +178,7 @@ class EffectRecord:
             "clock_jumps": self.clock_jumps,
             "callback_errors": self.callback_errors,
             "ticks": self.ticks,
-            "recording": rec,
+            **self.recordings_status(),
             "cpu_model_s": f"{self._cpu['model']:.3f}",
             "cpu_publish_s": f"{self._cpu['publish']:.3f}",
             "cpu_record_s": f"{self._cpu['record']:.3f}",
@@ -190,12 +186,13 @@ class EffectRecord:
 
     def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
         """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
-        if self.recording_error:
-            return DiagnosticStatus.ERROR, f"recording failed: {self.recording_error}"
+        failures = self.recording_failures()
+        if failures:
+            return DiagnosticStatus.ERROR, "; ".join(failures)
         recent = self.troubles.recent(now_ns)
         if not recent:
             return DiagnosticStatus.OK, f"mode {self.sim.mode}"
-        window = self.troubles.window_ns * 1e-9
+        window = seconds_from_ns(self.troubles.window_ns)
         parts = [f"{n} {kind.replace('_', ' ')} (last: {reason})"
                  for kind, (n, reason) in sorted(recent.items())]  # fmt: skip
         return DiagnosticStatus.WARN, f"in the last {window:g} s: " + "; ".join(parts)

@@ -7,6 +7,7 @@ from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallba
 
 from drs_model.errors import DRSError
 
+from ..errors import DRSRosError
 from .adapter import DRSNode
 
 
@@ -27,7 +28,7 @@ class ManagedDRSNode(LifecycleNodeMixin, DRSNode):
     def _transition(self, name: str, action) -> TransitionCallbackReturn:
         try:
             action()
-        except (DRSError, ParameterException) as exc:
+        except (DRSError, DRSRosError, ParameterException) as exc:
             self.get_logger().error(f"{name} failed: {exc}")
             if name == "configure":
                 self.discard_recordings()

@@ -11,11 +11,12 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from drs_model.errors import DRSError
+from drs_model.errors import ParameterError
 from drs_model.fidelity import RUNGS
 from drs_model.overrides import from_file
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
+from ..errors import DRSRosError
 from ..names import DEFAULT_JOINT_NAMES
 from ..stack import STACK_PARAMETERS
 
@@ -29,7 +30,7 @@ from ..stack import STACK_PARAMETERS
 EXECUTORS = ("deadline", "single")
 
 #: The rungs of the fidelity ladder the node runs (drs_model.fidelity.RUNGS), and ``auto``: the
-#: cheapest that meets the tolerances for what the subscribers ask (drs_model.fidelity.auto).
+#: lowest rung that meets the tolerances for what the subscribers ask (drs_model.fidelity.auto).
 FIDELITIES = (*RUNGS, "auto")
 
 #: The node's own parameters: (name, default, description, valid range or choices). All read-only.
@@ -71,7 +72,7 @@ NODE_PARAMETERS = (
 ) + STACK_PARAMETERS  # fmt: skip
 
 
-class StartupError(DRSError):
+class StartupError(DRSRosError):
     """The node refuses to start: a parameter or a recording path is wrong (the reason says)."""
 
 
@@ -126,9 +127,15 @@ def declare_parameters(node: Node) -> frozenset[str]:
 def model_params(node: Node, given_names: frozenset[str]) -> DRSParams:
     """The model's parameters: the seed's, then ``model_params_file``'s, then every
     ``model.*`` parameter given to the node (``-p`` or a ROS ``--params-file``), whatever
-    its value: a value given is the value used, even when it equals a default."""
+    its value: a value given is the value used, even when it equals a default.
+
+    Raises :class:`StartupError` naming the node parameter the model refuses (the file, or the
+    ``model.*`` values given) and the model's reason."""
     path = node.get_parameter("model_params_file").value
-    base = from_file(path) if path else DRSParams()
+    try:
+        base = from_file(path) if path else DRSParams()
+    except ParameterError as exc:
+        raise StartupError(f"model_params_file {path!r}: {exc}") from exc
     given = {name: node.get_parameter(f"model.{name}").value for name in NUMERIC_FIELDS
              if f"model.{name}" in given_names}  # fmt: skip
     if path:
@@ -136,7 +143,11 @@ def model_params(node: Node, given_names: frozenset[str]) -> DRSParams:
                 if v != getattr(base, k)]  # fmt: skip
         if over:
             node.get_logger().info(f"parameters given win over {path}: {', '.join(over)}")
-    return from_dict(given, base=base) if given else base
+    try:
+        return from_dict(given, base=base) if given else base
+    except ParameterError as exc:
+        named = ", ".join(f"model.{k}:={v!r}" for k, v in given.items())
+        raise StartupError(f"the model refuses {named}: {exc}") from exc
 
 
 def effective_parameters(node: Node, params: DRSParams) -> list[Parameter]:

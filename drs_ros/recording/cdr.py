@@ -28,7 +28,7 @@ import struct
 import sys
 from collections.abc import Callable
 
-from drs_model.errors import DRSError
+from ..errors import DRSRosError
 
 #: Encapsulation header of little-endian plain CDR (what Fast DDS sends for ROS 2 messages).
 CDR_LE_HEADER = b"\x00\x01\x00\x00"
@@ -56,7 +56,7 @@ _LITTLE = sys.byteorder == "little"
 Writer = Callable[[bytearray, object], None]
 
 
-class CdrError(DRSError, TypeError):
+class CdrError(DRSRosError, TypeError):
     """A message type or value that cannot be serialised as ROS 2 CDR."""
 
 

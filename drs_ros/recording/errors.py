@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from drs_model.errors import DRSError
+from ..errors import DRSRosError
 
 
-class RecordingError(DRSError):
+class RecordingError(DRSRosError):
     """The recorder cannot do what was asked (unknown topic, wrong type, finished, bad path...)."""
 
 

@@ -35,7 +35,7 @@ import re
 import sys
 from pathlib import Path
 
-from drs_model.errors import DRSError
+from ..errors import DRSRosError
 
 #: rosbag2's delimiter line between definitions (80 ``=``).
 DELIMITER = "=" * 80
@@ -67,7 +67,7 @@ SERVICE_EVENT_SUFFIX = "_Event"
 MAX_DEPTH = 50
 
 
-class MessageDefinitionError(DRSError, LookupError):
+class MessageDefinitionError(DRSRosError, LookupError):
     """A message type is malformed or its ``.msg`` / ``.json`` description cannot be found."""
 
 

@@ -14,14 +14,15 @@ from typing import Any
 
 import yaml
 
+from ..timestamps import ns_from_parts, split_ns
 from .errors import RecordingError
 
 #: ``RMW_DURATION_INFINITE`` [ns].
 INFINITE_NS = 2**63 - 1
 #: ``RMW_DURATION_INFINITE`` as rosbag2 serialises it.
-INFINITE_DURATION = dict(zip(("sec", "nsec"), divmod(INFINITE_NS, 10**9), strict=True))
+INFINITE_DURATION = dict(zip(("sec", "nsec"), split_ns(INFINITE_NS), strict=True))
 #: The Foxy-era spellings of an infinite duration that rosbag2 reads as infinite.
-_FOXY_INFINITE = {(0x7FFFFFFF, 0xFFFFFFFF), (0x7FFFFFFF, 0x7FFFFFFF), divmod(INFINITE_NS, 10**9)}
+_FOXY_INFINITE = {(0x7FFFFFFF, 0xFFFFFFFF), (0x7FFFFFFF, 0x7FFFFFFF), split_ns(INFINITE_NS)}
 #: History depth of ``rmw_qos_profile_default`` (rosbag2's own offers, ``QoSProfile(depth=10)``).
 DEFAULT_DEPTH = 10
 #: The keys of a profile in ``offered_qos_profiles`` (and in ``drs-bag play``'s overrides file).
@@ -50,7 +51,7 @@ def _duration(value: Any) -> dict[str, int]:
     ns = int(getattr(value, "nanoseconds", value))
     if ns <= 0 or ns >= INFINITE_NS:  # unspecified (0) is infinite on the wire
         return dict(INFINITE_DURATION)
-    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+    return dict(zip(("sec", "nsec"), split_ns(ns), strict=True))
 
 
 def qos_dict(qos: Any = None) -> dict[str, Any]:
@@ -128,7 +129,7 @@ def _duration_ns(value: Any) -> int:
     sec, nsec = int(value["sec"]), int(value["nsec"])
     if (sec, nsec) in _FOXY_INFINITE:
         return INFINITE_NS
-    return min(sec * 10**9 + nsec, INFINITE_NS)
+    return min(ns_from_parts(sec, nsec), INFINITE_NS)
 
 
 def _policy_value(enum_type, value: Any):

@@ -10,8 +10,6 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from drs_model.errors import DRSError
-
 from ..files import BagReadError, resolve
 from ..reader import MCAP_MAGIC
 
@@ -146,7 +144,7 @@ def _iter_sqlite(index: BagIndex, topics: Sequence[str], starting_at: int | None
                     continue
                 for conn, timestamp, data in reader.messages(wanted, start=starting_at):
                     yield conn.topic, timestamp, bytes(data)
-        except DRSError:
+        except BagReadError:  # ours, already naming the file
             raise
         except Exception as exc:  # rosbags' or apsw's error on a damaged database
             raise _read_failure(file, exc) from exc
@@ -184,7 +182,7 @@ def iter_bag(
                         message.log_time,
                         (data if isinstance(data, bytes) else bytes(data)),
                     )
-        except DRSError:
+        except BagReadError:  # ours, already naming the file
             raise
         except Exception as exc:  # a corrupt chunk, found while playing
             raise _read_failure(file, exc) from exc

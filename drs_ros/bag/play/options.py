@@ -10,7 +10,7 @@ import math
 import sys
 from dataclasses import dataclass
 
-from drs_model.errors import DRSError
+from ...errors import UsageError
 
 PROG = "drs-bag play"
 #: rosbag2's default ``--read-ahead-queue-size``.
@@ -21,7 +21,7 @@ DEFAULT_CLOCK_HZ = 40.0
 DEFAULT_WAIT_ACKED_MS = 1000
 
 
-class PlayError(DRSError, ValueError):
+class PlayError(UsageError):
     """An option of ``drs-bag play`` is invalid (rate <= 0, malformed remap...)."""
 
 

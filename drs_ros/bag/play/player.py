@@ -7,15 +7,16 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import Sequence
 from typing import Any
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE, EXIT_USAGE
 
+from ...stop_request import StopRequest
+from ...timestamps import ns_from_seconds, seconds_from_ns, set_ns
+from ..files import BagReadError
 from .index import BagIndex, index_bag, iter_bag
 from .offers import playback_qos, qos_overrides
 from .options import (
@@ -45,8 +46,8 @@ class Player:
     index : BagIndex
         The bag.
     options : PlayOptions
-    stop : threading.Event
-        Set to stop playing (a signal).
+    stop : StopRequest
+        Requested to stop playing (a signal); read between two messages and during waits.
     overrides : dict, optional
         Topic -> QoSProfile offered instead of the recorded offers (:func:`qos_overrides`).
     """
@@ -56,10 +57,10 @@ class Player:
         node,
         index: BagIndex,
         options: PlayOptions,
-        stop: threading.Event,
+        stop: StopRequest,
         overrides: dict[str, Any] | None = None,
     ):
-        from drs_ros.recording.msgdefs import message_class
+        from drs_ros.recording.msgdefs import MessageDefinitionError, message_class
 
         self.node, self.index, self.options, self.stop = node, index, options, stop
         self.publishers: dict[str, Any] = {}
@@ -79,7 +80,7 @@ class Player:
                 continue
             try:
                 msg_class = message_class(ch.type_name)
-            except DRSError as exc:
+            except MessageDefinitionError as exc:
                 warn(
                     f"skipping topic {name}: type {ch.type_name or '(no schema)'!r} is not "
                     f"installed ({exc})"
@@ -108,8 +109,7 @@ class Player:
 
     # -- time ----------------------------------------------------------------------------------
     def _publish_clock(self, bag_ns: int) -> None:
-        stamp = self._clock_msg.clock
-        stamp.sec, stamp.nanosec = divmod(int(bag_ns), 1_000_000_000)
+        set_ns(self._clock_msg.clock, bag_ns)
         self.clock_pub.publish(self._clock_msg)
 
     def _progress(self, bag_ns: int, loop_no: int) -> None:
@@ -117,15 +117,15 @@ class Player:
         pct = 100.0 * min(max((bag_ns - self.index.start_ns) / span, 0.0), 1.0)
         loop = f"  loop {loop_no}" if self.options.loop else ""
         sys.stderr.write(
-            f"\r[{PROG}] bag time {bag_ns / 1e9:.3f} s  {pct:5.1f} %  rate {self.options.rate:g}"
-            f"{loop}  "
+            f"\r[{PROG}] bag time {seconds_from_ns(bag_ns):.3f} s  {pct:5.1f} %  "
+            f"rate {self.options.rate:g}{loop}  "
         )
         sys.stderr.flush()
 
     def _wait_until(self, wall_target: float, bag_of_wall, loop_no: int) -> bool:
         """Sleep until ``wall_target`` (monotonic [s]), publishing /clock and progress on the
         way; False if stopped."""
-        while not self.stop.is_set():
+        while not self.stop.requested:
             now = time.monotonic()
             if self.clock_pub is not None and now >= self._next_clock:
                 self._publish_clock(bag_of_wall(now))
@@ -141,16 +141,16 @@ class Player:
                 wake = min(wake, max(self._next_clock - now, 0.0))
             if self.options.progress:
                 wake = min(wake, max(self._next_progress - now, 0.0))
-            self.stop.wait(wake)
+            time.sleep(wake)  # at most MAX_SLEEP_S: a stop is seen within it
         return False
 
     def _wait_for_subscribers(self) -> bool:
         """Wait until every publisher has a matched subscription; False if stopped."""
-        while not self.stop.is_set():
+        while not self.stop.requested:
             pubs = [*self.publishers.values(), *([self.clock_pub] if self.clock_pub else [])]
             if all(pub.get_subscription_count() > 0 for pub in pubs):
                 return True
-            self.stop.wait(0.02)
+            time.sleep(0.02)
         return False
 
     # -- play ----------------------------------------------------------------------------------
@@ -159,7 +159,7 @@ class Player:
         opts = self.options
         self._next_clock = self._next_progress = time.monotonic()
         loop_no = 0
-        while not self.stop.is_set():
+        while not self.stop.requested:
             loop_no += 1
             if not self._play_once(loop_no):
                 return False
@@ -169,11 +169,11 @@ class Player:
 
     def _play_once(self, loop_no: int) -> bool:
         opts = self.options
-        start_ns = self.index.start_ns + int(round(opts.start_offset_s * 1e9))
+        start_ns = self.index.start_ns + ns_from_seconds(opts.start_offset_s)
         wall0 = time.monotonic() + opts.delay_s
 
         def bag_of_wall(now: float) -> int:
-            return start_ns + int(max(now - wall0, 0.0) * opts.rate * 1e9)
+            return start_ns + ns_from_seconds(max(now - wall0, 0.0) * opts.rate)
 
         if not self._wait_until(wall0, bag_of_wall, loop_no):
             return False
@@ -184,7 +184,7 @@ class Player:
         reader = ReadAhead(source, opts.read_ahead, self.stop)
         try:
             for topic, log_ns, data in reader:
-                target = wall0 + (log_ns - start_ns) / opts.rate / 1e9
+                target = wall0 + seconds_from_ns(log_ns - start_ns) / opts.rate
                 if not self._wait_until(target, bag_of_wall, loop_no):
                     return False
                 actual = time.monotonic()
@@ -194,7 +194,7 @@ class Player:
                     self.stats.append((target - wall0, actual - wall0))
         finally:
             reader.close()
-        if self.stop.is_set():  # the reader ended early on a stop request
+        if self.stop.requested:  # the reader ended early on a stop request
             return False
         if opts.progress:
             self._progress(self.index.end_ns, loop_no)
@@ -223,8 +223,24 @@ class Player:
 
 
 def play(options: PlayOptions) -> int:
-    """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag)."""
+    """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag).
+
+    SIGINT and SIGTERM set a :class:`~drs_ros.stop_request.StopRequest` (a plain flag: an
+    ``Event.set`` in the handler takes a lock that the main thread may hold inside
+    ``Event.wait`` when the handler runs there, a deadlock); the player reads it between two
+    messages and in every wait (at most ``MAX_SLEEP_S``)."""
+    stop = StopRequest()
+    previous = stop.install()  # from the start: a signal while the bag is indexed is a stop too
+    try:
+        return _play(options, stop)
+    finally:
+        stop.restore(previous)
+
+
+def _play(options: PlayOptions, stop: StopRequest) -> int:
     index = index_bag(options.bag)  # fails before DDS starts
+    if stop.requested:
+        return EXIT_OK
     path = options.qos_overrides_path
     overrides = qos_overrides(path) if path else {}
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -233,10 +249,6 @@ def play(options: PlayOptions) -> int:
     from rclpy.executors import ExternalShutdownException
     from rclpy.signals import SignalHandlerOptions
 
-    stop = threading.Event()
-    previous = {
-        sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)
-    }
     context = Context()
     node = player = None
     try:
@@ -262,9 +274,7 @@ def play(options: PlayOptions) -> int:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-    return 0
+    return EXIT_OK
 
 
 def run(args: argparse.Namespace, prog: str = PROG) -> int:
@@ -274,9 +284,12 @@ def run(args: argparse.Namespace, prog: str = PROG) -> int:
         # no reading ahead of the whole bag: the summaries are read before DDS starts, every
         # chunk's CRC as it is played (a corrupt chunk ends the play then, exit status 2)
         return play(options)
-    except DRSError as exc:
+    except PlayError as exc:  # an option (argparse's exit status for a usage error)
         print(error_line(exc), file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    except BagReadError as exc:
+        print(error_line(exc), file=sys.stderr)
+        return EXIT_UNREADABLE
 
 
 def main(argv: Sequence[str] | None = None) -> int:
