@@ -39,10 +39,11 @@ from .hydraulic_steps import RK4_LIMIT, STEP_METHODS, state_rate
 #: open-hold-close scene (docs/fidelity.md).
 DEFAULT_IMPLICIT_SUBSTEP = 1e-4
 
-#: The shortest sub-step [s] the rung takes by default (``max_substeps = ceil(dt / MIN_SUBSTEP)``,
-#: 1000 at 1 kHz): a state whose stability needs shorter ones (a stiffest rate above
-#: ``RK4_LIMIT / MIN_SUBSTEP`` = 2.5e6 1/s, 170 times the oil column's at the closed stop) is
-#: refused with :class:`~drs_model.errors.TooStiffError`, so that no state makes a step unbounded.
+#: The shortest sub-step [s] the rung takes by default at a ``stability_fraction`` of 1
+#: (``max_substeps = ceil(dt / MIN_SUBSTEP)``, 1000 at 1 kHz): a state whose stability needs
+#: shorter ones (a stiffest rate above ``RK4_LIMIT / MIN_SUBSTEP`` = 2.5e6 1/s, 170 times the oil
+#: column's at the closed stop) is refused with :class:`~drs_model.errors.TooStiffError`, so that
+#: no state makes a step unbounded.
 MIN_SUBSTEP = 1e-6
 
 #: A fault (or a start) is refused when its stiffest probed state needs more than
@@ -129,7 +130,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
     max_substeps : int, optional
         Most sub-steps of one physics step; a step that needs more raises
         :class:`~drs_model.errors.TooStiffError` before it is taken (the state is kept). Default:
-        ``ceil(dt / MIN_SUBSTEP)``.
+        ``ceil(dt / (MIN_SUBSTEP * stability_fraction))``.
     """
 
     name = "hydraulic"
@@ -173,10 +174,13 @@ class HydraulicRung(RungMixin, ActuatorSim):
 
     @property
     def max_substeps(self) -> int:
-        """Most sub-steps of one physics step: as given, or ``ceil(dt / MIN_SUBSTEP)``."""
+        """Most sub-steps of one physics step: as given, or ``ceil(dt / (MIN_SUBSTEP *
+        stability_fraction))``: a rung asked for sub-steps at a fraction of the stable one (the
+        chart's reference) may take proportionally more, and the bound stays finite."""
         if self._max_substeps is not None:
             return self._max_substeps
-        return max(1, math.ceil(self.dt / MIN_SUBSTEP * (1.0 - 1e-12)))
+        shortest = MIN_SUBSTEP * self.stability_fraction
+        return max(1, math.ceil(self.dt / shortest * (1.0 - 1e-12)))
 
     @cached_property
     def _step_fn(self):
