@@ -181,7 +181,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         qd = (u0 * bd, u1 * bd, bd)
         self._q, self._qd = q, qd
         self._qdd = kin.accelerations_from_flap_scalar(q, qd, bdd, self.p)
-        self._force = pa * h[hk.AREA_A] - pb * h[hk.AREA_B] - hk.friction_force(qd[0], h)
+        self._force = hk.rod_force(pa, pb, qd[0], h)
         self._at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
 
     def _state_extras(self) -> dict:
@@ -193,6 +193,12 @@ class HydraulicRung(RungMixin, ActuatorSim):
             "spool": xv if self.hydraulic.spool_time_constant > 0.0 or self._spool_held else None,
             "supply_pressure": self.supply_pressure(self.t),
         }
+
+    @property
+    def constants(self) -> tuple[float, ...]:
+        """The constants vector of :mod:`~drs_model.fidelity.hydraulic_kernels` in force now
+        (a leak or a jam set at run time changes it)."""
+        return self._h
 
     @property
     def y(self) -> np.ndarray:
@@ -285,12 +291,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
             self._q, self._qd, self._qdd = actual
 
     def _rod_force(self) -> float:
-        pa, pb = float(self._y[2]), float(self._y[3])
-        return (
-            pa * self._h[hk.AREA_A]
-            - pb * self._h[hk.AREA_B]
-            - hk.friction_force(float(self._qd[0]), self._h)
-        )
+        return hk.rod_force(float(self._y[2]), float(self._y[3]), float(self._qd[0]), self._h)
 
     def _reference(self, t: float) -> tuple[float, float]:
         """The servo's stroke reference ``(s_ref, v_ref)`` [m, m/s] at ``t`` [s]."""
