@@ -102,7 +102,10 @@ class RunRecord:
             return
         if r.outcome != ACCEPTED:
             return
-        name, value = fault_of(r)
+        try:
+            name, value = fault_of(r)
+        except (ValueError, SyntaxError):  # judged by the check (a record it cannot read)
+            return
         span = self._open.pop(name, None)
         if span is not None:
             span.sim_to_s, span.log_to_ns = r.sim_time, r.log_time
