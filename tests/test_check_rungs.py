@@ -35,10 +35,12 @@ def _p(name: str, value) -> Parameter:
 
 
 SENSOR = [_p("sensor.bias_m", 1e-3), _p("sensor.noise_std_m", 1e-4), _p("sensor.noise_seed", 7)]
-#: What a run does, one step every STEP_S: "open" and "close" through the service, or a list of
-#: fault parameters set in one call through the parameter service.
+#: What a run does, one step every STEP_S: "open" and "close" through the service, "slow" a
+#: trajectory to mid-stroke over SLOW_S (a move the node publishes many states of, however
+#: loaded the machine), or a list of fault parameters set in one call through the parameter
+#: service.
 SCRIPTS = {
-    ("kinematic", "healthy"): ["open", "close"],
+    ("kinematic", "healthy"): ["open", "slow", "close"],
     ("kinematic", "faulted"): ["open", SENSOR, [_p("sensor.dropout", 0.3)], "close",
                                [_p("sensor.frozen", True)]],
     ("quasi-static", "faulted"): ["open", SENSOR, [_p("sensor.dropout", 0.3)],
@@ -48,21 +50,55 @@ SCRIPTS = {
                                [_p("jam_friction_n", 100.0)], SENSOR, [_p("sensor.dropout", 0.3)],
                                [_p("supply_loss_ramp_s", 0.05), _p("supply_loss", True)]],
 }  # fmt: skip
-SCRIPTS[("quasi-static", "healthy")] = SCRIPTS[("rigid", "healthy")] = ["open", "close"]
-SCRIPTS[("hydraulic", "healthy")] = ["open", "close"]
+SCRIPTS[("quasi-static", "healthy")] = SCRIPTS[("rigid", "healthy")] = ["open", "slow", "close"]
+SCRIPTS[("hydraulic", "healthy")] = ["open", "slow", "close"]
 SCRIPTS[("rigid", "faulted")] = SCRIPTS[("quasi-static", "faulted")]
 STEP_S = 0.12
+SLOW_S = 0.3
+#: Longest wait [s] for an answer of the node (a loaded machine answers late, not never).
+ANSWER_S = 30.0
+
+
+def slow_move(piston: str = "drs_piston"):
+    """A JointTrajectory of the piston to mid-stroke, reached after SLOW_S."""
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from drs_model import DRSParams
+    from drs_model.kinematics import stroke_limits
+
+    s_min, s_max = stroke_limits(DRSParams())
+    point = JointTrajectoryPoint(
+        positions=[0.5 * (s_min + s_max)],
+        time_from_start=Duration(sec=0, nanosec=int(SLOW_S * 1e9)),
+    )
+    return JointTrajectory(joint_names=[piston], points=[point])
+
+
+def _remaps(launch: list[str]) -> dict[str, str]:
+    """The ``-r FROM:=TO`` items of ``launch``."""
+    pairs = [launch[i + 1] for i, item in enumerate(launch[:-1]) if item in ("-r", "--remap")]
+    return dict(pair.split(":=", 1) for pair in pairs)
 
 
 def node_name(launch: list[str]) -> str:
     """The node's fully qualified name under ``launch`` (``-r __ns:=`` and ``-r __node:=``)."""
-    ns, name = "", "drs"
-    for item in launch:
-        if item.startswith("__ns:="):
-            ns = item.removeprefix("__ns:=").rstrip("/")
-        elif item.startswith("__node:="):
-            name = item.removeprefix("__node:=")
-    return f"{ns}/{name}"
+    remaps = _remaps(launch)
+    return f"{remaps.get('__ns', '').rstrip('/')}/{remaps.get('__node', 'drs')}"
+
+
+def topic(launch: list[str], name: str) -> str:
+    """The name the node gives its topic ``name`` (``~/x`` private, ``/x`` absolute) under
+    ``launch``: in its namespace, remapped."""
+    fqn = node_name(launch)
+
+    def full(n: str) -> str:
+        if n.startswith("~/"):
+            return f"{fqn}/{n[2:]}"
+        return n if n.startswith("/") else f"{fqn.rsplit('/', 1)[0]}/{n}"
+
+    remapped = {full(k): full(v) for k, v in _remaps(launch).items() if not k.startswith("__")}
+    return remapped.get(full(name), full(name))
 
 
 def run_node(tmp_path, domain: int, rung: str, script: list, launch: list[str]):
@@ -73,6 +109,7 @@ def run_node(tmp_path, domain: int, rung: str, script: list, launch: list[str]):
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter_client import AsyncParameterClient
     from std_srvs.srv import SetBool
+    from trajectory_msgs.msg import JointTrajectory
 
     bag = tmp_path / "bag"
     args = [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"fidelity:={rung}",
@@ -89,15 +126,20 @@ def run_node(tmp_path, domain: int, rung: str, script: list, launch: list[str]):
     try:
         drs = client.create_client(SetBool, f"{fqn}/drs")
         params = AsyncParameterClient(client, fqn)
+        moves = client.create_publisher(JointTrajectory, topic(launch, "~/trajectory_cmd"), 10)
         assert drs.wait_for_service(timeout_sec=60.0), "the node never offered its service"
-        assert params.wait_for_services(10.0)
+        assert params.wait_for_services(ANSWER_S)
+        assert spin_until(ex, lambda: moves.get_subscription_count() > 0, ANSWER_S)
         for step in script:
-            if isinstance(step, str):
+            if step == "slow":
+                moves.publish(slow_move())
+                spin_for(ex, SLOW_S)
+            elif isinstance(step, str):
                 fut = drs.call_async(SetBool.Request(data=step == "open"))
-                assert spin_until(ex, fut.done, 5.0) and fut.result().success
+                assert spin_until(ex, fut.done, ANSWER_S) and fut.result().success
             else:
                 fut = params.set_parameters_atomically(step)
-                assert spin_until(ex, fut.done, 5.0)
+                assert spin_until(ex, fut.done, ANSWER_S)
                 answers.append(fut.result().result)
             spin_for(ex, STEP_S)
     finally:
@@ -128,11 +170,11 @@ def failed(report: dict) -> set[str]:
     return {c["name"] for c in report["checks"] if c["status"] == "FAIL"}
 
 
-def _fastest_state(bag) -> int:
+def _fastest_state(bag, js: str) -> int:
     """The index of the joint state with the fastest stroke (moving: no check leaves it out)."""
     from drs_ros.bag.decoded import read_bag
 
-    states = read_bag(bag, ["/joint_states"]).messages["/joint_states"]
+    states = read_bag(bag, [js]).messages[js]
     speeds = [abs(m.velocity[0]) for _, m in states]
     return max(range(len(speeds)), key=speeds.__getitem__)
 
@@ -143,13 +185,14 @@ def _last(bag, topic: str) -> int:
     return len(read_bag(bag, [topic]).messages[topic]) - 1
 
 
-def tamper(bag, out, rung: str, case: str) -> set[str]:
+def tamper(bag, out, rung: str, case: str, launch: list[str]) -> set[str]:
     """A copy of ``bag`` with one recorded value changed; the checks that must fail."""
-    force_topic, js = "/drs/piston_force", "/joint_states"
+    force_topic, js = topic(launch, "~/piston_force"), topic(launch, "/joint_states")
+    supply = topic(launch, "~/supply_pressure")
     if case == "healthy":
-        k = _fastest_state(bag)
+        k = _fastest_state(bag, js)
         if rung == "hydraulic":  # a chamber pressure 1 bar off: the force no longer matches it
-            edits = {"/drs/pressure_piston_side": (k, "fluid_pressure", 1e5)}
+            edits = {topic(launch, "~/pressure_piston_side"): (k, "fluid_pressure", 1e5)}
             expect = {"piston force vs chamber pressures"}
         else:  # the force changed alike in both places it is published
             value = 50.0 if rung == "kinematic" else 5.0
@@ -161,8 +204,7 @@ def tamper(bag, out, rung: str, case: str) -> set[str]:
         edits = {js: (_last(bag, js), "position", 1e-4)}
         expect = {"stroke vs faulty sensor model"}
     elif rung == "hydraulic":  # the supply, down to return pressure after the loss, 1 bar off
-        edits = {"/drs/supply_pressure": (_last(bag, "/drs/supply_pressure"), "fluid_pressure",
-                                          1e5)}  # fmt: skip
+        edits = {supply: (_last(bag, supply), "fluid_pressure", 1e5)}
         expect = {"supply pressure vs faults"}
     else:  # a force where the supply is lost
         k = _last(bag, js)
@@ -199,8 +241,7 @@ def test_a_run_is_judged_by_the_model_that_ran_it(tmp_path, request, rung, case,
     notes = " ".join(report["notes"])
     assert f"judged on the {rung} rung" in notes
     names = {c["name"] for c in report["checks"]}
-    set_faults = {f"fault.{p.name.removeprefix('fault.')}" for s in script
-                  if not isinstance(s, str) for p in s}  # fmt: skip
+    set_faults = {p.name for s in script if not isinstance(s, str) for p in s}
     assert {f["fault"] for f in report["faults"]} == set_faults  # each fault's span listed
     for span in report["faults"]:
         assert 0 < span["sim_from_s"] and 0 < span["log_from_ns"]
@@ -217,6 +258,31 @@ def test_a_run_is_judged_by_the_model_that_ran_it(tmp_path, request, rung, case,
     rc, rerun = verb_json("resimulate", str(bag))
     assert rc == 0 and all(r["max_deviation"] == 0.0 for r in rerun["signals"]), rerun
 
-    expect = tamper(bag, tmp_path / "tampered", rung, case)
+    expect = tamper(bag, tmp_path / "tampered", rung, case, launch)
     rc, report = verb_json("check", str(tmp_path / "tampered"))
     assert rc == 1 and expect <= failed(report), report["checks"]
+
+
+def test_a_fault_record_the_model_refuses_is_a_verdict(tmp_path, request):
+    """An effect record whose accepted leak is negative (no node accepts it): check says FAIL
+    with the record, not an internal error."""
+    script = ["open", [_p("leak_m3_per_s_per_pa", 2e-12)]]
+    bag, _ = run_node(tmp_path, domain_for(request.node.nodeid), "hydraulic", script, [])
+
+    def change(topic, index, msg):
+        if topic != "/drs/command_events":
+            return None
+        status = msg.status[0]
+        if status.name != "fault.leak_m3_per_s_per_pa":
+            return None
+        for kv in status.values:
+            if kv.key == "value":
+                kv.value = "-1.0"
+        return msg
+
+    assert tampered_copy(bag, tmp_path / "tampered", change) == 1
+    rc, report = verb_json("check", str(tmp_path / "tampered"))
+    assert rc == 1, report
+    row = next(c for c in report["checks"] if c["name"] == "recorded faults")
+    assert row["status"] == "FAIL" and "fault.leak_m3_per_s_per_pa = '-1.0'" in row["note"]
+    assert "must be >= 0" in row["note"]
