@@ -226,7 +226,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self._q, self._qd = q, qd
         self._qdd = kin.accelerations_from_flap_scalar(q, qd, bdd, self.p)
         pa, pb = hk.chamber_pressure(pa, h), hk.chamber_pressure(pb, h)
-        self._force = pa * h[hk.AREA_A] - pb * h[hk.AREA_B] - hk.friction_force(qd[0], h)
+        self._force = hk.rod_force(pa, pb, qd[0], h)
         self._at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
 
     def _state_extras(self) -> dict:
@@ -239,6 +239,12 @@ class HydraulicRung(RungMixin, ActuatorSim):
             "spool": xv if self.hydraulic.spool_time_constant > 0.0 or self._spool_held else None,
             "supply_pressure": self.supply_pressure(self.t),
         }
+
+    @property
+    def constants(self) -> tuple[float, ...]:
+        """The constants vector of :mod:`~drs_model.fidelity.hydraulic_kernels` in force now
+        (a leak or a jam set at run time changes it)."""
+        return self._h
 
     @property
     def y(self) -> np.ndarray:
@@ -393,11 +399,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
 
     def _rod_force(self) -> float:
         pa, pb = self.chamber_pressures()
-        return (
-            pa * self._h[hk.AREA_A]
-            - pb * self._h[hk.AREA_B]
-            - hk.friction_force(float(self._qd[0]), self._h)
-        )
+        return hk.rod_force(pa, pb, float(self._qd[0]), self._h)
 
     def _reference(self, t: float) -> tuple[float, float]:
         """The servo's stroke reference ``(s_ref, v_ref)`` [m, m/s] at ``t`` [s]."""

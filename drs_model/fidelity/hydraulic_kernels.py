@@ -168,6 +168,13 @@ def stop_force(s, sd, h):
     return 0.0
 
 
+def rod_force(pa, pb, sd, h):
+    """The force [N] the cylinder gives the rod (along +s) at chamber pressures ``pa``, ``pb``
+    [Pa] and rod speed ``sd`` [m/s]: the pressures on their areas less the friction (the stops'
+    contact force is the mechanism's, not the cylinder's). The rung's published piston force."""
+    return pa * h[AREA_A] - pb * h[AREA_B] - friction_force(sd, h)
+
+
 def chamber_volumes(s, h):
     """``(V_A, V_B)`` [m^3] at stroke ``s`` [m]."""
     return (h[VOL_A0] + h[AREA_A] * (s - h[S_MIN]), h[VOL_B0] + h[AREA_B] * (h[S_MAX] - s))
@@ -355,6 +362,7 @@ KERNELS = (
     relief_flow,
     friction_force,
     stop_force,
+    rod_force,
     chamber_volumes,
     servo_command,
     hydraulic_derivatives,

@@ -49,18 +49,21 @@ from .decoded import BagData, stream_bag
 from .files import BagReadError
 from .model_checks import CheckResult, ForceModelError, ModelChecker, load_force_model
 from .reader import MessageCallbackError, first_message
+from .run_checks import RunChecker, fault_report
 from .run_stats import STATS_TOPICS, RunStats
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
 
 
-def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
-    """A plain-text report: counts per topic, then one row per check."""
+def format_table(data: BagData, results: Sequence[CheckResult], faults: Sequence[dict] = ()) -> str:
+    """A plain-text report: counts per topic, the faults recorded (:func:`format_faults`), then
+    one row per check."""
     lines = [f"bag: {data.path}" + ("  (recovered prefix)" if data.recovered else "")]
     lines += [f"note: {n}" for n in data.notes]
     for topic, n in sorted(data.counts.items()):
         lines.append(f"  {topic:<28} {n:>8} messages")
+    lines += format_faults(faults, data.start_ns)
     # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
     t0 = min(data.first_stamp_s.values(), default=0.0)
     head = (
@@ -79,7 +82,26 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     return "\n".join(lines)
 
 
-def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
+def format_faults(faults: Sequence[dict], start_ns: int | None) -> list[str]:
+    """The recorded faults' spans, one line each: simulated time [s] and log time [s] from the
+    bag's first message."""
+    if not faults:
+        return []
+    start = start_ns or 0
+
+    def log(ns):
+        return "end" if ns is None else f"{(ns - start) * 1e-9:.6f}"
+
+    lines = ["", "faults (from the effect record; simulated time, and log time from the bag's "
+             "first message) [s]:"]  # fmt: skip
+    for f in faults:
+        to = "end" if f["sim_to_s"] is None else f"{f['sim_to_s']:.6f}"
+        lines.append(f"  {f['fault'] + ' = ' + repr(f['value']):<40} sim {f['sim_from_s']:.6f} .. "
+                     f"{to}   log {log(f['log_from_ns'])} .. {log(f['log_to_ns'])}")  # fmt: skip
+    return lines
+
+
+def to_json(data: BagData, results: Sequence[CheckResult], faults: Sequence[dict] = ()) -> str:
     """The report as JSON (NaN written as null)."""
 
     def clean(value):
@@ -91,6 +113,7 @@ def to_json(data: BagData, results: Sequence[CheckResult]) -> str:
             "recovered": data.recovered,
             "notes": data.notes,
             "messages": data.counts,
+            "faults": list(faults),
             "checks": [{k: clean(v) for k, v in asdict(r).items()} for r in results],
             "ok": not any(r.status == "FAIL" for r in results),
         },
@@ -114,6 +137,12 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     )
     ap.add_argument(
         "--force-tol", type=float, default=1.0, help="tolerance of the force checks [N] (default 1)"
+    )
+    ap.add_argument(
+        "--pressure-tol",
+        type=float,
+        default=1.0,
+        help="tolerance of the hydraulic rung's pressure checks [Pa] (default 1)",
     )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     ap.add_argument(
@@ -215,6 +244,8 @@ class CheckOutcome:
     error: str = ""
     params: DRSParams | None = None
     stats: RunStats | None = None
+    faults: list[dict] = field(default_factory=list)
+    rung: str | None = None
 
 
 def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcome:
@@ -230,7 +261,7 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
             params, origin = from_file(args.params), None
         else:
             params, origin = recorded_params(bag)
-        checker = ModelChecker(
+        model = ModelChecker(
             params,
             tol=args.tol,
             force_tol=args.force_tol,
@@ -241,7 +272,8 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
             max_match_s=args.max_match,
             force_model_tol=args.force_model_tol,
         )
-        wanted = list(topics.values()) + [DEFAULT_TOPICS["parameter_events"]]
+        checker = RunChecker(model, pressure_tol=getattr(args, "pressure_tol", 1.0))
+        wanted = checker.topics
 
         def take(topic: str, log_ns: int, msg) -> None:
             if topic in wanted:
@@ -249,12 +281,13 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
             if figures is not None:
                 figures.add(topic, log_ns, msg)
 
-        read = wanted + ([t for t in STATS_TOPICS if t not in wanted] if stats else [])
+        read = list(wanted) + ([t for t in STATS_TOPICS if t not in wanted] if stats else [])
         data = stream_bag(bag, read, take, recover=args.recover)
         data.first_stamp_s = {t: v for t, v in data.first_stamp_s.items() if t in wanted}
         if origin is not None:
             data.notes.append(f"model parameters: {origin}")
         results = checker.results()
+        data.notes += run_notes(checker)
     except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
         return CheckOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): "
                             f"{exc}", params=params)  # fmt: skip
@@ -268,7 +301,20 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False) -> CheckOutcom
         status = EXIT_FAILED
     else:
         status = EXIT_RECOVERED if data.recovered else EXIT_OK
-    return CheckOutcome(status, data, results, "", params, figures)
+    faults = fault_report(checker.run)
+    return CheckOutcome(status, data, results, "", params, figures, faults, checker.rung)
+
+
+def run_notes(checker: RunChecker) -> list[str]:
+    """What the report says of the run's rung and of its faults refused."""
+    run = checker.run
+    if checker.rung is None:
+        rung = f"the rung of the run is unknown: {checker.rung_error}"
+    elif run.fidelity == "auto":
+        rung = f"judged on the {checker.rung} rung (fidelity auto's choice, in the effect record)"
+    else:
+        rung = f"judged on the {checker.rung} rung (the recorded fidelity parameter)"
+    return [rung, *run.notes]
 
 
 #: Table columns of each check's result: check name -> column prefix.
@@ -279,6 +325,10 @@ CHECK_COLUMNS = {
     "gap vs kinematics.gap(q)": "gap_vs_model_m",
     "piston force vs model, logged accel.": "piston_force_vs_model_n",
     "piston force vs model": "piston_force_vs_model_n",
+    "piston force vs statics": "piston_force_vs_model_n",
+    "piston force vs chamber pressures": "piston_force_vs_pressures_n",
+    "supply pressure vs faults": "supply_pressure_vs_faults_pa",
+    "stroke vs faulty sensor model": "stroke_vs_sensor_model_m",
 }
 #: Columns of the printed summary of a fleet.
 SUMMARY_COLUMNS = ("messages", "duration_s", "peak_force_n", "largest_gap_m", "refused_commands",
@@ -306,6 +356,8 @@ def fleet_row(bag: str, args: argparse.Namespace) -> dict:
         row["notes"] = data.notes
     figures = (outcome.stats or RunStats()).row()
     row.update(figures if data is not None else dict.fromkeys(figures))  # unread: nulls
+    row["fidelity"] = outcome.rung
+    row["faults"] = [f"{f['fault']}={f['value']!r}" for f in outcome.faults]
     row.update(fleet.param_columns(outcome.params))
     return row
 
@@ -320,7 +372,8 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
         print(f"{prog}: {outcome.error}", file=sys.stderr)
         return outcome.status
     data, results = outcome.data, outcome.results
-    print(to_json(data, results) if args.json else format_table(data, results))
+    faults = outcome.faults
+    print(to_json(data, results, faults) if args.json else format_table(data, results, faults))
     return outcome.status
 
 

@@ -201,7 +201,7 @@ def to_table(rows: list[dict]):
             inner = next(iter(sample.values()))
             kind = pa.map_(pa.string(), pa.int64() if isinstance(inner, int) else pa.string())
             data[name] = [list((v or {}).items()) for v in values]
-        elif isinstance(sample, list) or name == "notes":
+        elif any(isinstance(v, list) for v in values):  # empty in every row, too
             kind = pa.list_(pa.string())
         else:
             kind = (pa.bool_() if isinstance(sample, bool) else
