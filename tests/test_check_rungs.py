@@ -285,4 +285,4 @@ def test_a_fault_record_the_model_refuses_is_a_verdict(tmp_path, request):
     assert rc == 1, report
     row = next(c for c in report["checks"] if c["name"] == "recorded faults")
     assert row["status"] == "FAIL" and "fault.leak_m3_per_s_per_pa = '-1.0'" in row["note"]
-    assert "must be >= 0" in row["note"]
+    assert "must be in [0, " in row["note"]  # the fault's physical range, named
