@@ -12,7 +12,7 @@ from identify_support import noisy_record, run_rung
 from drs_model.errors import InputError, ParameterError
 from drs_model.fidelity import HydraulicParams
 from drs_model.identify import intervals as iv
-from drs_model.identify.fit import fit
+from drs_model.identify.driver import fit
 from drs_model.identify.output_error import OutputErrorProblem, fit_output_error, profile_chi2
 from drs_model.identify.parameters import with_values
 

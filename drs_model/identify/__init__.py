@@ -12,13 +12,13 @@
 * :mod:`.output_error`: stage 2, the recorded commands re-simulated and the signals fitted;
 * :mod:`.intervals`: Jacobian and profile-likelihood intervals;
 * :mod:`.results`: estimates, fitted signals, stages;
-* :mod:`.fit`: the driver (``drs-bag fit``).
+* :mod:`.driver`: the fit, stage by stage (``drs-bag fit``).
 
 docs/identify.md describes the whole.
 """
 
+from .driver import FIT_RUNGS, fit
 from .equation_error import equation_error
-from .fit import FIT_RUNGS, fit
 from .identifiability import Identifiability, assess
 from .parameters import RIGID_PARAMETERS, FitParameter, fit_parameter, hydraulic_field_names
 from .record import Record

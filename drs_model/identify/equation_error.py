@@ -28,7 +28,7 @@ from ..fidelity.hydraulic_params import HydraulicParams
 from ..kinematics import stroke_limits
 from ..params import DRSParams
 from . import continuity, friction
-from .identifiability import Identifiability, assess, too_wide
+from .identifiability import Identifiability, assess, too_wide, wide_reason
 from .intervals import profile_interval, quantile, wald_interval
 from .least_squares import weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
@@ -73,13 +73,11 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
         if kinds and name in kinds:
             (lo, hi), kind = kinds[name]
         if too_wide(value, 0.5 * (hi - lo), fp.scale) or not math.isfinite(hi - lo):
-            reason = (f"its {100 * level:g} % interval [{lo:.4g}, {hi:.4g}] {fp.unit} is wider "
-                      f"than its size: the data do not determine it; to determine it: "
-                      f"{fp.motion}")  # fmt: skip
+            reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)
             out.append(Estimate(name, fp.unit, math.nan, math.nan, math.nan, std, start, stage,
-                                "", reason))  # fmt: skip
+                                "", reason, value))  # fmt: skip
             continue
-        out.append(Estimate(name, fp.unit, value, lo, hi, std, start, stage, kind))
+        out.append(Estimate(name, fp.unit, value, lo, hi, std, start, stage, kind, "", value))
     return out
 
 

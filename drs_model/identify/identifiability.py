@@ -145,6 +145,22 @@ def assess(J, names: Sequence[str], scales, rtol: float = RANK_RTOL) -> Identifi
                            tuple(pairs))  # fmt: skip
 
 
+def trades_with(name: str, ident: Identifiability) -> list[str]:
+    """The determined parameters ``name`` trades off with (:attr:`Identifiability.pairs`)."""
+    return [b if a == name else a for a, b, _ in ident.pairs if name in (a, b)]
+
+
+def wide_reason(name: str, interval: tuple[float, float], unit: str, level: float,
+                ident: Identifiability, motion: str) -> str:  # fmt: skip
+    """Why an estimate whose interval is too wide (:func:`too_wide`) is not reported: the
+    interval, what it trades off with, the motion that would determine it."""
+    partners = trades_with(name, ident)
+    trade = f"; it trades off with {', '.join(partners)}" if partners else ""
+    return (f"its {100 * level:g} % interval [{interval[0]:.4g}, {interval[1]:.4g}] {unit} is "
+            f"wider than its size: the data do not determine it{trade}; to determine it: "
+            f"{motion}")  # fmt: skip
+
+
 def too_wide(estimate: float, half_width: float, scale: float) -> bool:
     """Whether an interval of ``half_width`` says the data do not determine a parameter of
     ``estimate`` and typical size ``scale``: wider than ``max(|estimate|, scale)`` (the value
@@ -159,4 +175,6 @@ __all__ = [
     "Identifiability",
     "assess",
     "too_wide",
+    "trades_with",
+    "wide_reason",
 ]

@@ -33,6 +33,11 @@ RESOLUTION = {
 
 #: Relative step of the forward-difference Jacobian (in ``x = theta / scale``).
 DIFF_STEP = 1e-4
+#: Distance [typical sizes] a start keeps from a bound.
+START_MARGIN = 1e-2
+#: Iterations of each re-fit of the others along a profile (each starts at the estimate, a
+#: small step away from where they fit: a few Gauss-Newton steps converge).
+PROFILE_ITERATIONS = 4
 
 
 @dataclass
@@ -118,7 +123,9 @@ class _Residuals:
 def _solve(problem, noise, x0, max_nfev):
     res_fn = _Residuals(problem, noise)
     lb, ub = problem.lower / problem.scale, problem.upper / problem.scale
-    x0 = np.clip(x0, lb, ub)
+    # strictly inside: the trust-region-reflective scaling holds a variable that starts on a
+    # bound there (a leak started at 0 never moved)
+    x0 = np.clip(x0, lb + START_MARGIN, ub - START_MARGIN)
     res = least_squares(res_fn, x0, bounds=(lb, ub), method="trf", diff_step=DIFF_STEP,
                         x_scale=1.0, max_nfev=max_nfev)  # fmt: skip
     return res, res_fn
@@ -199,7 +206,7 @@ def profile_chi2(problem: OutputErrorProblem, fit: NonlinearFit, i: int,
                                                           for k in others]))),
             problem.measured, fit.noise)  # fmt: skip
         res, fn = _solve(reduced, fit.noise, fit.estimate[others] / problem.scale[others],
-                         max_nfev or 15 * len(others))  # fmt: skip
+                         max_nfev or PROFILE_ITERATIONS)  # fmt: skip
         return float(2.0 * res.cost)
 
     return at

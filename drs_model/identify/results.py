@@ -32,6 +32,9 @@ class Estimate:
         ``"jacobian"`` or ``"profile"`` (or ``""`` with no value).
     reason : str
         Why no value: what the data cannot separate, and the motion that would determine it.
+    guess : float
+        The number the stage computed, reported or not (a withheld one is still the best start
+        for the next stage; never a result).
     """
 
     name: str
@@ -44,6 +47,7 @@ class Estimate:
     stage: str
     interval: str = "jacobian"
     reason: str = ""
+    guess: float = math.nan
 
     @property
     def determined(self) -> bool:

@@ -27,7 +27,7 @@ from ..fidelity.hydraulic_params import HydraulicParams
 from ..params import DRSParams
 from . import intervals as iv
 from .equation_error import EQUATION_PARAMETERS, equation_error
-from .identifiability import assess, too_wide
+from .identifiability import assess, too_wide, wide_reason
 from .output_error import OutputErrorProblem, fit_output_error, profile_chi2
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import SIGNALS, Record
@@ -119,13 +119,11 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
             kind = "profile"
         if not (math.isfinite(lo) and math.isfinite(hi)) or too_wide(value, 0.5 * (hi - lo),
                                                                       fp.scale):  # fmt: skip
-            reason = (f"its {100 * level:g} % interval [{lo:.4g}, {hi:.4g}] {fp.unit} is wider "
-                      f"than its size: the data do not determine it; to determine it: "
-                      f"{fp.motion}")  # fmt: skip
+            reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)
             out.append(Estimate(name, fp.unit, math.nan, math.nan, math.nan, std, start,
-                                "output", "", reason))  # fmt: skip
+                                "output", "", reason, value))  # fmt: skip
             continue
-        out.append(Estimate(name, fp.unit, value, lo, hi, std, start, "output", kind))
+        out.append(Estimate(name, fp.unit, value, lo, hi, std, start, "output", kind, "", value))
     return out
 
 
@@ -213,7 +211,8 @@ def fit(record: Record, names: Sequence[str], rung: str, p: DRSParams,
         final = {e.name: e for s in stages for e in s.estimates}
     notes = []
     if stage in ("both", "output") and simulate is not None:
-        starts = {n: (final[n].value if n in final and final[n].determined
+        # the equation error's numbers, withheld or not, are the best starts it has
+        starts = {n: (final[n].guess if n in final and math.isfinite(final[n].guess)
                       else current_value(n, p, hp)) for n in names}  # fmt: skip
         out = output_stage(record, names, rung, p, hp, simulate, starts, level, noise, signals,
                            max_nfev)  # fmt: skip
