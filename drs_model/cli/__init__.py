@@ -15,7 +15,7 @@ from ._common import dumps
 
 #: Subcommand modules of this package, in help order. Each defines ``register(subparsers)`` and
 #: sets ``func`` (returning an ``Output``) on its parsers.
-SUBCOMMAND_MODULES = ("geometry", "coriolis", "dynamics", "forward", "fidelity", "study")
+SUBCOMMAND_MODULES = ("geometry", "coriolis", "dynamics", "forward", "fidelity", "study", "excite")
 
 
 def build_parser() -> argparse.ArgumentParser:

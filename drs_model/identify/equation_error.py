@@ -16,6 +16,7 @@ size is reported as not determined.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -33,23 +34,8 @@ from .intervals import profile_interval, quantile, wald_interval
 from .least_squares import weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
-from .regressor import rigid_regressor, rigid_values
+from .regressor import rigid_regressor, rigid_values, rigid_weights
 from .results import Estimate, FittedSignal, StageFit
-
-#: Relative step [of the stroke range] of the force's stroke derivative in the rigid weights.
-_WEIGHT_STEP = 1e-6
-#: Floor of ``|dF/ds|`` in the rigid weights, as a fraction of its RMS over the run.
-_WEIGHT_FLOOR = 1e-6
-
-
-def rigid_weights(s, sd, sdd, p: DRSParams) -> np.ndarray:
-    """``1 / ((dF/ds)^2 + floor^2)`` at each sample: the inverse variance, up to the stroke
-    noise's, that a stroke error gives the residual ``F - Y(s) theta``."""
-    theta = rigid_values(p)
-    h = _WEIGHT_STEP * (p.gap_open - p.gap_closed)
-    g = (rigid_regressor(s + h, sd, sdd, p) - rigid_regressor(s - h, sd, sdd, p)) @ theta / (2 * h)
-    floor = _WEIGHT_FLOOR * math.sqrt(float(np.mean(g * g))) + 1e-300
-    return 1.0 / (g * g + floor * floor)
 
 
 def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, stage: str,
@@ -62,7 +48,9 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
         fp = fit_parameter(name, p, hp)
         start = current_value(name, p, hp)
         if name in ident.undetermined:
-            reason = f"{ident.undetermined[name]}; to determine it: {fp.motion}"
+            reason = ident.undetermined[name]
+            if STRUCTURAL not in reason:
+                reason += f"; to determine it: {fp.motion}"
             out.append(Estimate(name, fp.unit, math.nan, math.nan, math.nan, math.nan, start,
                                 stage, "", reason))  # fmt: skip
             continue
@@ -107,7 +95,7 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     ok = np.isfinite(s) & np.isfinite(sd) & np.isfinite(sdd) & np.isfinite(record.piston_force)
     if rung == "hydraulic":  # the compliant stops' force is in no signal: off the stops only
         lo, hi = stroke_limits(p)
-        ok &= (s > lo) & (s < hi)
+        ok &= (s > lo + STOP_BAND) & (s < hi - STOP_BAND)
     held = [n for n in RIGID_PARAMETERS if n not in names]
     Y = rigid_regressor(s[ok], sd[ok], sdd[ok], p)
     theta = rigid_values(p)
@@ -118,6 +106,7 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     scales = [fit_parameter(n, p).scale for n in names]
     ident, values, fit, fitted = _solve(Y[:, cols], y, w, list(names), scales, theta[cols],
                                         "classic")  # fmt: skip
+    ident = _structure(ident, names, p, scales, rung)
     kept = [n for n in names if n in values]
     cov = fit.covariance
     est = _estimates(names, {n: values[n] for n in kept}, cov, fit.dof, level, p,
@@ -126,6 +115,39 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
                          fitted + Y[:, held_cols] @ theta[held_cols])  # fmt: skip
     return StageFit("equation", "rigid force", tuple(est), ident, (force,), fit.sigma2,
                     fit.dof, time.perf_counter() - started)  # fmt: skip
+
+
+#: Samples measured within this distance [m] of a stop are left out of the hydraulic rung's
+#: rigid regression: a rod on a compliant stop sits micrometres past it, and the stroke sensor's
+#: noise moves it about (the stop's force is in no recorded signal).
+STOP_BAND = 1e-4
+#: How a reason says that no motion determines a parameter.
+STRUCTURAL = "no motion of the mechanism separates it"
+
+
+def _structure(ident: Identifiability, names, p: DRSParams, scales, rung: str):
+    """Tell what no motion separates from what this run does not: the same regression on a
+    rich motion (:func:`~.excitation.reference_motion`)."""
+    from .excitation import reference_motion
+
+    lacking = [n for n, why in ident.undetermined.items() if "cannot separate" in why]
+    if not lacking:
+        return ident
+    s, sd, sdd = reference_motion(p)
+    if rung == "quasi-static":
+        sd, sdd = np.zeros_like(sd), np.zeros_like(sdd)
+    Y = rigid_regressor(s, sd, sdd, p, names) * np.sqrt(rigid_weights(s, sd, sdd, p))[:, None]
+    structural = {m for group in assess(Y, names, scales).groups for m in group}
+    why = dict(ident.undetermined)
+    for n in lacking:
+        if n in structural:
+            partners = sorted({m for g in ident.groups if n in g for m in g} - {n})
+            why[n] = (f"{STRUCTURAL} from {', '.join(partners)} (its effect is a combination "
+                      "of theirs): hold one of them at a value from another source, a weighing "
+                      "or a CAD inertia")  # fmt: skip
+        else:
+            why[n] += f" (a richer motion does: drs excite --params {','.join(names)})"
+    return dataclasses.replace(ident, undetermined=why)
 
 
 def continuity_stage(record: Record, names: Sequence[str], p: DRSParams, hp: HydraulicParams,
@@ -249,4 +271,4 @@ EQUATION_PARAMETERS = (*RIGID_PARAMETERS, *continuity.CONTINUITY_PARAMETERS,
                        *friction.FRICTION_PARAMETERS)  # fmt: skip
 
 __all__ = ["EQUATION_PARAMETERS", "continuity_stage", "equation_error", "friction_stage",
-           "rigid_stage", "rigid_weights"]  # fmt: skip
+           "rigid_stage"]  # fmt: skip

@@ -23,6 +23,8 @@ On the ``quasi-static`` rung the force is the statics alone: the regressor at ``
 from __future__ import annotations
 
 import dataclasses
+import functools
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -43,6 +45,12 @@ LINEAR_CONSTANTS = (
 def constants_map(p: DRSParams) -> np.ndarray:
     """``D = d c_L / d theta``, shape ``(9, 9)``: how the linear constants follow the fields of
     :data:`RIGID_PARAMETERS` at the geometry of ``p`` (a unit step of each field)."""
+    return _constants_map(p).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _constants_map(p: DRSParams) -> np.ndarray:
+    """:func:`constants_map`, once per parameter set (each step solves the gap rule: ~1 ms)."""
     idx = list(LINEAR_CONSTANTS)
     base = np.array(model_constants(p))[idx]
     out = np.empty((len(idx), len(RIGID_PARAMETERS)))
@@ -52,11 +60,16 @@ def constants_map(p: DRSParams) -> np.ndarray:
     return out
 
 
+@functools.lru_cache(maxsize=64)
+def _model_constants(p: DRSParams) -> tuple[float, ...]:
+    return model_constants(p)
+
+
 def constant_columns(s, sd, sdd, p: DRSParams) -> np.ndarray:
     """``Phi``, shape ``(n, 9)``: the fused force with each linear constant set to 1 and the
     others to 0, at strokes ``s`` [m], rates ``sd`` [m/s], accelerations ``sdd`` [m/s^2]."""
     s, sd, sdd = np.broadcast_arrays(*(np.asarray(x, dtype=float).ravel() for x in (s, sd, sdd)))
-    consts = np.array(model_constants(p))
+    consts = np.array(_model_constants(p))
     out = np.empty((s.size, len(LINEAR_CONSTANTS)))
     for j, k in enumerate(LINEAR_CONSTANTS):
         unit = consts.copy()
@@ -92,5 +105,23 @@ def rigid_values(p: DRSParams, names: Sequence[str] = RIGID_PARAMETERS) -> np.nd
     return np.array([float(getattr(p, n)) for n in names])
 
 
+#: Relative step [of the stroke range] of the force's stroke derivative in the rigid weights.
+_WEIGHT_STEP = 1e-6
+#: Floor of ``|dF/ds|`` in the rigid weights, as a fraction of its RMS over the run.
+_WEIGHT_FLOOR = 1e-6
+
+
+def rigid_weights(s, sd, sdd, p: DRSParams) -> np.ndarray:
+    """``1 / ((dF/ds)^2 + floor^2)`` at each sample: the inverse variance, up to the stroke
+    noise's, that a stroke error gives the residual ``F - Y(s) theta``."""
+    consts = _model_constants(p)
+    h = _WEIGHT_STEP * (p.gap_open - p.gap_closed)
+    up = elementwise.fused_force(np.asarray(s) + h, sd, sdd, consts)
+    down = elementwise.fused_force(np.asarray(s) - h, sd, sdd, consts)
+    g = (np.asarray(up) - np.asarray(down)) / (2 * h)  # the force Y theta, evaluated directly
+    floor = _WEIGHT_FLOOR * math.sqrt(float(np.mean(g * g))) + 1e-300
+    return 1.0 / (g * g + floor * floor)
+
+
 __all__ = ["LINEAR_CONSTANTS", "constant_columns", "constants_map", "rigid_regressor",
-           "rigid_values"]  # fmt: skip
+           "rigid_values", "rigid_weights"]  # fmt: skip

@@ -1,8 +1,7 @@
 """An excitation (``drs excite``) as the node takes it: a ``trajectory_msgs/JointTrajectory`` of
 the piston joint, written as a bag that ``drs-bag play`` publishes on the node's
-``~/trajectory_cmd`` (the node follows it as its trajectory command), and as a
-``control_msgs/FollowJointTrajectory`` goal (a YAML file, for ``ros2 action send_goal`` or any
-action client).
+``~/trajectory_cmd`` (the node follows it as its trajectory command). (The FollowJointTrajectory
+goal file is plain data: :meth:`drs_model.identify.excitation.Excitation.goal`.)
 """
 
 from __future__ import annotations
@@ -49,16 +48,4 @@ def write_trajectory_bag(bag_dir: str | Path, times, strokes, rates=None, *,
     return Path(bag_dir)
 
 
-def goal_document(times, strokes, rates=None, *, joint: str = DEFAULT_JOINT_NAMES[0]) -> dict:
-    """The FollowJointTrajectory goal as a plain mapping (``ros2 action send_goal``'s YAML)."""
-    points = []
-    for k, (t, s) in enumerate(zip(times, strokes, strict=True)):
-        sec, nanosec = divmod(int(round(float(t) * 1e9)), 1_000_000_000)
-        point = {"positions": [float(s)], "time_from_start": {"sec": sec, "nanosec": nanosec}}
-        if rates is not None:
-            point["velocities"] = [float(rates[k])]
-        points.append(point)
-    return {"trajectory": {"joint_names": [joint], "points": points}}
-
-
-__all__ = ["goal_document", "trajectory_message", "write_trajectory_bag"]
+__all__ = ["trajectory_message", "write_trajectory_bag"]
