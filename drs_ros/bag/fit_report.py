@@ -61,7 +61,7 @@ def document(bag: str, result: FitResult, measured) -> dict:
     return doc
 
 
-def dumps(doc: dict) -> str:
+def dumps(doc) -> str:
     """Strict JSON (NaN as null)."""
 
     def clean(x):
