@@ -148,3 +148,20 @@ def test_a_leak_on_the_rigid_rung_is_no_regression_of_it(rigid_run, params):
     stages = equation_error(noisy_record(rigid_run), ["m_pist"], "rigid", params,
                             HydraulicParams())  # fmt: skip
     assert [s.label for s in stages] == ["rigid force"]
+
+
+def test_the_stroke_noise_does_not_bias_an_ill_conditioned_fit(rigid_run, params):
+    """All nine rigid parameters: the air law's four values trade off almost exactly (a
+    correlation of 0.9999), and the stroke noise in the regressor biased them by 2.3 standard
+    errors in every run before the errors-in-variables correction; with it, the mean error over
+    100 seeded runs is within 0.6 standard errors."""
+    air = ("F_drag_open", "F_drag_closed", "F_down_open", "F_down_closed")
+    z = {n: [] for n in air}
+    for seed in range(100):
+        stage = rigid_stage(noisy_record(rigid_run, 1e-5, seed), RIGID_PARAMETERS, "rigid",
+                            params, 0.95)  # fmt: skip
+        for e in stage.estimates:
+            if e.name in air and e.std > 0:
+                z[e.name].append((e.guess - float(getattr(params, e.name))) / e.std)
+    for name, values in z.items():
+        assert len(values) == 100 and abs(np.mean(values)) < 0.6, (name, np.mean(values))

@@ -85,3 +85,25 @@ def test_bad_input_is_refused(X, y, match):
 def test_an_unknown_covariance_is_refused():
     with pytest.raises(InputError, match="covariance must be one of"):
         weighted_least_squares(np.ones((5, 1)), np.ones(5), covariance="robust")
+
+
+def test_errors_in_variables_takes_the_attenuation_off():
+    """``y = theta s`` with ``s`` read with noise: plain least squares shrinks ``theta`` by
+    ``sum s^2 / (sum s^2 + n sigma^2)`` (3.6 % here: the classic attenuation), the corrected
+    one does not."""
+    from drs_model.identify.least_squares import errors_in_variables
+
+    rng = np.random.default_rng(2)
+    s = np.linspace(0.5, 1.5, 400)
+    sigma = 0.2
+    plain, corrected = [], []
+    for _ in range(200):
+        m = s + sigma * rng.normal(size=s.size)
+        X = np.column_stack([m])
+        y = 3.0 * s
+        plain.append(weighted_least_squares(X, y).estimate[0])
+        corrected.append(errors_in_variables(X, y, np.ones_like(s), np.ones_like(X),
+                                             np.zeros_like(s), sigma**2).estimate[0])  # fmt: skip
+    expected = np.sum(s * s) / (np.sum(s * s) + s.size * sigma**2)
+    assert np.mean(plain) / 3.0 == pytest.approx(expected, abs=2e-3)
+    assert np.mean(corrected) / 3.0 == pytest.approx(1.0, abs=2e-3)

@@ -45,6 +45,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--bag", metavar="DIR", help="write a bag holding the trajectory command "
                    "(drs-bag play DIR sends it to the node; needs the ros extra)")  # fmt: skip
     p.add_argument("--joint", default="drs_piston", help="the piston joint (drs_piston)")
+    p.add_argument("--plot", metavar="PNG", help="the stroke and rate of the excitation and of "
+                   "the seed's manoeuvre, as the rung runs them")  # fmt: skip
     p.set_defaults(func=run_excite)
 
 
@@ -66,6 +68,29 @@ def _write_bag(path: str, ex, joint: str) -> None:
     except ImportError as exc:
         raise InputError(f"--bag needs the ros extra (pip install 'drs[ros]'): {exc}") from None
     write_trajectory_bag(path, ex.times, ex.strokes, ex.rates, joint=joint)
+
+
+def _plot(path: str, t, excitation, seed, rung: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    for (s, sd, _), label, style in ((excitation, "excitation", "-"),
+                                     (seed, "seed manoeuvre", "--")):  # fmt: skip
+        ax.plot(t * 1e3, s * 1e3, style, label=label)
+        bx.plot(t * 1e3, sd, style, label=label)
+    ax.set_ylabel("stroke [mm]")
+    bx.set_ylabel("stroke rate [m/s]")
+    bx.set_xlabel("time [ms]")
+    ax.set_title(f"as the {rung} rung runs them")
+    for a in (ax, bx):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def run_excite(args: argparse.Namespace) -> Output:
@@ -103,6 +128,10 @@ def run_excite(args: argparse.Namespace) -> Output:
                                                           args.sample_period, args.noise),
                                names, p, hp)  # fmt: skip
     files = {}
+    if args.plot:
+        seed = rung_motion(p, hp, args.fidelity, length, args.sample_period)
+        _plot(args.plot, ex.t, ran, seed, args.fidelity)
+        files["plot"] = args.plot
     if args.output:
         _write_goal(args.output, ex.goal(args.joint))
         files["goal"] = args.output

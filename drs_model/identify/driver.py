@@ -28,7 +28,13 @@ from ..params import DRSParams
 from . import intervals as iv
 from .equation_error import EQUATION_PARAMETERS, equation_error
 from .identifiability import assess, too_wide, wide_reason
-from .output_error import OutputErrorProblem, fit_output_error, profile_chi2
+from .output_error import (
+    RESOLUTION,
+    START_MARGIN,
+    OutputErrorProblem,
+    fit_output_error,
+    profile_chi2,
+)
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import SIGNALS, Record
 from .results import Estimate, FitResult, FittedSignal, StageFit
@@ -140,12 +146,13 @@ def output_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     if not measured:
         raise InputError(f"the run recorded none of the signals {list(wanted)}")
     fps = [fit_parameter(n, p, hp) for n in names]
-    problem = OutputErrorProblem(
-        tuple(names), np.array([starts[n] for n in names]), np.array([f.lower for f in fps]),
-        np.array([f.upper for f in fps]),
-        np.array([max(abs(starts[n]), f.scale) for n, f in zip(names, fps, strict=True)]),
-        simulate, measured, noise)  # fmt: skip
-    from .output_error import RESOLUTION
+    lower, upper = np.array([f.lower for f in fps]), np.array([f.upper for f in fps])
+    scale = np.array([max(abs(starts[n]), f.scale) for n, f in zip(names, fps, strict=True)])
+    # a start outside the bounds (an equation-error guess of a negative leak) comes inside them
+    start = np.clip([starts[n] for n in names], lower + START_MARGIN * scale,
+                    upper - START_MARGIN * scale)  # fmt: skip
+    problem = OutputErrorProblem(tuple(names), start, lower, upper, scale, simulate, measured,
+                                 noise)  # fmt: skip
 
     floor = {k: (noise or {}).get(k, RESOLUTION.get(k, 1.0)) for k in measured}
     ident = assess(_sensitivity(problem, floor), names, problem.scale)

@@ -31,7 +31,7 @@ from ..params import DRSParams
 from . import continuity, friction
 from .identifiability import Identifiability, assess, too_wide, wide_reason
 from .intervals import profile_interval, quantile, wald_interval
-from .least_squares import weighted_least_squares
+from .least_squares import errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
 from .regressor import rigid_regressor, rigid_values, rigid_weights
@@ -106,13 +106,14 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     scales = [fit_parameter(n, p).scale for n in names]
     ident, values, fit, fitted = _solve(Y[:, cols], y, w, list(names), scales, theta[cols],
                                         "classic")  # fmt: skip
-    ident = _structure(ident, names, p, scales, rung)
     kept = [n for n in names if n in values]
-    cov = fit.covariance
-    est = _estimates(names, {n: values[n] for n in kept}, cov, fit.dof, level, p,
-                     HydraulicParams(), ident, "equation")  # fmt: skip
-    force = FittedSignal("piston_force", "N", record.t[ok], record.piston_force[ok],
-                         fitted + Y[:, held_cols] @ theta[held_cols])  # fmt: skip
+    fit, fitted = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p, kept,
+                                   fit.sigma2, w)  # fmt: skip
+    values = dict(zip(kept, map(float, fit.estimate), strict=True))
+    ident = _structure(ident, names, p, scales, rung)
+    est = _estimates(names, values, fit.covariance, fit.dof, level, p, HydraulicParams(), ident,
+                     "equation")  # fmt: skip
+    force = FittedSignal("piston_force", "N", record.t[ok], record.piston_force[ok], fitted)
     return StageFit("equation", "rigid force", tuple(est), ident, (force,), fit.sigma2,
                     fit.dof, time.perf_counter() - started)  # fmt: skip
 
@@ -121,8 +122,26 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
 #: rigid regression: a rod on a compliant stop sits micrometres past it, and the stroke sensor's
 #: noise moves it about (the stop's force is in no recorded signal).
 STOP_BAND = 1e-4
+#: Step [m] of the regressor's stroke derivative in the noise correction.
+_DERIVATIVE_STEP = 1e-8
 #: How a reason says that no motion determines a parameter.
 STRUCTURAL = "no motion of the mechanism separates it"
+
+
+def _noise_corrected(force, s, sd, sdd, p, kept, sigma2, w):
+    """The rigid fit of ``kept`` again, corrected for the stroke noise the regressor is
+    evaluated at (:func:`~.least_squares.errors_in_variables`; ``sigma2`` the first fit's: its
+    weights make the whitened residual the stroke error itself), the other rigid parameters at
+    their values in ``p``. Returns ``(fit, fitted force)``."""
+    h = _DERIVATIVE_STEP
+    Y = rigid_regressor(s, sd, sdd, p)
+    dY = (rigid_regressor(s + h, sd, sdd, p) - rigid_regressor(s - h, sd, sdd, p)) / (2 * h)
+    theta = rigid_values(p)
+    k = [RIGID_PARAMETERS.index(n) for n in kept]
+    j = [i for i in range(len(RIGID_PARAMETERS)) if i not in k]
+    rest = Y[:, j] @ theta[j]
+    fit = errors_in_variables(Y[:, k], force - rest, w, dY[:, k], -dY[:, j] @ theta[j], sigma2)
+    return fit, Y[:, k] @ fit.estimate + rest
 
 
 def _structure(ident: Identifiability, names, p: DRSParams, scales, rung: str):

@@ -120,4 +120,43 @@ def weighted_least_squares(X, y, weights=None, covariance: str = "classic") -> L
     return LinearFit(estimate, cov, residuals, sigma2, dof)
 
 
-__all__ = ["COVARIANCES", "LinearFit", "hac_lag", "weighted_least_squares"]
+def errors_in_variables(X, y, w, dX, dy, sigma2: float) -> LinearFit:
+    r"""Weighted least squares corrected for noise in one measured variable ``m = s + n`` that
+    both ``X`` and ``y`` are evaluated at (``Var n = sigma2``), to first order in ``n``:
+    ``X(m) = X(s) + dX n``, ``y(m) = y(s) + dy n``. The normal equations' expectations gain
+    ``sigma2 sum w dX^T dX`` and ``sigma2 sum w dX^T dy``, which are taken off (corrected least
+    squares, Fuller, "Measurement Error Models", 1987, ch. 2):
+
+    .. math::  (X^T W X - \sigma^2 \textstyle\sum_i w_i dX_i^T dX_i)\,\theta
+               = X^T W y - \sigma^2 \textstyle\sum_i w_i dX_i^T dy_i
+
+    Without it the estimate is biased towards the noise's own direction, by an amount the
+    information's smallest eigenvalues magnify (an ill-conditioned fit's bias outgrows its
+    interval). The covariance is ``s^2`` times the corrected matrix's inverse.
+    """
+    X, y, w = (np.asarray(a, dtype=float) for a in (X, y, w))
+    dX, dy = np.asarray(dX, dtype=float), np.asarray(dy, dtype=float)
+    _check(X, y, w)
+    n, p = X.shape
+    norms = np.linalg.norm(X, axis=0)
+    norms[norms == 0.0] = 1.0
+    Xn, dXn = X / norms, dX / norms
+    sw = np.sqrt(w)
+    # the uncorrected solution by QR (the normal equations square the condition number), then
+    # the correction's step from it: (A - C)(theta + d) = b - e with A theta = b
+    plain, *_ = np.linalg.lstsq(Xn * sw[:, None], y * sw, rcond=None)
+    A = Xn.T @ (Xn * w[:, None])
+    C = sigma2 * dXn.T @ (dXn * w[:, None])
+    e = sigma2 * dXn.T @ (w * dy)
+    A = A - C
+    scaled = plain + np.linalg.solve(A, C @ plain - e)
+    estimate = scaled / norms
+    residuals = y - X @ estimate
+    dof = n - p
+    s2 = float(np.sum(w * residuals**2) / dof)
+    cov = s2 * np.linalg.pinv(A) / np.outer(norms, norms)
+    return LinearFit(estimate, cov, residuals, s2, dof)
+
+
+__all__ = ["COVARIANCES", "LinearFit", "errors_in_variables", "hac_lag",
+           "weighted_least_squares"]
