@@ -12,30 +12,37 @@
 * :mod:`.output_error`: stage 2, the recorded commands re-simulated and the signals fitted;
 * :mod:`.intervals`: Jacobian and profile-likelihood intervals;
 * :mod:`.results`: estimates, fitted signals, stages;
-* :mod:`.driver`: the fit, stage by stage (``drs-bag fit``).
+* :mod:`.driver`: the fit, stage by stage (``drs-bag fit``);
+* :mod:`.excitation`: D-optimal excitation design (``drs excite``);
+* :mod:`.trend`: a parameter over a season, drift and threshold crossing (``drs-bag trend``).
 
 docs/identify.md describes the whole.
 """
 
 from .driver import FIT_RUNGS, fit
 from .equation_error import equation_error
+from .excitation import Excitation, design_excitation
 from .identifiability import Identifiability, assess
 from .parameters import RIGID_PARAMETERS, FitParameter, fit_parameter, hydraulic_field_names
 from .record import Record
 from .regressor import rigid_regressor
 from .results import Estimate, FitResult, FittedSignal, StageFit
+from .trend import Trend
 
 __all__ = [
     "FIT_RUNGS",
     "RIGID_PARAMETERS",
     "Estimate",
+    "Excitation",
     "FitParameter",
     "FitResult",
     "FittedSignal",
     "Identifiability",
     "Record",
     "StageFit",
+    "Trend",
     "assess",
+    "design_excitation",
     "equation_error",
     "fit",
     "fit_parameter",
