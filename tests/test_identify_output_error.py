@@ -90,6 +90,28 @@ def test_the_profile_interval_is_where_the_brute_force_profile_crosses():
     assert lo == pytest.approx(inside[0], abs=2e-3) and hi == pytest.approx(inside[-1], abs=2e-3)
 
 
+@pytest.mark.parametrize("scale", [1.0, 1e-13, 1e9])
+def test_the_profile_interval_does_not_depend_on_the_parameters_unit(scale):
+    """The same problem with its parameter in another unit (a leak is ~1e-13 m^3/(s Pa)): the
+    profile interval scales with it (an absolute floor on the search step collapsed a 1e-13
+    interval onto its estimate)."""
+    t = np.linspace(0.0, 1.0, 30)
+    y = 2.0 * t + np.random.default_rng(1).normal(0.0, 0.1, t.size)
+    problem = OutputErrorProblem(("a",), np.array([scale]), np.array([-10.0 * scale]),
+                                 np.array([10.0 * scale]), np.array([scale]),
+                                 lambda v: {"y": v["a"] / scale * t}, {"y": y},
+                                 {"y": 0.1})  # fmt: skip
+    result = fit_output_error(problem)
+    q = iv.quantile(0.95, result.dof)
+    half = q * math.sqrt(result.covariance[0, 0])
+    lo, hi = iv.profile_interval(profile_chi2(problem, result, 0), float(result.estimate[0]),
+                                 half, q * q * result.s2, (-10.0 * scale, 10.0 * scale),
+                                 result.chi2)  # fmt: skip
+    wald = iv.wald_interval(float(result.estimate[0]), half / q, q)
+    assert lo == pytest.approx(wald[0], rel=1e-3) and hi == pytest.approx(wald[1], rel=1e-3)
+    assert hi - lo == pytest.approx((wald[1] - wald[0]), rel=1e-2) and hi - lo > 0.1 * scale
+
+
 def test_a_linear_model_agrees_with_its_linearisation():
     t = np.linspace(0.0, 1.0, 30)
     y = 2.0 * t + np.random.default_rng(1).normal(0.0, 0.1, t.size)

@@ -98,7 +98,11 @@ def profile_interval(profile_chi2: Callable[[float], float], estimate: float,
     def excess(v: float) -> float:
         return profile_chi2(v) - chi2_min - threshold
 
-    step = max(half_width, 1e-12 * max(abs(estimate), 1.0))
+    # the parameter's own scale: a leak of 2e-13 m^3/(s Pa) has an interval of ~1e-16, so no
+    # step may be floored in absolute units
+    step = half_width if half_width > 0.0 else 1e-6 * abs(estimate)
+    if not step > 0.0:
+        return math.nan, math.nan
     lo = _end(excess, estimate, -step, bounds[0], rtol)
     hi = _end(excess, estimate, step, bounds[1], rtol)
     return lo, hi
