@@ -32,8 +32,8 @@ from drs_model.identify import driver as identify
 from drs_model.identify.parameters import with_values
 from drs_model.overrides import assignment_overrides
 
+from ..errors import DRSRosError, UsageError
 from . import fleet
-from .files import BagReadError
 from .fit_report import document, dumps, format_text, plot, row_columns
 from .measured import parse_topic_map, read_measured
 from .reader import MessageCallbackError
@@ -121,7 +121,7 @@ def fit_one(bag, args: argparse.Namespace) -> FitOutcome:
         measured = read_measured(bag, topic_map, args.joint)
         rung = args.fidelity or measured.rung
         if rung is None:
-            raise DRSError("the bag does not say which rung it ran on: name it with --fidelity")
+            raise UsageError("--fidelity: the bag does not say which rung it ran on: name it")
         p, hp = _models(measured, args.set)
         identify.check_names(args.fit_params, rung, p, hp)
         simulate = _simulation(measured, rung, p, hp) if args.stage != "equation" else None
@@ -131,7 +131,7 @@ def fit_one(bag, args: argparse.Namespace) -> FitOutcome:
     except MessageCallbackError as exc:
         return FitOutcome(4, error=f"internal error (not a verdict on the bag): {exc}",
                           measured=measured)  # fmt: skip
-    except (DRSError, BagReadError) as exc:
+    except (DRSError, DRSRosError) as exc:  # the model refuses; a bag or an option
         return FitOutcome(2, error=f"error: {exc}", measured=measured)
     status = 0 if all(e.determined for e in result.estimates) else 1
     return FitOutcome(status, result, measured)

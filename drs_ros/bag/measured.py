@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from drs_model.errors import DRSError
 from drs_model.identify.record import Record
 from drs_model.params import DRSParams
 
+from ..errors import DRSRosError
 from ..names import CLOCK, DEFAULT_TOPICS
 from .decoded import decoder
 from .effects import (
@@ -56,7 +56,7 @@ DRS_TOPICS = {
 STAMPED = ("pressure_a", "pressure_b", "supply_pressure")
 
 
-class MeasurementError(DRSError, ValueError):
+class MeasurementError(DRSRosError, ValueError):
     """The bag holds no usable measurement (no joint states, no piston joint, a bad topic
     map)."""
 

@@ -26,12 +26,13 @@ from drs_model.errors import DRSError
 from drs_model.identify.trend import ALPHA, MIN_RUNS, MODELS, trend
 from drs_model.overrides import assignment_overrides
 
+from ..errors import DRSRosError
 from .fit_report import dumps
 
 DAY_S = 86400.0
 
 
-class TrendInputError(DRSError):
+class TrendInputError(DRSRosError):
     """The season table cannot be read or holds no such parameter."""
 
 
@@ -187,7 +188,7 @@ def run(args: argparse.Namespace, prog: str = "drs-bag trend") -> int:
         rows = analyse(cols, names, thresholds, args)
         if args.plot:
             plot(rows, cols, args.plot)
-    except (DRSError, OSError) as exc:
+    except (DRSError, DRSRosError, OSError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     if args.json:
