@@ -93,6 +93,32 @@ def closing_time(bag: Path) -> dict:
         "gap_at_fault_m": states[k0][3],
         "closing_time_s": (closed[0] - k0) * dt if closed else None,
         "rerun_exact": all(r["max_deviation"] == 0.0 for r in rows),
+        "chambers_after_fault": chambers_after(run, model, k0, max(states)),
+    }
+
+
+def chambers_after(run, model, k0: int, k_end: int) -> dict | None:
+    """Each chamber's lowest pressure [Pa] and the time [s] it spends with a vapour cavity open
+    (at the vapour pressure), from the fault's step to the run's last, at every physics step of
+    a second re-run of the bag (None for a rung without chambers)."""
+    from drs_ros.bag.resimulate import resimulate
+
+    rerun = resimulate(run, model)
+    sim = rerun["sim"]
+    if not hasattr(sim, "chamber_pressures"):
+        return None
+    rows = []
+    for k in range(k_end + 1):
+        rerun["state_at"](k)
+        if k >= k0:
+            rows.append((*sim.chamber_pressures(), *sim.cavity_volumes()))
+    pa, pb, cav_a, cav_b = zip(*rows, strict=True)
+    dt = rerun["dt"]
+    return {
+        "lowest_pressure_a_pa": min(pa),
+        "lowest_pressure_b_pa": min(pb),
+        "time_at_floor_a_s": dt * sum(c > 0.0 for c in cav_a),
+        "time_at_floor_b_s": dt * sum(c > 0.0 for c in cav_b),
     }
 
 

@@ -69,6 +69,13 @@ class StiffStepError(IntegrationError):
     sets it in the message, instead of a silent blow-up."""
 
 
+class TooStiffError(StiffStepError):
+    """A state (or a fault, a parameter) is too stiff for the physics step: the sub-steps its
+    stability needs exceed the rung's cap (``max_substeps``). Refused before any sub-step is
+    taken, with the rate, the sub-steps needed and the cap in the message: no value makes one
+    physics step unbounded."""
+
+
 class UnsupportedCommandError(DRSError, ValueError):
     """A fidelity rung cannot represent this command (a force on the kinematic rung, which has no
     forces): the message names the rung and the rungs that can."""

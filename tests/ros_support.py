@@ -177,3 +177,33 @@ def resimulate_json(*args) -> tuple[int, dict]:
                          capture_output=True, text=True, timeout=300)  # fmt: skip
     assert res.returncode in (0, 1), res.stderr
     return res.returncode, json.loads(res.stdout)
+
+
+def tampered_copy(bag, out, change) -> int:
+    """Copy ``bag`` into the new bag ``out`` (MCAP, as rosbag2 writes it) with some messages
+    changed: ``change(topic, index, msg)`` (``index``: the message's place among its topic's,
+    ``msg`` decoded) returns the message to write instead, or None to keep the recorded bytes.
+    Every changed message is serialised again, so the copy is a valid bag whose CDR is exact:
+    only the model checks can tell. Returns the number of messages changed."""
+    from drs_ros.bag.decoded import decoder
+    from drs_ros.bag.reader import scan
+    from drs_ros.bag.recover import _register
+    from drs_ros.recording.cdr import serialize
+    from drs_ros.recording.mcap_recorder import McapRecorder
+
+    decode = decoder()
+    seen: dict[str, int] = {}
+    changed = [0]
+    with McapRecorder(out, flush_thread=False) as rec:
+
+        def copy(m) -> None:
+            if m.topic not in rec.topics:
+                _register(rec, m.channel)
+            index = seen[m.topic] = seen.get(m.topic, -1) + 1
+            new = change(m.topic, index, decode(m))
+            data = m.data if new is None else serialize(new)
+            changed[0] += new is not None
+            rec.write(m.topic, data, m.log_time, m.publish_time, sequence=m.sequence)
+
+        scan(bag, copy)
+    return changed[0]

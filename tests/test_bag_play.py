@@ -115,6 +115,16 @@ def float64_cdr(value: float) -> bytes:
 
 
 # ---- subscriber and player ----------------------------------------------------------------------
+def _from_a_live_node(data: bytes) -> bool:
+    """A ParameterEvent that the player node or this test's node published about itself (every
+    rclpy node announces its parameters on /parameter_events when it starts; whether the test
+    hears it depends on how fast discovery is), not one played from the bag."""
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.serialization import deserialize_message
+
+    return deserialize_message(data, ParameterEvent).node in ("/rosbag2_player", "/bag_play_test")
+
+
 class RawSubscriber:
     """One node with a raw subscription per topic: what arrived, and when (monotonic [s])."""
 
@@ -138,6 +148,8 @@ class RawSubscriber:
 
     def _callback(self, topic):
         def store(data: bytes) -> None:
+            if topic == "/parameter_events" and _from_a_live_node(data):
+                return  # the player's own parameters (as rosbag2_player's), not the bag's
             self.arrival[topic].append(time.monotonic())
             self.received[topic].append(bytes(data))
 
@@ -783,3 +795,70 @@ def test_qos_overrides_file_gives_partial_profiles_and_rejects_unknown_keys(tmp_
     path.write_text("/a:\n  dept: 3\n")
     with pytest.raises(PlayError, match="dept"):
         qos_overrides(path)
+
+
+@pytest.mark.slow
+def test_fifty_sigints_at_random_moments_of_playback_each_end_it_cleanly(tmp_path, request):
+    """With both cores busy, ``drs-bag play --loop`` is started 50 times and each play is ended
+    by a SIGINT at a random moment of its playback (tests/play_sigint_driver.py: the plays run
+    in one process, the console entry each time, so that 50 stay cheap): every one returns 0, in
+    time, with nothing raised and no traceback. The handler only sets a flag; one that took a
+    lock (``Event.set``) could deadlock when the signal came inside ``Event.wait``."""
+    import json
+
+    from test_node_robustness import _burn
+
+    driver = Path(__file__).with_name("play_sigint_driver.py")
+    burners = _burn(600.0)  # killed at the end; the cap only guards a crashed test run
+    try:
+        proc = subprocess.run(
+            [sys.executable, str(driver), str(EXAMPLE), "50", "24"],
+            env=node_env(tmp_path, domain_for(request.node.nodeid)),
+            capture_output=True,
+            text=True,
+            timeout=900,
+        )
+    finally:
+        for b in burners:
+            b.kill()
+            b.wait()
+    rows = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert len(rows) == 50, proc.stderr[-3000:]
+    assert [r for r in rows if r["rc"] != 0 or r["error"]] == []
+    assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
+    moments = sorted(r["after_s"] for r in rows)
+    assert moments[-1] - moments[0] > 0.4  # spread over the playback, not one instant
+
+
+def test_the_stop_handler_play_installs_takes_no_lock(monkeypatch):
+    """A signal handler runs in the main thread between two bytecodes, wherever that thread is:
+    one that takes a lock (``threading.Event.set`` does) deadlocks when the thread already holds
+    it (inside ``Event.wait``). The handler ``play`` installs for SIGINT and SIGTERM, traced while
+    it runs, calls no lock method, and its stop is requested."""
+    from drs_ros.bag.play import player
+
+    seen = {}
+
+    def fake_play(options, stop):
+        seen.update({sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)})
+        return 0
+
+    monkeypatch.setattr(player, "_play", fake_play)
+    assert player.play(None) == 0
+    for sig, handler in seen.items():
+        calls = []
+
+        def trace(frame, event, arg, calls=calls):
+            if event == "c_call":
+                calls.append(f"{type(getattr(arg, '__self__', None)).__name__}.{arg.__name__}")
+
+        sys.setprofile(trace)
+        try:
+            handler(sig, None)
+        finally:
+            sys.setprofile(None)
+        assert [c for c in calls if "lock" in c.lower()] == [], calls
+        assert handler.requested and handler.signal_name == sig.name
+    # and play gave the signals back their handlers
+    assert signal.getsignal(signal.SIGINT) is not seen[signal.SIGINT]

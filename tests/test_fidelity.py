@@ -108,13 +108,14 @@ def test_quasi_static_force_command_goes_to_the_balance_or_the_stop():
 
 # ---- the hydraulic rung -------------------------------------------------------------------------
 def _ideal(beta: float) -> HydraulicParams:
-    """Stiff oil at ``beta``, an ideal valve (linear flow law, no spool lag, 20x the flow so it
-    never saturates on the manoeuvre), no friction, no leak, no relief; a loop gain well under the
-    oil column's frequency at every beta (200 rad/s crossover)."""
+    """Stiff oil at ``beta`` without entrained air, an ideal valve (linear flow law, no spool
+    lag, 20x the flow so it never saturates on the manoeuvre), no friction, no leak, no relief; a
+    loop gain well under the oil column's frequency at every beta (200 rad/s crossover)."""
     return HydraulicParams(
         flow_law="linear", spool_time_constant=0.0, viscous_friction=0.0, coulomb_friction=0.0,
         breakaway_friction=0.0, leak_across_piston=0.0, relief_flow_gain=0.0,
         valve_rated_flow=20 * 7.5 / 60000, bulk_modulus=beta, position_gain=10.0,
+        entrained_air_fraction=0.0,
     )  # fmt: skip
 
 
@@ -149,9 +150,10 @@ def test_hydraulic_energy_balance():
     energies from drs_model.bodies (mass matrix, potential), the air's work from the air force
     and G3's velocity, the compression work from finite differences of the pressures: none from
     the rung's own right-hand side. Tolerance 1e-5 of the supply's work (trapezoidal sums at
-    0.1 ms; measured 6e-8 of 183 J)."""
+    0.1 ms; measured 6e-8 of 183 J). Without entrained air (its work and the cavities':
+    test_fidelity_low_pressure)."""
     dt = 1e-4
-    hp = HydraulicParams()
+    hp = HydraulicParams(entrained_air_fraction=0.0)
     rung = make_rung("hydraulic", P, dt, hydraulic=hp, method="rk4")
     c, h = rung._consts
     rows = []
@@ -174,8 +176,9 @@ def test_hydraulic_energy_balance():
             rung.command_stroke(0.01, 0.02)
     a = np.array(rows)
     t = a[:, 0]
-    supply, valve, leak, relief, _, _, friction, stop = a[:, 1:9].T
-    q, qd, pa, pb = a[:, 9:12], a[:, 12:15], a[:, 15], a[:, 16]
+    supply, valve, leak, relief, _, _, friction, stop, cavitation = a[:, 1:10].T
+    q, qd, pa, pb = a[:, 10:13], a[:, 13:16], a[:, 16], a[:, 17]
+    assert not np.any(cavitation)
     va = hp.dead_volume_piston_side + hp.piston_area * (q[:, 0] - rung.s_min)
     vb = hp.dead_volume_rod_side + hp.rod_side_area * (rung.s_max - q[:, 0])
     compression = (pa * va * np.gradient(pa, t) + pb * vb * np.gradient(pb, t)) / hp.bulk_modulus
@@ -206,7 +209,9 @@ def test_explicit_step_above_the_stiff_limit_is_refused():
 
 def test_the_stiff_limit_is_where_rk4_blows_up():
     """The estimate behind the refusal is sound and not idle: from a disturbed equilibrium, RK4
-    sub-steps at 0.9x the limit stay bounded and at 8x it blow up (what the refusal prevents).
+    sub-steps at 0.9x the limit settle and at 8x they do not: the oscillation grows until the
+    chamber cavitates (the vapour pressure bounds it from below) or the state is no longer
+    finite (what the refusal prevents).
     The estimate counts the valve fully open (it may open within a step), so at rest it is 2-5x
     below the measured blow-up."""
     rung = make_rung("hydraulic", P, 1e-3)
@@ -226,7 +231,7 @@ def test_the_stiff_limit_is_where_rk4_blows_up():
         return abs(y[2] - rung.y[2])
 
     assert run(0.9) < 5e5
-    assert run(8.0) == math.inf
+    assert run(8.0) > 1e7  # Pa: 20x the disturbance
 
 
 @pytest.mark.parametrize("method", ["ros2", "linearly-implicit-euler", "rk4"])

@@ -5,6 +5,7 @@ with the reason, a bad value is refused and changes nothing."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -12,9 +13,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from drs_model import DRSParams
-from drs_model.errors import InputError, UnsupportedCommandError
-from drs_model.fidelity import RUNGS, make_rung
-from drs_model.fidelity.faults import FAULTS, HYDRAULIC_ONLY, RunFaults
+from drs_model.errors import InputError, TooStiffError, UnsupportedCommandError
+from drs_model.fidelity import RUNGS, HydraulicParams, make_rung
+from drs_model.fidelity.faults import (
+    FAULT_RANGES,
+    FAULTS,
+    HYDRAULIC_ONLY,
+    RunFaults,
+    describe_range,
+)
 
 P = DRSParams()
 K_FAULT = 100  # the step the fault is set at (the flap opening since step 0)
@@ -114,7 +121,7 @@ def test_a_stuck_valve_and_a_jam_act_on_the_hydraulic_rung():
 @pytest.mark.parametrize("rung", ["kinematic", "quasi-static", "rigid"])
 @pytest.mark.parametrize("name", HYDRAULIC_ONLY)
 def test_a_fault_without_a_model_on_the_rung_is_refused(rung, name):
-    value = True if isinstance(FAULTS[name][0], bool) else 1.0
+    value = True if isinstance(FAULTS[name][0], bool) else FAULT_RANGES[name][1]  # in range
     run = RunFaults(make_rung(rung, P, 1e-3))
     with pytest.raises(UnsupportedCommandError, match=f"cannot model fault {name}"):
         run.apply(name, value)
@@ -178,3 +185,101 @@ def test_a_bad_value_is_refused_and_changes_nothing(name, value):
         np.testing.assert_array_equal(sim.y, y0)
         return
     assert run.values[name] == value
+
+
+# ---- physical ranges and the rung's stiffness bound ---------------------------------------------
+def _rung_for(name: str) -> str:
+    return "hydraulic" if name in HYDRAULIC_ONLY or name.startswith("supply") else "rigid"
+
+
+@pytest.mark.parametrize("name", sorted(FAULT_RANGES))
+def test_each_fault_is_taken_at_the_edges_of_its_range_and_refused_beyond(name):
+    """Both edges are taken (and act: the value in force); just beyond either edge the value is
+    refused with the fault's name, its range and the value given, and nothing changes."""
+    low, high, _ = FAULT_RANGES[name]
+    integer = isinstance(FAULTS[name][0], int)
+    for edge in (low, high):
+        run = RunFaults(make_rung(_rung_for(name), P, 1e-3))
+        run.apply(name, edge)
+        assert run.values[name] == edge
+    beyond = (low - 1, high + 1) if integer else (low - 1e-3 * (high - low), high * (1 + 1e-9))
+    for value in beyond:
+        run = RunFaults(make_rung(_rung_for(name), P, 1e-3))
+        with pytest.raises(InputError, match=rf"fault {re.escape(name)} must be in \[") as err:
+            run.apply(name, value)
+        assert repr(value) in str(err.value) and describe_range(name) in str(err.value)
+        assert run.active() == {}
+
+
+def test_the_hydraulic_bounds_are_what_their_reasons_say():
+    """The reasons of the hydraulic ranges, recomputed from the rung's documented constants:
+    the jam bound is the cylinder's force at the relief pressure (within 1 %), and the leak bound
+    passes 16 times the valve's rated flow at 200 bar (within 5 %)."""
+    hp = HydraulicParams()
+    assert FAULT_RANGES["jam_friction_n"][1] == pytest.approx(
+        hp.relief_pressure * hp.piston_area, rel=0.01)  # fmt: skip
+    flow = FAULT_RANGES["leak_m3_per_s_per_pa"][1] * 200e5
+    assert flow == pytest.approx(120.0 / 60000.0, rel=0.05)
+    assert flow / hp.valve_rated_flow == pytest.approx(16.0, rel=0.05)
+
+
+def test_1e300_is_refused_when_set_not_stepped():
+    """What once hung a node (a 1e300 N jam: ~1e300 explicit sub-steps in the next step) is
+    refused by its range, and the rung itself refuses it too (its stiffness bound)."""
+    sim = make_rung("hydraulic", P, 1e-3)
+    run = RunFaults(sim)
+    for name in ("jam_friction_n", "sensor.bias_m", "leak_m3_per_s_per_pa"):
+        with pytest.raises(InputError, match=r"must be in \["):
+            run.apply(name, 1e300)
+    with pytest.raises(TooStiffError, match=r"too stiff for a physics step of 0\.001 s"):
+        sim.jam(1e300)
+    with pytest.raises(TooStiffError, match=r"above 1/2 of the cap of 1000"):
+        sim.set_leak(1e-7)
+    sim.advance(20)  # nothing took: the healthy rung steps on
+
+
+def test_a_fault_too_stiff_for_the_step_is_refused_with_the_rung_s_reason():
+    """Within its physical range, a jam the rung cannot step within its cap (here a cap of 100
+    sub-steps) is refused when set, with the sub-steps it would need."""
+    sim = make_rung("hydraulic", P, 1e-3, max_substeps=100)
+    sim.command_drs(True)
+    sim.advance(150)  # open: the stiffest place for friction (the least inertia at the rod)
+    run = RunFaults(sim)
+    with pytest.raises(TooStiffError, match=r"needs 3\d\d(\.\d+)? rk4 sub-steps per step, above "
+                       r"1/2 of the cap of 100"):  # fmt: skip
+        run.apply("jam_friction_n", 5000.0)
+    assert run.active() == {}
+    run.apply("jam_friction_n", 500.0)  # a lighter jam is taken
+
+
+def test_no_step_takes_more_sub_steps_than_the_cap():
+    """Every step of a run with the stiffest faults in range counts its sub-steps (the compiled
+    step calls); none exceeds ``max_substeps``; a state too stiff for the cap (oil 1e10 times
+    stiffer) raises TooStiffError before any sub-step, leaving the state as it was."""
+    sim = make_rung("hydraulic", P, 1e-3)
+    calls = [0]
+    step = sim._step_fn
+
+    def counted(*args):
+        calls[0] += 1
+        return step(*args)
+
+    sim.__dict__["_step_fn"] = counted
+    run = RunFaults(sim)
+    sim.command_drs(True)
+    worst = 0
+    for k in range(300):
+        if k == 150:
+            run.apply("jam_friction_n", 5000.0)
+            run.apply("leak_m3_per_s_per_pa", 1e-10)
+        calls[0] = 0
+        sim.advance(1)
+        worst = max(worst, calls[0])
+    assert 100 < worst <= sim.max_substeps == 1000
+
+    stiff = make_rung("hydraulic", P, 1e-3, hydraulic=HydraulicParams(bulk_modulus=1.4e19))
+    before = stiff.y
+    with pytest.raises(TooStiffError, match=r"needs \d\.\d+e\+\d+ rk4 sub-steps, above the cap"):
+        stiff.advance(1)
+    np.testing.assert_array_equal(stiff.y, before)
+    assert stiff.steps == 0

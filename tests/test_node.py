@@ -288,8 +288,8 @@ def test_a_failing_recorder_stops_recording_not_the_actuator(ros_context, tmp_pa
         node.sim.command_drs(True)
         ticks = node.ticks
         spin_until(ex, lambda: node.ticks > ticks + 10, 5.0)
-        assert "No space left on device" in node.recording_error
-        assert node.diagnostics_values()["recording"].startswith("error: OSError")
+        assert "No space left on device" in node.bag.health.failure
+        assert node.diagnostics_values()["bag"].startswith("failed: OSError")
         assert node.ticks > ticks + 10  # the actuator kept running
         assert node.sim.state.gap == pytest.approx(0.05, abs=1e-9)  # and opened
     finally:
@@ -325,7 +325,9 @@ def test_trajectory_command_over_dds(harness, params):
             )
         return msg
 
-    pub.publish(traj("drs_piston", [(0.02, 0.03), (0.04, 0.01)]))
+    # moves of 0.2 s: a tick late by tens of ms on a loaded machine still samples the peak
+    # within the tolerance (the path is flat at its turning point)
+    pub.publish(traj("drs_piston", [(0.2, 0.03), (0.4, 0.01)]))
     assert spin_until(harness.exec, lambda: harness.node.accepted >= 1, 3.0)
     assert spin_until(harness.exec, lambda: abs(harness.joints[-1].position[0] - 0.01) < 1e-12, 3.0)
     assert max(m.position[0] for m in harness.joints) == pytest.approx(0.03, abs=2e-3)
@@ -417,8 +419,12 @@ def test_diagnostics_recover_once_the_window_has_passed(ros_context, tmp_path):
         assert spin_until(h.exec, lambda: len(levels) > n, 3.0)
         level, message = levels[-1]
         assert level == DiagnosticStatus.WARN and "stroke command must be finite" in message
-        # the window (1 s) passes: back to OK, the cumulative count stays in the key-values
-        assert spin_until(h.exec, lambda: levels[-1][0] == DiagnosticStatus.OK, 8.0)
+        # the window (1 s) passes: the refusal leaves the status (back to OK, unless a loaded
+        # machine made a tick late within the window: that trouble is its own), and the
+        # cumulative count stays in the key-values
+        assert spin_until(h.exec, lambda: "refused" not in levels[-1][1], 8.0)
+        level, message = levels[-1]
+        assert level == DiagnosticStatus.OK or "missed deadline" in message, message
         assert h.node.diagnostics_values()["refused_commands"] == 1
     finally:
         h.close()

@@ -5,7 +5,10 @@ and re-simulated exactly by ``drs-bag resimulate``."""
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
 
 import pytest
 from node_support import spin_for, spin_until
@@ -88,7 +91,7 @@ def test_faults_are_taken_or_refused_with_a_reason(faulty_bag):
     _, results, diagnostics, _ = faulty_bag
     assert [r.successful for r in results] == [ok for _, ok in STEPS]
     refused = results[2]
-    assert "fault.leak_m3_per_s_per_pa" in refused.reason and ">= 0" in refused.reason
+    assert "fault.leak_m3_per_s_per_pa" in refused.reason and "[0, 1e-10]" in refused.reason
     # in force at the end, in diagnostics (the refused -1.0 never took)
     assert "leak_m3_per_s_per_pa=2e-12" in diagnostics["faults"]
     assert "supply_loss=True" in diagnostics["faults"]
@@ -207,6 +210,14 @@ def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monk
     assert rc == 0 and report["signals"][0]["samples"] > 20, report
     # every signal to the bit (the kinematic rung's force is NaN in both)
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
+    # check judges it on the rung auto chose (no force), read from the effect record
+    out = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "check", str(tmp_path / "bag"),
+                          "--json"], capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert out.returncode == 0, out.stdout + out.stderr
+    check = json.loads(out.stdout)
+    assert any("kinematic rung (fidelity auto's choice" in n for n in check["notes"])
+    assert any(c["name"] == "no piston force (kinematic rung)" and c["status"] == "ok"
+               for c in check["checks"])  # fmt: skip
 
 
 @pytest.mark.parametrize(

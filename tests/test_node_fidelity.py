@@ -4,7 +4,7 @@ and spool on standard message types, recorded, and ``drs-bag resimulate --fideli
 from __future__ import annotations
 
 import pytest
-from node_support import spin_for, spin_until
+from node_support import spin_until
 from ros_support import require_rclpy, resimulate_json
 
 pytestmark = pytest.mark.ros
@@ -58,7 +58,10 @@ def hydraulic_bag(tmp_path_factory):
         for value in (True, False):
             fut = drs.call_async(SetBool.Request(data=value))
             assert spin_until(ex, fut.done, 5.0) and fut.result().success
-            spin_for(ex, 0.3)
+            # 0.3 s of simulated time, however slowly a loaded machine runs it: the valve's
+            # swing each way takes tens of ms of it
+            t_end = node.sim.t + 0.3
+            assert spin_until(ex, lambda t_end=t_end: node.sim.t >= t_end, 60.0)
     finally:
         node.close_recordings()
         ex.shutdown()

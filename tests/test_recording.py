@@ -203,6 +203,45 @@ def test_finish_is_idempotent_and_closes(tmp_path):
         rec.write("/x", Float64(data=2.0), 6)
 
 
+def test_a_removed_bag_file_is_an_io_error_at_the_next_flush(tmp_path):
+    """The bag's directory removed while recording: writes into the unlinked file would succeed
+    and vanish, so each flush checks that the open file is still linked. The error is kept
+    (``io_error``), every later write raises an OSError, a finish names what it could not write,
+    and ``abandon`` closes a failed file without writing more."""
+    require_rclpy()
+    import shutil
+
+    from std_msgs.msg import Float64
+
+    from drs_ros.recording.errors import RecordingError
+    from drs_ros.recording.mcap_recorder import McapRecorder
+
+    rec = McapRecorder(tmp_path / "b", flush_thread=False, flush_messages=10)
+    rec.register_topic("/x", Float64)
+    for k in range(25):
+        rec.write("/x", Float64(data=float(k)), k)
+    shutil.rmtree(tmp_path / "b")
+    with pytest.raises(FileNotFoundError, match="the bag file was removed while recording"):
+        for k in range(25, 40):
+            rec.write("/x", Float64(data=float(k)), k)
+    assert isinstance(rec.io_error, FileNotFoundError)
+    with pytest.raises(OSError, match="the bag failed earlier"):
+        rec.write("/x", Float64(data=0.0), 99)
+    with pytest.raises(RecordingError, match=r"its summary and footer \(.*\) and metadata\.yaml "
+                       r"\(No such file or directory\) could not be written"):  # fmt: skip
+        rec.finish()
+
+    kept = McapRecorder(tmp_path / "c", flush_thread=False, flush_messages=10)
+    kept.register_topic("/x", Float64)
+    for k in range(25):
+        kept.write("/x", Float64(data=float(k)), k)
+    size = kept.path.stat().st_size
+    kept.abandon()
+    assert kept.path.stat().st_size == size and not kept.metadata_path.exists()
+    with pytest.raises(RecordingError, match="is finished"):
+        kept.write("/x", Float64(data=0.0), 99)
+
+
 def test_recorder_errors(tmp_path):
     require_rclpy()
     from std_msgs.msg import Float64, String

@@ -300,3 +300,47 @@ def test_connect_url_off_loopback_is_refused(tmp_path, params, url, reason):
 def test_needs_a_file_or_a_url(params):
     with pytest.raises(RerunLogError, match="needs a path, a connect_url, or both"):
         RerunRecorder(None, params)
+
+
+def test_a_full_file_system_is_seen_while_recording_and_named_at_close(tmp_path, params):
+    """rerun's file writer meets ENOSPC on a 96 KiB tmpfs and reports it only in its own log;
+    the recorder's watch sees it within a few periods (a flush raises once the writer has
+    stopped), and close raises RerunSinkError naming the file and what it lacks."""
+    from fs_support import small_filesystem
+
+    from drs_ros.recording.rerun_sink import SINK_CHECK_PERIOD_S, RerunSinkError
+
+    with small_filesystem(tmp_path / "small", 96 * 1024):
+        path = tmp_path / "small" / "run.rrd"
+        rec = RerunRecorder(path, params, batch=50)
+        t, q, _ = manoeuvre_states(params, 200)
+        k = 0
+        end = time.monotonic() + 60.0
+        while rec.sink_error is None and time.monotonic() < end:
+            for i in range(200):
+                rec.log_state(k * 1e-3, q[i], 100.0)
+                k += 1
+            time.sleep(SINK_CHECK_PERIOD_S / 5)
+        assert rec.sink_error is not None and "file writer stopped" in rec.sink_error
+        assert "0 bytes are free" in rec.sink_error
+        with pytest.raises(RerunSinkError, match=rf"'{re.escape(str(path))}' is incomplete, its "
+                           r"end is missing: rerun's file writer stopped"):  # fmt: skip
+            rec.close()
+        rec.close()  # idempotent
+
+
+def test_a_removed_rrd_is_seen(tmp_path, params):
+    """The .rrd removed while recording: rerun goes on writing the unlinked file without an
+    error; the watch sees the path no longer names the file it opened."""
+    from drs_ros.recording.rerun_sink import RerunSinkError
+
+    path = tmp_path / "run.rrd"
+    rec = RerunRecorder(path, params)
+    rec.log_state(0.0, [0.01, 0.5, 0.6], 1.0)
+    path.unlink()
+    end = time.monotonic() + 30.0
+    while rec.sink_error is None and time.monotonic() < end:
+        time.sleep(0.05)
+    assert rec.sink_error == f"the file {str(path)!r} was removed while recording"
+    with pytest.raises(RerunSinkError, match="was removed while recording"):
+        rec.close()

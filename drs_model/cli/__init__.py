@@ -18,7 +18,7 @@ from .exit_status import EXIT_OK, EXIT_REFUSED
 
 #: Subcommand modules of this package, in help order. Each defines ``register(subparsers)`` and
 #: sets ``func`` (returning an ``Output``) on its parsers.
-SUBCOMMAND_MODULES = ("geometry", "coriolis", "dynamics", "forward", "fidelity", "study")
+SUBCOMMAND_MODULES = ("geometry", "coriolis", "dynamics", "forward", "fidelity", "study", "excite")
 
 
 def build_parser() -> argparse.ArgumentParser:

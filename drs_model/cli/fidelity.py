@@ -16,6 +16,11 @@ from ._common import Output, add_common, load_params, table
 ASKS = {"gap": ("gap",), "all": tuple(QUANTITIES)}
 
 
+#: The chambers' table: each chamber's lowest pressure and time at the vapour pressure.
+FLOOR_HEADERS = ("scene", "run", "lowest p_A [Pa]", "lowest p_B [Pa]", "at floor A [s]",
+                 "at floor B [s]")  # fmt: skip
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "fidelity",
@@ -79,6 +84,7 @@ def run_fidelity(args: argparse.Namespace) -> Output:
                 "opening_time": r.opening,
                 "closing_time": r.closing,
                 "refused": r.refused,
+                "chambers": r.chambers,
             }  # fmt: skip
             for r in rows
         ],
@@ -100,11 +106,16 @@ def run_fidelity(args: argparse.Namespace) -> Output:
         body.append((r.scene, r.label, *(e.get(q, "reference") for q in QUANTITIES),
                      r.cost_per_second))  # fmt: skip
     need_rows = [(s, *(needs[s][a] or "none" for a in ASKS)) for s in scenes]
+    floor_keys = ("lowest_pressure_a", "lowest_pressure_b", "time_at_floor_a", "time_at_floor_b")
+    floor_rows = [(r.scene, r.label, *(r.chambers[k] for k in floor_keys))
+                  for r in rows if r.chambers]  # fmt: skip
     tol_text = ", ".join(f"{k} {v:g} {QUANTITIES[k]}" for k, v in tolerances.items())
     text = (
         table(headers, body, fmt="{:.3g}")
         + f"\n\ncheapest run within the tolerances ({tol_text}):\n"
         + table(("scene", "gap only", "everything"), need_rows)
+        + "\n\nchambers (lowest pressure, time with a vapour cavity open):\n"
+        + table(FLOOR_HEADERS, floor_rows, fmt="{:.4g}")
         + (f"\n\nchart: {data['plot']}" if data["plot"] else "")
     )
     return Output(data, text)

@@ -49,4 +49,5 @@ def warm_up(p: DRSParams | None = None) -> float:
 
     for method in STEP_METHODS:  # the hydraulic rung's compiled steps
         HydraulicRung(p, 1e-3, method=method).step()
+    HydraulicRung(p, 1e-3, locate_events=True).step()  # the chart reference's switching kernel
     return time.perf_counter() - t0

@@ -15,7 +15,11 @@ makes of a fault (docs/fidelity.md, "Faults at run time"):
   on the other rungs, which model no valve, no oil and no friction.
 * ``sensor.*``: every rung; they change the published stroke only, never the simulation.
 
-A healthy value (the default) is accepted on every rung.
+A healthy value (the default) is accepted on every rung. Each numeric fault has a physical range
+(:data:`FAULT_RANGES`, with its reason); a value outside it is refused with the range. A jam or a
+leak that would make the hydraulic rung too stiff for its physics step is refused with the rung's
+own reason (:meth:`HydraulicRung.check_stiffness`, a
+:class:`~drs_model.errors.TooStiffError`).
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ from .sensor_faults import SensorFaults, StrokeSensor
 #: set together act in this order (the ramp before the supply loss it shapes).
 FAULTS = MappingProxyType(
     {
-        "supply_loss_ramp_s": (0.0, "time [s] the supply takes to fall (or rise), >= 0"),
+        "supply_loss_ramp_s": (0.0, "time [s] the supply takes to fall (or rise)"),
         "supply_loss": (False, "the hydraulic supply is lost (true) or back (false)"),
         "stuck_valve": (False, "the servo valve's spool sticks where it is"),
         "leak_m3_per_s_per_pa": (0.0, "extra leak of each chamber to the outside [m^3/(s Pa)]"),
@@ -41,13 +45,48 @@ FAULTS = MappingProxyType(
         "sensor.bias_m": (0.0, "bias added to the published stroke [m]"),
         "sensor.noise_std_m": (0.0, "standard deviation of the published stroke's noise [m]"),
         "sensor.noise_seed": (0, "seed of the noise and dropouts (each draw: seed and step)"),
-        "sensor.dropout": (0.0, "probability a published stroke is lost (NaN), in [0, 1]"),
+        "sensor.dropout": (0.0, "probability a published stroke is lost (NaN)"),
         "sensor.frozen": (False, "the published stroke repeats the value of the step set"),
     }
 )
 
 #: The faults only the hydraulic rung models.
 HYDRAULIC_ONLY = ("stuck_valve", "leak_m3_per_s_per_pa", "jam_friction_n")
+
+#: The physical range ``(low, high, why)`` of each numeric fault, in its unit: a value outside is
+#: refused with the range (the booleans are true or false). Beyond each bound the fault models
+#: nothing more, and the stiffness its value adds to the hydraulic rung stays bounded (a 5 kN jam
+#: at the open stop, the stiffest case, needs 357 RK4 sub-steps of a 1 ms step, within the
+#: rung's cap of 1000 with its margin of 2).
+FAULT_RANGES = MappingProxyType(
+    {
+        "supply_loss_ramp_s": (0.0, 10.0, "an engine stall and the accumulator's reserve take "
+                               "seconds to empty the supply; a slower decline is a leak"),
+        "leak_m3_per_s_per_pa": (0.0, 1e-10, "1e-10 m^3/(s Pa) passes 120 l/min at 200 bar, 16 "
+                                 "times the servo valve's rated 7.5 l/min (as much as the relief "
+                                 "valve's full gain): the chamber holds no pressure at all, as "
+                                 "through a burst line"),
+        "jam_friction_n": (0.0, 5000.0, "the cylinder's force at the relief pressure (250 bar "
+                           "on the 2.0 cm^2 piston: 5.0 kN): a jam that strong holds the flap "
+                           "against all the cylinder and the air load can do (a seized flap); "
+                           "a stronger one holds it no better"),
+        "sensor.bias_m": (-0.1, 0.1, "a stroke sensor spans the piston's stroke (46 mm with the "
+                          "seed's geometry): a reading 0.1 m off is no reading of this actuator"),
+        "sensor.noise_std_m": (0.0, 0.1, "noise of 0.1 m, twice the whole stroke, already "
+                               "hides the stroke"),
+        "sensor.noise_seed": (0, 2**63 - 1, "a ROS integer parameter (int64) >= 0"),
+        "sensor.dropout": (0.0, 1.0, "a probability"),
+    }
+)  # fmt: skip
+
+
+def describe_range(name: str) -> str:
+    """``[low, high] unit`` of fault ``name`` (the unit from its name's suffix)."""
+    low, high, _ = FAULT_RANGES[name]
+    unit = {"_s": " s", "_m": " m", "_n": " N", "_pa": " m^3/(s Pa)"}
+    suffix = next((u for end, u in unit.items() if name.endswith(end)), "")
+    return "[" + ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in (low, high)) + (
+        "]" + suffix)
 
 
 class RunFaults:
@@ -69,8 +108,8 @@ class RunFaults:
             if not isinstance(value, bool):
                 raise InputError(f"fault {name} must be true or false, got {value!r}")
         elif isinstance(healthy, int):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise InputError(f"fault {name} must be an integer >= 0, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise InputError(f"fault {name} must be an integer, got {value!r}")
             value = int(value)
         else:
             if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -78,10 +117,11 @@ class RunFaults:
             value = float(value)
             if not math.isfinite(value):
                 raise InputError(f"fault {name} must be finite, got {value!r}")
-            if name == "sensor.dropout" and not 0.0 <= value <= 1.0:
-                raise InputError(f"fault {name} must be in [0, 1], got {value!r}")
-            if name != "sensor.bias_m" and value < 0.0:
-                raise InputError(f"fault {name} must be >= 0, got {value!r}")
+        low, high, why = FAULT_RANGES.get(name, (value, value, ""))
+        if not low <= value <= high:
+            raise InputError(
+                f"fault {name} must be in {describe_range(name)} ({why}), got {value!r}"
+            )
         if value == healthy:
             return value
         rung = getattr(self.sim, "name", "rigid")
@@ -95,6 +135,11 @@ class RunFaults:
                 f"the {rung!r} rung cannot model fault {name}: it models no forces; use "
                 "'quasi-static', 'rigid' or 'hydraulic'"
             )
+        # the rung's own bound: the sub-steps the stiffness it would have needs per step
+        if name == "jam_friction_n":
+            self.sim.check_stiffness(self.sim.jammed(value))
+        elif name == "leak_m3_per_s_per_pa":
+            self.sim.check_stiffness(self.sim.leaking(value))
         return value
 
     def apply(self, name: str, value) -> None:
@@ -157,4 +202,4 @@ class RunFaults:
         return {n: v for n, v in self.values.items() if v != FAULTS[n][0]}
 
 
-__all__ = ["FAULTS", "HYDRAULIC_ONLY", "RunFaults"]
+__all__ = ["FAULTS", "FAULT_RANGES", "HYDRAULIC_ONLY", "RunFaults", "describe_range"]

@@ -24,19 +24,32 @@ from .. import kernels
 from .. import kinematics as kin
 from ..actuator import ActuatorSim
 from ..bodies import model_constants
-from ..errors import InputError, StiffStepError
+from ..errors import InputError, StiffStepError, TooStiffError
 from ..inverse import FusedInverseDynamics
 from ..params import DRSParams
 from . import hydraulic_kernels as hk
 from .base import RungMixin, RungState
 from .compiled import compiled_kernel
+from .hydraulic_events import EventLocator
 from .hydraulic_params import HydraulicParams
-from .hydraulic_steps import RK4_LIMIT, STEP_METHODS
+from .hydraulic_steps import RK4_LIMIT, STEP_METHODS, state_rate
 
 #: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
 #: at any step); at 0.1 ms ``ros2`` keeps the stroke within 3e-5 m of the tight reference on the
 #: open-hold-close scene (docs/fidelity.md).
 DEFAULT_IMPLICIT_SUBSTEP = 1e-4
+
+#: The shortest sub-step [s] the rung takes by default at a ``stability_fraction`` of 1
+#: (``max_substeps = ceil(dt / MIN_SUBSTEP)``, 1000 at 1 kHz): a state whose stability needs
+#: shorter ones (a stiffest rate above ``RK4_LIMIT / MIN_SUBSTEP`` = 2.5e6 1/s, 170 times the oil
+#: column's at the closed stop) is refused with :class:`~drs_model.errors.TooStiffError`, so that
+#: no state makes a step unbounded.
+MIN_SUBSTEP = 1e-6
+
+#: A fault (or a start) is refused when its stiffest probed state needs more than
+#: ``1 / STIFFNESS_MARGIN`` of the cap: the state's own swings (a chamber pressure near supply or
+#: return stiffens the valve's edges 5-fold) then stay within it.
+STIFFNESS_MARGIN = 2.0
 
 
 def hydraulic_constants(hp: HydraulicParams, p: DRSParams) -> tuple[float, ...]:
@@ -62,6 +75,10 @@ def hydraulic_constants(hp: HydraulicParams, p: DRSParams) -> tuple[float, ...]:
     out[hk.S_MIN], out[hk.S_MAX] = s_min, s_max
     out[hk.K_POSITION], out[hk.K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
     out[hk.K_FORCE] = hp.force_gain
+    out[hk.AIR_FRACTION] = hp.entrained_air_fraction
+    out[hk.P_AIR_SATURATION] = hp.air_saturation_pressure
+    out[hk.AIR_INDEX] = hp.air_polytropic_index
+    out[hk.P_VAPOUR] = hp.vapour_pressure
     return tuple(float(x) for x in out)
 
 
@@ -105,6 +122,15 @@ class HydraulicRung(RungMixin, ActuatorSim):
     guard : bool
         Refuse an RK4 sub-step above the stability limit (default). Off only for
         ``benchmarks/hydraulic_stability.py``, which measures where RK4 really blows up.
+    locate_events : bool
+        Split the sub-steps where the right-hand side is not smooth (a stop's contact, the
+        vapour pressure, the relief, the spool's null...: :class:`~.hydraulic_events.EventLocator`),
+        so that the method keeps its order across them: the chart's reference. Off by default
+        (the node's rung: cheaper, and within its tolerance).
+    max_substeps : int, optional
+        Most sub-steps of one physics step; a step that needs more raises
+        :class:`~drs_model.errors.TooStiffError` before it is taken (the state is kept). Default:
+        ``ceil(dt / (MIN_SUBSTEP * stability_fraction))``.
     """
 
     name = "hydraulic"
@@ -121,6 +147,8 @@ class HydraulicRung(RungMixin, ActuatorSim):
         substep: float | None = None,
         stability_fraction: float = 1.0,
         guard: bool = True,
+        locate_events: bool = False,
+        max_substeps: int | None = None,
     ) -> None:
         if method not in STEP_METHODS:
             raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
@@ -128,8 +156,14 @@ class HydraulicRung(RungMixin, ActuatorSim):
             raise InputError(f"substep must be a finite number > 0 s, got {substep!r}")
         if not (math.isfinite(stability_fraction) and 0.0 < stability_fraction <= 1.0):
             raise InputError(f"stability_fraction must be in (0, 1], got {stability_fraction!r}")
+        if max_substeps is not None and (
+            isinstance(max_substeps, bool) or not isinstance(max_substeps, int) or max_substeps < 1
+        ):
+            raise InputError(f"max_substeps must be an int >= 1 or None, got {max_substeps!r}")
+        self._max_substeps = max_substeps
         self.stability_fraction = float(stability_fraction)
         self.guard = bool(guard)
+        self.locate_events = bool(locate_events)
         self.hydraulic = HydraulicParams() if hydraulic is None else hydraulic
         self.method = method
         self.substep = substep
@@ -137,6 +171,16 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self._c = model_constants(p)
         self._h = hydraulic_constants(self.hydraulic, p)
         super().__init__(p, dt, force_limit, integrator, force_method)
+
+    @property
+    def max_substeps(self) -> int:
+        """Most sub-steps of one physics step: as given, or ``ceil(dt / (MIN_SUBSTEP *
+        stability_fraction))``: a rung asked for sub-steps at a fraction of the stable one (the
+        chart's reference) may take proportionally more, and the bound stays finite."""
+        if self._max_substeps is not None:
+            return self._max_substeps
+        shortest = MIN_SUBSTEP * self.stability_fraction
+        return max(1, math.ceil(self.dt / shortest * (1.0 - 1e-12)))
 
     @cached_property
     def _step_fn(self):
@@ -181,11 +225,13 @@ class HydraulicRung(RungMixin, ActuatorSim):
         qd = (u0 * bd, u1 * bd, bd)
         self._q, self._qd = q, qd
         self._qdd = kin.accelerations_from_flap_scalar(q, qd, bdd, self.p)
-        self._force = pa * h[hk.AREA_A] - pb * h[hk.AREA_B] - hk.friction_force(qd[0], h)
+        pa, pb = hk.chamber_pressure(pa, h), hk.chamber_pressure(pb, h)
+        self._force = hk.rod_force(pa, pb, qd[0], h)
         self._at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
 
     def _state_extras(self) -> dict:
-        _, _, pa, pb, xv = (float(v) for v in self._y)
+        xv = float(self._y[4])
+        pa, pb = self.chamber_pressures()
         return {
             "rung": self.name,
             "pressure_a": pa,
@@ -195,9 +241,29 @@ class HydraulicRung(RungMixin, ActuatorSim):
         }
 
     @property
+    def constants(self) -> tuple[float, ...]:
+        """The constants vector of :mod:`~drs_model.fidelity.hydraulic_kernels` in force now
+        (a leak or a jam set at run time changes it)."""
+        return self._h
+
+    @property
     def y(self) -> np.ndarray:
-        """The hydraulic state ``(psi3, psi3', p_A, p_B, x_v)`` (a copy)."""
+        """The hydraulic state ``(psi3, psi3', x_A, x_B, x_v)`` (a copy; ``x_A``, ``x_B`` are the
+        chamber pressures while no vapour cavity is open, :mod:`hydraulic_kernels`)."""
         return self._y.copy()
+
+    def chamber_pressures(self) -> tuple[float, float]:
+        """``(p_A, p_B)`` [Pa, absolute]: the chamber pressures, never below the vapour
+        pressure."""
+        h = self._h
+        return hk.chamber_pressure(float(self._y[2]), h), hk.chamber_pressure(float(self._y[3]), h)
+
+    def cavity_volumes(self) -> tuple[float, float]:
+        """``(V_cav,A, V_cav,B)`` [m^3]: the vapour cavities of the chambers (0 while full)."""
+        s, _, _, _ = kernels.psi3_configuration(float(self._y[0]), self._c)
+        va, vb = hk.chamber_volumes(s, self._h)
+        return (hk.cavity_volume(float(self._y[2]), va, self._h),
+                hk.cavity_volume(float(self._y[3]), vb, self._h))  # fmt: skip
 
     # ---- supply and faults ---------------------------------------------------------------------
     def supply_pressure(self, t: float) -> float:
@@ -224,27 +290,74 @@ class HydraulicRung(RungMixin, ActuatorSim):
 
     def set_leak(self, coefficient: float) -> None:
         """An extra leak from each chamber to the outside [m^3/(s Pa)] from now on, on top of
-        ``HydraulicParams.leak_to_outside`` (0 ends it)."""
-        self._set_fault_constant(hk.C_LEAK_EXT, "leak", coefficient,
-                                 self.hydraulic.leak_to_outside)  # fmt: skip
+        ``HydraulicParams.leak_to_outside`` (0 ends it). Refused (:class:`TooStiffError`) when it
+        makes the rung too stiff for its step (:meth:`check_stiffness`)."""
+        self._use_constants(self.leaking(coefficient))
 
     def jam(self, friction: float) -> None:
         """An extra Coulomb (and breakaway) friction [N] on the rod from now on: a jammed flap
-        (0 ends it)."""
-        self._set_fault_constant(hk.F_COULOMB, "jam friction", friction,
-                                 self.hydraulic.coulomb_friction)  # fmt: skip
-        self._set_fault_constant(hk.F_BREAKAWAY, "jam friction", friction,
-                                 self.hydraulic.breakaway_friction)  # fmt: skip
+        (0 ends it). Refused (:class:`TooStiffError`) when it makes the rung too stiff for its
+        step (:meth:`check_stiffness`)."""
+        self._use_constants(self.jammed(friction))
 
-    def _set_fault_constant(self, index: int, what: str, extra: float, base: float) -> None:
+    def leaking(self, coefficient: float) -> tuple[float, ...]:
+        """The rung's constants with the extra leak of :meth:`set_leak` (nothing changes)."""
+        base = self.hydraulic.leak_to_outside
+        return self._fault_constants("leak", coefficient, ((hk.C_LEAK_EXT, base),))
+
+    def jammed(self, friction: float) -> tuple[float, ...]:
+        """The rung's constants with the extra friction of :meth:`jam` (nothing changes)."""
+        hp = self.hydraulic
+        fields = ((hk.F_COULOMB, hp.coulomb_friction), (hk.F_BREAKAWAY, hp.breakaway_friction))
+        return self._fault_constants("jam friction", friction, fields)
+
+    def _fault_constants(self, what: str, extra: float, fields) -> tuple[float, ...]:
         if not (isinstance(extra, (int, float)) and math.isfinite(extra) and extra >= 0.0):
             raise InputError(f"{what} must be a finite number >= 0, got {extra!r}")
         h = list(self._h)
-        h[index] = base + float(extra)
-        if index in (hk.F_COULOMB, hk.F_BREAKAWAY) and h[hk.V_STRIBECK] <= 0.0:
-            raise InputError(f"{what} needs stribeck_velocity > 0 in HydraulicParams")
-        self._h = tuple(h)
+        for index, base in fields:
+            h[index] = base + float(extra)
+        friction = h[hk.F_COULOMB] > 0.0 or h[hk.F_BREAKAWAY] > 0.0
+        if friction and (h[hk.V_STRIBECK] <= 0.0 or h[hk.V_SMOOTH] <= 0.0):
+            raise InputError(
+                f"{what} needs stribeck_velocity and friction_smoothing_velocity > 0 in "
+                "HydraulicParams"
+            )
+        return tuple(h)
+
+    def _use_constants(self, h: tuple[float, ...]) -> None:
+        self.check_stiffness(h)
+        self._h = h
         self.__dict__.pop("_consts", None)  # rebuilt from self._h at the next step
+
+    def check_stiffness(self, h: tuple[float, ...] | None = None) -> int:
+        """The sub-steps a physics step needs at the stiffest of the probed states (the present
+        one, and at rest on either stop, where the chambers are smallest and the stop counts)
+        with the constants ``h`` (default: the rung's own). Raises :class:`TooStiffError` when
+        that is above ``max_substeps / STIFFNESS_MARGIN`` (module constants)."""
+        h = self._h if h is None else h
+        if not self._explicit:
+            return math.ceil(self.dt / (self.substep or DEFAULT_IMPLICIT_SUBSTEP) * (1 - 1e-12))
+        c, h_arr = self._consts[0], np.array(h)
+        full = self.hydraulic.supply_pressure
+        probes = [(self._y, self.supply_pressure(self.t))]
+        probes += [(y, full) for y in self._rest_at_stops]
+        rate = max(self._rate_fn(float(y[0]), float(y[2]), float(y[3]), float(y[4]), p, c, h_arr)
+                   for y, p in probes)  # fmt: skip
+        longest = self.stability_fraction * RK4_LIMIT / rate
+        needed = self.dt / (longest if self.substep is None else self.substep)
+        if not needed * STIFFNESS_MARGIN <= self.max_substeps:
+            raise TooStiffError(
+                f"too stiff for a physics step of {self.dt:.3g} s: its stiffest rate {rate:.4g} "
+                f"1/s needs {needed:.4g} {self.method} sub-steps per step, above "
+                f"1/{STIFFNESS_MARGIN:g} of the cap of {self.max_substeps} (max_substeps); "
+                "a shorter physics step (a higher rate) needs fewer"
+            )
+        return max(1, math.ceil(needed * (1 - 1e-12)))
+
+    @cached_property
+    def _rest_at_stops(self) -> tuple[np.ndarray, np.ndarray]:
+        return tuple(equilibrium_state(s, self.p, self.hydraulic) for s in (self.s_min, self.s_max))
 
     def lose_supply(self, ramp_time: float = 0.0, close: bool = True) -> None:
         """The supply falls to the return pressure over ``ramp_time`` [s]. With ``close`` (the
@@ -285,12 +398,8 @@ class HydraulicRung(RungMixin, ActuatorSim):
             self._q, self._qd, self._qdd = actual
 
     def _rod_force(self) -> float:
-        pa, pb = float(self._y[2]), float(self._y[3])
-        return (
-            pa * self._h[hk.AREA_A]
-            - pb * self._h[hk.AREA_B]
-            - hk.friction_force(float(self._qd[0]), self._h)
-        )
+        pa, pb = self.chamber_pressures()
+        return hk.rod_force(pa, pb, float(self._qd[0]), self._h)
 
     def _reference(self, t: float) -> tuple[float, float]:
         """The servo's stroke reference ``(s_ref, v_ref)`` [m, m/s] at ``t`` [s]."""
@@ -325,19 +434,19 @@ class HydraulicRung(RungMixin, ActuatorSim):
             longest = self.stability_fraction * limit if self.substep is None else self.substep
         else:
             longest = DEFAULT_IMPLICIT_SUBSTEP if self.substep is None else self.substep
-        n = max(1, math.ceil((t1 - t0) / longest * (1.0 - 1e-12)))
+        needed = (t1 - t0) / longest * (1.0 - 1e-12)
+        if not needed <= self.max_substeps:  # NaN too: a rate that is no number is refused
+            raise TooStiffError(
+                f"the hydraulic state at t = {t0:.6g} s is too stiff for a physics step of "
+                f"{self.dt:.3g} s: its stiffest rate {rate:.4g} 1/s needs {needed:.4g} "
+                f"{self.method} sub-steps, above the cap of {self.max_substeps} (max_substeps)"
+            )
+        n = max(1, math.ceil(needed))
         hsub = (t1 - t0) / n
         held = 1.0 if self._spool_held else 0.0
         f_ref = self._force_cmd
         for k in range(n):
-            ta = t0 + k * hsub
-            s0, v0 = self._reference(ta)
-            sm, vm = self._reference(ta + 0.5 * hsub)
-            s1, v1 = self._reference(ta + hsub)
-            y = self._step_fn(
-                y, mode, s0, v0, sm, vm, s1, v1, f_ref, self.supply_pressure(ta),
-                self.supply_pressure(ta + hsub), held, hsub, c, h,
-            )  # fmt: skip
+            y = self._substep(y, t0 + k * hsub, hsub, mode, f_ref, held)
         if not np.all(np.isfinite(y)):
             raise StiffStepError(
                 f"the hydraulic state became non-finite in a step of {self.dt:.3g} s "
@@ -347,3 +456,49 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self.t = t1
         self._y = np.asarray(y, dtype=float)
         self._update_outputs()
+
+    def _substep(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
+        """One sub-step of ``hsub`` [s] from ``ta`` [s]; with ``locate_events``, split where the
+        right-hand side is not smooth (:func:`~.hydraulic_kernels.switching_functions`)."""
+        if self.locate_events:
+            return self._events.advance(y, ta, hsub, mode, f_ref, held)
+        return self._step_to(y, ta, hsub, mode, f_ref, held)
+
+    def _step_to(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
+        """One step of the method over ``[ta, ta + hsub]``, the references taken there."""
+        c, h = self._consts
+        s0, v0 = self._reference(ta)
+        sm, vm = self._reference(ta + 0.5 * hsub)
+        s1, v1 = self._reference(ta + hsub)
+        return self._step_fn(
+            y, mode, s0, v0, sm, vm, s1, v1, f_ref, self.supply_pressure(ta),
+            self.supply_pressure(ta + hsub), held, hsub, c, h,
+        )  # fmt: skip
+
+    def _refs(self, t: float):
+        """``(s_ref, v_ref, supply pressure)`` at ``t`` [s]."""
+        s_ref, v_ref = self._reference(t)
+        return s_ref, v_ref, self.supply_pressure(t)
+
+    def _switches(self, y, t: float, mode: float, f_ref: float, held: float):
+        c, h = self._consts
+        s_ref, v_ref, ps = self._refs(t)
+        return self._switch_fn(float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(y[4]),
+                               mode, s_ref, v_ref, f_ref, ps, held, c, h)  # fmt: skip
+
+    def _rate(self, y, t: float, mode: float, f_ref: float, held: float):
+        c, h = self._consts
+        s_ref, v_ref, ps = self._refs(t)
+        return self._rhs_fn(np.asarray(y, dtype=float), mode, s_ref, v_ref, f_ref, ps, held, c, h)
+
+    @cached_property
+    def _switch_fn(self):
+        return compiled_kernel(hk.switching_functions)
+
+    @cached_property
+    def _rhs_fn(self):
+        return compiled_kernel(state_rate)
+
+    @cached_property
+    def _events(self) -> EventLocator:
+        return EventLocator(self._step_to, self._switches, self._rate)

@@ -1,9 +1,15 @@
 r"""The hydraulic rung's formulas, each once, as plain Python on floats (numba compiles them as
 they are, like :mod:`drs_model.kernels`).
 
-State ``y = (psi3, psi3', p_A, p_B, x_v)``: the flap angle [rad] and rate [rad/s] (the rigid
-mechanism in its regular coordinate, :func:`drs_model.kernels.psi3_acceleration`), the pressures
-of the piston-side (A) and rod-side (B) chambers [Pa], and the normalised spool position.
+State ``y = (psi3, psi3', x_A, x_B, x_v)``: the flap angle [rad] and rate [rad/s] (the rigid
+mechanism in its regular coordinate, :func:`drs_model.kernels.psi3_acceleration`), the chamber
+states of the piston-side (A) and rod-side (B) chambers [Pa], and the normalised spool position.
+A chamber's state is its pressure while the chamber is full; below the vapour pressure ``p_v`` it
+measures the vapour cavity instead (:func:`chamber_pressure`, :func:`cavity_volume`):
+
+.. math::
+
+    p = \max(x, p_v), \qquad V_{cav} = V \, (p_v - x) / \beta \quad (x < p_v)
 
 Equations (Merritt, "Hydraulic Control Systems"; ``s`` and ``s' = u_s psi3'`` from the psi3
 kinematics):
@@ -12,14 +18,29 @@ kinematics):
 
     V_A = V_{A0} + A_A (s - s_{min}), \quad V_B = V_{B0} + A_B (s_{max} - s)
 
-    \dot p_A = \frac{\beta}{V_A} (Q_A - A_A \dot s - Q_{AB} - Q_{A,ext} - Q_{A,relief})
+    \dot x = \frac{\beta_e(p)}{V} (Q_{in} - \dot V) + [x < p_v] \frac{\dot V}{V} (p_v - x)
 
-    \dot p_B = \frac{\beta}{V_B} (Q_B + A_B \dot s + Q_{AB} - Q_{B,ext} - Q_{B,relief})
+    Q_{A,in} = Q_A - Q_{AB} - Q_{A,ext} - Q_{A,relief}, \quad
+    Q_{B,in} = Q_B + Q_{AB} - Q_{B,ext} - Q_{B,relief}
 
     F = p_A A_A - p_B A_B - F_{friction}(\dot s) + F_{stop}(s, \dot s)
 
     \ddot\psi_3 = \psi_3''(\psi_3, \dot\psi_3, F), \qquad
     \dot x_v = (u - x_v) / \tau_v \quad (x_v = u \text{ when } \tau_v = 0)
+
+Above the vapour pressure the chamber equation is continuity, ``p' = beta_e / V (Q_in - V')``;
+below it the cavity takes the volume the oil does not fill (``V_cav' = V' - Q_in``, the pressure
+held at ``p_v``). The state is continuous through ``x = p_v``; its rate changes there from the
+oil-air mixture's ``beta_e(p_v)`` to the oil's ``beta`` (the cavity is measured in the oil's
+scale, so that a step that overshoots the floor by some pressure opens a cavity as small as the
+oil's compression over that pressure; without air the rate is continuous). The effective bulk
+modulus of the oil with its entrained air (:func:`effective_bulk_modulus`, the model and its
+sources in :mod:`~drs_model.fidelity.hydraulic_params`), with ``phi = a (p_sat / p)^(1/n)`` the
+free air per volume of oil:
+
+.. math::
+
+    \beta_e(p) = \beta \, \frac{1 + \phi}{1 + \beta \phi / (n p)}
 
 The valve's four metering edges (P->A and B->T open for ``x_v > 0``, P->B and A->T for
 ``x_v < 0``) each pass ``Q = k x dp / sqrt(|dp| + p_lam)``: the turbulent orifice law
@@ -42,13 +63,50 @@ TAU_SPOOL, P_RELIEF, K_RELIEF, C_LEAK_AB, C_LEAK_EXT, P_RETURN = 10, 11, 12, 13,
 C_VISCOUS, F_COULOMB, F_BREAKAWAY, V_STRIBECK, V_SMOOTH = 16, 17, 18, 19, 20
 K_STOP, C_STOP, S_MIN, S_MAX = 21, 22, 23, 24
 K_POSITION, K_FEEDFORWARD, K_FORCE = 25, 26, 27
-N_HYDRAULIC_CONSTANTS = 28
+AIR_FRACTION, P_AIR_SATURATION, AIR_INDEX, P_VAPOUR = 28, 29, 30, 31
+N_HYDRAULIC_CONSTANTS = 32
 
 #: Distance from a stop [m] within which :func:`stiffest_rate` counts the stop's stiffness.
 STOP_MARGIN = 5e-4
 
 #: Servo modes (the ``mode`` argument): follow a stroke reference, or a force reference.
 MODE_STROKE, MODE_FORCE = 0.0, 1.0
+
+
+def effective_bulk_modulus(p, h):
+    """The bulk modulus [Pa] of the oil with its entrained air at the pressure ``p`` [Pa,
+    absolute, > 0] (module docstring): ``beta`` where there is no air, falling steeply below the
+    air's saturation pressure, tending to ``beta`` at high pressure."""
+    if h[AIR_FRACTION] == 0.0:
+        return h[BETA]
+    n = h[AIR_INDEX]
+    phi = h[AIR_FRACTION] * (h[P_AIR_SATURATION] / p) ** (1.0 / n)
+    return h[BETA] * (1.0 + phi) / (1.0 + h[BETA] * phi / (n * p))
+
+
+def chamber_pressure(x, h):
+    """The pressure [Pa] of a chamber in the state ``x`` [Pa]: ``x``, never below the vapour
+    pressure."""
+    return max(x, h[P_VAPOUR])
+
+
+def cavity_volume(x, v, h):
+    """The vapour cavity [m^3] of a chamber of volume ``v`` [m^3] in the state ``x`` [Pa]
+    (0 while the chamber is full)."""
+    below = h[P_VAPOUR] - x
+    if below <= 0.0:
+        return 0.0
+    return v * below / h[BETA]
+
+
+def chamber_rate(x, v, v_rate, q_in, h):
+    """``dx/dt`` [Pa/s] of a chamber's state ``x`` [Pa] (module docstring): volume ``v``
+    [m^3] growing at ``v_rate`` [m^3/s], net inflow ``q_in`` [m^3/s]; its continuity residual
+    is ``q_in - v_rate - v / beta_e(p) dp/dt`` for a full chamber."""
+    pv = h[P_VAPOUR]
+    if x >= pv:
+        return effective_bulk_modulus(x, h) / v * (q_in - v_rate)
+    return h[BETA] / v * (q_in - v_rate) + v_rate / v * (pv - x)
 
 
 def edge_flow(k, opening, dp, p_laminar, linear, q_lin):
@@ -110,6 +168,13 @@ def stop_force(s, sd, h):
     return 0.0
 
 
+def rod_force(pa, pb, sd, h):
+    """The force [N] the cylinder gives the rod (along +s) at chamber pressures ``pa``, ``pb``
+    [Pa] and rod speed ``sd`` [m/s]: the pressures on their areas less the friction (the stops'
+    contact force is the mechanism's, not the cylinder's). The rung's published piston force."""
+    return pa * h[AREA_A] - pb * h[AREA_B] - friction_force(sd, h)
+
+
 def chamber_volumes(s, h):
     """``(V_A, V_B)`` [m^3] at stroke ``s`` [m]."""
     return (h[VOL_A0] + h[AREA_A] * (s - h[S_MIN]), h[VOL_B0] + h[AREA_B] * (h[S_MAX] - s))
@@ -125,12 +190,15 @@ def servo_command(mode, s, s_ref, v_ref, f_ref, f_hyd, h):
 
 
 def hydraulic_derivatives(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
-    """``d/dt (psi3, psi3', p_A, p_B, x_v)`` (module docstring) with the servo references
-    (``s_ref`` [m], ``v_ref`` [m/s], ``f_ref`` [N]) and the supply pressure ``ps`` [Pa];
+    """``d/dt (psi3, psi3', x_A, x_B, x_v)`` (module docstring) at the chamber states ``pa``,
+    ``pb`` [Pa] (the pressures while no cavity is open), with the servo references (``s_ref``
+    [m], ``v_ref`` [m/s], ``f_ref`` [N]) and the supply pressure ``ps`` [Pa];
     ``spool_held > 0.5`` freezes the spool where it is (a stuck valve). NaN where the mechanism
     does not assemble."""
     s, _, us, _ = kernels.psi3_configuration(b, c)
     sd = us * bd
+    xa, xb = pa, pb
+    pa, pb = chamber_pressure(xa, h), chamber_pressure(xb, h)
     f_hyd = pa * h[AREA_A] - pb * h[AREA_B]
     if spool_held > 0.5:
         x, dx = xv, 0.0
@@ -144,16 +212,10 @@ def hydraulic_derivatives(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spoo
     q_ab = h[C_LEAK_AB] * (pa - pb)
     pr = h[P_RETURN]
     va, vb = chamber_volumes(s, h)
-    dpa = (
-        h[BETA]
-        / va
-        * (q_pa - q_at - h[AREA_A] * sd - q_ab - h[C_LEAK_EXT] * (pa - pr) - relief_flow(pa, h))
-    )
-    dpb = (
-        h[BETA]
-        / vb
-        * (q_pb - q_bt + h[AREA_B] * sd + q_ab - h[C_LEAK_EXT] * (pb - pr) - relief_flow(pb, h))
-    )
+    q_a = q_pa - q_at - q_ab - h[C_LEAK_EXT] * (pa - pr) - relief_flow(pa, h)
+    q_b = q_pb - q_bt + q_ab - h[C_LEAK_EXT] * (pb - pr) - relief_flow(pb, h)
+    dpa = chamber_rate(xa, va, h[AREA_A] * sd, q_a, h)
+    dpb = chamber_rate(xb, vb, -h[AREA_B] * sd, q_b, h)
     force = f_hyd - friction_force(sd, h) + stop_force(s, sd, h)
     return bd, kernels.psi3_acceleration(b, bd, force, c), dpa, dpb, dx
 
@@ -166,11 +228,13 @@ def stiffest_rate(b, pa, pb, xv, ps, c, h):
     (spool, friction, pressure relaxation through the valve, leaks and relief), whichever is
     larger."""
     sb, cb, s, sa, ca, _ = kernels.psi3_position(b, c)
+    pa, pb = chamber_pressure(pa, h), chamber_pressure(pb, h)
     u0, u1, w0, w1 = kernels.flap_rates(sa, ca, sb, cb, c)
     umu = kernels.projected_dynamics(sa, ca, sb, cb, b, u0, u1, 1.0, w0, w1, 0.0, c)[0]
     m_eff = umu / (u0 * u0)
     va, vb = chamber_volumes(s, h)
     va, vb = max(va, 1e-3 * h[VOL_A0] + 1e-12), max(vb, 1e-3 * h[VOL_B0] + 1e-12)
+    # beta bounds the effective modulus from above (entrained air only softens the oil)
     k_oil = h[BETA] * (h[AREA_A] ** 2 / va + h[AREA_B] ** 2 / vb)
     # the stop counts from STOP_MARGIN before contact: a step that starts there may reach it
     contact = s < h[S_MIN] + STOP_MARGIN or s > h[S_MAX] - STOP_MARGIN
@@ -197,18 +261,22 @@ def stiffest_rate(b, pa, pb, xv, ps, c, h):
 
 def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
     """Powers [W] at one instant: ``(supply, valve_loss, leak_loss, relief_loss, compression,
-    piston, friction_loss, stop)``.
+    piston, friction_loss, stop, cavitation)``, at the chamber states ``pa``, ``pb`` [Pa].
 
     ``supply = ps Q_P - p_r Q_T`` is the hydraulic power the supply delivers (``Q_T``: all
     that returns to the reservoir, through the valve, the outside leaks and the relief
-    valves); the valve edges,
-    the leaks and the relief valves dissipate their flow times their pressure drop;
-    ``compression = p_A V_A p_A' / beta + p_B V_B p_B' / beta`` is stored in the oil (and given
-    back); ``piston = (p_A A_A - p_B A_B) s'`` reaches the rod, of which friction dissipates
-    ``F_friction s'`` and the stops take ``F_stop s'`` back. Identity (the continuity equations
-    times the pressures): ``supply = valve + leak + relief + compression + piston``."""
+    valves); the valve edges, the leaks and the relief valves dissipate their flow times their
+    pressure drop; ``compression = p_A V_A p_A' / beta_e(p_A) + p_B V_B p_B' / beta_e(p_B)`` is
+    stored in the oil and its entrained air (and given back); ``piston = (p_A A_A - p_B A_B) s'``
+    reaches the rod, of which friction dissipates ``F_friction s'`` and the stops take
+    ``F_stop s'`` back; ``cavitation = -p_v (V_cav,A' + V_cav,B')`` is what the vapour cavities
+    give the piston as they open (negative) and take back as they close. Identity (the
+    continuity equations times the pressures): ``supply = valve + leak + relief + compression +
+    piston + cavitation``."""
     s, _, us, _ = kernels.psi3_configuration(b, c)
     sd = us * bd
+    xa, xb = pa, pb
+    pa, pb = chamber_pressure(xa, h), chamber_pressure(xb, h)
     f_hyd = pa * h[AREA_A] - pb * h[AREA_B]
     if spool_held > 0.5 or h[TAU_SPOOL] > 0.0:
         x = xv
@@ -222,11 +290,19 @@ def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, 
     valve = q_pa * (ps - pa) + q_at * (pa - pr) + q_pb * (ps - pb) + q_bt * (pb - pr)
     leak = h[C_LEAK_AB] * (pa - pb) ** 2 + h[C_LEAK_EXT] * ((pa - pr) ** 2 + (pb - pr) ** 2)
     relief = relief_flow(pa, h) * (pa - pr) + relief_flow(pb, h) * (pb - pr)
-    _, _, dpa, dpb, _ = hydraulic_derivatives(
-        b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h
+    _, _, dxa, dxb, _ = hydraulic_derivatives(
+        b, bd, xa, xb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h
     )
     va, vb = chamber_volumes(s, h)
-    compression = (pa * va * dpa + pb * vb * dpb) / h[BETA]
+    compression = 0.0
+    cavitation = 0.0
+    # d/dt of cavity_volume(x, V) where a cavity is open (V' = A_A s', -A_B s')
+    for x, dx, v, dv in ((xa, dxa, va, h[AREA_A] * sd), (xb, dxb, vb, -h[AREA_B] * sd)):
+        if x >= h[P_VAPOUR]:
+            compression += x * v * dx / effective_bulk_modulus(x, h)
+        else:
+            d_cavity = (dv * (h[P_VAPOUR] - x) - v * dx) / h[BETA]
+            cavitation -= h[P_VAPOUR] * d_cavity
     return (
         supply,
         valve,
@@ -236,20 +312,61 @@ def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, 
         f_hyd * sd,
         friction_force(sd, h) * sd,
         stop_force(s, sd, h) * sd,
+        cavitation,
     )
+
+
+def switching_functions(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
+    """Where :func:`hydraulic_derivatives` is not smooth, as 15 functions of the state that
+    change sign there (a reference that locates them integrates only smooth pieces): the spool
+    through the null (where the metering edges open), the servo command at its clips, the four
+    edges' pressure drops through zero (the laminar law is once differentiable there), each
+    chamber at its relief pressure and at the vapour pressure, the rod at each stop, and the
+    stop's damping reaching zero (a stop never pulls). A function that cannot change sign at
+    this state (the damping away from the stop) is 1."""
+    s, _, us, _ = kernels.psi3_configuration(b, c)
+    sd = us * bd
+    p_a, p_b = chamber_pressure(pa, h), chamber_pressure(pb, h)
+    f_hyd = p_a * h[AREA_A] - p_b * h[AREA_B]
+    if mode > 0.5:
+        u = h[K_FORCE] * (f_ref - f_hyd)
+    else:
+        u = h[K_FEEDFORWARD] * v_ref * h[AREA_A] / h[Q_NO_LOAD] + h[K_POSITION] * (s_ref - s)
+    if spool_held > 0.5 or h[TAU_SPOOL] > 0.0:
+        x = xv
+    else:
+        x = min(max(u, -1.0), 1.0)
+    if spool_held > 0.5:
+        u = 0.0  # the command does not act on a stuck spool
+    pr = h[P_RETURN]
+    below, above = h[S_MIN] - s, s - h[S_MAX]
+    damp_closed = h[K_STOP] * below - h[C_STOP] * sd if below > 0.0 else 1.0
+    damp_open = h[K_STOP] * above + h[C_STOP] * sd if above > 0.0 else 1.0
+    return (
+        x, u - 1.0, u + 1.0,
+        ps - p_a, p_a - pr, ps - p_b, p_b - pr,
+        p_a - h[P_RELIEF], p_b - h[P_RELIEF], pa - h[P_VAPOUR], pb - h[P_VAPOUR],
+        below, above, damp_closed, damp_open,
+    )  # fmt: skip
 
 
 #: Every kernel of this module (registered with numba by :mod:`drs_model.fidelity.compiled`).
 KERNELS = (
+    effective_bulk_modulus,
+    chamber_pressure,
+    cavity_volume,
+    chamber_rate,
     edge_flow,
     edge_slope,
     valve_flows,
     relief_flow,
     friction_force,
     stop_force,
+    rod_force,
     chamber_volumes,
     servo_command,
     hydraulic_derivatives,
     stiffest_rate,
     power_balance,
+    switching_functions,
 )

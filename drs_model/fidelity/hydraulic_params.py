@@ -10,8 +10,26 @@ Sources of the defaults (SI units throughout):
 * Valve: the same E024 is rated 7.5 l/min at a 70 bar valve drop (35 bar per metering edge).
   Spool lag: a first-order time constant of 0.8 ms (a small servovalve's ~200 Hz bandwidth, the
   class Moog lists for its subminiature valves: an estimate, not a datasheet value).
-* Oil: effective bulk modulus 1.4 GPa (mineral oil is 1.4-1.8 GPa pure, lower with entrained air
-  and hose compliance: Merritt, "Hydraulic Control Systems", ch. 2), density 850 kg/m^3.
+* Oil: bulk modulus 1.4 GPa without free air (mineral oil is 1.4-1.8 GPa pure, lower with hose
+  compliance: Merritt, "Hydraulic Control Systems", ch. 2), density 850 kg/m^3.
+* Entrained air and cavitation (``hydraulic_kernels.effective_bulk_modulus``):
+  the oil carries free air bubbles, ``entrained_air_fraction`` of the oil's volume at the air's
+  saturation pressure (the pressure at which the oil and its air are in equilibrium: where it was
+  filled and bled, the atmosphere). The bubbles follow the polytropic law
+  ``p V^n = const`` (``air_polytropic_index`` n: 1 isothermal, 1.4 adiabatic), so that below the
+  saturation pressure they grow (the air released from the oil) and the mixture softens steeply;
+  at high pressure they shrink to nothing and the modulus tends to ``bulk_modulus``. The
+  mixture's modulus is the compression-only oil-air model of the fluid-power literature
+  (Merritt's composite modulus ``1/beta_e = (1 - x)/beta + x/(n p)`` with the gas volume
+  following the pressure: Rabie, "Fluid Power Engineering", McGraw-Hill 2009, eqs. 2.49-2.57;
+  in this form the mixture modulus of MathWorks' Simscape hydraulic chambers, its "relative
+  amount of trapped air"; compared with measurements in Gholizadeh, Burton and Schoenau, "Fluid
+  bulk modulus: a literature survey", Int. J. Fluid Power 12(3):5-16, 2011). Defaults: 0.5 % of
+  air at 1 atm (the usual "0.5-1 %" of a bled circuit, Simscape's default; an estimate for this
+  actuator, to identify from pressure logs), isothermal (small bubbles exchange heat within a
+  millisecond: an estimate). At the vapour pressure, 2 kPa (a few kPa, where mineral oil's light
+  fractions boil off and a cavity opens: an estimate), a chamber's pressure stops falling and a
+  vapour cavity opens instead; it closes again before the pressure can rise.
 * Cylinder: bore 16 mm, rod 8 mm (our sizing: 210 bar on the 2.0 cm^2 piston gives 4.2 kN, 4x the
   1.0 kN static load at the closed stop); dead volumes of 2 cm^3 a side (ports, a short hose:
   an estimate).
@@ -55,7 +73,17 @@ class HydraulicParams:
 
     supply_pressure: float = 210e5
     return_pressure: float = 5e5
+    #: The oil's bulk modulus without free air [Pa]: the effective modulus at high pressure.
     bulk_modulus: float = 1.4e9
+    #: Free air [m^3 per m^3 of oil] at ``air_saturation_pressure`` (0: pure oil).
+    entrained_air_fraction: float = 0.005
+    #: Pressure [Pa, absolute] at which the oil and its air are in equilibrium and the entrained
+    #: fraction is stated.
+    air_saturation_pressure: float = 101325.0
+    #: Polytropic index of the air bubbles [-]: 1 isothermal, 1.4 adiabatic.
+    air_polytropic_index: float = 1.0
+    #: The oil's vapour pressure [Pa, absolute]: no chamber pressure falls below it.
+    vapour_pressure: float = 2e3
     oil_density: float = 850.0
     bore_diameter: float = 0.016
     rod_diameter: float = 0.008
@@ -89,12 +117,14 @@ class HydraulicParams:
     _POSITIVE = (
         "bulk_modulus", "oil_density", "bore_diameter", "valve_rated_flow",
         "valve_rated_pressure_drop", "valve_laminar_pressure", "supply_pressure",
+        "air_saturation_pressure", "vapour_pressure",
     )  # fmt: skip
     _NON_NEGATIVE = (
         "rod_diameter", "dead_volume_piston_side", "dead_volume_rod_side", "spool_time_constant",
         "relief_flow_gain", "leak_across_piston", "leak_to_outside", "viscous_friction",
         "coulomb_friction", "breakaway_friction", "stop_stiffness", "stop_damping",
         "position_gain", "velocity_feedforward", "force_gain", "return_pressure",
+        "entrained_air_fraction",
     )  # fmt: skip
 
     def __post_init__(self) -> None:
@@ -122,6 +152,21 @@ class HydraulicParams:
             raise ParameterError(
                 f"relief_pressure must be > return_pressure = {self.return_pressure!r} Pa, got "
                 f"{self.relief_pressure!r}"
+            )
+        if not 1.0 <= self.air_polytropic_index <= 1.4:
+            raise ParameterError(
+                "air_polytropic_index must be in [1, 1.4] (isothermal to adiabatic air), got "
+                f"{self.air_polytropic_index!r}"
+            )
+        if self.entrained_air_fraction > 0.2:
+            raise ParameterError(
+                "entrained_air_fraction must be in [0, 0.2] (free air per volume of oil), got "
+                f"{self.entrained_air_fraction!r}"
+            )
+        if not self.vapour_pressure < self.return_pressure:
+            raise ParameterError(
+                f"vapour_pressure must be < return_pressure = {self.return_pressure!r} Pa, got "
+                f"{self.vapour_pressure!r}"
             )
         if self.breakaway_friction < self.coulomb_friction:
             raise ParameterError(

@@ -36,7 +36,8 @@ RK4_LIMIT = 2.5
 JACOBIAN_EPS = 1e-7
 
 
-def _f(y, mode, s_ref, v_ref, f_ref, ps, held, c, h):
+def state_rate(y, mode, s_ref, v_ref, f_ref, ps, held, c, h):
+    """``dy/dt`` as a float64 array of 5 (:func:`~.hydraulic_kernels.hydraulic_derivatives`)."""
     d = hydraulic_derivatives(
         y[0], y[1], y[2], y[3], y[4], mode, s_ref, v_ref, f_ref, ps, held, c, h
     )
@@ -49,10 +50,10 @@ def _f(y, mode, s_ref, v_ref, f_ref, ps, held, c, h):
 def rk4_step(y, mode, s0, v0, sm, vm, s1, v1, f_ref, ps0, ps1, held, dt, c, h):
     """One classic Runge-Kutta step of ``dt`` [s] (explicit, order 4)."""
     psm = 0.5 * (ps0 + ps1)
-    k1 = _f(y, mode, s0, v0, f_ref, ps0, held, c, h)
-    k2 = _f(y + 0.5 * dt * k1, mode, sm, vm, f_ref, psm, held, c, h)
-    k3 = _f(y + 0.5 * dt * k2, mode, sm, vm, f_ref, psm, held, c, h)
-    k4 = _f(y + dt * k3, mode, s1, v1, f_ref, ps1, held, c, h)
+    k1 = state_rate(y, mode, s0, v0, f_ref, ps0, held, c, h)
+    k2 = state_rate(y + 0.5 * dt * k1, mode, sm, vm, f_ref, psm, held, c, h)
+    k3 = state_rate(y + 0.5 * dt * k2, mode, sm, vm, f_ref, psm, held, c, h)
+    k4 = state_rate(y + dt * k3, mode, s1, v1, f_ref, ps1, held, c, h)
     return y + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
@@ -63,7 +64,7 @@ def jacobian(y, f0, mode, s_ref, v_ref, f_ref, ps, held, c, h):
         dy = JACOBIAN_EPS * max(abs(y[j]), 1.0 if j != 2 and j != 3 else 1e5)
         yp = y.copy()
         yp[j] += dy
-        fp = _f(yp, mode, s_ref, v_ref, f_ref, ps, held, c, h)
+        fp = state_rate(yp, mode, s_ref, v_ref, f_ref, ps, held, c, h)
         for i in range(5):
             jac[i, j] = (fp[i] - f0[i]) / dy
     return jac
@@ -72,7 +73,7 @@ def jacobian(y, f0, mode, s_ref, v_ref, f_ref, ps, held, c, h):
 def linearly_implicit_euler_step(y, mode, s0, v0, sm, vm, s1, v1, f_ref, ps0, ps1, held, dt, c, h):
     """One linearly implicit Euler step (Rosenbrock, order 1, L-stable); the references at the
     step's end, where the implicit step evaluates its stiff part."""
-    f0 = _f(y, mode, s1, v1, f_ref, ps1, held, c, h)
+    f0 = state_rate(y, mode, s1, v1, f_ref, ps1, held, c, h)
     w = np.eye(5) - dt * jacobian(y, f0, mode, s1, v1, f_ref, ps1, held, c, h)
     return y + dt * np.linalg.solve(w, f0)
 
@@ -82,10 +83,10 @@ ROS2_GAMMA = 1.0 + 1.0 / np.sqrt(2.0)
 
 def ros2_step(y, mode, s0, v0, sm, vm, s1, v1, f_ref, ps0, ps1, held, dt, c, h):
     """One ROS2 step (Rosenbrock, order 2, L-stable; module docstring)."""
-    f0 = _f(y, mode, s0, v0, f_ref, ps0, held, c, h)
+    f0 = state_rate(y, mode, s0, v0, f_ref, ps0, held, c, h)
     w = np.eye(5) - ROS2_GAMMA * dt * jacobian(y, f0, mode, s0, v0, f_ref, ps0, held, c, h)
     k1 = np.linalg.solve(w, f0)
-    f1 = _f(y + dt * k1, mode, s1, v1, f_ref, ps1, held, c, h)
+    f1 = state_rate(y + dt * k1, mode, s1, v1, f_ref, ps1, held, c, h)
     k2 = np.linalg.solve(w, f1 - 2.0 * k1)
     return y + dt * (1.5 * k1 + 0.5 * k2)
 
@@ -98,4 +99,4 @@ STEP_METHODS = {
 }
 
 #: Every kernel of this module (registered with numba by :mod:`drs_model.fidelity.compiled`).
-KERNELS = (_f, rk4_step, jacobian, linearly_implicit_euler_step, ros2_step)
+KERNELS = (state_rate, rk4_step, jacobian, linearly_implicit_euler_step, ros2_step)

@@ -31,7 +31,11 @@ RUNS = (
     ("rigid", "rigid", {}),
     ("hydraulic", "hydraulic", {}),
 )
-REFERENCE = ("hydraulic (reference)", "hydraulic", {"method": "rk4", "stability_fraction": 0.25})
+REFERENCE = (
+    "hydraulic (reference)",
+    "hydraulic",
+    {"method": "rk4", "stability_fraction": 1.0 / 16.0, "locate_events": True},
+)
 
 
 def _opens(action: str, argument) -> bool | None:
@@ -92,10 +96,26 @@ def errors(trace: Trace, reference: Trace, scene: Scene, p: DRSParams) -> dict[s
     }
 
 
+def chamber_floor(trace: Trace) -> dict[str, float] | None:
+    """Each chamber's lowest pressure [Pa] and the time [s] it spends with a vapour cavity open
+    (at the vapour pressure), counted in the trace's steps: ``{"lowest_pressure_a", ...,
+    "time_at_floor_b"}``; None for a rung without chambers."""
+    if trace.pressure_a.size == 0:
+        return None
+    dt = float(trace.t[1] - trace.t[0]) if trace.t.size > 1 else 0.0
+    return {
+        "lowest_pressure_a": float(np.min(trace.pressure_a)),
+        "lowest_pressure_b": float(np.min(trace.pressure_b)),
+        "time_at_floor_a": dt * int(np.count_nonzero(trace.cavity_a > 0.0)),
+        "time_at_floor_b": dt * int(np.count_nonzero(trace.cavity_b > 0.0)),
+    }
+
+
 @dataclass
 class LadderRow:
     """One run of one scene: the label, the rung, its errors (None if refused), its cost per
-    simulated second [s/s], its event times [s] and the reason of a refusal."""
+    simulated second [s/s], its event times [s], the reason of a refusal and, for a rung with
+    chambers, :func:`chamber_floor`."""
 
     scene: str
     label: str
@@ -105,6 +125,7 @@ class LadderRow:
     opening: float
     closing: float
     refused: str | None = None
+    chambers: dict[str, float] | None = None
 
 
 def measure(
@@ -113,11 +134,14 @@ def measure(
     scenes=STANDARD_SCENES,
     lap_seconds: float | None = None,
     progress=None,
+    hydraulic=None,
 ) -> list[LadderRow]:
     """Every run of :data:`RUNS` and the reference on every scene. ``lap_seconds`` shortens the
     gap stream's lap (its commands scaled with it; a quick look). ``progress(label)`` is called
-    before each run."""
+    before each run. ``hydraulic`` (a :class:`~.hydraulic_params.HydraulicParams`) replaces the
+    hydraulic rung's defaults, in its run and the reference's."""
     p = DRSParams() if p is None else p
+    extra = {} if hydraulic is None else {"hydraulic": hydraulic}
     rows = []
     for scene in scenes:
         if lap_seconds is not None and scene.repeat > 1:
@@ -131,20 +155,22 @@ def measure(
             )
         if progress:
             progress(f"{scene.name}: {REFERENCE[0]}")
-        ref = run_scene(REFERENCE[1], scene, p, dt, **REFERENCE[2])
+        ref = run_scene(REFERENCE[1], scene, p, dt, **REFERENCE[2], **extra)
         ref_times = event_times(ref, scene, p)
         rows.append(LadderRow(scene.name, REFERENCE[0], REFERENCE[1], None,
-                              ref.cost_per_second, *ref_times))  # fmt: skip
+                              ref.cost_per_second, *ref_times,
+                              chambers=chamber_floor(ref)))  # fmt: skip
         for label, rung, options in RUNS:
             if progress:
                 progress(f"{scene.name}: {label}")
-            tr = run_scene(rung, scene, p, dt, **options)
+            tr = run_scene(rung, scene, p, dt, **options, **(extra if rung == "hydraulic" else {}))
             if tr.refused:
                 rows.append(LadderRow(scene.name, label, rung, None, math.nan, math.nan,
                                       math.nan, tr.refused))  # fmt: skip
                 continue
             rows.append(LadderRow(scene.name, label, rung, errors(tr, ref, scene, p),
-                                  tr.cost_per_second, *event_times(tr, scene, p)))  # fmt: skip
+                                  tr.cost_per_second, *event_times(tr, scene, p),
+                                  chambers=chamber_floor(tr)))  # fmt: skip
     return rows
 
 

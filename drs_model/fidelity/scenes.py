@@ -13,6 +13,10 @@ A scene is a list of timed commands (the actuator's: ``drs`` open/close, ``force
     at rest closed; a 1500 N force step at 5 ms (the demo's): the flap goes onto its open stop.
 ``supply-loss``
     open, then the supply fails at 0.1 s (the controller commands closed, its fail-safe).
+``relief``
+    a 10 kN force command (more than the cylinder gives: full spool) holds the flap on its open
+    stop; at 0.15 s the supply rises to 300 bar (its regulator fails) and the piston side's relief
+    valve opens at 250 bar.
 ``gap-stream``
     a lap of 90 s at 1 kHz with two DRS zones (open at 12 s and 55 s for 8 s and 5 s, 100 ms
     moves): what a
@@ -37,8 +41,9 @@ from .kinematic import KinematicRung, batch_strokes
 @dataclass(frozen=True)
 class Scene:
     """A scene: ``events`` are ``(t [s], action, argument)`` with action ``"drs"`` (argument: open
-    True/False, the seed's move times), ``"move"`` (``(open, duration [s])``), ``"force"`` (N)
-    or ``"lose_supply"`` (ramp time [s]); ``duration`` [s];
+    True/False, the seed's move times), ``"move"`` (``(open, duration [s])``), ``"force"`` (N),
+    ``"lose_supply"`` (ramp time [s]) or ``"supply"`` (a new supply pressure [Pa], at once; only
+    a rung with a supply takes it); ``duration`` [s];
     ``repeat`` is how many times the scene stands for itself (the hour of laps)."""
 
     name: str
@@ -74,6 +79,12 @@ STANDARD_SCENES = (
         description="open; the supply fails at 0.1 s",
     ),
     Scene(
+        "relief",
+        0.3,
+        ((0.0, "force", 1.0e4), (0.15, "supply", 300e5)),
+        description="open stop under full spool; the supply rises to 300 bar at 0.15 s",
+    ),
+    Scene(
         "gap-stream",
         90.0,
         (
@@ -92,8 +103,10 @@ SCENES = {s.name: s for s in STANDARD_SCENES}
 @dataclass
 class Trace:
     """A rung's run of a scene: samples at every step (``t`` [s], ``stroke`` [m], ``gap`` [m],
-    ``force`` [N], NaN where the rung has none), the wall-clock ``cost`` [s] of the stepping, and
-    ``refused`` (the reason) where the rung cannot represent a command of the scene."""
+    ``force`` [N], NaN where the rung has none; the chamber pressures [Pa] and vapour cavities
+    [m^3] ``pressure_a``, ``pressure_b``, ``cavity_a``, ``cavity_b`` of a rung with chambers,
+    else empty), the wall-clock ``cost`` [s] of the stepping, and ``refused`` (the reason) where
+    the rung cannot represent a command of the scene."""
 
     rung: str
     scene: str
@@ -101,6 +114,10 @@ class Trace:
     stroke: np.ndarray = field(default_factory=lambda: np.empty(0))
     gap: np.ndarray = field(default_factory=lambda: np.empty(0))
     force: np.ndarray = field(default_factory=lambda: np.empty(0))
+    pressure_a: np.ndarray = field(default_factory=lambda: np.empty(0))
+    pressure_b: np.ndarray = field(default_factory=lambda: np.empty(0))
+    cavity_a: np.ndarray = field(default_factory=lambda: np.empty(0))
+    cavity_b: np.ndarray = field(default_factory=lambda: np.empty(0))
     cost: float = float("nan")
     refused: str | None = None
 
@@ -120,6 +137,12 @@ def _apply(rung, action: str, argument) -> None:
         rung.command_stroke(rung.s_max if open_flap else rung.s_min, duration)
     elif action == "lose_supply":
         rung.lose_supply(float(argument))
+    elif action == "supply":
+        if not hasattr(rung, "set_supply_pressure"):
+            raise UnsupportedCommandError(
+                f"the {rung.name!r} rung has no supply whose pressure could change"
+            )
+        rung.set_supply_pressure(float(argument))
     else:  # pragma: no cover - the scenes above use only these
         raise ValueError(f"unknown scene action {action!r}")
 
@@ -166,6 +189,7 @@ def run_scene(
         else:
             t, s, psi3, force = (np.empty(n + 1) for _ in range(4))
             t[0], s[0], psi3[0], force[0] = st.t, st.q[0], st.q[2], st.piston_force
+            chambers = _ChamberLog(rung, n)
             k_event = 0
             for k in range(1, n + 1):
                 while k_event < len(events) and events[k_event][0] <= rung.t + 1e-12:
@@ -173,8 +197,31 @@ def run_scene(
                     k_event += 1
                 rung.advance(1)
                 t[k], s[k], psi3[k], force[k] = rung.sample()
+                chambers.sample(k)
     except UnsupportedCommandError as exc:
         return Trace(rung_name, scene.name, refused=str(exc))
     gap = kin.gap_from_flap_angle(psi3, p)
     cost = time.perf_counter() - clock
-    return Trace(rung_name + (" (batch)" if batch else ""), scene.name, t, s, gap, force, cost)
+    label = rung_name + (" (batch)" if batch else "")
+    trace = Trace(label, scene.name, t, s, gap, force, cost=cost)
+    if not batch:
+        trace.pressure_a, trace.pressure_b, trace.cavity_a, trace.cavity_b = chambers.arrays()
+    return trace
+
+
+class _ChamberLog:
+    """The chamber pressures and cavities of a rung that has them, at every step (nothing for
+    the others)."""
+
+    def __init__(self, rung, n: int) -> None:
+        self._rung = rung if hasattr(rung, "chamber_pressures") else None
+        self._rows = np.empty((n + 1 if self._rung else 0, 4))
+        if self._rung:
+            self.sample(0)
+
+    def sample(self, k: int) -> None:
+        if self._rung:
+            self._rows[k] = (*self._rung.chamber_pressures(), *self._rung.cavity_volumes())
+
+    def arrays(self):
+        return tuple(self._rows.T.copy())

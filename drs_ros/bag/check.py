@@ -49,7 +49,7 @@ from drs_model.errors import DRSError
 from drs_model.overrides import from_file, parameter_file_argument
 from drs_model.params import DRSParams
 
-from ..names import DEFAULT_JOINT_NAMES
+from ..names import DEFAULT_JOINT_NAMES, DEFAULT_NODE
 from . import fleet, look_ahead
 from .decoded import BagData, stream_bag
 from .effects import model_params_from
@@ -66,19 +66,26 @@ from .nodes import (
     select_node,
 )
 from .reader import MessageCallbackError
+from .run_checks import TICK_TOPICS, RunChecker, fault_report
 from .run_stats import STATS_ROLES, RunStats
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
+#: The further roles the run's checks read: its parameters, its effect record, the hydraulic
+#: rung's pressures and spool (drs_ros.bag.run_checks).
+RUN_ROLES = ("parameter_events", "command_events",
+             *(r for r in TICK_TOPICS if r not in CHECK_TOPICS))
 
 
-def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
-    """A plain-text report: counts per topic, then one row per check."""
+def format_table(data: BagData, results: Sequence[CheckResult], faults: Sequence[dict] = ()) -> str:
+    """A plain-text report: counts per topic, the faults recorded (:func:`format_faults`), then
+    one row per check."""
     lines = [f"bag: {data.path}" + ("  (recovered prefix)" if data.recovered else "")]
     lines += [f"note: {n}" for n in data.notes]
     width = max([28, *map(len, data.counts)])  # topic names as long as a namespace makes them
     for topic, n in sorted(data.counts.items()):
         lines.append(f"  {topic:<{width}} {n:>8} messages")
+    lines += format_faults(faults, data.start_ns)
     # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
     t0 = min(data.first_stamp_s.values(), default=0.0)
     tw = max([20, *(len(r.topic) for r in results)])
@@ -98,7 +105,27 @@ def format_table(data: BagData, results: Sequence[CheckResult]) -> str:
     return "\n".join(lines)
 
 
-def to_json(data: BagData, results: Sequence[CheckResult], node: BagNode | None = None) -> str:
+def format_faults(faults: Sequence[dict], start_ns: int | None) -> list[str]:
+    """The recorded faults' spans, one line each: simulated time [s] and log time [s] from the
+    bag's first message."""
+    if not faults:
+        return []
+    start = start_ns or 0
+
+    def log(ns):
+        return "end" if ns is None else f"{(ns - start) * 1e-9:.6f}"
+
+    lines = ["", "faults (from the effect record; simulated time, and log time from the bag's "
+             "first message) [s]:"]  # fmt: skip
+    for f in faults:
+        to = "end" if f["sim_to_s"] is None else f"{f['sim_to_s']:.6f}"
+        lines.append(f"  {f['fault'] + ' = ' + repr(f['value']):<40} sim {f['sim_from_s']:.6f} .. "
+                     f"{to}   log {log(f['log_from_ns'])} .. {log(f['log_to_ns'])}")  # fmt: skip
+    return lines
+
+
+def to_json(data: BagData, results: Sequence[CheckResult], faults: Sequence[dict] = (),
+            node: BagNode | None = None) -> str:  # fmt: skip
     """The report as JSON (NaN written as null; ``node``: the drs node checked, if any)."""
 
     def clean(value):
@@ -111,6 +138,7 @@ def to_json(data: BagData, results: Sequence[CheckResult], node: BagNode | None 
             "recovered": data.recovered,
             "notes": data.notes,
             "messages": data.counts,
+            "faults": list(faults),
             "checks": [{k: clean(v) for k, v in asdict(r).items()} for r in results],
             "ok": not any(r.status == "FAIL" for r in results),
         },
@@ -134,6 +162,12 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     )
     ap.add_argument(
         "--force-tol", type=float, default=1.0, help="tolerance of the force checks [N] (default 1)"
+    )
+    ap.add_argument(
+        "--pressure-tol",
+        type=float,
+        default=1.0,
+        help="tolerance of the hydraulic rung's pressure checks [Pa] (default 1)",
     )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     ap.add_argument(
@@ -230,6 +264,8 @@ class CheckOutcome:
     error: str = ""
     params: DRSParams | None = None
     stats: RunStats | None = None
+    faults: list[dict] = field(default_factory=list)
+    rung: str | None = None
     node: BagNode | None = None
 
 
@@ -243,9 +279,10 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
             node = select_node(bag_nodes(bag), args.node, bag)
     except NodeSelectionError as exc:
         return CheckOutcome(EXIT_USAGE, error=f"error: {exc}")
-    named = resolve_topics(node, [*CHECK_TOPICS, *STATS_ROLES, "parameter_events"],
+    named = resolve_topics(node, [*CHECK_TOPICS, *STATS_ROLES, *RUN_ROLES],
                            given_topics(args, CHECK_TOPICS), look_ahead.channels(bag))
-    topics = {key: named.topics[key] for key in CHECK_TOPICS}
+    # every role the checks read, as this node named it (the given --*-topic options win)
+    topics = {key: named.topics[key] for key in (*CHECK_TOPICS, *RUN_ROLES)}
     names = joint_names(args, node)
     force_model, force_note = load_force_model(args.force_model)  # and _force_model_argument
     figures = None
@@ -259,7 +296,7 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
             params, origin = from_file(args.params), f"from {args.params} (--params)"
         else:
             params, origin = recorded_params(node)
-        checker = ModelChecker(
+        model = ModelChecker(
             params,
             tol=args.tol,
             force_tol=args.force_tol,
@@ -270,7 +307,9 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
             max_match_s=args.max_match,
             force_model_tol=args.force_model_tol,
         )
-        wanted = list(topics.values()) + [named.topics["parameter_events"]]
+        checker = RunChecker(model, pressure_tol=getattr(args, "pressure_tol", 1.0),
+                             node=DEFAULT_NODE if node is None else node.name)  # fmt: skip
+        wanted = checker.topics
 
         def take(topic: str, log_ns: int, msg) -> None:
             if topic in wanted:
@@ -278,12 +317,13 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
             if figures is not None:
                 figures.add(topic, log_ns, msg)
 
-        read = wanted + ([t for t in figures.read if t not in wanted] if figures else [])
+        read = list(wanted) + ([t for t in figures.read if t not in wanted] if figures else [])
         data = stream_bag(bag, read, take, recover=args.recover)
         data.first_stamp_s = {t: v for t, v in data.first_stamp_s.items() if t in wanted}
         data.notes += [node_note(node), *named.notes]
         data.notes.append(f"model parameters: {origin}")
         results = checker.results()
+        data.notes += run_notes(checker)
     except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
         return CheckOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): "
                             f"{exc}", params=params)  # fmt: skip
@@ -297,7 +337,20 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
         status = EXIT_FAILED
     else:
         status = EXIT_RECOVERED if data.recovered else EXIT_OK
-    return CheckOutcome(status, data, results, "", params, figures, node)
+    faults = fault_report(checker.run)
+    return CheckOutcome(status, data, results, "", params, figures, faults, checker.rung, node)
+
+
+def run_notes(checker: RunChecker) -> list[str]:
+    """What the report says of the run's rung and of its faults refused."""
+    run = checker.run
+    if checker.rung is None:
+        rung = f"the rung of the run is unknown: {checker.rung_error}"
+    elif run.fidelity == "auto":
+        rung = f"judged on the {checker.rung} rung (fidelity auto's choice, in the effect record)"
+    else:
+        rung = f"judged on the {checker.rung} rung (the recorded fidelity parameter)"
+    return [rung, *run.notes]
 
 
 #: Table columns of each check's result: check name -> column prefix.
@@ -308,6 +361,10 @@ CHECK_COLUMNS = {
     "gap vs kinematics.gap(q)": "gap_vs_model_m",
     "piston force vs model, logged accel.": "piston_force_vs_model_n",
     "piston force vs model": "piston_force_vs_model_n",
+    "piston force vs statics": "piston_force_vs_model_n",
+    "piston force vs chamber pressures": "piston_force_vs_pressures_n",
+    "supply pressure vs faults": "supply_pressure_vs_faults_pa",
+    "stroke vs faulty sensor model": "stroke_vs_sensor_model_m",
 }
 #: Columns of the printed summary of a fleet.
 SUMMARY_COLUMNS = ("messages", "duration_s", "peak_force_n", "largest_gap_m", "refused_commands",
@@ -343,6 +400,8 @@ def _row(bag: str, outcome: CheckOutcome, node: BagNode | None) -> dict:
         row["notes"] = data.notes
     figures = (outcome.stats or RunStats()).row()
     row.update(figures if data is not None else dict.fromkeys(figures))  # unread: nulls
+    row["fidelity"] = outcome.rung
+    row["faults"] = [f"{f['fault']}={f['value']!r}" for f in outcome.faults]
     row.update(fleet.param_columns(outcome.params))
     return row
 
@@ -357,7 +416,9 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
         print(f"{prog}: {outcome.error}", file=sys.stderr)
         return outcome.status
     data, results = outcome.data, outcome.results
-    print(to_json(data, results, outcome.node) if args.json else format_table(data, results))
+    faults = outcome.faults
+    print(to_json(data, results, faults, outcome.node) if args.json
+          else format_table(data, results, faults))  # fmt: skip
     return outcome.status
 
 

@@ -35,6 +35,8 @@ VERBS = {
     "resimulate": ("drs_ros.bag.resimulate", "re-run a recorded run in the model and compare"),
     "play": ("drs_ros.bag.play", "publish a bag onto ROS 2 topics (as ros2 bag play)"),
     "index": ("drs_ros.bag.catalogue", "catalogue many bags from their summaries (Parquet)"),
+    "fit": ("drs_ros.bag.fit", "identify the actuator's parameters from a bag, with intervals"),
+    "trend": ("drs_ros.bag.trend", "fitted parameters over a season: drift, threshold crossing"),
 }
 
 

@@ -161,11 +161,17 @@ def is_fault_record(record: EffectRecord) -> bool:
     return record.source.startswith(FAULT_PREFIX) and name in FAULTS
 
 
+def fault_of(record: EffectRecord) -> tuple[str, object]:
+    """The fault a record of one (:func:`is_fault_record`) speaks of and its value: the name in
+    :data:`~drs_model.fidelity.faults.FAULTS` and the record's ``repr`` of the value (a bool, an
+    int or a float, which ``repr`` gives back exactly)."""
+    return record.source.removeprefix(FAULT_PREFIX), ast.literal_eval(record.values["value"])
+
+
 def apply_fault_record(faults: RunFaults, record: EffectRecord) -> None:
     """Apply the fault an accepted record says took effect, to ``faults`` (of the re-run's
-    rung, at the record's simulated instant, where the caller has brought it). The value is the
-    record's ``repr`` of it (a bool, an int or a float, which ``repr`` gives back exactly)."""
-    faults.apply(record.source.removeprefix(FAULT_PREFIX), ast.literal_eval(record.values["value"]))
+    rung, at the record's simulated instant, where the caller has brought it)."""
+    faults.apply(*fault_of(record))
 
 
 __all__ = [
@@ -173,6 +179,7 @@ __all__ = [
     "EffectRecord",
     "MissingRecordError",
     "apply_fault_record",
+    "fault_of",
     "is_fault_record",
     "recorded_rung",
     "effect_records",

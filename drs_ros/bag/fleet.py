@@ -257,7 +257,7 @@ def to_table(rows: list[dict]):
             inner = next(iter(sample.values()), 0)
             kind = pa.map_(pa.string(), pa.int64() if isinstance(inner, int) else pa.string())
             data[name] = [list((v or {}).items()) for v in values]
-        elif isinstance(sample, list) or name in ("notes", "nodes"):
+        elif any(isinstance(v, list) for v in values):  # empty in every row, too
             kind = pa.list_(pa.string())
         else:
             kind = (pa.bool_() if isinstance(sample, bool) else

@@ -253,17 +253,21 @@ class ModelChecker:
     def add(self, topic: str, log_ns: int, msg) -> None:
         """One decoded message, in the bag's order (other topics are ignored)."""
         if topic == self.tp["joint_states"]:
-            row = joint_row(log_ns, msg, self.joint_names)
-            if row is None:
-                self.skipped += 1
-                return
-            self._rows.append(row)
-            if len(self._rows) >= self.block_states:
-                self._close_block()
+            self.add_row(joint_row(log_ns, msg, self.joint_names))
         elif topic in self.scalar_key:
             key = self.scalar_key[topic]
             self._scalars[key].append((log_ns, float(msg.data)))
             self.accel_seen |= key == "accel"
+
+    def add_row(self, row: tuple | None) -> None:
+        """One joint state as :func:`joint_row` gives it (None: a message without the joints,
+        counted as skipped)."""
+        if row is None:
+            self.skipped += 1
+            return
+        self._rows.append(row)
+        if len(self._rows) >= self.block_states:
+            self._close_block()
 
     def _close_block(self) -> None:
         rows, self._rows = self._rows, []

@@ -219,11 +219,14 @@ def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | N
     return from_dict(overrides, model) if overrides else model
 
 
-def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) -> dict:
+def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None, *,
+               rung_options: dict | None = None, replay_faults: bool = True) -> dict:  # fmt: skip
     """The re-run of the recorded commands on the recorded rung (``rigid`` for a bag recorded
     before the ``fidelity`` parameter), or on ``fidelity``, step by step as :func:`compare` asks
     for its states (``state_at(step)``), and its notes: memory holds the last
-    :data:`STATE_WINDOW` steps."""
+    :data:`STATE_WINDOW` steps. ``rung_options`` go to the rung (``hydraulic=`` its
+    HydraulicParams); without ``faults`` the recorded fault records are not applied (a fit
+    treats the actuator's faults as what it estimates)."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
     sim = make_rung(
@@ -233,6 +236,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
         force_limit=float(np_["force_limit"]),
         integrator=str(np_["integrator"]),
         force_method=str(np_["force_method"]),
+        **(rung_options or {}),
     )
     piston = list(np_["joint_names"])[0]
     faults = RunFaults(sim)  # the faults set at run time, and the stroke as published
@@ -281,11 +285,15 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None) 
             keep()
             return
         if is_fault_record(r):  # a fault set at run time, applied at its tick as the node did
+            if not replay_faults:
+                return
             try:
                 apply_fault_record(faults, r)
             except DRSError as exc:
                 notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
                              f"{r.values.get('value', '')}: {exc}")  # fmt: skip
+            if sim.steps == 0 and sim.t == 0.0:  # given at start: the node's first tick
+                keep()  # applies it before it publishes the first state
             return
         key = run.command_key(r.source)
         if key == commands.SERVICE_KEY:

@@ -123,6 +123,11 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         self.configured = self.active = False
         self.callback_errors = 0
         self.recorder = self.rerun = None
+        self.bag = self.rrd = None  # the recordings and their failures (NodeRecordings)
+        self.recording_problems: list[str] = []
+        #: The stop the node obeys within a tick (drs_ros.stop_request.StopRequest, set by
+        #: drs_ros.node.runner): a long tick ends at the next physics step once it is requested.
+        self.stop_request = None
         self.timer = self.diag_timer = self.clock_watch = None
         self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
         self.sub_drs_events = None
@@ -167,6 +172,8 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             force_method=gp("force_method").value,
         )
         self.sim = self._make_rung("rigid" if self.fidelity == "auto" else self.fidelity)
+        if isinstance(self.sim, HydraulicRung):  # a model too stiff for the physics rate: now
+            self.sim.check_stiffness()  # TooStiffError, not a refusal at every tick
         self._start_faults()
         self.max_catch_up = int(gp("max_catch_up_steps").value)
         # a tick late by one period must still catch up, or every tick would drop steps
@@ -545,7 +552,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             self._record_clock_origin(now, DiagnosticStatus.WARN, f"{dropped} steps dropped")
             due = self.max_catch_up
         try:
-            self.sim.advance(max(due, 0))
+            self._advance(due)
         except DRSError as exc:  # the model refuses to go on: hold where it is and say why
             reason = self._refuse("step", self.sim.mode, str(exc), now)
             s_hold = commands.hold(self.sim)
@@ -555,6 +562,20 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         self._cpu["model"] += time.process_time() - t
         if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)
             self._publish(now)
+
+    def _advance(self, due: int) -> None:
+        """``due`` physics steps, one at a time, each bounded (the hydraulic rung caps its
+        sub-steps): a stop requested meanwhile ends the tick at the next step, so that a tick
+        that overruns (a stall, a catch-up of many steps) stays stoppable within one step."""
+        stop = self.stop_request
+        for k in range(due):
+            if stop is not None and stop.requested:
+                self.get_logger().info(
+                    f"stop requested: the last tick ends after {k} of its {due} physics steps, "
+                    f"at simulated time {self.sim.t:.6f} s"
+                )
+                return
+            self.sim.advance(1)
 
     def _choose_fidelity(self, now_ns: int) -> None:
         """``fidelity: auto``: the lowest rung that meets ``fidelity_tolerance`` and
@@ -639,11 +660,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         for pub, data in out:
             self._record(self.topics[pub], data, now_ns)
         self.stack.publish(st, stamp, now_ns)  # /tf, the action's feedback
-        if self.rerun is not None and not self.recording_error:
-            try:
-                self.rerun.log_state(st.t, st.q, st.piston_force)
-            except Exception as exc:  # noqa: BLE001
-                self.recording_error = f"rerun: {exc}"
+        self._log_rerun(st)  # its own failures: never the bag's
         self._cpu["record"] += time.process_time() - t1
 
     def _published_joint_state(self, st, stamp: int) -> JointState:

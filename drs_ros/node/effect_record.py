@@ -158,12 +158,6 @@ class EffectRecord:
 
     def diagnostics_values(self) -> dict[str, object]:
         st = self.sim.state
-        rec = "off"
-        if self.recording_error:
-            rec = f"error: {self.recording_error}"
-        elif self.recorder is not None:
-            s = self.recorder.stats()
-            rec = f"{s.message_count} messages, {s.flush_count} flushes"
         return {
             "mode": st.mode,
             "sim_time_s": f"{st.t:.6f}",
@@ -184,7 +178,7 @@ class EffectRecord:
             "clock_jumps": self.clock_jumps,
             "callback_errors": self.callback_errors,
             "ticks": self.ticks,
-            "recording": rec,
+            **self.recordings_status(),
             "cpu_model_s": f"{self._cpu['model']:.3f}",
             "cpu_publish_s": f"{self._cpu['publish']:.3f}",
             "cpu_record_s": f"{self._cpu['record']:.3f}",
@@ -192,8 +186,9 @@ class EffectRecord:
 
     def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
         """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
-        if self.recording_error:
-            return DiagnosticStatus.ERROR, f"recording failed: {self.recording_error}"
+        failures = self.recording_failures()
+        if failures:
+            return DiagnosticStatus.ERROR, "; ".join(failures)
         recent = self.troubles.recent(now_ns)
         if not recent:
             return DiagnosticStatus.OK, f"mode {self.sim.mode}"

@@ -19,7 +19,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from drs_model.errors import DRSError
-from drs_model.fidelity.faults import FAULTS, RunFaults
+from drs_model.fidelity.faults import FAULT_RANGES, FAULTS, RunFaults, describe_range
 
 from ..conversions import time_msg
 from ..names import ACCEPTED, REFUSED
@@ -43,6 +43,8 @@ def declare_fault_parameters(node: Node) -> None:
         if isinstance(healthy, float) and given is not None:
             if given.type_ == Parameter.Type.INTEGER:
                 overrides[full] = Parameter(full, Parameter.Type.DOUBLE, float(given.value))
+        if name in FAULT_RANGES:  # not as a descriptor range: rclpy would refuse an outlier
+            description += f"; range {describe_range(name)}"  # before the effect record sees it
         node.declare_parameter(full, healthy, ParameterDescriptor(
             description=f"fault (run time, docs/fidelity.md): {description}"))  # fmt: skip
 
@@ -92,7 +94,7 @@ class NodeFaults:
 
     def _record_parameter_change(self, params: list[Parameter]) -> None:
         """The change rclpy publishes on /parameter_events, in the node's bag as well."""
-        if self.recorder is None:
+        if self.bag is None:
             return
         with self._lock:
             now = self._now_ns()
@@ -101,7 +103,7 @@ class NodeFaults:
                 node=self.get_fully_qualified_name(),
                 changed_parameters=[p.to_parameter_msg() for p in params],
             )
-            self.recorder.write("/parameter_events", event, now)
+            self._record("/parameter_events", event, now)
 
     def _apply_faults(self, now_ns: int) -> None:
         """Apply the faults set since the last tick, in the order set (a ramp set with a supply

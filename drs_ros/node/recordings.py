@@ -1,33 +1,203 @@
-"""The node's recordings: the rosbag2 MCAP bag (every message as its exact bytes) and the rerun
-recording (a file, a live viewer, or both).
+"""The node's recordings: the rosbag2 MCAP bag and the rerun recording (a file, a live viewer, or
+both), each a part that owns its failures (:class:`BagRecording`, :class:`RerunRecording`, each
+with its :class:`RecordingHealth`).
 
 Both paths are checked before anything is created, and a node that fails to start leaves nothing
-behind; a recording that fails (a full disk) stops recording, not the actuator, and says so in
-diagnostics; both are finished when the node stops.
+behind; both are finished when the node stops. What a failure does (docs/ros.md, "Recordings"):
+
+* an I/O error (``OSError``: a full disk, the file or its directory removed, rerun's file writer
+  stopped) is permanent: that recording stops, and diagnostics say so at ERROR for the rest of the
+  run. The other recording and the actuator go on.
+* any other exception of one write (a programming error, a value a recorder refuses) loses that
+  item only: it is logged at ERROR with its traceback (the first of each recording; then one line
+  a second), counted (diagnostics ``bag_errors``, ``rerun_errors``) and a trouble of the window;
+  the recording goes on.
+* at the stop each recording is finished (a failed bag is closed as it is: what was flushed stays,
+  for ``drs-bag recover``), and :meth:`NodeRecordings.close_recordings` returns one line per
+  recording that is incomplete, naming what it lacks; ``drs-node`` prints them and exits 1.
 
 :class:`NodeRecordings` is a part of :class:`drs_ros.node.adapter.DRSNode` (its methods read the
-node's parameters and log through it); it holds the recorders.
+node's parameters and log through it); it holds the recordings.
 """
 
 from __future__ import annotations
 
 import shutil
+import traceback
 from pathlib import Path
 
 from drs_model.errors import DRSError
 
 from ..errors import DRSRosError
+from .effect_record import error_text
+
+
+class RecordingHealth:
+    """The failures of one recording, ``name`` (e.g. ``bag '/runs/a'``): its permanent
+    :attr:`failure` (an I/O error: it stopped) and its other errors (each an item lost)."""
+
+    def __init__(self, name: str, logger, on_error=None) -> None:
+        self.name = name
+        self._on_error = on_error  # called with the reason of each item lost
+        #: Why the recording stopped ('' while it goes on).
+        self.failure = ""
+        #: Items lost to other exceptions, and the last one's type and text.
+        self.errors = 0
+        self.last_error = ""
+        self._logger = logger
+
+    def run(self, action, *args, **kwargs):
+        """``action(*args, **kwargs)``, or None when it stopped or the action failed (module
+        docstring: an OSError stops the recording, any other exception is counted)."""
+        if self.failure:
+            return None
+        try:
+            return action(*args, **kwargs)
+        except OSError as exc:
+            self.fail(error_text(exc))
+        except Exception as exc:  # noqa: BLE001 - a bug in one write must not stop the node
+            self.errors += 1
+            self.last_error = error_text(exc)
+            if self._on_error is not None:
+                self._on_error(f"{self.name}: {self.last_error}")
+            if self.errors == 1:  # loudly, with where it came from; then one line a second
+                self._logger.error(f"{self.name}: an item was not recorded (the recording goes "
+                                   f"on): {traceback.format_exc()}")  # fmt: skip
+            else:
+                self._logger.error(f"{self.name}: {self.errors} items not recorded, last: "
+                                   f"{self.last_error}", throttle_duration_sec=1.0)  # fmt: skip
+        return None
+
+    def fail(self, reason: str) -> None:
+        """Stop the recording for good (the first reason is kept)."""
+        if not self.failure:
+            self.failure = reason
+            self._logger.error(f"{self.name} stopped: {reason}; the actuator and the other "
+                               "recording go on")  # fmt: skip
+
+    def status(self, going: str) -> str:
+        """For diagnostics: ``going`` (what it recorded) while it goes on, then the failure; the
+        errors counted either way."""
+        text = f"failed: {self.failure}" if self.failure else going
+        if self.errors:
+            text += f"; {self.errors} items not recorded (last: {self.last_error})"
+        return text
+
+    def lost(self) -> list[str]:
+        """The items lost, as a line for the stop (empty when none)."""
+        if not self.errors:
+            return []
+        return [f"{self.name} lacks {self.errors} items that could not be recorded (last: "
+                f"{self.last_error})"]  # fmt: skip
+
+
+def _unfinished(name: str, exc: Exception) -> str:
+    """The stop's line for a finish that raised: the recorders' own errors and I/O errors name
+    what the recording lacks; anything else (a bug) is named with its type."""
+    if isinstance(exc, OSError) or type(exc).__module__.startswith(("drs_model.", "drs_ros.")):
+        return str(exc)
+    return f"{name} is unfinished: {error_text(exc)}"
+
+
+class BagRecording:
+    """The node's MCAP bag (a :class:`~drs_ros.recording.mcap_recorder.McapRecorder`) and its
+    failures."""
+
+    def __init__(self, recorder, logger, on_error=None) -> None:
+        self.recorder = recorder
+        self.health = RecordingHealth(f"bag {str(recorder.bag_dir)!r}", logger, on_error)
+
+    def write(self, topic: str, msg, now_ns: int) -> int | None:
+        """Append a message (or its exact CDR bytes); its sequence number, or None when it was
+        not recorded."""
+        return self.health.run(self.recorder.write, topic, msg, log_time_ns=now_ns)
+
+    def poll(self) -> None:
+        """Take in a failure the recorder's flush thread met (a removed file, a full disk)."""
+        if self.recorder.io_error is not None:
+            self.health.fail(error_text(self.recorder.io_error))
+
+    def status(self) -> str:
+        s = self.recorder.stats()
+        return self.health.status(f"{s.message_count} messages, {s.flush_count} flushes")
+
+    def finish(self) -> list[str]:
+        """Finish the bag (a failed one is closed as it is); what it lacks, one line each."""
+        self.poll()
+        lines = []
+        if self.health.failure:
+            self.recorder.abandon()
+            s = self.recorder.stats()
+            if not self.recorder.path.exists():
+                lines.append(f"{self.health.name} is lost: {self.health.failure}; nothing of "
+                             f"its {s.message_count} messages remains")  # fmt: skip
+            else:
+                lines.append(
+                    f"{self.health.name} is incomplete: recording stopped after "
+                    f"{s.message_count} messages ({self.health.failure}); it has no summary, "
+                    f"footer or metadata.yaml: `drs-bag recover` restores the "
+                    f"{s.messages_flushed} messages flushed before the failure"
+                )
+        else:
+            try:
+                self.recorder.finish()
+            except Exception as exc:  # noqa: BLE001 - whatever it is, the stop names it
+                lines.append(_unfinished(self.health.name, exc))
+        return lines + self.health.lost()
+
+
+class RerunRecording:
+    """The node's rerun recording (a :class:`~drs_ros.recording.rerun_recorder.RerunRecorder`)
+    and its failures."""
+
+    def __init__(self, recorder, logger, on_error=None) -> None:
+        self.recorder = recorder
+        target = recorder.path if recorder.path is not None else recorder.connect_url
+        self.health = RecordingHealth(f"rerun recording {str(target)!r}", logger, on_error)
+
+    def log_state(self, t: float, q, piston_force: float) -> None:
+        self.health.run(self.recorder.log_state, t, q, piston_force)
+
+    def poll(self) -> None:
+        """Take in a failure of the file sink (rerun's writer stopped, the file removed)."""
+        if self.recorder.sink_error is not None:
+            self.health.fail(self.recorder.sink_error)
+
+    def status(self) -> str:
+        return self.health.status(f"{self.recorder.sample_count} samples")
+
+    def finish(self) -> list[str]:
+        """Flush and close; what the recording lacks, one line each."""
+        lines = []
+        try:
+            self.recorder.close()
+        except Exception as exc:  # noqa: BLE001 - the file's end is missing: the stop names it
+            lines.append(_unfinished(self.health.name, exc))
+        if self.health.failure and not lines:
+            lines.append(f"{self.health.name} is incomplete: recording stopped "
+                         f"({self.health.failure})")  # fmt: skip
+        if self.recorder.stream_error is not None:
+            lines.append(f"{self.health.name}: the live stream was not delivered: "
+                         f"{self.recorder.stream_error}")  # fmt: skip
+        return lines + self.health.lost()
 
 
 class NodeRecordings:
-    """The bag and the rerun recording of the DRS node (a base class of ``DRSNode``)."""
+    """The bag and the rerun recording of the DRS node (a base class of ``DRSNode``):
+    ``self.bag`` and ``self.rrd`` (None: not recorded), their recorders ``self.recorder`` and
+    ``self.rerun``."""
 
     def _open_recordings(self) -> None:
         """Check both paths, then create both recorders; on any failure remove what was made."""
         from ..recording.errors import RecordingError
         from ..recording.mcap_recorder import McapRecorder, check_new_bag
 
-        self.recording_error = ""
+        self.bag = self.rrd = None
+        self.recording_problems: list[str] = []
+        log = self.get_logger()
+
+        def lost(reason: str) -> None:  # an item lost: a trouble of the diagnostics window
+            self.troubles.add(self._now_ns(), "recording_error", reason)
 
         bag = self.get_parameter("bag_path").value
         rrd = self.get_parameter("rrd_path").value
@@ -47,6 +217,7 @@ class NodeRecordings:
                 self.recorder = McapRecorder(
                     bag, flush_period=self.get_parameter("flush_period").value
                 )
+                self.bag = BagRecording(self.recorder, log, lost)
             if rrd or live:
                 from ..recording.rerun_recorder import RerunRecorder
 
@@ -57,6 +228,7 @@ class NodeRecordings:
                     connect_url=live or None,
                     max_draw_hz=self.markers_rate_hz,
                 )
+                self.rrd = RerunRecording(self.rerun, log, lost)
         except Exception as exc:
             self._made_bag_dir = made_dir
             self.discard_recordings()
@@ -75,30 +247,44 @@ class NodeRecordings:
         if self.rerun is not None:
             self.rerun.discard()
             self.rerun = None
+        self.bag = self.rrd = None
 
-    def _record(self, topic: str, data: bytes, now_ns: int) -> int | None:
-        """Append exact bytes to the bag; returns the sequence number (None: not recorded)."""
-        if self.recorder is None or self.recording_error:
-            return None
-        try:
-            return self.recorder.write(topic, data, log_time_ns=now_ns)
-        except Exception as exc:  # noqa: BLE001 - a failing disk must not stop the actuator
-            self.recording_error = f"{type(exc).__name__}: {exc}"
-            self.get_logger().error(f"recording stopped: {self.recording_error}")
-            return None
+    def _record(self, topic: str, data, now_ns: int) -> int | None:
+        """Append exact bytes (or a message) to the bag; the sequence number (None: not
+        recorded)."""
+        return None if self.bag is None else self.bag.write(topic, data, now_ns)
 
-    def close_recordings(self) -> None:
-        """Finish the MCAP bag and the rerun file (idempotent)."""
-        if self.rerun is not None:
-            try:
-                self.rerun.close()
-            except Exception as exc:  # noqa: BLE001
-                self.get_logger().error(f"rerun close failed: {exc}")
-        if self.recorder is not None:
-            try:
-                self.recorder.finish()
-            except Exception as exc:  # noqa: BLE001
-                self.get_logger().error(f"bag finish failed: {exc}")
+    def _log_rerun(self, st) -> None:
+        """The state ``st`` into the rerun recording, if any."""
+        if self.rrd is not None:
+            self.rrd.log_state(st.t, st.q, st.piston_force)
+
+    def recordings_status(self) -> dict[str, str]:
+        """Diagnostics: ``bag`` and ``rerun``, each what it recorded or how it failed; a failure
+        a recorder's own thread met is taken in here."""
+        out = {}
+        for key, part in (("bag", self.bag), ("rerun", self.rrd)):
+            if part is not None:
+                part.poll()
+            out[key] = "off" if part is None else part.status()
+        return out
+
+    def recording_failures(self) -> list[str]:
+        """The recordings stopped for good, each with its reason (for the diagnostics level)."""
+        return [f"{p.health.name} stopped: {p.health.failure}" for p in (self.bag, self.rrd)
+                if p is not None and p.health.failure]  # fmt: skip
+
+    def close_recordings(self) -> list[str]:
+        """Finish the MCAP bag and the rerun file (idempotent); one line per recording that is
+        incomplete, naming what it lacks (empty: both complete), kept for later calls."""
+        for part in (self.rrd, self.bag):
+            if part is not None:
+                lines = part.finish()
+                for line in lines:
+                    self.get_logger().error(line)
+                self.recording_problems += lines
+        self.bag = self.rrd = None
+        return list(self.recording_problems)
 
 
-__all__ = ["NodeRecordings"]
+__all__ = ["BagRecording", "NodeRecordings", "RecordingHealth", "RerunRecording"]

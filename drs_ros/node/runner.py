@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import gc
 import os
-import signal
 import sys
 import threading
 import time
@@ -18,43 +17,17 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_REFUSED
+from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_REFUSED
 from drs_model.errors import DRSError
 
 from ..errors import DRSRosError
+from ..stop_request import StopRequest
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
 
 #: How often [s] a thread holding the GIL offers it to the others (see main).
 GIL_SWITCH_INTERVAL_S = 0.0005
-
-
-class StopRequest:
-    """A stop asked for by SIGINT or SIGTERM (or by a caller), taken at a tick boundary.
-
-    rclpy's own signal handlers are not installed (``SignalHandlerOptions.NO``): Python's raise
-    ``KeyboardInterrupt`` at any bytecode (between a bag write and its count, say), and rclpy's
-    shut the context down under running callbacks. This handler only sets a flag, which the loops
-    read between ticks; the stop then runs in order: the loops end, the executor thread is joined,
-    the recordings are finished after the last write, the node is destroyed."""
-
-    def __init__(self) -> None:
-        self.requested = False  # a plain flag: setting it takes no lock a signal could interrupt
-        self.signal_name = ""
-
-    def __call__(self, signum=None, frame=None) -> None:
-        if signum is not None:
-            self.signal_name = signal.Signals(signum).name
-        self.requested = True
-
-    def install(self) -> None:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, self)
-
-    def ignore_further(self) -> None:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, signal.SIG_IGN)
 
 
 #: The longest a loop waits before it looks at the stop flag again [s].
@@ -120,9 +93,11 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Console script ``drs-node [--managed]`` (``--ros-args -p name:=value`` or
     ``--params-file FILE`` as usual). Returns 0 on SIGINT/SIGTERM, with both recordings
-    finished; 2 when the parameters or the recording paths are refused (one line on stderr,
-    ``refused to start``, nothing created); 4 when an error of its own ends it while it runs
-    (one line, not a refusal; the recordings are finished). docs/cli.md."""
+    finished; 1 when a recording is incomplete (one line on stderr for each, naming what it
+    lacks: a bag cut by a full disk or removed, its summary or metadata.yaml, the end of the
+    .rrd, items lost to errors); 2 when the parameters or the recording paths are refused (one
+    line on stderr, ``refused to start``, nothing created); 4 when an error of its own ends it
+    while it runs (one line, not a refusal; the recordings are finished). docs/cli.md."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     args = list(sys.argv if argv is None else argv)
     managed = (
@@ -147,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         except (DRSError, DRSRosError, ParameterException) as exc:  # a parameter, a path
             print(f"drs-node: refused to start: {exc}", file=sys.stderr)
             return EXIT_REFUSED
+        node.stop_request = stop  # a long tick ends at the next physics step once asked
         # what start-up made (numba, rclpy, the model) lives as long as the node: out of the
         # collector's way, a full collection pass takes ~0.3 ms instead of ~70 ms (a tick late)
         gc.collect()
@@ -169,16 +145,22 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)  # fmt: skip
         rc = EXIT_INTERNAL
     finally:
+        incomplete = []
         if node is not None:
-            if node.configured:
-                node.close_recordings()
+            # a managed node's cleanup may have finished them already: its lines are kept
+            incomplete = node.close_recordings() if node.configured else node.recording_problems
             node.destroy_node()
         rclpy.try_shutdown()
     # the recordings are finished: a further SIGINT/SIGTERM (a second Ctrl-C) is ignored, not
     # left to interpreter shutdown, which restores the default action (killed: exit -2)
     stop.ignore_further()
+    for line in incomplete:
+        print(f"drs-node: {line}", file=sys.stderr)
+    if incomplete and rc == EXIT_OK:
+        rc = EXIT_FAILED
     if stop.signal_name:
-        print(f"drs-node: stopped by {stop.signal_name}, recordings finished", file=sys.stderr)
+        done = "recordings incomplete (above)" if incomplete else "recordings finished"
+        print(f"drs-node: stopped by {stop.signal_name}, {done}", file=sys.stderr)
     return rc
 
 

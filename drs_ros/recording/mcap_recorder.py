@@ -28,10 +28,17 @@ a background thread (so a recorder whose writes stop is flushed too). A SIGKILL 
 the last period; ``drs-bag recover`` turns the flushed prefix into a complete bag. A seeking
 reader needs the summary, which only :meth:`finish` writes: the node finishes the recorder on
 SIGINT/SIGTERM.
+
+Failures: an I/O error of a write or a flush (a full disk; the file removed, which each flush
+checks: an unlinked file would take every write and vanish at close) is kept in
+:attr:`McapRecorder.io_error` and raised again by every later write, as an ``OSError``, so that
+its owner sees it whichever thread met it first. :meth:`finish` names what it could not write
+(the summary and footer, ``metadata.yaml``); :meth:`abandon` closes a failed file as it is.
 """
 
 from __future__ import annotations
 
+import errno
 import math
 import operator
 import os
@@ -213,6 +220,8 @@ class McapRecorder:
         self._last_flush = time.monotonic()
         self._file_bytes = self._stream.tell()
         self._finished = False
+        #: The first I/O error of a write or a flush (None: none); every later write raises it.
+        self.io_error: OSError | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         if flush_thread:
@@ -388,7 +397,15 @@ class McapRecorder:
                 self._flush_locked()
 
     def _flush_locked(self) -> None:
-        self._writer.flush()
+        try:
+            self._writer.flush()
+            if os.fstat(self._stream.fileno()).st_nlink == 0:
+                raise FileNotFoundError(
+                    errno.ENOENT, "the bag file was removed while recording", str(self.path)
+                )
+        except OSError as exc:
+            self.io_error = self.io_error or exc
+            raise
         self._file_bytes = self._stream.tell()
         self._flush_count += 1
         self._messages_flushed = self._message_count
@@ -400,12 +417,20 @@ class McapRecorder:
             with self._lock:
                 if self._finished:
                     return
+                if self.io_error is not None:
+                    return  # kept: the next write raises it
                 if self._since_flush and time.monotonic() - self._last_flush >= self.flush_period:
-                    self._flush_locked()
+                    try:
+                        self._flush_locked()
+                    except OSError:
+                        return
 
     def _check_open(self) -> None:
         if self._finished:
             raise RecordingError(f"the recorder of {str(self.path)!r} is finished")
+        if self.io_error is not None:
+            err = self.io_error
+            raise OSError(err.errno, f"the bag failed earlier: {err.strerror}", err.filename)
 
     # ---- statistics -------------------------------------------------------------------------
     def stats(self) -> RecorderStats:
@@ -475,25 +500,38 @@ class McapRecorder:
         for path in (self.path, self.metadata_path):
             path.unlink(missing_ok=True)
 
+    def abandon(self) -> None:
+        """Close a failed file as it is, without a summary or ``metadata.yaml`` (idempotent):
+        what was flushed stays, for ``drs-bag recover``."""
+        with self._lock:
+            self._finished = True
+            self._stop.set()
+            self._stream.close()
+
     # ---- finish -----------------------------------------------------------------------------
     def finish(self) -> Path:
         """Write the metadata record, summary and footer, close the file, write ``metadata.yaml``.
 
-        Idempotent: later calls do nothing. Returns the bag directory.
+        Idempotent: later calls do nothing. Returns the bag directory. Raises
+        :class:`RecordingError` naming what could not be written (the summary and footer,
+        ``metadata.yaml``) and why; ``metadata.yaml`` is written even when the summary failed.
         """
+        missing = []
         with self._lock:
             if self._finished:
                 return self.bag_dir
             self._finished = True
             self._stop.set()
+            meta = self._bag_metadata_locked()
             try:
-                self._writer.flush()
-                meta = self._bag_metadata_locked()
+                self._flush_locked()
                 self._writer.add_metadata(
                     "rosbag2", {"serialized_metadata": yaml.safe_dump(meta, sort_keys=False)}
                 )
                 self._writer.finish()
                 self._file_bytes = self._stream.tell()
+            except OSError as exc:
+                missing.append(f"its summary and footer ({exc.strerror or exc})")
             finally:
                 self._stream.close()
             try:
@@ -501,9 +539,14 @@ class McapRecorder:
                     yaml.safe_dump({"rosbag2_bagfile_information": meta}, sort_keys=False)
                 )
             except OSError as exc:
-                raise RecordingError(f"cannot write {str(self.metadata_path)!r}: {exc}") from exc
+                missing.append(f"{self.metadata_path.name} ({exc.strerror or exc})")
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=5.0)
+        if missing:
+            raise RecordingError(
+                f"bag {str(self.bag_dir)!r} is incomplete: {' and '.join(missing)} could not be "
+                "written"
+            )
         return self.bag_dir
 
 

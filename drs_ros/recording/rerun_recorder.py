@@ -22,6 +22,9 @@ Drawings are decimated to at most ``max_draw_hz`` per second of simulated time; 
 logged at every sample. Everything goes through ``send_columns``: :meth:`RerunRecorder.log_state`
 only buffers (a few microseconds) and sends every ``batch`` samples, since logging scalars one
 ``rr.log`` at a time costs 50-80 us each.
+
+A failing file sink is seen while recording (:mod:`~drs_ros.recording.rerun_sink`); :meth:`close`
+then raises :class:`RerunSinkError` naming what the file lacks.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from drs_model.params import DRSParams
 
 from ..drawing import PIN_NAMES, moving_drawings, still_drawings
 from ..errors import DRSRosError
+from .rerun_sink import FileSinkWatch, RerunSinkError
 
 TIMELINE = "sim_time"
 #: URL schemes of a rerun gRPC endpoint (rerun-sdk 0.41), and an example of a valid URL.
@@ -242,6 +246,9 @@ class RerunRecorder:
         self._buf_draw: list[bool] = []
         self.rec = self._open_sinks(application_id)
         self._closed = False
+        #: The file sink's health (None: no file): its first failure, found while recording.
+        self.sink = None if self.path is None else FileSinkWatch(self.rec, self.path,
+                                                                 live=connect_url is not None)
         self._log_static()
 
     def _open_sinks(self, application_id: str) -> rr.RecordingStream:
@@ -437,8 +444,15 @@ class RerunRecorder:
         if self._closed:
             raise RerunLogError(f"the rerun recorder of {self._target} is closed")
 
+    @property
+    def sink_error(self) -> str | None:
+        """Why the file sink failed (None: it writes, or there is no file)."""
+        return None if self.sink is None else self.sink.failure
+
     def discard(self) -> None:
         """Close and delete the file, if any (a node that failed to start)."""
+        if self.sink is not None:
+            self.sink.stop()
         if not self._closed:
             self._closed = True
             self.rec.disconnect()
@@ -446,18 +460,32 @@ class RerunRecorder:
             self.path.unlink(missing_ok=True)
 
     def close(self) -> None:
-        """Flush and close the file and the live stream (idempotent)."""
+        """Flush and close the file and the live stream (idempotent). Raises
+        :class:`RerunSinkError` when the file is incomplete (its end is missing): the file sink
+        failed while recording or in this last flush, or the file was removed."""
         if self._closed:
             return
-        self.flush()
-        self._closed = True
-        if self.connect_url is None:
-            self.rec.flush()
-        else:
+        if self.sink is not None:
+            self.sink.stop()
+        try:
+            self.flush()
+        finally:
+            self._closed = True
+            self._close_sinks()
+        if self.sink_error is not None:
+            raise RerunSinkError(
+                f"the rerun recording {str(self.path)!r} is incomplete, its end is missing: "
+                f"{self.sink_error}"
+            )
+
+    def _close_sinks(self) -> None:
+        if self.connect_url is not None:
             try:
                 self.rec.flush(timeout_sec=STREAM_FLUSH_TIMEOUT_S)
             except RuntimeError as exc:  # the endpoint did not answer: the file is still whole
                 self.stream_error = str(exc)
+        if self.sink is not None:  # the last flush: everything sent reaches the file
+            self.sink.check(math.inf, flush=self.connect_url is None)
         self.rec.disconnect()
 
 
@@ -470,6 +498,7 @@ __all__ = [
     "TIMELINE",
     "RerunLogError",
     "RerunRecorder",
+    "RerunSinkError",
     "check_connect_url",
     "check_new_rrd",
     "default_blueprint",

@@ -7,9 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -17,6 +15,7 @@ from typing import Any
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE, EXIT_USAGE
 
 from ...errors import UsageError
+from ...stop_request import StopRequest
 from ...timestamps import ns_from_seconds, seconds_from_ns, set_ns
 from ..files import BagReadError
 from .index import BagIndex, index_bag, iter_bag
@@ -48,8 +47,8 @@ class Player:
     index : BagIndex
         The bag.
     options : PlayOptions
-    stop : threading.Event
-        Set to stop playing (a signal).
+    stop : StopRequest
+        Requested to stop playing (a signal); read between two messages and during waits.
     overrides : dict, optional
         Topic -> QoSProfile offered instead of the recorded offers (:func:`qos_overrides`).
     """
@@ -59,7 +58,7 @@ class Player:
         node,
         index: BagIndex,
         options: PlayOptions,
-        stop: threading.Event,
+        stop: StopRequest,
         overrides: dict[str, Any] | None = None,
     ):
         from drs_ros.recording.msgdefs import MessageDefinitionError, message_class
@@ -127,7 +126,7 @@ class Player:
     def _wait_until(self, wall_target: float, bag_of_wall, loop_no: int) -> bool:
         """Sleep until ``wall_target`` (monotonic [s]), publishing /clock and progress on the
         way; False if stopped."""
-        while not self.stop.is_set():
+        while not self.stop.requested:
             now = time.monotonic()
             if self.clock_pub is not None and now >= self._next_clock:
                 self._publish_clock(bag_of_wall(now))
@@ -143,16 +142,16 @@ class Player:
                 wake = min(wake, max(self._next_clock - now, 0.0))
             if self.options.progress:
                 wake = min(wake, max(self._next_progress - now, 0.0))
-            self.stop.wait(wake)
+            time.sleep(wake)  # at most MAX_SLEEP_S: a stop is seen within it
         return False
 
     def _wait_for_subscribers(self) -> bool:
         """Wait until every publisher has a matched subscription; False if stopped."""
-        while not self.stop.is_set():
+        while not self.stop.requested:
             pubs = [*self.publishers.values(), *([self.clock_pub] if self.clock_pub else [])]
             if all(pub.get_subscription_count() > 0 for pub in pubs):
                 return True
-            self.stop.wait(0.02)
+            time.sleep(0.02)
         return False
 
     # -- play ----------------------------------------------------------------------------------
@@ -161,7 +160,7 @@ class Player:
         opts = self.options
         self._next_clock = self._next_progress = time.monotonic()
         loop_no = 0
-        while not self.stop.is_set():
+        while not self.stop.requested:
             loop_no += 1
             if not self._play_once(loop_no):
                 return False
@@ -196,7 +195,7 @@ class Player:
                     self.stats.append((target - wall0, actual - wall0))
         finally:
             reader.close()
-        if self.stop.is_set():  # the reader ended early on a stop request
+        if self.stop.requested:  # the reader ended early on a stop request
             return False
         if opts.progress:
             self._progress(self.index.end_ns, loop_no)
@@ -225,8 +224,24 @@ class Player:
 
 
 def play(options: PlayOptions) -> int:
-    """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag)."""
+    """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag).
+
+    SIGINT and SIGTERM set a :class:`~drs_ros.stop_request.StopRequest` (a plain flag: an
+    ``Event.set`` in the handler takes a lock that the main thread may hold inside
+    ``Event.wait`` when the handler runs there, a deadlock); the player reads it between two
+    messages and in every wait (at most ``MAX_SLEEP_S``)."""
+    stop = StopRequest()
+    previous = stop.install()  # from the start: a signal while the bag is indexed is a stop too
+    try:
+        return _play(options, stop)
+    finally:
+        stop.restore(previous)
+
+
+def _play(options: PlayOptions, stop: StopRequest) -> int:
     index = index_bag(options.bag)  # fails before DDS starts
+    if stop.requested:
+        return EXIT_OK
     if options.node is not None:
         options = node_options(options, index)
     path = options.qos_overrides_path
@@ -237,10 +252,6 @@ def play(options: PlayOptions) -> int:
     from rclpy.executors import ExternalShutdownException
     from rclpy.signals import SignalHandlerOptions
 
-    stop = threading.Event()
-    previous = {
-        sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)
-    }
     context = Context()
     node = player = None
     try:
@@ -266,8 +277,6 @@ def play(options: PlayOptions) -> int:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
     return EXIT_OK
 
 

@@ -8,17 +8,20 @@ import queue
 import threading
 from collections.abc import Iterator
 
+from ...stop_request import StopRequest
+
 _END = object()
 
 
 class ReadAhead:
     """A reader thread that keeps at most ``size`` messages of ``source`` ready (rosbag2's
     read-ahead queue). Iterating yields them; a reader error is raised in the consumer.
-    Setting ``stop`` (or :meth:`close`) ends both sides within 0.1 s."""
+    A stop requested (``stop``, a :class:`~drs_ros.stop_request.StopRequest`) or :meth:`close`
+    ends both sides within 0.1 s."""
 
-    def __init__(self, source: Iterator, size: int, stop: threading.Event | None = None):
+    def __init__(self, source: Iterator, size: int, stop: StopRequest | None = None):
         self._queue: queue.Queue = queue.Queue(maxsize=size)
-        self._stop = stop if stop is not None else threading.Event()
+        self._stop = stop if stop is not None else StopRequest()
         self._closed = threading.Event()
         self._thread = threading.Thread(
             target=self._fill, args=(source,), name="drs-bag-read-ahead", daemon=True
@@ -62,7 +65,7 @@ class ReadAhead:
             yield item
 
     def _halted(self) -> bool:
-        return self._stop.is_set() or self._closed.is_set()
+        return self._stop.requested or self._closed.is_set()
 
     def close(self) -> None:
         """Stop the reader thread (waits up to 1 s for it)."""

@@ -1,0 +1,173 @@
+"""``drs excite NAME,...``: a D-optimal excitation for the parameters named
+(:mod:`drs_model.identify.excitation`, docs/identify.md): the trajectory as a
+FollowJointTrajectory goal file (``-o goal.yaml``) and a bag ``drs-bag play`` sends to the
+node's trajectory command (``--bag DIR``), with the standard errors it predicts beside those of
+the seed's manoeuvre over the same time."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from ..fidelity.hydraulic_params import HydraulicParams
+from ._common import Output, add_common, load_params, table
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "excite",
+        help="design a D-optimal excitation for parameters to identify (docs/identify.md)",
+        description="A multisine stroke within the stroke, rate, force and flow limits that "
+        "maximises the information on the parameters named; written as a FollowJointTrajectory "
+        "goal and a bag for drs-bag play.",
+    )
+    add_common(p)
+    p.add_argument("names", metavar="NAME,...", help="the parameters to identify, e.g. "
+                   "m_pist,Iz_wing,F_drag_open,F_down_closed")  # fmt: skip
+    p.add_argument("--fidelity", choices=("rigid", "quasi-static", "hydraulic"),
+                   default="hydraulic", help="the rung the fit will run on (default hydraulic)")
+    p.add_argument("--duration", type=float, default=0.3, help="the run's length [s] (0.3)")
+    p.add_argument("--harmonics", type=int, default=5, help="of the multisine (5)")
+    p.add_argument("--point-spacing", type=float, default=4e-3,
+                   help="between the trajectory's points [s] (0.004)")  # fmt: skip
+    p.add_argument("--sample-period", type=float, default=1e-3,
+                   help="of the recorded states the fit will read [s] (0.001)")  # fmt: skip
+    p.add_argument("--noise", type=float, default=1e-5, help="stroke sensor noise [m] (1e-5)")
+    p.add_argument("--force-limit", type=float, default=2.0e4,
+                   help="the node's force limit [N]; the supply's force applies too (2e4)")
+    p.add_argument("--seed", type=int, default=0, help="of the optimiser's starts (0)")
+    p.add_argument("--starts", type=int, default=6, help="optimiser starts (6)")
+    p.add_argument("-o", "--output", metavar="GOAL.yaml", help="write the goal file")
+    p.add_argument("--bag", metavar="DIR", help="write a bag holding the trajectory command "
+                   "(drs-bag play DIR sends it to the node; needs the ros extra)")  # fmt: skip
+    p.add_argument("--joint", default="drs_piston", help="the piston joint (drs_piston)")
+    p.add_argument("--plot", metavar="PNG", help="the stroke and rate of the excitation and of "
+                   "the seed's manoeuvre, as the rung runs them")  # fmt: skip
+    p.set_defaults(func=run_excite)
+
+
+def _write_goal(path: str, goal: dict) -> None:
+    try:
+        import yaml
+    except ImportError:  # JSON is YAML
+        text = json.dumps(goal, indent=1)
+    else:
+        text = yaml.safe_dump(goal, sort_keys=False)
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def _write_bag(path: str, ex, joint: str) -> None:
+    # the bag is ROS's business: drs_ros writes it (the ros extra), the design above is not
+    try:
+        from drs_ros.bag.excitation import write_trajectory_bag
+    except ImportError as exc:
+        raise InputError(f"--bag needs the ros extra (pip install 'drs[ros]'): {exc}") from None
+    write_trajectory_bag(path, ex.times, ex.strokes, ex.rates, joint=joint)
+
+
+def _plot(path: str, t, excitation, seed, rung: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    for (s, sd, _), label, style in ((excitation, "excitation", "-"),
+                                     (seed, "seed manoeuvre", "--")):  # fmt: skip
+        ax.plot(t * 1e3, s * 1e3, style, label=label)
+        bx.plot(t * 1e3, sd, style, label=label)
+    ax.set_ylabel("stroke [mm]")
+    bx.set_ylabel("stroke rate [m/s]")
+    bx.set_xlabel("time [ms]")
+    ax.set_title(f"as the {rung} rung runs them")
+    for a in (ax, bx):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run_excite(args: argparse.Namespace) -> Output:
+    from ..identify.excitation import (
+        default_limits,
+        design_excitation,
+        information,
+        rung_motion,
+        seed_manoeuvre_information,
+        standard_errors,
+    )
+    from ..identify.parameters import fit_parameter
+
+    p, hp = load_params(args), HydraulicParams()
+    names = [n.strip() for n in args.names.split(",") if n.strip()]
+    for n in names:
+        fit_parameter(n, p, hp)
+    for name in ("duration", "noise", "force_limit"):
+        value = getattr(args, name)
+        if not (math.isfinite(value) and value > 0.0):
+            raise InputError(f"--{name.replace('_', '-')} must be a finite number > 0, "
+                             f"got {value!r}")  # fmt: skip
+    limits = default_limits(p, hp, args.force_limit)
+    ex = design_excitation(names, p, hp, rung=args.fidelity, duration=args.duration,
+                           harmonics=args.harmonics, sample_period=args.sample_period,
+                           point_spacing=args.point_spacing, limits=limits,
+                           stroke_noise=args.noise, seed=args.seed, starts=args.starts)  # fmt: skip
+    # both as the rung runs them (the hydraulic rung's servo and valve slow both down)
+    length = float(ex.t[-1])
+    ran = rung_motion(p, hp, args.fidelity, length, args.sample_period,
+                      (ex.times, ex.strokes, ex.rates))  # fmt: skip
+    std = standard_errors(information(names, *ran, p, hp, args.fidelity, args.noise), names,
+                          p, hp)  # fmt: skip
+    seed_std = standard_errors(seed_manoeuvre_information(names, p, hp, args.fidelity, length,
+                                                          args.sample_period, args.noise),
+                               names, p, hp)  # fmt: skip
+    files = {}
+    if args.plot:
+        seed = rung_motion(p, hp, args.fidelity, length, args.sample_period)
+        _plot(args.plot, ex.t, ran, seed, args.fidelity)
+        files["plot"] = args.plot
+    if args.output:
+        _write_goal(args.output, ex.goal(args.joint))
+        files["goal"] = args.output
+    if args.bag:
+        _write_bag(args.bag, ex, args.joint)
+        files["bag"] = args.bag
+    data = {
+        "parameters": [{"name": n, "unit": fit_parameter(n, p, hp).unit,
+                        "std_excitation": float(a), "std_seed_manoeuvre": float(b)}
+                       for n, a, b in zip(names, std, seed_std, strict=True)],  # fmt: skip
+        "rung": args.fidelity, "duration_s": length, "points": len(ex.times),
+        "log_det_information": ex.log_det,
+        "limits": {"margin_m": limits.margin, "rate_m_per_s": limits.rate,
+                   "force_n": limits.force},
+        "peaks": {"stroke_m": [float(ex.s.min()), float(ex.s.max())],
+                  "rate_m_per_s": float(np.abs(ex.sd).max()),
+                  "force_n": float(np.abs(ex.force).max())},
+        "files": files,
+    }  # fmt: skip
+    return Output(data, render(data))
+
+
+def render(data: dict) -> str:
+    rows = [[d["name"], d["unit"], d["std_excitation"], d["std_seed_manoeuvre"],
+             d["std_seed_manoeuvre"] / d["std_excitation"]] for d in data["parameters"]]
+    lim, peak = data["limits"], data["peaks"]
+    lines = [
+        f"drs excite: {data['points']} points over {data['duration_s']:g} s on the "
+        f"{data['rung']} rung (log det of the information {data['log_det_information']:.4g})",
+        "standard errors the fit would give (equation error; both run on the rung, the same "
+        "noise and length):",
+        table(["parameter", "unit", "excitation", "seed manoeuvre", "ratio"], rows, "{:.4g}"),
+        f"limits kept: stroke {1e3 * peak['stroke_m'][0]:.3f}..{1e3 * peak['stroke_m'][1]:.3f} "
+        f"mm ({1e3 * lim['margin_m']:.1f} mm from the stops), rate {peak['rate_m_per_s']:.3f} "
+        f"of {lim['rate_m_per_s']:.3f} m/s, force {peak['force_n']:.0f} of "
+        f"{lim['force_n']:.0f} N",
+    ]
+    lines += [f"wrote {what}: {path}" for what, path in data["files"].items()]
+    return "\n".join(lines)

@@ -1,0 +1,117 @@
+"""What a run measured, as arrays: the input of every fit.
+
+A :class:`Record` holds one run's samples by signal, each an array of the same length as the
+sample times, NaN where a sample was lost (a dropout); a signal the run did not record is
+``None``. Where they come from (a bag, a table, a simulation) is not its business: the bag tools
+fill it (:mod:`drs_ros.bag.measured`), the tests from the rungs directly.
+
+Signals (SI units):
+
+``stroke`` [m]
+    the stroke sensor's reading (the piston's ``position``);
+``stroke_rate`` [m/s], ``stroke_acceleration`` [m/s^2]
+    recorded rates, or, where a run has none, derivatives of the stroke (:meth:`Record.rates`);
+``piston_force`` [N]
+    the force the rod gives the mechanism (the piston's ``effort``: after friction, as a load
+    cell between rod and link measures it);
+``pressure_a``, ``pressure_b``, ``supply_pressure`` [Pa]
+    the piston-side and rod-side chambers, the supply;
+``spool`` [1]
+    the valve spool, normalised to -1..1.
+
+``step`` is each sample's physics step in the recorded run (for a re-simulation to compare the
+same instants); ``None`` where the run says nothing of its steps.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from ..errors import InputError
+
+#: The signals a record may hold, with their units.
+SIGNALS = {
+    "stroke": "m", "stroke_rate": "m/s", "stroke_acceleration": "m/s^2", "piston_force": "N",
+    "pressure_a": "Pa", "pressure_b": "Pa", "supply_pressure": "Pa", "spool": "1",
+}  # fmt: skip
+
+#: Savitzky-Golay window [samples] of the derivatives of a stroke with no recorded rates.
+DERIVATIVE_WINDOW = 7
+
+
+@dataclass(frozen=True)
+class Record:
+    """One run's samples (module docstring). Arrays are float64, one value per time."""
+
+    t: np.ndarray
+    stroke: np.ndarray
+    stroke_rate: np.ndarray | None = None
+    stroke_acceleration: np.ndarray | None = None
+    piston_force: np.ndarray | None = None
+    pressure_a: np.ndarray | None = None
+    pressure_b: np.ndarray | None = None
+    supply_pressure: np.ndarray | None = None
+    spool: np.ndarray | None = None
+    step: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t, dtype=float)
+        if t.ndim != 1 or t.size < 3:
+            raise InputError(f"a record needs at least 3 sample times, got shape {t.shape}")
+        if not (np.all(np.isfinite(t)) and np.all(np.diff(t) > 0.0)):
+            raise InputError("sample times must be finite and strictly increasing")
+        object.__setattr__(self, "t", t)
+        for name in SIGNALS:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            arr = np.asarray(value, dtype=float)
+            if arr.shape != t.shape:
+                raise InputError(f"{name} has {arr.shape} samples, the times {t.shape}")
+            object.__setattr__(self, name, arr)
+        if self.step is not None:
+            step = np.asarray(self.step, dtype=np.int64)
+            if step.shape != t.shape:
+                raise InputError(f"step has {step.shape} entries, the times {t.shape}")
+            object.__setattr__(self, "step", step)
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    def has(self, *names: str) -> bool:
+        """Whether every signal of ``names`` was recorded."""
+        return all(getattr(self, n) is not None for n in names)
+
+    def signals(self) -> tuple[str, ...]:
+        """The signals recorded."""
+        return tuple(n for n in SIGNALS if getattr(self, n) is not None)
+
+    def rates(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(s', s'')`` [m/s, m/s^2]: as recorded, else Savitzky-Golay derivatives of the
+        stroke (cubic, :data:`DERIVATIVE_WINDOW` samples; uniform sampling assumed)."""
+        sd, sdd = self.stroke_rate, self.stroke_acceleration
+        if sd is not None and sdd is not None:
+            return sd, sdd
+        dt = float(np.median(np.diff(self.t)))
+        window = min(DERIVATIVE_WINDOW, len(self) - (1 - len(self) % 2))
+        if sd is None:
+            sd = savgol_filter(self.stroke, window, 3, deriv=1, delta=dt)
+        if sdd is None:
+            sdd = savgol_filter(sd, window, 3, deriv=1, delta=dt)
+        return sd, sdd
+
+    def select(self, mask: np.ndarray) -> Record:
+        """The samples where ``mask`` is true."""
+        mask = np.asarray(mask, dtype=bool)
+        out = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            out[f.name] = None if value is None else value[mask]
+        return Record(**out)
+
+
+__all__ = ["DERIVATIVE_WINDOW", "SIGNALS", "Record"]

@@ -1,0 +1,59 @@
+"""Runs of the rungs with known parameters, sampled as a bag would be, for the identification
+tests (no bag, no rclpy): the truth is what the rung was given, the noise the stroke sensor's
+own (:class:`drs_model.fidelity.sensor_faults.StrokeSensor`, seeded)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drs_model.fidelity import make_rung
+from drs_model.fidelity.sensor_faults import SensorFaults, StrokeSensor
+from drs_model.identify.record import Record
+
+#: Columns of :func:`run_rung`'s table.
+COLUMNS = ("t", "stroke", "stroke_rate", "stroke_acceleration", "piston_force", "pressure_a",
+           "pressure_b", "supply_pressure", "spool")  # fmt: skip
+
+
+def run_rung(rung: str, p, moves=((0, True), (40, False)), steps: int = 80, dt: float = 1e-3,
+             hydraulic=None, trajectory=None) -> np.ndarray:
+    """Rows of :data:`COLUMNS` at every physics step of ``rung``: the flap opened and closed
+    through ``command_drs`` at the steps of ``moves`` (or ``trajectory = (times, strokes,
+    rates)`` commanded at step 0)."""
+    options = {"hydraulic": hydraulic} if rung == "hydraulic" else {}
+    sim = make_rung(rung, p, dt, **options)
+    rows = []
+
+    def keep():
+        st = sim.state
+        rows.append((st.t, st.q[0], st.qd[0], st.qdd[0], st.piston_force,
+                     *(np.nan if v is None else v for v in (st.pressure_a, st.pressure_b,
+                                                            st.supply_pressure, st.spool))))
+
+    todo = dict(moves) if trajectory is None else {}
+    if trajectory is not None:
+        sim.command_trajectory(*trajectory)
+    keep()
+    for k in range(steps):
+        if k in todo:
+            sim.command_drs(todo[k])
+        sim.step()
+        keep()
+    return np.array(rows)
+
+
+def noisy_record(table: np.ndarray, noise: float = 0.0, seed: int = 0, **drop) -> Record:
+    """The record of a :func:`run_rung` table, its stroke as a sensor of ``noise`` [m] (seed
+    ``seed``) reads it; ``drop`` names signals to leave out (``stroke_rate=True``)."""
+    cols = dict(zip(COLUMNS, table.T, strict=True))
+    if noise:
+        sensor = StrokeSensor(SensorFaults(noise=noise, seed=seed))
+        pairs = enumerate(zip(cols["t"], cols["stroke"], strict=True))
+        cols["stroke"] = np.array([sensor.read(t, k, s) for k, (t, s) in pairs])
+    for name in COLUMNS[5:]:
+        if np.all(np.isnan(cols[name])):
+            cols[name] = None
+    for name, gone in drop.items():
+        if gone:
+            cols[name] = None
+    return Record(**cols)

@@ -1,0 +1,149 @@
+"""Stage 2, output error, and the intervals: a hydraulic run's leak and jam recovered by
+re-simulation; the profile likelihood against a brute-force profile; the fit's refusals."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from identify_support import noisy_record, run_rung
+
+from drs_model.errors import InputError, ParameterError
+from drs_model.fidelity import HydraulicParams
+from drs_model.identify import intervals as iv
+from drs_model.identify.driver import fit
+from drs_model.identify.output_error import OutputErrorProblem, fit_output_error, profile_chi2
+from drs_model.identify.parameters import with_values
+
+MOVES = ((0, True), (60, False))
+
+
+@pytest.fixture(scope="module")
+def worn(params):
+    """A hydraulic run with a leak to the outside (2e-13 m^3/(s Pa)) and a jam (30 N more
+    Coulomb and breakaway friction), its stroke read with 10 um of noise."""
+    truth = HydraulicParams(leak_to_outside=2e-13, coulomb_friction=70.0,
+                            breakaway_friction=90.0)  # fmt: skip
+    table = run_rung("hydraulic", params, moves=MOVES, steps=120, hydraulic=truth)
+    return truth, noisy_record(table, 1e-5, seed=3)
+
+
+def _simulate(params):
+    def simulate(values):
+        p, hp = with_values(values, params, HydraulicParams())
+        table = run_rung("hydraulic", p, moves=MOVES, steps=120, hydraulic=hp)
+        return {"stroke": table[:, 1], "piston_force": table[:, 4], "pressure_a": table[:, 5],
+                "pressure_b": table[:, 6]}  # fmt: skip
+
+    return simulate
+
+
+def test_output_error_recovers_a_leak_and_a_jam(worn, params):
+    """From the equation error's start (from the defaults, 0 leak and 40 N, the output error
+    alone ends in a local minimum: benchmarks/fit_speed.py's anchor)."""
+    truth, record = worn
+    names = ["leak_to_outside", "coulomb_friction", "breakaway_friction"]
+    result = fit(record, names, "hydraulic", params, HydraulicParams(),
+                 simulate=_simulate(params))  # fmt: skip
+    for e in result.estimates:
+        assert e.stage == "output" and e.determined, e
+        assert e.contains(float(getattr(truth, e.name))), e
+    leak = result.estimate("leak_to_outside")
+    assert leak.upper - leak.lower < 0.1 * truth.leak_to_outside
+    stage = result.stages[-1]
+    assert {s.name for s in stage.signals} == {"stroke", "piston_force", "pressure_a",
+                                               "pressure_b"}  # fmt: skip
+    assert stage.signals[0].residual_rms < 3e-5  # the stroke's noise, no model error left
+
+
+def test_a_parameter_nothing_depends_on_is_reported_as_such(worn, params):
+    """The relief valves never open in this run: their flow gain is in no simulated signal."""
+    _, record = worn
+    names = ["relief_flow_gain", "leak_to_outside", "coulomb_friction", "breakaway_friction"]
+    result = fit(record, names, "hydraulic", params, HydraulicParams(),
+                 simulate=_simulate(params))  # fmt: skip
+    relief = result.estimate("relief_flow_gain")
+    assert not relief.determined and "zero sensitivity" in relief.reason
+    assert result.estimate("leak_to_outside").determined
+
+
+def _decay_problem(noise=0.02, seed=0):
+    """``y = exp(-k t)`` with ``k = 3``, sampled at 20 instants with Gaussian noise."""
+    t = np.linspace(0.0, 1.0, 20)
+    y = np.exp(-3.0 * t) + np.random.default_rng(seed).normal(0.0, noise, t.size)
+    return OutputErrorProblem(("k",), np.array([1.0]), np.array([0.0]), np.array([50.0]),
+                              np.array([1.0]), lambda v: {"y": np.exp(-v["k"] * t)},
+                              {"y": y}, {"y": noise})  # fmt: skip
+
+
+def test_the_profile_interval_is_where_the_brute_force_profile_crosses():
+    problem = _decay_problem()
+    result = fit_output_error(problem)
+    q = iv.quantile(0.95, result.dof)
+    threshold = q * q * result.s2
+    lo, hi = iv.profile_interval(profile_chi2(problem, result, 0), float(result.estimate[0]),
+                                 q * math.sqrt(result.covariance[0, 0]), threshold, (0.0, 50.0),
+                                 result.chi2)  # fmt: skip
+    grid = np.linspace(2.0, 4.0, 4001)
+    inside = grid[[result.chi2_of(np.array([k])) - result.chi2 <= threshold for k in grid]]
+    assert lo == pytest.approx(inside[0], abs=2e-3) and hi == pytest.approx(inside[-1], abs=2e-3)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-13, 1e9])
+def test_the_profile_interval_does_not_depend_on_the_parameters_unit(scale):
+    """The same problem with its parameter in another unit (a leak is ~1e-13 m^3/(s Pa)): the
+    profile interval scales with it (an absolute floor on the search step collapsed a 1e-13
+    interval onto its estimate)."""
+    t = np.linspace(0.0, 1.0, 30)
+    y = 2.0 * t + np.random.default_rng(1).normal(0.0, 0.1, t.size)
+    problem = OutputErrorProblem(("a",), np.array([scale]), np.array([-10.0 * scale]),
+                                 np.array([10.0 * scale]), np.array([scale]),
+                                 lambda v: {"y": v["a"] / scale * t}, {"y": y},
+                                 {"y": 0.1})  # fmt: skip
+    result = fit_output_error(problem)
+    q = iv.quantile(0.95, result.dof)
+    half = q * math.sqrt(result.covariance[0, 0])
+    lo, hi = iv.profile_interval(profile_chi2(problem, result, 0), float(result.estimate[0]),
+                                 half, q * q * result.s2, (-10.0 * scale, 10.0 * scale),
+                                 result.chi2)  # fmt: skip
+    wald = iv.wald_interval(float(result.estimate[0]), half / q, q)
+    assert lo == pytest.approx(wald[0], rel=1e-3) and hi == pytest.approx(wald[1], rel=1e-3)
+    assert hi - lo == pytest.approx((wald[1] - wald[0]), rel=1e-2) and hi - lo > 0.1 * scale
+
+
+def test_a_linear_model_agrees_with_its_linearisation():
+    t = np.linspace(0.0, 1.0, 30)
+    y = 2.0 * t + np.random.default_rng(1).normal(0.0, 0.1, t.size)
+    problem = OutputErrorProblem(("a",), np.array([1.0]), np.array([-10.0]), np.array([10.0]),
+                                 np.array([1.0]), lambda v: {"y": v["a"] * t}, {"y": y},
+                                 {"y": 0.1})  # fmt: skip
+    result = fit_output_error(problem)
+    ratios = iv.linearity_ratios(result.chi2_of, result.estimate, result.covariance, 0,
+                                 iv.quantile(0.95, result.dof), result.s2, result.chi2)  # fmt: skip
+    assert iv.agrees(ratios) and ratios == pytest.approx((1.0, 1.0), rel=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("names", "rung", "error", "match"),
+    [
+        (["m_pist"], "kinematic", InputError, "models no forces"),
+        (["leak_to_outside"], "rigid", ParameterError, "has no hydraulics.*leak_to_outside"),
+        (["m_pistt"], "rigid", ParameterError, "'m_pistt' cannot be fitted.*m_pist"),
+        (["Iz_pist"], "rigid", ParameterError, "the piston does not turn"),
+        (["m_pist", "m_pist"], "rigid", InputError, r"named twice: \['m_pist'\]"),
+        ([], "rigid", InputError, "at least one parameter"),
+    ],
+)
+def test_a_fit_that_cannot_be_asked_is_refused(worn, params, names, rung, error, match):
+    _, record = worn
+    with pytest.raises(error, match=match):
+        fit(record, names, rung, params)
+
+
+def test_without_a_re_simulation_output_error_parameters_are_withheld(worn, params):
+    _, record = worn
+    result = fit(record, ["supply_pressure", "leak_to_outside"], "hydraulic", params)
+    supply = result.estimate("supply_pressure")
+    assert not supply.determined and "cannot be re-simulated" in supply.reason
+    assert result.estimate("leak_to_outside").stage == "equation"

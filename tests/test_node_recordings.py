@@ -1,0 +1,192 @@
+"""Each recording of the node owns its failure, and every failure is seen
+(drs_ros.node.recordings): a rerun recording cut by a full file system, a bag whose directory is
+removed, a write that raises, a finish that fails. The node runs on, says so in diagnostics, and
+``drs-node`` exits 1 naming what each incomplete recording lacks, while the other recording is
+complete (``drs-bag check``, ``rerun rrd verify``)."""
+
+from __future__ import annotations
+
+import shutil
+import time
+
+import pytest
+from fs_support import small_filesystem
+from node_support import domain_for, spin_until, wait_for_file_growth
+from ros_support import require_rclpy
+
+pytestmark = pytest.mark.ros
+
+require_rclpy()
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from test_node_robustness import Client, bag_check, start_node, stop_node  # noqa: E402
+
+from drs_ros.node import DRSNode  # noqa: E402
+from drs_ros.recording.rerun_cli import run_rerun_cli  # noqa: E402
+
+
+class Watcher(Client):
+    """A participant that keeps the node's joint states and diagnostics."""
+
+    def __init__(self, domain: int) -> None:
+        super().__init__(domain)
+        self.diagnostics: list = []
+        self.node.create_subscription(DiagnosticArray, "/diagnostics",
+                                      lambda m: self.diagnostics.extend(m.status), 10)  # fmt: skip
+
+    def errors(self) -> list:
+        """The node's diagnostics at ERROR, as {key: value} with the message."""
+        return [{"message": s.message, **{kv.key: kv.value for kv in s.values}}
+                for s in self.diagnostics if s.level == DiagnosticStatus.ERROR]  # fmt: skip
+
+    def states_keep_coming(self, seconds: float = 1.0) -> bool:
+        n = len(self.joints)
+        self.spin_for(seconds)
+        return len(self.joints) > n + 10
+
+
+@pytest.mark.slow
+def test_a_full_file_system_cuts_the_rrd_and_the_bag_goes_on(tmp_path, request):
+    """The .rrd on a 128 KiB file system fills it a few seconds in: rerun's writer reports it in
+    its own log only, yet the node sees it (diagnostics at ERROR, naming the file and the full
+    file system), keeps publishing and recording the bag, and at SIGINT exits 1 naming the .rrd
+    whose end is missing. The bag passes ``drs-bag check``; ``rerun rrd verify`` confirms the
+    .rrd is cut (what the node reports)."""
+    domain = domain_for(request.node.nodeid)
+    bag, rrd = tmp_path / "bag", tmp_path / "small" / "run.rrd"
+    with small_filesystem(tmp_path / "small", 128 * 1024):
+        proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}")
+        watcher = Watcher(domain)
+        try:
+            assert watcher.wait_for(lambda: watcher.errors(), timeout=90), "no ERROR diagnostics"
+            error = watcher.errors()[-1]
+            assert f"rerun recording '{rrd}' stopped" in error["message"]
+            assert "file writer stopped" in error["rerun"] and "0 bytes are free" in error["rerun"]
+            assert error["bag"].endswith("flushes")  # the bag goes on, unharmed
+            assert watcher.states_keep_coming()
+        finally:
+            watcher.close()
+            out = stop_node(proc)
+        assert proc.returncode == 1, out[-3000:]
+        assert f"drs-node: the rerun recording '{rrd}' is incomplete, its end is missing" in out
+        assert "recordings incomplete" in out and "bag" not in out.split("drs-node:")[-2]
+        verify = run_rerun_cli(["rrd", "verify", str(rrd)])
+        assert verify.returncode != 0  # cut indeed
+    assert bag_check(bag) == 0
+
+
+@pytest.mark.slow
+def test_a_removed_bag_is_named_and_the_rrd_is_complete(tmp_path, request):
+    """The bag's directory removed mid-run: the next flush finds its file unlinked, the node says
+    so (diagnostics at ERROR), runs on, and exits 1 naming the bag; the .rrd is complete."""
+    domain = domain_for(request.node.nodeid)
+    bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
+    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
+                      "flush_period:=0.2")  # fmt: skip
+    watcher = Watcher(domain)
+    try:
+        assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=50_000)
+        shutil.rmtree(bag)
+        assert watcher.wait_for(lambda: watcher.errors(), timeout=30), "no ERROR diagnostics"
+        error = watcher.errors()[-1]
+        assert f"bag '{bag}' stopped" in error["message"] and "removed" in error["message"]
+        assert error["rerun"].endswith("samples")
+        assert watcher.states_keep_coming()
+    finally:
+        watcher.close()
+        out = stop_node(proc)
+    assert proc.returncode == 1, out[-3000:]
+    assert f"drs-node: bag '{bag}' is lost" in out and "was removed while recording" in out
+    assert not bag.exists()
+    verify = run_rerun_cli(["rrd", "verify", str(rrd)])
+    assert verify.returncode == 0, verify.stderr[-1000:]
+
+
+def _run_in_process(ros_context, tmp_path, seconds: float, during=None) -> DRSNode:
+    """A node with a bag and an .rrd, spun ``seconds``; ``during(node)`` after the first tick."""
+    node = DRSNode(context=ros_context, parameter_overrides=[
+        Parameter("bag_path", value=str(tmp_path / "bag")),
+        Parameter("rrd_path", value=str(tmp_path / "run.rrd"))])  # fmt: skip
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    try:
+        assert spin_until(ex, lambda: node.ticks > 5, 10.0)
+        if during is not None:
+            during(node)
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.01)
+    finally:
+        ex.shutdown()
+    return node
+
+
+def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
+    """Every rerun logging call raises (a programming error, not I/O): each sample is lost,
+    logged and counted (diagnostics WARN, ``rerun`` says how many), the rerun recording goes on
+    trying, and the bag is complete; one bag write that raises loses that message only. The
+    stop names both losses, each in its own recording."""
+    from drs_ros.bag.reader import scan
+
+    calls = {"bag": 0}
+
+    def break_both(node):
+        calls["before"] = node.recorder.stats().message_count
+        def rerun_fails(*args):
+            raise RuntimeError("rerun logging failed on purpose")
+
+        node.rerun.log_state = rerun_fails
+        real_write = node.recorder.write
+
+        def bag_fails_once(topic, msg, **kw):
+            calls["bag"] += 1
+            if calls["bag"] == 1:
+                raise TypeError("a bag write failed on purpose")
+            return real_write(topic, msg, **kw)
+
+        node.recorder.write = bag_fails_once
+
+    node = _run_in_process(ros_context, tmp_path, 1.0, during=break_both)
+    try:
+        values = node.diagnostics_values()
+        level, message = node.diagnostics_level(node._now_ns())
+        lines = node.close_recordings()
+    finally:
+        node.destroy_node()
+    lost = node.ticks - 6  # the ticks after the rerun call broke (within one)
+    assert "items not recorded (last: RuntimeError: rerun logging failed on purpose)" in (
+        values["rerun"])  # fmt: skip
+    assert "; 1 items not recorded (last: TypeError" in values["bag"]
+    assert level == DiagnosticStatus.WARN and "recording error" in message
+    assert len(lines) == 2
+    rerun_line, bag_line = lines
+    assert rerun_line.startswith(f"rerun recording '{tmp_path / 'run.rrd'}' lacks")
+    assert abs(int(rerun_line.split(" lacks ")[1].split()[0]) - lost) <= 2
+    assert bag_line.startswith(f"bag '{tmp_path / 'bag'}' lacks 1 items") and "TypeError" in (
+        bag_line)  # fmt: skip
+    assert bag_check(tmp_path / "bag") == 0
+    # every message but the one lost, in a bag that reads to its end
+    assert scan(tmp_path / "bag").message_count == calls["before"] + calls["bag"] - 1
+    assert calls["bag"] > 100
+
+
+def test_a_finish_that_fails_names_what_is_missing(ros_context, tmp_path):
+    """``metadata.yaml`` cannot be written (a directory took its name): the bag's file is
+    finished (its summary read by the reader), and the stop names metadata.yaml and why."""
+    from drs_ros.bag.reader import scan
+
+    node = _run_in_process(ros_context, tmp_path, 0.5,
+                           during=lambda n: (tmp_path / "bag" / "metadata.yaml").mkdir())
+    try:
+        lines = node.close_recordings()
+        assert node.close_recordings() == lines  # idempotent, the lines kept
+    finally:
+        node.destroy_node()
+    (line,) = lines
+    assert line == (f"bag '{tmp_path / 'bag'}' is incomplete: metadata.yaml (Is a directory) "
+                    "could not be written")  # fmt: skip
+    assert scan(tmp_path / "bag" / "bag_0.mcap").complete
+    assert run_rerun_cli(["rrd", "verify", str(tmp_path / "run.rrd")]).returncode == 0
+
