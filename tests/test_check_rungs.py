@@ -25,7 +25,16 @@ require_rclpy()
 from rclpy.parameter import Parameter  # noqa: E402
 
 #: The node's launch arguments (extra ``--ros-args`` items): its name, namespace, remappings.
-LAUNCHES = {"default": []}
+#: ``renamed`` is a node named as a vehicle stack names it: a namespace, another node name, an
+#: absolute and a private topic remapped, and a model parameter of its own.
+LAUNCHES = {
+    "default": [],
+    "renamed": ["-r", "__ns:=/car7", "-r", "__node:=drs_rear",
+                "-r", "/joint_states:=/car7/joint_states",
+                "-r", "~/piston_force:=/car7/rear_force",
+                "-r", "~/pressure_piston_side:=/car7/rear_pressure_a",
+                "-p", "model.m_wing:=3.0"],
+}  # fmt: skip
 
 RUNGS = ("kinematic", "quasi-static", "rigid", "hydraulic")
 
