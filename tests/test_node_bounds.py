@@ -146,20 +146,25 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
 def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
     tmp_path, request, params, sig, executor
 ):
-    """A tick of tens of thousands of expensive physics steps (the hydraulic rung at 20 kHz,
-    the flap open under a 5 kN jam: ~18 sub-steps a step; the process stopped 3 s, so the next
-    tick has 60,000 steps to catch up, several seconds of work): SIGINT or SIGTERM in its middle
-    ends the node within a second (the tick ends at the next physics step, over a thousand
-    steps before its end), with exit 0, the bag read to its end and the .rrd verified by rerun.
-    With the stop read only between ticks, the SIGINT case fails: the tick runs to its end."""
+    """A tick of thousands of expensive physics steps: the hydraulic rung (~0.2 ms of CPU per
+    1 ms step at the open stop, so the node keeps up), the process stopped 6 s, so the next tick
+    has 6,000 steps to catch up, over a second of work. SIGINT or SIGTERM in its middle ends the
+    node within a second (the tick ends at the next physics step, over a thousand steps before
+    its end), with exit 0, the bag read to its end and the .rrd verified by rerun. With the stop
+    read only between ticks, the SIGINT case fails: the tick runs to its end.
+
+    A rung the node cannot keep up with (a 5 kN jam: ~1 s of CPU per simulated second, or
+    20 kHz physics) makes its ticks grow without bound from the moment it falls behind, and
+    which tick a signal then meets depends on the machine's speed: the stall must make the long
+    tick, not the load."""
     from drs_ros.bag.reader import scan
     from drs_ros.recording.rerun_cli import run_rerun_cli
 
     domain = domain_for(request.node.nodeid)
     bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
     proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
-                      "fidelity:=hydraulic", "physics_rate_hz:=20000.0",
-                      "max_catch_up_steps:=100000", f"executor:={executor}")  # fmt: skip
+                      "fidelity:=hydraulic", "max_catch_up_steps:=100000",
+                      f"executor:={executor}")  # fmt: skip
     client = Participant(domain)
     _, s_max = stroke_limits(params)
     try:
@@ -168,12 +173,11 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
         fut = drs.call_async(SetBool.Request(data=True))
         assert client.wait_for(fut.done, timeout=30.0) and fut.result().success
         assert client.wait_for(lambda: client.stroke() > s_max - 1e-4, timeout=30.0)
-        assert client.set("fault.jam_friction_n", 5000.0).successful
         client.spin_for(0.3)
         proc.send_signal(signal.SIGSTOP)
-        time.sleep(3.0)
+        time.sleep(6.0)
         proc.send_signal(signal.SIGCONT)
-        time.sleep(0.3)  # inside the long tick
+        time.sleep(0.3)  # the tick the stall interrupted was short: inside the long one now
         t0 = time.monotonic()
         proc.send_signal(sig)
         proc.wait(timeout=60)
@@ -183,7 +187,7 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
         out = stop_node(proc)
     assert proc.returncode == 0, out[-3000:]
     cut = re.search(r"the last tick ends after (\d+) of its (\d+) physics steps", out)
-    # cut well before its end (60,000 steps after the stall; fewer if the node was behind)
+    # cut well before its end (6,000 steps after the stall)
     assert cut and int(cut[2]) - int(cut[1]) > 1000, out[-3000:]
     assert took < 1.0, f"{sig.name} took {took:.2f} s to end the node"
     assert f"stopped by {sig.name}, recordings finished" in out
