@@ -133,10 +133,15 @@ def test_a_rosbags_written_bag_fits_like_the_drs_one(bags, tmp_path):
     names = "leak_to_outside,valve_rated_flow,coulomb_friction,viscous_friction"
     mapping = ",".join(f"{k}={v}" for k, v in topics.items())
     res = drs_bag("fit", str(foreign), "--params", names, "--topic-map", mapping, "--joint",
+                  "piston")  # fmt: skip
+    assert res.returncode == 2 and "error: --fidelity: the bag does not say which rung it ran " \
+        "on" in res.stderr  # fmt: skip
+    res = drs_bag("fit", str(foreign), "--params", names, "--topic-map", mapping, "--joint",
                   "piston", "--fidelity", "hydraulic", "--json")  # fmt: skip
     assert res.returncode == 0, res.stderr
     got = json.loads(res.stdout)
     assert "no clock records" in " ".join(got["notes"])
+    assert got["node"] is None and got["topics"]["pressure_a"] == "/hyd/cap_end"
     ref = json.loads(drs_bag("fit", str(bags["hydraulic"]), "--params", names, "--stage",
                              "equation", "--json").stdout)  # fmt: skip
     for a, b in zip(got["estimates"], ref["estimates"], strict=True):
@@ -171,12 +176,25 @@ def test_a_bag_without_the_joint_states_named_is_refused(bags):
             "sensor_msgs/msg/JointState") in res.stderr
 
 
+#: The node as a stack names it: in a namespace, renamed, its joint states, piston force and
+#: piston-side pressure remapped (``(namespace, --ros-args, node, joint states, pressure_a)``).
+NODE_NAMES = {
+    "default": (None, [], "/drs", "/joint_states", "/drs/pressure_piston_side"),
+    "renamed": ("/car7", ["-r", "__node:=drs_rear", "-r", "/joint_states:=/car7/joint_states",
+                          "-r", "~/piston_force:=/car7/rear_force",
+                          "-r", "~/pressure_piston_side:=/car7/rear_pressure_a"],
+                "/car7/drs_rear", "/car7/joint_states", "/car7/rear_pressure_a"),
+}  # fmt: skip
+
+
 @pytest.mark.ros
-def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp_path):
+@pytest.mark.parametrize("naming", sorted(NODE_NAMES))
+def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp_path, naming):
     """The node itself, hydraulic, started with a leak and a noisy stroke sensor
-    (``-p fault.*:=...``), opened and closed through its service: its bag re-runs to the bit
-    (the first state is published after the start's faults act, as the re-run now has it) and
-    the leak is found within its interval."""
+    (``-p fault.*:=...``), opened and closed through its service, under its default name and as
+    a stack names it: its bag re-runs to the bit (the first state is published after the
+    start's faults act, as the re-run now has it) and the fit finds the node by the name it
+    recorded, reads its remapped topics, and finds the leak within its interval."""
     from node_support import spin_for, spin_until
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
@@ -184,14 +202,19 @@ def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp
 
     from drs_ros.node import DRSNode
 
+    namespace, ros_args, name, joint_states, pressure_a = NODE_NAMES[naming]
     overrides = [Parameter("fidelity", value="hydraulic"),
                  Parameter("publish_rate_hz", value=1000.0),
                  Parameter("bag_path", value=str(tmp_path / "bag")),
                  Parameter("fault.leak_m3_per_s_per_pa", value=2e-13),
                  Parameter("fault.sensor.noise_std_m", value=1e-5),
                  Parameter("fault.sensor.noise_seed", value=5)]  # fmt: skip
-    node = DRSNode(context=ros_context, parameter_overrides=overrides)
-    client = node.create_client(SetBool, "/drs/drs")
+    naming_args = {"cli_args": ["--ros-args", *ros_args]} if ros_args else {}
+    if namespace:
+        naming_args["namespace"] = namespace
+    node = DRSNode(context=ros_context, parameter_overrides=overrides, **naming_args)
+    assert node.get_fully_qualified_name() == name
+    client = node.create_client(SetBool, f"{name}/drs")
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     try:
@@ -208,5 +231,12 @@ def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp
     assert res.returncode == 0, res.stdout + res.stderr
     res = drs_bag("fit", str(tmp_path / "bag"), "--params", "leak_to_outside", "--json")
     assert res.returncode == 0, res.stdout + res.stderr
-    (leak,) = json.loads(res.stdout)["estimates"]
+    doc = json.loads(res.stdout)
+    assert doc["node"] == name and doc["model_parameters"] == \
+        f"recorded by {name} on /parameter_events"  # fmt: skip
+    assert (doc["topics"]["joint_states"], doc["topics"]["pressure_a"]) == (joint_states,
+                                                                            pressure_a)
+    (leak,) = doc["estimates"]
     assert leak["stage"] == "output" and leak["lower"] <= 2e-13 <= leak["upper"], leak
+    residuals = {r["signal"]: r for r in doc["stages"][-1]["residuals"]}
+    assert residuals["pressure_a"]["samples"] > 20  # the remapped pressure was read and fitted
