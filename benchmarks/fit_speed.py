@@ -1,7 +1,8 @@
 """Fit time per bag: ``drs-bag fit`` against one ``drs-bag resimulate`` of the same bag, and
 against the anchor method, a plain ``scipy.optimize.least_squares`` on the full output error.
 
-The bag: a hydraulic run recorded as the node records it (:mod:`drs_ros.bag.synthetic_run`):
+The bag: a hydraulic run recorded as the node records it (``tests/run_support.py``, the tests'
+fixture):
 opened and closed through the service, 130 physics steps at 1 kHz, with a leak to the outside of
 2e-13 m^3/(s Pa) and a jam of 30 N (truth: ``leak_to_outside`` 2e-13, ``coulomb_friction`` 70 N,
 ``breakaway_friction`` 90 N) and 10 um of stroke noise. In one run, each ``--repeats`` times
@@ -35,11 +36,14 @@ from pathlib import Path
 
 import numpy as np
 
+# the run recorder is the tests' fixture (tests/run_support.py), not a part of the product
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
 TRUTH = {"leak_to_outside": 2e-13, "coulomb_friction": 70.0, "breakaway_friction": 90.0}
 
 
 def _bag(work: Path) -> Path:
-    from drs_ros.bag.synthetic_run import Command, record_run
+    from run_support import Command, record_run
 
     faults = {"leak_m3_per_s_per_pa": 2e-13, "jam_friction_n": 30.0, "sensor.noise_std_m": 1e-5,
               "sensor.noise_seed": 3}  # fmt: skip
@@ -63,10 +67,12 @@ def _anchor(bag: Path):
     from drs_model.identify.output_error import RESOLUTION
     from drs_ros.bag.fit_rerun import RunResimulation
     from drs_ros.bag.measured import read_measured
+    from drs_ros.bag.nodes import find_node
     from drs_ros.bag.resimulate import read_run
 
-    m = read_measured(bag)
-    simulate = RunResimulation(read_run(bag), m.params, HydraulicParams(), "hydraulic",
+    node = find_node(bag, None)
+    m = read_measured(bag, node)
+    simulate = RunResimulation(read_run(bag, node), m.params, HydraulicParams(), "hydraulic",
                                m.record.step)  # fmt: skip
     signals = ("stroke", "piston_force", "pressure_a", "pressure_b")
     measured = {k: getattr(m.record, k) for k in signals}

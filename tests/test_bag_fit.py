@@ -28,14 +28,17 @@ def drs_bag(*args) -> subprocess.CompletedProcess:
 
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        status = main(list(args))
+        try:
+            status = main([str(a) for a in args])
+        except SystemExit as exc:  # argparse's usage error
+            status = exc.code
     return subprocess.CompletedProcess(args, status, out.getvalue(), err.getvalue())
 
 
 @pytest.fixture(scope="module")
 def bags(tmp_path_factory):
     require_rclpy()
-    from drs_ros.bag.synthetic_run import Command, record_run, seed_commands
+    from run_support import Command, record_run, seed_commands
 
     out = tmp_path_factory.mktemp("fit")
     p = DRSParams()
@@ -93,11 +96,12 @@ def _rewrite_with_rosbags(src, dst):
     from rosbags.typesys import Stores, get_typestore
 
     from drs_ros.bag.decoded import read_bag
-    from drs_ros.bag.measured import DRS_TOPICS
+    from drs_ros.bag.measured import measured_topics
 
+    drs_topics = measured_topics(None)  # a node of the default name, by role
     ts = get_typestore(Stores.ROS2_JAZZY)
     T = ts.types
-    data = read_bag(src, list(DRS_TOPICS.values()))
+    data = read_bag(src, list(drs_topics.values()))
     topics = {"joint_states": "/actuator/joint_states", "pressure_a": "/hyd/cap_end",
               "pressure_b": "/hyd/rod_end", "supply_pressure": "/hyd/supply",
               "spool": "/hyd/spool"}  # fmt: skip
@@ -106,7 +110,7 @@ def _rewrite_with_rosbags(src, dst):
         for role, topic in topics.items():
             kind = kinds.get(role, "sensor_msgs/msg/FluidPressure")
             conn = w.add_connection(topic, kind, typestore=ts)
-            for log, m in data.messages[DRS_TOPICS[role]]:
+            for log, m in data.messages[drs_topics[role]]:
                 if role == "spool":
                     msg = T[kind](data=m.data)
                 else:
@@ -129,10 +133,15 @@ def test_a_rosbags_written_bag_fits_like_the_drs_one(bags, tmp_path):
     names = "leak_to_outside,valve_rated_flow,coulomb_friction,viscous_friction"
     mapping = ",".join(f"{k}={v}" for k, v in topics.items())
     res = drs_bag("fit", str(foreign), "--params", names, "--topic-map", mapping, "--joint",
+                  "piston")  # fmt: skip
+    assert res.returncode == 2 and "error: --fidelity: the bag does not say which rung it ran " \
+        "on" in res.stderr  # fmt: skip
+    res = drs_bag("fit", str(foreign), "--params", names, "--topic-map", mapping, "--joint",
                   "piston", "--fidelity", "hydraulic", "--json")  # fmt: skip
     assert res.returncode == 0, res.stderr
     got = json.loads(res.stdout)
     assert "no clock records" in " ".join(got["notes"])
+    assert got["node"] is None and got["topics"]["pressure_a"] == "/hyd/cap_end"
     ref = json.loads(drs_bag("fit", str(bags["hydraulic"]), "--params", names, "--stage",
                              "equation", "--json").stdout)  # fmt: skip
     for a, b in zip(got["estimates"], ref["estimates"], strict=True):
@@ -144,29 +153,48 @@ def test_a_rosbags_written_bag_fits_like_the_drs_one(bags, tmp_path):
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--params", "m_pistt"], "'m_pistt' cannot be fitted"),
-        (["--params", "leak_to_outside"], "'rigid' rung has no hydraulics"),
-        (["--params", "m_pist", "--topic-map", "pressure=/p"], "unknown role 'pressure'"),
+        (["--params", "leak_to_outside"], "the model refuses the fit: the 'rigid' rung has no "
+                                          "hydraulics"),
+        (["--params", "m_pist", "--set", "m_wing=-1"], "the model refuses the fit: "),
         (["--params", "m_pist", "-o", "fit.csv"], "-o names the report"),
     ],
 )
-def test_bad_options_are_refused_with_a_reason(bags, args, match):
+def test_what_the_bag_s_model_cannot_fit_is_refused_with_a_reason(bags, args, match):
     res = drs_bag("fit", str(bags["rigid"]), *args)
     assert res.returncode == 2 and match in res.stderr, res.stderr
+    assert "usage:" not in res.stderr
 
 
 def test_a_bag_without_the_joint_states_named_is_refused(bags):
     res = drs_bag("fit", str(bags["rigid"]), "--params", "m_pist", "--topic-map",
                   "joint_states=/nothing/here")  # fmt: skip
     assert res.returncode == 2 and "no joint states on /nothing/here" in res.stderr
+    res = drs_bag("fit", str(bags["rigid"]), "--params", "m_pist", "--topic-map",
+                  "joint_states=/drs/piston_force")  # fmt: skip
+    assert res.returncode == 2, res.stderr
+    assert ("/drs/piston_force holds std_msgs/msg/Float64 messages; the role joint_states needs "
+            "sensor_msgs/msg/JointState") in res.stderr
+
+
+#: The node as a stack names it: in a namespace, renamed, its joint states, piston force and
+#: piston-side pressure remapped (``(namespace, --ros-args, node, joint states, pressure_a)``).
+NODE_NAMES = {
+    "default": (None, [], "/drs", "/joint_states", "/drs/pressure_piston_side"),
+    "renamed": ("/car7", ["-r", "__node:=drs_rear", "-r", "/joint_states:=/car7/joint_states",
+                          "-r", "~/piston_force:=/car7/rear_force",
+                          "-r", "~/pressure_piston_side:=/car7/rear_pressure_a"],
+                "/car7/drs_rear", "/car7/joint_states", "/car7/rear_pressure_a"),
+}  # fmt: skip
 
 
 @pytest.mark.ros
-def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp_path):
+@pytest.mark.parametrize("naming", sorted(NODE_NAMES))
+def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp_path, naming):
     """The node itself, hydraulic, started with a leak and a noisy stroke sensor
-    (``-p fault.*:=...``), opened and closed through its service: its bag re-runs to the bit
-    (the first state is published after the start's faults act, as the re-run now has it) and
-    the leak is found within its interval."""
+    (``-p fault.*:=...``), opened and closed through its service, under its default name and as
+    a stack names it: its bag re-runs to the bit (the first state is published after the
+    start's faults act, as the re-run now has it) and the fit finds the node by the name it
+    recorded, reads its remapped topics, and finds the leak within its interval."""
     from node_support import spin_for, spin_until
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
@@ -174,14 +202,19 @@ def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp
 
     from drs_ros.node import DRSNode
 
+    namespace, ros_args, name, joint_states, pressure_a = NODE_NAMES[naming]
     overrides = [Parameter("fidelity", value="hydraulic"),
                  Parameter("publish_rate_hz", value=1000.0),
                  Parameter("bag_path", value=str(tmp_path / "bag")),
                  Parameter("fault.leak_m3_per_s_per_pa", value=2e-13),
                  Parameter("fault.sensor.noise_std_m", value=1e-5),
                  Parameter("fault.sensor.noise_seed", value=5)]  # fmt: skip
-    node = DRSNode(context=ros_context, parameter_overrides=overrides)
-    client = node.create_client(SetBool, "/drs/drs")
+    naming_args = {"cli_args": ["--ros-args", *ros_args]} if ros_args else {}
+    if namespace:
+        naming_args["namespace"] = namespace
+    node = DRSNode(context=ros_context, parameter_overrides=overrides, **naming_args)
+    assert node.get_fully_qualified_name() == name
+    client = node.create_client(SetBool, f"{name}/drs")
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     try:
@@ -198,5 +231,12 @@ def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp
     assert res.returncode == 0, res.stdout + res.stderr
     res = drs_bag("fit", str(tmp_path / "bag"), "--params", "leak_to_outside", "--json")
     assert res.returncode == 0, res.stdout + res.stderr
-    (leak,) = json.loads(res.stdout)["estimates"]
+    doc = json.loads(res.stdout)
+    assert doc["node"] == name and doc["model_parameters"] == \
+        f"recorded by {name} on /parameter_events"  # fmt: skip
+    assert (doc["topics"]["joint_states"], doc["topics"]["pressure_a"]) == (joint_states,
+                                                                            pressure_a)
+    (leak,) = doc["estimates"]
     assert leak["stage"] == "output" and leak["lower"] <= 2e-13 <= leak["upper"], leak
+    residuals = {r["signal"]: r for r in doc["stages"][-1]["residuals"]}
+    assert residuals["pressure_a"]["samples"] > 20  # the remapped pressure was read and fitted

@@ -401,3 +401,32 @@ def test_play_plays_the_topics_of_the_node_named(car, tmp_path):
 
     recorded = read_bag(both, [FRONT.piston_force]).messages[FRONT.piston_force]
     assert len(got[FRONT.piston_force]) > len(recorded) / 2 and got[REAR.piston_force] == []
+
+
+def test_fit_fits_the_run_of_the_node_named_and_a_season_gives_a_row_per_node(car, tmp_path):
+    """Each actuator's flap mass, fitted from its own topics (``--node``), is the mass it
+    recorded (3.0 kg front, 2.5 kg rear: the other's would be off by 0.5 kg); a season over the
+    bag has one row per node, with the node column."""
+    import pyarrow.parquet as pq
+
+    both, _ = car
+    fit = ("fit", "--params", "m_wing", "--stage", "equation")
+    res = drs_bag(*fit[:1], both, *fit[1:])
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "--node NAME" in res.stderr and FRONT.node in res.stderr and REAR.node in res.stderr
+    for launch in (FRONT, REAR):
+        res = drs_bag(*fit[:1], both, *fit[1:], "--node", launch.node, "--json")
+        assert res.returncode == 0, res.stdout + res.stderr
+        doc = json.loads(res.stdout)
+        assert doc["node"] == launch.node and doc["topics"]["joint_states"] == launch.joint_states
+        (m_wing,) = doc["estimates"]
+        # the node's states are its model's, noise-free: the fit is the recorded mass
+        assert m_wing["determined"] and m_wing["value"] == pytest.approx(launch.m_wing, abs=1e-6)
+    res = drs_bag(*fit[:1], both.parent, *fit[1:], "--jobs", "1", "-o",
+                  tmp_path / "season.parquet")  # fmt: skip
+    assert res.returncode == 0, res.stdout + res.stderr
+    rows = pq.read_table(tmp_path / "season.parquet").to_pylist()
+    assert [(r["bag"], r["node"], r["verdict"]) for r in rows] == [
+        (str(both), FRONT.node, "FITTED"), (str(both), REAR.node, "FITTED")]  # fmt: skip
+    assert [r["m_wing"] for r in rows] == pytest.approx([FRONT.m_wing, REAR.m_wing], abs=1e-6)
+    assert [r["param_m_wing"] for r in rows] == [FRONT.m_wing, REAR.m_wing]

@@ -33,8 +33,9 @@ def seasons(tmp_path_factory):
     m^3/(s Pa), one whose leak stays at 1e-13."""
     require_rclpy()
     require_module("distributed")
+    from run_support import Command, record_run
+
     from drs_ros.bag.synthetic import T0_NS
-    from drs_ros.bag.synthetic_run import Command, record_run
 
     out = tmp_path_factory.mktemp("season")
     for season, growth in (("worn", 1.05), ("healthy", 1.0)):
@@ -83,4 +84,38 @@ def test_a_healthy_season_raises_no_flag_and_two_workers_give_the_table_of_one(s
             assert a[column] == b[column][:10], column
     status, out, err = drs_bag("trend", two)
     assert status == 0, out + err
+    assert "drift: none" in out
+
+
+def test_each_actuator_of_a_season_is_trended_on_its_own(tmp_path):
+    """A car's two actuators in one table, their runs interleaved: the front one's leak grows
+    5 % a run, the rear one's does not. The front one is flagged and the rear one is not (one
+    trend of both would mix them); --node keeps one."""
+    require_rclpy()
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    rng = np.random.default_rng(4)
+    rows = []
+    for k in range(RUNS):
+        for node, growth in (("/car7/front/drs_front", 1.05), ("/car7/rear/drs_rear", 1.0)):
+            value = 1e-13 * growth**k
+            rows.append({"bag": f"runs/{node.rsplit('/', 1)[-1]}_{k:02d}", "node": node,
+                         "start_ns": k * DAY_NS,
+                         "leak_to_outside": value * (1 + 0.01 * rng.standard_normal()),
+                         "leak_to_outside_std": 0.01 * value,
+                         "leak_to_outside_determined": True})  # fmt: skip
+    table = tmp_path / "car.parquet"
+    pq.write_table(pa.Table.from_pylist(rows), table)
+    status, out, err = drs_bag("trend", table, "--json")
+    assert status == 1, out + err
+    front, rear = json.loads(out)
+    assert (front["node"], front["drift"], front["runs"]) == ("/car7/front/drs_front", "rising",
+                                                              RUNS)  # fmt: skip
+    assert front["detected_bag"].startswith("runs/drs_front_")
+    assert (rear["node"], rear["drift"], rear["runs"]) == ("/car7/rear/drs_rear", "none", RUNS)
+    status, out, err = drs_bag("trend", table, "--node", "drs_rear")
+    assert status == 0, out + err
+    assert out.startswith("leak_to_outside of /car7/rear/drs_rear: 40 runs")
     assert "drift: none" in out

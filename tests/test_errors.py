@@ -69,6 +69,9 @@ CLI_FUNCTIONS = {
     "drs_ros/bag/resimulate.py": ("run",),
     "drs_ros/bag/info.py": ("run",),
     "drs_ros/bag/catalogue.py": ("run",),
+    "drs_ros/bag/fit.py": ("run",),
+    "drs_ros/bag/trend.py": ("run",),
+    "drs_ros/bag/from_goal.py": ("run",),
     "drs_ros/bag/fleet.py": ("run_fleet",),
     "drs_ros/bag/play/player.py": ("play", "run", "main"),
     "drs_ros/node/runner.py": ("main",),
@@ -228,6 +231,130 @@ def test_a_look_ahead_consumer_that_raises_is_never_no_message():
     with pytest.raises(ValueError, match="a bug in the caller"):
         for _message in look_ahead.messages(EXAMPLE, ["/parameter_events"]):
             raise ValueError("a bug in the caller")
+
+
+# ---- identification: drs-bag fit, drs-bag trend, drs excite ------------------------------------
+@pytest.mark.parametrize(
+    ("argv", "option", "match"),
+    [
+        (["--params", "m_pistt"], "--params", "'m_pistt' cannot be fitted"),
+        (["--params", "Iz_pist"], "--params", "the piston does not turn"),
+        (["--params", "m_pist,m_pist"], "--params", "named twice"),
+        (["--params", "m_pist", "--topic-map", "pressure=/p"], "--topic-map",
+         "unknown role 'pressure'"),
+        (["--params", "m_pist", "--topic-map", "joint_states"], "--topic-map",
+         "is not ROLE=TOPIC"),
+        (["--params", "m_pist", "--set", "L22=1"], "--set",
+         "'L22' is no model or hydraulic parameter"),
+        (["--params", "m_pist", "--set", "bulk_modulus=stiff"], "--set", "is not a number"),
+        (["--params", "m_pist", "--noise", "stroke=-1e-5"], "--noise",
+         "the noise of stroke must be a finite number > 0"),
+        (["--params", "m_pist", "--noise", "strok=1e-5"], "--noise",
+         "'strok' is no signal a re-simulation gives"),
+        (["--params", "m_pist", "--signals", "gap"], "--signals", "not signals a re-simulation"),
+        (["--params", "m_pist", "--level", "0.3"], "--level", r"must be in \[0.5, 1\)"),
+    ],
+)  # fmt: skip
+@pytest.mark.parametrize("fleet", [False, True])
+def test_fit_bad_option_is_a_usage_error_before_any_bag_is_read(capsys, tmp_path, argv, option,
+                                                                match, fleet):  # fmt: skip
+    """The bag named does not exist: the error is the option's (argparse's line), never the
+    bag's, and a season writes no table."""
+    table = tmp_path / "season.parquet"
+    bags = [tmp_path / "no_bag", tmp_path / "no_bag2", "-o", table] if fleet else \
+        [tmp_path / "no_bag"]  # fmt: skip
+    status, out = _bag_tool(capsys, "fit", *bags, *argv)
+    assert status == exit_status.EXIT_USAGE
+    assert re.search(rf"drs-bag fit: error: argument {option}: .*{match}", out), out
+    assert "no_bag" not in out.split("error:", 1)[1] and not table.exists()
+
+
+def test_fit_a_bag_without_a_measurement_is_a_bag_error(capsys, tmp_path):
+    status, out = _bag_tool(capsys, "fit", tmp_path / "missing", "--params", "m_pist")
+    assert status == exit_status.EXIT_UNREADABLE
+    assert "drs-bag fit: error: " in out and "argument" not in out and "usage" not in out
+
+
+def test_fit_node_naming_no_node_of_the_bag_is_a_usage_error(capsys):
+    status, out = _bag_tool(capsys, "fit", EXAMPLE, "--params", "m_pist", "--stage",
+                            "equation", "--node", "/nobody")  # fmt: skip
+    assert status == exit_status.EXIT_USAGE
+    assert "drs-bag fit: error: --node '/nobody' names none of the drs nodes" in out
+
+
+@pytest.fixture
+def season_table(tmp_path):
+    """A season of one actuator: two runs of a parameter (too few for a trend)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = tmp_path / "season.parquet"
+    pq.write_table(pa.table({"bag": ["a", "b"], "node": ["/drs", "/drs"],
+                             "start_ns": [0, 86_400 * 10**9], "leak_to_outside": [1e-13, 1e-13],
+                             "leak_to_outside_std": [1e-15, 1e-15],
+                             "leak_to_outside_determined": [True, True]}), path)  # fmt: skip
+    return path
+
+
+@pytest.mark.parametrize(
+    ("argv", "option", "match"),
+    [
+        (["--threshold", "leak"], "--threshold", "--threshold expects NAME=VALUE"),
+        (["--threshold", "leak=inf"], "--threshold", "must be finite"),
+        (["--alpha", "0.7"], "--alpha", r"must be in \(0, 0.5\)"),
+        (["--min-runs", "2"], "--min-runs", "must be >= 3"),
+        (["--params", ","], "--params", "name at least one parameter"),
+    ],
+)  # fmt: skip
+def test_trend_bad_option_is_a_usage_error(capsys, tmp_path, argv, option, match):
+    status, out = _bag_tool(capsys, "trend", tmp_path / "no.parquet", *argv)
+    assert status == exit_status.EXIT_USAGE
+    assert re.search(rf"drs-bag trend: error: argument {option}: .*{match}", out), out
+
+
+def test_trend_names_the_table_lacks_are_usage_errors_and_too_few_runs_a_refusal(
+        capsys, tmp_path, season_table):  # fmt: skip
+    status, out = _bag_tool(capsys, "trend", season_table, "--params", "bulk_modulus")
+    assert status == exit_status.EXIT_USAGE
+    assert "drs-bag trend: error: --params: the table holds no fit of ['bulk_modulus']" in out
+    status, out = _bag_tool(capsys, "trend", season_table, "--node", "/car7/drs_rear")
+    assert status == exit_status.EXIT_USAGE and "--node '/car7/drs_rear' names none" in out
+    status, out = _bag_tool(capsys, "trend", season_table, "--threshold", "m_pist=1")
+    assert status == exit_status.EXIT_USAGE and "--threshold for ['m_pist']" in out
+    status, out = _bag_tool(capsys, "trend", season_table)
+    assert status == exit_status.EXIT_REFUSED
+    assert ("drs-bag trend: error: the model refuses the trend: leak_to_outside: a trend needs "
+            "three runs with a value, got 2") in out  # fmt: skip
+    garbage = tmp_path / "garbage.parquet"
+    garbage.write_bytes(b"no parquet")
+    status, out = _bag_tool(capsys, "trend", garbage)
+    assert status == exit_status.EXIT_UNREADABLE and "cannot read the season table" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "option", "match"),
+    [
+        (["m_pistt"], "NAME,...", "'m_pistt' cannot be fitted"),
+        (["m_pist,m_pist"], "NAME,...", "named twice"),
+        (["m_pist", "--duration", "-0.3"], "--duration", "must be a finite number > 0"),
+        (["m_pist", "--noise", "nan"], "--noise", "must be a finite number > 0"),
+        (["m_pist", "--starts", "0"], "--starts", "must be >= 1"),
+        (["m_pist", "--harmonics", "two"], "--harmonics", "'two' is not an integer"),
+    ],
+)  # fmt: skip
+def test_excite_bad_option_is_a_usage_error(capsys, argv, option, match):
+    with pytest.raises(SystemExit) as exc:
+        drs_main(["excite", *argv])
+    assert exc.value.code == exit_status.EXIT_USAGE
+    assert re.search(rf"drs excite: error: argument {re.escape(option)}: .*{match}",
+                     capsys.readouterr().err)  # fmt: skip
+
+
+def test_excite_a_parameter_the_design_cannot_serve_is_the_model_s_refusal(capsys):
+    assert drs_main(["excite", "m_pist,leak_to_outside"]) == exit_status.EXIT_REFUSED
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "usage" not in err
+    assert "drs excite: error: " in err and "leak_to_outside depend on the pressures" in err
 
 
 # ---- drs-node -----------------------------------------------------------------------------------

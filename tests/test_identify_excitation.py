@@ -69,27 +69,33 @@ def test_a_parameter_the_motion_alone_does_not_inform_is_refused(params):
         design_excitation(["viscous_friction"], params, rung="rigid")
 
 
-def test_drs_excite_writes_a_goal_and_a_bag_whose_run_fits_tighter(tmp_path, params, capsys):
-    """The goal's points are the bag's trajectory command; a run of that bag's command on the
-    hydraulic rung (recorded as the node records it) fits every parameter more tightly than a
-    run of the seed's manoeuvre of the same length, with the same stroke noise."""
+def test_drs_excite_writes_a_goal_whose_bag_and_run_fit_tighter(tmp_path, params, capsys):
+    """``drs excite -o`` writes the goal, ``drs-bag from-goal`` the bag of it (its trajectory
+    command, the goal's points to the bit); a run of that trajectory on the hydraulic rung
+    (recorded as the node records it) fits every parameter more tightly than a run of the
+    seed's manoeuvre of the same length, with the same stroke noise."""
     import yaml
     from ros_support import require_rclpy
 
     require_rclpy()
+    from run_support import Command, record_run, seed_commands
+
     from drs_ros.bag.cli import main as bag_main
     from drs_ros.bag.decoded import read_bag
-    from drs_ros.bag.synthetic_run import Command, record_run, seed_commands
 
     goal, bag = tmp_path / "goal.yaml", tmp_path / "excite"
     assert drs_main(["excite", ",".join(NAMES), "--seed", "1", "--starts", "2", "-o", str(goal),
-                     "--bag", str(bag), "--json"]) == 0  # fmt: skip
+                     "--json"]) == 0  # fmt: skip
     report = json.loads(capsys.readouterr().out)
-    points = yaml.safe_load(goal.read_text())["trajectory"]["points"]
+    assert bag_main(["from-goal", str(goal), "-o", str(bag)]) == 0
+    assert "on /drs/trajectory_cmd" in capsys.readouterr().out
+    trajectory = yaml.safe_load(goal.read_text())["trajectory"]
     (msg,) = [m for _, m in read_bag(bag, ["/drs/trajectory_cmd"]).messages["/drs/trajectory_cmd"]]
-    assert [p.positions[0] for p in msg.points] == [p["positions"][0] for p in points]
-    times = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"] for p in points]
-    trajectory = (times, [p["positions"][0] for p in points], [p["velocities"][0] for p in points])
+    assert list(msg.joint_names) == trajectory["joint_names"] == ["drs_piston"]
+    assert [(list(p.positions), list(p.velocities), p.time_from_start.sec,
+             p.time_from_start.nanosec) for p in msg.points] == [
+        (p["positions"], p["velocities"], p["time_from_start"]["sec"],
+         p["time_from_start"]["nanosec"]) for p in trajectory["points"]]  # fmt: skip
     steps = int(round(report["duration_s"] * 1000))
     noise = {"sensor.noise_std_m": 1e-5, "sensor.noise_seed": 2}
     runs = {"excitation": record_run(tmp_path / "ex", steps, [Command(1, "trajectory_cmd",

@@ -113,3 +113,53 @@ def test_a_cycle_would_be_found(monkeypatch):
     monkeypatch.setattr(sys.modules[__name__], "GRAPH", planted)
     with pytest.raises(pytest.fail.Exception, match="import cycle: .*drs_model.kernels"):
         test_no_import_cycle()
+
+
+#: What drs_model never imports: it is the model, and ROS adapts it (drs_ros), not the other way.
+ROS_ONLY = ("drs_ros", "rclpy")
+
+
+def _ros_imports(path: Path) -> list[str]:
+    """``file:line name`` of every import of :data:`ROS_ONLY` in ``path``, at any depth (inside a
+    function, a ``try``, a branch), including ``importlib.import_module("...")`` and
+    ``__import__("...")`` of a literal name."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        names: list[str] = []
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            names = [node.module or ""]
+        elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant):
+            func = node.func
+            called = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            if called in ("import_module", "__import__") and isinstance(node.args[0].value, str):
+                names = [node.args[0].value]
+        found += [f"{path.relative_to(ROOT)}:{node.lineno} {n}" for n in names
+                  if n.split(".")[0] in ROS_ONLY]  # fmt: skip
+    return found
+
+
+def test_drs_model_never_imports_drs_ros_or_rclpy():
+    files = sorted((ROOT / "drs_model").rglob("*.py"))
+    assert len(files) > 50
+    assert [hit for path in files for hit in _ros_imports(path)] == []
+
+
+def test_a_ros_import_in_drs_model_would_be_found(tmp_path, monkeypatch):
+    """Imports hidden inside a function, as a relative-looking name, or by importlib, are found
+    (so a pass means something)."""
+    planted = tmp_path / "drs_model" / "planted.py"
+    planted.parent.mkdir()
+    planted.write_text(
+        "import importlib\n"
+        "def f():\n"
+        "    try:\n"
+        "        from drs_ros.bag.from_goal import write_goal_bag\n"
+        "    except ImportError:\n"
+        "        import rclpy.node\n"
+        "    return importlib.import_module('drs_ros.names')\n"
+    )
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert sorted(h.split(" ", 1)[1] for h in _ros_imports(planted)) == [
+        "drs_ros.bag.from_goal", "drs_ros.names", "rclpy.node"]  # fmt: skip

@@ -1,20 +1,48 @@
 """``drs excite NAME,...``: a D-optimal excitation for the parameters named
 (:mod:`drs_model.identify.excitation`, docs/identify.md): the trajectory as a
-FollowJointTrajectory goal file (``-o goal.yaml``) and a bag ``drs-bag play`` sends to the
-node's trajectory command (``--bag DIR``), with the standard errors it predicts beside those of
-the seed's manoeuvre over the same time."""
+FollowJointTrajectory goal file (``-o goal.yaml``) and a plot, with the standard errors it
+predicts beside those of the seed's manoeuvre over the same time.
+
+The goal is the hand-over to ROS, which the model does not speak: ``ros2 action send_goal``
+sends it to the node's action, and ``drs-bag from-goal goal.yaml -o DIR``
+(:mod:`drs_ros.bag.from_goal`, the ros extra) writes it as a bag that ``drs-bag play`` sends to
+the node's trajectory command. The options are checked when parsed (argparse's usage error
+naming the option); a parameter the design cannot serve is the model's refusal, with its
+reason."""
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, ParameterError
 from ..fidelity.hydraulic_params import HydraulicParams
-from ._common import Output, add_common, load_params, table
+from ._common import Output, add_common, load_params, positive_integer, positive_number, table
+
+#: What ``drs excite --help`` and the report say of the bag form of the goal.
+BAG_RECIPE = ("drs-bag from-goal GOAL.yaml -o DIR [--node NAME] writes the goal as a bag that "
+              "drs-bag play DIR sends to the node (the ros extra; docs/identify.md)")
+
+
+def design_names_argument(text: str) -> list[str]:
+    """argparse ``type=`` of ``NAME,...``: parameters that can be fitted, none twice (whether
+    a design can serve them is the model's to say)."""
+    from ..identify.parameters import fit_parameter
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("name at least one parameter")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise argparse.ArgumentTypeError(f"named twice: {repeated}")
+    try:
+        for name in names:
+            fit_parameter(name)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return names
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,27 +51,30 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="design a D-optimal excitation for parameters to identify (docs/identify.md)",
         description="A multisine stroke within the stroke, rate, force and flow limits that "
         "maximises the information on the parameters named; written as a FollowJointTrajectory "
-        "goal and a bag for drs-bag play.",
+        "goal (-o) for ros2 action send_goal.",
+        epilog=f"As a bag for drs-bag play: {BAG_RECIPE}.",
     )
     add_common(p)
-    p.add_argument("names", metavar="NAME,...", help="the parameters to identify, e.g. "
+    p.add_argument("names", metavar="NAME,...", type=design_names_argument,
+                   help="the parameters to identify, e.g. "
                    "m_pist,Iz_wing,F_drag_open,F_down_closed")  # fmt: skip
     p.add_argument("--fidelity", choices=("rigid", "quasi-static", "hydraulic"),
                    default="hydraulic", help="the rung the fit will run on (default hydraulic)")
-    p.add_argument("--duration", type=float, default=0.3, help="the run's length [s] (0.3)")
-    p.add_argument("--harmonics", type=int, default=5, help="of the multisine (5)")
-    p.add_argument("--point-spacing", type=float, default=4e-3,
+    p.add_argument("--duration", type=positive_number, default=0.3,
+                   help="the run's length [s] (0.3)")
+    p.add_argument("--harmonics", type=positive_integer, default=5, help="of the multisine (5)")
+    p.add_argument("--point-spacing", type=positive_number, default=4e-3,
                    help="between the trajectory's points [s] (0.004)")  # fmt: skip
-    p.add_argument("--sample-period", type=float, default=1e-3,
+    p.add_argument("--sample-period", type=positive_number, default=1e-3,
                    help="of the recorded states the fit will read [s] (0.001)")  # fmt: skip
-    p.add_argument("--noise", type=float, default=1e-5, help="stroke sensor noise [m] (1e-5)")
-    p.add_argument("--force-limit", type=float, default=2.0e4,
+    p.add_argument("--noise", type=positive_number, default=1e-5,
+                   help="stroke sensor noise [m] (1e-5)")
+    p.add_argument("--force-limit", type=positive_number, default=2.0e4,
                    help="the node's force limit [N]; the supply's force applies too (2e4)")
     p.add_argument("--seed", type=int, default=0, help="of the optimiser's starts (0)")
-    p.add_argument("--starts", type=int, default=6, help="optimiser starts (6)")
-    p.add_argument("-o", "--output", metavar="GOAL.yaml", help="write the goal file")
-    p.add_argument("--bag", metavar="DIR", help="write a bag holding the trajectory command "
-                   "(drs-bag play DIR sends it to the node; needs the ros extra)")  # fmt: skip
+    p.add_argument("--starts", type=positive_integer, default=6, help="optimiser starts (6)")
+    p.add_argument("-o", "--output", metavar="GOAL.yaml", help="write the goal file (for "
+                   "ros2 action send_goal, or drs-bag from-goal to make a bag of it)")
     p.add_argument("--joint", default="drs_piston", help="the piston joint (drs_piston)")
     p.add_argument("--plot", metavar="PNG", help="the stroke and rate of the excitation and of "
                    "the seed's manoeuvre, as the rung runs them")  # fmt: skip
@@ -59,15 +90,6 @@ def _write_goal(path: str, goal: dict) -> None:
         text = yaml.safe_dump(goal, sort_keys=False)
     with open(path, "w") as f:
         f.write(text)
-
-
-def _write_bag(path: str, ex, joint: str) -> None:
-    # the bag is ROS's business: drs_ros writes it (the ros extra), the design above is not
-    try:
-        from drs_ros.bag.excitation import write_trajectory_bag
-    except ImportError as exc:
-        raise InputError(f"--bag needs the ros extra (pip install 'drs[ros]'): {exc}") from None
-    write_trajectory_bag(path, ex.times, ex.strokes, ex.rates, joint=joint)
 
 
 def _plot(path: str, t, excitation, seed, rung: str) -> None:
@@ -105,14 +127,7 @@ def run_excite(args: argparse.Namespace) -> Output:
     from ..identify.parameters import fit_parameter
 
     p, hp = load_params(args), HydraulicParams()
-    names = [n.strip() for n in args.names.split(",") if n.strip()]
-    for n in names:
-        fit_parameter(n, p, hp)
-    for name in ("duration", "noise", "force_limit"):
-        value = getattr(args, name)
-        if not (math.isfinite(value) and value > 0.0):
-            raise InputError(f"--{name.replace('_', '-')} must be a finite number > 0, "
-                             f"got {value!r}")  # fmt: skip
+    names = args.names  # checked when parsed (design_names_argument)
     limits = default_limits(p, hp, args.force_limit)
     ex = design_excitation(names, p, hp, rung=args.fidelity, duration=args.duration,
                            harmonics=args.harmonics, sample_period=args.sample_period,
@@ -128,16 +143,16 @@ def run_excite(args: argparse.Namespace) -> Output:
                                                           args.sample_period, args.noise),
                                names, p, hp)  # fmt: skip
     files = {}
-    if args.plot:
-        seed = rung_motion(p, hp, args.fidelity, length, args.sample_period)
-        _plot(args.plot, ex.t, ran, seed, args.fidelity)
-        files["plot"] = args.plot
-    if args.output:
-        _write_goal(args.output, ex.goal(args.joint))
-        files["goal"] = args.output
-    if args.bag:
-        _write_bag(args.bag, ex, args.joint)
-        files["bag"] = args.bag
+    try:
+        if args.plot:
+            seed = rung_motion(p, hp, args.fidelity, length, args.sample_period)
+            _plot(args.plot, ex.t, ran, seed, args.fidelity)
+            files["plot"] = args.plot
+        if args.output:
+            _write_goal(args.output, ex.goal(args.joint))
+            files["goal"] = args.output
+    except OSError as exc:  # a file named by -o or --plot
+        raise InputError(f"cannot write: {exc}") from None
     data = {
         "parameters": [{"name": n, "unit": fit_parameter(n, p, hp).unit,
                         "std_excitation": float(a), "std_seed_manoeuvre": float(b)}
@@ -170,4 +185,7 @@ def render(data: dict) -> str:
         f"{lim['force_n']:.0f} N",
     ]
     lines += [f"wrote {what}: {path}" for what, path in data["files"].items()]
+    goal = data["files"].get("goal")
+    if goal:
+        lines.append(f"as a bag for drs-bag play: drs-bag from-goal {goal} -o DIR [--node NAME]")
     return "\n".join(lines)

@@ -9,9 +9,15 @@
   (:mod:`drs_ros.bag.resimulate`);
 * ``drs-bag play BAG``: publish the recorded messages onto ROS 2 topics (:mod:`drs_ros.bag.play`);
 * ``drs-bag index DIR -o catalogue.parquet``: a table of many bags from their summaries alone
-  (:mod:`drs_ros.bag.catalogue`).
+  (:mod:`drs_ros.bag.catalogue`);
+* ``drs-bag fit BAG --params NAME,...``: the actuator's parameters from a run, with intervals
+  (:mod:`drs_ros.bag.fit`); ``drs-bag trend season.parquet``: their drift over a season
+  (:mod:`drs_ros.bag.trend`);
+* ``drs-bag from-goal GOAL.yaml -o DIR``: a FollowJointTrajectory goal (``drs excite -o``'s) as
+  a bag for ``play`` (:mod:`drs_ros.bag.from_goal`).
 
-``check`` and ``resimulate`` take many bags too (a fleet, on Dask: :mod:`drs_ros.bag.fleet`).
+``check``, ``resimulate`` and ``fit`` take many bags too (a fleet, on Dask:
+:mod:`drs_ros.bag.fleet`).
 
 Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status`` (the statuses of
 every verb: docs/cli.md, :mod:`drs_model.cli.exit_status`).
@@ -37,6 +43,8 @@ VERBS = {
     "index": ("drs_ros.bag.catalogue", "catalogue many bags from their summaries (Parquet)"),
     "fit": ("drs_ros.bag.fit", "identify the actuator's parameters from a bag, with intervals"),
     "trend": ("drs_ros.bag.trend", "fitted parameters over a season: drift, threshold crossing"),
+    "from-goal": ("drs_ros.bag.from_goal", "write a FollowJointTrajectory goal (drs excite's) as "
+                  "a bag that play sends to the node"),
 }
 
 

@@ -1,21 +1,29 @@
 """``drs-bag fit BAG --params NAME,...``: the actuator's parameters from a recorded run, with
 their intervals (docs/identify.md).
 
-The bag's signals are read by role (:mod:`drs_ros.bag.measured`; ``--topic-map`` for a bag
-another tool wrote), then :func:`drs_model.identify.fit` runs on the rung named (``--fidelity``;
-default: the one the bag recorded): equation error, then, where the bag holds its commands (a
+The run fitted is the one of the drs node the bag names (:mod:`drs_ros.bag.nodes`: ``--node``
+picks one of several), read on its topics as it recorded them, whatever its name and remapping;
+its signals are read by role (:mod:`drs_ros.bag.measured`; ``--topic-map`` for a bag another
+tool wrote). Then :func:`drs_model.identify.fit` runs on the rung named (``--fidelity``;
+default: the one the node recorded): equation error, then, where the bag holds its commands (a
 drs bag's effect record), output error by re-simulating them
 (:mod:`drs_ros.bag.fit_rerun`). It prints each estimate with its interval, what it could not
 determine and why, the identifiability and the residuals; ``-o FILE.json`` writes the report,
 ``--plot FILE.png`` the measured against the fitted signals.
 
 Many bags (a directory, globs, ``--jobs``, ``--scheduler``, or ``-o season.parquet``) are a
-season: one Dask task per bag (:mod:`drs_ros.bag.fleet`), one table row per bag with each
-parameter's value, interval, standard error and whether it was determined, for ``drs-bag
-trend``.
+season: one Dask task per bag (:mod:`drs_ros.bag.fleet`), one table row per drs node of each
+bag (its ``node`` column) with each parameter's value, interval, standard error and whether it
+was determined, for ``drs-bag trend``.
 
-Exit status: 0 every parameter determined; 1 one or more not determined (each with its
-reason); 2 the bag cannot be read or an option is invalid; 4 an internal error (no verdict).
+Every option is checked when parsed, before any bag is read: a parameter that cannot be fitted,
+a ``--set`` or ``--noise`` of no parameter or signal, a malformed ``--topic-map``, a
+``--level`` out of range is argparse's usage error naming the option.
+
+Exit status (docs/cli.md): 0 every parameter determined; 1 one or more not determined (each
+with its reason); 2 a bad option (``--node`` naming no drs node of the bag, or none of its
+several, is one), the bag cannot be read or holds no measurement, or the model refuses the fit
+(a parameter its rung does not hold, a ``--set`` value); 4 an internal error (no verdict).
 """
 
 from __future__ import annotations
@@ -25,33 +33,124 @@ import math
 import sys
 from dataclasses import dataclass, field
 
-from drs_model.errors import DRSError
+from drs_model.cli.exit_status import (
+    EXIT_FAILED,
+    EXIT_INTERNAL,
+    EXIT_OK,
+    EXIT_REFUSED,
+    EXIT_UNREADABLE,
+    EXIT_USAGE,
+)
+from drs_model.errors import DRSError, ParameterError
 from drs_model.fidelity import RUNGS
 from drs_model.fidelity.hydraulic_params import HydraulicParams
 from drs_model.identify import driver as identify
-from drs_model.identify.parameters import with_values
+from drs_model.identify.parameters import (
+    RIGID_PARAMETERS,
+    fit_parameter,
+    hydraulic_field_names,
+    with_values,
+)
 from drs_model.overrides import assignment_overrides
+from drs_model.params import NUMERIC_FIELDS
 
 from ..errors import DRSRosError, UsageError
 from . import fleet
 from .fit_report import document, dumps, format_text, plot, row_columns
-from .measured import parse_topic_map, read_measured
+from .fit_rerun import SIMULATED_SIGNALS
+from .measured import MeasurementError, parse_topic_map, read_measured
+from .nodes import BagNode, NodeSelectionError, add_node_arguments, bag_nodes, select_node
 from .reader import MessageCallbackError
 
-VERDICTS = {0: "FITTED", 1: "NOT DETERMINED", 2: "UNREADABLE", 4: "INTERNAL ERROR"}
+VERDICTS = {EXIT_OK: "FITTED", EXIT_FAILED: "NOT DETERMINED", EXIT_UNREADABLE: "UNREADABLE",
+            EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
+#: The verdict of a fit the model refuses (exit status 2, as an unreadable bag).
+REFUSED = "REFUSED"
 
 
+# ---- options, checked when parsed (argparse ``type=``) ---------------------------------------
 def _names(text: str) -> list[str]:
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
-        raise argparse.ArgumentTypeError("name at least one parameter")
+        raise argparse.ArgumentTypeError("name at least one")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise argparse.ArgumentTypeError(f"named twice: {repeated}")
     return names
+
+
+def fit_names_argument(text: str) -> list[str]:
+    """``--params NAME,...``: parameters that can be fitted (on some rung; whether the bag's
+    rung holds them is the model's to say), none twice."""
+    names = _names(text)
+    try:
+        for name in names:
+            fit_parameter(name)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return names
+
+
+def _assignment(item: str, known, what: str) -> tuple[str, float]:
+    try:
+        ((name, value),) = assignment_overrides([item]).items()
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    if name not in known:
+        raise argparse.ArgumentTypeError(f"{name!r} is no {what}; valid: {', '.join(known)}")
+    return name, value
+
+
+def set_argument(item: str) -> str:
+    """``--set NAME=VALUE``: a number for a model or hydraulic parameter (its value is the
+    model's to accept, with the others)."""
+    _assignment(item, (*NUMERIC_FIELDS, *hydraulic_field_names()), "model or hydraulic parameter")
+    return item
+
+
+def noise_argument(item: str) -> str:
+    """``--noise SIGNAL=STD``: a finite noise > 0 of a signal the re-simulation gives."""
+    name, value = _assignment(item, SIMULATED_SIGNALS, "signal a re-simulation gives")
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"the noise of {name} must be a finite number > 0, "
+                                         f"got {value!r}")  # fmt: skip
+    return item
+
+
+def signals_argument(text: str) -> list[str]:
+    """``--signals NAME,...``: signals a re-simulation gives."""
+    names = _names(text)
+    unknown = [n for n in names if n not in SIMULATED_SIGNALS]
+    if unknown:
+        raise argparse.ArgumentTypeError(f"{unknown}: not signals a re-simulation gives; valid: "
+                                         f"{', '.join(SIMULATED_SIGNALS)}")  # fmt: skip
+    return names
+
+
+def topic_map_argument(text: str) -> dict[str, str]:
+    """``--topic-map ROLE=TOPIC,...``: known roles, each with a topic."""
+    try:
+        return parse_topic_map([text])
+    except MeasurementError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def level_argument(text: str) -> float:
+    """``--level``: of the intervals, in [0.5, 1)."""
+    try:
+        level = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.5 <= level < 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0.5, 1), got {level!r}")
+    return level
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", nargs="+", help="bag directory, .mcap or .db3 file; several, "
-                    "directories searched for bags, or globs fit a season (one row per bag)")
-    ap.add_argument("--params", dest="fit_params", required=True, type=_names,
+                    "directories searched for bags, or globs fit a season (one row per drs node "
+                    "of each bag)")  # fmt: skip
+    ap.add_argument("--params", dest="fit_params", required=True, type=fit_names_argument,
                     metavar="NAME,...", help="the parameters to fit: DRSParams' masses, "
                     "inertias and air loads, any HydraulicParams field (docs/identify.md)")
     ap.add_argument("--fidelity", choices=[r for r in RUNGS if r != "kinematic"],
@@ -59,45 +158,58 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--stage", choices=identify.STAGES, default="both",
                     help="equation error, output error, or both (default)")  # fmt: skip
     ap.add_argument("--topic-map", action="append", default=[], metavar="ROLE=TOPIC,...",
-                    help="topics of a bag another tool wrote, by role: joint_states, "
-                    "stroke_acceleration, pressure_a, pressure_b, supply_pressure, spool")
+                    type=topic_map_argument, help="topics by role, for a bag another tool wrote "
+                    "(or to override the node's): joint_states, stroke_acceleration, "
+                    "pressure_a, pressure_b, supply_pressure, spool")  # fmt: skip
     ap.add_argument("--joint", help="the piston joint's name in the joint states (default: "
                     "the node's first joint, or the message's first)")  # fmt: skip
-    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", type=set_argument,
                     help="a model or hydraulic parameter's value (the start, or the value held "
                     "for one not fitted), e.g. --set bulk_modulus=1.2e9 (repeatable)")  # fmt: skip
-    ap.add_argument("--level", type=float, default=0.95, help="of the intervals (0.95)")
+    ap.add_argument("--level", type=level_argument, default=0.95,
+                    help="of the intervals, in [0.5, 1) (0.95)")
     ap.add_argument("--noise", action="append", default=[], metavar="SIGNAL=STD",
-                    help="a signal's noise for the output error, e.g. stroke=1e-5 (default: "
-                    "estimated from the residuals)")  # fmt: skip
-    ap.add_argument("--signals", type=_names, metavar="NAME,...",
+                    type=noise_argument, help="a signal's noise for the output error, e.g. "
+                    "stroke=1e-5 (default: estimated from the residuals)")  # fmt: skip
+    ap.add_argument("--signals", type=signals_argument, metavar="NAME,...",
                     help="the signals the output error compares (default: the rung's)")
     ap.add_argument("-o", "--output", help="one bag: write the report (FILE.json); many "
                     "bags: the season's table (FILE.parquet)")  # fmt: skip
     ap.add_argument("--plot", metavar="FILE.png", help="one bag: measured against fitted")
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
+    add_node_arguments(ap)
     fleet.add_fleet_arguments(ap)
 
 
 @dataclass
 class FitOutcome:
-    """One bag's fit: exit status, result, measurement, error line ('' when none)."""
+    """One bag's fit: exit status, result, measurement, error line ('' when none), and the
+    verdict of a season's row."""
 
     status: int
     result: object = None
     measured: object = None
     error: str = ""
     notes: list = field(default_factory=list)
+    verdict: str = ""
+
+    def __post_init__(self) -> None:
+        self.verdict = self.verdict or VERDICTS[self.status]
 
 
 def _models(measured, sets):
-    """The starting DRSParams and HydraulicParams: as recorded, then ``--set``."""
+    """The starting DRSParams and HydraulicParams: as recorded, then ``--set`` (a geometry
+    value through :meth:`DRSParams.replace`, which keeps the parameters consistent)."""
     values = assignment_overrides(sets)
-    return with_values(values, measured.params, HydraulicParams())
+    geometry = {k: v for k, v in values.items() if k in NUMERIC_FIELDS and k not in
+                RIGID_PARAMETERS}  # fmt: skip
+    p = measured.params.replace(**geometry) if geometry else measured.params
+    rest = {k: v for k, v in values.items() if k not in geometry}
+    return with_values(rest, p, HydraulicParams())
 
 
 def _simulation(measured, rung, p, hp):
-    """The re-simulation of the bag's commands, or None (with the reason in the measurement's
+    """The re-simulation of the node's commands, or None (with the reason in the measurement's
     notes) where the bag cannot be re-run."""
     from .fit_rerun import RunResimulation
     from .resimulate import ResimulationError, read_run
@@ -105,20 +217,22 @@ def _simulation(measured, rung, p, hp):
     if measured.node_parameters is None or measured.record.step is None:
         return None
     try:
-        run = read_run(measured.bag)
+        run = read_run(measured.bag, measured.node)
     except ResimulationError as exc:
         measured.notes.append(f"no output error: {exc}")
         return None
     return RunResimulation(run, p, hp, rung, measured.record.step)
 
 
-def fit_one(bag, args: argparse.Namespace) -> FitOutcome:
-    """Fit one bag with the options of ``drs-bag fit``; never raises for the bag's faults."""
+def fit_one(bag, args: argparse.Namespace, node: BagNode | None = None) -> FitOutcome:
+    """Fit the run of ``node`` (default: the one ``--node`` picks) in one bag with the options
+    of ``drs-bag fit``; never raises for the bag's faults."""
     measured = None
     try:
-        topic_map = parse_topic_map(args.topic_map)
-        noise = assignment_overrides(args.noise)
-        measured = read_measured(bag, topic_map, args.joint)
+        if node is None:
+            node = select_node(bag_nodes(bag), args.node, bag)
+        topic_map = {k: v for item in args.topic_map for k, v in item.items()}
+        measured = read_measured(bag, node, topic_map, args.joint)
         rung = args.fidelity or measured.rung
         if rung is None:
             raise UsageError("--fidelity: the bag does not say which rung it ran on: name it")
@@ -126,23 +240,37 @@ def fit_one(bag, args: argparse.Namespace) -> FitOutcome:
         identify.check_names(args.fit_params, rung, p, hp)
         simulate = _simulation(measured, rung, p, hp) if args.stage != "equation" else None
         result = identify.fit(measured.record, args.fit_params, rung, p, hp, simulate=simulate,
-                              stage=args.stage, level=args.level, noise=noise or None,
+                              stage=args.stage, level=args.level,
+                              noise=assignment_overrides(args.noise) or None,
                               signals=args.signals)  # fmt: skip
     except MessageCallbackError as exc:
-        return FitOutcome(4, error=f"internal error (not a verdict on the bag): {exc}",
+        return FitOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): {exc}",
                           measured=measured)  # fmt: skip
-    except (DRSError, DRSRosError) as exc:  # the model refuses; a bag or an option
-        return FitOutcome(2, error=f"error: {exc}", measured=measured)
-    status = 0 if all(e.determined for e in result.estimates) else 1
+    except (NodeSelectionError, UsageError) as exc:
+        return FitOutcome(EXIT_USAGE, error=f"error: {exc}", measured=measured)
+    except DRSRosError as exc:  # the bag: unreadable, or without what a fit needs
+        return FitOutcome(EXIT_UNREADABLE, error=f"error: {exc}", measured=measured)
+    except DRSError as exc:  # the model refuses: a parameter its rung lacks, a --set value
+        return FitOutcome(EXIT_REFUSED, error=f"error: the model refuses the fit: {exc}",
+                          measured=measured, verdict=REFUSED)  # fmt: skip
+    status = EXIT_OK if all(e.determined for e in result.estimates) else EXIT_FAILED
     return FitOutcome(status, result, measured)
 
 
-def fleet_row(bag: str, args: argparse.Namespace) -> dict:
-    """One bag of a season (a Dask task): its row (see :mod:`drs_ros.bag.fleet`): verdict,
-    exit status, error, counts, the rung, and per parameter its value, interval, standard error,
-    whether determined and by which stage; per signal the residual RMS."""
-    outcome = fit_one(bag, args)
-    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error)
+def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
+    """One bag of a season (a Dask task): its rows (see :mod:`drs_ros.bag.fleet`), one per drs
+    node it holds (the one ``--node`` names, if given): verdict, exit status, error, counts, the
+    rung, and per parameter its value, interval, standard error, whether determined and by
+    which stage; per signal the residual RMS."""
+    try:
+        nodes = fleet.row_nodes(bag, args.node)
+    except NodeSelectionError as exc:
+        return [fleet.no_node_row(bag, exc)]
+    return [_row(bag, args, fit_one(bag, args, node=node), node) for node in nodes]
+
+
+def _row(bag: str, args: argparse.Namespace, outcome: FitOutcome, node) -> dict:
+    row = fleet.base_row(bag, outcome.status, outcome.verdict, outcome.error, node)
     m = outcome.measured
     if m is not None and m.counts:
         row.update(fleet.count_columns(m.counts, m.start_ns, m.end_ns, False))
@@ -164,7 +292,7 @@ def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
     if args.output and not str(args.output).endswith(".json"):
         print(f"{prog}: error: -o {args.output!r}: with one bag, -o names the report "
               "(FILE.json); FILE.parquet makes a season's table", file=sys.stderr)  # fmt: skip
-        return 2
+        return EXIT_USAGE
     outcome = fit_one(bag, args)
     if outcome.error:
         print(f"{prog}: {outcome.error}", file=sys.stderr)
@@ -179,8 +307,10 @@ def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
             plot(outcome.result, args.plot, f"{bag}: measured against fitted")
     except OSError as exc:
         print(f"{prog}: error: cannot write: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     return outcome.status
 
 
-__all__ = ["VERDICTS", "FitOutcome", "add_arguments", "fit_one", "fleet_row", "run"]
+__all__ = ["REFUSED", "VERDICTS", "FitOutcome", "add_arguments", "fit_names_argument",
+           "fit_one", "fleet_row", "level_argument", "noise_argument", "run", "set_argument",
+           "signals_argument", "topic_map_argument"]

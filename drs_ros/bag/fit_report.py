@@ -10,6 +10,15 @@ from pathlib import Path
 
 from drs_model.identify.results import FitResult
 
+from .nodes import node_note
+
+
+def _node_line(node) -> str:
+    if node is None:  # a bag another tool wrote: its topics come from --topic-map
+        return ("node: none named by the bag (no node parameters, no topics record): topics by "
+                "their default names or --topic-map")  # fmt: skip
+    return node_note(node)
+
 STAGE_TEXT = {"equation": "equation error", "output": "output error"}
 
 
@@ -22,7 +31,7 @@ def format_text(bag: str, result: FitResult, measured) -> str:
     stages = " then ".join(dict.fromkeys(STAGE_TEXT[s.stage] for s in result.stages)) or "none"
     level = f"{100 * result.level:g} %"
     lines = [f"fit of {bag} on the {result.rung} rung ({stages}; {level} intervals)",
-             f"model parameters: {measured.params_source}"]  # fmt: skip
+             _node_line(measured.node), f"model parameters: {measured.params_source}"]  # fmt: skip
     head = (f"{'parameter':<24} {'unit':<11} {'start':>12} {'estimate':>13} "
             f"{level + ' interval':>29}  {'stage':<8} interval")  # fmt: skip
     lines += [head, "-" * len(head)]
@@ -55,7 +64,8 @@ def format_text(bag: str, result: FitResult, measured) -> str:
 
 def document(bag: str, result: FitResult, measured) -> dict:
     """The JSON document of one bag's fit."""
-    doc = {"bag": str(bag), "model_parameters": measured.params_source,
+    doc = {"bag": str(bag), "node": None if measured.node is None else measured.node.name,
+           "model_parameters": measured.params_source,
            "topics": measured.topics, "start_ns": measured.start_ns, **result.to_dict()}
     doc["notes"] = [*measured.notes, *doc["notes"]]
     return doc

@@ -19,6 +19,10 @@ from drs_model.params import DRSParams
 
 from .resimulate import RecordedRun, resimulate
 
+#: The signals a re-simulation gives (the output error compares those the bag recorded; the
+#: chamber pressures on the hydraulic rung only).
+SIMULATED_SIGNALS = ("stroke", "stroke_rate", "piston_force", "pressure_a", "pressure_b")
+
 
 class RunResimulation:
     """``simulate({name: value}) -> {signal: array}`` of a recorded run (module docstring) at
@@ -35,9 +39,8 @@ class RunResimulation:
         result = resimulate(self.run, p, self.rung, rung_options=options,
                             replay_faults=False)
         n = self.steps.size
-        out = {k: np.full(n, math.nan) for k in ("stroke", "stroke_rate", "piston_force")}
-        if self.rung == "hydraulic":
-            out.update({k: np.full(n, math.nan) for k in ("pressure_a", "pressure_b")})
+        kept = SIMULATED_SIGNALS if self.rung == "hydraulic" else SIMULATED_SIGNALS[:3]
+        out = {k: np.full(n, math.nan) for k in kept}
         sim, dt = result["sim"], result["dt"]
         for i, k in enumerate(self.steps):
             state = result["state_at"](int(k))
@@ -50,4 +53,4 @@ class RunResimulation:
         return out
 
 
-__all__ = ["RunResimulation"]
+__all__ = ["SIMULATED_SIGNALS", "RunResimulation"]

@@ -1,8 +1,10 @@
 """What a bag measured, as a :class:`drs_model.identify.Record`: the one place ``drs-bag fit``
 reads a bag.
 
-Signals are found by role, on the topics the drs node publishes (:data:`DRS_TOPICS`), or on the
-topics a topic map names (``--topic-map ROLE=TOPIC,...``) for a bag another tool wrote:
+Signals are found by role, on the topics of the drs node the bag names
+(:mod:`drs_ros.bag.nodes`: its name, namespace and remappings as it recorded them), or on the
+topics a topic map names (``--topic-map ROLE=TOPIC,...``), which win, for a bag another tool
+wrote:
 
 ``joint_states`` (``sensor_msgs/JointState``)
     the stroke (the piston joint's ``position``), its rate (``velocity``, when recorded) and the
@@ -11,13 +13,15 @@ topics a topic map names (``--topic-map ROLE=TOPIC,...``) for a bag another tool
 ``stroke_acceleration`` (``std_msgs/Float64``), ``spool`` (``std_msgs/Float64``)
 ``pressure_a``, ``pressure_b``, ``supply_pressure`` (``sensor_msgs/FluidPressure``)
 
-The joint states set the samples. A stamped signal (FluidPressure) is matched to them by header
-stamp, a Float64 by log time (the node publishes a tick's messages at one node time); where a
-signal has no sample at that instant it is interpolated, and outside its span it is NaN.
+(:data:`NODE_ROLES` names the node's topic of each role.) The joint states set the samples; on
+a topic two nodes share, those of another node (other joint names) are left out. A stamped
+signal (FluidPressure) is matched to them by header stamp, a Float64 by log time (the node
+publishes a tick's messages at one node time); where a signal has no sample at that instant it
+is interpolated, and outside its span it is NaN.
 
-A drs bag's samples are placed on the run's simulated time through its clock records (the stamp
-less the clock origin in force, as ``drs-bag resimulate`` does), each with its physics step; a
-bag without them starts at its first stamp and has no steps (so no re-simulation).
+A drs bag's samples are placed on the run's simulated time through the node's clock records (the
+stamp less the clock origin in force, as ``drs-bag resimulate`` does), each with its physics
+step; a bag without them starts at its first stamp and has no steps (so no re-simulation).
 """
 
 from __future__ import annotations
@@ -32,38 +36,38 @@ from drs_model.identify.record import Record
 from drs_model.params import DRSParams
 
 from ..errors import DRSRosError
-from ..names import CLOCK, DEFAULT_TOPICS
+from ..names import CLOCK
 from .decoded import decoder
-from .effects import (
-    effect_records,
-    model_params_from,
-    recorded_node_parameters,
-    recorded_rung,
-)
-from .reader import scan
+from .effects import effect_records, model_params_from, recorded_rung
+from .nodes import BagNode, resolve_topics
+from .reader import MessageCallbackError, scan
 
-#: The node's topics by role (its hydraulic ones: ``drs_ros.node.adapter.HYDRAULIC_TOPICS`` under
-#: the node's name).
-DRS_TOPICS = {
-    "joint_states": DEFAULT_TOPICS["joint_states"],
-    "stroke_acceleration": DEFAULT_TOPICS["piston_acceleration"],
-    "pressure_a": "/drs/pressure_piston_side",
-    "pressure_b": "/drs/pressure_rod_side",
-    "supply_pressure": "/drs/supply_pressure",
-    "spool": "/drs/valve_spool",
+#: The fit's roles, and the role of :data:`drs_ros.names.NODE_TOPICS` that names the node's
+#: topic of each (the hydraulic ones: ``drs_ros.node.adapter.HYDRAULIC_TOPICS``).
+NODE_ROLES = {
+    "joint_states": "joint_states",
+    "stroke_acceleration": "piston_acceleration",
+    "pressure_a": "pressure_piston_side",
+    "pressure_b": "pressure_rod_side",
+    "supply_pressure": "supply_pressure",
+    "spool": "valve_spool",
 }
 #: Roles whose messages carry a header stamp.
 STAMPED = ("pressure_a", "pressure_b", "supply_pressure")
+#: The message type of each role's topic.
+ROLE_TYPES = {role: "std_msgs/msg/Float64" for role in NODE_ROLES}
+ROLE_TYPES.update({"joint_states": "sensor_msgs/msg/JointState",
+                   **dict.fromkeys(STAMPED, "sensor_msgs/msg/FluidPressure")})  # fmt: skip
 
 
 class MeasurementError(DRSRosError, ValueError):
-    """The bag holds no usable measurement (no joint states, no piston joint, a bad topic
-    map)."""
+    """The bag holds no usable measurement (no joint states, no piston joint), or a topic map
+    item is malformed."""
 
 
 def parse_topic_map(items) -> dict[str, str]:
     """``ROLE=TOPIC`` items (comma-separated or repeated) as ``role -> topic``; refuses an
-    unknown role or a malformed item."""
+    unknown role or a malformed item (:class:`MeasurementError`)."""
     out = {}
     for item in items or ():
         for part in str(item).split(","):
@@ -73,19 +77,32 @@ def parse_topic_map(items) -> dict[str, str]:
             role, topic = role.strip(), topic.strip()
             if not sep or not topic:
                 raise MeasurementError(f"topic map item {part!r} is not ROLE=TOPIC")
-            if role not in DRS_TOPICS:
+            if role not in NODE_ROLES:
                 raise MeasurementError(f"unknown role {role!r} in the topic map; roles: "
-                                       f"{', '.join(DRS_TOPICS)}")  # fmt: skip
+                                       f"{', '.join(NODE_ROLES)}")  # fmt: skip
             out[role] = topic if topic.startswith("/") else "/" + topic
     return out
+
+
+def measured_topics(node: BagNode | None, topic_map: dict[str, str] | None = None,
+                    ) -> dict[str, str]:  # fmt: skip
+    """The topic of each role (:data:`NODE_ROLES`) and of the node's effect record
+    (``command_events``): the topic map's, else the node's as it recorded them, else (a bag
+    that names no drs node) the default names."""
+    roles = [*NODE_ROLES.values(), "command_events"]
+    named = resolve_topics(node, roles).topics
+    topics = {role: named[node_role] for role, node_role in NODE_ROLES.items()}
+    topics.update(topic_map or {})
+    topics["command_events"] = named["command_events"]
+    return topics
 
 
 @dataclass
 class Measured:
     """A bag's measurement: the record, the model parameters it recorded (or the seed's), the
-    rung it ran on (None when it does not say), its node parameters and effect record (None
-    for a bag not written by drs), the topics read by role, its first and last log times
-    [ns], its messages per topic and notes."""
+    rung it ran on (None when it does not say), the node's parameters and effect record (None
+    and empty for a bag not written by drs), the topics read by role, its first and last log
+    times [ns], its messages per topic, the drs node (None: the bag names none) and notes."""
 
     record: Record
     params: DRSParams
@@ -99,6 +116,7 @@ class Measured:
     counts: dict = field(default_factory=dict)
     bag: Path | None = None
     notes: list[str] = field(default_factory=list)
+    node: BagNode | None = None
 
 
 def _series(values: list[tuple[int, float]]) -> tuple[np.ndarray, np.ndarray]:
@@ -137,9 +155,16 @@ def _value(seq, i: int) -> float:
     return float(seq[i]) if len(seq) > i else math.nan
 
 
-def read_measured(bag: str | Path, topic_map: dict[str, str] | None = None,
+def _node_joint_names(node: BagNode | None) -> list[str]:
+    names = ((node.parameters or {}).get("joint_names") if node is not None else None) or []
+    return [str(n) for n in names]
+
+
+def read_measured(bag: str | Path, node: BagNode | None,
+                  topic_map: dict[str, str] | None = None,
                   joint: str | None = None) -> Measured:  # fmt: skip
-    """The measurement of ``bag`` (module docstring); every byte verified as it is read.
+    """The measurement of ``node``'s run in ``bag`` (module docstring; ``node`` None: a bag that
+    names no drs node); every byte verified as it is read.
 
     Raises
     ------
@@ -148,29 +173,38 @@ def read_measured(bag: str | Path, topic_map: dict[str, str] | None = None,
     BagReadError
         The bag cannot be read.
     """
-    topics = {**DRS_TOPICS, **(topic_map or {})}
-    events, params_topic = DEFAULT_TOPICS["command_events"], DEFAULT_TOPICS["parameter_events"]
+    topics = measured_topics(node, topic_map)
+    events = topics.pop("command_events")
+    node_names = _node_joint_names(node)
     decode = decoder()
     joints: list[tuple] = []  # (log, stamp, position, velocity, effort)
     origins: list[int] = []  # the clock origin in force at each joint state
     got = {role: [] for role in topics if role != "joint_states"}
-    by_topic = {t: r for r, t in topics.items()}
-    meta: dict[str, list] = {events: [], params_topic: []}
+    by_topic: dict[str, list[str]] = {}
+    for role, topic in topics.items():
+        by_topic.setdefault(topic, []).append(role)
+    event_messages: list = []
     where = {"index": None, "origin": None}
 
     def take(m) -> None:
         msg = decode(m)
-        if m.topic in meta:
-            meta[m.topic].append((m.log_time, msg))
-            if m.topic == events:
-                for r in effect_records([(m.log_time, msg)]):
-                    if r.outcome == CLOCK:
-                        where["origin"] = int(r.values["t0_ns"])
-            return
-        role = by_topic[m.topic]
+        if m.topic == events and node is not None:
+            event_messages.append((m.log_time, msg))
+            for r in effect_records([(m.log_time, msg)]):
+                if r.outcome == CLOCK:
+                    where["origin"] = int(r.values["t0_ns"])
+        for role in by_topic.get(m.topic, ()):
+            _take(role, m, msg)
+
+    def _take(role, m, msg) -> None:
+        if m.type_name != ROLE_TYPES[role]:
+            raise MeasurementError(f"{m.topic} holds {m.type_name} messages; the role {role} "
+                                   f"needs {ROLE_TYPES[role]} (see --topic-map)")  # fmt: skip
         if role == "joint_states":
+            if node_names and list(msg.name) != node_names:
+                return  # another node's, on a topic they share
             if where["index"] is None:
-                where["index"] = _joint_index(msg, joint or _node_joint(meta[params_topic]))
+                where["index"] = _joint_index(msg, joint or (node_names or [None])[0])
             i = where["index"]
             stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             joints.append((m.log_time, stamp, _value(msg.position, i), _value(msg.velocity, i),
@@ -182,26 +216,25 @@ def read_measured(bag: str | Path, topic_map: dict[str, str] | None = None,
         else:
             got[role].append((m.log_time, float(msg.data)))
 
-    result = scan(bag, take, exact=False, topics={*topics.values(), events, params_topic})
+    wanted = {*topics.values(), *([events] if node is not None else [])}
+    try:
+        result = scan(bag, take, exact=False, topics=wanted)
+    except MessageCallbackError as exc:  # what the bag holds is no measurement: its error
+        if isinstance(exc.__cause__, MeasurementError):
+            raise exc.__cause__ from None
+        raise
     if not joints:
         raise MeasurementError(f"{bag}: no joint states on {topics['joint_states']} (a bag "
                                "written by another tool: name its topics with --topic-map)")
-    out = _assemble(joints, origins, got, meta, events, params_topic, topics)
+    out = _assemble(joints, origins, got, node, effect_records(event_messages), topics)
     out.start_ns, out.end_ns, out.counts = result.start_ns, result.end_ns, dict(result.counts)
     out.bag = Path(bag)
     return out
 
 
-def _node_joint(param_events: list) -> str | None:
-    values = recorded_node_parameters(param_events)
-    names = (values or {}).get("joint_names")
-    return str(names[0]) if names else None
-
-
-def _assemble(joints, origins, got, meta, events, params_topic, topics) -> Measured:
+def _assemble(joints, origins, got, node, records, topics) -> Measured:
     """The record from the collected samples (sorted by stamp, repeated stamps dropped)."""
-    node_parameters = recorded_node_parameters(meta[params_topic])
-    records = effect_records(meta[events])
+    node_parameters = None if node is None else node.parameters
     arr = sorted(zip(joints, origins, strict=True), key=lambda jo: jo[0][1])
     keep, seen = [], set()
     for j, o in arr:
@@ -229,13 +262,17 @@ def _assemble(joints, origins, got, meta, events, params_topic, topics) -> Measu
         if values:
             signals[role] = _aligned(stamp if role in STAMPED else log, _series(values))
     if node_parameters is not None:
-        params, source = model_params_from(node_parameters), "recorded on /parameter_events"
+        params = model_params_from(node_parameters)
+        source = f"recorded by {node.name} on /parameter_events"
+    elif node is not None:
+        params, source = DRSParams(), f"the seed's (the bag recorded none for {node.name})"
     else:
-        params, source = DRSParams(), "the seed's (the bag recorded none)"
+        params, source = DRSParams(), "the seed's (the bag names no drs node)"
     rung = recorded_rung(node_parameters, records) if node_parameters is not None else None
     record = Record(t=t, step=steps, **signals)
     return Measured(record, params, source, rung, node_parameters, records, dict(topics),
-                    None, notes=notes)  # fmt: skip
+                    None, notes=notes, node=node)  # fmt: skip
 
 
-__all__ = ["DRS_TOPICS", "Measured", "MeasurementError", "parse_topic_map", "read_measured"]
+__all__ = ["NODE_ROLES", "Measured", "MeasurementError", "measured_topics", "parse_topic_map",
+           "read_measured"]

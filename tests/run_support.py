@@ -1,5 +1,5 @@
 """Runs recorded as the node records them, without DDS: bags whose truth is known, for the fits'
-tests, benchmarks and examples.
+tests and benchmarks (a test fixture, not a product: no command line uses it).
 
 :func:`record_run` steps a rung of :mod:`drs_model.fidelity` the way the node's tick does (one
 physics step per tick, the commands and faults applied at the tick's start, then the step, then
@@ -28,18 +28,17 @@ from pathlib import Path
 from drs_model.fidelity import make_rung
 from drs_model.fidelity.faults import FAULTS, RunFaults
 from drs_model.params import NUMERIC_FIELDS, DRSParams
-
-from .. import commands as cmds
-from ..names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from .measured import DRS_TOPICS
-from .synthetic import T0_NS
+from drs_ros import commands as cmds
+from drs_ros.bag.synthetic import T0_NS
+from drs_ros.names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 
 
 @dataclass(frozen=True)
 class Command:
     """A command taking effect at the physics step ``step``: ``key`` ``"drs"`` (the service;
     ``value`` open or close), ``"stroke_cmd"``, ``"force_cmd"`` (a float) or
-    ``"trajectory_cmd"`` (``value = (times, strokes, rates)``, rates may be None)."""
+    ``"trajectory_cmd"`` (``value``: a FollowJointTrajectory goal's ``trajectory`` mapping, as
+    ``drs excite -o`` writes it and ``drs-bag from-goal`` reads it)."""
 
     step: int
     key: str
@@ -82,9 +81,9 @@ def _register(rec, hydraulic: bool) -> None:
     for key in ("piston_force", "flap_gap", "piston_acceleration"):
         rec.register_topic(tp[key], Float64, 10)
     if hydraulic:
-        for role in ("pressure_a", "pressure_b", "supply_pressure"):
-            rec.register_topic(DRS_TOPICS[role], FluidPressure, 10)
-        rec.register_topic(DRS_TOPICS["spool"], Float64, 10)
+        for role in ("pressure_piston_side", "pressure_rod_side", "supply_pressure"):
+            rec.register_topic(tp[role], FluidPressure, 10)
+        rec.register_topic(tp["valve_spool"], Float64, 10)
 
 
 class _Writer:
@@ -100,7 +99,7 @@ class _Writer:
     def event(self, now: int, source: str, outcome: str, values: dict) -> None:
         from diagnostic_msgs.msg import DiagnosticStatus
 
-        from ..conversions import command_event_msg
+        from drs_ros.conversions import command_event_msg
 
         record = {"sim_time": repr(self.sim.t), "step": self.sim.steps, **values}
         msg = command_event_msg(self.stamp(), source, outcome, DiagnosticStatus.OK, "", record)
@@ -115,9 +114,10 @@ class _Writer:
             self.event(now, tp["drs_service"], ACCEPTED, {"value": repr(bool(c.value))})
             return
         if c.key == "trajectory_cmd":
-            from .excitation import trajectory_message
+            from drs_ros.bag.from_goal import check_trajectory, trajectory_message
 
-            msg = trajectory_message(*c.value, joint=self.names[0])
+            check_trajectory(c.value)
+            msg = trajectory_message(c.value)
         else:
             msg = Float64(data=float(c.value))
         received = now - 500_000
@@ -130,7 +130,7 @@ class _Writer:
         from sensor_msgs.msg import FluidPressure
         from std_msgs.msg import Header
 
-        from ..conversions import float_msg, joint_state_msg, time_msg
+        from drs_ros.conversions import float_msg, joint_state_msg, time_msg
 
         tp, st, stamp = DEFAULT_TOPICS, self.sim.state, self.stamp()
         js = joint_state_msg(st, self.names, stamp)
@@ -141,12 +141,12 @@ class _Writer:
             self.rec.write(tp[key], float_msg(float(value)), now)
         if hydraulic:
             header = Header(stamp=time_msg(stamp), frame_id=self.frame_id)
-            for role, value in (("pressure_a", st.pressure_a), ("pressure_b", st.pressure_b),
+            for role, value in (("pressure_piston_side", st.pressure_a),
+                                ("pressure_rod_side", st.pressure_b),
                                 ("supply_pressure", st.supply_pressure)):  # fmt: skip
-                self.rec.write(DRS_TOPICS[role], FluidPressure(header=header,
-                                                               fluid_pressure=value), now)
+                self.rec.write(tp[role], FluidPressure(header=header, fluid_pressure=value), now)
             spool = math.nan if st.spool is None else st.spool
-            self.rec.write(DRS_TOPICS["spool"], float_msg(float(spool)), now)
+            self.rec.write(tp["valve_spool"], float_msg(float(spool)), now)
 
 
 @dataclass(frozen=True)
@@ -162,8 +162,8 @@ def record_run(bag_dir: str | Path, steps: int, commands: Sequence[Command] = ()
     ``bag_dir``: ``commands`` act at their steps, ``faults`` (``name -> value`` of
     :data:`~drs_model.fidelity.faults.FAULTS`) from the first tick, at the node time ``t0_ns``
     onwards, one tick per physics step. Returns the bag directory."""
-    from ..recording.mcap_recorder import McapRecorder
-    from .effects import parameter_event
+    from drs_ros.bag.effects import parameter_event
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     params = DRSParams() if params is None else params
     faults = dict(faults or {})
