@@ -480,7 +480,7 @@ def test_cli_peak_refines_every_extremum(capsys, params):
         ref, values = extreme(fun, x, sign)
         assert d[key] == pytest.approx(ref, rel=1e-9), key
         assert sign * d[key] <= np.min(values) + 1e-12 * abs(ref), key
-    assert d["force_min"] == pytest.approx(-3028.9044487, rel=1e-9)  # issue 11's exact value
+    assert d["force_min"] == pytest.approx(-3028.9044487, rel=1e-9)  # the seed's exact value
 
 
 def test_cli_error_is_one_line(capsys):
