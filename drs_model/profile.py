@@ -33,13 +33,7 @@ def quintic_coefficients(
     T = float(duration)
     if not (math.isfinite(T) and T > 0.0):
         raise InputError(f"duration must be a finite number > 0 s, got {duration!r}")
-    h = s1 - s0
-    c0, c1, c2 = s0, v0, a0 / 2.0
-    # the closed-form solution of the 3 end conditions for a3..a5
-    c3 = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T**2) / (2 * T**3)
-    c4 = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T**2) / (2 * T**4)
-    c5 = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T**2) / (2 * T**5)
-    return np.array([c0, c1, c2, c3, c4, c5])
+    return quintic_coefficients_array(T, s0, s1, v0, v1, a0, a1)
 
 
 def shift_polynomial(coeffs: np.ndarray, t0: float) -> np.ndarray:
@@ -181,15 +175,17 @@ _END_SLACK = 1e-12
 
 
 def quintic_coefficients_array(duration, s0, s1, v0=0.0, v1=0.0, a0=0.0, a1=0.0) -> np.ndarray:
-    """:func:`quintic_coefficients` of many segments at once: the same closed form on arrays
-    (broadcast together; ``duration`` [s] > 0, positions [m], velocities [m/s], accelerations
-    [m/s^2], not checked here). Returns shape ``(n, 6)``, local-time coefficients ``a_0..a_5``."""
+    """The quintic coefficients of many segments at once (:func:`quintic_coefficients` is one):
+    the closed-form solution of the six end conditions, on arrays broadcast together
+    (``duration`` [s] > 0, positions [m], velocities [m/s], accelerations [m/s^2], not checked
+    here). Returns shape ``(..., 6)``, local-time coefficients ``a_0..a_5``."""
     T = np.asarray(duration, dtype=float)
     s0, s1, v0, v1, a0, a1 = np.broadcast_arrays(T, s0, s1, v0, v1, a0, a1)[1:]
     h = s1 - s0
     T2, T3 = T * T, T * T * T
     out = np.empty(T.shape + (6,))
     out[..., 0], out[..., 1], out[..., 2] = s0, v0, a0 / 2.0
+    # the closed-form solution of the 3 end conditions for a3..a5
     out[..., 3] = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T2) / (2 * T3)
     out[..., 4] = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T2) / (2 * T3 * T)
     out[..., 5] = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T2) / (2 * T3 * T2)
