@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import re
 
+import kinematics_support
 import numpy as np
 import pytest
 
@@ -73,7 +74,7 @@ def test_minimal_accelerations_satisfy_the_full_equations(params):
     form = fw.Psi3Minimal(params)
     b, bd, force = 0.8, 25.0, 400.0
     acc = form.accel(b, bd, force)
-    st = kin.kinematic_state_from_flap(b, bd, acc, params)
+    st = kinematics_support.kinematic_state_from_flap(b, bd, acc, params)
     res = (
         bo.mass_matrix(st.q, params) @ st.qdd
         + bo.velocity_forces(st.q, st.qd, params)
