@@ -221,38 +221,6 @@ def _rotate(vec: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
     return _stack(c * x - s * y, s * x + c * y)
 
 
-def to_fixed(vec_rotating, theta) -> np.ndarray:
-    """Fixed-frame components of vector(s) given in a frame turned by ``theta`` [rad].
-
-    Parameters
-    ----------
-    vec_rotating : array_like, shape (..., 2)
-        Components along the rotating x (along the rod) and y axes.
-    theta : array_like, shape (...)
-        Angle of the rotating x axis from the fixed X axis [rad], CCW positive.
-
-    Returns
-    -------
-    ndarray, shape (..., 2)
-        ``R(theta) @ vec``.
-    """
-    vec = _vector("vec_rotating", vec_rotating)
-    theta = _finite("theta", theta)
-    _broadcast(vec_x=vec[..., 0], theta=theta)
-    return _rotate(vec, np.cos(theta), np.sin(theta))
-
-
-def to_rotating(vec_fixed, theta) -> np.ndarray:
-    """Components in the frame turned by ``theta`` [rad] of fixed-frame vector(s) ``(..., 2)``.
-
-    The inverse of :func:`to_fixed`: ``R(theta).T @ vec``.
-    """
-    vec = _vector("vec_fixed", vec_fixed)
-    theta = _finite("theta", theta)
-    _broadcast(vec_x=vec[..., 0], theta=theta)
-    return _rotate(vec, np.cos(theta), -np.sin(theta))
-
-
 # ---- collar on a rotating rod -------------------------------------------------------------------
 def collar_kinematics(theta, omega, alpha, r, r_dot, r_ddot) -> CollarKinematics:
     """Position, velocity and acceleration of a collar sliding along a rotating rod.
