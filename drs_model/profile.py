@@ -301,6 +301,53 @@ class TrajectoryPlan:
         return c
 
 
+def _checked_points(times, strokes, limits: tuple[float, float]):
+    """``(t, s)`` as flat float arrays, refused as :func:`plan_trajectory` says."""
+    t = np.asarray(times, dtype=float).ravel()
+    s = np.asarray(strokes, dtype=float).ravel()
+    n = t.size
+    if n == 0 or n > MAX_TRAJECTORY_POINTS or s.size != n:
+        raise InputError(
+            f"a trajectory needs 1..{MAX_TRAJECTORY_POINTS} points with one stroke per time, got "
+            f"{n} times and {s.size} strokes"
+        )
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
+        raise InputError("trajectory times and strokes must be finite")
+    if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
+        raise InputError(
+            f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
+        )
+    lo, hi = limits
+    out = (s < lo - PATH_TOL) | (s > hi + PATH_TOL)
+    if np.any(out):
+        raise StrokeRangeError(
+            f"stroke {float(s[out][0])!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
+        )
+    return t, s
+
+
+def _point_rates(t: np.ndarray, s: np.ndarray, rates):
+    """``(v, derived, n_head)``: the rates [m/s] at the points (given, or the slope across the
+    neighbours with the first one's NaN until the start stroke is known), whether they were
+    derived, and how many first segments depend on the actuator's state."""
+    n = t.size
+    if rates is None:
+        v = np.zeros(n)
+        if n > 1:  # interior points: the slope across the neighbours; the first one's needs
+            v[0] = math.nan  # the start stroke (built when commanded)
+            v[1:-1] = (s[2:] - s[:-2]) / (t[2:] - t[:-2])
+        return v, True, min(n, 2)
+    v = np.asarray(rates, dtype=float).ravel()
+    if v.size != n or not np.all(np.isfinite(v)):
+        raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
+    if v[-1] != 0.0:
+        raise InputError(
+            f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
+            "give 0 (or no velocities)"
+        )
+    return v, False, 1
+
+
 def plan_trajectory(p: DRSParams, times, strokes, rates=None) -> TrajectoryPlan:
     """Validate a trajectory and build what does not depend on the actuator's state.
 
@@ -334,44 +381,10 @@ def plan_trajectory(p: DRSParams, times, strokes, rates=None) -> TrajectoryPlan:
 
     Cost: a few ms for 10,000 points (numpy over all segments at once).
     """
-    t = np.asarray(times, dtype=float).ravel()
-    s = np.asarray(strokes, dtype=float).ravel()
-    n = t.size
-    if n == 0 or n > MAX_TRAJECTORY_POINTS or s.size != n:
-        raise InputError(
-            f"a trajectory needs 1..{MAX_TRAJECTORY_POINTS} points with one stroke per time, got "
-            f"{n} times and {s.size} strokes"
-        )
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
-        raise InputError("trajectory times and strokes must be finite")
-    if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
-        raise InputError(
-            f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
-        )
     limits = stroke_limits(p)
-    lo, hi = limits
-    out = (s < lo - PATH_TOL) | (s > hi + PATH_TOL)
-    if np.any(out):
-        raise StrokeRangeError(
-            f"stroke {float(s[out][0])!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
-        )
-    derived = rates is None
-    if derived:
-        v = np.zeros(n)
-        if n > 1:  # interior points: the slope across the neighbours; the first one's needs
-            v[0] = math.nan  # the start stroke (built when commanded)
-            v[1:-1] = (s[2:] - s[:-2]) / (t[2:] - t[:-2])
-        n_head = min(n, 2)
-    else:
-        v = np.asarray(rates, dtype=float).ravel()
-        if v.size != n or not np.all(np.isfinite(v)):
-            raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
-        if v[-1] != 0.0:
-            raise InputError(
-                f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
-                "give 0 (or no velocities)"
-            )
-        n_head = 1
+    t, s = _checked_points(times, strokes, limits)
+    n = t.size
+    v, derived, n_head = _point_rates(t, s, rates)
     t_prev = np.concatenate([[0.0], t[:-1]])
     dur = t - t_prev
     coeffs = np.full((n, 6), math.nan)
