@@ -31,8 +31,10 @@ from ..params import DRSParams
 from . import hydraulic_kernels as hk
 from .base import RungState
 from .hydraulic_events import EventLocator
+from .hydraulic_kernels import hydraulic_constants
 from .hydraulic_params import HydraulicParams
 from .hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, state_rate
+from .supply import SupplyPressure
 
 #: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
 #: at any step); at 0.1 ms ``ros2`` keeps the stroke within 3e-5 m of the tight reference on the
@@ -50,36 +52,6 @@ MIN_SUBSTEP = 1e-6
 #: ``1 / STIFFNESS_MARGIN`` of the cap: the state's own swings (a chamber pressure near supply or
 #: return stiffens the valve's edges 5-fold) then stay within it.
 STIFFNESS_MARGIN = 2.0
-
-
-def hydraulic_constants(hp: HydraulicParams, p: DRSParams) -> tuple[float, ...]:
-    """The constants vector of :mod:`~drs_model.fidelity.hydraulic_kernels` for ``hp`` and the
-    stroke limits of ``p`` (indexed ``AREA_A`` ... ``K_FORCE`` there)."""
-    s_min, s_max = kin.stroke_limits(p)
-    out = [0.0] * hk.N_HYDRAULIC_CONSTANTS
-    out[hk.AREA_A], out[hk.AREA_B] = hp.piston_area, hp.rod_side_area
-    out[hk.VOL_A0], out[hk.VOL_B0] = hp.dead_volume_piston_side, hp.dead_volume_rod_side
-    out[hk.BETA] = hp.bulk_modulus
-    out[hk.K_EDGE], out[hk.PORT_RATIO] = hp.orifice_coefficient, hp.port_ratio
-    out[hk.P_LAMINAR] = hp.valve_laminar_pressure
-    out[hk.LINEAR_LAW] = 1.0 if hp.flow_law == "linear" else 0.0
-    out[hk.Q_NO_LOAD] = hp.no_load_flow
-    out[hk.TAU_SPOOL] = hp.spool_time_constant
-    out[hk.P_RELIEF], out[hk.K_RELIEF] = hp.relief_pressure, hp.relief_flow_gain
-    out[hk.C_LEAK_AB], out[hk.C_LEAK_EXT] = hp.leak_across_piston, hp.leak_to_outside
-    out[hk.P_RETURN] = hp.return_pressure
-    out[hk.C_VISCOUS], out[hk.F_COULOMB] = hp.viscous_friction, hp.coulomb_friction
-    out[hk.F_BREAKAWAY], out[hk.V_STRIBECK] = hp.breakaway_friction, hp.stribeck_velocity
-    out[hk.V_SMOOTH] = hp.friction_smoothing_velocity
-    out[hk.K_STOP], out[hk.C_STOP] = hp.stop_stiffness, hp.stop_damping
-    out[hk.S_MIN], out[hk.S_MAX] = s_min, s_max
-    out[hk.K_POSITION], out[hk.K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
-    out[hk.K_FORCE] = hp.force_gain
-    out[hk.AIR_FRACTION] = hp.entrained_air_fraction
-    out[hk.P_AIR_SATURATION] = hp.air_saturation_pressure
-    out[hk.AIR_INDEX] = hp.air_polytropic_index
-    out[hk.P_VAPOUR] = hp.vapour_pressure
-    return tuple(float(x) for x in out)
 
 
 def equilibrium_state(s: float, p: DRSParams, hp: HydraulicParams, ps: float | None = None):
@@ -204,7 +176,7 @@ class HydraulicRung(CommandedActuator):
         self._y = equilibrium_state(s, self.p, self.hydraulic)
         self._hold_stroke = s
         hp = self.hydraulic
-        self._supply = (float(t), hp.supply_pressure, float(t), hp.supply_pressure)
+        self._supply = SupplyPressure(t, hp.supply_pressure)
         self._spool_held = False
         self._force_cmd = 0.0
         super().reset(t, s)
@@ -273,21 +245,12 @@ class HydraulicRung(CommandedActuator):
     # ---- supply and faults ---------------------------------------------------------------------
     def supply_pressure(self, t: float) -> float:
         """The supply pressure [Pa] at time ``t`` [s] (a ramp between two set values)."""
-        t0, p0, t1, p1 = self._supply
-        if t >= t1:
-            return p1
-        if t <= t0:
-            return p0
-        return p0 + (p1 - p0) * (t - t0) / (t1 - t0)
+        return self._supply.at(t)
 
     def set_supply_pressure(self, pressure: float, ramp_time: float = 0.0) -> None:
         """The supply pressure goes from its present value to ``pressure`` [Pa] over
         ``ramp_time`` [s] from now."""
-        if not (math.isfinite(pressure) and pressure >= 0.0):
-            raise InputError(f"supply pressure must be a finite number >= 0 Pa, got {pressure!r}")
-        if not (math.isfinite(ramp_time) and ramp_time >= 0.0):
-            raise InputError(f"ramp_time must be a finite number >= 0 s, got {ramp_time!r}")
-        self._supply = (self.t, self.supply_pressure(self.t), self.t + ramp_time, float(pressure))
+        self._supply.set(self.t, pressure, ramp_time)
 
     def stick_valve(self, stuck: bool = True) -> None:
         """The spool sticks where it is (``stuck``) or moves again: a stuck valve."""

@@ -55,6 +55,7 @@ from __future__ import annotations
 import math
 
 from .. import kernels
+from .. import kinematics as kin
 
 # indices of the hydraulic constants vector (:func:`drs_model.fidelity.hydraulic.constants`)
 AREA_A, AREA_B, VOL_A0, VOL_B0, BETA = 0, 1, 2, 3, 4
@@ -353,6 +354,38 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
         p_a - h[P_RELIEF], p_b - h[P_RELIEF], pa - h[P_VAPOUR], pb - h[P_VAPOUR],
         below, above, damp_closed, damp_open,
     )  # fmt: skip
+
+
+def hydraulic_constants(hp, p) -> tuple[float, ...]:
+    """The constants vector of these kernels for ``hp`` (a
+    :class:`~drs_model.fidelity.hydraulic_params.HydraulicParams`) and the stroke limits of ``p``
+    (a :class:`~drs_model.params.DRSParams`), indexed ``AREA_A`` ... above. Not a kernel: the
+    rung builds it once."""
+    s_min, s_max = kin.stroke_limits(p)
+    out = [0.0] * N_HYDRAULIC_CONSTANTS
+    out[AREA_A], out[AREA_B] = hp.piston_area, hp.rod_side_area
+    out[VOL_A0], out[VOL_B0] = hp.dead_volume_piston_side, hp.dead_volume_rod_side
+    out[BETA] = hp.bulk_modulus
+    out[K_EDGE], out[PORT_RATIO] = hp.orifice_coefficient, hp.port_ratio
+    out[P_LAMINAR] = hp.valve_laminar_pressure
+    out[LINEAR_LAW] = 1.0 if hp.flow_law == "linear" else 0.0
+    out[Q_NO_LOAD] = hp.no_load_flow
+    out[TAU_SPOOL] = hp.spool_time_constant
+    out[P_RELIEF], out[K_RELIEF] = hp.relief_pressure, hp.relief_flow_gain
+    out[C_LEAK_AB], out[C_LEAK_EXT] = hp.leak_across_piston, hp.leak_to_outside
+    out[P_RETURN] = hp.return_pressure
+    out[C_VISCOUS], out[F_COULOMB] = hp.viscous_friction, hp.coulomb_friction
+    out[F_BREAKAWAY], out[V_STRIBECK] = hp.breakaway_friction, hp.stribeck_velocity
+    out[V_SMOOTH] = hp.friction_smoothing_velocity
+    out[K_STOP], out[C_STOP] = hp.stop_stiffness, hp.stop_damping
+    out[S_MIN], out[S_MAX] = s_min, s_max
+    out[K_POSITION], out[K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
+    out[K_FORCE] = hp.force_gain
+    out[AIR_FRACTION] = hp.entrained_air_fraction
+    out[P_AIR_SATURATION] = hp.air_saturation_pressure
+    out[AIR_INDEX] = hp.air_polytropic_index
+    out[P_VAPOUR] = hp.vapour_pressure
+    return tuple(float(x) for x in out)
 
 
 #: Every kernel of this module (registered with numba where a compiled kernel calls it).
