@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import re
 
+import forward_support
 import kinematics_support
 import numpy as np
 import pytest
@@ -42,8 +43,8 @@ def _closed_rate(params, mforce) -> float:
     f = fw.Psi3Minimal(params)
     b = float(kin.solve_position(kin.stroke_limits(params)[0], params)[2])
     F, h = mforce(0.0), 1e-6
-    ap = fw.reference_rhs(f, 0.0, np.array([b + h, 0.0]), F)[1]
-    am = fw.reference_rhs(f, 0.0, np.array([b - h, 0.0]), F)[1]
+    ap = forward_support.reference_rhs(f, 0.0, np.array([b + h, 0.0]), F)[1]
+    am = forward_support.reference_rhs(f, 0.0, np.array([b - h, 0.0]), F)[1]
     return math.sqrt((ap - am) / (2 * h))
 
 
@@ -64,7 +65,7 @@ def test_scalar_kernels_match_numpy_library(params, name):
             y = form.initial_state(q, qd)
         force = rng.normal(0.0, 1000.0)
         got = form.fun(lambda t, f=force: f)(0.0, y)
-        ref = fw.reference_rhs(form, 0.0, y, force)
+        ref = forward_support.reference_rhs(form, 0.0, y, force)
         np.testing.assert_allclose(got, ref, rtol=1e-11, atol=1e-9)
 
 
