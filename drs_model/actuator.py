@@ -84,13 +84,12 @@ class ActuatorSim(CommandedActuator):
         integrator: str = "rk4",
         force_method: str = "fused",
     ) -> None:
-        super().__init__(p, dt, force_limit)
+        super().__init__(p, dt, force_limit, integrator, force_method)
         self.force_method = force_method
         self.integrator_name = integrator
         self.psi3_closed, self.psi3_open = kin.flap_angle_limits(p)
-        from .inverse import FusedInverseDynamics, get_method
+        from .inverse import FusedInverseDynamics
 
-        get_method(force_method)  # refuse an unknown name now, with the valid ones
         self._scalar_force = (
             FusedInverseDynamics.from_params(p)
             if force_method in ("fused", "virtual-work")

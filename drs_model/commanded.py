@@ -37,9 +37,9 @@ def check_methods(integrator: str, force_method: str) -> None:
     from .forward.fixed_step import FIXED_STEP_METHODS
     from .inverse import get_method
 
+    get_method(force_method)
     if integrator not in FIXED_STEP_METHODS:
         raise InputError(f"method must be one of {sorted(FIXED_STEP_METHODS)}, got {integrator!r}")
-    get_method(force_method)
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,9 @@ class CommandedActuator:
         Physics step [s], in (0, 0.01].
     force_limit : float
         Largest accepted |piston force| command [N].
+    integrator, force_method : str
+        The force-mode integrator and the inverse-dynamics method: checked here (every rung
+        takes the node's names), used by the rungs that have them (:class:`ActuatorSim`).
     """
 
     #: The rung's name in :data:`drs_model.fidelity.RUNGS`.
@@ -80,11 +83,19 @@ class CommandedActuator:
     #: The snapshot's type (a subclass adds fields: :class:`drs_model.fidelity.RungState`).
     state_type = ActuatorState
 
-    def __init__(self, p: DRSParams, dt: float = 1e-3, force_limit: float = 2.0e4) -> None:
+    def __init__(
+        self,
+        p: DRSParams,
+        dt: float = 1e-3,
+        force_limit: float = 2.0e4,
+        integrator: str = "rk4",
+        force_method: str = "fused",
+    ) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.01):
             raise InputError(f"dt must be a finite number in (0, 0.01] s, got {dt!r}")
         if not (math.isfinite(force_limit) and force_limit > 0.0):
             raise InputError(f"force_limit must be a finite number > 0 N, got {force_limit!r}")
+        check_methods(integrator, force_method)
         self.p = p
         self.dt = float(dt)
         self.force_limit = float(force_limit)

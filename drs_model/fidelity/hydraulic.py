@@ -23,7 +23,7 @@ import numpy as np
 from .. import kernels
 from .. import kinematics as kin
 from ..bodies import model_constants
-from ..commanded import CommandedActuator, check_methods
+from ..commanded import CommandedActuator
 from ..compiled.scalar import compiled_or_plain
 from ..errors import InputError, StiffStepError, TooStiffError
 from ..inverse import FusedInverseDynamics
@@ -143,8 +143,7 @@ class HydraulicRung(CommandedActuator):
         self._explicit = STEP_METHODS[method][1]
         self._c = model_constants(p)
         self._h = hydraulic_constants(self.hydraulic, p)
-        super().__init__(p, dt, force_limit)
-        check_methods(integrator, force_method)
+        super().__init__(p, dt, force_limit, integrator, force_method)
         self.reset()
 
     @property

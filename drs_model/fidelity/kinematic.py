@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..commanded import HYDRAULIC_FAULTS, CommandedActuator, check_methods
+from ..commanded import HYDRAULIC_FAULTS, CommandedActuator
 from .base import RungState, refuse
 
 
@@ -23,18 +23,10 @@ class KinematicRung(CommandedActuator):
     name = "kinematic"
     state_type = RungState
 
-    def __init__(
-        self,
-        p,
-        dt: float = 1e-3,
-        force_limit: float = 2.0e4,
-        integrator: str = "rk4",
-        force_method: str = "fused",
-    ) -> None:
-        """As :class:`~drs_model.actuator.ActuatorSim`; ``integrator`` and ``force_method`` are
-        checked and unused (this rung has no forward dynamics and one force formula)."""
-        super().__init__(p, dt, force_limit)
-        check_methods(integrator, force_method)
+    def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
+        """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are
+        checked and unused: no forward dynamics here, one force formula)."""
+        super().__init__(p, dt, force_limit, **methods)
         self.reset()
 
     def _force_now(self) -> float:

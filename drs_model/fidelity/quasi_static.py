@@ -14,7 +14,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from ..commanded import CommandedActuator, check_methods
+from ..commanded import CommandedActuator
 from ..inverse import FusedInverseDynamics
 from .base import RungState
 
@@ -28,18 +28,10 @@ class QuasiStaticRung(CommandedActuator):
     name = "quasi-static"
     state_type = RungState
 
-    def __init__(
-        self,
-        p,
-        dt: float = 1e-3,
-        force_limit: float = 2.0e4,
-        integrator: str = "rk4",
-        force_method: str = "fused",
-    ) -> None:
-        """As :class:`~drs_model.actuator.ActuatorSim`; ``integrator`` and ``force_method`` are
-        checked and unused (this rung has no forward dynamics and one force formula)."""
-        super().__init__(p, dt, force_limit)
-        check_methods(integrator, force_method)
+    def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
+        """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are
+        checked and unused: no forward dynamics here, one force formula)."""
+        super().__init__(p, dt, force_limit, **methods)
         self._static = FusedInverseDynamics.from_params(p)
         self.reset()
 
