@@ -33,7 +33,20 @@ def quintic_coefficients(
     T = float(duration)
     if not (math.isfinite(T) and T > 0.0):
         raise InputError(f"duration must be a finite number > 0 s, got {duration!r}")
-    return quintic_coefficients_array(T, s0, s1, v0, v1, a0, a1)
+    c3, c4, c5 = _end_terms(T, T**2, (2 * T**3, 2 * T**4, 2 * T**5), s1 - s0, v0, v1, a0, a1)
+    return np.array([s0, v0, a0 / 2.0, c3, c4, c5])
+
+
+def _end_terms(T, T2, denominators, h, v0, v1, a0, a1):
+    """``a_3, a_4, a_5`` of the quintic: the closed-form solution of its three end conditions
+    over the duration ``T`` [s] and the rise ``h`` [m] (scalars or arrays). ``T2`` is ``T^2``
+    and ``denominators`` ``(2 T^3, 2 T^4, 2 T^5)`` as the caller computes them (``T**k`` for
+    one segment, products for many: each path keeps its own rounding)."""
+    d3, d4, d5 = denominators
+    c3 = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T2) / d3
+    c4 = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T2) / d4
+    c5 = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T2) / d5
+    return c3, c4, c5
 
 
 def shift_polynomial(coeffs: np.ndarray, t0: float) -> np.ndarray:
@@ -185,10 +198,9 @@ def quintic_coefficients_array(duration, s0, s1, v0=0.0, v1=0.0, a0=0.0, a1=0.0)
     T2, T3 = T * T, T * T * T
     out = np.empty(T.shape + (6,))
     out[..., 0], out[..., 1], out[..., 2] = s0, v0, a0 / 2.0
-    # the closed-form solution of the 3 end conditions for a3..a5
-    out[..., 3] = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T2) / (2 * T3)
-    out[..., 4] = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T2) / (2 * T3 * T)
-    out[..., 5] = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T2) / (2 * T3 * T2)
+    out[..., 3], out[..., 4], out[..., 5] = _end_terms(
+        T, T2, (2 * T3, 2 * T3 * T, 2 * T3 * T2), h, v0, v1, a0, a1
+    )
     return out
 
 
