@@ -49,7 +49,7 @@ def free_flight_us(p: DRSParams, dt: float, repeat: int) -> float:
 
 
 def contact_step_us(p: DRSParams, dt: float, repeat: int) -> float | None:
-    """None where the model cannot take the step (before issue 16, at 100 Hz: it raised)."""
+    """None where the model cannot take the step (without sub-steps, at 100 Hz, it raised)."""
     out = []
     for _ in range(repeat):
         a = ActuatorSim(p, dt=dt)

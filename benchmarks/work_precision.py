@@ -482,7 +482,7 @@ def compiled_startup() -> dict:
     """One-off cost of the compiled path in a fresh interpreter [s, wall]: import numba, then
     compile every kernel and run both methods (``warm_up``), first with an empty numba cache
     (cold: compile and write the cache), then again with that cache (what every later start
-    pays, e.g. the second CI test session or node start on the same checkout)."""
+    pays, e.g. the second CI test run or node start on the same checkout)."""
     out = {}
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
@@ -500,7 +500,7 @@ def compiled_startup() -> dict:
 
 
 FLOOR_RTOLS = (1e-6, 1e-9)
-FLOOR_TARGET = 1.5  # issue 11: a compiled run within 1.5x of nfev x (RHS + force)
+FLOOR_TARGET = 1.5  # a compiled run within 1.5x of nfev x (RHS + force)
 
 
 def compiled_floor(prob: Problem, repeats: int = 15, inner: int = 20, n: int = 2000) -> list[dict]:

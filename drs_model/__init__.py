@@ -1,14 +1,16 @@
 """drs_model: kinematics and dynamics of the DRS flap actuator (pure numpy/scipy, no ROS).
 
-Modules: ``params`` (DRSParams), ``overrides`` (parameters from --set items and files),
-``kernels`` (each scalar closed form, once, as plain Python), ``elementwise`` (the kernels on
-arrays), ``constraints`` (Phi, Jacobians, gamma), ``kinematics`` (positions, velocities,
-accelerations, gap, limits), ``profile`` (quintic manoeuvre), ``bodies`` (mass matrix, forces),
-``inverse`` (inverse dynamics, three formulations), ``forward`` (forward dynamics: forces,
-formulations, the scipy and fixed-step drivers), ``compiled`` (numba's builds of the kernels and
-the compiled RK driver; optional), ``actuator`` (the fixed-step actuator the node runs),
-``coriolis`` (rotating-frame kinematics of seed 000), ``plotting`` (figures), ``cluster`` (the
-Dask client for many runs at once).
+Modules: ``params`` (DRSParams), ``overrides`` (parameters from --set items and files), ``kernels``
+(each scalar closed form, once, as plain Python), ``elementwise`` (the kernels on arrays),
+``constraints`` (Phi, Jacobians, gamma), ``kinematics`` (positions, velocities, accelerations, gap,
+limits), ``profile`` (quintic manoeuvre), ``bodies`` (mass matrix, forces), ``inverse`` (inverse
+dynamics, four formulations: Newton-Euler, Lagrange, virtual work and the fused closed form),
+``forward`` (forward dynamics: forces, formulations, the scipy and fixed-step drivers),
+``compiled`` (numba's builds of the kernels and the compiled RK driver; optional), ``motion`` (the
+commanded stroke path and clock), ``commanded`` (the interface every actuator shares), ``actuator``
+(the fixed-step rigid actuator), ``fidelity`` (the ladder of rungs the node runs), ``coriolis``
+(rotating-frame kinematics of seed 000), ``plotting`` (figures), ``cluster`` (the Dask client for
+many runs at once).
 """
 
 import importlib

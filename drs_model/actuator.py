@@ -32,22 +32,14 @@ the reason and leaves the actuator unchanged.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels
 from . import kinematics as kin
-from .errors import (
-    InputError,
-    IntegrationError,
-    SingularConfigurationError,
-    StrokeRangeError,
-)
+from .commanded import ActuatorState, CommandedActuator
+from .errors import IntegrationError, SingularConfigurationError, StrokeRangeError
 from .params import DRSParams
-from .profile import QuinticPath, QuinticSegment, TrajectoryPlan, plan_trajectory, quintic_move
 
-MODES = ("hold", "stroke", "force")
 #: Longest integrator step [s] of force mode: a longer physics step (a rate below 1 kHz) is taken
 #: in equal sub-steps no longer than this (a 10 ms RK4 step can carry the flap, which crosses its
 #: stroke in ~5 ms under a large force, past a stop and back within the step).
@@ -60,29 +52,13 @@ MAX_CONTACTS_PER_STEP = 4
 _REFUSED_STEP = (StrokeRangeError, SingularConfigurationError, IntegrationError)
 
 
-@dataclass(frozen=True)
-class ActuatorState:
-    """A snapshot of the actuator at simulated time ``t`` [s].
-
-    ``q``, ``qd``, ``qdd`` are ``[s, psi1, psi3]`` and their rates [m, rad; /s; /s^2];
-    ``piston_force`` [N]; ``gap`` [m]; ``at_stop`` is ``"closed"``, ``"open"`` or ``None``.
-    """
-
-    t: float
-    q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
-    piston_force: float
-    gap: float
-    mode: str
-    at_stop: str | None
-    target: float | None  # target stroke [m] in stroke mode
-    dead_centre_distance: float  # s - s_dead [m]
-    transmission: float  # |cos(psi1 - psi3)|, 0 at the dead centre
+__all__ = ["MAX_FORCE_STEP", "ActuatorSim", "ActuatorState"]
 
 
-class ActuatorSim:
-    """Fixed-step simulation of the actuator.
+class ActuatorSim(CommandedActuator):
+    """Fixed-step simulation of the rigid actuator (module docstring): the commanded actuator
+    (:class:`~drs_model.commanded.CommandedActuator`) with the inverse dynamics along the moves
+    and the forward dynamics under a force command.
 
     Parameters
     ----------
@@ -96,8 +72,8 @@ class ActuatorSim:
     force_method : str
         Inverse-dynamics formulation for stroke and hold modes, a name of
         :data:`drs_model.inverse.INVERSE_METHODS`; ``"fused"`` (the default) is the one-sample
-        fused kernel. ``"virtual-work"`` is read as ``"fused"``: it named this path here before
-        issue 17, and the node's ``force_method`` parameter and recorded bags still say it.
+        fused kernel. ``"virtual-work"`` is also read as ``"fused"``: the node's ``force_method``
+        parameter and the bags it recorded name the fused path so.
     """
 
     def __init__(
@@ -108,21 +84,12 @@ class ActuatorSim:
         integrator: str = "rk4",
         force_method: str = "fused",
     ) -> None:
-        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.01):
-            raise InputError(f"dt must be a finite number in (0, 0.01] s, got {dt!r}")
-        if not (math.isfinite(force_limit) and force_limit > 0.0):
-            raise InputError(f"force_limit must be a finite number > 0 N, got {force_limit!r}")
-        self.p = p
-        self.dt = float(dt)
-        self.force_limit = float(force_limit)
+        super().__init__(p, dt, force_limit, integrator, force_method)
         self.force_method = force_method
         self.integrator_name = integrator
-        self.s_min, self.s_max = kin.stroke_limits(p)
         self.psi3_closed, self.psi3_open = kin.flap_angle_limits(p)
-        self.s_dead = kin.dead_centre(p)
-        from .inverse import FusedInverseDynamics, get_method
+        from .inverse import FusedInverseDynamics
 
-        get_method(force_method)  # refuse an unknown name now, with the valid ones
         self._scalar_force = (
             FusedInverseDynamics.from_params(p)
             if force_method in ("fused", "virtual-work")
@@ -133,210 +100,45 @@ class ActuatorSim:
         # sub-steps (at least two, none longer than MAX_FORCE_STEP), halved where needed
         self._whole_steps = self.dt <= MAX_FORCE_STEP * (1.0 + 1e-9)
         self._pieces = max(2, math.ceil(self.dt / MAX_FORCE_STEP * (1.0 - 1e-9)))
-        self._stepper = None
         # built now, not at the first force command: importing the integrators (scipy.integrate)
         # mid-run stalls a real-time loop for ~0.4 s
-        self._ensure_stepper()
+        from .forward import FixedStepIntegrator
+
+        self._stepper = FixedStepIntegrator(self.p, self.dt, method=self.integrator_name)
         self.reset()
 
-    # ---- state ----------------------------------------------------------------------------------
-    def reset(self, t: float = 0.0, s: float | None = None) -> ActuatorState:
-        """At rest at stroke ``s`` (default closed) at time ``t``, in hold mode."""
-        s = self.s_min if s is None else float(kin.check_stroke(s, self.p))
-        self.t = float(t)
-        self._t_reset = float(t)
-        self.steps = 0
-        self.mode = "hold"
-        self._path: QuinticPath | None = None
-        self._settled = False
-        self._target: float | None = None
-        self._force_cmd = 0.0
-        self._at_stop: str | None = None
-        self._set_kinematic(s, 0.0, 0.0)
-        return self.state
-
-    def _set_kinematic(self, s: float, sd: float, sdd: float) -> None:
-        self._q, self._qd, self._qdd = kin.kinematic_state_scalar(s, sd, sdd, self.p)
-        self._force = self._inverse_force()
-
-    def _inverse_force(self) -> float:
+    def _force_now(self) -> float:
+        m = self.motion
         if self._scalar_force is not None:
-            return self._scalar_force.force(
-                float(self._q[0]), float(self._qd[0]), float(self._qdd[0])
-            )
+            return self._scalar_force.force(float(m.q[0]), float(m.qd[0]), float(m.qdd[0]))
         from .inverse import inverse_dynamics
 
         res = inverse_dynamics(self._arrays(), self.p, method=self.force_method)
         return float(np.asarray(res.piston_force).ravel()[0])
 
-    def _arrays(self) -> kin.KinematicState:
-        return kin.KinematicState(np.array([self._q]), np.array([self._qd]), np.array([self._qdd]))
-
-    #: The snapshot's type (a subclass adds fields: :class:`drs_model.fidelity.RungState`).
-    state_type = ActuatorState
-
-    def _state_extras(self) -> dict:
-        """The snapshot's fields beyond :class:`ActuatorState`'s (none here)."""
-        return {}
-
-    @property
-    def state(self) -> ActuatorState:
-        q = np.array(self._q)
-        psi1, psi3 = self._q[1], self._q[2]
-        return self.state_type(
-            t=self.t,
-            q=q,
-            qd=np.array(self._qd),
-            qdd=np.array(self._qdd),
-            piston_force=self._force,
-            gap=kernels.flap_gap(math.sin(psi3), *self.p.gap_constants),
-            mode=self.mode,
-            at_stop=self._at_stop,
-            target=self._target,
-            dead_centre_distance=self._q[0] - self.s_dead,
-            transmission=abs(math.cos(psi1 - psi3)),
-            **self._state_extras(),
-        )
-
-    # ---- commands ------------------------------------------------------------------------------
-    def command_stroke(self, target: float, duration: float | None = None) -> QuinticSegment:
-        """Move smoothly to ``target`` [m] from the current state; refuse a bad target.
-
-        ``duration`` [s] defaults to the seed's opening time scaled by the distance (full stroke in
-        ``T_opening``), at least 2 steps. A move whose path would leave ``[s_min, s_max]`` (large
-        current velocity) is refused.
-        """
-        target = float(target)
-        if not math.isfinite(target):
-            raise InputError(f"stroke command must be finite, got {target!r}")
-        s0, v0, a0 = self._q[0], self._qd[0], self._qdd[0]
-        if duration is None:
-            frac = abs(target - s0) / (self.s_max - self.s_min)
-            duration = max(self.p.T_opening * frac, 2 * self.dt)
-        seg = quintic_move(self.p, target, duration, s0, v0, a0, t0=self.t)
-        path = seg.evaluate(np.linspace(seg.t0, seg.t1, 65))[0]
-        if path.min() < self.s_min - 1e-12 or path.max() > self.s_max + 1e-12:
-            raise StrokeRangeError(
-                f"the move to {target!r} m from s = {s0:.6g} m at {v0:.3g} m/s would leave "
-                f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"
-            )
-        self._path, self._target, self.mode = QuinticPath.of_segment(seg), target, "stroke"
-        self._settled = False
-        self._at_stop = None
-        return seg
-
-    def plan_trajectory(self, times, strokes, rates=None) -> TrajectoryPlan:
-        """:func:`drs_model.profile.plan_trajectory` for this actuator's parameters: validate a
-        trajectory and build all of it that does not depend on the actuator's state (all but
-        the first one or two segments), for a later :meth:`command_trajectory` ``(plan)``.
-
-        Reads only the actuator's parameters, which never change: it may run in another thread
-        while the actuator steps (the node: in the subscription callback, outside its tick).
-        Raises as :meth:`command_trajectory` does, except for the first segment(s)' paths.
-        """
-        return plan_trajectory(self.p, times, strokes, rates)
-
-    def command_trajectory(self, times, strokes=None, rates=None) -> QuinticPath:
-        """Follow a trajectory of the piston: reach ``strokes[k]`` [m] at ``times[k]`` [s from
-        now] with rate ``rates[k]`` [m/s] (default: the mean of the neighbouring slopes, and rest
-        at the last point), through one quintic per interval starting from the current state.
-
-        ``times`` may instead be a :class:`~drs_model.profile.TrajectoryPlan` from
-        :meth:`plan_trajectory` (``strokes`` and ``rates`` then omitted): only the segments
-        that depend on the current state (the first, and with default rates the second) are
-        built and checked here, in microseconds; given arrays, this plans first (a few ms for
-        10,000 points). The result is the same to the bit either way.
-
-        Refused (nothing changes) unless the times strictly increase from > 0, every value is
-        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it
-        (checked at 65 instants per segment); at most 10,000 points. A trajectory ends at rest:
-        a last point with a non-zero rate is refused (holding a stroke at a speed is no state
-        the mechanism can be in). Where several segments leave the range, the one named is the
-        first of those built without the state, else the first of the others.
-
-        Returns the path followed (a sequence of :class:`QuinticSegment`, built on access).
-        """
-        if isinstance(times, TrajectoryPlan):
-            if strokes is not None or rates is not None:
-                raise InputError(
-                    "command_trajectory takes a TrajectoryPlan alone or times and strokes "
-                    "(and rates), not both"
-                )
-            plan = times
-            if plan.limits != (self.s_min, self.s_max):
-                raise InputError(
-                    f"the trajectory plan was checked against [s_min, s_max] = "
-                    f"[{plan.limits[0]:.9g}, {plan.limits[1]:.9g}] m, this actuator's stroke "
-                    f"range is [{self.s_min:.9g}, {self.s_max:.9g}] m: plan it with its params"
-                )
-        else:
-            if strokes is None:
-                raise InputError("command_trajectory needs strokes with its times")
-            plan = plan_trajectory(self.p, times, strokes, rates)
-        head = plan.head(float(self._q[0]), float(self._qd[0]), float(self._qdd[0]))
-        path = QuinticPath.of_plan(plan, self.t, head)
-        self._path, self._target, self.mode = path, float(plan.strokes[-1]), "stroke"
-        self._settled = False
-        self._at_stop = None
-        return path
-
-    def command_drs(self, open_flap: bool) -> QuinticSegment:
-        """Open (True) or close (False) with the seed's manoeuvre times."""
-        target = self.s_max if open_flap else self.s_min
-        duration = self.p.T_opening if open_flap else self.p.T_closing
-        return self.command_stroke(target, duration)
+    def reset(self, t: float = 0.0, s: float | None = None) -> ActuatorState:
+        """At rest at stroke ``s`` (default closed) at time ``t``, in hold mode."""
+        self._force_cmd = 0.0
+        return super().reset(t, s)
 
     def command_force(self, force: float) -> None:
         """Apply ``force`` [N] from now on (forward dynamics); refuse NaN or |F| > force_limit."""
-        force = float(force)
-        if not math.isfinite(force):
-            raise InputError(f"force command must be finite, got {force!r}")
-        if abs(force) > self.force_limit:
-            raise InputError(
-                f"force command {force!r} N is outside "
-                f"[-{self.force_limit:g}, {self.force_limit:g}] N"
-            )
-        stepper = self._ensure_stepper()
-        if self.mode != "force" or self._at_stop is None:
-            stepper.reset(psi3=self._q[2], psi3_dot=self._qd[2], t=self.t)
+        force = self._checked_force(force)
+        m = self.motion
+        if m.mode != "force" or m.at_stop is None:
+            self._stepper.reset(psi3=m.q[2], psi3_dot=m.qd[2], t=m.t)
         self._force_cmd = force
         self._force = force
-        self.mode, self._path, self._target = "force", None, None
+        m.hold_force_mode()
 
     # ---- stepping ------------------------------------------------------------------------------
-    def _ensure_stepper(self):
-        if self._stepper is None:
-            from .forward import FixedStepIntegrator
-
-            self._stepper = FixedStepIntegrator(self.p, self.dt, method=self.integrator_name)
-        return self._stepper
-
-    def step(self) -> ActuatorState:
-        """Advance one step ``dt``; returns the new state."""
-        self._advance_one()
-        return self.state
-
-    def advance(self, n: int) -> None:
-        """Advance ``n`` steps without building a snapshot per step (the real-time loop's way:
-        :attr:`state` builds one, ~20 us)."""
-        for _ in range(n):
-            self._advance_one()
-
     def _advance_one(self) -> None:
-        self.steps += 1
-        self.t = self._t_reset + self.steps * self.dt  # no accumulated round-off
-        if self.mode == "force":
+        m = self.motion
+        m.tick()
+        if m.mode == "force":
             self._step_force()
-        elif self.mode == "stroke" and not self._settled:
-            # past the last segment the end state no longer changes: computed once, then kept
-            if self.t >= self._path.t_end:
-                # every move ends at rest at its target: from its end on, that is the state
-                # exactly (the polynomial at t1 leaves ~1e-14 m/s of round-off)
-                self._settled = True
-                self._set_kinematic(self._target, 0.0, 0.0)
-            else:
-                s, v, a = self._path.at(self.t)  # the segment in force found by bisection
-                self._set_kinematic(s, v, a)
+        elif m.follow():
+            self._force = self._force_now()
         # hold mode (and a settled move) keeps the state reset() or the last step computed
 
     def _flap_acceleration(self, psi3: float, psi3d: float) -> float:
@@ -345,18 +147,18 @@ class ActuatorSim:
     def _leaves_stop(self, stop: str) -> bool:
         """Whether the flap, at rest on ``stop`` (the current state), is pulled away from it: the
         free acceleration points away from the stop (psi3 decreases as the flap opens)."""
-        acc = self._flap_acceleration(self._q[2], 0.0)
+        acc = self._flap_acceleration(self.motion.q[2], 0.0)
         return acc < 0.0 if stop == "closed" else acc > 0.0
 
     def _step_force(self) -> None:
         stepper, f = self._stepper, self._force_cmd
-        if self._at_stop is not None:
+        if self.motion.at_stop is not None:
             # resting on a stop: it stays unless the force pulls the flap away from it
-            if not self._leaves_stop(self._at_stop):
-                self._hold_at(self._at_stop)
+            if not self._leaves_stop(self.motion.at_stop):
+                self._hold_at(self.motion.at_stop)
                 return
-            self._at_stop = None
-            stepper.restore(self.t - self.dt, (self._q[2], 0.0))
+            self.motion.at_stop = None
+            stepper.restore(self.t - self.dt, (self.motion.q[2], 0.0))
         st = None
         if self._whole_steps:
             try:
@@ -371,15 +173,15 @@ class ActuatorSim:
         q = (st.s, st.psi1, st.psi3)
         qd = (st.s_dot, st.psi1_dot, st.psi3_dot)
         psi3dd = self._flap_acceleration(st.psi3, st.psi3_dot)
-        self._q, self._qd = q, qd
-        self._qdd = kin.accelerations_from_flap_scalar(q, qd, psi3dd, self.p)
+        self.motion.q, self.motion.qd = q, qd
+        self.motion.qdd = kin.accelerations_from_flap_scalar(q, qd, psi3dd, self.p)
         self._force = f
 
     def _split_step(self):
-        """This step (from ``self._q``, ``self._qd`` at ``t - dt``) in sub-steps: a contact with
-        a stop is found from the motion, the flap placed on the stop it reaches (perfectly
-        inelastic), and the rest of the step goes on from there (resting on the stop, or leaving
-        it if the force pulls the flap away).
+        """This step (from the motion's state at ``t - dt``) in sub-steps: a contact with a stop is
+        found from the motion, the flap placed on the stop it reaches (perfectly inelastic),
+        and the rest of the step goes on from there (resting on the stop, or leaving it if
+        the force pulls the flap away).
 
         Sub-steps are ``dt / m`` [s] (``m >= 2``, the least with ``dt / m <= MAX_FORCE_STEP``);
         one that fails or ends on or past a stop is halved, down to :data:`SEARCH_LEVELS`
@@ -399,7 +201,7 @@ class ActuatorSim:
         total = self._pieces * top  # the step, in the same units
         unit = self.dt / total
         t_start = self.t - self.dt
-        stepper.restore(t_start, (self._q[2], self._qd[2]))
+        stepper.restore(t_start, (self.motion.q[2], self.motion.qd[2]))
         pos, size, contacts, stop = 0, top, 0, None
         while pos < total:
             if stop is not None:
@@ -407,8 +209,8 @@ class ActuatorSim:
                     return None
                 # pulled away at once: on from rest at the stop, with the largest sub-step
                 # that fits the time already taken
-                stepper.restore(t_start + pos * unit, (self._q[2], 0.0))
-                self._at_stop = stop = None
+                stepper.restore(t_start + pos * unit, (self.motion.q[2], 0.0))
+                self.motion.at_stop = stop = None
                 size = min(top, pos & -pos)
             before = stepper.state
             try:
@@ -447,22 +249,6 @@ class ActuatorSim:
 
     def _hold_at(self, stop: str) -> None:
         s = self.s_min if stop == "closed" else self.s_max
-        self._q, self._qd, self._qdd = kin.kinematic_state_scalar(s, 0.0, 0.0, self.p)
-        self._at_stop = stop
+        self.motion.set_state(s, 0.0, 0.0)
+        self.motion.at_stop = stop
         self._force = self._force_cmd
-
-    def advance_to(self, t: float, max_steps: int | None = None) -> int:
-        """Step until the simulated time reaches ``t`` [s] (at most ``max_steps``); returns the
-        number of steps taken."""
-        n = int(math.floor((t - self.t) / self.dt + 1e-9))
-        if max_steps is not None:
-            n = min(n, max_steps)
-        self.advance(max(n, 0))
-        return max(n, 0)
-
-    def reactions(self) -> dict[str, float]:
-        """Joint reactions of the current state by Newton-Euler [N, N m] (seed's names)."""
-        from .inverse import inverse_dynamics
-
-        res = inverse_dynamics(self._arrays(), self.p, method="newton-euler")
-        return {k: float(np.asarray(v).ravel()[0]) for k, v in res.reactions.items()}

@@ -28,6 +28,11 @@ class AssemblyError(DRSError, ValueError):
     """The loop cannot be closed: no real position solution exists for this input."""
 
 
+class DegenerateGeometryError(AssemblyError):
+    """The pin reaches the pivot (zero length between them) or the pivot lies inside the wheel
+    (:mod:`drs_model.coriolis`)."""
+
+
 class SingularConfigurationError(DRSError, ArithmeticError):
     """The chosen independent coordinate is singular here (det of the dependent Jacobian ~ 0)."""
 

@@ -245,41 +245,41 @@ def projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, u2, w0, w1, w2, c):
     return umu, umw + uh, u0 * q0 + u1 * q1 + u2 * q2
 
 
-def psi3_position(b, c):
-    """``(sin psi3, cos psi3, s, sin psi1, cos psi1, cos^2 psi1)`` at ``psi3 = b`` [rad] on
+def psi3_position(psi3, c):
+    """``(sin psi3, cos psi3, s, sin psi1, cos psi1, cos^2 psi1)`` at ``psi3`` [rad] on
     branch 1 (:func:`flap_position`); ``cos^2 psi1 <= 0``: no assembly."""
-    sb, cb = math.sin(b), math.cos(b)
-    s, sa, ca, ca2 = flap_position(sb, cb, c, 1.0)
-    return sb, cb, s, sa, ca, ca2
+    sin3, cos3 = math.sin(psi3), math.cos(psi3)
+    s, sin1, cos1, cos1_sq = flap_position(sin3, cos3, c, 1.0)
+    return sin3, cos3, s, sin1, cos1, cos1_sq
 
 
-def psi3_acceleration_at(b, bd, force, sb, cb, sa, ca, c):
+def psi3_acceleration_at(psi3, psi3d, force, sin3, cos3, sin1, cos1, c):
     """:func:`psi3_acceleration` at a position already solved by :func:`psi3_position` (the
     compiled driver keeps that position for its step checks); NaN where ``cos psi1 = 0``."""
-    u0, u1, w0, w1 = flap_rates(sa, ca, sb, cb, c)
-    umu, quad, uq0 = projected_dynamics(sa, ca, sb, cb, b, u0, u1, 1.0, w0, w1, 0.0, c)
-    return (uq0 + u0 * force - bd * bd * quad) / umu
+    u0, u1, w0, w1 = flap_rates(sin1, cos1, sin3, cos3, c)
+    umu, quad, uq0 = projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, 1.0, w0, w1, 0.0, c)
+    return (uq0 + u0 * force - psi3d * psi3d * quad) / umu
 
 
-def psi3_acceleration(b, bd, force, c):
-    r"""Formulation (a): ``psi3''`` [rad/s^2] at ``psi3 = b`` [rad], ``psi3' = bd`` [rad/s] under
+def psi3_acceleration(psi3, psi3d, force, c):
+    r"""Formulation (a): ``psi3''`` [rad/s^2] at ``psi3`` [rad], ``psi3' = psi3d`` [rad/s] under
     the piston force [N]; NaN where the loop cannot close (a trial stage the error control
     rejects).
 
     .. math::  \ddot\psi_3 = \frac{u^T Q - \dot\psi_3^2\,(u^T M w + u^T h(q, u))}{u^T M u}
     """
-    sb, cb, _, sa, ca, ca2 = psi3_position(b, c)
-    if not ca2 > 0.0:  # no assembly (or NaN)
+    sin3, cos3, _, sin1, cos1, cos1_sq = psi3_position(psi3, c)
+    if not cos1_sq > 0.0:  # no assembly (or NaN)
         return math.nan
-    return psi3_acceleration_at(b, bd, force, sb, cb, sa, ca, c)
+    return psi3_acceleration_at(psi3, psi3d, force, sin3, cos3, sin1, cos1, c)
 
 
-def psi3_configuration(b, c):
-    """``(s, psi1, u_s, u_psi1)`` at ``psi3 = b`` [rad] on branch 1: the dependent coordinates
+def psi3_configuration(psi3, c):
+    """``(s, psi1, u_s, u_psi1)`` at ``psi3`` [rad] on branch 1: the dependent coordinates
     [m, rad] and their rates per unit psi3 rate."""
-    sb, cb, s, sa, ca, _ = psi3_position(b, c)
-    u0, u1, _, _ = flap_rates(sa, ca, sb, cb, c)
-    return s, math.asin(min(max(sa, -1.0), 1.0)), u0, u1
+    sin3, cos3, s, sin1, cos1, _ = psi3_position(psi3, c)
+    u0, u1, _, _ = flap_rates(sin1, cos1, sin3, cos3, c)
+    return s, math.asin(min(max(sin1, -1.0), 1.0)), u0, u1
 
 
 def fused_force(s, sd, sdd, c):

@@ -45,7 +45,6 @@ from .constraints import (
 )
 from .errors import (
     AssemblyError,
-    ConvergenceError,
     InputError,
     SingularConfigurationError,
     StrokeRangeError,
@@ -161,29 +160,10 @@ def newton_position(
     return NewtonResult(q, ok, maxiter, res, "converged" if ok else "maximum iterations reached")
 
 
-def solve_position_newton(s, q_guess, p: DRSParams, tol: float = 1e-13) -> np.ndarray:
-    """Like :func:`newton_position` with ``s`` independent, raising :class:`ConvergenceError`."""
-    q0 = np.array(q_guess, dtype=float, copy=True)
-    q0[..., S] = s
-    out = newton_position(q0, p, "s", tol=tol)
-    if not out.converged:
-        raise ConvergenceError(
-            f"Newton position solve failed at s={s!r} m: {out.message} "
-            f"(|Phi| = {out.residual:.3g} m)"
-        )
-    return out.q
-
-
 # ---- singular configurations --------------------------------------------------------------------
 def singular_strokes(p: DRSParams) -> np.ndarray:
     """Real strokes [m] where B, C, D align (the s-parametrisation is singular), sorted."""
     return np.array(p.singular_strokes)
-
-
-def singular_configurations(p: DRSParams) -> np.ndarray:
-    """``q`` at each real singular stroke, shape ``(n, 3)`` (branches 1 and 2 coincide there)."""
-    s = singular_strokes(p)
-    return solve_position(s, p, branch=1) if s.size else np.zeros((0, 3))
 
 
 def dead_centre(p: DRSParams) -> float:
@@ -258,14 +238,6 @@ def kinematic_state(s, sd, sdd, p: DRSParams, branch: int = 1) -> KinematicState
     return KinematicState(q, qd, qdd)
 
 
-def kinematic_state_from_flap(psi3, psi3d, psi3dd, p: DRSParams, branch: int = 1) -> KinematicState:
-    """``(q, qd, qdd)`` with the flap angle as the independent coordinate (regular everywhere)."""
-    q = solve_position_from_flap_angle(psi3, p, branch)
-    qd = solve_velocity(q, psi3d, p, "psi3")
-    qdd = solve_acceleration(q, qd, psi3dd, p, "psi3")
-    return KinematicState(q, qd, qdd)
-
-
 # ---- points -------------------------------------------------------------------------------------
 #: Named points: body (0 piston, 1 link, 2 flap, None ground) and a function of p giving the local
 #: coordinates in the body frame (piston frame at P, link frame RF1 at B, flap frame RF3 at D).
@@ -326,26 +298,6 @@ def point_positions(q, p: DRSParams, names=POINT_NAMES) -> dict[str, np.ndarray]
         else:
             angle = q[..., PSI1] if body == 1 else q[..., PSI3]
             out[name] = _body_origin(q, body, p) + _rotate(angle, local)
-    return out
-
-
-def point_velocities(q, qd, p: DRSParams, names=POINT_NAMES) -> dict[str, np.ndarray]:
-    """Ground velocities [m/s] of the named points, each ``(..., 2)``."""
-    q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
-    table = point_table(p)
-    out = {}
-    zero = np.zeros(np.broadcast_shapes(q.shape, qd.shape)[:-1] + (2,))
-    vp = zero + np.stack([np.zeros_like(qd[..., S]), qd[..., S]], axis=-1)
-    for name in names:
-        body, local = table[name]
-        if body is None:
-            out[name] = zero.copy()
-        elif body == 0:
-            out[name] = vp.copy()
-        elif body == 1:
-            out[name] = vp + _cross_z(qd[..., PSI1], _rotate(q[..., PSI1], local))
-        else:
-            out[name] = zero + _cross_z(qd[..., PSI3], _rotate(q[..., PSI3], local))
     return out
 
 

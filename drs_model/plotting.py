@@ -117,6 +117,48 @@ def mechanism_figure(p: DRSParams, strokes, path: str | Path, title: str | None 
 
 
 # ---- Coriolis examples (seed 000) -------------------------------------------------------------
+def _collar_map(
+    example: CollarExample, surface, sym: str, unit: str, value: float, rates: str, dpi: int
+):
+    """One quantity's figure: its contour over ``surface = (r, theta [deg], z)`` with the
+    example-1 point marked (value ``value``), and its surface."""
+    r_map, th_map, z = surface
+    unit_tex = unit.replace("^2", "$^2$")
+    label = rf"${sym}$ [{unit_tex}]"
+    fig = _figure((11.0, 4.6), dpi)
+    ax = fig.add_subplot(1, 2, 1)
+    cs = ax.contour(r_map, th_map, z, levels=14, cmap="viridis")
+    ax.clabel(cs, fontsize=7, fmt="%.3g")
+    ax.plot(
+        example.r,
+        math.degrees(example.theta),
+        "o",
+        color="tab:red",
+        ms=8,
+        label=(
+            f"example 1: r = {example.r:g} m, θ = {math.degrees(example.theta):g}°, "
+            rf"${sym}$ = {value:.4g} {unit_tex}"
+        ),
+    )
+    ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.12), fontsize=8, frameon=False)
+    ax.set_xlabel("distance A-B, r [m]")
+    ax.set_ylabel("rod angle θ [deg]")
+    ax.set_title(f"{label}: contour")
+    ax.grid(True, alpha=0.3)
+    ax3 = fig.add_subplot(1, 2, 2, projection="3d")
+    ax3.plot_surface(r_map, th_map, z, cmap="viridis", linewidth=0, antialiased=False)
+    ax3.scatter(
+        [example.r], [math.degrees(example.theta)], [value], color="tab:red", s=30,
+        depthshade=False,
+    )  # fmt: skip
+    ax3.set_xlabel("r [m]")
+    ax3.set_ylabel("θ [deg]")
+    ax3.set_zlabel(label)
+    ax3.set_title(f"{label}: surface")
+    fig.suptitle(f"Collar B on a rotating rod, fixed-frame ${sym}$ ({rates})", fontsize=10)
+    return fig
+
+
 def plot_collar_maps(
     out_dir,
     example: CollarExample = SEED_COLLAR,
@@ -175,43 +217,7 @@ def plot_collar_maps(
     )
     written = []
     for key, sym, unit, z, value in quantities:
-        unit_tex = unit.replace("^2", "$^2$")
-        label = rf"${sym}$ [{unit_tex}]"
-        fig = _figure((11.0, 4.6), dpi)
-        ax = fig.add_subplot(1, 2, 1)
-        cs = ax.contour(r_map, th_map, z, levels=14, cmap="viridis")
-        ax.clabel(cs, fontsize=7, fmt="%.3g")
-        ax.plot(
-            example.r,
-            math.degrees(example.theta),
-            "o",
-            color="tab:red",
-            ms=8,
-            label=(
-                f"example 1: r = {example.r:g} m, θ = {math.degrees(example.theta):g}°, "
-                rf"${sym}$ = {float(value):.4g} {unit_tex}"
-            ),
-        )
-        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.12), fontsize=8, frameon=False)
-        ax.set_xlabel("distance A-B, r [m]")
-        ax.set_ylabel("rod angle θ [deg]")
-        ax.set_title(f"{label}: contour")
-        ax.grid(True, alpha=0.3)
-        ax3 = fig.add_subplot(1, 2, 2, projection="3d")
-        ax3.plot_surface(r_map, th_map, z, cmap="viridis", linewidth=0, antialiased=False)
-        ax3.scatter(
-            [example.r],
-            [math.degrees(example.theta)],
-            [float(value)],
-            color="tab:red",
-            s=30,
-            depthshade=False,
-        )
-        ax3.set_xlabel("r [m]")
-        ax3.set_ylabel("θ [deg]")
-        ax3.set_zlabel(label)
-        ax3.set_title(f"{label}: surface")
-        fig.suptitle(f"Collar B on a rotating rod, fixed-frame ${sym}$ ({rates})", fontsize=10)
+        fig = _collar_map(example, (r_map, th_map, z), sym, unit, float(value), rates, dpi)
         path = out / f"collar_{key}.png"
         _save(fig, path)
         written.append(path)

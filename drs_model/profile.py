@@ -33,13 +33,20 @@ def quintic_coefficients(
     T = float(duration)
     if not (math.isfinite(T) and T > 0.0):
         raise InputError(f"duration must be a finite number > 0 s, got {duration!r}")
-    h = s1 - s0
-    c0, c1, c2 = s0, v0, a0 / 2.0
-    # the closed-form solution of the 3 end conditions for a3..a5
-    c3 = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T**2) / (2 * T**3)
-    c4 = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T**2) / (2 * T**4)
-    c5 = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T**2) / (2 * T**5)
-    return np.array([c0, c1, c2, c3, c4, c5])
+    c3, c4, c5 = _end_terms(T, T**2, (2 * T**3, 2 * T**4, 2 * T**5), s1 - s0, v0, v1, a0, a1)
+    return np.array([s0, v0, a0 / 2.0, c3, c4, c5])
+
+
+def _end_terms(T, T2, denominators, h, v0, v1, a0, a1):
+    """``a_3, a_4, a_5`` of the quintic: the closed-form solution of its three end conditions
+    over the duration ``T`` [s] and the rise ``h`` [m] (scalars or arrays). ``T2`` is ``T^2``
+    and ``denominators`` ``(2 T^3, 2 T^4, 2 T^5)`` as the caller computes them (``T**k`` for
+    one segment, products for many: each path keeps its own rounding)."""
+    d3, d4, d5 = denominators
+    c3 = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T2) / d3
+    c4 = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T2) / d4
+    c5 = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T2) / d5
+    return c3, c4, c5
 
 
 def shift_polynomial(coeffs: np.ndarray, t0: float) -> np.ndarray:
@@ -181,18 +188,19 @@ _END_SLACK = 1e-12
 
 
 def quintic_coefficients_array(duration, s0, s1, v0=0.0, v1=0.0, a0=0.0, a1=0.0) -> np.ndarray:
-    """:func:`quintic_coefficients` of many segments at once: the same closed form on arrays
-    (broadcast together; ``duration`` [s] > 0, positions [m], velocities [m/s], accelerations
-    [m/s^2], not checked here). Returns shape ``(n, 6)``, local-time coefficients ``a_0..a_5``."""
+    """The quintic coefficients of many segments at once (:func:`quintic_coefficients` is one):
+    the closed-form solution of the six end conditions, on arrays broadcast together
+    (``duration`` [s] > 0, positions [m], velocities [m/s], accelerations [m/s^2], not checked
+    here). Returns shape ``(..., 6)``, local-time coefficients ``a_0..a_5``."""
     T = np.asarray(duration, dtype=float)
     s0, s1, v0, v1, a0, a1 = np.broadcast_arrays(T, s0, s1, v0, v1, a0, a1)[1:]
     h = s1 - s0
     T2, T3 = T * T, T * T * T
     out = np.empty(T.shape + (6,))
     out[..., 0], out[..., 1], out[..., 2] = s0, v0, a0 / 2.0
-    out[..., 3] = (20 * h - (8 * v1 + 12 * v0) * T - (3 * a0 - a1) * T2) / (2 * T3)
-    out[..., 4] = (-30 * h + (14 * v1 + 16 * v0) * T + (3 * a0 - 2 * a1) * T2) / (2 * T3 * T)
-    out[..., 5] = (12 * h - 6 * (v1 + v0) * T + (a1 - a0) * T2) / (2 * T3 * T2)
+    out[..., 3], out[..., 4], out[..., 5] = _end_terms(
+        T, T2, (2 * T3, 2 * T3 * T, 2 * T3 * T2), h, v0, v1, a0, a1
+    )
     return out
 
 
@@ -305,6 +313,53 @@ class TrajectoryPlan:
         return c
 
 
+def _checked_points(times, strokes, limits: tuple[float, float]):
+    """``(t, s)`` as flat float arrays, refused as :func:`plan_trajectory` says."""
+    t = np.asarray(times, dtype=float).ravel()
+    s = np.asarray(strokes, dtype=float).ravel()
+    n = t.size
+    if n == 0 or n > MAX_TRAJECTORY_POINTS or s.size != n:
+        raise InputError(
+            f"a trajectory needs 1..{MAX_TRAJECTORY_POINTS} points with one stroke per time, got "
+            f"{n} times and {s.size} strokes"
+        )
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
+        raise InputError("trajectory times and strokes must be finite")
+    if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
+        raise InputError(
+            f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
+        )
+    lo, hi = limits
+    out = (s < lo - PATH_TOL) | (s > hi + PATH_TOL)
+    if np.any(out):
+        raise StrokeRangeError(
+            f"stroke {float(s[out][0])!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
+        )
+    return t, s
+
+
+def _point_rates(t: np.ndarray, s: np.ndarray, rates):
+    """``(v, derived, n_head)``: the rates [m/s] at the points (given, or the slope across the
+    neighbours with the first one's NaN until the start stroke is known), whether they were
+    derived, and how many first segments depend on the actuator's state."""
+    n = t.size
+    if rates is None:
+        v = np.zeros(n)
+        if n > 1:  # interior points: the slope across the neighbours; the first one's needs
+            v[0] = math.nan  # the start stroke (built when commanded)
+            v[1:-1] = (s[2:] - s[:-2]) / (t[2:] - t[:-2])
+        return v, True, min(n, 2)
+    v = np.asarray(rates, dtype=float).ravel()
+    if v.size != n or not np.all(np.isfinite(v)):
+        raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
+    if v[-1] != 0.0:
+        raise InputError(
+            f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
+            "give 0 (or no velocities)"
+        )
+    return v, False, 1
+
+
 def plan_trajectory(p: DRSParams, times, strokes, rates=None) -> TrajectoryPlan:
     """Validate a trajectory and build what does not depend on the actuator's state.
 
@@ -338,44 +393,10 @@ def plan_trajectory(p: DRSParams, times, strokes, rates=None) -> TrajectoryPlan:
 
     Cost: a few ms for 10,000 points (numpy over all segments at once).
     """
-    t = np.asarray(times, dtype=float).ravel()
-    s = np.asarray(strokes, dtype=float).ravel()
-    n = t.size
-    if n == 0 or n > MAX_TRAJECTORY_POINTS or s.size != n:
-        raise InputError(
-            f"a trajectory needs 1..{MAX_TRAJECTORY_POINTS} points with one stroke per time, got "
-            f"{n} times and {s.size} strokes"
-        )
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(s))):
-        raise InputError("trajectory times and strokes must be finite")
-    if t[0] <= 0.0 or np.any(np.diff(t) <= 0.0):
-        raise InputError(
-            f"trajectory times must increase strictly from > 0 s, got {t.tolist()[:5]}..."
-        )
     limits = stroke_limits(p)
-    lo, hi = limits
-    out = (s < lo - PATH_TOL) | (s > hi + PATH_TOL)
-    if np.any(out):
-        raise StrokeRangeError(
-            f"stroke {float(s[out][0])!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"
-        )
-    derived = rates is None
-    if derived:
-        v = np.zeros(n)
-        if n > 1:  # interior points: the slope across the neighbours; the first one's needs
-            v[0] = math.nan  # the start stroke (built when commanded)
-            v[1:-1] = (s[2:] - s[:-2]) / (t[2:] - t[:-2])
-        n_head = min(n, 2)
-    else:
-        v = np.asarray(rates, dtype=float).ravel()
-        if v.size != n or not np.all(np.isfinite(v)):
-            raise InputError(f"trajectory rates must be {n} finite values, got {v.size}")
-        if v[-1] != 0.0:
-            raise InputError(
-                f"a trajectory must end at rest: the last point's velocity is {v[-1]!r} m/s, "
-                "give 0 (or no velocities)"
-            )
-        n_head = 1
+    t, s = _checked_points(times, strokes, limits)
+    n = t.size
+    v, derived, n_head = _point_rates(t, s, rates)
     t_prev = np.concatenate([[0.0], t[:-1]])
     dur = t - t_prev
     coeffs = np.full((n, 6), math.nan)

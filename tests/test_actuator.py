@@ -138,8 +138,8 @@ def test_scalar_kinematics_equal_the_vectorised(params, s, sd, sdd):
 
 
 def test_force_method_virtual_work_is_still_the_fused_path(params):
-    """The name "virtual-work" meant ActuatorSim's fused path before issue 17 (the node's
-    force_method parameter and recorded bags still say it): it runs the same fused kernel, to the
+    """The name "virtual-work" is read as ActuatorSim's fused path (the node's force_method
+    parameter and recorded bags say it so): it runs the same fused kernel, to the
     bit, and the other formulations agree with it."""
     sims = {m: ActuatorSim(params, force_method=m) for m in ("fused", "virtual-work", "lagrange")}
     for sim in sims.values():
@@ -204,7 +204,7 @@ def test_bad_trajectories_are_refused_and_change_nothing(params, times, strokes,
     assert a.mode == before.mode and a.state.q[0] == before.q[0]
 
 
-# ---- force mode at every allowed physics rate: the stop follows the motion (issue 16) ----------
+# ---- force mode at every allowed physics rate: the stop follows the motion -----------------------
 RATES_DT = (0.01, 0.005, 0.002, 0.001)
 
 
@@ -382,7 +382,7 @@ def test_force_mode_is_deterministic_through_contacts(params):
     assert run() == run()
 
 
-# ---- trajectories: planned outside the tick, followed by bisection (issue 16) ------------------
+# ---- trajectories: planned outside the tick, followed by bisection -------------------------------
 def _wave(params, n, dt=1e-3, period=0.5):
     s_min, s_max = kin.stroke_limits(params)
     t = dt * np.arange(1, n + 1)

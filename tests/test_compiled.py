@@ -18,6 +18,7 @@ import os
 import subprocess
 import sys
 
+import forward_support
 import numpy as np
 import pytest
 
@@ -136,7 +137,7 @@ def test_compiled_psi3_kernel_equals_the_numpy_reference(params):
     got = elementwise.psi3_acceleration(b, bd, f, compiled.psi3_constants(form))
     ref = np.array(
         [
-            fw.reference_rhs(form, 0.0, np.array([x, v]), F)[1]
+            forward_support.reference_rhs(form, 0.0, np.array([x, v]), F)[1]
             for x, v, F in zip(b, bd, f, strict=True)
         ]
     )

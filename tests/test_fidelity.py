@@ -5,18 +5,19 @@ from __future__ import annotations
 
 import math
 
+import kinematics_support
 import numpy as np
 import pytest
 
 from drs_model import DRSParams
 from drs_model import kinematics as kin
 from drs_model.bodies import air_forces, kinetic_energy, potential_energy
+from drs_model.compiled.scalar import compiled_or_plain
 from drs_model.errors import InputError, ParameterError, StiffStepError, UnsupportedCommandError
 from drs_model.fidelity import RUNGS, HydraulicParams, make_rung
 from drs_model.fidelity import hydraulic_kernels as hk
-from drs_model.fidelity.compiled import compiled_kernel
 from drs_model.fidelity.hydraulic import hydraulic_constants
-from drs_model.fidelity.hydraulic_steps import RK4_LIMIT, STEP_METHODS, rk4_step
+from drs_model.fidelity.hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, rk4_step
 from drs_model.inverse import inverse_dynamics
 
 P = DRSParams()
@@ -183,7 +184,7 @@ def test_hydraulic_energy_balance():
     vb = hp.dead_volume_rod_side + hp.rod_side_area * (rung.s_max - q[:, 0])
     compression = (pa * va * np.gradient(pa, t) + pb * vb * np.gradient(pb, t)) / hp.bulk_modulus
     drag, down = air_forces(q[:, 2], P)
-    v_g3 = kin.point_velocities(q, qd, P, ("G3",))["G3"]
+    v_g3 = kinematics_support.point_velocities(q, qd, P, ("G3",))["G3"]
     air = drag * v_g3[:, 0] - down * v_g3[:, 1]
     energy = kinetic_energy(q, qd, P) + potential_energy(q, P)
 
@@ -292,7 +293,7 @@ def test_compiled_steps_equal_the_plain_python(method):
     y[1], y[2], y[4] = -3.0, y[2] + 2e5, 0.3
     args = (0.0, 0.012, 0.5, 0.0121, 0.5, 0.0122, 0.5, 0.0, 210e5, 200e5, 0.0, 1e-4)
     plain = STEP_METHODS[method][0](y, *args, tuple(c), tuple(h))
-    built = compiled_kernel(STEP_METHODS[method][0])(y, *args, c, h)
+    built = compiled_or_plain(STEP_METHODS[method][0], CALLEES)(y, *args, c, h)
     np.testing.assert_allclose(built, plain, rtol=1e-10, atol=1e-12)
     assert np.max(np.abs(plain - y)) > 1.0  # the step moved the state
 
@@ -306,6 +307,11 @@ def test_hydraulic_params_refuse_bad_values():
         HydraulicParams(bulk_modulus=0.0)
     with pytest.raises(ParameterError, match="unknown hydraulic parameter"):
         HydraulicParams().replace(bulk=1.0)
+    # a field no formula read is gone: giving it is an error that names it, never ignored
+    with pytest.raises(ParameterError, match="oil_density: .* no formula"):
+        HydraulicParams(oil_density=850.0)
+    with pytest.raises(ParameterError, match="oil_density: .* no formula"):
+        HydraulicParams().replace(oil_density=850.0)
     # a value the user gives is the value used, even when it equals the derived default
     hp = HydraulicParams(valve_port_ratio=0.75)  # = the default bore's area ratio
     assert hp.port_ratio == 0.75 and hp.replace(bore_diameter=0.02).port_ratio == 0.75

@@ -10,6 +10,7 @@ import math
 import re
 from pathlib import Path
 
+import kinematics_support
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -261,7 +262,7 @@ def test_energy_balance_over_the_failsafe_scene():
     compression = stored(pa, va) + stored(pb, vb)
     cavitation = -hp.vapour_pressure * float((cav_a[-1] - cav_a[0]) + (cav_b[-1] - cav_b[0]))
     drag, down = air_forces(q[:, 2], P)
-    v_g3 = kin.point_velocities(q, qd, P, ("G3",))["G3"]
+    v_g3 = kinematics_support.point_velocities(q, qd, P, ("G3",))["G3"]
     air = drag * v_g3[:, 0] - down * v_g3[:, 1]
     energy = kinetic_energy(q, qd, P) + potential_energy(q, P)
     w_supply = work(supply)

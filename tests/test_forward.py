@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 import re
 
+import forward_support
+import kinematics_support
 import numpy as np
 import pytest
 
@@ -41,8 +43,8 @@ def _closed_rate(params, mforce) -> float:
     f = fw.Psi3Minimal(params)
     b = float(kin.solve_position(kin.stroke_limits(params)[0], params)[2])
     F, h = mforce(0.0), 1e-6
-    ap = fw.reference_rhs(f, 0.0, np.array([b + h, 0.0]), F)[1]
-    am = fw.reference_rhs(f, 0.0, np.array([b - h, 0.0]), F)[1]
+    ap = forward_support.reference_rhs(f, 0.0, np.array([b + h, 0.0]), F)[1]
+    am = forward_support.reference_rhs(f, 0.0, np.array([b - h, 0.0]), F)[1]
     return math.sqrt((ap - am) / (2 * h))
 
 
@@ -63,7 +65,7 @@ def test_scalar_kernels_match_numpy_library(params, name):
             y = form.initial_state(q, qd)
         force = rng.normal(0.0, 1000.0)
         got = form.fun(lambda t, f=force: f)(0.0, y)
-        ref = fw.reference_rhs(form, 0.0, y, force)
+        ref = forward_support.reference_rhs(form, 0.0, y, force)
         np.testing.assert_allclose(got, ref, rtol=1e-11, atol=1e-9)
 
 
@@ -73,7 +75,7 @@ def test_minimal_accelerations_satisfy_the_full_equations(params):
     form = fw.Psi3Minimal(params)
     b, bd, force = 0.8, 25.0, 400.0
     acc = form.accel(b, bd, force)
-    st = kin.kinematic_state_from_flap(b, bd, acc, params)
+    st = kinematics_support.kinematic_state_from_flap(b, bd, acc, params)
     res = (
         bo.mass_matrix(st.q, params) @ st.qdd
         + bo.velocity_forces(st.q, st.qd, params)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 
+import kinematics_support
 import numpy as np
 import pytest
 
@@ -176,14 +177,14 @@ def test_power_of_piston_equals_energy_rate_minus_air_power(params):
     de_dt = (energy(t + h) - energy(t - h)) / (2 * h)
     _, st = dyn.manoeuvre_state(t, params)
     force = dyn.manoeuvre_force(t, params)
-    v3 = kin.point_velocities(st.q, st.qd, params, ("G3",))["G3"]
+    v3 = kinematics_support.point_velocities(st.q, st.qd, params, ("G3",))["G3"]
     drag, down = air_forces(st.q[:, 2], params)
     p_air = drag * v3[:, 0] - down * v3[:, 1]
     assert_close_scaled(force * st.qd[:, 0] + p_air, de_dt, 1e-6)
     # and over the whole rest-to-rest manoeuvre the work of F cancels that of the air
     tt = np.linspace(0.0, params.T_total, 200_001)
     _, st = dyn.manoeuvre_state(tt, params)
-    v3 = kin.point_velocities(st.q, st.qd, params, ("G3",))["G3"]
+    v3 = kinematics_support.point_velocities(st.q, st.qd, params, ("G3",))["G3"]
     drag, down = air_forces(st.q[:, 2], params)
     power = dyn.manoeuvre_force(tt, params) * st.qd[:, 0] + drag * v3[:, 0] - down * v3[:, 1]
     work = np.trapezoid(power, tt)
@@ -387,7 +388,7 @@ def test_bad_inputs_raise_typed_errors(params):
 
 
 def test_dead_centre_raises_singular_configuration(params):
-    q = kin.singular_configurations(params)[0]
+    q = kinematics_support.singular_configurations(params)[0]
     with pytest.raises(SingularConfigurationError, match=r"dead centre"):
         dyn.inverse_dynamics((q, ZERO, ZERO), params, "virtual-work")
     with pytest.raises(SingularConfigurationError, match=r"dead centre"):
@@ -480,7 +481,7 @@ def test_cli_peak_refines_every_extremum(capsys, params):
         ref, values = extreme(fun, x, sign)
         assert d[key] == pytest.approx(ref, rel=1e-9), key
         assert sign * d[key] <= np.min(values) + 1e-12 * abs(ref), key
-    assert d["force_min"] == pytest.approx(-3028.9044487, rel=1e-9)  # issue 11's exact value
+    assert d["force_min"] == pytest.approx(-3028.9044487, rel=1e-9)  # the seed's exact value
 
 
 def test_cli_error_is_one_line(capsys):

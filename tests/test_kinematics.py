@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import kinematics_support
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -47,7 +48,7 @@ def test_singular_strokes_match_seed(params):
     sing = kin.singular_strokes(params)
     # 10 significant digits printed: half a unit of the last digit
     assert sing == pytest.approx(sorted(s for s, _, _ in SEED_SINGULAR), rel=5e-10)
-    q = kin.singular_configurations(params)
+    q = kinematics_support.singular_configurations(params)
     for s, psi1, psi3 in SEED_SINGULAR:
         row = q[np.argmin(np.abs(q[:, 0] - s))]
         assert wrap(row[1] - psi1) == pytest.approx(0.0, abs=1e-9)
@@ -174,7 +175,9 @@ def test_velocities_and_accelerations_against_time_differences(params):
     qp, qm = _trajectory(params, t + h2).q, _trajectory(params, t - h2).q
     np.testing.assert_allclose(st_.qdd, (qp - 2 * st_.q + qm) / h2**2, rtol=1e-4, atol=1.0)
     # the psi3-parametrised route gives the same state
-    alt = kin.kinematic_state_from_flap(st_.q[:, 2], st_.qd[:, 2], st_.qdd[:, 2], params)
+    alt = kinematics_support.kinematic_state_from_flap(
+        st_.q[:, 2], st_.qd[:, 2], st_.qdd[:, 2], params
+    )
     np.testing.assert_allclose(alt.q, st_.q, atol=1e-12)
     np.testing.assert_allclose(alt.qd, st_.qd, rtol=1e-10, atol=1e-10)
     np.testing.assert_allclose(alt.qdd, st_.qdd, rtol=1e-9, atol=1e-6)
@@ -184,7 +187,7 @@ def test_point_kinematics_against_time_differences(params):
     t = np.linspace(0.001, 0.009, 9)
     h = 1e-6
     st_ = _trajectory(params, t)
-    vel = kin.point_velocities(st_.q, st_.qd, params)
+    vel = kinematics_support.point_velocities(st_.q, st_.qd, params)
     acc = kin.point_accelerations(st_.q, st_.qd, st_.qdd, params)
     pos_p = kin.point_positions(_trajectory(params, t + h).q, params)
     pos_0 = kin.point_positions(st_.q, params)
@@ -244,7 +247,7 @@ def test_newton_reports_failure_instead_of_raising(params):
     from drs_model.errors import ConvergenceError
 
     with pytest.raises(ConvergenceError, match=r"Newton position solve failed at s=0\.5 m"):
-        kin.solve_position_newton(0.5, np.array([0.5, 0.0, 0.0]), params)
+        kinematics_support.solve_position_newton(0.5, np.array([0.5, 0.0, 0.0]), params)
 
 
 def test_workspace_traces(params):
@@ -276,7 +279,7 @@ def test_errors(params):
         kin.flap_angle_for_gap(0.5, params)
     with pytest.raises(StrokeRangeError, match=r"stroke 0\.06 m is outside \[s_min, s_max\]"):
         kin.check_stroke(0.06, params)
-    sing = kin.singular_configurations(params)[0]
+    sing = kinematics_support.singular_configurations(params)[0]
     with pytest.raises(SingularConfigurationError, match=r"'s' cannot be the independent"):
         kin.velocity_ratio(sing, params)
     # the psi3 parametrisation is regular at the same configuration

@@ -126,7 +126,7 @@ def test_bad_moves(params):
     quintic_move(params, s_max, 0.01, s0=s_min)
 
 
-# ---- trajectory plans (issue 16): all segments at once, the state-dependent ones apart ---------
+# ---- trajectory plans: all segments at once, the state-dependent ones apart --------------------
 @given(
     n=st.integers(1, 40),
     seed=st.integers(0, 2**31),

@@ -22,7 +22,7 @@ only the compiled RK methods (``dopri5-numba``, ``dop853-numba``) refuse, with
 
 Start-up: numba compiles a function at its first call and keeps the machine code in its on-disk
 cache (``__pycache__`` next to the source); later processes load it. ``make`` fills the cache once
-after installing (``python -m drs_model.compiled``), and so does the test session. Processes that
+after installing (``python -m drs_model.compiled``), and so does the test suite. Processes that
 compile at once are safe: numba writes each cache file under a temporary name and renames it.
 
 Two things to know when changing a kernel:

@@ -260,35 +260,123 @@ def _check_step(t_new, b, h, yn0, yn1, s_new, cos1, min_step, checks):
     return OK, 0.0
 
 
+@jitable
+def _try_step(K, t, b, h_abs, y0, y1, tab_a, tab_c, tab_e, tab_e3, ns, kind, value, mc, mp, kc,
+              rtol, atol, max_step, is853, expo, t_fail):  # fmt: skip
+    """One step from ``(t, y0, y1)`` towards ``b``: try, reject and shrink until the error norm
+    is below 1. Returns ``(status, info, t_fail, t_new, h, h_abs, yn0, yn1, s_new, cos1, nfev,
+    nrejected)``, ``h_abs`` the next step's size; the stages are left in ``K``."""
+    nfev = 0
+    nrej = 0
+    status = OK
+    info = 0.0
+    t_new = h = yn0 = yn1 = s_new = cos1 = 0.0
+    ulp_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+    h_abs = min(max(h_abs, ulp_step), max_step)
+    rejected = False
+    while True:
+        if h_abs < ulp_step:
+            status, info, t_fail = STEP_COLLAPSE, h_abs, t
+            break
+        t_new = min(t + h_abs, b)
+        h = t_new - t
+        h_abs = abs(h)
+        bad, fo, s_new, cos1 = _stages(
+            K, 1, ns + 1, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc
+        )
+        if bad >= 0:
+            nfev += bad
+            status, info, t_fail = NONFINITE_FORCE, fo, t + tab_c[bad] * h
+            break
+        nfev += ns
+        s0, s1 = _combination(K, tab_a, ns, ns)
+        yn0 = y0 + s0 * h
+        yn1 = y1 + s1 * h
+        sc0 = atol[0] + max(abs(y0), abs(yn0)) * rtol
+        sc1 = atol[1] + max(abs(y1), abs(yn1)) * rtol
+        err = _error_norm(K, ns, h, tab_e, tab_e3, sc0, sc1, is853)
+        if err < 1.0:
+            factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err**expo)
+            if rejected:
+                factor = min(1.0, factor)
+            h_abs *= factor
+            break
+        if err != err:  # NaN: a stage outside the assembly range
+            h_abs *= MIN_FACTOR
+        else:
+            h_abs *= max(MIN_FACTOR, SAFETY * err**expo)
+        rejected = True
+        nrej += 1
+    return status, info, t_fail, t_new, h, h_abs, yn0, yn1, s_new, cos1, nfev, nrej
+
+
+@jitable
+def _store_output(K, ns, n_ext, t, h, y0, y1, t_new, yn0, yn1, t_eval, has_eval, ie, t_out,
+                  y_out, n_out, tab_a, tab_c, tab_dense, is853, kind, value, mc, mp,
+                  kc):  # fmt: skip
+    """The accepted step ``t -> t_new`` into the outputs: dense at the requested times
+    ``t_eval`` (``ie`` the next one), or the step itself. Returns ``(t_out, y_out, n_out, ie,
+    nfev)`` (the arrays grown if needed; DOP853's dense output costs three more stages)."""
+    nfev = 0
+    if has_eval:
+        n_eval = t_eval.shape[0]
+        if is853 and ie < n_eval and t_eval[ie] < t_new:  # three more stages
+            _stages(K, ns + 1, n_ext, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc)
+            nfev += n_ext - ns - 1
+        while ie < n_eval and t_eval[ie] <= t_new:
+            if t_eval[ie] == t_new:
+                y_out[0, ie], y_out[1, ie] = yn0, yn1
+            else:
+                y_out[0, ie], y_out[1, ie] = _dense(
+                    K, ns, n_ext, (t_eval[ie] - t) / h, h, y0, y1, yn0, yn1, tab_dense, is853
+                )
+            ie += 1
+        return t_out, y_out, ie, ie, nfev
+    if n_out == t_out.shape[0]:
+        t_out, y_out = _grow(t_out, y_out)
+    t_out[n_out] = t_new
+    y_out[0, n_out], y_out[1, n_out] = yn0, yn1
+    return t_out, y_out, n_out + 1, ie, nfev
+
+
+@jitable
+def _first_output(t_eval, has_eval, t0, y_start0, y_start1):
+    """``(t_out, y_out, n_out)``: the output arrays, for the requested times ``t_eval`` or, to
+    grow, for every step from the start state."""
+    if has_eval:
+        return t_eval.copy(), np.empty((2, t_eval.shape[0])), 0
+    t_out = np.empty(256)
+    y_out = np.empty((2, 256))
+    t_out[0] = t0
+    y_out[0, 0] = y_start0
+    y_out[1, 0] = y_start1
+    return t_out, y_out, 1
+
+
+@jitable
+def _start_segment(K, t, b, y0, y1, kind, value, mc, mp, kc, rtol, atol, err_order, first_step,
+                   max_step, t_fail):  # fmt: skip
+    """A segment's start at ``t``: its force, the first stage in ``K`` and the first step's size.
+    Returns ``(status, info, t_fail, h_abs, nfev)`` (``t_fail`` as given unless it fails)."""
+    fo = _force(t, kind, value, mc, mp)
+    if not math.isfinite(fo):
+        return NONFINITE_FORCE, fo, t, 0.0, 1
+    K[0, 0] = y1
+    K[0, 1] = psi3_acceleration(y0, y1, fo, kc)
+    if first_step > 0.0:
+        return OK, 0.0, t_fail, min(first_step, b - t), 1
+    h_abs, fo = _initial_step(
+        t, b, y0, y1, K[0, 1], kind, value, mc, mp, kc, rtol, atol, err_order, max_step
+    )
+    if not math.isfinite(fo):
+        return NONFINITE_FORCE, fo, t + h_abs, h_abs, 2
+    return OK, 0.0, t_fail, h_abs, 2
+
+
 @jit
-def integrate(
-    y_start0,
-    y_start1,
-    t_eval,
-    has_eval,
-    edges,
-    kinds,
-    values,
-    mc,
-    mp,
-    kc,
-    tab_a,
-    tab_c,
-    tab_e,
-    tab_e3,
-    tab_dense,
-    ns,
-    n_ext,
-    err_order,
-    is853,
-    rtol,
-    atol,
-    first_step,
-    max_step,
-    min_step,
-    checks,
-    max_steps,
-):
+def integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, tab_a,
+              tab_c, tab_e, tab_e3, tab_dense, ns, n_ext, err_order, is853, rtol, atol,
+              first_step, max_step, min_step, checks, max_steps):  # fmt: skip
     """The adaptive RK driver over the segments ``edges`` (see the module docstring).
 
     ``tab_a`` (n_ext, n_ext) holds the stages' coefficients with the weights B in row ``ns``
@@ -301,18 +389,7 @@ def integrate(
     expo = -1.0 / (err_order + 1.0)
     K = np.zeros((n_ext, 3))  # psi3', psi3'', piston force per stage
     b_fail = bd_fail = 0.0
-    n_eval = t_eval.shape[0]
-    if has_eval:
-        t_out = t_eval.copy()
-        y_out = np.empty((2, n_eval))
-        n_out = 0
-    else:
-        t_out = np.empty(256)
-        y_out = np.empty((2, 256))
-        t_out[0] = edges[0]
-        y_out[0, 0] = y_start0
-        y_out[1, 0] = y_start1
-        n_out = 1
+    t_out, y_out, n_out = _first_output(t_eval, has_eval, edges[0], y_start0, y_start1)
     ie = 0
     nfev = 0
     nsteps = 0
@@ -329,61 +406,20 @@ def integrate(
         b = edges[seg + 1]
         kind, value = kinds[seg], values[seg]
         t = edges[seg]
-        fo = _force(t, kind, value, mc, mp)
-        nfev += 1
-        if not math.isfinite(fo):
-            status, info, t_fail = NONFINITE_FORCE, fo, t
+        status, info, t_fail, h_abs, n_f = _start_segment(
+            K, t, b, y0, y1, kind, value, mc, mp, kc, rtol, atol, err_order, first_step, max_step,
+            t_fail,
+        )
+        nfev += n_f
+        if status != OK:
             break
-        K[0, 0] = y1
-        K[0, 1] = psi3_acceleration(y0, y1, fo, kc)
-        if first_step > 0.0:
-            h_abs = min(first_step, b - t)
-        else:
-            h_abs, fo = _initial_step(
-                t, b, y0, y1, K[0, 1], kind, value, mc, mp, kc, rtol, atol, err_order, max_step
-            )
-            nfev += 1
-            if not math.isfinite(fo):
-                status, info, t_fail = NONFINITE_FORCE, fo, t + h_abs
-                break
         while t < b:
-            ulp_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-            h_abs = min(max(h_abs, ulp_step), max_step)
-            rejected = False
-            # ---- one step: try, reject and shrink until the error norm is below 1
-            while True:
-                if h_abs < ulp_step:
-                    status, info, t_fail = STEP_COLLAPSE, h_abs, t
-                    break
-                t_new = min(t + h_abs, b)
-                h = t_new - t
-                h_abs = abs(h)
-                bad, fo, s_new, cos1 = _stages(
-                    K, 1, ns + 1, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc
-                )
-                if bad >= 0:
-                    nfev += bad
-                    status, info, t_fail = NONFINITE_FORCE, fo, t + tab_c[bad] * h
-                    break
-                nfev += ns
-                s0, s1 = _combination(K, tab_a, ns, ns)
-                yn0 = y0 + s0 * h
-                yn1 = y1 + s1 * h
-                sc0 = atol[0] + max(abs(y0), abs(yn0)) * rtol
-                sc1 = atol[1] + max(abs(y1), abs(yn1)) * rtol
-                err = _error_norm(K, ns, h, tab_e, tab_e3, sc0, sc1, is853)
-                if err < 1.0:
-                    factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err**expo)
-                    if rejected:
-                        factor = min(1.0, factor)
-                    h_abs *= factor
-                    break
-                if err != err:  # NaN: a stage outside the assembly range
-                    h_abs *= MIN_FACTOR
-                else:
-                    h_abs *= max(MIN_FACTOR, SAFETY * err**expo)
-                rejected = True
-                nrej += 1
+            status, info, t_fail, t_new, h, h_abs, yn0, yn1, s_new, cos1, n_f, n_r = _try_step(
+                K, t, b, h_abs, y0, y1, tab_a, tab_c, tab_e, tab_e3, ns, kind, value, mc, mp,
+                kc, rtol, atol, max_step, is853, expo, t_fail,
+            )  # fmt: skip
+            nfev += n_f
+            nrej += n_r
             if status != OK:
                 b_fail, bd_fail = y0, y1
                 break
@@ -395,35 +431,11 @@ def integrate(
                 b_fail, bd_fail, t_fail = yn0, yn1, t_new
                 break
             # ---- output: dense at the requested times, or the step itself
-            if has_eval:
-                if is853 and ie < n_eval and t_eval[ie] < t_new:  # three more stages
-                    _stages(K, ns + 1, n_ext, t, h, y0, y1, tab_a, tab_c, kind, value, mc, mp, kc)
-                    nfev += n_ext - ns - 1
-                while ie < n_eval and t_eval[ie] <= t_new:
-                    if t_eval[ie] == t_new:
-                        y_out[0, ie], y_out[1, ie] = yn0, yn1
-                    else:
-                        y_out[0, ie], y_out[1, ie] = _dense(
-                            K,
-                            ns,
-                            n_ext,
-                            (t_eval[ie] - t) / h,
-                            h,
-                            y0,
-                            y1,
-                            yn0,
-                            yn1,
-                            tab_dense,
-                            is853,
-                        )
-                    ie += 1
-                n_out = ie
-            else:
-                if n_out == t_out.shape[0]:
-                    t_out, y_out = _grow(t_out, y_out)
-                t_out[n_out] = t_new
-                y_out[0, n_out], y_out[1, n_out] = yn0, yn1
-                n_out += 1
+            t_out, y_out, n_out, ie, n_f = _store_output(
+                K, ns, n_ext, t, h, y0, y1, t_new, yn0, yn1, t_eval, has_eval, ie, t_out, y_out,
+                n_out, tab_a, tab_c, tab_dense, is853, kind, value, mc, mp, kc,
+            )  # fmt: skip
+            nfev += n_f
             t = t_new
             y0 = yn0
             y1 = yn1

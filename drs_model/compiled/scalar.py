@@ -11,18 +11,30 @@ microseconds per kernel it calls.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 from ..errors import NumbaUnavailableError
 
 
-def compiled_or_plain(fn):
+@cache
+def _register(callees: tuple) -> None:
+    from .jit import jitable
+
+    for fn in callees:
+        jitable(fn)
+
+
+def compiled_or_plain(fn, callees: tuple = ()):
     """``fn`` compiled by numba (one dispatcher per function and process), or ``fn`` itself when
-    numba is not installed."""
+    numba is not installed. ``callees``: the plain functions ``fn`` calls beyond the kernels of
+    :mod:`drs_model.kernels` (the hydraulic rung's), registered with numba first (once)."""
     try:
         from .jit import compiled
     except NumbaUnavailableError:
         return fn
+    _register(tuple(callees))
     return compiled(fn)
 
 

@@ -344,23 +344,11 @@ def simulate_compiled(
     """
     form = psi3_formulation(p, flap_limits, min_cos_psi1)
     return run_formulation(
-        form,
-        force,
-        t_span,
-        method=method,
-        rtol=rtol,
-        atol=atol,
-        t_eval=t_eval,
-        first_step=first_step,
-        max_step=max_step,
-        min_step=min_step,
-        initial=initial,
-        y0=y0,
-        breakpoints=breakpoints,
-        stroke_range=stroke_range,
-        stop_at_dead_centre=stop_at_dead_centre,
-        max_steps=max_steps,
-    )
+        form, force, t_span, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
+        first_step=first_step, max_step=max_step, min_step=min_step, initial=initial, y0=y0,
+        breakpoints=breakpoints, stroke_range=stroke_range,
+        stop_at_dead_centre=stop_at_dead_centre, max_steps=max_steps,
+    )  # fmt: skip
 
 
 def run_formulation(
@@ -405,21 +393,10 @@ def run_formulation(
     if atol is not None:  # hashable, for the plan's cache
         atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
     plan, segments = _plan(
-        form,
-        fobj,
-        method,
-        t0,
-        t1,
-        rtol,
-        atol,
-        first_step,
-        max_step,
-        min_step,
-        tuple(breakpoints),
-        None if stroke_range is None else tuple(stroke_range),
-        bool(stop_at_dead_centre),
-        max_steps,
-    )
+        form, fobj, method, t0, t1, rtol, atol, first_step, max_step, min_step,
+        tuple(breakpoints), None if stroke_range is None else tuple(stroke_range),
+        bool(stop_at_dead_centre), max_steps,
+    )  # fmt: skip
     if t_eval is None:
         te, has_eval = _NO_OUTPUT_TIMES, False
     else:
@@ -436,18 +413,6 @@ def run_formulation(
     n_out = block.shape[1]
     # views into the one block the driver returned (q, qd: (n, 3), Fortran order)
     return Solution(
-        form.name,
-        label,
-        block[0],
-        block[1:3],
-        block[3:6].T,
-        block[6:9].T,
-        np.zeros(n_out),
-        np.zeros(n_out),
-        nfev,
-        0,
-        0,
-        nsteps,
-        list(segments),
-        nrej,
-    )
+        form.name, label, block[0], block[1:3], block[3:6].T, block[6:9].T, np.zeros(n_out),
+        np.zeros(n_out), nfev, 0, 0, nsteps, list(segments), nrej,
+    )  # fmt: skip

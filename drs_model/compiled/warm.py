@@ -1,6 +1,6 @@
 """Compile every numba function of drs_model once, so that later processes load them from numba's
 on-disk cache: ``python -m drs_model.compiled`` (``make`` runs it after installing; the test
-session runs :func:`warm_up` first)."""
+suite runs :func:`warm_up` first)."""
 
 from __future__ import annotations
 

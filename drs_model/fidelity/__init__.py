@@ -1,12 +1,14 @@
 """The fidelity ladder: the DRS actuator at four levels of modelling behind one interface
-(:class:`~drs_model.actuator.ActuatorSim`'s), each no more than a scene needs (docs/fidelity.md).
+(:class:`~drs_model.commanded.CommandedActuator`'s), each no more than a scene needs
+(docs/fidelity.md).
 
 ``kinematic``
     the commanded moves' positions, rates and gap; no forces.
 ``quasi-static``
     plus the piston force of the statics (gravity, air load), no inertia.
 ``rigid``
-    today's model: inverse dynamics along moves, forward dynamics under a force.
+    :class:`~drs_model.actuator.ActuatorSim`: inverse dynamics along moves, forward dynamics
+    under a force.
 ``hydraulic``
     the rigid mechanism driven by a double-acting cylinder, a servo valve and a position servo
     loop (:class:`HydraulicParams`).
@@ -17,7 +19,7 @@ from __future__ import annotations
 from types import MappingProxyType
 
 from ..errors import InputError
-from .base import RungMixin, RungState
+from .base import RungState
 from .hydraulic import HydraulicRung, equilibrium_state, hydraulic_constants
 from .hydraulic_params import HydraulicParams
 from .kinematic import KinematicRung
@@ -53,7 +55,6 @@ __all__ = [
     "KinematicRung",
     "QuasiStaticRung",
     "RigidRung",
-    "RungMixin",
     "RungState",
     "equilibrium_state",
     "hydraulic_constants",

@@ -30,7 +30,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ..errors import InputError, UnsupportedCommandError
+from ..commanded import HYDRAULIC_FAULTS
+from ..errors import InputError
 from .sensor_faults import SensorFaults, StrokeSensor
 
 #: fault name -> (healthy value, what it is). The node's parameters are ``fault.<name>``; faults
@@ -51,7 +52,7 @@ FAULTS = MappingProxyType(
 )
 
 #: The faults only the hydraulic rung models.
-HYDRAULIC_ONLY = ("stuck_valve", "leak_m3_per_s_per_pa", "jam_friction_n")
+HYDRAULIC_ONLY = HYDRAULIC_FAULTS
 
 #: The physical range ``(low, high, why)`` of each numeric fault, in its unit: a value outside is
 #: refused with the range (the booleans are true or false). Beyond each bound the fault models
@@ -85,8 +86,11 @@ def describe_range(name: str) -> str:
     low, high, _ = FAULT_RANGES[name]
     unit = {"_s": " s", "_m": " m", "_n": " N", "_pa": " m^3/(s Pa)"}
     suffix = next((u for end, u in unit.items() if name.endswith(end)), "")
-    return "[" + ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in (low, high)) + (
-        "]" + suffix)
+    return (
+        "["
+        + ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in (low, high))
+        + ("]" + suffix)
+    )
 
 
 class RunFaults:
@@ -122,65 +126,35 @@ class RunFaults:
             raise InputError(
                 f"fault {name} must be in {describe_range(name)} ({why}), got {value!r}"
             )
-        if value == healthy:
+        if value == healthy or name.startswith("sensor."):
             return value
-        rung = getattr(self.sim, "name", "rigid")
-        if name in HYDRAULIC_ONLY and rung != "hydraulic":
-            raise UnsupportedCommandError(
-                f"the {rung!r} rung cannot model fault {name}: it has no valve, oil or "
-                "friction; run fidelity 'hydraulic'"
-            )
-        if name == "supply_loss" and not getattr(self.sim, "has_forces", True):
-            raise UnsupportedCommandError(
-                f"the {rung!r} rung cannot model fault {name}: it models no forces; use "
-                "'quasi-static', 'rigid' or 'hydraulic'"
-            )
-        # the rung's own bound: the sub-steps the stiffness it would have needs per step
-        if name == "jam_friction_n":
-            self.sim.check_stiffness(self.sim.jammed(value))
-        elif name == "leak_m3_per_s_per_pa":
-            self.sim.check_stiffness(self.sim.leaking(value))
+        self.sim.check_fault(name, value)  # what the rung can model, and its own bounds
         return value
 
     def apply(self, name: str, value) -> None:
         """Set fault ``name`` to ``value`` now (at the rung's present step); checked first, and a
         refused value changes nothing."""
         value = self.check(name, value)
-        sim = self.sim
-        hydraulic = getattr(sim, "name", "") == "hydraulic"
-        ramp = self.values["supply_loss_ramp_s"]
-        if name == "supply_loss":
-            if value:
-                if hydraulic:
-                    sim.lose_supply(ramp)
-                else:  # rigid, quasi-static: the documented equivalent, no piston force
-                    sim.lose_supply()
-            elif hydraulic and self.values["supply_loss"]:
-                sim.set_supply_pressure(sim.hydraulic.supply_pressure, ramp)
-        elif name == "stuck_valve":
-            if hydraulic:
-                sim.stick_valve(value)
-        elif name == "leak_m3_per_s_per_pa":
-            if hydraulic:
-                sim.set_leak(value)
-        elif name == "jam_friction_n":
-            if hydraulic:
-                sim.jam(value)
-        elif name == "sensor.frozen":
-            if value and not self.values["sensor.frozen"]:
-                t, s, _, _ = sim.sample()
-                held = self.sensor.read(t, self._step(t), s)
-                # a frozen sensor outputs a value: a dropout at the freezing step holds the
-                # biased stroke instead
-                self.sensor._held = s + self.sensor.faults.bias if math.isnan(held) else held
-                self.sensor.faults = replace(self.sensor.faults, frozen_from=t)
-            elif not value:
-                self.sensor.faults = replace(self.sensor.faults, frozen_from=math.inf)
-        elif name.startswith("sensor."):
-            field = {"sensor.bias_m": "bias", "sensor.noise_std_m": "noise",
-                     "sensor.noise_seed": "seed", "sensor.dropout": "dropout"}[name]  # fmt: skip
-            self.sensor.faults = replace(self.sensor.faults, **{field: value})
+        if name.startswith("sensor."):
+            self._apply_to_sensor(name, value)
+        elif name == "supply_loss" and not value:
+            if self.values["supply_loss"]:  # back on: only a supply that was lost comes back
+                self.sim.apply_fault(name, value, self.values["supply_loss_ramp_s"])
+        elif name != "supply_loss_ramp_s":
+            self.sim.apply_fault(name, value, self.values["supply_loss_ramp_s"])
         self.values[name] = value
+
+    def _apply_to_sensor(self, name: str, value) -> None:
+        if name == "sensor.frozen":
+            if value and not self.values["sensor.frozen"]:
+                t, s, _, _ = self.sim.sample()
+                self.sensor.freeze(t, self._step(t), s)
+            elif not value:
+                self.sensor.thaw()
+            return
+        field = {"sensor.bias_m": "bias", "sensor.noise_std_m": "noise",
+                 "sensor.noise_seed": "seed", "sensor.dropout": "dropout"}[name]  # fmt: skip
+        self.sensor.faults = replace(self.sensor.faults, **{field: value})
 
     def _step(self, t: float) -> int:
         return int(round(t / self.sim.dt))

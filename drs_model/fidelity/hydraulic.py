@@ -22,17 +22,19 @@ import numpy as np
 
 from .. import kernels
 from .. import kinematics as kin
-from ..actuator import ActuatorSim
 from ..bodies import model_constants
+from ..commanded import CommandedActuator
+from ..compiled.scalar import compiled_or_plain
 from ..errors import InputError, StiffStepError, TooStiffError
 from ..inverse import FusedInverseDynamics
 from ..params import DRSParams
 from . import hydraulic_kernels as hk
-from .base import RungMixin, RungState
-from .compiled import compiled_kernel
+from .base import RungState
 from .hydraulic_events import EventLocator
+from .hydraulic_kernels import hydraulic_constants
 from .hydraulic_params import HydraulicParams
-from .hydraulic_steps import RK4_LIMIT, STEP_METHODS, state_rate
+from .hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, state_rate
+from .supply import SupplyPressure
 
 #: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
 #: at any step); at 0.1 ms ``ros2`` keeps the stroke within 3e-5 m of the tight reference on the
@@ -52,50 +54,20 @@ MIN_SUBSTEP = 1e-6
 STIFFNESS_MARGIN = 2.0
 
 
-def hydraulic_constants(hp: HydraulicParams, p: DRSParams) -> tuple[float, ...]:
-    """The constants vector of :mod:`~drs_model.fidelity.hydraulic_kernels` for ``hp`` and the
-    stroke limits of ``p`` (indexed ``AREA_A`` ... ``K_FORCE`` there)."""
-    s_min, s_max = kin.stroke_limits(p)
-    out = [0.0] * hk.N_HYDRAULIC_CONSTANTS
-    out[hk.AREA_A], out[hk.AREA_B] = hp.piston_area, hp.rod_side_area
-    out[hk.VOL_A0], out[hk.VOL_B0] = hp.dead_volume_piston_side, hp.dead_volume_rod_side
-    out[hk.BETA] = hp.bulk_modulus
-    out[hk.K_EDGE], out[hk.PORT_RATIO] = hp.orifice_coefficient, hp.port_ratio
-    out[hk.P_LAMINAR] = hp.valve_laminar_pressure
-    out[hk.LINEAR_LAW] = 1.0 if hp.flow_law == "linear" else 0.0
-    out[hk.Q_NO_LOAD] = hp.no_load_flow
-    out[hk.TAU_SPOOL] = hp.spool_time_constant
-    out[hk.P_RELIEF], out[hk.K_RELIEF] = hp.relief_pressure, hp.relief_flow_gain
-    out[hk.C_LEAK_AB], out[hk.C_LEAK_EXT] = hp.leak_across_piston, hp.leak_to_outside
-    out[hk.P_RETURN] = hp.return_pressure
-    out[hk.C_VISCOUS], out[hk.F_COULOMB] = hp.viscous_friction, hp.coulomb_friction
-    out[hk.F_BREAKAWAY], out[hk.V_STRIBECK] = hp.breakaway_friction, hp.stribeck_velocity
-    out[hk.V_SMOOTH] = hp.friction_smoothing_velocity
-    out[hk.K_STOP], out[hk.C_STOP] = hp.stop_stiffness, hp.stop_damping
-    out[hk.S_MIN], out[hk.S_MAX] = s_min, s_max
-    out[hk.K_POSITION], out[hk.K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
-    out[hk.K_FORCE] = hp.force_gain
-    out[hk.AIR_FRACTION] = hp.entrained_air_fraction
-    out[hk.P_AIR_SATURATION] = hp.air_saturation_pressure
-    out[hk.AIR_INDEX] = hp.air_polytropic_index
-    out[hk.P_VAPOUR] = hp.vapour_pressure
-    return tuple(float(x) for x in out)
-
-
 def equilibrium_state(s: float, p: DRSParams, hp: HydraulicParams, ps: float | None = None):
     """``y = (psi3, 0, p_A, p_B, 0)`` at rest at stroke ``s`` [m]: the chamber pressures give the
     static piston force (:class:`~drs_model.inverse.FusedInverseDynamics` at rest) and sit
     symmetrically about the valve's null, ``p_A + p_B = p_s + p_r``."""
     ps = hp.supply_pressure if ps is None else ps
     force = FusedInverseDynamics.from_params(p).force(s, 0.0, 0.0)
-    a, b = hp.piston_area, hp.rod_side_area
-    pa = (force + (ps + hp.return_pressure) * b) / (a + b)
+    area_a, area_b = hp.piston_area, hp.rod_side_area
+    pa = (force + (ps + hp.return_pressure) * area_b) / (area_a + area_b)
     pb = ps + hp.return_pressure - pa
     psi3 = float(kin.solve_position(s, p)[..., 2])
     return np.array([psi3, 0.0, pa, pb, 0.0])
 
 
-class HydraulicRung(RungMixin, ActuatorSim):
+class HydraulicRung(CommandedActuator):
     """The hydraulic actuator behind the rung interface (module docstring).
 
     Parameters
@@ -134,6 +106,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
     """
 
     name = "hydraulic"
+    state_type = RungState
 
     def __init__(
         self,
@@ -171,6 +144,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self._c = model_constants(p)
         self._h = hydraulic_constants(self.hydraulic, p)
         super().__init__(p, dt, force_limit, integrator, force_method)
+        self.reset()
 
     @property
     def max_substeps(self) -> int:
@@ -184,11 +158,11 @@ class HydraulicRung(RungMixin, ActuatorSim):
 
     @cached_property
     def _step_fn(self):
-        return compiled_kernel(STEP_METHODS[self.method][0])
+        return compiled_or_plain(STEP_METHODS[self.method][0], CALLEES)
 
     @cached_property
     def _rate_fn(self):
-        return compiled_kernel(hk.stiffest_rate)
+        return compiled_or_plain(hk.stiffest_rate, CALLEES)
 
     @cached_property
     def _consts(self):
@@ -201,8 +175,9 @@ class HydraulicRung(RungMixin, ActuatorSim):
         self._y = equilibrium_state(s, self.p, self.hydraulic)
         self._hold_stroke = s
         hp = self.hydraulic
-        self._supply = (float(t), hp.supply_pressure, float(t), hp.supply_pressure)
+        self._supply = SupplyPressure(t, hp.supply_pressure)
         self._spool_held = False
+        self._force_cmd = 0.0
         super().reset(t, s)
         self._update_outputs()
         return self.state
@@ -210,24 +185,25 @@ class HydraulicRung(RungMixin, ActuatorSim):
     def _update_outputs(self) -> None:
         """``q, qd, qdd``, the piston force and the stop from the hydraulic state ``self._y``."""
         c, h = self._c, self._h
-        b, bd, pa, pb, xv = (float(v) for v in self._y)
+        psi3, psi3d, pa, pb, xv = (float(v) for v in self._y)
         s_ref, v_ref = self._reference(self.t)
         ps = self.supply_pressure(self.t)
         mode = hk.MODE_FORCE if self.mode == "force" else hk.MODE_STROKE
         _, bdd, _, _, _ = hk.hydraulic_derivatives(
-            b, bd, pa, pb, xv, mode, s_ref, v_ref, self._force_cmd, ps, float(self._spool_held),
-            c, h,
+            psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, self._force_cmd, ps,
+            float(self._spool_held), c, h,
         )  # fmt: skip
-        s, psi1, _, _ = kernels.psi3_configuration(b, c)
-        q = (s, psi1, b)
+        s, psi1, _, _ = kernels.psi3_configuration(psi3, c)
+        q = (s, psi1, psi3)
         sin1, cos1 = math.sin(psi1), math.cos(psi1)
-        u0, u1, _, _ = kernels.flap_rates(sin1, cos1, math.sin(b), math.cos(b), c)
-        qd = (u0 * bd, u1 * bd, bd)
-        self._q, self._qd = q, qd
-        self._qdd = kin.accelerations_from_flap_scalar(q, qd, bdd, self.p)
+        u0, u1, _, _ = kernels.flap_rates(sin1, cos1, math.sin(psi3), math.cos(psi3), c)
+        qd = (u0 * psi3d, u1 * psi3d, psi3d)
+        m = self.motion
+        m.q, m.qd = q, qd
+        m.qdd = kin.accelerations_from_flap_scalar(q, qd, bdd, self.p)
         pa, pb = hk.chamber_pressure(pa, h), hk.chamber_pressure(pb, h)
         self._force = hk.rod_force(pa, pb, qd[0], h)
-        self._at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
+        m.at_stop = "closed" if s < self.s_min else "open" if s > self.s_max else None
 
     def _state_extras(self) -> dict:
         xv = float(self._y[4])
@@ -268,21 +244,12 @@ class HydraulicRung(RungMixin, ActuatorSim):
     # ---- supply and faults ---------------------------------------------------------------------
     def supply_pressure(self, t: float) -> float:
         """The supply pressure [Pa] at time ``t`` [s] (a ramp between two set values)."""
-        t0, p0, t1, p1 = self._supply
-        if t >= t1:
-            return p1
-        if t <= t0:
-            return p0
-        return p0 + (p1 - p0) * (t - t0) / (t1 - t0)
+        return self._supply.at(t)
 
     def set_supply_pressure(self, pressure: float, ramp_time: float = 0.0) -> None:
         """The supply pressure goes from its present value to ``pressure`` [Pa] over
         ``ramp_time`` [s] from now."""
-        if not (math.isfinite(pressure) and pressure >= 0.0):
-            raise InputError(f"supply pressure must be a finite number >= 0 Pa, got {pressure!r}")
-        if not (math.isfinite(ramp_time) and ramp_time >= 0.0):
-            raise InputError(f"ramp_time must be a finite number >= 0 s, got {ramp_time!r}")
-        self._supply = (self.t, self.supply_pressure(self.t), self.t + ramp_time, float(pressure))
+        self._supply.set(self.t, pressure, ramp_time)
 
     def stick_valve(self, stuck: bool = True) -> None:
         """The spool sticks where it is (``stuck``) or moves again: a stuck valve."""
@@ -359,63 +326,88 @@ class HydraulicRung(RungMixin, ActuatorSim):
     def _rest_at_stops(self) -> tuple[np.ndarray, np.ndarray]:
         return tuple(equilibrium_state(s, self.p, self.hydraulic) for s in (self.s_min, self.s_max))
 
-    def lose_supply(self, ramp_time: float = 0.0, close: bool = True) -> None:
-        """The supply falls to the return pressure over ``ramp_time`` [s]. With ``close`` (the
+    def lose_supply(self, ramp_s: float = 0.0, close: bool = True) -> None:
+        """The supply falls to the return pressure over ``ramp_s`` [s]. With ``close`` (the
         DRS controller's fail-safe reaction) the servo is commanded closed, which opens the
         piston side to return so that the air load can push the oil out; without it the servo
         holds its reference, the valve stays near its null and the trapped oil holds the flap
         (it then moves only as fast as the oil leaks)."""
-        self.set_supply_pressure(self.hydraulic.return_pressure, ramp_time)
+        self.set_supply_pressure(self.hydraulic.return_pressure, ramp_s)
         if close:
             self.command_drs(False)
+
+    def models(self, fault: str) -> bool:
+        """Every fault of :data:`~drs_model.fidelity.faults.FAULTS`: this rung has the oil."""
+        return True
+
+    def check_fault(self, fault: str, value) -> None:
+        """Refuse a jam or a leak that makes the rung too stiff for its step
+        (:meth:`check_stiffness`, a :class:`TooStiffError`)."""
+        if fault == "jam_friction_n":
+            self.check_stiffness(self.jammed(value))
+        elif fault == "leak_m3_per_s_per_pa":
+            self.check_stiffness(self.leaking(value))
+
+    def apply_fault(self, fault: str, value, ramp_s: float = 0.0) -> None:
+        """Fault ``fault`` set to ``value`` now: a supply loss (:meth:`lose_supply`) or its end
+        (the supply rises back over ``ramp_s`` [s]), a stuck valve, a leak, a jam."""
+        if fault == "supply_loss":
+            if value:
+                self.lose_supply(ramp_s)
+            else:
+                self.set_supply_pressure(self.hydraulic.supply_pressure, ramp_s)
+        elif fault == "stuck_valve":
+            self.stick_valve(value)
+        elif fault == "leak_m3_per_s_per_pa":
+            self.set_leak(value)
+        elif fault == "jam_friction_n":
+            self.jam(value)
 
     # ---- commands ------------------------------------------------------------------------------
     def command_force(self, force: float) -> None:
         """The force loop's reference [N] from now on (validated as by ActuatorSim)."""
-        super().command_force(force)
+        self._force_cmd = self._checked_force(force)
+        self.motion.hold_force_mode()
         self._force = self._rod_force()
-        self._at_stop = None
+        self.motion.at_stop = None
 
     def command_stroke(self, target: float, duration: float | None = None):
         """A move of the servo's reference to ``target`` [m], planned from the reference (not
         from the rod, which lags it and may sit a micrometre inside a compliant stop)."""
-        return self._from_reference(ActuatorSim.command_stroke, target, duration)
+        return self.motion.command_stroke(target, duration, start=self._reference_start())
 
     def command_trajectory(self, times, strokes=None, rates=None):
         """A trajectory of the servo's reference, planned from the reference."""
-        return self._from_reference(ActuatorSim.command_trajectory, times, strokes, rates)
+        return self.motion.command_trajectory(times, strokes, rates, start=self._reference_start())
 
-    def _from_reference(self, command, *args):
-        actual = self._q, self._qd, self._qdd
-        if self.mode == "stroke" and self.t < self._path.t_end:
-            s, v, a = self._path.at(self.t)
-        else:
-            s, v, a = min(max(self._reference(self.t)[0], self.s_min), self.s_max), 0.0, 0.0
-        self._q, self._qd, self._qdd = kin.kinematic_state_scalar(s, v, a, self.p)
-        try:
-            return command(self, *args)
-        finally:
-            self._q, self._qd, self._qdd = actual
+    def _reference_start(self) -> tuple[float, float, float]:
+        """``(s, s', s'')`` a new command starts from: the path in force, else the reference
+        at rest inside the stroke range."""
+        m = self.motion
+        if m.mode == "stroke" and m.t < m.path.t_end:
+            return m.path.at(m.t)
+        return min(max(self._reference(m.t)[0], self.s_min), self.s_max), 0.0, 0.0
+
+    def _force_now(self) -> float:
+        return self._rod_force()
 
     def _rod_force(self) -> float:
         pa, pb = self.chamber_pressures()
-        return hk.rod_force(pa, pb, float(self._qd[0]), self._h)
+        return hk.rod_force(pa, pb, float(self.motion.qd[0]), self._h)
 
     def _reference(self, t: float) -> tuple[float, float]:
         """The servo's stroke reference ``(s_ref, v_ref)`` [m, m/s] at ``t`` [s]."""
-        if self.mode == "stroke":
-            if t >= self._path.t_end:
-                return self._target, 0.0
-            s, v, _ = self._path.at(t)
-            return s, v
+        ref = self.motion.reference(t)
+        if ref is not None:
+            return ref[0], ref[1]
         if self.mode == "hold":
             return self._hold_stroke, 0.0
-        return float(self._q[0]), 0.0  # force mode: the position reference is unused
+        return float(self.motion.q[0]), 0.0  # force mode: the position reference is unused
 
     # ---- stepping ------------------------------------------------------------------------------
     def _advance_one(self) -> None:
         t0 = self.t
-        t1 = self._t_reset + (self.steps + 1) * self.dt
+        t1 = self.motion.t_reset + (self.steps + 1) * self.dt
         c, h = self._consts
         y = self._y
         mode = hk.MODE_FORCE if self.mode == "force" else hk.MODE_STROKE
@@ -452,8 +444,7 @@ class HydraulicRung(RungMixin, ActuatorSim):
                 f"the hydraulic state became non-finite in a step of {self.dt:.3g} s "
                 f"({n} sub-steps of {hsub:.3g} s, method {self.method!r}) at t = {t0:.6g} s"
             )
-        self.steps += 1
-        self.t = t1
+        self.motion.tick()  # t1, as computed from the reset time
         self._y = np.asarray(y, dtype=float)
         self._update_outputs()
 
@@ -493,11 +484,11 @@ class HydraulicRung(RungMixin, ActuatorSim):
 
     @cached_property
     def _switch_fn(self):
-        return compiled_kernel(hk.switching_functions)
+        return compiled_or_plain(hk.switching_functions, CALLEES)
 
     @cached_property
     def _rhs_fn(self):
-        return compiled_kernel(state_rate)
+        return compiled_or_plain(state_rate, CALLEES)
 
     @cached_property
     def _events(self) -> EventLocator:

@@ -55,6 +55,7 @@ from __future__ import annotations
 import math
 
 from .. import kernels
+from .. import kinematics as kin
 
 # indices of the hydraulic constants vector (:func:`drs_model.fidelity.hydraulic.constants`)
 AREA_A, AREA_B, VOL_A0, VOL_B0, BETA = 0, 1, 2, 3, 4
@@ -168,11 +169,16 @@ def stop_force(s, sd, h):
     return 0.0
 
 
+def pressure_force(pa, pb, h):
+    """The force [N] of the chamber pressures ``pa``, ``pb`` [Pa] on their areas (along +s)."""
+    return pa * h[AREA_A] - pb * h[AREA_B]
+
+
 def rod_force(pa, pb, sd, h):
     """The force [N] the cylinder gives the rod (along +s) at chamber pressures ``pa``, ``pb``
     [Pa] and rod speed ``sd`` [m/s]: the pressures on their areas less the friction (the stops'
     contact force is the mechanism's, not the cylinder's). The rung's published piston force."""
-    return pa * h[AREA_A] - pb * h[AREA_B] - friction_force(sd, h)
+    return pressure_force(pa, pb, h) - friction_force(sd, h)
 
 
 def chamber_volumes(s, h):
@@ -189,17 +195,17 @@ def servo_command(mode, s, s_ref, v_ref, f_ref, f_hyd, h):
     return min(max(u, -1.0), 1.0)
 
 
-def hydraulic_derivatives(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
+def hydraulic_derivatives(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
     """``d/dt (psi3, psi3', x_A, x_B, x_v)`` (module docstring) at the chamber states ``pa``,
     ``pb`` [Pa] (the pressures while no cavity is open), with the servo references (``s_ref``
     [m], ``v_ref`` [m/s], ``f_ref`` [N]) and the supply pressure ``ps`` [Pa];
     ``spool_held > 0.5`` freezes the spool where it is (a stuck valve). NaN where the mechanism
     does not assemble."""
-    s, _, us, _ = kernels.psi3_configuration(b, c)
-    sd = us * bd
+    s, _, us, _ = kernels.psi3_configuration(psi3, c)
+    sd = us * psi3d
     xa, xb = pa, pb
     pa, pb = chamber_pressure(xa, h), chamber_pressure(xb, h)
-    f_hyd = pa * h[AREA_A] - pb * h[AREA_B]
+    f_hyd = pressure_force(pa, pb, h)
     if spool_held > 0.5:
         x, dx = xv, 0.0
     else:
@@ -217,20 +223,20 @@ def hydraulic_derivatives(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spoo
     dpa = chamber_rate(xa, va, h[AREA_A] * sd, q_a, h)
     dpb = chamber_rate(xb, vb, -h[AREA_B] * sd, q_b, h)
     force = f_hyd - friction_force(sd, h) + stop_force(s, sd, h)
-    return bd, kernels.psi3_acceleration(b, bd, force, c), dpa, dpb, dx
+    return psi3d, kernels.psi3_acceleration(psi3, psi3d, force, c), dpa, dpb, dx
 
 
-def stiffest_rate(b, pa, pb, xv, ps, c, h):
+def stiffest_rate(psi3, pa, pb, xv, ps, c, h):
     """An upper estimate of the fastest rate [1/s] of the linearised hydraulic rung at this
     state: the oil column's natural frequency with the end stop's stiffness added where the rod
     is in contact, ``sqrt((beta (A_A^2 / V_A + A_B^2 / V_B) + k_stop) / m_eff)`` with the
     mechanism's inertia reflected to the rod, ``m_eff = u.M.u / u_s^2``; or the fastest decay
     (spool, friction, pressure relaxation through the valve, leaks and relief), whichever is
     larger."""
-    sb, cb, s, sa, ca, _ = kernels.psi3_position(b, c)
+    sin3, cos3, s, sin1, cos1, _ = kernels.psi3_position(psi3, c)
     pa, pb = chamber_pressure(pa, h), chamber_pressure(pb, h)
-    u0, u1, w0, w1 = kernels.flap_rates(sa, ca, sb, cb, c)
-    umu = kernels.projected_dynamics(sa, ca, sb, cb, b, u0, u1, 1.0, w0, w1, 0.0, c)[0]
+    u0, u1, w0, w1 = kernels.flap_rates(sin1, cos1, sin3, cos3, c)
+    umu = kernels.projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, 1.0, w0, w1, 0.0, c)[0]
     m_eff = umu / (u0 * u0)
     va, vb = chamber_volumes(s, h)
     va, vb = max(va, 1e-3 * h[VOL_A0] + 1e-12), max(vb, 1e-3 * h[VOL_B0] + 1e-12)
@@ -259,7 +265,7 @@ def stiffest_rate(b, pa, pb, xv, ps, c, h):
     return max(omega, decay)
 
 
-def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
+def power_balance(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
     """Powers [W] at one instant: ``(supply, valve_loss, leak_loss, relief_loss, compression,
     piston, friction_loss, stop, cavitation)``, at the chamber states ``pa``, ``pb`` [Pa].
 
@@ -273,11 +279,11 @@ def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, 
     give the piston as they open (negative) and take back as they close. Identity (the
     continuity equations times the pressures): ``supply = valve + leak + relief + compression +
     piston + cavitation``."""
-    s, _, us, _ = kernels.psi3_configuration(b, c)
-    sd = us * bd
+    s, _, us, _ = kernels.psi3_configuration(psi3, c)
+    sd = us * psi3d
     xa, xb = pa, pb
     pa, pb = chamber_pressure(xa, h), chamber_pressure(xb, h)
-    f_hyd = pa * h[AREA_A] - pb * h[AREA_B]
+    f_hyd = pressure_force(pa, pb, h)
     if spool_held > 0.5 or h[TAU_SPOOL] > 0.0:
         x = xv
     else:
@@ -291,7 +297,7 @@ def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, 
     leak = h[C_LEAK_AB] * (pa - pb) ** 2 + h[C_LEAK_EXT] * ((pa - pr) ** 2 + (pb - pr) ** 2)
     relief = relief_flow(pa, h) * (pa - pr) + relief_flow(pb, h) * (pb - pr)
     _, _, dxa, dxb, _ = hydraulic_derivatives(
-        b, bd, xa, xb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h
+        psi3, psi3d, xa, xb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h
     )
     va, vb = chamber_volumes(s, h)
     compression = 0.0
@@ -316,7 +322,7 @@ def power_balance(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, 
     )
 
 
-def switching_functions(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
+def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
     """Where :func:`hydraulic_derivatives` is not smooth, as 15 functions of the state that
     change sign there (a reference that locates them integrates only smooth pieces): the spool
     through the null (where the metering edges open), the servo command at its clips, the four
@@ -324,10 +330,10 @@ def switching_functions(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_
     chamber at its relief pressure and at the vapour pressure, the rod at each stop, and the
     stop's damping reaching zero (a stop never pulls). A function that cannot change sign at
     this state (the damping away from the stop) is 1."""
-    s, _, us, _ = kernels.psi3_configuration(b, c)
-    sd = us * bd
+    s, _, us, _ = kernels.psi3_configuration(psi3, c)
+    sd = us * psi3d
     p_a, p_b = chamber_pressure(pa, h), chamber_pressure(pb, h)
-    f_hyd = p_a * h[AREA_A] - p_b * h[AREA_B]
+    f_hyd = pressure_force(p_a, p_b, h)
     if mode > 0.5:
         u = h[K_FORCE] * (f_ref - f_hyd)
     else:
@@ -350,7 +356,39 @@ def switching_functions(b, bd, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_
     )  # fmt: skip
 
 
-#: Every kernel of this module (registered with numba by :mod:`drs_model.fidelity.compiled`).
+def hydraulic_constants(hp, p) -> tuple[float, ...]:
+    """The constants vector of these kernels for ``hp`` (a
+    :class:`~drs_model.fidelity.hydraulic_params.HydraulicParams`) and the stroke limits of ``p``
+    (a :class:`~drs_model.params.DRSParams`), indexed ``AREA_A`` ... above. Not a kernel: the
+    rung builds it once."""
+    s_min, s_max = kin.stroke_limits(p)
+    out = [0.0] * N_HYDRAULIC_CONSTANTS
+    out[AREA_A], out[AREA_B] = hp.piston_area, hp.rod_side_area
+    out[VOL_A0], out[VOL_B0] = hp.dead_volume_piston_side, hp.dead_volume_rod_side
+    out[BETA] = hp.bulk_modulus
+    out[K_EDGE], out[PORT_RATIO] = hp.orifice_coefficient, hp.port_ratio
+    out[P_LAMINAR] = hp.valve_laminar_pressure
+    out[LINEAR_LAW] = 1.0 if hp.flow_law == "linear" else 0.0
+    out[Q_NO_LOAD] = hp.no_load_flow
+    out[TAU_SPOOL] = hp.spool_time_constant
+    out[P_RELIEF], out[K_RELIEF] = hp.relief_pressure, hp.relief_flow_gain
+    out[C_LEAK_AB], out[C_LEAK_EXT] = hp.leak_across_piston, hp.leak_to_outside
+    out[P_RETURN] = hp.return_pressure
+    out[C_VISCOUS], out[F_COULOMB] = hp.viscous_friction, hp.coulomb_friction
+    out[F_BREAKAWAY], out[V_STRIBECK] = hp.breakaway_friction, hp.stribeck_velocity
+    out[V_SMOOTH] = hp.friction_smoothing_velocity
+    out[K_STOP], out[C_STOP] = hp.stop_stiffness, hp.stop_damping
+    out[S_MIN], out[S_MAX] = s_min, s_max
+    out[K_POSITION], out[K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
+    out[K_FORCE] = hp.force_gain
+    out[AIR_FRACTION] = hp.entrained_air_fraction
+    out[P_AIR_SATURATION] = hp.air_saturation_pressure
+    out[AIR_INDEX] = hp.air_polytropic_index
+    out[P_VAPOUR] = hp.vapour_pressure
+    return tuple(float(x) for x in out)
+
+
+#: Every kernel of this module (registered with numba where a compiled kernel calls it).
 KERNELS = (
     effective_bulk_modulus,
     chamber_pressure,
@@ -362,6 +400,7 @@ KERNELS = (
     relief_flow,
     friction_force,
     stop_force,
+    pressure_force,
     rod_force,
     chamber_volumes,
     servo_command,

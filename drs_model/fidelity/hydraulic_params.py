@@ -11,7 +11,7 @@ Sources of the defaults (SI units throughout):
   Spool lag: a first-order time constant of 0.8 ms (a small servovalve's ~200 Hz bandwidth, the
   class Moog lists for its subminiature valves: an estimate, not a datasheet value).
 * Oil: bulk modulus 1.4 GPa without free air (mineral oil is 1.4-1.8 GPa pure, lower with hose
-  compliance: Merritt, "Hydraulic Control Systems", ch. 2), density 850 kg/m^3.
+  compliance: Merritt, "Hydraulic Control Systems", ch. 2).
 * Entrained air and cavitation (``hydraulic_kernels.effective_bulk_modulus``):
   the oil carries free air bubbles, ``entrained_air_fraction`` of the oil's volume at the air's
   saturation pressure (the pressure at which the oil and its air are in equilibrium: where it was
@@ -62,6 +62,13 @@ from ..params import check_signs, real_number
 FLOW_LAWS = ("orifice", "linear")
 
 
+#: Fields a hydraulic parameter set no longer has, and why: giving one is an error naming it.
+REMOVED_FIELDS = {
+    "oil_density": "the oil's density is no parameter: no formula of the hydraulic rung reads it "
+    "(the orifice law is written with the valve's rated flow and pressure drop)",
+}
+
+
 @dataclass(frozen=True)
 class HydraulicParams:
     """Every constant of the hydraulic rung (module docstring: the sources).
@@ -84,7 +91,6 @@ class HydraulicParams:
     air_polytropic_index: float = 1.0
     #: The oil's vapour pressure [Pa, absolute]: no chamber pressure falls below it.
     vapour_pressure: float = 2e3
-    oil_density: float = 850.0
     bore_diameter: float = 0.016
     rod_diameter: float = 0.008
     dead_volume_piston_side: float = 2e-6
@@ -115,7 +121,7 @@ class HydraulicParams:
     force_gain: float = 1.0 / 2000.0
 
     _POSITIVE = (
-        "bulk_modulus", "oil_density", "bore_diameter", "valve_rated_flow",
+        "bulk_modulus", "bore_diameter", "valve_rated_flow",
         "valve_rated_pressure_drop", "valve_laminar_pressure", "supply_pressure",
         "air_saturation_pressure", "vapour_pressure",
     )  # fmt: skip
@@ -126,6 +132,14 @@ class HydraulicParams:
         "position_gain", "velocity_feedforward", "force_gain", "return_pressure",
         "entrained_air_fraction",
     )  # fmt: skip
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> HydraulicParams:
+        removed = sorted(set(kwargs) & set(REMOVED_FIELDS))
+        if removed:
+            raise ParameterError(
+                "; ".join(f"{name}: {REMOVED_FIELDS[name]}" for name in removed)
+            )
+        return super().__new__(cls)
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -223,6 +237,8 @@ class HydraulicParams:
     def replace(self, **overrides: Any) -> HydraulicParams:
         """A copy with ``overrides`` (validated)."""
         unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(self)})
+        if unknown and set(unknown) <= set(REMOVED_FIELDS):
+            return HydraulicParams(**overrides)  # raises, naming each and why
         if unknown:
             raise ParameterError(
                 f"unknown hydraulic parameter(s) {unknown}; valid names: "

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import hydraulic_kernels
 from .hydraulic_kernels import hydraulic_derivatives
 
 #: Largest ``h * stiffest_rate`` an RK4 step may take (its stability interval is 2.79 on the
@@ -98,5 +99,8 @@ STEP_METHODS = {
     "ros2": (ros2_step, False, 2),
 }
 
-#: Every kernel of this module (registered with numba by :mod:`drs_model.fidelity.compiled`).
+#: Every kernel of this module (registered with numba where a compiled step calls it).
 KERNELS = (state_rate, rk4_step, jacobian, linearly_implicit_euler_step, ros2_step)
+#: What a compiled kernel of the hydraulic rung may call: every function of its two modules
+#: (:func:`drs_model.compiled.scalar.compiled_or_plain` registers them with numba).
+CALLEES = hydraulic_kernels.KERNELS + KERNELS

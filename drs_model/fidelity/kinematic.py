@@ -13,41 +13,58 @@ import math
 
 import numpy as np
 
-from ..actuator import ActuatorSim
-from .base import RungMixin
+from ..commanded import HYDRAULIC_FAULTS, CommandedActuator
+from .base import RungState, refuse
 
 
-class KinematicRung(RungMixin, ActuatorSim):
+class KinematicRung(CommandedActuator):
     """Positions and rates from the commanded moves alone (module docstring)."""
 
     name = "kinematic"
-    has_forces = False
+    state_type = RungState
 
-    def _inverse_force(self) -> float:
+    def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
+        """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are
+        checked and unused: no forward dynamics here, one force formula)."""
+        super().__init__(p, dt, force_limit, **methods)
+        self.reset()
+
+    def _force_now(self) -> float:
         return math.nan
 
+    def _advance_one(self) -> None:
+        self.motion.tick()
+        self.motion.follow()
+
     def command_force(self, force: float) -> None:
-        self.refuse(f"a force command ({force!r} N)")
+        refuse(self.name, f"a force command ({force!r} N)")
+
+    def lose_supply(self, ramp_s: float = 0.0) -> None:
+        refuse(self.name, "a supply loss")
+
+    def models(self, fault: str) -> bool:
+        return fault != "supply_loss" and fault not in HYDRAULIC_FAULTS
 
     def skip_to(self, t: float) -> None:
         """Jump to the step at (or just before) time ``t`` [s] at once: the kinematic rung has no
         state to integrate, its state at any time is the commanded path's."""
-        n = int(math.floor((t - self._t_reset) / self.dt + 1e-9))
-        if n <= self.steps:
+        m = self.motion
+        n = int(math.floor((t - m.t_reset) / self.dt + 1e-9))
+        if n <= m.steps:
             return
-        self.steps = n - 1
+        m.steps = n - 1
         self._advance_one()
 
     def samples(self, times: np.ndarray) -> np.ndarray:
         """The stroke [m] at ``times`` [s] (sorted, none before now and none past the next
         command) from the path in force, on arrays: the batch path of a scene."""
+        m = self.motion
         times = np.asarray(times, dtype=float)
-        s = np.full(times.shape, float(self._q[0]))
-        if self.mode != "stroke" or self._settled:
+        s = np.full(times.shape, float(m.q[0]))
+        if m.mode != "stroke" or m.settled:
             return s
-        path = self._path
-        s[times >= path.t_end] = self._target
-        for seg in path:
+        s[times >= m.path.t_end] = m.target
+        for seg in m.path:
             inside = (times >= seg.t0) & (times < seg.t1)
             if inside.any():
                 s[inside] = seg.evaluate(times[inside])[0]

@@ -14,40 +14,50 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from ..actuator import ActuatorSim
+from ..commanded import CommandedActuator
 from ..inverse import FusedInverseDynamics
-from .base import RungMixin
+from .base import RungState
 
 #: Strokes sampled to find where a force balances the statics (the static force is smooth).
 _GRID = 129
 
 
-class QuasiStaticRung(RungMixin, ActuatorSim):
+class QuasiStaticRung(CommandedActuator):
     """Kinematics and the static piston force (module docstring)."""
 
     name = "quasi-static"
+    state_type = RungState
 
-    def __init__(self, *args, **kwargs) -> None:
-        self._static = None
-        super().__init__(*args, **kwargs)
+    def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
+        """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are
+        checked and unused: no forward dynamics here, one force formula)."""
+        super().__init__(p, dt, force_limit, **methods)
+        self._static = FusedInverseDynamics.from_params(p)
+        self.reset()
 
     def static_force(self, s: float) -> float:
         """The piston force [N] that holds the mechanism at rest at stroke ``s`` [m]."""
-        if self._static is None:
-            self._static = FusedInverseDynamics.from_params(self.p)
         return self._static.force(s, 0.0, 0.0)
 
-    def _inverse_force(self) -> float:
-        return self.static_force(float(self._q[0]))
+    def _force_now(self) -> float:
+        return self.static_force(float(self.motion.q[0]))
+
+    def _advance_one(self) -> None:
+        # in force mode the mechanism stays at rest where the force put it: time passes
+        self.motion.tick()
+        if self.motion.follow():
+            self._force = self._force_now()
 
     def command_force(self, force: float) -> None:
         """The mechanism at rest where ``force`` [N] balances the statics, or on the stop the
         net force pushes it onto (validated like :meth:`ActuatorSim.command_force`)."""
-        super().command_force(force)
-        s = self._equilibrium(float(force), float(self._q[0]))
-        self._set_kinematic(s, 0.0, 0.0)
-        self._force = float(force)
-        self._at_stop = "closed" if s == self.s_min else "open" if s == self.s_max else None
+        force = self._checked_force(force)
+        m = self.motion
+        m.hold_force_mode()
+        s = self._equilibrium(force, float(m.q[0]))
+        m.set_state(s, 0.0, 0.0)
+        self._force = force
+        m.at_stop = "closed" if s == self.s_min else "open" if s == self.s_max else None
 
     def _equilibrium(self, force: float, s0: float) -> float:
         """From ``s0``, the stroke the net force ``force - static(s)`` drives the rod to: the
@@ -64,10 +74,3 @@ class QuasiStaticRung(RungMixin, ActuatorSim):
                 return float(brentq(lambda x: force - self.static_force(x), prev, s, xtol=1e-15))
             prev = s
         return end
-
-    def _advance_one(self) -> None:
-        if self.mode == "force":  # at rest where the force put it: time passes, nothing moves
-            self.steps += 1
-            self.t = self._t_reset + self.steps * self.dt
-            return
-        super()._advance_one()

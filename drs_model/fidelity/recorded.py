@@ -101,8 +101,6 @@ class _Observed:
     """What :class:`RunFaults` reads of a rung to replay its sensor: its name, physics step and
     present sample ``(t, s, psi3, force)`` (the last recorded state)."""
 
-    has_forces = True
-
     def __init__(self, rung: str, dt: float) -> None:
         self.name, self.dt = rung, float(dt)
         self.t = self.s = math.nan

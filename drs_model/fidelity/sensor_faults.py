@@ -8,7 +8,7 @@ so a re-run reproduces every noisy sample and every dropout whatever it sampled 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -67,3 +67,15 @@ class StrokeSensor:
                 value += f.noise * rng.standard_normal()
         self._held = value  # the last reading; from frozen_from on it repeats
         return value
+
+    def freeze(self, t: float, step: int, stroke: float) -> None:
+        """From time ``t`` [s] (physics step ``step``) on, repeat the reading of the true
+        ``stroke`` [m] there; a dropout there holds the biased stroke instead (a frozen sensor
+        outputs a value)."""
+        held = self.read(t, step, stroke)
+        self._held = stroke + self.faults.bias if math.isnan(held) else held
+        self.faults = replace(self.faults, frozen_from=t)
+
+    def thaw(self) -> None:
+        """The sensor reads the stroke again."""
+        self.faults = replace(self.faults, frozen_from=math.inf)

@@ -18,7 +18,6 @@ from .formulations import (
     StrokeMinimal,
     get_formulation,
     manoeuvre_initial_state,
-    reference_rhs,
 )
 from .solution import Solution
 from .solve import COMPILED_METHODS, SCIPY_METHODS, default_atol, simulate
@@ -45,6 +44,5 @@ __all__ = [
     "default_atol",
     "get_formulation",
     "manoeuvre_initial_state",
-    "reference_rhs",
     "simulate",
 ]

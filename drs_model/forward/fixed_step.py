@@ -333,7 +333,7 @@ class FixedStepIntegrator:
             y_new = self.form.project(y_new)
         return tuple(float(v) for v in y_new)
 
-    # ---- a search inside one step (issue 16: ActuatorSim finds where a stop is reached) ---------
+    # ---- a search inside one step (ActuatorSim finds where a stop is reached) ------------------
     def step_by(self, force, h: float) -> StepState:
         """Advance by ``h`` [s] (``0 < h <= dt``) instead of ``dt``: the same method and the same
         checks as :meth:`step`, which it is (raises and keeps the state alike)."""

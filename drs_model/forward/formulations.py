@@ -59,9 +59,8 @@ pin-C reaction on the link. Each formulation below turns these into an ODE ``y' 
 
 All right-hand sides run the scalar ``math`` kernels of :mod:`drs_model.kernels` (numpy's per-call
 overhead on 3-vectors is several microseconds); formulation (a)'s, the one the real-time loop and
-the compiled driver use, is compiled by numba when it is installed. :func:`reference_rhs` gives
-the same right-hand sides from the numpy functions of :mod:`drs_model.bodies`,
-:mod:`drs_model.constraints` and :mod:`drs_model.kinematics`, for tests.
+the compiled driver use, is compiled by numba when it is installed; those of (c) and (d) are in
+:mod:`~drs_model.forward.full_kernel`.
 """
 
 from __future__ import annotations
@@ -75,9 +74,9 @@ from types import MappingProxyType
 import numpy as np
 
 from .. import kernels
-from ..bodies import applied_forces, mass_matrix, model_constants, velocity_forces
+from ..bodies import model_constants
 from ..compiled.scalar import bind
-from ..constraints import constraint, constraint_gamma, constraint_jacobian
+from ..constraints import constraint, constraint_jacobian
 from ..errors import (
     ConstraintDriftError,
     InputError,
@@ -86,23 +85,20 @@ from ..errors import (
 )
 from ..kernels import (
     flap_position,
-    generalised_forces,
-    loop_gamma,
     loop_residual,
-    loop_velocity,
     projected_dynamics,
     stroke_position,
     stroke_rates,
 )
 from ..kinematics import (
     dead_centre,
-    solve_acceleration,
     solve_position,
     solve_position_from_flap_angle,
     stroke_limits,
     velocity_ratio,
 )
 from ..params import DRSParams
+from .full_kernel import make_full_kernel
 
 __all__ = [
     "FORMULATIONS",
@@ -114,86 +110,7 @@ __all__ = [
     "check_options",
     "get_formulation",
     "manoeuvre_initial_state",
-    "reference_rhs",
 ]
-
-
-# ---- scalar right-hand sides ---------------------------------------------------------------------
-def make_full_kernel(c: tuple[float, ...]) -> tuple[Callable, Callable]:
-    """Scalar kernels of the full-coordinate formulations for the constants ``c``
-    (:func:`drs_model.bodies.model_constants`).
-
-    Returns ``accel(y, F, alpha, beta) -> (sdd, psi1dd, psi3dd)`` solving the KKT system of (c)
-    by the Schur complement, and ``project(y, tol, maxiter) -> y`` (formulation (d)).
-    """
-    k = kernels
-    L2, L3, m_l, hl2, M11, M22 = c[k.L2], c[k.L3], c[k.M2], 0.5 * c[k.L2], c[k.M11], c[k.M22]
-    m_ps = c[k.M1] + m_l
-    sin, cos = math.sin, math.cos
-
-    def _schur(sa, ca, sb, cb):
-        # M^-1 for the (s, psi1) block and psi3
-        m01 = -m_l * hl2 * sa
-        det2 = m_ps * M11 - m01 * m01
-        i00, i01, i11, i22 = M11 / det2, -m01 / det2, m_ps / det2, 1.0 / M22
-        # J rows: r1 = [0, L2 ca, L3 sb], r2 = [-1, L2 sa, -L3 cb]; X = M^-1 J^T (columns)
-        x10, x11, x12 = i01 * L2 * ca, i11 * L2 * ca, i22 * L3 * sb
-        x20, x21, x22 = -i00 + i01 * L2 * sa, -i01 + i11 * L2 * sa, -i22 * L3 * cb
-        a11 = L2 * ca * x11 + L3 * sb * x12
-        a12 = L2 * ca * x21 + L3 * sb * x22
-        a22 = -x20 + L2 * sa * x21 - L3 * cb * x22
-        return (i00, i01, i11, i22), (x10, x11, x12, x20, x21, x22), (a11, a12, a22)
-
-    def accel(y, force: float, alpha: float, beta: float):
-        s, a, b, sd, ad, bd = y
-        sa, ca, sb, cb = sin(a), cos(a), sin(b), cos(b)
-        (i00, i01, i11, i22), (x10, x11, x12, x20, x21, x22), (a11, a12, a22) = _schur(
-            sa, ca, sb, cb
-        )
-        f0, f1, f2 = generalised_forces(sa, sb, cb, b, c)
-        f0 += force + m_l * hl2 * ca * ad * ad  # Q - h
-        z0, z1, z2 = i00 * f0 + i01 * f1, i01 * f0 + i11 * f1, i22 * f2  # M^-1 (Q - h)
-        gam1, gam2 = loop_gamma(sa, ca, sb, cb, ad, bd, c)
-        if alpha != 0.0 or beta != 0.0:
-            pd1, pd2 = loop_velocity(sd, sa, ca, sb, cb, ad, bd, c)
-            p1, p2 = loop_residual(s, sa, ca, sb, cb, c)
-            gam1 -= 2.0 * alpha * pd1 + beta * beta * p1
-            gam2 -= 2.0 * alpha * pd2 + beta * beta * p2
-        # (Phi_q M^-1 Phi_q^T) lambda = Phi_q M^-1 (Q - h) - gamma, then qdd = M^-1 (Q - h - Phi_q^T
-        # lambda): lambda is the multiplier of M qdd + h + Phi_q^T lambda = Q
-        r1 = (L2 * ca * z1 + L3 * sb * z2) - gam1
-        r2 = (-z0 + L2 * sa * z1 - L3 * cb * z2) - gam2
-        det = a11 * a22 - a12 * a12
-        lam1 = (a22 * r1 - a12 * r2) / det
-        lam2 = (a11 * r2 - a12 * r1) / det
-        return (
-            z0 - x10 * lam1 - x20 * lam2,
-            z1 - x11 * lam1 - x21 * lam2,
-            z2 - x12 * lam1 - x22 * lam2,
-        )
-
-    def _correction(sa, ca, sb, cb, v1, v2):
-        """``M^-1 Phi_q^T (Phi_q M^-1 Phi_q^T)^-1 v``: the M-metric projection's step."""
-        _, (x10, x11, x12, x20, x21, x22), (a11, a12, a22) = _schur(sa, ca, sb, cb)
-        det = a11 * a22 - a12 * a12
-        l1 = (a22 * v1 - a12 * v2) / det
-        l2 = (a11 * v2 - a12 * v1) / det
-        return x10 * l1 + x20 * l2, x11 * l1 + x21 * l2, x12 * l1 + x22 * l2
-
-    def project(y, tol: float = 1e-15, maxiter: int = 6):
-        s, a, b, sd, ad, bd = (float(v) for v in y)
-        for _ in range(maxiter):
-            sa, ca, sb, cb = sin(a), cos(a), sin(b), cos(b)
-            p1, p2 = loop_residual(s, sa, ca, sb, cb, c)
-            d0, d1, d2 = _correction(sa, ca, sb, cb, p1, p2)
-            s, a, b = s - d0, a - d1, b - d2
-            if max(abs(p1), abs(p2)) <= tol:
-                break
-        sa, ca, sb, cb = sin(a), cos(a), sin(b), cos(b)
-        d0, d1, d2 = _correction(sa, ca, sb, cb, *loop_velocity(sd, sa, ca, sb, cb, ad, bd, c))
-        return s, a, b, sd - d0, ad - d1, bd - d2
-
-    return accel, project
 
 
 # ---- formulations -------------------------------------------------------------------------------
@@ -547,39 +464,6 @@ def check_options(formulation: str, options: Mapping) -> None:
         raise InputError(
             f"unknown option(s) {unknown} for formulation {formulation!r}; valid: {valid}"
         )
-
-
-# ---- numpy reference right-hand sides (for tests) ---------------------------------------------
-def reference_rhs(formulation: Formulation, t: float, y: np.ndarray, force: float) -> np.ndarray:
-    """The right-hand side of ``formulation`` from the numpy library functions (slow, for tests).
-
-    (a)/(b): ``x'' = u.(Q - M w x'^2 - h(q, u) x'^2)/(u.M.u)`` with ``u`` from
-    :func:`velocity_ratio` and ``w`` from :func:`solve_acceleration`; (c)/(d): the 5 x 5 KKT system
-    with :func:`mass_matrix`, :func:`velocity_forces`, :func:`applied_forces`,
-    :func:`constraint_jacobian`, :func:`constraint_gamma`.
-    """
-    p, fl = formulation.p, formulation.flap_limits
-    y = np.asarray(y, dtype=float)
-    if isinstance(formulation, (Psi3Minimal, StrokeMinimal)):
-        ind = "psi3" if isinstance(formulation, Psi3Minimal) else "s"
-        q = solve_position_from_flap_angle(y[0], p) if ind == "psi3" else solve_position(y[0], p)
-        u = velocity_ratio(q, p, ind)
-        w = solve_acceleration(q, u, 0.0, p, ind)
-        m = mass_matrix(q, p)
-        qq = applied_forces(q, force, p, fl)
-        num = u @ qq - y[1] ** 2 * (u @ m @ w + u @ velocity_forces(q, u, p))
-        return np.array([y[1], num / (u @ m @ u)])
-    q, qd = y[:3], y[3:]
-    m = mass_matrix(q, p)
-    jac = constraint_jacobian(q, p)
-    gam = constraint_gamma(q, qd, p)
-    if isinstance(formulation, FullCoordinates) and (formulation.alpha or formulation.beta):
-        gam = gam - 2 * formulation.alpha * (jac @ qd) - formulation.beta**2 * constraint(q, p)
-    kkt = np.zeros((5, 5))
-    kkt[:3, :3], kkt[:3, 3:], kkt[3:, :3] = m, jac.T, jac
-    rhs = np.concatenate([applied_forces(q, force, p, fl) - velocity_forces(q, qd, p), gam])
-    sol = np.linalg.solve(kkt, rhs)
-    return np.concatenate([qd, sol[:3]])
 
 
 def manoeuvre_initial_state(p: DRSParams, s_limits=None) -> tuple[np.ndarray, np.ndarray]:

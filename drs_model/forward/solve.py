@@ -165,95 +165,64 @@ def simulate(
     SingularConfigurationError
         The s formulation approached the dead centre.
     """
+    steps = dict(rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, min_step=min_step)
     if isinstance(method, str) and method in COMPILED_METHODS:
         form, extra = _compiled_formulation(formulation, params, method, formulation_options)
         return _compiled_driver().run_formulation(
-            form,
-            force,
-            t_span,
-            method=COMPILED_METHODS[method],
-            initial=initial,
-            y0=y0,
-            label=method,
-            rtol=rtol,
-            atol=atol,
-            max_step=max_step,
-            first_step=first_step,
-            t_eval=t_eval,
-            min_step=min_step,
-            breakpoints=breakpoints,
-            **extra,
-        )
+            form, force, t_span, method=COMPILED_METHODS[method], initial=initial, y0=y0,
+            label=method, t_eval=t_eval, breakpoints=breakpoints, **steps, **extra,
+        )  # fmt: skip
+    form, base = _scipy_formulation(formulation, params, method, formulation_options)
+    return _simulate_scipy(form, base, method, force, t_span, (y0, initial), t_eval,
+                           breakpoints, steps)  # fmt: skip
+
+
+def _scipy_formulation(formulation, params, method, options: dict):
+    """``(formulation, scipy solver class)`` for ``simulate`` with a scipy method."""
     if isinstance(formulation, Formulation):
-        form = get_formulation(formulation, formulation.p, **formulation_options)
+        form = get_formulation(formulation, formulation.p, **options)
     else:
         if params is None:
             raise InputError("params is required with a formulation name")
-        form = get_formulation(formulation, params, **formulation_options)
-    p = form.p
+        form = get_formulation(formulation, params, **options)
     try:
-        base = SCIPY_METHODS[method]
+        return form, SCIPY_METHODS[method]
     except (KeyError, TypeError):
         raise InputError(
             f"method must be one of {sorted(SCIPY_METHODS) + sorted(COMPILED_METHODS)}, "
             f"got {method!r}"
         ) from None
+
+
+def _simulate_scipy(form, base, method, force, t_span, start, t_eval, breakpoints, steps):
+    """``simulate`` with the scipy solver class ``base`` (guarded): one ``solve_ivp`` per
+    segment between the force's breakpoints (and ``breakpoints``), each restarting from the end
+    of the last (projected if the formulation projects); ``start = (y0, initial)``;
+    ``steps``: the tolerances and step bounds."""
     t0, t1 = time_span(t_span)
+    rtol, atol = steps["rtol"], steps["atol"]
     relative_tolerance(rtol)
     fobj = as_force(force)
-    if y0 is None:
-        q0, qd0 = manoeuvre_initial_state(p) if initial is None else initial
-        y = form.initial_state(q0, qd0)
-    else:
-        y = np.asarray(y0, dtype=float).reshape(form.n_state)
-        form.check(t0, y)
+    y = _initial_state(form, t0, *start)
     atol = default_atol(form, rtol) if atol is None else atol
     cuts = sorted({float(b) for b in (*fobj.breakpoints, *breakpoints) if t0 < b < t1})
     edges = [t0, *cuts, t1]
     te = None if t_eval is None else output_times(t_eval, (t0, t1))
     stats = {"nsteps": 0}
-    solver = _guarded_solver(base, form, float(min_step), stats)
+    options = {
+        "method": _guarded_solver(base, form, float(steps["min_step"]), stats),
+        "rtol": rtol,
+        "atol": atol,
+        "max_step": steps["max_step"],
+        "first_step": steps["first_step"],
+    }
     ts, ys = [], []
-    nfev = njev = nlu = 0
+    counts = [0, 0, 0]  # nfev, njev, nlu
     for k, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
-        want = None
-        if te is not None:
-            want = te[(te >= a if k == 0 else te > a) & (te <= b)]
-            # b is always evaluated: the next segment restarts from it
-            seg_eval = np.append(want[want < b], b)
-        else:
-            seg_eval = None
-        fun = form.fun(fobj.segment(a, b))
-        sol = solve_ivp(
-            fun,
-            (a, b),
-            y,
-            method=solver,
-            t_eval=seg_eval,
-            rtol=rtol,
-            atol=atol,
-            max_step=max_step,
-            first_step=first_step,
-        )
-        nfev += sol.nfev
-        njev += sol.njev
-        nlu += sol.nlu
-        if sol.status != 0 or sol.t.size == 0 or sol.t[-1] != b:
-            t_fail = sol.t[-1] if sol.t.size else a
-            if sol.t.size:  # the formulation may know why (e.g. the dead centre of 's')
-                form.check(t_fail, sol.y[:, -1])
-            raise IntegrationError(
-                f"{method} on formulation {form.name!r} failed at t = {t_fail:.9g} s "
-                f"(segment [{a:.6g}, {b:.6g}] s): {sol.message}"
-            )
-        if te is None:
-            keep = slice(None) if k == 0 else slice(1, None)
-            ts.append(sol.t[keep])
-            ys.append(sol.y[:, keep])
-        else:
-            n_keep = sol.t.size if (want.size and want[-1] == b) else sol.t.size - 1
-            ts.append(sol.t[:n_keep])
-            ys.append(sol.y[:, :n_keep])
+        sol, keep = _segment(form, fobj, (a, b), y, te, k == 0, options, method)
+        counts = [n + m for n, m in zip(counts, (sol.nfev, sol.njev, sol.nlu), strict=True)]
+        ts.append(sol.t[keep])
+        ys.append(sol.y[:, keep])
         # restart from the end of the segment (projected if the formulation projects)
         y = sol.y[:, -1].copy()
         if form.project is not None:
@@ -263,20 +232,46 @@ def simulate(
     q, qd = form.to_q_qd(y_out)
     res, vres = form.residual(y_out)
     return Solution(
-        form.name,
-        method,
-        t_out,
-        y_out,
-        q,
-        qd,
-        res,
-        vres,
-        nfev,
-        njev,
-        nlu,
-        stats["nsteps"],
+        form.name, method, t_out, y_out, q, qd, res, vres, *counts, stats["nsteps"],
         list(zip(edges[:-1], edges[1:], strict=True)),
-    )
+    )  # fmt: skip
+
+
+def _initial_state(form, t0: float, y0, initial):
+    """The formulation's initial state: ``y0`` (checked), else from ``initial = (q0, qd0)``,
+    else at rest at the manoeuvre's closed stroke."""
+    if y0 is None:
+        q0, qd0 = manoeuvre_initial_state(form.p) if initial is None else initial
+        return form.initial_state(q0, qd0)
+    y = np.asarray(y0, dtype=float).reshape(form.n_state)
+    form.check(t0, y)
+    return y
+
+
+def _segment(form, fobj, span, y, te, first: bool, options: dict, method):
+    """``(sol, keep)``: ``solve_ivp`` over ``span = (a, b)`` from ``y`` and the slice of its
+    samples to keep (the output times in the segment; every step without ``te``, the first
+    sample only in the first segment). A failed segment raises :class:`IntegrationError` (or
+    the formulation's own error, e.g. the dead centre of ``s``)."""
+    a, b = span
+    want = seg_eval = None
+    if te is not None:
+        want = te[(te >= a if first else te > a) & (te <= b)]
+        # b is always evaluated: the next segment restarts from it
+        seg_eval = np.append(want[want < b], b)
+    sol = solve_ivp(form.fun(fobj.segment(a, b)), (a, b), y, t_eval=seg_eval, **options)
+    if sol.status != 0 or sol.t.size == 0 or sol.t[-1] != b:
+        t_fail = sol.t[-1] if sol.t.size else a
+        if sol.t.size:  # the formulation may know why (e.g. the dead centre of 's')
+            form.check(t_fail, sol.y[:, -1])
+        raise IntegrationError(
+            f"{method} on formulation {form.name!r} failed at t = {t_fail:.9g} s "
+            f"(segment [{a:.6g}, {b:.6g}] s): {sol.message}"
+        )
+    if te is None:
+        return sol, slice(None) if first else slice(1, None)
+    n_keep = sol.t.size if (want.size and want[-1] == b) else sol.t.size - 1
+    return sol, slice(0, n_keep)
 
 
 _COMPILED_OPTIONS = ("stroke_range", "stop_at_dead_centre", "max_steps")

@@ -65,7 +65,7 @@ _ZERO_DEFAULT_SCALES = {"leak_to_outside": 1e-13}
 
 #: Units of the hydraulic fields, by suffix of meaning (HydraulicParams' docstring: SI).
 _HYDRAULIC_UNITS = {
-    "pressure": "Pa", "bulk_modulus": "Pa", "oil_density": "kg/m^3", "diameter": "m",
+    "pressure": "Pa", "bulk_modulus": "Pa", "diameter": "m",
     "volume": "m^3", "rated_flow": "m^3/s", "time_constant": "s", "flow_gain": "m^3/(s Pa)",
     "leak": "m^3/(s Pa)", "viscous_friction": "N s/m", "friction": "N", "velocity": "m/s",
     "stop_stiffness": "N/m", "stop_damping": "N s/m", "position_gain": "1/m",

@@ -140,6 +140,44 @@ def _refine(times, values, objective):
     return best_t, best
 
 
+def _stop_positions(consts, limits, rows, text):
+    """``(ends, reach)``: at each of the design's stops (``limits``, closed and open strokes
+    [m]) every sample's ``(psi3, sin psi3, h^2)``, and which samples assemble at both; the others'
+    error is written into ``text``."""
+    ends = {}
+    for name, s in zip(("closed", "open"), limits, strict=True):
+        sin1, cos1, sin3, cos3, h2 = elementwise.stroke_position(s, consts, 1.0)
+        ends[name] = (np.arctan2(sin3, cos3), sin3, h2)
+    reach = np.full(rows.size, True)
+    for name, s in zip(("closed", "open"), limits, strict=True):
+        bad = ~(ends[name][2] >= -kernels.ASSEMBLY_TOL)
+        for j in np.flatnonzero(bad & reach):
+            text["error"][rows[j]] = (
+                f"AssemblyError: the loop cannot close at the design's {name} stroke {s!r} m"
+            )
+        reach &= ~bad
+    return ends, reach
+
+
+def _crossings(scene, consts, ends, live, limits, target, out, text) -> None:
+    """The forward runs into ``out`` and ``text``: opening from the closed stop, closing from
+    the open one, under the scene's forces."""
+    s_lo, s_hi = limits
+    psi_closed, psi_open = ends["closed"][0][live], ends["open"][0][live]
+    lo, hi = np.full(live.size, s_lo), np.full(live.size, s_hi)
+    for name, start, goal, stroke_range, up, f in (
+        ("opening", psi_closed, psi_open, (lo - STOP_ALLOWANCE_M, hi), True, scene.opening_force),
+        ("closing", psi_open, psi_closed, (lo, hi + STOP_ALLOWANCE_M), False, scene.closing_force),
+    ):
+        times, outcome, status = crossing.crossing_times(
+            start, goal, consts, stroke_range, up, f, scene.horizon, rtol=scene.rtol
+        )
+        out[f"{name}_time"][target] = times
+        text[f"{name}_status"][target] = [
+            crossing.describe(int(o), int(s)) for o, s in zip(outcome, status, strict=True)
+        ]
+
+
 def evaluate(design: DRSParams, scene: Scene, fields, values) -> dict[str, np.ndarray]:
     """Evaluate the rows ``values`` (n, d) of ``fields`` on ``design``: a dict of the
     :data:`RESULT_COLUMNS` (float64, NaN where not computed) and :data:`TEXT_COLUMNS` (object
@@ -158,20 +196,7 @@ def evaluate(design: DRSParams, scene: Scene, fields, values) -> dict[str, np.nd
     s_dead, t_total = prep.s_dead, prep.t_total
     s_lo, s_hi = stroke_limits(design)
 
-    # ---- the stops: position of each sample's geometry at the design's strokes
-    ends = {}
-    for name, s in (("closed", s_lo), ("open", s_hi)):
-        sin1, cos1, sin3, cos3, h2 = elementwise.stroke_position(s, consts, 1.0)
-        ends[name] = (np.arctan2(sin3, cos3), sin3, h2)
-    reach = np.full(rows.size, True)
-    for name in ("closed", "open"):
-        bad = ~(ends[name][2] >= -kernels.ASSEMBLY_TOL)
-        for j in np.flatnonzero(bad & reach):
-            s = s_lo if name == "closed" else s_hi
-            text["error"][rows[j]] = (
-                f"AssemblyError: the loop cannot close at the design's {name} stroke {s!r} m"
-            )
-        reach &= ~bad
+    ends, reach = _stop_positions(consts, (s_lo, s_hi), rows, text)
 
     # ---- the manoeuvre's force on the grid
     grid = np.linspace(0.0, t_total, scene.grid, axis=1)
@@ -208,18 +233,5 @@ def evaluate(design: DRSParams, scene: Scene, fields, values) -> dict[str, np.nd
         kernels.flap_gap(ends["open"][1][live], gap0, tip) - design.gap_open
     )
 
-    # ---- the forward runs: opening from the closed stop, closing from the open one
-    psi_closed, psi_open = ends["closed"][0][live], ends["open"][0][live]
-    lo, hi = np.full(live.size, s_lo), np.full(live.size, s_hi)
-    for name, start, goal, stroke_range, up, f in (
-        ("opening", psi_closed, psi_open, (lo - STOP_ALLOWANCE_M, hi), True, scene.opening_force),
-        ("closing", psi_open, psi_closed, (lo, hi + STOP_ALLOWANCE_M), False, scene.closing_force),
-    ):
-        times, outcome, status = crossing.crossing_times(
-            start, goal, consts, stroke_range, up, f, scene.horizon, rtol=scene.rtol
-        )
-        out[f"{name}_time"][target] = times
-        text[f"{name}_status"][target] = [
-            crossing.describe(int(o), int(s)) for o, s in zip(outcome, status, strict=True)
-        ]
+    _crossings(scene, consts, ends, live, (s_lo, s_hi), target, out, text)
     return out

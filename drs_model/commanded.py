@@ -1,0 +1,299 @@
+"""The commanded actuator: what every rung of the ladder offers the node and the scene runner
+(commands, stepping, the state snapshot, the faults it models), written once.
+
+:class:`CommandedActuator` is an abstract base in scipy's ``OdeSolver`` manner: it owns a
+:class:`~drs_model.motion.StrokeMotion` (clock, mode, commanded path, kinematic state) and the
+piston force, and a rung supplies what it models differently: :meth:`_force_now` (the force of
+the present motion), :meth:`_advance_one` (one step), :meth:`command_force`, and the faults it
+models (:meth:`models`, :meth:`check_fault`, :meth:`apply_fault`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import kernels
+from . import kinematics as kin
+from .errors import InputError, UnsupportedCommandError
+from .motion import StrokeMotion
+from .params import DRSParams
+from .profile import QuinticPath, QuinticSegment, TrajectoryPlan
+
+#: Why a rung without forces refuses what needs them.
+NO_FORCES = "it models no forces; use 'quasi-static', 'rigid' or 'hydraulic'"
+#: Why a rung without hydraulics refuses a hydraulic fault.
+NO_HYDRAULICS = "it has no valve, oil or friction; run fidelity 'hydraulic'"
+#: The faults of the oil circuit (:data:`drs_model.fidelity.faults.FAULTS`).
+HYDRAULIC_FAULTS = ("stuck_valve", "leak_m3_per_s_per_pa", "jam_friction_n")
+
+
+def check_methods(integrator: str, force_method: str) -> None:
+    """Refuse an unknown force-mode integrator (a key of
+    :data:`drs_model.forward.FIXED_STEP_METHODS`) or inverse-dynamics method, with the valid
+    names: every rung takes the node's names, also one that models neither."""
+    from .forward.fixed_step import FIXED_STEP_METHODS
+    from .inverse import get_method
+
+    get_method(force_method)
+    if integrator not in FIXED_STEP_METHODS:
+        raise InputError(f"method must be one of {sorted(FIXED_STEP_METHODS)}, got {integrator!r}")
+
+
+@dataclass(frozen=True)
+class ActuatorState:
+    """A snapshot of the actuator at simulated time ``t`` [s].
+
+    ``q``, ``qd``, ``qdd`` are ``[s, psi1, psi3]`` and their rates [m, rad; /s; /s^2];
+    ``piston_force`` [N]; ``gap`` [m]; ``at_stop`` is ``"closed"``, ``"open"`` or ``None``.
+    """
+
+    t: float
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    piston_force: float
+    gap: float
+    mode: str
+    at_stop: str | None
+    target: float | None  # target stroke [m] in stroke mode
+    dead_centre_distance: float  # s - s_dead [m]
+    transmission: float  # |cos(psi1 - psi3)|, 0 at the dead centre
+
+
+class CommandedActuator:
+    """The shell of a fixed-step actuator (module docstring).
+
+    Parameters
+    ----------
+    p : DRSParams
+    dt : float
+        Physics step [s], in (0, 0.01].
+    force_limit : float
+        Largest accepted |piston force| command [N].
+    integrator, force_method : str
+        The force-mode integrator and the inverse-dynamics method: checked here (every rung
+        takes the node's names), used by the rungs that have them (:class:`ActuatorSim`).
+    """
+
+    #: The rung's name in :data:`drs_model.fidelity.RUNGS`.
+    name = ""
+    #: The snapshot's type (a subclass adds fields: :class:`drs_model.fidelity.RungState`).
+    state_type = ActuatorState
+
+    def __init__(
+        self,
+        p: DRSParams,
+        dt: float = 1e-3,
+        force_limit: float = 2.0e4,
+        integrator: str = "rk4",
+        force_method: str = "fused",
+    ) -> None:
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.01):
+            raise InputError(f"dt must be a finite number in (0, 0.01] s, got {dt!r}")
+        if not (math.isfinite(force_limit) and force_limit > 0.0):
+            raise InputError(f"force_limit must be a finite number > 0 N, got {force_limit!r}")
+        check_methods(integrator, force_method)
+        self.p = p
+        self.dt = float(dt)
+        self.force_limit = float(force_limit)
+        self.motion = StrokeMotion(p, self.dt)
+        self.s_min, self.s_max = self.motion.s_min, self.motion.s_max
+        self.s_dead = kin.dead_centre(p)
+        self._force = math.nan
+
+    # ---- what a rung supplies ------------------------------------------------------------------
+    def _force_now(self) -> float:
+        """The piston force [N] of the present motion."""
+        raise NotImplementedError
+
+    def _advance_one(self) -> None:
+        """One physics step."""
+        raise NotImplementedError
+
+    def command_force(self, force: float) -> None:
+        """Apply ``force`` [N] from now on."""
+        raise NotImplementedError
+
+    # ---- clock and mode ------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Simulated time [s]."""
+        return self.motion.t
+
+    @t.setter
+    def t(self, value: float) -> None:
+        self.motion.t = float(value)
+
+    @property
+    def steps(self) -> int:
+        """Steps taken since the last :meth:`reset`."""
+        return self.motion.steps
+
+    @property
+    def mode(self) -> str:
+        """``"hold"``, ``"stroke"`` or ``"force"``."""
+        return self.motion.mode
+
+    # ---- state ---------------------------------------------------------------------------------
+    def reset(self, t: float = 0.0, s: float | None = None) -> ActuatorState:
+        """At rest at stroke ``s`` (default closed) at time ``t``, in hold mode."""
+        s = self.s_min if s is None else float(kin.check_stroke(s, self.p))
+        self.motion.reset(t, s)
+        self._force = self._force_now()
+        return self.state
+
+    def _set_kinematic(self, s: float, sd: float, sdd: float) -> None:
+        self.motion.set_state(s, sd, sdd)
+        self._force = self._force_now()
+
+    def _arrays(self) -> kin.KinematicState:
+        m = self.motion
+        return kin.KinematicState(np.array([m.q]), np.array([m.qd]), np.array([m.qdd]))
+
+    def _state_extras(self) -> dict:
+        """The snapshot's fields beyond :class:`ActuatorState`'s."""
+        return {"rung": self.name} if self.name else {}
+
+    @property
+    def state(self) -> ActuatorState:
+        """The snapshot now (~20 us)."""
+        m = self.motion
+        psi1, psi3 = m.q[1], m.q[2]
+        return self.state_type(
+            t=m.t,
+            q=np.array(m.q),
+            qd=np.array(m.qd),
+            qdd=np.array(m.qdd),
+            piston_force=self._force,
+            gap=kernels.flap_gap(math.sin(psi3), *self.p.gap_constants),
+            mode=m.mode,
+            at_stop=m.at_stop,
+            target=m.target,
+            dead_centre_distance=m.q[0] - self.s_dead,
+            transmission=abs(math.cos(psi1 - psi3)),
+            **self._state_extras(),
+        )
+
+    def sample(self) -> tuple[float, float, float, float]:
+        """``(t, s, psi3, piston_force)`` [s, m, rad, N] now, without building the state
+        snapshot: what a scene samples every step."""
+        m = self.motion
+        return m.t, float(m.q[0]), float(m.q[2]), float(self._force)
+
+    def reactions(self) -> dict[str, float]:
+        """Joint reactions of the current state by Newton-Euler [N, N m] (seed's names)."""
+        from .inverse import inverse_dynamics
+
+        res = inverse_dynamics(self._arrays(), self.p, method="newton-euler")
+        return {k: float(np.asarray(v).ravel()[0]) for k, v in res.reactions.items()}
+
+    # ---- commands ------------------------------------------------------------------------------
+    def command_stroke(self, target: float, duration: float | None = None) -> QuinticSegment:
+        """Move smoothly to ``target`` [m] from the current state; refuse a bad target.
+
+        ``duration`` [s] defaults to the seed's opening time scaled by the distance (full stroke in
+        ``T_opening``), at least 2 steps. A move whose path would leave ``[s_min, s_max]`` (large
+        current velocity) is refused.
+        """
+        return self.motion.command_stroke(target, duration)
+
+    def plan_trajectory(self, times, strokes, rates=None) -> TrajectoryPlan:
+        """:func:`drs_model.profile.plan_trajectory` for this actuator's parameters: validate a
+        trajectory and build all of it that does not depend on the actuator's state (all but
+        the first one or two segments), for a later :meth:`command_trajectory` ``(plan)``.
+
+        Reads only the actuator's parameters, which never change: it may run in another thread
+        while the actuator steps (the node: in the subscription callback, outside its tick).
+        Raises as :meth:`command_trajectory` does, except for the first segment(s)' paths.
+        """
+        return self.motion.plan_trajectory(times, strokes, rates)
+
+    def command_trajectory(self, times, strokes=None, rates=None) -> QuinticPath:
+        """Follow a trajectory of the piston: reach ``strokes[k]`` [m] at ``times[k]`` [s from
+        now] with rate ``rates[k]`` [m/s] (default: the mean of the neighbouring slopes, and rest
+        at the last point), through one quintic per interval starting from the current state.
+
+        ``times`` may instead be a :class:`~drs_model.profile.TrajectoryPlan` from
+        :meth:`plan_trajectory` (``strokes`` and ``rates`` then omitted): only the segments
+        that depend on the current state (the first, and with default rates the second) are
+        built and checked here, in microseconds; given arrays, this plans first (a few ms for
+        10,000 points). The result is the same to the bit either way.
+
+        Refused (nothing changes) unless the times strictly increase from > 0, every value is
+        finite, every stroke lies in ``[s_min, s_max]`` and the whole path stays inside it
+        (checked at 65 instants per segment); at most 10,000 points. A trajectory ends at rest:
+        a last point with a non-zero rate is refused (holding a stroke at a speed is no state
+        the mechanism can be in). Where several segments leave the range, the one named is the
+        first of those built without the state, else the first of the others.
+
+        Returns the path followed (a sequence of :class:`QuinticSegment`, built on access).
+        """
+        return self.motion.command_trajectory(times, strokes, rates)
+
+    def command_drs(self, open_flap: bool) -> QuinticSegment:
+        """Open (True) or close (False) with the seed's manoeuvre times."""
+        return self.command_stroke(*self.motion.drs_move(open_flap))
+
+    def _checked_force(self, force: float) -> float:
+        """``force`` [N] as a float; refuse NaN or |F| > force_limit."""
+        force = float(force)
+        if not math.isfinite(force):
+            raise InputError(f"force command must be finite, got {force!r}")
+        if abs(force) > self.force_limit:
+            raise InputError(
+                f"force command {force!r} N is outside "
+                f"[-{self.force_limit:g}, {self.force_limit:g}] N"
+            )
+        return force
+
+    def lose_supply(self, ramp_s: float = 0.0) -> None:
+        """The hydraulic supply fails now: the piston gives no more force (here: a zero force
+        command, the documented equivalent of an ideal piston; the hydraulic rung: the supply
+        pressure falls to the return pressure over ``ramp_s`` [s])."""
+        self.command_force(0.0)
+
+    # ---- stepping ------------------------------------------------------------------------------
+    def step(self) -> ActuatorState:
+        """Advance one step ``dt``; returns the new state."""
+        self._advance_one()
+        return self.state
+
+    def advance(self, n: int) -> None:
+        """Advance ``n`` steps without building a snapshot per step (the real-time loop's way:
+        :attr:`state` builds one, ~20 us)."""
+        for _ in range(n):
+            self._advance_one()
+
+    def advance_to(self, t: float, max_steps: int | None = None) -> int:
+        """Step until the simulated time reaches ``t`` [s] (at most ``max_steps``); returns the
+        number of steps taken."""
+        n = int(math.floor((t - self.t) / self.dt + 1e-9))
+        if max_steps is not None:
+            n = min(n, max_steps)
+        self.advance(max(n, 0))
+        return max(n, 0)
+
+    # ---- faults --------------------------------------------------------------------------------
+    def models(self, fault: str) -> bool:
+        """Whether this actuator can represent ``fault`` (a name of
+        :data:`drs_model.fidelity.faults.FAULTS` other than the sensor's) away from healthy."""
+        return fault not in HYDRAULIC_FAULTS
+
+    def check_fault(self, fault: str, value) -> None:
+        """Refuse an unhealthy ``value`` of ``fault`` this actuator cannot represent
+        (:class:`UnsupportedCommandError`, with the reason)."""
+        if not self.models(fault):
+            why = NO_HYDRAULICS if fault in HYDRAULIC_FAULTS else NO_FORCES
+            raise UnsupportedCommandError(
+                f"the {self.name or 'rigid'!r} rung cannot model fault {fault}: {why}"
+            )
+
+    def apply_fault(self, fault: str, value, ramp_s: float = 0.0) -> None:
+        """Fault ``fault`` set to ``value`` now (checked by :meth:`check_fault`): a supply loss
+        is a zero force from now on (the air load closes the flap); its end changes nothing
+        until the next command; a healthy hydraulic fault changes nothing."""
+        if fault == "supply_loss" and value:
+            self.lose_supply()

@@ -1,0 +1,142 @@
+"""The piston's commanded motion: the clock of a fixed-step actuator, its mode, and the path that
+the stroke commands (a move, the DRS open/close, a trajectory) set and the actuator follows.
+
+Every rung of the ladder owns one :class:`StrokeMotion` (composition, not a base class): the
+kinematic rung reads its state as it is, the others add forces to it. It knows nothing of forces;
+the ``force`` mode is only a name here, set by the rung that models it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import kinematics as kin
+from .errors import InputError, StrokeRangeError
+from .params import DRSParams
+from .profile import QuinticPath, TrajectoryPlan, plan_trajectory, quintic_move
+
+
+class StrokeMotion:
+    """The clock (``t``, ``steps``), the mode (``hold``, ``stroke``, ``force``), the commanded
+    path and the kinematic state ``q, qd, qdd`` (``[s, psi1, psi3]`` and rates [m, rad; /s;
+    /s^2]) of an actuator stepped at ``dt`` [s] with parameters ``p``."""
+
+    def __init__(self, p: DRSParams, dt: float) -> None:
+        self.p = p
+        self.dt = float(dt)
+        self.s_min, self.s_max = kin.stroke_limits(p)
+        self.reset(0.0, self.s_min)
+
+    def reset(self, t: float, s: float) -> None:
+        """At rest at stroke ``s`` [m] (checked by the caller) at time ``t`` [s], in hold mode."""
+        self.t = float(t)
+        self.t_reset = float(t)
+        self.steps = 0
+        self.mode = "hold"
+        self.path: QuinticPath | None = None
+        self.settled = False
+        self.target: float | None = None
+        self.at_stop: str | None = None
+        self.set_state(s, 0.0, 0.0)
+
+    def set_state(self, s: float, sd: float, sdd: float) -> None:
+        """The state of stroke ``s``, rate ``sd``, acceleration ``sdd`` [m, m/s, m/s^2]."""
+        self.q, self.qd, self.qdd = kin.kinematic_state_scalar(s, sd, sdd, self.p)
+
+    def tick(self) -> None:
+        """The clock one step on (from the reset time: no accumulated round-off)."""
+        self.steps += 1
+        self.t = self.t_reset + self.steps * self.dt
+
+    def follow(self) -> bool:
+        """In stroke mode, the state of the path at the present time; whether it changed."""
+        if self.mode != "stroke" or self.settled:
+            return False
+        if self.t >= self.path.t_end:
+            # every move ends at rest at its target: from its end on, that is the state exactly
+            # (the polynomial at t1 leaves ~1e-14 m/s of round-off)
+            self.settled = True
+            self.set_state(self.target, 0.0, 0.0)
+        else:
+            self.set_state(*self.path.at(self.t))  # the segment in force found by bisection
+        return True
+
+    def reference(self, t: float) -> tuple[float, float, float] | None:
+        """``(s, v, a)`` of the path at ``t`` [s] (the target at rest past its end); None outside
+        stroke mode."""
+        if self.mode != "stroke":
+            return None
+        if t >= self.path.t_end:
+            return self.target, 0.0, 0.0
+        return self.path.at(t)
+
+    def start(self) -> tuple[float, float, float]:
+        """``(s, s', s'')`` now: where a new command starts from."""
+        return float(self.q[0]), float(self.qd[0]), float(self.qdd[0])
+
+    # ---- commands ------------------------------------------------------------------------------
+    def command_stroke(self, target: float, duration: float | None = None, start=None):
+        """Move smoothly to ``target`` [m] from ``start`` (``(s, s', s'')``, default the state);
+        refuse a bad target (:meth:`drs_model.actuator.ActuatorSim.command_stroke`)."""
+        target = float(target)
+        if not math.isfinite(target):
+            raise InputError(f"stroke command must be finite, got {target!r}")
+        s0, v0, a0 = self.start() if start is None else start
+        if duration is None:
+            frac = abs(target - s0) / (self.s_max - self.s_min)
+            duration = max(self.p.T_opening * frac, 2 * self.dt)
+        seg = quintic_move(self.p, target, duration, s0, v0, a0, t0=self.t)
+        path = seg.evaluate(np.linspace(seg.t0, seg.t1, 65))[0]
+        if path.min() < self.s_min - 1e-12 or path.max() > self.s_max + 1e-12:
+            raise StrokeRangeError(
+                f"the move to {target!r} m from s = {s0:.6g} m at {v0:.3g} m/s would leave "
+                f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"
+            )
+        self._follow(QuinticPath.of_segment(seg), target)
+        return seg
+
+    def plan_trajectory(self, times, strokes, rates=None) -> TrajectoryPlan:
+        """:func:`drs_model.profile.plan_trajectory` for these parameters (reads nothing else)."""
+        return plan_trajectory(self.p, times, strokes, rates)
+
+    def command_trajectory(self, times, strokes=None, rates=None, start=None) -> QuinticPath:
+        """Follow a trajectory (or a :class:`TrajectoryPlan`) from ``start`` (default the state):
+        :meth:`drs_model.actuator.ActuatorSim.command_trajectory`."""
+        if isinstance(times, TrajectoryPlan):
+            if strokes is not None or rates is not None:
+                raise InputError(
+                    "command_trajectory takes a TrajectoryPlan alone or times and strokes "
+                    "(and rates), not both"
+                )
+            plan = times
+            if plan.limits != (self.s_min, self.s_max):
+                raise InputError(
+                    f"the trajectory plan was checked against [s_min, s_max] = "
+                    f"[{plan.limits[0]:.9g}, {plan.limits[1]:.9g}] m, this actuator's stroke "
+                    f"range is [{self.s_min:.9g}, {self.s_max:.9g}] m: plan it with its params"
+                )
+        else:
+            if strokes is None:
+                raise InputError("command_trajectory needs strokes with its times")
+            plan = plan_trajectory(self.p, times, strokes, rates)
+        head = plan.head(*(self.start() if start is None else start))
+        path = QuinticPath.of_plan(plan, self.t, head)
+        self._follow(path, float(plan.strokes[-1]))
+        return path
+
+    def drs_move(self, open_flap: bool) -> tuple[float, float]:
+        """``(target, duration)`` [m, s] of the seed's open (True) or close (False) manoeuvre."""
+        if open_flap:
+            return self.s_max, self.p.T_opening
+        return self.s_min, self.p.T_closing
+
+    def _follow(self, path: QuinticPath, target: float) -> None:
+        self.path, self.target, self.mode = path, target, "stroke"
+        self.settled = False
+        self.at_stop = None
+
+    def hold_force_mode(self) -> None:
+        """Force mode from now on: no path, no target."""
+        self.mode, self.path, self.target = "force", None, None
