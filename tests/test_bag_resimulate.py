@@ -119,17 +119,17 @@ def test_bad_set_is_refused_with_a_reason(tmp_path):
     assert rc == 2 and "--set expects NAME=VALUE" in err
 
 
-# ---- a RESET is re-run like any other record; the recorded parameters as recorded (issue 16) ---
+# ---- a RESET is re-run like any other record; the recorded parameters as recorded ---
 T0_NS = 1_700_000_000_000_000_000
 
 
 def write_bag_with_a_reset(bag_dir, params) -> dict:
-    """The bag the node recorded, before issue 16, for: stroke 46 mm, then -5 kN at 100 Hz
+    """The bag an older node recorded for: stroke 46 mm, then -5 kN at 100 Hz
     physics (its model raised IntegrationError in the first force step, so the node held the
     flap there and recorded a RESET), then 20 mm, +600 N, -20 kN. Written tick by tick as
     ``DrsNode._tick_locked`` does (one physics step per 10 ms tick), with the node's own message
     helpers: the effect record (command_event_msg), the parameters (parameter_event), the
-    joint states (joint_state_msg). Today's model takes that step, so the RESET is written
+    joint states (joint_state_msg). The current model takes that step, so the RESET is written
     where the node wrote it, with the stroke it held. Returns what was written."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rcl_interfaces.msg import ParameterEvent
@@ -190,7 +190,7 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
             s_before = float(sim.state.q[0])
             if tick == reset_tick:  # as it ran then: the model of the time raised in this step
                 try:
-                    sim.step()  # today's model takes it
+                    sim.step()  # the current model takes it
                 except DRSError:
                     pass
                 hold(now, s_before, "fixed step rk4 (dt = 0.01 s) diverged: non-finite state")

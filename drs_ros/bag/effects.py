@@ -90,8 +90,8 @@ def model_params_from(values: dict[str, object]) -> DRSParams:
     = 0.0144`` a missing ``Iz_wing`` would derive). The outlines (drawing only, never recorded)
     stay the seed's."""
     model = {k.removeprefix("model."): v for k, v in values.items() if k.startswith("model.")}
-    # every recorded value as recorded; a name DRSParams no longer has is skipped: bags recorded
-    # before issue 17 hold wing_span and rho_steel, which the planar model never used
+    # every recorded value as recorded; a name DRSParams no longer has is skipped: older bags
+    # hold wing_span and rho_steel, which the planar model never used
     known = {k: v for k, v in model.items() if k in NUMERIC_FIELDS}
     return from_dict(known) if known else DRSParams()
 
