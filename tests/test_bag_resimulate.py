@@ -60,7 +60,8 @@ def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
     assert check.returncode == 0, check.stdout[-2000:] + check.stderr
     # the re-run's own inverse dynamics: its force follows the lighter model, checked by the
     # independent replay check above; and its params are the changed ones
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
+
     from drs_ros.bag.effects import recorded_model_params
 
     data = read_bag(tmp_path / "light", ["/parameter_events", "/joint_states"])
