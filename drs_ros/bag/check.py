@@ -369,8 +369,8 @@ CHECK_COLUMNS = {
 #: Columns of the printed summary of a fleet.
 SUMMARY_COLUMNS = ("messages", "duration_s", "peak_force_n", "largest_gap_m", "refused_commands",
                    "missed_deadlines")  # fmt: skip
-VERDICTS = {EXIT_OK: "PASS", EXIT_FAILED: "FAIL", EXIT_UNREADABLE: "UNREADABLE",
-            EXIT_RECOVERED: "RECOVERED", EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
+#: The verdict of each exit status of ``drs-bag check``.
+CHECK_VERDICTS = fleet.verdicts(passed="PASS", failed="FAIL")
 
 
 def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
@@ -386,7 +386,7 @@ def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
 
 
 def _row(bag: str, outcome: CheckOutcome, node: BagNode | None) -> dict:
-    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error, node)
+    row = fleet.base_row(bag, outcome.status, CHECK_VERDICTS[outcome.status], outcome.error, node)
     for column in dict.fromkeys(CHECK_COLUMNS.values()):
         row[column] = math.nan
         row[f"{column}_status"] = None

@@ -62,8 +62,8 @@ from .measured import MeasurementError, parse_topic_map, read_measured
 from .nodes import BagNode, NodeSelectionError, add_node_arguments, bag_nodes, select_node
 from .reader import MessageCallbackError
 
-VERDICTS = {EXIT_OK: "FITTED", EXIT_FAILED: "NOT DETERMINED", EXIT_UNREADABLE: "UNREADABLE",
-            EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
+#: The verdict of each exit status of ``drs-bag fit``.
+FIT_VERDICTS = fleet.verdicts(passed="FITTED", failed="NOT DETERMINED")
 #: The verdict of a fit the model refuses (exit status 2, as an unreadable bag).
 REFUSED = "REFUSED"
 
@@ -194,7 +194,7 @@ class FitOutcome:
     verdict: str = ""
 
     def __post_init__(self) -> None:
-        self.verdict = self.verdict or VERDICTS[self.status]
+        self.verdict = self.verdict or FIT_VERDICTS[self.status]
 
 
 def _models(measured, sets):
@@ -311,6 +311,6 @@ def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
     return outcome.status
 
 
-__all__ = ["REFUSED", "VERDICTS", "FitOutcome", "add_arguments", "fit_names_argument",
+__all__ = ["FIT_VERDICTS", "REFUSED", "FitOutcome", "add_arguments", "fit_names_argument",
            "fit_one", "fleet_row", "level_argument", "noise_argument", "run", "set_argument",
            "signals_argument", "topic_map_argument"]
