@@ -263,19 +263,22 @@ def test_a_window_of_a_few_steps_re_runs_as_the_whole_run(monkeypatch):
     of 3 steps instead of 65536 the comparison of the example bag, its notes and the written
     bag's states are the same."""
     require_rclpy()
-    from drs_ros.bag import resimulate as module
+    from drs_ros.bag import deviations
+    from drs_ros.bag import rerun as rerun_module
+    from drs_ros.bag.recorded_run import read_run, run_params
 
     def rerun():
-        run = module.read_run(EXAMPLE)
-        result = module.resimulate(run, module.run_params(run.node_parameters))
+        run = read_run(EXAMPLE)
+        result = rerun_module.resimulate(run, run_params(run.node_parameters))
         written = []
-        tolerances = {name: tol for name, (_unit, tol) in module.SIGNALS.items()}
-        rows = module.compare(run, result, tolerances,
+        tolerances = {name: tol for name, (_unit, tol) in deviations.SIGNALS.items()}
+        rows = deviations.compare(run, result, tolerances,
                               lambda log, m, state: written.append((log, state)))  # fmt: skip
         return rows, result["notes"], written, len(result["states"])
 
     rows, notes, written, held = rerun()
-    monkeypatch.setattr(module, "STATE_WINDOW", 3)
+    monkeypatch.setattr(rerun_module, "STATE_WINDOW", 3)
+    monkeypatch.setattr(deviations, "STATE_WINDOW", 3)
     rows_w, notes_w, written_w, held_w = rerun()
     assert rows_w == rows and notes_w == notes
     assert len(written_w) == len(written) > 500

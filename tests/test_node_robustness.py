@@ -341,7 +341,9 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     assert -2.5e9 < int(jumps[0].values["jump_ns"]) < -1.0e9
     # and the run re-simulates exactly across the jump (states matched to their clock origin
     # in the order the node wrote them)
-    from drs_ros.bag.resimulate import compare, read_run, resimulate, run_params
+    from drs_ros.bag.deviations import compare
+    from drs_ros.bag.recorded_run import read_run, run_params
+    from drs_ros.bag.rerun import resimulate
 
     run = read_run(bag)
     result = resimulate(run, run_params(run.node_parameters))

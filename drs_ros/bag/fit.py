@@ -212,7 +212,7 @@ def _simulation(measured, rung, p, hp):
     """The re-simulation of the node's commands, or None (with the reason in the measurement's
     notes) where the bag cannot be re-run."""
     from .fit_rerun import RunResimulation
-    from .resimulate import ResimulationError, read_run
+    from .recorded_run import ResimulationError, read_run
 
     if measured.node_parameters is None or measured.record.step is None:
         return None
