@@ -31,6 +31,41 @@ def _deviation(recorded: float, rerun: float) -> float:
     return abs(recorded - rerun)
 
 
+class _LargestDeviations:
+    """The largest deviation of each signal of :data:`SIGNALS` so far, the simulated time of
+    its first occurrence [s] and the samples compared; NaN counts as the worst."""
+
+    def __init__(self, tolerances: dict[str, float]):
+        self.rows = {name: {"signal": name, "unit": unit, "max_deviation": 0.0,
+                            "at_time_s": math.nan, "samples": 0, "tol": tolerances[name]}
+                     for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+
+    def note(self, name: str, dev: float, t: float) -> None:
+        row = self.rows[name]
+        row["samples"] += 1
+        if not dev <= row["max_deviation"]:  # NaN counts as the worst
+            row["max_deviation"], row["at_time_s"] = dev, t
+
+    def note_joint_state(self, msg, state: tuple, t: float) -> None:
+        """A recorded JointState against the re-simulated ``state`` of its step at ``t`` [s]."""
+        q, qd, force, _gap, _acc = state
+        for i, name in enumerate(("stroke", "link_angle", "flap_angle")):
+            self.note(name, _deviation(msg.position[i], q[i]), t)
+        for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
+            self.note(name, _deviation(msg.velocity[i], qd[i]), t)
+        self.note("piston_force", _deviation(msg.effort[0], force), t)
+
+    def report(self) -> list[dict]:
+        """The rows, each with ``ok`` (within its tolerance) and ``at_time_s`` None where no
+        sample deviated."""
+        out = list(self.rows.values())
+        for row in out:
+            row["ok"] = bool(row["max_deviation"] <= row["tol"])
+            if math.isnan(row["at_time_s"]):
+                row["at_time_s"] = None
+        return out
+
+
 def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
             on_state: Callable | None = None) -> list[dict]:  # fmt: skip
     """Largest deviation per signal between the recorded and the re-simulated samples, the
@@ -45,20 +80,12 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
     tp = run.topics
     names = list(run.node_parameters.get("joint_names", []))
     dt, state_at = result["dt"], result["state_at"]
-    rows = {name: {"signal": name, "unit": unit, "max_deviation": 0.0, "at_time_s": math.nan,
-                   "samples": 0, "tol": tolerances[name]}
-            for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+    largest = _LargestDeviations(tolerances)
     missing = [0]
     origin: list = [None]
     seen = [0]
     recent: dict[int, int] = {}  # log time -> step of the latest joint states
     decode = decoder()
-
-    def note(name: str, dev: float, t: float) -> None:
-        row = rows[name]
-        row["samples"] += 1
-        if not dev <= row["max_deviation"]:  # NaN counts as the worst
-            row["max_deviation"], row["at_time_s"] = dev, t
 
     scalar = {tp["piston_force"]: ("piston_force", 2), tp["flap_gap"]: ("gap", 3)}
 
@@ -87,19 +114,14 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
             if state is None:
                 missing[0] += 1
                 return
-            q, qd, force, _gap, _acc = state
-            for i, name in enumerate(("stroke", "link_angle", "flap_angle")):
-                note(name, _deviation(msg.position[i], q[i]), k * dt)
-            for i, name in enumerate(("stroke_rate", "link_rate", "flap_rate")):
-                note(name, _deviation(msg.velocity[i], qd[i]), k * dt)
-            note("piston_force", _deviation(msg.effort[0], force), k * dt)
+            largest.note_joint_state(msg, state, k * dt)
             return
         # the Float64 topics are published in the same tick, logged at the same node time
         name, idx = scalar[m.topic]
         k = recent.get(m.log_time)
         state = None if k is None else state_at(k)
         if state is not None:
-            note(name, _deviation(msg.data, state[idx]), k * dt)
+            largest.note(name, _deviation(msg.data, state[idx]), k * dt)
 
     topics = {tp["command_events"], tp["joint_states"], *scalar}
     try:
@@ -111,11 +133,7 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
     if seen[0] == 0:
         raise ResimulationError("the effect record holds no clock origin (t0) before the states")
     result["finish"]()
-    out = list(rows.values())
-    for row in out:
-        row["ok"] = bool(row["max_deviation"] <= row["tol"])
-        if math.isnan(row["at_time_s"]):
-            row["at_time_s"] = None
+    out = largest.report()
     if missing[0]:
         result["notes"].append(f"{missing[0]} recorded joint states have no re-simulated step")
     return out
