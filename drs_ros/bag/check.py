@@ -65,7 +65,7 @@ from .nodes import (
     resolve_topics,
     select_node,
 )
-from .reader import MessageCallbackError
+from .recorded import MessageCallbackError
 from .run_checks import TICK_TOPICS, RunChecker, fault_report
 from .run_stats import STATS_ROLES, RunStats
 

@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..timestamps import ns_of, seconds_from_ns
-from .reader import RecordedMessage, scan
+from .reader import scan
+from .recorded import RecordedMessage
 
 
 @dataclass

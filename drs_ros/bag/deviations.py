@@ -11,7 +11,8 @@ from ..names import CLOCK
 from ..timestamps import ns_of, seconds_from_ns
 from .decoded import decoder
 from .effects import effect_records
-from .reader import MessageCallbackError, scan
+from .reader import scan
+from .recorded import MessageCallbackError
 from .recorded_run import RecordedRun, ResimulationError
 from .rerun import STATE_WINDOW
 

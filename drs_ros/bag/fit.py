@@ -60,7 +60,7 @@ from .fit_report import document, dumps, format_text, plot, row_columns
 from .fit_rerun import SIMULATED_SIGNALS
 from .measured import MeasurementError, parse_topic_map, read_measured
 from .nodes import BagNode, NodeSelectionError, add_node_arguments, bag_nodes, select_node
-from .reader import MessageCallbackError
+from .recorded import MessageCallbackError
 
 #: The verdict of each exit status of ``drs-bag fit``.
 FIT_VERDICTS = fleet.verdicts(passed="FITTED", failed="NOT DETERMINED")

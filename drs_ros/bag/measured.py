@@ -40,7 +40,8 @@ from ..names import CLOCK
 from .decoded import decoder
 from .effects import effect_records, model_params_from, recorded_rung
 from .nodes import BagNode, resolve_topics
-from .reader import MessageCallbackError, scan
+from .reader import scan
+from .recorded import MessageCallbackError
 
 #: The fit's roles, and the role of :data:`drs_ros.names.NODE_TOPICS` that names the node's
 #: topic of each (the hydraulic ones: ``drs_ros.node.adapter.HYDRAULIC_TOPICS``).

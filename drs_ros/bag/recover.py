@@ -32,7 +32,8 @@ from ..recording.qos import parse_qos_yaml
 from ..timestamps import split_ns
 from .files import BagReadError
 from .nodes import bag_nodes, nodes_text
-from .reader import ChannelInfo, MessageCallbackError, RecordedMessage, scan
+from .reader import scan
+from .recorded import ChannelInfo, MessageCallbackError, RecordedMessage
 
 
 def _register(rec: McapRecorder, channel: ChannelInfo) -> None:

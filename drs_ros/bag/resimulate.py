@@ -75,7 +75,7 @@ from .nodes import (
     resolve_topics,
     select_node,
 )
-from .reader import MessageCallbackError
+from .recorded import MessageCallbackError
 from .recorded_run import (
     RUN_ROLES,
     NothingToRerunError,

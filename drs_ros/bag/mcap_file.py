@@ -1,0 +1,214 @@
+"""One ``.mcap`` file read record by record and verified (:func:`scan_file`): its magic at both
+ends, every chunk's CRC, the summary (its CRC, its chunk indexes and statistics against what was
+read); what reading damaged MCAP bytes raises (:func:`mcap_read_errors`).
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from collections.abc import Callable
+from pathlib import Path
+
+from .files import BagReadError
+from .recorded import BagScan, ChannelInfo
+
+#: The MCAP magic (8 bytes at both ends of a file).
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+_FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
+
+
+def scan_file(
+    mcap_path: Path,
+    bag_dir: Path | None,
+    take_message: Callable[[BagScan, object, int, Path], None],
+    recover: bool,
+) -> BagScan:
+    """Read and verify one ``.mcap`` file (everything of :func:`.reader.scan` but
+    ``metadata.yaml``); ``take_message(out, record, offset, path)`` checks, counts and hands on
+    each message record."""
+    from mcap.records import (
+        Channel,
+        Chunk,
+        ChunkIndex,
+        DataEnd,
+        Footer,
+        Message,
+        Schema,
+        Statistics,
+    )
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    out = BagScan(mcap_path, bag_dir, file_size=mcap_path.stat().st_size)
+    schemas: dict[int, Schema] = {}
+    chunk_offsets: dict[int, int] = {}
+    stats: Statistics | None = None
+    chunk_indexes: list[ChunkIndex] = []
+    footer: Footer | None = None
+    offset = 8
+    where = "the header"
+
+    def fail(msg: str) -> None:
+        raise BagReadError(f"{str(mcap_path)!r}: {msg}")
+
+    def take(rec, at: int) -> None:
+        take_message(out, rec, at, mcap_path)
+
+    def data_record(rec, at: int) -> None:
+        """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
+        if isinstance(rec, Message):
+            take(rec, at)
+        elif isinstance(rec, Schema):
+            schemas[rec.id] = rec
+        elif isinstance(rec, Channel):
+            _add_channel(out, schemas, rec, fail)
+
+    errors = mcap_read_errors()
+    try:
+        with open(mcap_path, "rb") as f:
+            head = f.read(8)
+            if head != MCAP_MAGIC:
+                fail("not an MCAP file (no MCAP magic at the start)" if head else "empty file")
+            f.seek(0)
+            reader = StreamReader(f, validate_crcs=True, emit_chunks=True)
+            stream = reader._stream  # its byte count is the offset of the next record
+            for record in reader.records:
+                end = stream.count
+                if isinstance(record, Chunk):
+                    where = f"the chunk at offset {offset}"
+                    chunk_offsets[offset] = end - offset
+                    for inner in breakup_chunk(record, validate_crc=True):
+                        data_record(inner, offset)
+                elif isinstance(record, (Message, Schema, Channel)):
+                    data_record(record, offset)
+                elif isinstance(record, Statistics):
+                    stats = record
+                elif isinstance(record, ChunkIndex):
+                    chunk_indexes.append(record)
+                elif isinstance(record, DataEnd):
+                    where = f"the summary after offset {end}"
+                elif isinstance(record, Footer):
+                    footer = record
+                out.last_good_offset = end
+                offset = end
+                if footer is None:
+                    where = f"the record at offset {offset}"
+            if footer is None:
+                fail(f"ends at offset {offset} without a footer (truncated)")
+            end_of_file = stream.count
+            f.seek(0, 2)
+            size = f.tell()
+            if size != end_of_file:
+                fail(f"{size - end_of_file} unread bytes after the closing magic at offset "
+                     f"{end_of_file}")  # fmt: skip
+            _check_summary(f, footer, size, fail)
+    except BagReadError as exc:
+        if not recover or out.message_count == 0:
+            raise
+        out.stopped_at, out.reason = offset, str(exc).split(": ", 1)[-1]
+        _recovered_note(out)
+        return out
+    except errors as exc:
+        reason = _describe(exc, where)
+        if not recover:
+            raise BagReadError(
+                f"{str(mcap_path)!r}: {reason}; {out.message_count} messages were readable "
+                f"before it (drs-bag recover salvages them)"
+            ) from exc
+        if out.message_count == 0:
+            raise BagReadError(
+                f"{str(mcap_path)!r}: nothing recoverable: {reason} before any complete message"
+            ) from exc
+        out.stopped_at, out.reason = offset, reason
+        _recovered_note(out)
+        return out
+    if stats is not None:
+        for cid, n in stats.channel_message_counts.items():
+            topic = out.channels[cid].topic if cid in out.channels else f"channel {cid}"
+            if out.counts.get(topic, 0) != n:
+                raise BagReadError(
+                    f"{str(mcap_path)!r}: the summary counts {n} messages on {topic}, "
+                    f"{out.counts.get(topic, 0)} were read ({n - out.counts.get(topic, 0)} missing)"
+                )
+    else:
+        raise BagReadError(f"{str(mcap_path)!r}: no statistics record in the summary")
+    for index in chunk_indexes:
+        if chunk_offsets.get(index.chunk_start_offset) != index.chunk_length:
+            raise BagReadError(
+                f"{str(mcap_path)!r}: the summary indexes a chunk at offset "
+                f"{index.chunk_start_offset} ({index.chunk_length} bytes) that is not in the file"
+            )
+    if len(chunk_indexes) != len(chunk_offsets):
+        raise BagReadError(
+            f"{str(mcap_path)!r}: {len(chunk_offsets)} chunks were read, the summary indexes "
+            f"{len(chunk_indexes)}"
+        )
+    out.complete = True
+    return out
+
+
+def mcap_read_errors() -> tuple[type[BaseException], ...]:
+    """What reading damaged MCAP bytes raises, from the mcap library, the decompressors and the
+    file: the errors a reader of a bag means to catch (and no other)."""
+    from mcap.exceptions import McapError
+
+    return (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
+            UnicodeDecodeError, *_decompression_errors())  # fmt: skip
+
+
+def _decompression_errors() -> tuple[type[BaseException], ...]:
+    """What the chunk decompressors raise on corrupt data: zstandard's ``ZstdError``, lz4's
+    ``RuntimeError`` (both are dependencies of the ros extra, as mcap reads through them)."""
+    import zstandard
+
+    return (zstandard.ZstdError, RuntimeError)
+
+
+def _add_channel(out: BagScan, schemas, record, fail) -> None:
+    schema = schemas.get(record.schema_id)
+    if schema is None and record.schema_id != 0:
+        fail(f"channel {record.topic} names schema {record.schema_id}, never declared")
+    out.channels[record.id] = ChannelInfo(
+        record.id,
+        record.topic,
+        schema.name if schema else "",
+        schema.encoding if schema else "",
+        bytes(schema.data) if schema else b"",
+        record.message_encoding,
+        dict(record.metadata),
+    )
+    out.counts.setdefault(record.topic, 0)
+
+
+def _check_summary(f, footer, size: int, fail) -> None:
+    """The footer's summary CRC: bytes from the summary start through summary_offset_start."""
+    if footer.summary_start == 0 or footer.summary_crc == 0:
+        return
+    footer_at = size - 8 - _FOOTER_LEN
+    f.seek(footer.summary_start)
+    data = f.read(footer_at + 1 + 8 + 8 + 8 - footer.summary_start)
+    crc = zlib.crc32(data)
+    if crc != footer.summary_crc:
+        fail(f"summary CRC mismatch (footer says {footer.summary_crc:#010x}, the bytes from "
+             f"offset {footer.summary_start} give {crc:#010x})")  # fmt: skip
+
+
+def _describe(exc: BaseException, where: str) -> str:
+    name = type(exc).__name__
+    text = str(exc) or "unexpected end of file"
+    if name == "CRCValidationError":
+        return f"{where} is corrupt ({text})"
+    if isinstance(exc, (EOFError, struct.error)) or "end of" in text.lower():
+        return f"the file ends inside {where} (truncated: {text})"
+    return f"cannot read {where} ({name}: {text})"
+
+
+def _recovered_note(out: BagScan) -> None:
+    lost = out.file_size - out.last_good_offset
+    out.notes.append(
+        f"stopped at offset {out.stopped_at} of {out.file_size}: {out.reason}; kept "
+        f"{out.message_count} messages, {lost} bytes after the last complete record are lost"
+    )
+
+
+__all__ = ["MCAP_MAGIC", "mcap_read_errors", "scan_file"]
