@@ -27,89 +27,16 @@ def scan_file(
     """Read and verify one ``.mcap`` file (everything of :func:`.reader.scan` but
     ``metadata.yaml``); ``take_message(out, record, offset, path)`` checks, counts and hands on
     each message record."""
-    from mcap.records import (
-        Channel,
-        Chunk,
-        ChunkIndex,
-        DataEnd,
-        Footer,
-        Message,
-        Schema,
-        Statistics,
-    )
-    from mcap.stream_reader import StreamReader, breakup_chunk
-
-    out = BagScan(mcap_path, bag_dir, file_size=mcap_path.stat().st_size)
-    schemas: dict[int, Schema] = {}
-    chunk_offsets: dict[int, int] = {}
-    stats: Statistics | None = None
-    chunk_indexes: list[ChunkIndex] = []
-    footer: Footer | None = None
-    offset = 8
-    where = "the header"
-
-    def fail(msg: str) -> None:
-        raise BagReadError(f"{str(mcap_path)!r}: {msg}")
-
-    def take(rec, at: int) -> None:
-        take_message(out, rec, at, mcap_path)
-
-    def data_record(rec, at: int) -> None:
-        """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
-        if isinstance(rec, Message):
-            take(rec, at)
-        elif isinstance(rec, Schema):
-            schemas[rec.id] = rec
-        elif isinstance(rec, Channel):
-            _add_channel(out, schemas, rec, fail)
-
-    errors = mcap_read_errors()
+    file = _McapFileScan(mcap_path, bag_dir, take_message)
+    out = file.out
     try:
-        with open(mcap_path, "rb") as f:
-            head = f.read(8)
-            if head != MCAP_MAGIC:
-                fail("not an MCAP file (no MCAP magic at the start)" if head else "empty file")
-            f.seek(0)
-            reader = StreamReader(f, validate_crcs=True, emit_chunks=True)
-            stream = reader._stream  # its byte count is the offset of the next record
-            for record in reader.records:
-                end = stream.count
-                if isinstance(record, Chunk):
-                    where = f"the chunk at offset {offset}"
-                    chunk_offsets[offset] = end - offset
-                    for inner in breakup_chunk(record, validate_crc=True):
-                        data_record(inner, offset)
-                elif isinstance(record, (Message, Schema, Channel)):
-                    data_record(record, offset)
-                elif isinstance(record, Statistics):
-                    stats = record
-                elif isinstance(record, ChunkIndex):
-                    chunk_indexes.append(record)
-                elif isinstance(record, DataEnd):
-                    where = f"the summary after offset {end}"
-                elif isinstance(record, Footer):
-                    footer = record
-                out.last_good_offset = end
-                offset = end
-                if footer is None:
-                    where = f"the record at offset {offset}"
-            if footer is None:
-                fail(f"ends at offset {offset} without a footer (truncated)")
-            end_of_file = stream.count
-            f.seek(0, 2)
-            size = f.tell()
-            if size != end_of_file:
-                fail(f"{size - end_of_file} unread bytes after the closing magic at offset "
-                     f"{end_of_file}")  # fmt: skip
-            _check_summary(f, footer, size, fail)
+        file.read()
     except BagReadError as exc:
         if not recover or out.message_count == 0:
             raise
-        out.stopped_at, out.reason = offset, str(exc).split(": ", 1)[-1]
-        _recovered_note(out)
-        return out
-    except errors as exc:
-        reason = _describe(exc, where)
+        return file.stopped(str(exc).split(": ", 1)[-1])
+    except mcap_read_errors() as exc:
+        reason = _describe(exc, file.where)
         if not recover:
             raise BagReadError(
                 f"{str(mcap_path)!r}: {reason}; {out.message_count} messages were readable "
@@ -119,32 +46,125 @@ def scan_file(
             raise BagReadError(
                 f"{str(mcap_path)!r}: nothing recoverable: {reason} before any complete message"
             ) from exc
-        out.stopped_at, out.reason = offset, reason
-        _recovered_note(out)
-        return out
-    if stats is not None:
-        for cid, n in stats.channel_message_counts.items():
+        return file.stopped(reason)
+    file.check_summary_counts()
+    out.complete = True
+    return out
+
+
+class _McapFileScan:
+    """One file's scan as it goes: the result so far (``out``), the schemas, the chunks read
+    (offset -> length [bytes]), the summary's statistics, chunk indexes and footer, the offset of
+    the next record and ``where`` reading is (what an error names)."""
+
+    def __init__(self, mcap_path: Path, bag_dir: Path | None, take_message: Callable):
+        self.path, self.take_message = mcap_path, take_message
+        self.out = BagScan(mcap_path, bag_dir, file_size=mcap_path.stat().st_size)
+        self.schemas: dict[int, object] = {}
+        self.chunk_offsets: dict[int, int] = {}
+        self.stats = None
+        self.chunk_indexes: list = []
+        self.footer = None
+        self.offset = 8
+        self.where = "the header"
+
+    def fail(self, msg: str) -> None:
+        raise BagReadError(f"{str(self.path)!r}: {msg}")
+
+    def read(self) -> None:
+        """Every record, in file order, then nothing after the closing magic and the summary's
+        CRC; raises what the file or the mcap library raises."""
+        from mcap.records import (
+            Channel,
+            Chunk,
+            ChunkIndex,
+            DataEnd,
+            Footer,
+            Message,
+            Schema,
+            Statistics,
+        )
+        from mcap.stream_reader import StreamReader, breakup_chunk
+
+        with open(self.path, "rb") as f:
+            head = f.read(8)
+            if head != MCAP_MAGIC:
+                self.fail("not an MCAP file (no MCAP magic at the start)" if head else "empty file")
+            f.seek(0)
+            reader = StreamReader(f, validate_crcs=True, emit_chunks=True)
+            stream = reader._stream  # its byte count is the offset of the next record
+            for record in reader.records:
+                end, offset = stream.count, self.offset
+                if isinstance(record, Chunk):
+                    self.where = f"the chunk at offset {offset}"
+                    self.chunk_offsets[offset] = end - offset
+                    for inner in breakup_chunk(record, validate_crc=True):
+                        self.data_record(inner, offset)
+                elif isinstance(record, (Message, Schema, Channel)):
+                    self.data_record(record, offset)
+                elif isinstance(record, Statistics):
+                    self.stats = record
+                elif isinstance(record, ChunkIndex):
+                    self.chunk_indexes.append(record)
+                elif isinstance(record, DataEnd):
+                    self.where = f"the summary after offset {end}"
+                elif isinstance(record, Footer):
+                    self.footer = record
+                self.out.last_good_offset = end
+                self.offset = end
+                if self.footer is None:
+                    self.where = f"the record at offset {end}"
+            if self.footer is None:
+                self.fail(f"ends at offset {self.offset} without a footer (truncated)")
+            end_of_file = stream.count
+            f.seek(0, 2)
+            size = f.tell()
+            if size != end_of_file:
+                self.fail(f"{size - end_of_file} unread bytes after the closing magic at offset "
+                          f"{end_of_file}")  # fmt: skip
+            _check_summary(f, self.footer, size, self.fail)
+
+    def data_record(self, rec, at: int) -> None:
+        """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
+        from mcap.records import Channel, Message, Schema
+
+        if isinstance(rec, Message):
+            self.take_message(self.out, rec, at, self.path)
+        elif isinstance(rec, Schema):
+            self.schemas[rec.id] = rec
+        elif isinstance(rec, Channel):
+            _add_channel(self.out, self.schemas, rec, self.fail)
+
+    def check_summary_counts(self) -> None:
+        """The statistics' message counts and the chunk indexes against what was read."""
+        out, path = self.out, self.path
+        if self.stats is None:
+            raise BagReadError(f"{str(path)!r}: no statistics record in the summary")
+        for cid, n in self.stats.channel_message_counts.items():
             topic = out.channels[cid].topic if cid in out.channels else f"channel {cid}"
             if out.counts.get(topic, 0) != n:
                 raise BagReadError(
-                    f"{str(mcap_path)!r}: the summary counts {n} messages on {topic}, "
+                    f"{str(path)!r}: the summary counts {n} messages on {topic}, "
                     f"{out.counts.get(topic, 0)} were read ({n - out.counts.get(topic, 0)} missing)"
                 )
-    else:
-        raise BagReadError(f"{str(mcap_path)!r}: no statistics record in the summary")
-    for index in chunk_indexes:
-        if chunk_offsets.get(index.chunk_start_offset) != index.chunk_length:
+        for index in self.chunk_indexes:
+            if self.chunk_offsets.get(index.chunk_start_offset) != index.chunk_length:
+                raise BagReadError(
+                    f"{str(path)!r}: the summary indexes a chunk at offset "
+                    f"{index.chunk_start_offset} ({index.chunk_length} bytes) that is not in "
+                    "the file"
+                )
+        if len(self.chunk_indexes) != len(self.chunk_offsets):
             raise BagReadError(
-                f"{str(mcap_path)!r}: the summary indexes a chunk at offset "
-                f"{index.chunk_start_offset} ({index.chunk_length} bytes) that is not in the file"
+                f"{str(path)!r}: {len(self.chunk_offsets)} chunks were read, the summary indexes "
+                f"{len(self.chunk_indexes)}"
             )
-    if len(chunk_indexes) != len(chunk_offsets):
-        raise BagReadError(
-            f"{str(mcap_path)!r}: {len(chunk_offsets)} chunks were read, the summary indexes "
-            f"{len(chunk_indexes)}"
-        )
-    out.complete = True
-    return out
+
+    def stopped(self, reason: str) -> BagScan:
+        """The result of a recovering scan that stopped at the current offset for ``reason``."""
+        self.out.stopped_at, self.out.reason = self.offset, reason
+        _recovered_note(self.out)
+        return self.out
 
 
 def mcap_read_errors() -> tuple[type[BaseException], ...]:
