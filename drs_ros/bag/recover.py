@@ -26,8 +26,9 @@ from pathlib import Path
 
 from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EXIT_UNREADABLE
 
+from ..recording.destinations import check_new_bag
 from ..recording.errors import RecordingError
-from ..recording.mcap_recorder import McapRecorder, check_new_bag
+from ..recording.mcap_recorder import McapRecorder
 from ..recording.qos import parse_qos_yaml
 from ..timestamps import split_ns
 from .files import BagReadError

@@ -54,6 +54,7 @@ from mcap import __version__ as _mcap_version
 from mcap.writer import CompressionType, Writer
 
 from . import cdr, msgdefs
+from .destinations import check_new_bag
 from .errors import RecordingError
 from .qos import qos_dict, qos_yaml
 
@@ -562,45 +563,9 @@ def _time_ns(value, name: str) -> int:
     return value
 
 
-def check_new_bag(bag_dir: str | os.PathLike) -> Path:
-    """Refuse a bag directory that would overwrite or cannot be created; create nothing.
-
-    Returns the directory. Raises :class:`RecordingError` naming the path and the reason: it is a
-    file, it already holds files (an earlier recording is never overwritten), or its nearest
-    existing parent is not a writable directory.
-    """
-    path = Path(bag_dir)
-    if not path.name:
-        raise RecordingError(f"a bag path must name a directory, got {str(bag_dir)!r}")
-    if path.exists() and not path.is_dir():
-        raise RecordingError(f"bag path {str(path)!r} exists and is a file")
-    if path.is_dir() and any(path.iterdir()):
-        raise RecordingError(
-            f"bag path {str(path)!r} already holds files (an earlier recording is never "
-            "overwritten): choose a new path"
-        )
-    check_writable_parent(path)
-    return path
-
-
-def check_writable_parent(path: str | os.PathLike) -> Path:
-    """The nearest existing ancestor of ``path`` must be a writable directory (where ``path`` and
-    its missing parents can be created). Raises :class:`RecordingError` otherwise."""
-    parent = Path(path).absolute().parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise RecordingError(
-            f"cannot create {str(path)!r}: {str(parent)!r} is not a writable directory"
-        )
-    return parent
-
-
 __all__ = [
     "ROSBAG2_METADATA_VERSION",
     "McapRecorder",
     "RecorderStats",
     "TopicInfo",
-    "check_new_bag",
-    "check_writable_parent",
 ]
