@@ -3,7 +3,8 @@
 * ``cdr``: exact CDR serialisation, the bytes a ROS 2 subscriber receives;
 * ``msgdefs``: rosbag2's schema text and RIHS01 type hashes of a message type;
 * ``qos``: QoS profiles as the ``offered_qos_profiles`` channel metadata holds them;
-* ``mcap_recorder``: the rosbag2-compatible MCAP recorder;
+* ``mcap_recorder``: the rosbag2-compatible MCAP recorder (``flush_schedule``: when it flushes;
+  ``bag_metadata``: the topics and the ``metadata.yaml`` document it writes);
 * ``rerun_recorder``: the rerun recording of the mechanism and its time series (``rerun_sink``:
   its file sink watched while recording);
 * ``destinations``: a new bag directory, ``.rrd`` file or live rerun URL, checked before
