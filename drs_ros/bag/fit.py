@@ -69,10 +69,12 @@ REFUSED = "REFUSED"
 
 
 # ---- options, checked when parsed (argparse ``type=``) ---------------------------------------
-def _names(text: str) -> list[str]:
+def parameter_names_argument(text: str) -> list[str]:
+    """``NAME,...`` (``drs-bag fit`` and ``drs-bag trend``'s ``--params``): at least one name,
+    none twice."""
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
-        raise argparse.ArgumentTypeError("name at least one")
+        raise argparse.ArgumentTypeError("name at least one parameter")
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise argparse.ArgumentTypeError(f"named twice: {repeated}")
@@ -82,7 +84,7 @@ def _names(text: str) -> list[str]:
 def fit_names_argument(text: str) -> list[str]:
     """``--params NAME,...``: parameters that can be fitted (on some rung; whether the bag's
     rung holds them is the model's to say), none twice."""
-    names = _names(text)
+    names = parameter_names_argument(text)
     try:
         for name in names:
             fit_parameter(name)
@@ -119,7 +121,7 @@ def noise_argument(item: str) -> str:
 
 def signals_argument(text: str) -> list[str]:
     """``--signals NAME,...``: signals a re-simulation gives."""
-    names = _names(text)
+    names = parameter_names_argument(text)
     unknown = [n for n in names if n not in SIMULATED_SIGNALS]
     if unknown:
         raise argparse.ArgumentTypeError(f"{unknown}: not signals a re-simulation gives; valid: "
@@ -312,5 +314,5 @@ def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
 
 
 __all__ = ["FIT_VERDICTS", "REFUSED", "FitOutcome", "add_arguments", "fit_names_argument",
-           "fit_one", "fleet_row", "level_argument", "noise_argument", "run", "set_argument",
-           "signals_argument", "topic_map_argument"]
+           "fit_one", "fleet_row", "level_argument", "noise_argument", "parameter_names_argument",
+           "run", "set_argument", "signals_argument", "topic_map_argument"]
