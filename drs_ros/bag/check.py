@@ -50,6 +50,7 @@ from drs_model.overrides import from_file, parameter_file_argument
 from drs_model.params import DRSParams
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_NODE
+from ..timestamps import seconds_from_ns
 from . import fleet, look_ahead
 from .decoded import BagData, stream_bag
 from .effects import model_params_from
@@ -113,7 +114,7 @@ def format_faults(faults: Sequence[dict], start_ns: int | None) -> list[str]:
     start = start_ns or 0
 
     def log(ns):
-        return "end" if ns is None else f"{(ns - start) * 1e-9:.6f}"
+        return "end" if ns is None else f"{seconds_from_ns(ns - start):.6f}"
 
     lines = ["", "faults (from the effect record; simulated time, and log time from the bag's "
              "first message) [s]:"]  # fmt: skip

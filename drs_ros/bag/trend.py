@@ -39,6 +39,7 @@ from drs_model.identify.trend import ALPHA, MIN_RUNS, MODELS, trend
 from drs_model.overrides import assignment_overrides
 
 from ..errors import DRSRosError, UsageError
+from ..timestamps import seconds_from_ns
 from .fit import parameter_names_argument
 from .fit_report import dumps
 
@@ -150,7 +151,7 @@ def _series(cols: dict, name: str):
     std = np.array([math.nan if v is None else v for v in cols[f"{name}_std"]], dtype=float)
     det = np.array([bool(v) for v in cols.get(f"{name}_determined", [True] * len(value))])
     value[~det] = math.nan
-    return start * 1e-9, value, std
+    return seconds_from_ns(start), value, std
 
 
 def _date(seconds: float) -> str:
