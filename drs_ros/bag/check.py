@@ -344,14 +344,14 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
 
 def run_notes(checker: RunChecker) -> list[str]:
     """What the report says of the run's rung and of its faults refused."""
-    run = checker.run
+    record = checker.run
     if checker.rung is None:
         rung = f"the rung of the run is unknown: {checker.rung_error}"
-    elif run.fidelity == "auto":
+    elif record.fidelity == "auto":
         rung = f"judged on the {checker.rung} rung (fidelity auto's choice, in the effect record)"
     else:
         rung = f"judged on the {checker.rung} rung (the recorded fidelity parameter)"
-    return [rung, *run.notes]
+    return [rung, *record.notes]
 
 
 #: Table columns of each check's result: check name -> column prefix.

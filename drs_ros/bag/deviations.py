@@ -24,12 +24,12 @@ SIGNALS = {
 }  # fmt: skip
 
 
-def _deviation(recorded: float, rerun: float) -> float:
-    """``|recorded - rerun|``; 0 where both are NaN (a sensor's dropout, a kinematic rung's
+def _deviation(recorded: float, simulated: float) -> float:
+    """``|recorded - simulated|``; 0 where both are NaN (a sensor's dropout, a kinematic rung's
     force: the same sample), NaN where one only is."""
-    if math.isnan(recorded) and math.isnan(rerun):
+    if math.isnan(recorded) and math.isnan(simulated):
         return 0.0
-    return abs(recorded - rerun)
+    return abs(recorded - simulated)
 
 
 class _LargestDeviations:
@@ -67,7 +67,7 @@ class _LargestDeviations:
         return out
 
 
-def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
+def compare(run: RecordedRun, rerun: dict, tolerances: dict[str, float],
             on_state: Callable | None = None) -> list[dict]:  # fmt: skip
     """Largest deviation per signal between the recorded and the re-simulated samples, the
     recorded ones streamed from the bag (a second read, a chunk at a time).
@@ -80,7 +80,7 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
     """
     tp = run.topics
     names = list(run.node_parameters.get("joint_names", []))
-    dt, state_at = result["dt"], result["state_at"]
+    dt, state_at = rerun["dt"], rerun["state_at"]
     largest = _LargestDeviations(tolerances)
     missing = [0]
     origin: list = [None]
@@ -133,10 +133,10 @@ def compare(run: RecordedRun, result: dict, tolerances: dict[str, float],
         raise
     if seen[0] == 0:
         raise ResimulationError("the effect record holds no clock origin (t0) before the states")
-    result["finish"]()
+    rerun["finish"]()
     out = largest.report()
     if missing[0]:
-        result["notes"].append(f"{missing[0]} recorded joint states have no re-simulated step")
+        rerun["notes"].append(f"{missing[0]} recorded joint states have no re-simulated step")
     return out
 
 

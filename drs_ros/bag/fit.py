@@ -219,11 +219,11 @@ def _simulation(measured, rung, p, hp):
     if measured.node_parameters is None or measured.record.step is None:
         return None
     try:
-        run = read_run(measured.bag, measured.node)
+        recorded = read_run(measured.bag, measured.node)
     except ResimulationError as exc:
         measured.notes.append(f"no output error: {exc}")
         return None
-    return RunResimulation(run, p, hp, rung, measured.record.step)
+    return RunResimulation(recorded, p, hp, rung, measured.record.step)
 
 
 def fit_one(bag, args: argparse.Namespace, node: BagNode | None = None) -> FitOutcome:

@@ -218,12 +218,12 @@ def _row(bag: str, args: argparse.Namespace, outcome: ResimulationOutcome,
     for r in outcome.rows:
         unit = r["unit"].replace("/", "_")
         row[f"{r['signal']}_deviation_{unit}"] = float(r["max_deviation"])
-    run = outcome.run
-    if run is not None:
-        row.update(fleet.count_columns(run.counts, run.start_ns, run.end_ns, False))
+    recorded = outcome.run
+    if recorded is not None:
+        row.update(fleet.count_columns(recorded.counts, recorded.start_ns, recorded.end_ns, False))
     row["notes"] = list(outcome.notes)
     # the rung of the re-run: asked for, or the one the bag recorded
-    rung = None if run is None else recorded_rung(run.node_parameters, run.records)
+    rung = None if recorded is None else recorded_rung(recorded.node_parameters, recorded.records)
     row["fidelity"] = getattr(args, "fidelity", None) or rung
     row.update(fleet.param_columns(outcome.model))
     return row
