@@ -62,10 +62,10 @@ def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
     # independent replay check above; and its params are the changed ones
     from decoded_support import read_bag
 
-    from drs_ros.bag.effects import recorded_model_params
+    from drs_ros.bag.effects import model_params_from, recorded_node_parameters
 
     data = read_bag(tmp_path / "light", ["/parameter_events", "/joint_states"])
-    params, _ = recorded_model_params(data.messages["/parameter_events"])
+    params = model_params_from(recorded_node_parameters(data.messages["/parameter_events"]))
     assert params.m_wing == 0.6
     q = np.array([m.position for _, m in data.messages["/joint_states"]])
     assert q.shape[1] == 3

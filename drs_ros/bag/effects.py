@@ -96,16 +96,6 @@ def model_params_from(values: dict[str, object]) -> DRSParams:
     return from_dict(known) if known else DRSParams()
 
 
-def recorded_model_params(messages: Sequence, node: str | None = None) -> tuple[DRSParams, str]:
-    """The model parameters a bag recorded (of ``node``, as :func:`recorded_node_parameters`),
-    and where they came from (for the report)."""
-    event = _start_event(messages, node)
-    if event is None:
-        return DRSParams(), "the seed's (the bag recorded none)"
-    origin = f"recorded by {event.node} on /parameter_events"
-    return model_params_from(parameter_values(event)), origin
-
-
 @dataclass(frozen=True)
 class EffectRecord:
     """One record of ``~/command_events``: ``source`` (a command topic, the service, ``clock``
@@ -186,6 +176,5 @@ __all__ = [
     "model_params_from",
     "parameter_event",
     "parameter_values",
-    "recorded_model_params",
     "recorded_node_parameters",
 ]
