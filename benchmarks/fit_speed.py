@@ -68,7 +68,7 @@ def _anchor(bag: Path):
     from drs_ros.bag.fit_rerun import RunResimulation
     from drs_ros.bag.measured import read_measured
     from drs_ros.bag.nodes import find_node
-    from drs_ros.bag.resimulate import read_run
+    from drs_ros.bag.recorded_run import read_run
 
     node = find_node(bag, None)
     m = read_measured(bag, node)

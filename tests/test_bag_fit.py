@@ -92,10 +92,10 @@ def test_what_the_run_cannot_separate_is_refused_with_its_reason(bags):
 def _rewrite_with_rosbags(src, dst):
     """The drs bag's joint states (piston only, named 'piston'), chamber and supply pressures
     and spool, written by rosbags' own writer and type store on other topics."""
+    from decoded_support import read_bag
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.measured import measured_topics
 
     drs_topics = measured_topics(None)  # a node of the default name, by role

@@ -195,7 +195,7 @@ def test_check_judges_the_run_with_the_parameters_it_recorded(run):
 def test_a_changed_force_fails_check(run, tmp_path):
     """One joint state's piston effort, in mid-stroke, 50 N off: FAIL on the force."""
     launch, bag = run
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
 
     states = read_bag(bag, [launch.joint_states]).messages[launch.joint_states]
     strokes = [m.position[0] for _, m in states]
@@ -397,7 +397,7 @@ def test_play_plays_the_topics_of_the_node_named(car, tmp_path):
                 player.kill()
                 player.communicate()
     assert player.returncode == 0, log
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
 
     recorded = read_bag(both, [FRONT.piston_force]).messages[FRONT.piston_force]
     assert len(got[FRONT.piston_force]) > len(recorded) / 2 and got[REAR.piston_force] == []

@@ -60,11 +60,12 @@ def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
     assert check.returncode == 0, check.stdout[-2000:] + check.stderr
     # the re-run's own inverse dynamics: its force follows the lighter model, checked by the
     # independent replay check above; and its params are the changed ones
-    from drs_ros.bag.decoded import read_bag
-    from drs_ros.bag.effects import recorded_model_params
+    from decoded_support import read_bag
+
+    from drs_ros.bag.effects import model_params_from, recorded_node_parameters
 
     data = read_bag(tmp_path / "light", ["/parameter_events", "/joint_states"])
-    params, _ = recorded_model_params(data.messages["/parameter_events"])
+    params = model_params_from(recorded_node_parameters(data.messages["/parameter_events"]))
     assert params.m_wing == 0.6
     q = np.array([m.position for _, m in data.messages["/joint_states"]])
     assert q.shape[1] == 3
@@ -119,17 +120,17 @@ def test_bad_set_is_refused_with_a_reason(tmp_path):
     assert rc == 2 and "--set expects NAME=VALUE" in err
 
 
-# ---- a RESET is re-run like any other record; the recorded parameters as recorded (issue 16) ---
+# ---- a RESET is re-run like any other record; the recorded parameters as recorded ---
 T0_NS = 1_700_000_000_000_000_000
 
 
 def write_bag_with_a_reset(bag_dir, params) -> dict:
-    """The bag the node recorded, before issue 16, for: stroke 46 mm, then -5 kN at 100 Hz
+    """The bag an older node recorded for: stroke 46 mm, then -5 kN at 100 Hz
     physics (its model raised IntegrationError in the first force step, so the node held the
     flap there and recorded a RESET), then 20 mm, +600 N, -20 kN. Written tick by tick as
     ``DrsNode._tick_locked`` does (one physics step per 10 ms tick), with the node's own message
     helpers: the effect record (command_event_msg), the parameters (parameter_event), the
-    joint states (joint_state_msg). Today's model takes that step, so the RESET is written
+    joint states (joint_state_msg). The current model takes that step, so the RESET is written
     where the node wrote it, with the stroke it held. Returns what was written."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rcl_interfaces.msg import ParameterEvent
@@ -190,7 +191,7 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
             s_before = float(sim.state.q[0])
             if tick == reset_tick:  # as it ran then: the model of the time raised in this step
                 try:
-                    sim.step()  # today's model takes it
+                    sim.step()  # the current model takes it
                 except DRSError:
                     pass
                 hold(now, s_before, "fixed step rk4 (dt = 0.01 s) diverged: non-finite state")
@@ -262,19 +263,22 @@ def test_a_window_of_a_few_steps_re_runs_as_the_whole_run(monkeypatch):
     of 3 steps instead of 65536 the comparison of the example bag, its notes and the written
     bag's states are the same."""
     require_rclpy()
-    from drs_ros.bag import resimulate as module
+    from drs_ros.bag import deviations
+    from drs_ros.bag import rerun as rerun_module
+    from drs_ros.bag.recorded_run import read_run, run_params
 
     def rerun():
-        run = module.read_run(EXAMPLE)
-        result = module.resimulate(run, module.run_params(run.node_parameters))
+        run = read_run(EXAMPLE)
+        result = rerun_module.resimulate(run, run_params(run.node_parameters))
         written = []
-        tolerances = {name: tol for name, (_unit, tol) in module.SIGNALS.items()}
-        rows = module.compare(run, result, tolerances,
+        tolerances = {name: tol for name, (_unit, tol) in deviations.SIGNALS.items()}
+        rows = deviations.compare(run, result, tolerances,
                               lambda log, m, state: written.append((log, state)))  # fmt: skip
         return rows, result["notes"], written, len(result["states"])
 
     rows, notes, written, held = rerun()
-    monkeypatch.setattr(module, "STATE_WINDOW", 3)
+    monkeypatch.setattr(rerun_module, "STATE_WINDOW", 3)
+    monkeypatch.setattr(deviations, "STATE_WINDOW", 3)
     rows_w, notes_w, written_w, held_w = rerun()
     assert rows_w == rows and notes_w == notes
     assert len(written_w) == len(written) > 500

@@ -6,10 +6,10 @@ import json
 
 import numpy as np
 import pytest
+from decoded_support import check_bag, read_bag
 from ros_support import JOINT_NAMES, require_rclpy, write_drs_bag
 
 from drs_ros.bag import check, model_checks
-from drs_ros.bag.decoded import read_bag
 from drs_ros.bag.files import BagReadError
 
 pytestmark = pytest.mark.ros
@@ -46,7 +46,7 @@ def test_corrupted_joint_state_fails_with_the_discrepancy(tmp_path, params, caps
     out = capsys.readouterr().out
     assert "FAIL" in out
     data = read_bag(rec.path, ["/joint_states", "/drs/piston_force", "/drs/flap_gap"])
-    results = {r.name: r for r in model_checks.check_bag(data, params, tol=1e-6)}
+    results = {r.name: r for r in check_bag(data, params, tol=1e-6)}
     loop = results["loop constraint |Phi(q)|"]
     assert loop.status == "FAIL"
     assert loop.at_time_s == pytest.approx(1.7e9 + t[37], abs=1e-6)
@@ -67,7 +67,7 @@ def test_custom_topics_and_force_hook(tmp_path, params):
     def fake_model(q, qd, qdd, p):
         return np.zeros(len(q))
 
-    results = model_checks.check_bag(data, params, force_model=fake_model, force_model_tol=1.0)
+    results = check_bag(data, params, force_model=fake_model, force_model_tol=1.0)
     model = next(r for r in results if r.name == "piston force vs model")
     assert model.status == "FAIL" and model.max_error == pytest.approx(np.max(np.abs(force)))
     with pytest.raises(model_checks.ForceModelError, match="cannot load force model"):
@@ -101,7 +101,7 @@ def test_recover_reads_the_prefix_of_a_chunked_bag(tmp_path, params, capsys):
     js = data.messages["/joint_states"]
     assert 0 < len(js) < 200
     np.testing.assert_array_equal(np.array([m.position for _, m in js]), q[: len(js)])
-    results = model_checks.check_bag(data, params)
+    results = check_bag(data, params)
     assert results[0].status == "ok" and results[0].samples == len(js)
     # a damaged bag checked in part has an exit status of its own (3), never 0
     assert check.main([str(cut), "--recover", "--json"]) == check.EXIT_RECOVERED == 3
@@ -215,9 +215,9 @@ def test_checks_block_by_block_equal_the_checks_over_the_whole_bag(tmp_path, par
     for without in (None, "/drs/piston_acceleration"):
         if without:
             data.messages.pop(without)
-        whole = model_checks.check_bag(data, params, force_model=hook, force_note=note,
+        whole = check_bag(data, params, force_model=hook, force_note=note,
                                        block_states=10**9)  # fmt: skip
-        blocks = model_checks.check_bag(data, params, force_model=hook, force_note=note,
+        blocks = check_bag(data, params, force_model=hook, force_note=note,
                                         block_states=block)  # fmt: skip
         assert [r.name for r in whole][-1].startswith("piston force vs model")
         assert whole[-1].samples > 0

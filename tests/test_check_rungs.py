@@ -181,7 +181,7 @@ def failed(report: dict) -> set[str]:
 
 def _fastest_state(bag, js: str) -> int:
     """The index of the joint state with the fastest stroke (moving: no check leaves it out)."""
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
 
     states = read_bag(bag, [js]).messages[js]
     speeds = [abs(m.velocity[0]) for _, m in states]
@@ -189,7 +189,7 @@ def _fastest_state(bag, js: str) -> int:
 
 
 def _last(bag, topic: str) -> int:
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
 
     return len(read_bag(bag, [topic]).messages[topic]) - 1
 

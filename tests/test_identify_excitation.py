@@ -78,10 +78,10 @@ def test_drs_excite_writes_a_goal_whose_bag_and_run_fit_tighter(tmp_path, params
     from ros_support import require_rclpy
 
     require_rclpy()
+    from decoded_support import read_bag
     from run_support import Command, record_run, seed_commands
 
     from drs_ros.bag.cli import main as bag_main
-    from drs_ros.bag.decoded import read_bag
 
     goal, bag = tmp_path / "goal.yaml", tmp_path / "excite"
     assert drs_main(["excite", ",".join(NAMES), "--seed", "1", "--starts", "2", "-o", str(goal),

@@ -92,7 +92,8 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
     publishes at its rate (no gap of a second, at least half the rate overall); afterwards a
     good command is obeyed; SIGINT ends it with exit 0 and a bag that reads to its end, every
     byte verified (``drs-bag check``'s first stage)."""
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
+
     from drs_ros.bag.effects import effect_records
     from drs_ros.bag.reader import scan
 
@@ -201,10 +202,10 @@ def test_a_step_too_stiff_for_the_cap_holds_the_node_which_publishes_on(ros_cont
     the flap moves), the step is refused (TooStiffError), the node holds where it is, as for
     any model refusal (effect record ``reset``, counted), and goes on ticking and publishing;
     with the cap back, the next command moves it again."""
+    from decoded_support import read_bag
     from node_support import spin_until
     from rclpy.executors import SingleThreadedExecutor
 
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
     from drs_ros.node import DRSNode
 

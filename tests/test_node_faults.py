@@ -99,7 +99,8 @@ def test_faults_are_taken_or_refused_with_a_reason(faulty_bag):
 
 
 def test_each_fault_is_recorded_where_it_took_effect(faulty_bag):
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
+
     from drs_ros.bag.effects import effect_records
 
     bag, _, _, joints = faulty_bag
@@ -193,9 +194,9 @@ def _auto_run(tmp_path, domain_key, topics, bag=True):
 
 
 def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monkeypatch):
+    from decoded_support import read_bag
     from std_msgs.msg import Float64
 
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")

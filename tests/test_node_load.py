@@ -33,6 +33,7 @@ PUBLISH_HZ = 250.0
 def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     require_rclpy()
     import rclpy
+    from decoded_support import read_bag
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
@@ -40,7 +41,6 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     domain = domain_for(request.node.nodeid)

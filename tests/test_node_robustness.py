@@ -106,13 +106,13 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     publishing at rate, refuses each with the topic and the reason (effect record and
     diagnostics), keeps the bytes in the effect record, obeys a good command after them, and its
     bag passes ``drs-bag check`` and the independent readers."""
+    from decoded_support import read_bag
     from rosbags.highlevel import AnyReader
     from std_msgs.msg import Float64
     from std_srvs.srv import SetBool
     from trajectory_msgs.msg import JointTrajectory
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     types = {"std_msgs/msg/Float64": Float64,
@@ -251,8 +251,9 @@ def test_parameters_given_are_used_and_recorded_even_at_their_defaults(tmp_path,
     """``-p model.m_wing:=2.0`` (the seed's value) wins over a model_params_file's 3.0, and a
     file's ``Iz_wing = 0.0096`` (the value derived at the default mass) stays 0.0096 with
     ``m_wing = 3``: the recorded parameters rebuild exactly the run's DRSParams."""
+    from decoded_support import read_bag
+
     from drs_model.params import DRSParams
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import model_params_from, recorded_node_parameters
 
     domain = domain_for(request.node.nodeid)
@@ -290,10 +291,10 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     """Under use_sim_time, ``/clock`` running forward, then stepping back 1.5 s (as a looping
     ``drs-bag play --clock`` does), then forward again: the node keeps simulating and
     publishing, stamps its states on the new clock, and records the jump."""
+    from decoded_support import read_bag
     from rosgraph_msgs.msg import Clock
     from std_msgs.msg import Float64
 
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     domain = domain_for(request.node.nodeid)
@@ -340,7 +341,9 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     assert -2.5e9 < int(jumps[0].values["jump_ns"]) < -1.0e9
     # and the run re-simulates exactly across the jump (states matched to their clock origin
     # in the order the node wrote them)
-    from drs_ros.bag.resimulate import compare, read_run, resimulate, run_params
+    from drs_ros.bag.deviations import compare
+    from drs_ros.bag.recorded_run import read_run, run_params
+    from drs_ros.bag.rerun import resimulate
 
     run = read_run(bag)
     result = resimulate(run, run_params(run.node_parameters))
@@ -388,11 +391,11 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
     ~1e-9 m), and it ends at its last point. Its cost to the loop is measured by
     ``benchmarks/node_rate.py`` (missed deadlines with a 10,000-point trajectory a second)."""
     from builtin_interfaces.msg import Duration
+    from decoded_support import read_bag
     from std_msgs.msg import Float64
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.decoded import read_bag
     from drs_ros.bag.effects import effect_records
 
     domain = domain_for(request.node.nodeid)

@@ -258,7 +258,8 @@ def _run_node(tmp_path, request, *ros_args, seconds=3.0):
 def test_the_parameter_file_round_trip(tmp_path, request):
     """Start from config/drs.yaml with two values changed: the node runs with exactly the
     file's values (read back from the parameters it records in its bag)."""
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
+
     from drs_ros.bag.effects import recorded_node_parameters
 
     values = yaml.safe_load(CONFIG.read_text())

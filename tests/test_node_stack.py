@@ -427,7 +427,8 @@ def test_a_joint_command_with_uninitialised_padding_is_taken_and_recorded_exact(
 ):
     """Fast DDS leaves a JointState's alignment padding uninitialised; such a command is well
     formed: it is taken, and the bag holds its exact CDR (padding zero)."""
-    from drs_ros.bag.decoded import read_bag
+    from decoded_support import read_bag
+
     from drs_ros.recording import cdr
 
     bag = tmp_path / "bag"

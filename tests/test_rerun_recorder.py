@@ -17,13 +17,13 @@ from ros_support import manoeuvre_states, require_module  # noqa: E402
 rr = require_module("rerun")
 
 from drs_model import kinematics  # noqa: E402
+from drs_ros.recording.destinations import check_connect_url  # noqa: E402
+from drs_ros.recording.errors import RerunLogError  # noqa: E402
 from drs_ros.recording.rerun_recorder import (  # noqa: E402
     DRAWINGS,
     SERIES,
     TIMELINE,
-    RerunLogError,
     RerunRecorder,
-    check_connect_url,
 )
 
 #: A server writes what it receives without a footer; rerun's reader then warns and scans.

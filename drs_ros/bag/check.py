@@ -50,6 +50,7 @@ from drs_model.overrides import from_file, parameter_file_argument
 from drs_model.params import DRSParams
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_NODE
+from ..timestamps import seconds_from_ns
 from . import fleet, look_ahead
 from .decoded import BagData, stream_bag
 from .effects import model_params_from
@@ -65,7 +66,7 @@ from .nodes import (
     resolve_topics,
     select_node,
 )
-from .reader import MessageCallbackError
+from .recorded import MessageCallbackError
 from .run_checks import TICK_TOPICS, RunChecker, fault_report
 from .run_stats import STATS_ROLES, RunStats
 
@@ -113,7 +114,7 @@ def format_faults(faults: Sequence[dict], start_ns: int | None) -> list[str]:
     start = start_ns or 0
 
     def log(ns):
-        return "end" if ns is None else f"{(ns - start) * 1e-9:.6f}"
+        return "end" if ns is None else f"{seconds_from_ns(ns - start):.6f}"
 
     lines = ["", "faults (from the effect record; simulated time, and log time from the bag's "
              "first message) [s]:"]  # fmt: skip
@@ -343,14 +344,14 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
 
 def run_notes(checker: RunChecker) -> list[str]:
     """What the report says of the run's rung and of its faults refused."""
-    run = checker.run
+    record = checker.run
     if checker.rung is None:
         rung = f"the rung of the run is unknown: {checker.rung_error}"
-    elif run.fidelity == "auto":
+    elif record.fidelity == "auto":
         rung = f"judged on the {checker.rung} rung (fidelity auto's choice, in the effect record)"
     else:
         rung = f"judged on the {checker.rung} rung (the recorded fidelity parameter)"
-    return [rung, *run.notes]
+    return [rung, *record.notes]
 
 
 #: Table columns of each check's result: check name -> column prefix.
@@ -369,8 +370,8 @@ CHECK_COLUMNS = {
 #: Columns of the printed summary of a fleet.
 SUMMARY_COLUMNS = ("messages", "duration_s", "peak_force_n", "largest_gap_m", "refused_commands",
                    "missed_deadlines")  # fmt: skip
-VERDICTS = {EXIT_OK: "PASS", EXIT_FAILED: "FAIL", EXIT_UNREADABLE: "UNREADABLE",
-            EXIT_RECOVERED: "RECOVERED", EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
+#: The verdict of each exit status of ``drs-bag check``.
+CHECK_VERDICTS = fleet.verdicts(passed="PASS", failed="FAIL")
 
 
 def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
@@ -386,7 +387,7 @@ def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
 
 
 def _row(bag: str, outcome: CheckOutcome, node: BagNode | None) -> dict:
-    row = fleet.base_row(bag, outcome.status, VERDICTS[outcome.status], outcome.error, node)
+    row = fleet.base_row(bag, outcome.status, CHECK_VERDICTS[outcome.status], outcome.error, node)
     for column in dict.fromkeys(CHECK_COLUMNS.values()):
         row[column] = math.nan
         row[f"{column}_status"] = None

@@ -4,7 +4,7 @@ the tests read.
 :func:`stream_bag` verifies the whole bag (:func:`drs_ros.bag.reader.scan`: every byte, every
 file, a chunk at a time) and hands each message of the topics asked for, decoded with the
 installed type support (:func:`decoder`), to a callback that keeps what it needs: memory does not
-grow with the bag. :func:`read_bag` keeps every decoded message (small bags, tests).
+grow with the bag.
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..timestamps import ns_of, seconds_from_ns
-from .reader import RecordedMessage, scan
+from .reader import scan
+from .recorded import RecordedMessage
 
 
 @dataclass
@@ -115,23 +116,4 @@ def stream_bag(
                    result.start_ns, result.end_ns)  # fmt: skip
 
 
-def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False) -> BagData:
-    """Verify a whole bag and keep every decoded message of ``topics`` (:func:`stream_bag`).
-
-    Raises
-    ------
-    BagReadError
-        The bag is missing, unreadable, corrupt or inconsistent (with ``recover``: nothing of it
-        is readable).
-    MessageCallbackError
-        Decoding a message that passed the file's checks failed (its type is not installed):
-        not a fault of the bag.
-    """
-    messages: dict[str, list] = {t: [] for t in topics}
-    data = stream_bag(path, topics, lambda topic, log, msg: messages[topic].append((log, msg)),
-                      recover)  # fmt: skip
-    data.messages = messages
-    return data
-
-
-__all__ = ["BagData", "decoder", "read_bag", "stamp_s", "stream_bag"]
+__all__ = ["BagData", "decoder", "stamp_s", "stream_bag"]

@@ -90,20 +90,10 @@ def model_params_from(values: dict[str, object]) -> DRSParams:
     = 0.0144`` a missing ``Iz_wing`` would derive). The outlines (drawing only, never recorded)
     stay the seed's."""
     model = {k.removeprefix("model."): v for k, v in values.items() if k.startswith("model.")}
-    # every recorded value as recorded; a name DRSParams no longer has is skipped: bags recorded
-    # before issue 17 hold wing_span and rho_steel, which the planar model never used
+    # every recorded value as recorded; a name DRSParams no longer has is skipped: older bags
+    # hold wing_span and rho_steel, which the planar model never used
     known = {k: v for k, v in model.items() if k in NUMERIC_FIELDS}
     return from_dict(known) if known else DRSParams()
-
-
-def recorded_model_params(messages: Sequence, node: str | None = None) -> tuple[DRSParams, str]:
-    """The model parameters a bag recorded (of ``node``, as :func:`recorded_node_parameters`),
-    and where they came from (for the report)."""
-    event = _start_event(messages, node)
-    if event is None:
-        return DRSParams(), "the seed's (the bag recorded none)"
-    origin = f"recorded by {event.node} on /parameter_events"
-    return model_params_from(parameter_values(event)), origin
 
 
 @dataclass(frozen=True)
@@ -186,6 +176,5 @@ __all__ = [
     "model_params_from",
     "parameter_event",
     "parameter_values",
-    "recorded_model_params",
     "recorded_node_parameters",
 ]

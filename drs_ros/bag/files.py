@@ -138,14 +138,70 @@ def read_metadata(meta_path: str | Path) -> dict[str, Any]:
     BagMetadataError
         Naming the file and the first field that is missing or wrong, with its value.
     """
-    where = str(meta_path)
+    fields = _Fields(str(meta_path))
+    data = _load_yaml(meta_path, fields)
+    if not isinstance(data, dict):
+        raise fields.bad(f"the document is {type(data).__name__}, not a mapping")
+    key = "rosbag2_bagfile_information"
+    if key not in data:
+        raise fields.bad(f"no key {key!r} (keys: {_shown(sorted(map(str, data)))})")
+    meta = fields.mapping(data[key], key)
+    _check_files(fields, meta, key)
+    fields.count(fields.get(meta, key, "message_count"), f"{key}.message_count")
+    _check_topics(fields, meta, key)
+    for field_name, unit in (("starting_time", "nanoseconds_since_epoch"),
+                             ("duration", "nanoseconds")):  # fmt: skip
+        value = fields.mapping(fields.get(meta, key, field_name), f"{key}.{field_name}")
+        fields.count(fields.get(value, f"{key}.{field_name}", unit), f"{key}.{field_name}.{unit}")
+    storage = meta.get("storage_identifier", "mcap")
+    if storage not in STORAGES:
+        raise fields.bad(f"{key}.storage_identifier is {_shown(storage)}: only {STORAGES} bags "
+                         "are read")  # fmt: skip
+    if storage == "sqlite3" and meta.get("compression_format"):
+        raise fields.bad(f"{key}.compression_format is {_shown(meta['compression_format'])}: "
+                         "compressed sqlite3 bags are not read (decompress with ros2 bag "
+                         "convert)")  # fmt: skip
+    distro = meta.get("ros_distro")
+    if distro is not None and not isinstance(distro, str):
+        raise fields.bad(f"{key}.ros_distro must be a string, got {_shown(distro)}")
+    return meta
 
-    def bad(text: str) -> BagMetadataError:
-        return BagMetadataError(f"{where!r}: not a rosbag2 metadata file: {text}")
 
+class _Fields:
+    """The checks of a metadata file's fields, each raising a :class:`BagMetadataError` that
+    names the file (``where``), the field and its value."""
+
+    def __init__(self, where: str):
+        self.where = where
+
+    def bad(self, text: str) -> BagMetadataError:
+        return BagMetadataError(f"{self.where!r}: not a rosbag2 metadata file: {text}")
+
+    def mapping(self, value: Any, name: str) -> dict:
+        if not isinstance(value, dict):
+            raise self.bad(f"{name} must be a mapping, got {_shown(value)}")
+        return value
+
+    def get(self, parent: dict, name: str, field_name: str) -> Any:
+        if field_name not in parent:
+            raise self.bad(f"{name}.{field_name} is missing")
+        return parent[field_name]
+
+    def count(self, value: Any, name: str) -> None:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise self.bad(f"{name} must be an integer >= 0, got {_shown(value)}")
+
+    def text(self, value: Any, name: str) -> None:
+        if not isinstance(value, str) or not value:
+            raise self.bad(f"{name} must be a non-empty string, got {_shown(value)}")
+
+
+def _load_yaml(meta_path: str | Path, fields: _Fields) -> Any:
+    """The YAML document of ``meta_path``; a file that cannot be read or is not YAML raises."""
+    where = fields.where
     try:
         # libyaml's safe loader when PyYAML has it (13x faster: a catalogue reads thousands)
-        data = yaml.load(Path(meta_path).read_text(encoding="utf-8"),
+        return yaml.load(Path(meta_path).read_text(encoding="utf-8"),
                          Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))  # fmt: skip
     except (OSError, UnicodeDecodeError) as exc:
         raise BagMetadataError(f"{where!r}: cannot be read ({exc})") from exc
@@ -153,70 +209,40 @@ def read_metadata(meta_path: str | Path) -> dict[str, Any]:
         mark = getattr(exc, "problem_mark", None)
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or type(exc).__name__
-        raise bad(f"not YAML ({problem}{at})") from exc
-    if not isinstance(data, dict):
-        raise bad(f"the document is {type(data).__name__}, not a mapping")
-    key = "rosbag2_bagfile_information"
-    if key not in data:
-        raise bad(f"no key {key!r} (keys: {_shown(sorted(map(str, data)))})")
-    meta = data[key]
+        raise fields.bad(f"not YAML ({problem}{at})") from exc
 
-    def mapping(value: Any, name: str) -> dict:
-        if not isinstance(value, dict):
-            raise bad(f"{name} must be a mapping, got {_shown(value)}")
-        return value
 
-    def get(parent: dict, name: str, field_name: str) -> Any:
-        if field_name not in parent:
-            raise bad(f"{name}.{field_name} is missing")
-        return parent[field_name]
-
-    def count(value: Any, name: str) -> None:
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise bad(f"{name} must be an integer >= 0, got {_shown(value)}")
-
-    def text(value: Any, name: str) -> None:
-        if not isinstance(value, str) or not value:
-            raise bad(f"{name} must be a non-empty string, got {_shown(value)}")
-
-    mapping(meta, key)
-    files = get(meta, key, "relative_file_paths")
+def _check_files(fields: _Fields, meta: dict, key: str) -> None:
+    """``relative_file_paths``: a non-empty list of names of files inside the bag directory."""
+    files = fields.get(meta, key, "relative_file_paths")
     if not isinstance(files, list) or not files:
-        raise bad(f"{key}.relative_file_paths must be a non-empty list, got {_shown(files)}")
+        raise fields.bad(f"{key}.relative_file_paths must be a non-empty list, got "
+                         f"{_shown(files)}")  # fmt: skip
     for i, name in enumerate(files):
-        text(name, f"{key}.relative_file_paths[{i}]")
+        fields.text(name, f"{key}.relative_file_paths[{i}]")
         if Path(name).is_absolute() or ".." in Path(name).parts:
-            raise bad(
+            raise fields.bad(
                 f"{key}.relative_file_paths[{i}] must name a file inside the bag directory, "
                 f"got {_shown(name)}"
             )
-    count(get(meta, key, "message_count"), f"{key}.message_count")
-    topics = get(meta, key, "topics_with_message_count")
+
+
+def _check_topics(fields: _Fields, meta: dict, key: str) -> None:
+    """``topics_with_message_count``: a list of topics, each named and typed, with its count."""
+    topics = fields.get(meta, key, "topics_with_message_count")
     if not isinstance(topics, list):
-        raise bad(f"{key}.topics_with_message_count must be a list, got {_shown(topics)}")
+        raise fields.bad(f"{key}.topics_with_message_count must be a list, got {_shown(topics)}")
     for i, entry in enumerate(topics):
         name = f"{key}.topics_with_message_count[{i}]"
-        mapping(entry, name)
-        topic = mapping(get(entry, name, "topic_metadata"), f"{name}.topic_metadata")
-        text(get(topic, f"{name}.topic_metadata", "name"), f"{name}.topic_metadata.name")
-        text(get(topic, f"{name}.topic_metadata", "type"), f"{name}.topic_metadata.type")
+        fields.mapping(entry, name)
+        topic = fields.mapping(fields.get(entry, name, "topic_metadata"), f"{name}.topic_metadata")
+        for part in ("name", "type"):
+            fields.text(fields.get(topic, f"{name}.topic_metadata", part),
+                        f"{name}.topic_metadata.{part}")  # fmt: skip
         if "serialization_format" in topic:
-            text(topic["serialization_format"], f"{name}.topic_metadata.serialization_format")
-        count(get(entry, name, "message_count"), f"{name}.message_count")
-    for field_name, unit in (("starting_time", "nanoseconds_since_epoch"),
-                             ("duration", "nanoseconds")):  # fmt: skip
-        value = mapping(get(meta, key, field_name), f"{key}.{field_name}")
-        count(get(value, f"{key}.{field_name}", unit), f"{key}.{field_name}.{unit}")
-    storage = meta.get("storage_identifier", "mcap")
-    if storage not in STORAGES:
-        raise bad(f"{key}.storage_identifier is {_shown(storage)}: only {STORAGES} bags are read")
-    if storage == "sqlite3" and meta.get("compression_format"):
-        raise bad(f"{key}.compression_format is {_shown(meta['compression_format'])}: compressed "
-                  "sqlite3 bags are not read (decompress with ros2 bag convert)")  # fmt: skip
-    distro = meta.get("ros_distro")
-    if distro is not None and not isinstance(distro, str):
-        raise bad(f"{key}.ros_distro must be a string, got {_shown(distro)}")
-    return meta
+            fields.text(topic["serialization_format"],
+                        f"{name}.topic_metadata.serialization_format")  # fmt: skip
+        fields.count(fields.get(entry, name, "message_count"), f"{name}.message_count")
 
 
 __all__ = ["STORAGES", "BagFiles", "BagMetadataError", "BagReadError", "read_metadata", "resolve"]

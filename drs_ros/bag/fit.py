@@ -60,19 +60,21 @@ from .fit_report import document, dumps, format_text, plot, row_columns
 from .fit_rerun import SIMULATED_SIGNALS
 from .measured import MeasurementError, parse_topic_map, read_measured
 from .nodes import BagNode, NodeSelectionError, add_node_arguments, bag_nodes, select_node
-from .reader import MessageCallbackError
+from .recorded import MessageCallbackError
 
-VERDICTS = {EXIT_OK: "FITTED", EXIT_FAILED: "NOT DETERMINED", EXIT_UNREADABLE: "UNREADABLE",
-            EXIT_INTERNAL: "INTERNAL ERROR"}  # fmt: skip
+#: The verdict of each exit status of ``drs-bag fit``.
+FIT_VERDICTS = fleet.verdicts(passed="FITTED", failed="NOT DETERMINED")
 #: The verdict of a fit the model refuses (exit status 2, as an unreadable bag).
 REFUSED = "REFUSED"
 
 
 # ---- options, checked when parsed (argparse ``type=``) ---------------------------------------
-def _names(text: str) -> list[str]:
+def parameter_names_argument(text: str) -> list[str]:
+    """``NAME,...`` (``drs-bag fit`` and ``drs-bag trend``'s ``--params``): at least one name,
+    none twice."""
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
-        raise argparse.ArgumentTypeError("name at least one")
+        raise argparse.ArgumentTypeError("name at least one parameter")
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise argparse.ArgumentTypeError(f"named twice: {repeated}")
@@ -82,7 +84,7 @@ def _names(text: str) -> list[str]:
 def fit_names_argument(text: str) -> list[str]:
     """``--params NAME,...``: parameters that can be fitted (on some rung; whether the bag's
     rung holds them is the model's to say), none twice."""
-    names = _names(text)
+    names = parameter_names_argument(text)
     try:
         for name in names:
             fit_parameter(name)
@@ -119,7 +121,7 @@ def noise_argument(item: str) -> str:
 
 def signals_argument(text: str) -> list[str]:
     """``--signals NAME,...``: signals a re-simulation gives."""
-    names = _names(text)
+    names = parameter_names_argument(text)
     unknown = [n for n in names if n not in SIMULATED_SIGNALS]
     if unknown:
         raise argparse.ArgumentTypeError(f"{unknown}: not signals a re-simulation gives; valid: "
@@ -194,7 +196,7 @@ class FitOutcome:
     verdict: str = ""
 
     def __post_init__(self) -> None:
-        self.verdict = self.verdict or VERDICTS[self.status]
+        self.verdict = self.verdict or FIT_VERDICTS[self.status]
 
 
 def _models(measured, sets):
@@ -212,16 +214,16 @@ def _simulation(measured, rung, p, hp):
     """The re-simulation of the node's commands, or None (with the reason in the measurement's
     notes) where the bag cannot be re-run."""
     from .fit_rerun import RunResimulation
-    from .resimulate import ResimulationError, read_run
+    from .recorded_run import ResimulationError, read_run
 
     if measured.node_parameters is None or measured.record.step is None:
         return None
     try:
-        run = read_run(measured.bag, measured.node)
+        recorded = read_run(measured.bag, measured.node)
     except ResimulationError as exc:
         measured.notes.append(f"no output error: {exc}")
         return None
-    return RunResimulation(run, p, hp, rung, measured.record.step)
+    return RunResimulation(recorded, p, hp, rung, measured.record.step)
 
 
 def fit_one(bag, args: argparse.Namespace, node: BagNode | None = None) -> FitOutcome:
@@ -311,6 +313,6 @@ def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
     return outcome.status
 
 
-__all__ = ["REFUSED", "VERDICTS", "FitOutcome", "add_arguments", "fit_names_argument",
-           "fit_one", "fleet_row", "level_argument", "noise_argument", "run", "set_argument",
-           "signals_argument", "topic_map_argument"]
+__all__ = ["FIT_VERDICTS", "REFUSED", "FitOutcome", "add_arguments", "fit_names_argument",
+           "fit_one", "fleet_row", "level_argument", "noise_argument", "parameter_names_argument",
+           "run", "set_argument", "signals_argument", "topic_map_argument"]

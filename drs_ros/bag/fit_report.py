@@ -102,14 +102,6 @@ def row_columns(result: FitResult) -> dict:
     return out
 
 
-def estimates_table(result: FitResult):
-    """One row per parameter as a ``pyarrow.Table``."""
-    import pyarrow as pa
-
-    rows = [e.to_dict() for e in result.estimates]
-    return pa.Table.from_pylist(rows)
-
-
 def plot(result: FitResult, path: str | Path, title: str = "") -> Path:
     """Measured (points) against fitted (line) signals, one panel each, and the residuals."""
     import matplotlib
@@ -140,4 +132,4 @@ def plot(result: FitResult, path: str | Path, title: str = "") -> Path:
     return Path(path)
 
 
-__all__ = ["document", "dumps", "estimates_table", "format_text", "plot", "row_columns"]
+__all__ = ["document", "dumps", "format_text", "plot", "row_columns"]

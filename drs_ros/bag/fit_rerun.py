@@ -1,7 +1,7 @@
 """A bag's run re-simulated for a fit: the recorded commands on the rung, with trial parameter
 values, sampled where the bag's signals were (the output error's model).
 
-Each call is one re-run through :func:`drs_ros.bag.resimulate.resimulate` (the same commands,
+Each call is one re-run through :func:`drs_ros.bag.rerun.resimulate` (the same commands,
 effect record and resets as ``drs-bag resimulate``), on the rung the fit runs on, with the
 recorded faults left out: a fit estimates what the faults changed (a leak, a jam) instead of
 being told. The rungs step their compiled kernels (numba).
@@ -17,7 +17,8 @@ from drs_model.fidelity.hydraulic_params import HydraulicParams
 from drs_model.identify.parameters import with_values
 from drs_model.params import DRSParams
 
-from .resimulate import RecordedRun, resimulate
+from .recorded_run import RecordedRun
+from .rerun import resimulate
 
 #: The signals a re-simulation gives (the output error compares those the bag recorded; the
 #: chamber pressures on the hydraulic rung only).

@@ -37,7 +37,15 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_USAGE
+from drs_model.cli.exit_status import (
+    EXIT_FAILED,
+    EXIT_INTERNAL,
+    EXIT_NOTHING_TO_RERUN,
+    EXIT_OK,
+    EXIT_RECOVERED,
+    EXIT_UNREADABLE,
+    EXIT_USAGE,
+)
 from drs_model.errors import DRSError
 from drs_model.params import NUMERIC_FIELDS
 
@@ -170,6 +178,18 @@ def row_nodes(bag: str, name: str | None) -> list:
     return list(nodes) or [None]
 
 
+#: The verdict of each exit status that means the same in every verb (each verb names its own
+#: verdicts of 0 and 1: :func:`verdicts`).
+SHARED_VERDICTS = {EXIT_UNREADABLE: "UNREADABLE", EXIT_RECOVERED: "RECOVERED",
+                   EXIT_INTERNAL: "INTERNAL ERROR", EXIT_NOTHING_TO_RERUN: "NOTHING TO RE-RUN"}
+
+
+def verdicts(passed: str, failed: str) -> dict[int, str]:
+    """A verb's verdict of each exit status: ``passed`` for 0, ``failed`` for 1 (a check fails,
+    a re-run deviates, a fit is not determined), :data:`SHARED_VERDICTS` for the others."""
+    return {EXIT_OK: passed, EXIT_FAILED: failed, **SHARED_VERDICTS}
+
+
 def base_row(bag: str, status: int, verdict: str, error: str, node=None) -> dict[str, Any]:
     """The columns every verb's row starts with (``node``: the row's drs node, or None)."""
     return {"bag": str(bag), "node": None if node is None else node.name, "verdict": verdict,
@@ -231,7 +251,7 @@ def run_rows(row_function: Callable, bags: Sequence[str], args: argparse.Namespa
                                        progress=progress, row_function=row_function,
                                        args=args):  # fmt: skip
             if isinstance(result, TaskFailure):
-                failed = base_row(bags[i], EXIT_INTERNAL, "INTERNAL ERROR",
+                failed = base_row(bags[i], EXIT_INTERNAL, SHARED_VERDICTS[EXIT_INTERNAL],
                                   f"internal error: {result}")  # fmt: skip
                 failed["task_s"] = math.nan
                 result = [failed]
@@ -331,6 +351,7 @@ def run_fleet(row_function: Callable, args: argparse.Namespace, prog: str, done:
 
 __all__ = [
     "FleetError",
+    "SHARED_VERDICTS",
     "add_fleet_arguments",
     "base_row",
     "count_columns",
@@ -345,4 +366,5 @@ __all__ = [
     "table_path",
     "timed_row",
     "to_table",
+    "verdicts",
 ]

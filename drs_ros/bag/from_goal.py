@@ -32,7 +32,7 @@ from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 from ..errors import DRSRosError
 from ..names import DEFAULT_NODE, NODE_TOPICS, expand_topic
 from ..recording.errors import RecordingError
-from ..timestamps import split_ns
+from ..timestamps import NS_PER_S, ns_from_parts, split_ns
 from .synthetic import T0_NS
 
 #: The fields of a trajectory point that hold one value per joint (the node takes these).
@@ -76,10 +76,10 @@ def _time_ns(point: Mapping, k: int) -> int:
     if not all(isinstance(v, int) and not isinstance(v, bool) for v in (sec, nanosec)):
         raise GoalFileError(f"point {k}: time_from_start must be integer sec and nanosec, "
                             f"got {t!r}")  # fmt: skip
-    if not 0 <= nanosec < 1_000_000_000 or sec < 0:
+    if not 0 <= nanosec < NS_PER_S or sec < 0:
         raise GoalFileError(f"point {k}: time_from_start must be >= 0 s with nanosec in "
                             f"[0, 1e9), got {t!r}")  # fmt: skip
-    return sec * 1_000_000_000 + nanosec
+    return ns_from_parts(sec, nanosec)
 
 
 def check_trajectory(trajectory: Mapping) -> None:

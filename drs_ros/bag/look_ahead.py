@@ -22,7 +22,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from .files import BagFiles, BagReadError, resolve
-from .reader import MCAP_MAGIC, RecordedMessage, mcap_read_errors
+from .mcap_file import MCAP_MAGIC, mcap_read_errors
+from .recorded import RecordedMessage
 
 
 def bag_files(path: str | Path | BagFiles) -> BagFiles | None:

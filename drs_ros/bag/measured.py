@@ -37,10 +37,12 @@ from drs_model.params import DRSParams
 
 from ..errors import DRSRosError
 from ..names import CLOCK
+from ..timestamps import ns_of, seconds_from_ns
 from .decoded import decoder
 from .effects import effect_records, model_params_from, recorded_rung
 from .nodes import BagNode, resolve_topics
-from .reader import MessageCallbackError, scan
+from .reader import scan
+from .recorded import MessageCallbackError
 
 #: The fit's roles, and the role of :data:`drs_ros.names.NODE_TOPICS` that names the node's
 #: topic of each (the hydraulic ones: ``drs_ros.node.adapter.HYDRAULIC_TOPICS``).
@@ -206,12 +208,12 @@ def read_measured(bag: str | Path, node: BagNode | None,
             if where["index"] is None:
                 where["index"] = _joint_index(msg, joint or (node_names or [None])[0])
             i = where["index"]
-            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            stamp = ns_of(msg.header.stamp)
             joints.append((m.log_time, stamp, _value(msg.position, i), _value(msg.velocity, i),
                            _value(msg.effort, i)))  # fmt: skip
             origins.append(where["origin"])
         elif role in STAMPED:
-            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            stamp = ns_of(msg.header.stamp)
             got[role].append((stamp, float(msg.fluid_pressure)))
         else:
             got[role].append((m.log_time, float(msg.data)))
@@ -247,11 +249,11 @@ def _assemble(joints, origins, got, node, records, topics) -> Measured:
     notes = []
     steps = None
     if node_parameters is not None and all(o is not None for _, o in keep):
-        t = (stamp - np.array([o for _, o in keep], dtype=np.int64)) * 1e-9
+        t = seconds_from_ns(stamp - np.array([o for _, o in keep], dtype=np.int64))
         dt = 1.0 / float(node_parameters["physics_rate_hz"])
         steps = np.rint(t / dt).astype(np.int64)
     else:
-        t = (stamp - stamp[0]) * 1e-9
+        t = seconds_from_ns(stamp - stamp[0])
         notes.append("no clock records: times from the first joint state's stamp, and no "
                      "re-simulation")  # fmt: skip
     signals = {"stroke": cols[:, 0]}

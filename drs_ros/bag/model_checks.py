@@ -12,7 +12,6 @@ the largest discrepancy per topic:
 
 from __future__ import annotations
 
-import heapq
 import importlib
 import math
 from collections.abc import Callable, Sequence
@@ -28,7 +27,7 @@ from drs_model.params import DRSParams
 from ..errors import UsageError
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 from ..timestamps import ns_from_seconds
-from .decoded import BagData, stamp_s
+from .decoded import stamp_s
 
 #: The name of the piston-force check from finite differences of the logged velocities.
 FORCE_CHECK = "piston force vs model"
@@ -77,38 +76,12 @@ def joint_row(log_ns: int, msg, joint_names: Sequence[str]) -> tuple | None:
             eff[order[0]] if len(eff) > order[0] else math.nan)  # fmt: skip
 
 
-def joint_arrays(
-    messages: list, joint_names: Sequence[str]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-    """Stack JointState messages: times [s], log times [ns], q, qd, effort[0], messages skipped.
-
-    Values are ordered by ``joint_names`` when a message carries names; NaN where absent.
-    """
-    rows = [joint_row(log_ns, msg, joint_names) for log_ns, msg in messages]
-    kept = [r for r in rows if r is not None]
-    return (
-        np.array([r[0] for r in kept], dtype=float),
-        np.array([r[1] for r in kept], dtype=np.int64),
-        np.array([r[2] for r in kept], dtype=float).reshape(-1, 3),
-        np.array([r[3] for r in kept], dtype=float).reshape(-1, 3),
-        np.array([r[4] for r in kept], dtype=float),
-        len(rows) - len(kept),
-    )
-
-
 def _worst(err: np.ndarray, t: np.ndarray) -> tuple[float, float, int]:
     ok = np.isfinite(err)
     if not np.any(ok):
         return math.nan, math.nan, 0
     i = int(np.argmax(np.where(ok, err, -np.inf)))
     return float(err[i]), float(t[i]), int(ok.sum())
-
-
-def _result(name, topic, unit, err, t, tol, note="") -> CheckResult:
-    worst, at, n = _worst(np.asarray(err, dtype=float), t)
-    if n == 0:
-        return _skipped(name, topic, unit, tol, note or "no samples")
-    return CheckResult(name, topic, unit, n, worst, at, tol, "ok" if worst <= tol else "FAIL", note)
 
 
 def _skipped(name, topic, unit, tol, why) -> CheckResult:
@@ -178,7 +151,7 @@ class _Block:
 
 class _Worst:
     """The largest finite error seen so far, the time of its first occurrence, and the number of
-    finite samples (what :func:`_result` reports, accumulated block after block)."""
+    finite samples, accumulated block after block."""
 
     def __init__(self):
         self.value, self.at, self.samples = math.nan, math.nan, 0
@@ -197,7 +170,7 @@ class _Worst:
 
 
 class ModelChecker:
-    """The checks of :func:`check_bag`, fed one decoded message at a time (:meth:`add`) and
+    """The checks of ``drs-bag check``, fed one decoded message at a time (:meth:`add`) and
     finished with :meth:`results`: memory holds three blocks of :data:`BLOCK_STATES` joint
     states (as numbers, not messages), whatever the length of the bag.
 
@@ -206,7 +179,29 @@ class ModelChecker:
     neighbours, and the finite differences of a block's velocities see its neighbours' samples.
     For a bag whose messages are in time order to within a block (every recorder's), this is
     exactly what the checks over the whole bag at once give; a bag of one block is read whole.
-    Parameters as for :func:`check_bag`; ``block_states`` defaults to :data:`BLOCK_STATES`.
+    Parameters
+    ----------
+    params : DRSParams, optional
+        Model parameters (the seed by default).
+    tol : float
+        Tolerance of the kinematic checks [m, m/s].
+    force_tol : float
+        Tolerance of the force checks [N].
+    topics : dict, optional
+        Overrides of :data:`DEFAULT_TOPICS`.
+    joint_names : sequence of str
+        Joint names of ``[s, psi1, psi3]``.
+    force_model : callable, optional
+        ``f(q, qd, qdd, params) -> (n,)`` [N]; None skips the model force check (with
+        ``force_note`` as the reason).
+    max_match_s : float
+        Largest time offset [s] at which a Float64 sample is paired with a joint state.
+    force_model_tol : float, optional
+        Tolerance [N] of the model force check. None (default) reports it as ``info`` without
+        failing: ``qdd`` comes from finite differences of the logged ``qd``, which near the
+        manoeuvre's jerk discontinuities is off by several % of the peak force even at 1 kHz.
+    block_states : int, optional
+        Joint states per block; :data:`BLOCK_STATES` by default.
     """
 
     def __init__(
@@ -388,7 +383,7 @@ class ModelChecker:
         self.fd.add(np.abs(fs[owned] - model), ts[owned])
 
     def results(self) -> list[CheckResult]:
-        """Check what is left and report every check (the rows of :func:`check_bag`)."""
+        """Check what is left and report every check (the rows of ``drs-bag check``)."""
         if self._rows or self._scalars["gap"] or self._scalars["accel"] or not self._closed:
             self._close_block()
         if self._checked < self._closed:  # the last block, with the one before it
@@ -445,49 +440,11 @@ class ModelChecker:
         return self.fd.result(FORCE_CHECK, js_topic, "N", self.force_model_tol, note)
 
 
-def check_bag(data: BagData, params: DRSParams | None = None, **options) -> list[CheckResult]:
-    """Run every check on decoded bag data (:class:`ModelChecker` over ``data.messages``).
-
-    Parameters
-    ----------
-    data : BagData
-        From :func:`read_bag`.
-    params : DRSParams, optional
-        Model parameters (the seed by default).
-    tol : float
-        Tolerance of the kinematic checks [m, m/s].
-    force_tol : float
-        Tolerance of the force checks [N].
-    topics : dict, optional
-        Overrides of :data:`DEFAULT_TOPICS`.
-    joint_names : sequence of str
-        Joint names of ``[s, psi1, psi3]``.
-    force_model : callable, optional
-        ``f(q, qd, qdd, params) -> (n,)`` [N]; None skips the model force check (with
-        ``force_note`` as the reason).
-    max_match_s : float
-        Largest time offset [s] at which a Float64 sample is paired with a joint state.
-    force_model_tol : float, optional
-        Tolerance [N] of the model force check. None (default) reports it as ``info`` without
-        failing: ``qdd`` comes from finite differences of the logged ``qd``, which near the
-        manoeuvre's jerk discontinuities is off by several % of the peak force even at 1 kHz.
-    """
-    checker = ModelChecker(params, **options)
-    # the topics merged by log time as a recorder interleaves them (each in its own order)
-    streams = [[(log_ns, topic, msg) for log_ns, msg in msgs]
-               for topic, msgs in data.messages.items()]  # fmt: skip
-    for log_ns, topic, msg in heapq.merge(*streams, key=lambda m: m[0]):
-        checker.add(topic, log_ns, msg)
-    return checker.results()
-
-
 __all__ = [
     "BLOCK_STATES",
     "CheckResult",
     "ModelChecker",
     "ForceModelError",
-    "check_bag",
-    "joint_arrays",
     "joint_row",
     "load_force_model",
     "stamp_s",

@@ -36,131 +36,15 @@ No state beyond the scan's own result; rclpy is used only for its type support.
 
 from __future__ import annotations
 
-import struct
-import zlib
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
-from ..errors import DRSRosError
 from .files import BagFiles, BagReadError, resolve
-
-#: The MCAP magic (8 bytes at both ends of a file).
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-_FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
-
-
-class MessageCallbackError(DRSRosError):
-    """The caller's ``on_message`` callback of :func:`scan` raised on a message that passed every
-    check of the file: a failure of the caller (a bug, a type it cannot handle, its output that
-    cannot be written), not of the bag. Never a :class:`BagReadError`; ``__cause__`` is the
-    callback's exception.
-
-    Attributes
-    ----------
-    path : Path
-        The ``.mcap`` file being read.
-    topic : str
-    index : int
-        1-based number of the message on its topic in that file.
-    offset : int
-        File offset of the message (of its chunk) [bytes].
-    """
-
-    def __init__(self, message: str, path: Path, topic: str, index: int, offset: int):
-        super().__init__(message)
-        self.path, self.topic, self.index, self.offset = path, topic, index, offset
-
-
-@dataclass(frozen=True)
-class RecordedMessage:
-    """One message as recorded: topic, type, times [ns], sequence, exact bytes, the file offset
-    of the record (of its chunk, for a chunked message) [bytes], and its channel as declared in
-    the file (schema and metadata: what a copy of the message needs)."""
-
-    topic: str
-    type_name: str
-    log_time: int
-    publish_time: int
-    sequence: int
-    data: bytes
-    offset: int
-    channel: ChannelInfo | None = field(default=None, compare=False, repr=False)
-
-
-@dataclass
-class ChannelInfo:
-    """A channel as recorded: topic, schema (name, encoding, data), metadata."""
-
-    id: int
-    topic: str
-    type_name: str
-    schema_encoding: str
-    schema_data: bytes
-    message_encoding: str
-    metadata: dict[str, str]
-
-
-@dataclass
-class BagScan:
-    """What :func:`scan` read.
-
-    Attributes
-    ----------
-    path : Path
-        The ``.mcap`` file; for a bag split into several files, the bag directory.
-    bag_dir : Path or None
-        The bag directory (None for a bare file).
-    channels : dict
-        channel id -> :class:`ChannelInfo`, in the order they appear (for a split bag: the first
-        channel of each topic, numbered from 1 in order of appearance).
-    counts : dict
-        topic -> messages read (every topic; summed over the files of a split bag).
-    complete : bool
-        The whole bag was read and verified (footer, summary, magic of every file).
-    stopped_at : int or None
-        With ``recover``: the offset [bytes] where reading stopped (of the first file that
-        stopped early, for a split bag).
-    reason : str
-        With ``recover``: why it stopped ('' when complete; for a split bag, every file that
-        stopped early, by name).
-    last_good_offset : int
-        End of the last record read completely [bytes] (of a single file).
-    file_size : int
-        [bytes] (the sum over the files of a split bag).
-    start_ns, end_ns : int or None
-        Earliest and latest ``log_time`` read.
-    metadata : dict or None
-        ``rosbag2_bagfile_information`` of ``metadata.yaml``, if there is one.
-    notes : list of str
-    parts : list of BagScan
-        A split bag's scans, one per file in order (empty for a single file).
-    """
-
-    path: Path
-    bag_dir: Path | None
-    channels: dict[int, ChannelInfo] = field(default_factory=dict)
-    counts: dict[str, int] = field(default_factory=dict)
-    complete: bool = False
-    stopped_at: int | None = None
-    reason: str = ""
-    last_good_offset: int = 0
-    file_size: int = 0
-    start_ns: int | None = None
-    end_ns: int | None = None
-    metadata: dict[str, Any] | None = None
-    notes: list[str] = field(default_factory=list)
-    parts: list[BagScan] = field(default_factory=list)
-
-    @property
-    def message_count(self) -> int:
-        return sum(self.counts.values())
-
-    @property
-    def file_scans(self) -> list[BagScan]:
-        """One scan per file, in order: ``parts``, or this scan for a single file."""
-        return self.parts or [self]
+from .mcap_file import scan_file
+from .recorded import BagScan, ChannelInfo, MessageCallbackError, RecordedMessage
 
 
 def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]:
@@ -244,12 +128,14 @@ def scan(
     padded: dict[str, int] = {}
     check = _exact_checker(padded) if exact else None
     unverified: set[str] = set()
+    take = partial(_take, check=check, unverified=unverified, on_message=on_message,
+                   wanted=wanted)  # fmt: skip
     parts: list[BagScan] = []
     if bag.storage == "sqlite3":  # one result for the bag (its files are one database to rosbags)
         parts.append(_scan_sqlite(bag, on_message, check, wanted, unverified))
     for file in bag.files if bag.storage == "mcap" else ():
         try:
-            part = _scan_file(file, bag.bag_dir, on_message, recover, check, wanted, unverified)
+            part = scan_file(file, bag.bag_dir, take, recover)
         except BagReadError as exc:
             if not recover or len(bag.files) == 1:
                 raise
@@ -300,153 +186,6 @@ def _combine(bag: BagFiles, parts: list[BagScan]) -> BagScan:
         out.stopped_at, out.last_good_offset = stopped[0].stopped_at, stopped[0].last_good_offset
         out.reason = "; ".join(f"{part.path.name}: {part.reason}" for part in stopped)
     return out
-
-
-def _scan_file(
-    mcap_path: Path,
-    bag_dir: Path | None,
-    on_message: Callable[[RecordedMessage], None] | None,
-    recover: bool,
-    check: Callable[[str, bytes], str | None] | None,
-    wanted: set[str] | None,
-    unverified: set[str],
-) -> BagScan:
-    """Read and verify one ``.mcap`` file (everything of :func:`scan` but ``metadata.yaml``)."""
-    from mcap.records import (
-        Channel,
-        Chunk,
-        ChunkIndex,
-        DataEnd,
-        Footer,
-        Message,
-        Schema,
-        Statistics,
-    )
-    from mcap.stream_reader import StreamReader, breakup_chunk
-
-    out = BagScan(mcap_path, bag_dir, file_size=mcap_path.stat().st_size)
-    schemas: dict[int, Schema] = {}
-    chunk_offsets: dict[int, int] = {}
-    stats: Statistics | None = None
-    chunk_indexes: list[ChunkIndex] = []
-    footer: Footer | None = None
-    offset = 8
-    where = "the header"
-
-    def fail(msg: str) -> None:
-        raise BagReadError(f"{str(mcap_path)!r}: {msg}")
-
-    def take(rec, at: int) -> None:
-        _take(out, rec, at, mcap_path, check, unverified, on_message, wanted)
-
-    def data_record(rec, at: int) -> None:
-        """A message, schema or channel, in a chunk or not (``at``: the offset to report)."""
-        if isinstance(rec, Message):
-            take(rec, at)
-        elif isinstance(rec, Schema):
-            schemas[rec.id] = rec
-        elif isinstance(rec, Channel):
-            _add_channel(out, schemas, rec, fail)
-
-    errors = mcap_read_errors()
-    try:
-        with open(mcap_path, "rb") as f:
-            head = f.read(8)
-            if head != MCAP_MAGIC:
-                fail("not an MCAP file (no MCAP magic at the start)" if head else "empty file")
-            f.seek(0)
-            reader = StreamReader(f, validate_crcs=True, emit_chunks=True)
-            stream = reader._stream  # its byte count is the offset of the next record
-            for record in reader.records:
-                end = stream.count
-                if isinstance(record, Chunk):
-                    where = f"the chunk at offset {offset}"
-                    chunk_offsets[offset] = end - offset
-                    for inner in breakup_chunk(record, validate_crc=True):
-                        data_record(inner, offset)
-                elif isinstance(record, (Message, Schema, Channel)):
-                    data_record(record, offset)
-                elif isinstance(record, Statistics):
-                    stats = record
-                elif isinstance(record, ChunkIndex):
-                    chunk_indexes.append(record)
-                elif isinstance(record, DataEnd):
-                    where = f"the summary after offset {end}"
-                elif isinstance(record, Footer):
-                    footer = record
-                out.last_good_offset = end
-                offset = end
-                if footer is None:
-                    where = f"the record at offset {offset}"
-            if footer is None:
-                fail(f"ends at offset {offset} without a footer (truncated)")
-            end_of_file = stream.count
-            f.seek(0, 2)
-            size = f.tell()
-            if size != end_of_file:
-                fail(f"{size - end_of_file} unread bytes after the closing magic at offset "
-                     f"{end_of_file}")  # fmt: skip
-            _check_summary(f, footer, size, fail)
-    except BagReadError as exc:
-        if not recover or out.message_count == 0:
-            raise
-        out.stopped_at, out.reason = offset, str(exc).split(": ", 1)[-1]
-        _recovered_note(out)
-        return out
-    except errors as exc:
-        reason = _describe(exc, where)
-        if not recover:
-            raise BagReadError(
-                f"{str(mcap_path)!r}: {reason}; {out.message_count} messages were readable "
-                f"before it (drs-bag recover salvages them)"
-            ) from exc
-        if out.message_count == 0:
-            raise BagReadError(
-                f"{str(mcap_path)!r}: nothing recoverable: {reason} before any complete message"
-            ) from exc
-        out.stopped_at, out.reason = offset, reason
-        _recovered_note(out)
-        return out
-    if stats is not None:
-        for cid, n in stats.channel_message_counts.items():
-            topic = out.channels[cid].topic if cid in out.channels else f"channel {cid}"
-            if out.counts.get(topic, 0) != n:
-                raise BagReadError(
-                    f"{str(mcap_path)!r}: the summary counts {n} messages on {topic}, "
-                    f"{out.counts.get(topic, 0)} were read ({n - out.counts.get(topic, 0)} missing)"
-                )
-    else:
-        raise BagReadError(f"{str(mcap_path)!r}: no statistics record in the summary")
-    for index in chunk_indexes:
-        if chunk_offsets.get(index.chunk_start_offset) != index.chunk_length:
-            raise BagReadError(
-                f"{str(mcap_path)!r}: the summary indexes a chunk at offset "
-                f"{index.chunk_start_offset} ({index.chunk_length} bytes) that is not in the file"
-            )
-    if len(chunk_indexes) != len(chunk_offsets):
-        raise BagReadError(
-            f"{str(mcap_path)!r}: {len(chunk_offsets)} chunks were read, the summary indexes "
-            f"{len(chunk_indexes)}"
-        )
-    out.complete = True
-    return out
-
-
-def mcap_read_errors() -> tuple[type[BaseException], ...]:
-    """What reading damaged MCAP bytes raises, from the mcap library, the decompressors and the
-    file: the errors a reader of a bag means to catch (and no other)."""
-    from mcap.exceptions import McapError
-
-    return (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
-            UnicodeDecodeError, *_decompression_errors())  # fmt: skip
-
-
-def _decompression_errors() -> tuple[type[BaseException], ...]:
-    """What the chunk decompressors raise on corrupt data: zstandard's ``ZstdError``, lz4's
-    ``RuntimeError`` (both are dependencies of the ros extra, as mcap reads through them)."""
-    import zstandard
-
-    return (zstandard.ZstdError, RuntimeError)
 
 
 def _take(
@@ -500,8 +239,8 @@ def _scan_sqlite(
     unverified: set[str],
 ) -> BagScan:
     """Read and verify a sqlite3 bag (:mod:`drs_ros.bag.sqlite`): every page of each database
-    (SQLite's integrity check), then every message, in time order, as :func:`_scan_file` does
-    (its row number in the file is its ``offset``)."""
+    (SQLite's integrity check), then every message, in time order, as
+    :func:`.mcap_file.scan_file` does (its row number in the file is its ``offset``)."""
     from . import sqlite
 
     path = bag.bag_dir if bag.bag_dir is not None else bag.files[0]
@@ -515,35 +254,6 @@ def _scan_sqlite(
         _take(out, rec, row, path, check, unverified, on_message, wanted)
     out.complete = True
     return out
-
-
-def _add_channel(out: BagScan, schemas, record, fail) -> None:
-    schema = schemas.get(record.schema_id)
-    if schema is None and record.schema_id != 0:
-        fail(f"channel {record.topic} names schema {record.schema_id}, never declared")
-    out.channels[record.id] = ChannelInfo(
-        record.id,
-        record.topic,
-        schema.name if schema else "",
-        schema.encoding if schema else "",
-        bytes(schema.data) if schema else b"",
-        record.message_encoding,
-        dict(record.metadata),
-    )
-    out.counts.setdefault(record.topic, 0)
-
-
-def _check_summary(f, footer, size: int, fail) -> None:
-    """The footer's summary CRC: bytes from the summary start through summary_offset_start."""
-    if footer.summary_start == 0 or footer.summary_crc == 0:
-        return
-    footer_at = size - 8 - _FOOTER_LEN
-    f.seek(footer.summary_start)
-    data = f.read(footer_at + 1 + 8 + 8 + 8 - footer.summary_start)
-    crc = zlib.crc32(data)
-    if crc != footer.summary_crc:
-        fail(f"summary CRC mismatch (footer says {footer.summary_crc:#010x}, the bytes from "
-             f"offset {footer.summary_start} give {crc:#010x})")  # fmt: skip
 
 
 def _check_metadata(out: BagScan, meta: dict, meta_path: Path) -> None:
@@ -571,30 +281,4 @@ def _check_metadata(out: BagScan, meta: dict, meta_path: Path) -> None:
         raise BagReadError(f"{where!r}: counts {total} messages, {held} {out.message_count}")
 
 
-def _describe(exc: BaseException, where: str) -> str:
-    name = type(exc).__name__
-    text = str(exc) or "unexpected end of file"
-    if name == "CRCValidationError":
-        return f"{where} is corrupt ({text})"
-    if isinstance(exc, (EOFError, struct.error)) or "end of" in text.lower():
-        return f"the file ends inside {where} (truncated: {text})"
-    return f"cannot read {where} ({name}: {text})"
-
-
-def _recovered_note(out: BagScan) -> None:
-    lost = out.file_size - out.last_good_offset
-    out.notes.append(
-        f"stopped at offset {out.stopped_at} of {out.file_size}: {out.reason}; kept "
-        f"{out.message_count} messages, {lost} bytes after the last complete record are lost"
-    )
-
-
-__all__ = [
-    "MCAP_MAGIC",
-    "BagScan",
-    "ChannelInfo",
-    "MessageCallbackError",
-    "RecordedMessage",
-    "mcap_read_errors",
-    "scan",
-]
+__all__ = ["scan"]

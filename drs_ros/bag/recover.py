@@ -26,13 +26,15 @@ from pathlib import Path
 
 from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EXIT_UNREADABLE
 
+from ..recording.destinations import check_new_bag
 from ..recording.errors import RecordingError
-from ..recording.mcap_recorder import McapRecorder, check_new_bag
+from ..recording.mcap_recorder import McapRecorder
 from ..recording.qos import parse_qos_yaml
 from ..timestamps import split_ns
 from .files import BagReadError
 from .nodes import bag_nodes, nodes_text
-from .reader import ChannelInfo, MessageCallbackError, RecordedMessage, scan
+from .reader import scan
+from .recorded import ChannelInfo, MessageCallbackError, RecordedMessage
 
 
 def _register(rec: McapRecorder, channel: ChannelInfo) -> None:

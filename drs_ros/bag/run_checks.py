@@ -35,6 +35,7 @@ from drs_model.fidelity.recorded import HydraulicRecord, SensorReplay, StaticFor
 from drs_model.kinematics import stroke_limits
 
 from ..names import ACCEPTED, RESET
+from ..timestamps import ns_of
 from .effects import EffectRecord, fault_of, is_fault_record
 from .model_checks import FORCE_CHECK, CheckResult, ModelChecker, _Worst, joint_row
 from .run_record import RunRecord
@@ -185,7 +186,7 @@ class RunChecker:
             self.model.add_row(None)
             return
         t, log, q, qd, effort = row
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        stamp = ns_of(msg.header.stamp)
         t_sim = self.run.sim_time(stamp)
         if not math.isnan(t_sim):
             s_true = self._true(q[2]) if math.isfinite(q[2]) else math.nan

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from drs_model.fidelity.faults import FAULTS
 
 from ..names import ACCEPTED, CLOCK, FIDELITY, REFUSED, RESET
+from ..timestamps import seconds_from_ns
 from .effects import (
     EffectRecord,
     MissingRecordError,
@@ -120,7 +121,7 @@ class RunRecord:
         if self.origin_ns is None:
             return math.nan
         dt = self.dt
-        t = (stamp_ns - self.origin_ns) * 1e-9
+        t = seconds_from_ns(stamp_ns - self.origin_ns)
         return self.t_reset + round((t - self.t_reset) / dt) * dt
 
 

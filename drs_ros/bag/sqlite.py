@@ -84,7 +84,7 @@ def _qos_text(files) -> dict[str, str]:
 
 
 def channels(bag: BagFiles) -> list[dict]:
-    """The bag's topics as :class:`drs_ros.bag.reader.ChannelInfo` fields (numbered from 1 in
+    """The bag's topics as :class:`drs_ros.bag.recorded.ChannelInfo` fields (numbered from 1 in
     order of appearance, one per topic).
 
     Raises

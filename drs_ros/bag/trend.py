@@ -39,6 +39,8 @@ from drs_model.identify.trend import ALPHA, MIN_RUNS, MODELS, trend
 from drs_model.overrides import assignment_overrides
 
 from ..errors import DRSRosError, UsageError
+from ..timestamps import seconds_from_ns
+from .fit import parameter_names_argument
 from .fit_report import dumps
 
 DAY_S = 86400.0
@@ -46,17 +48,6 @@ DAY_S = 86400.0
 
 class TrendInputError(DRSRosError):
     """The season table cannot be read or is no season table."""
-
-
-def _names_argument(text: str) -> list[str]:
-    """``--params NAME,...``: at least one name, none twice."""
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    if not names:
-        raise argparse.ArgumentTypeError("name at least one parameter")
-    repeated = sorted({n for n in names if names.count(n) > 1})
-    if repeated:
-        raise argparse.ArgumentTypeError(f"named twice: {repeated}")
-    return names
 
 
 def threshold_argument(item: str) -> str:
@@ -94,7 +85,7 @@ def min_runs_argument(text: str) -> int:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("table", help="the season's table (drs-bag fit DIR -o season.parquet)")
-    ap.add_argument("--params", dest="names", type=_names_argument, metavar="NAME,...",
+    ap.add_argument("--params", dest="names", type=parameter_names_argument, metavar="NAME,...",
                     help="the parameters (default: every fitted one)")
     ap.add_argument("--node", metavar="NAME", help="the actuator, by its drs node's fully "
                     "qualified name or its name (default: each node of the table)")  # fmt: skip
@@ -160,7 +151,7 @@ def _series(cols: dict, name: str):
     std = np.array([math.nan if v is None else v for v in cols[f"{name}_std"]], dtype=float)
     det = np.array([bool(v) for v in cols.get(f"{name}_determined", [True] * len(value))])
     value[~det] = math.nan
-    return start * 1e-9, value, std
+    return seconds_from_ns(start), value, std
 
 
 def _date(seconds: float) -> str:

@@ -3,8 +3,12 @@
 * ``cdr``: exact CDR serialisation, the bytes a ROS 2 subscriber receives;
 * ``msgdefs``: rosbag2's schema text and RIHS01 type hashes of a message type;
 * ``qos``: QoS profiles as the ``offered_qos_profiles`` channel metadata holds them;
-* ``mcap_recorder``: the rosbag2-compatible MCAP recorder (``errors``: its error);
-* ``rerun_recorder``: the rerun recording of the mechanism and its time series;
+* ``mcap_recorder``: the rosbag2-compatible MCAP recorder (``flush_schedule``: when it flushes;
+  ``bag_metadata``: the topics and the ``metadata.yaml`` document it writes);
+* ``rerun_recorder``: the rerun recording of the mechanism and its time series (``rerun_sink``:
+  its file sink watched while recording);
+* ``destinations``: a new bag directory, ``.rrd`` file or live rerun URL, checked before
+  anything is written; ``errors``: the recorders' errors;
 * ``rerun_cli``: the rerun command line (``rerun rrd verify``) with its analytics off.
 
 The modules are imported one by one (``from drs_ros.recording import cdr``): rerun and mcap load

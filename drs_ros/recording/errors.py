@@ -1,4 +1,5 @@
-"""The error of the recorders and of the QoS profile text they write (one class for both)."""
+"""The errors of the recorders: the bag recorder and the QoS profile text it writes
+(:class:`RecordingError`), the rerun recorder (:class:`RerunLogError`)."""
 
 from __future__ import annotations
 
@@ -9,4 +10,8 @@ class RecordingError(DRSRosError):
     """The recorder cannot do what was asked (unknown topic, wrong type, finished, bad path...)."""
 
 
-__all__ = ["RecordingError"]
+class RerunLogError(DRSRosError):
+    """The rerun recorder cannot do what was asked (it is closed, or an argument is invalid)."""
+
+
+__all__ = ["RecordingError", "RerunLogError"]

@@ -39,13 +39,11 @@ its owner sees it whichever thread met it first. :meth:`finish` names what it co
 from __future__ import annotations
 
 import errno
-import math
 import operator
 import os
 import threading
-import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -54,11 +52,12 @@ from mcap import __version__ as _mcap_version
 from mcap.writer import CompressionType, Writer
 
 from . import cdr, msgdefs
+from .bag_metadata import TopicInfo, bag_metadata
+from .destinations import check_new_bag
 from .errors import RecordingError
+from .flush_schedule import FlushSchedule
 from .qos import qos_dict, qos_yaml
 
-#: rosbag2 metadata version of ROS 2 Jazzy.
-ROSBAG2_METADATA_VERSION = 9
 _COMPRESSION = {
     "none": CompressionType.NONE,
     "lz4": CompressionType.LZ4,
@@ -68,19 +67,6 @@ _LIBRARY = f"drs_ros.recording (mcap-python {_mcap_version})"
 
 
 # ---- records ------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class TopicInfo:
-    """A registered topic: name, ``pkg/msg/Type``, message class (None for a topic copied from
-    another bag, which only takes bytes), channel id, QoS, type hash (``""`` when not stored)."""
-
-    name: str
-    type_name: str
-    msg_class: type | None = field(repr=False)
-    channel_id: int
-    qos_profiles: tuple[dict[str, Any], ...] = field(repr=False)
-    type_hash: str
-
-
 @dataclass(frozen=True)
 class RecorderStats:
     """Counters for diagnostics (a snapshot).
@@ -159,22 +145,7 @@ class McapRecorder:
         ros_distro: str = "jazzy",
         custom_data: Mapping[str, str] | None = None,
     ) -> None:
-        if not (
-            isinstance(flush_period, (int, float))
-            and math.isfinite(flush_period)
-            and flush_period > 0
-        ):
-            raise RecordingError(
-                f"flush_period must be a finite number > 0 s, got {flush_period!r}"
-            )
-        if flush_messages is not None and (
-            isinstance(flush_messages, bool)
-            or not isinstance(flush_messages, int)
-            or flush_messages < 1
-        ):
-            raise RecordingError(
-                f"flush_messages must be an int >= 1 or None, got {flush_messages!r}"
-            )
+        schedule = FlushSchedule(flush_period, flush_messages)
         if compression not in _COMPRESSION:
             raise RecordingError(
                 f"compression must be one of {sorted(_COMPRESSION)}, got {compression!r}"
@@ -188,8 +159,6 @@ class McapRecorder:
             check_new_bag(self.bag_dir)
         elif self.bag_dir.exists() and not self.bag_dir.is_dir():
             raise RecordingError(f"bag directory {str(self.bag_dir)!r} exists and is a file")
-        self.flush_period = float(flush_period)
-        self.flush_messages = flush_messages
         self.ros_distro = ros_distro
         self.custom_data = dict(custom_data or {})
         try:
@@ -214,10 +183,7 @@ class McapRecorder:
         self._bytes = 0
         self._t_min: int | None = None
         self._t_max: int | None = None
-        self._flush_count = 0
-        self._messages_flushed = 0
-        self._since_flush = 0
-        self._last_flush = time.monotonic()
+        self._schedule = schedule
         self._file_bytes = self._stream.tell()
         self._finished = False
         #: The first I/O error of a write or a flush (None: none); every later write raises it.
@@ -380,13 +346,11 @@ class McapRecorder:
             self._writer.add_message(info.channel_id, log_ns, data, pub_ns, sequence=seq)
             self._counts[topic] += 1
             self._message_count += 1
-            self._since_flush += 1
+            self._schedule.wrote()
             self._bytes += len(data)
             self._t_min = log_ns if self._t_min is None else min(self._t_min, log_ns)
             self._t_max = log_ns if self._t_max is None else max(self._t_max, log_ns)
-            if (self.flush_messages is not None and self._since_flush >= self.flush_messages) or (
-                time.monotonic() - self._last_flush >= self.flush_period
-            ):
+            if self._schedule.due():
                 self._flush_locked()
         return seq
 
@@ -407,19 +371,16 @@ class McapRecorder:
             self.io_error = self.io_error or exc
             raise
         self._file_bytes = self._stream.tell()
-        self._flush_count += 1
-        self._messages_flushed = self._message_count
-        self._since_flush = 0
-        self._last_flush = time.monotonic()
+        self._schedule.flushed(self._message_count)
 
     def _flush_loop(self) -> None:
-        while not self._stop.wait(self.flush_period / 2.0):
+        while not self._stop.wait(self._schedule.period / 2.0):
             with self._lock:
                 if self._finished:
                     return
                 if self.io_error is not None:
                     return  # kept: the next write raises it
-                if self._since_flush and time.monotonic() - self._last_flush >= self.flush_period:
+                if self._schedule.idle_due():
                     try:
                         self._flush_locked()
                     except OSError:
@@ -441,9 +402,9 @@ class McapRecorder:
                 message_count=self._message_count,
                 bytes_written=self._bytes,
                 file_bytes=self._file_bytes,
-                flush_count=self._flush_count,
-                messages_flushed=self._messages_flushed,
-                seconds_since_flush=time.monotonic() - self._last_flush,
+                flush_count=self._schedule.count,
+                messages_flushed=self._schedule.messages_flushed,
+                seconds_since_flush=self._schedule.age_s(),
                 finished=self._finished,
             )
 
@@ -453,42 +414,9 @@ class McapRecorder:
             return self._bag_metadata_locked()
 
     def _bag_metadata_locked(self) -> dict[str, Any]:
-        start = self._t_min or 0
-        duration = (self._t_max - self._t_min) if self._t_min is not None else 0
-        topics = [
-            {
-                "topic_metadata": {
-                    "name": info.name,
-                    "type": info.type_name,
-                    "serialization_format": "cdr",
-                    "offered_qos_profiles": [dict(p) for p in info.qos_profiles],
-                    "type_description_hash": info.type_hash,
-                },
-                "message_count": self._counts[info.name],
-            }
-            for info in self._topics.values()
-        ]
-        return {
-            "version": ROSBAG2_METADATA_VERSION,
-            "storage_identifier": "mcap",
-            "duration": {"nanoseconds": duration},
-            "starting_time": {"nanoseconds_since_epoch": start},
-            "message_count": self._message_count,
-            "topics_with_message_count": topics,
-            "compression_format": "",
-            "compression_mode": "",
-            "relative_file_paths": [self.path.name],
-            "files": [
-                {
-                    "path": self.path.name,
-                    "starting_time": {"nanoseconds_since_epoch": start},
-                    "duration": {"nanoseconds": duration},
-                    "message_count": self._message_count,
-                }
-            ],
-            "custom_data": dict(self.custom_data) or None,
-            "ros_distro": self.ros_distro,
-        }
+        return bag_metadata(self._topics.values(), self._counts, self._message_count,
+                            self._t_min, self._t_max, self.path.name, self.custom_data,
+                            self.ros_distro)  # fmt: skip
 
     def discard(self) -> None:
         """Close without finishing and delete the bag's files (a node that failed to start);
@@ -562,45 +490,7 @@ def _time_ns(value, name: str) -> int:
     return value
 
 
-def check_new_bag(bag_dir: str | os.PathLike) -> Path:
-    """Refuse a bag directory that would overwrite or cannot be created; create nothing.
-
-    Returns the directory. Raises :class:`RecordingError` naming the path and the reason: it is a
-    file, it already holds files (an earlier recording is never overwritten), or its nearest
-    existing parent is not a writable directory.
-    """
-    path = Path(bag_dir)
-    if not path.name:
-        raise RecordingError(f"a bag path must name a directory, got {str(bag_dir)!r}")
-    if path.exists() and not path.is_dir():
-        raise RecordingError(f"bag path {str(path)!r} exists and is a file")
-    if path.is_dir() and any(path.iterdir()):
-        raise RecordingError(
-            f"bag path {str(path)!r} already holds files (an earlier recording is never "
-            "overwritten): choose a new path"
-        )
-    check_writable_parent(path)
-    return path
-
-
-def check_writable_parent(path: str | os.PathLike) -> Path:
-    """The nearest existing ancestor of ``path`` must be a writable directory (where ``path`` and
-    its missing parents can be created). Raises :class:`RecordingError` otherwise."""
-    parent = Path(path).absolute().parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise RecordingError(
-            f"cannot create {str(path)!r}: {str(parent)!r} is not a writable directory"
-        )
-    return parent
-
-
 __all__ = [
-    "ROSBAG2_METADATA_VERSION",
     "McapRecorder",
     "RecorderStats",
-    "TopicInfo",
-    "check_new_bag",
-    "check_writable_parent",
 ]

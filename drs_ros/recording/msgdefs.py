@@ -16,7 +16,7 @@ looked up under ``<prefix>/share/<pkg>/msg/`` for every prefix of ``AMENT_PREFIX
 
 Service introspection events (``pkg/srv/Name_Event`` on ``<service>/_service_event``): rosbag2
 Jazzy stores the ``.srv`` text behind an ``SRV:`` delimiter, which no message parser reads
-(rosbags, mcap_ros2 and Foxglove reject it: ros2/rosbag2 issue 2365). We store what that issue
+(rosbags, mcap_ros2 and Foxglove reject it: ros2/rosbag2#2365). We store what that report
 settles on: the event type's own message definition, ``service_msgs/ServiceEventInfo info``,
 ``Name_Request[<=1] request``, ``Name_Response[<=1] response``, followed by the definitions of
 ``ServiceEventInfo`` (and its dependencies), the request and the response (the two halves of the

@@ -29,13 +29,10 @@ then raises :class:`RerunSinkError` naming what the file lacks.
 
 from __future__ import annotations
 
-import ipaddress
 import math
 import os
 import shutil
 from collections.abc import Sequence
-from pathlib import Path
-from urllib.parse import urlsplit
 
 import numpy as np
 import rerun as rr
@@ -46,13 +43,11 @@ from drs_model.constraints import PSI3, S
 from drs_model.params import DRSParams
 
 from ..drawing import PIN_NAMES, moving_drawings, still_drawings
-from ..errors import DRSRosError
+from .destinations import check_connect_url, check_new_rrd
+from .errors import RerunLogError
 from .rerun_sink import FileSinkWatch, RerunSinkError
 
 TIMELINE = "sim_time"
-#: URL schemes of a rerun gRPC endpoint (rerun-sdk 0.41), and an example of a valid URL.
-CONNECT_SCHEMES = ("rerun", "rerun+http", "rerun+https")
-CONNECT_URL_EXAMPLE = "rerun+http://127.0.0.1:9876/proxy"
 #: How long :meth:`RerunRecorder.close` waits for a live stream to drain [s].
 STREAM_FLUSH_TIMEOUT_S = 2.0
 #: Series entity -> (label, colour).
@@ -82,10 +77,6 @@ _COLORS = {
 }
 
 
-class RerunLogError(DRSRosError):
-    """The rerun recorder cannot do what was asked (it is closed, or an argument is invalid)."""
-
-
 def default_blueprint() -> rrb.Blueprint:
     """A 2D view of the mechanism beside stacked time-series views."""
     return rrb.Blueprint(
@@ -101,80 +92,6 @@ def default_blueprint() -> rrb.Blueprint:
         ),
         collapse_panels=True,
     )
-
-
-def check_new_rrd(path: str | os.PathLike) -> Path:
-    """Refuse an ``.rrd`` path that exists (an earlier recording is never overwritten) or cannot
-    be created; create nothing. Raises :class:`RerunLogError` naming the path and the reason."""
-    from .errors import RecordingError
-    from .mcap_recorder import check_writable_parent
-
-    path = Path(path)
-    if path.exists() or path.is_symlink():
-        raise RerunLogError(
-            f"rrd path {str(path)!r} already exists (an earlier recording is never "
-            "overwritten): choose a new path"
-        )
-    try:
-        parent = check_writable_parent(path)
-    except RecordingError as exc:
-        raise RerunLogError(str(exc)) from None
-    if parent == path.parent:  # probe: root passes os.access checks that the filesystem refuses
-        try:
-            os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
-            os.unlink(path)
-        except OSError as exc:
-            raise RerunLogError(f"cannot create rrd {str(path)!r}: {exc.strerror}") from None
-    return path
-
-
-def check_connect_url(url: str) -> str:
-    """Check the URL of a rerun gRPC endpoint: ``rerun[+http|+https]://HOST:PORT/proxy`` with HOST
-    on loopback (``127.0.0.0/8``, ``::1`` or ``localhost``; other names are not resolved, since
-    a name may lead off loopback). Returns ``url``; raises :class:`RerunLogError` with the reason.
-    """
-    if not isinstance(url, str) or not url.strip():
-        raise RerunLogError(
-            f"rerun connect URL must be a non-empty string such as {CONNECT_URL_EXAMPLE!r}, "
-            f"got {url!r}"
-        )
-    parts = urlsplit(url)
-    try:
-        port = parts.port
-    except ValueError:
-        port = -1
-    host = (parts.hostname or "").lower()
-    if parts.scheme not in CONNECT_SCHEMES:
-        reason = "the scheme must be one of " + ", ".join(f"{s}://" for s in CONNECT_SCHEMES)
-    elif not host:
-        reason = "it names no host"
-    elif port is None or port == -1 or port == 0:
-        reason = "it needs a port in 1..65535"
-    elif parts.path != "/proxy":
-        reason = "the path must be /proxy"
-    elif parts.query or parts.fragment or parts.username or parts.password:
-        reason = "it may hold no user, query or fragment"
-    else:
-        reason = None
-    if reason is not None:
-        raise RerunLogError(
-            f"invalid rerun connect URL {url!r}: {reason} (e.g. {CONNECT_URL_EXAMPLE!r})"
-        )
-    if host != "localhost":
-        try:
-            loopback = ipaddress.ip_address(host).is_loopback
-        except ValueError:
-            raise RerunLogError(
-                f"rerun connect URL {url!r} refused: host {host!r} is a name other than "
-                "'localhost'; give a loopback address (127.0.0.1 or ::1), since a name may lead "
-                "off loopback and these machines send nothing off loopback"
-            ) from None
-        if not loopback:
-            raise RerunLogError(
-                f"rerun connect URL {url!r} refused: host {host!r} is not on loopback "
-                "(127.0.0.0/8, ::1, localhost), and these machines send nothing off loopback"
-            )
-    return url
 
 
 class RerunRecorder:
@@ -490,16 +407,11 @@ class RerunRecorder:
 
 
 __all__ = [
-    "CONNECT_SCHEMES",
-    "CONNECT_URL_EXAMPLE",
     "DRAWINGS",
     "SERIES",
     "STREAM_FLUSH_TIMEOUT_S",
     "TIMELINE",
-    "RerunLogError",
     "RerunRecorder",
     "RerunSinkError",
-    "check_connect_url",
-    "check_new_rrd",
     "default_blueprint",
 ]

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..files import BagReadError, resolve
-from ..reader import MCAP_MAGIC
+from ..mcap_file import MCAP_MAGIC
 
 
 @dataclass(frozen=True)

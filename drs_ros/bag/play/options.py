@@ -104,8 +104,16 @@ def _positive_float(text: str) -> float:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add the ``play`` arguments (``ros2 bag play``'s names) to ``parser``."""
+    """Add the ``play`` arguments (``ros2 bag play``'s names) to ``parser``, in this order:
+    the bag and its timing, the topics and the clock, the delivery."""
     parser.add_argument("bag", help="bag directory or .mcap file")
+    _add_timing_arguments(parser)
+    _add_topic_arguments(parser)
+    _add_delivery_arguments(parser)
+
+
+def _add_timing_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--rate``, ``--loop``, ``--start-offset``, ``--delay``."""
     parser.add_argument(
         "-r",
         "--rate",
@@ -134,6 +142,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="sleep before play (each loop) [s], so subscribers are discovered",
     )
+
+
+def _add_topic_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--topics``, ``--node``, ``--clock``, ``--remap``: what is played, on which names."""
     parser.add_argument(
         "--topics",
         nargs="+",
@@ -166,6 +178,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="OLD:=NEW",
         help="remap topics, e.g. /joint_states:=/replay/joint_states (repeatable)",
     )
+
+
+def _add_delivery_arguments(parser: argparse.ArgumentParser) -> None:
+    """The read-ahead queue, the waits for subscribers and acknowledgements, the QoS overrides."""
     parser.add_argument(
         "--read-ahead-queue-size",
         type=int,
