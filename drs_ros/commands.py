@@ -13,8 +13,8 @@ from __future__ import annotations
 import ast
 from dataclasses import dataclass
 
-from . import joint_commands
 from .conversions import trajectory_points
+from .stack import joint_commands
 
 #: key -> message type name of the command topics.
 COMMAND_TYPES = {

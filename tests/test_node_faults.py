@@ -1,7 +1,7 @@
-"""Faults as run-time parameters of the node (drs_ros.node.faults): set with ``set_parameters``
-through the parameter service, refused with a reason when bad or not modelled by the rung,
-recorded on /parameter_events and in the effect record at the tick they act, in diagnostics,
-and re-simulated exactly by ``drs-bag resimulate``."""
+"""Faults as run-time parameters of the node (drs_ros.node.fault_parameters): set with
+``set_parameters`` through the parameter service, refused with a reason when bad or not
+modelled by the rung, recorded on /parameter_events and in the effect record at the tick they
+act, in diagnostics, and re-simulated exactly by ``drs-bag resimulate``."""
 
 from __future__ import annotations
 

@@ -67,10 +67,10 @@ from ..conversions import (
 from ..drawing import moving_drawings, still_drawings
 from ..names import ACCEPTED, FIDELITY, REFUSED, RESET, SUPERSEDED, TOPICS
 from ..recording import cdr, msgdefs
-from ..stack import NodeHooks, StackLayer
+from ..stack.layer import NodeHooks, StackLayer
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .effect_record import EffectRecord, PendingCommand, refusal_reason
-from .faults import NodeFaults, declare_fault_parameters
+from .fault_parameters import NodeFaults, declare_fault_parameters
 from .parameters import StartupError, declare_parameters, effective_parameters, model_params
 from .recordings import NodeRecordings
 from .trajectory_cdr import read_joint_trajectory

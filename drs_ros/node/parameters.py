@@ -18,7 +18,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from ..errors import DRSRosError
 from ..names import DEFAULT_JOINT_NAMES
-from ..stack import STACK_PARAMETERS
+from ..stack.layer import STACK_PARAMETERS
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
 #: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and a

@@ -1,7 +1,7 @@
 """The robot description and TF, as robot_state_publisher would publish them for drs.
 
 * ``/robot_description`` (std_msgs/String, transient local, depth 1): the URDF
-  (:func:`drs_ros.description.robot_description`) of the ``DRSParams`` the node runs, once;
+  (:func:`drs_ros.stack.description.robot_description`) of the ``DRSParams`` the node runs, once;
 * ``/tf_static`` (tf2_msgs/TFMessage, transient local, depth 1): the fixed frames, once: the base
   frame on the car (``mount_frame``, ``mount_xyz``, ``mount_rpy``; none when ``mount_frame`` is
   ``""``) and the fixed frames of the description (the two halves of the cut pin, the flap tip);
@@ -24,10 +24,10 @@ from tf2_msgs.msg import TFMessage
 
 from drs_model.params import DRSParams
 
+from ..conversions import time_msg
+from ..recording import cdr
+from ..timestamps import split_ns
 from . import description
-from .conversions import time_msg
-from .recording import cdr
-from .timestamps import split_ns
 
 #: QoS of /tf_static and /robot_description: tf2's StaticTransformBroadcaster and
 #: robot_state_publisher publish them transient local, depth 1 (a late subscriber gets them).

@@ -1,10 +1,10 @@
 """What the node offers a vehicle stack (issue 20), as one object the node drives.
 
-* the robot description and TF (:mod:`drs_ros.tf_tree`, :mod:`drs_ros.description`);
+* the robot description and TF (:mod:`drs_ros.stack.tf_tree`, :mod:`drs_ros.stack.description`);
 * ``~/follow_joint_trajectory``, joint_trajectory_controller's action
-  (:mod:`drs_ros.follow_trajectory`);
+  (:mod:`drs_ros.stack.follow_trajectory`);
 * ros2_control's topic interface: JointState commands in on ``joint_commands_topic``
-  (:mod:`drs_ros.joint_commands`), the joint states out on ``joint_states_topic``.
+  (:mod:`drs_ros.stack.joint_commands`), the joint states out on ``joint_states_topic``.
 
 The node builds one :class:`StackLayer` in ``configure``, and calls it in ``activate``,
 ``deactivate``, ``cleanup`` and at every publish (``publish``). The layer owns its publishers,

@@ -60,11 +60,11 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drs_model.errors import DRSError, InputError
 
-from .commands import StrokeMove, TrajectoryMove
-from .conversions import time_msg, trajectory_points
-from .errors import DRSRosError
-from .names import ACCEPTED, REFUSED
-from .timestamps import ns_from_seconds, ns_of, seconds_from_ns, set_ns
+from ..commands import StrokeMove, TrajectoryMove
+from ..conversions import time_msg, trajectory_points
+from ..errors import DRSRosError
+from ..names import ACCEPTED, REFUSED
+from ..timestamps import ns_from_seconds, ns_of, seconds_from_ns, set_ns
 
 Result = FollowJointTrajectory.Result
 #: JTC's "-1 erases a tolerance" (compared within float epsilon, as JTC does).
