@@ -82,8 +82,6 @@ STILL_MARKERS_PERIOD_S = 1.0
 LISTENER_CHECK_TICKS = 25
 #: The command topics (``~/<key>``) and their message classes, as commands.COMMAND_TYPES names them.
 COMMANDS = {key: msgdefs.message_class(name) for key, name in commands.COMMAND_TYPES.items()}
-#: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
-COMMAND_QOS_DEPTH = 10
 #: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
 CLOCK_WAIT_WARNING_S = 2.0
 #: A wall clock that moves this much [s] more or less than the steady clock between two ticks
@@ -276,7 +274,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
 
     def activate(self) -> None:
         """Take commands and publish: the command subscriptions, the service, the timers."""
-        cmd_qos = QoSProfile(depth=COMMAND_QOS_DEPTH)
+        cmd_qos = QoSProfile(depth=commands.COMMAND_QOS_DEPTH)
         # raw: the callback gets the bytes that arrived, recorded as they are; only the command
         # that takes effect is ever deserialised
         self.sub_stroke, self.sub_force, self.sub_trajectory = (
@@ -371,7 +369,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             register(topic, pub.msg_type, qos=QoSProfile(depth=100 if pub is self.pub_events
                                                          else QOS_DEPTH))  # fmt: skip
         for key, topic in self.command_topics.items():
-            register(topic, COMMANDS[key], qos=QoSProfile(depth=COMMAND_QOS_DEPTH))
+            register(topic, COMMANDS[key], qos=QoSProfile(depth=commands.COMMAND_QOS_DEPTH))
         register(self.service_event_topic, SetBool.Event, qos=QoSProfile(depth=100))
         for topic, msg_type, qos in self.stack.recorded_topics():
             register(topic, msg_type, qos=qos)
@@ -553,11 +551,11 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             due = self.max_catch_up
         try:
             self._advance(due)
-        except DRSError as exc:  # the model refuses to go on: hold where it is and say why
+        except DRSError as exc:  # the model refuses to go on: at rest where it is, and say why
             reason = self._refuse("step", self.sim.mode, str(exc), now)
-            s_hold = commands.hold(self.sim)
+            s_rest = commands.reset_at_rest(self.sim)
             self._event(
-                RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_hold)}, now
+                RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_rest)}, now
             )
         self._cpu["model"] += time.process_time() - t
         if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)

@@ -1,4 +1,4 @@
-"""What the node offers a vehicle stack (issue 20), as one object the node drives.
+"""What the node offers a vehicle stack, as one object the node drives.
 
 * the robot description and TF (:mod:`drs_ros.stack.tf_tree`, :mod:`drs_ros.stack.description`);
 * ``~/follow_joint_trajectory``, joint_trajectory_controller's action
@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
+from ..commands import COMMAND_QOS_DEPTH
 from . import description
 from .follow_trajectory import FollowJointTrajectoryServer, Tolerances
 from .tf_tree import TfPublisher
@@ -51,10 +52,6 @@ STACK_PARAMETERS = (
     ("goal_time_tolerance", 0.0, "default time past a trajectory's end to reach the goal "
      "tolerance [s] (0 = wait; JTC's constraints.goal_time)", (0.0, 3600.0)),
 )  # fmt: skip
-#: The command topics of these features and their message types (the node's ``COMMANDS``).
-STACK_COMMANDS = {"joint_commands": JointState}
-#: The command queue's depth (as the node's other command topics).
-COMMAND_QOS_DEPTH = 10
 
 
 @dataclass(frozen=True)
@@ -169,4 +166,4 @@ class StackLayer:
         self.hooks.event(self.action.name, outcome, level, reason, values, now_ns)
 
 
-__all__ = ["COMMAND_QOS_DEPTH", "STACK_COMMANDS", "STACK_PARAMETERS", "NodeHooks", "StackLayer"]
+__all__ = ["STACK_PARAMETERS", "NodeHooks", "StackLayer"]
