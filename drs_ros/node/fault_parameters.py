@@ -22,10 +22,8 @@ from drs_model.errors import DRSError
 from drs_model.fidelity.faults import FAULT_RANGES, FAULTS, RunFaults, describe_range
 
 from ..conversions import time_msg
-from ..names import ACCEPTED, REFUSED
-
-#: The prefix of the fault parameters.
-FAULT_PREFIX = "fault."
+from ..names import ACCEPTED, FAULT_PREFIX, REFUSED
+from ..rclpy_private import parameter_overrides
 
 
 def fault_parameter_names() -> list[str]:
@@ -36,7 +34,7 @@ def fault_parameter_names() -> list[str]:
 def declare_fault_parameters(node: Node) -> None:
     """Declare the ``fault.*`` parameters (writable, healthy by default). An integer given for a
     float one is taken as that float, as for the node's other parameters."""
-    overrides = node._parameter_overrides
+    overrides = parameter_overrides(node)
     for name, (healthy, description) in FAULTS.items():
         full = FAULT_PREFIX + name
         given = overrides.get(full)
@@ -128,4 +126,4 @@ class NodeFaults:
         return ", ".join(f"{k}={v!r}" for k, v in active.items()) or "none"
 
 
-__all__ = ["FAULT_PREFIX", "NodeFaults", "declare_fault_parameters", "fault_parameter_names"]
+__all__ = ["NodeFaults", "declare_fault_parameters", "fault_parameter_names"]

@@ -18,6 +18,7 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from ..errors import DRSRosError
 from ..names import DEFAULT_JOINT_NAMES
+from ..rclpy_private import parameter_overrides
 from ..stack.layer import STACK_PARAMETERS
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
@@ -86,10 +87,10 @@ def declare_parameters(node: Node) -> frozenset[str]:
     known = [name for name, *_ in NODE_PARAMETERS]
     # and the ones rclpy declares itself
     known += [f"model.{name}" for name in NUMERIC_FIELDS]
-    known += [name for name in node._parameters if name not in known]
+    known += [name for name in node.get_parameters_by_prefix("") if name not in known]
     # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
     # the only place a misspelt name (never declared, silently ignored) can be seen
-    overrides = node._parameter_overrides
+    overrides = parameter_overrides(node)
     given_names = frozenset(overrides)
     for name in overrides:
         if name not in known and not name.startswith("qos_overrides."):
@@ -154,7 +155,7 @@ def effective_parameters(node: Node, params: DRSParams) -> list[Parameter]:
     """Every node parameter, the ``model.*`` ones at the values the model runs with (a
     ``model_params_file`` included): what a re-run needs."""
     out = []
-    for name in sorted(node._parameters):
+    for name in sorted(node.get_parameters_by_prefix("")):  # "": every declared parameter
         if name.startswith("model."):
             value = float(getattr(params, name.removeprefix("model.")))
             out.append(Parameter(name, Parameter.Type.DOUBLE, value))

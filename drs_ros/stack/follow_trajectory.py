@@ -55,7 +55,6 @@ from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drs_model.errors import DRSError, InputError
@@ -64,6 +63,7 @@ from ..commands import StrokeMove, TrajectoryMove
 from ..conversions import time_msg, trajectory_points
 from ..errors import DRSRosError
 from ..names import ACCEPTED, REFUSED
+from ..rclpy_private import mark_executing, schedule_result
 from ..timestamps import ns_from_seconds, ns_of, seconds_from_ns, set_ns
 
 Result = FollowJointTrajectory.Result
@@ -291,12 +291,13 @@ class FollowJointTrajectoryServer:
         with self._lock:
             self._outcomes[_uuid(handle)] = (status, Result(error_code=code,
                                                             error_string=message))  # fmt: skip
-        if handle.status == GoalStatus.STATUS_ACCEPTED:  # a goal ends from EXECUTING
-            handle._update_state(_rclpy.GoalEvent.EXECUTE)
         # rclpy runs the execute callback in a task of the executor: the terminal state and the
         # result are set there (a callback that awaited the outcome instead would keep the
         # Jazzy executor busy, since it resumes every pending task at every spin)
-        self.server.notify_execute(handle, self._finished)
+        if handle.status == GoalStatus.STATUS_ACCEPTED:  # a goal ends from EXECUTING
+            handle.execute(self._finished)
+        else:
+            schedule_result(self.server, handle, self._finished)
         self.results[status] = self.results.get(status, 0) + 1
         level = DiagnosticStatus.OK if status == "succeeded" else DiagnosticStatus.WARN
         self._event(RESULT, level, f"{status}: {message}" if message else status,
@@ -337,7 +338,7 @@ class FollowJointTrajectoryServer:
             if self.goal is not None:  # JTC's preempt_active_goal
                 self._end(self.goal.handle, "aborted", Result.INVALID_GOAL,
                           "Current goal preempted by new incoming action.", now_ns)  # fmt: skip
-            handle._update_state(_rclpy.GoalEvent.EXECUTE)
+            mark_executing(handle)
             self.goal = ActiveGoal(handle, move, path, self.sim.t, tolerances)
             values = {**move.record(), "goal_id": _uuid(handle)}
             self._event(ACCEPTED, DiagnosticStatus.OK, "", values, now_ns)
