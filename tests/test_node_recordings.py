@@ -112,7 +112,7 @@ def _run_in_process(ros_context, tmp_path, seconds: float, during=None) -> DRSNo
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     try:
-        assert spin_until(ex, lambda: node.ticks > 5, 10.0)
+        assert spin_until(ex, lambda: node.effects.ticks > 5, 10.0)
         if during is not None:
             during(node)
         end = time.monotonic() + seconds
@@ -155,7 +155,7 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
         lines = node.close_recordings()
     finally:
         node.destroy_node()
-    lost = node.ticks - 6  # the ticks after the rerun call broke (within one)
+    lost = node.effects.ticks - 6  # the ticks after the rerun call broke (within one)
     assert "items not recorded (last: RuntimeError: rerun logging failed on purpose)" in (
         values["rerun"])  # fmt: skip
     assert "; 1 items not recorded (last: TypeError" in values["bag"]

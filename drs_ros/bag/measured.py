@@ -43,7 +43,7 @@ from .nodes import BagNode, resolve_topics
 from .reader import MessageCallbackError, scan
 
 #: The fit's roles, and the role of :data:`drs_ros.names.NODE_TOPICS` that names the node's
-#: topic of each (the hydraulic ones: ``drs_ros.node.adapter.HYDRAULIC_TOPICS``).
+#: topic of each (the hydraulic ones: ``drs_ros.node.publishers.HYDRAULIC_TOPICS``).
 NODE_ROLES = {
     "joint_states": "joint_states",
     "stroke_acceleration": "piston_acceleration",

@@ -81,9 +81,9 @@ class NodeFaults:
                 try:
                     value = self.faults.check(name, p.value)
                 except DRSError as exc:
-                    reason = self._refuse(p.name, p.value, str(exc), now)
-                    self._event(p.name, REFUSED, DiagnosticStatus.WARN, reason, None,
-                                {"value": repr(p.value)}, now)  # fmt: skip
+                    reason = self.effects.refuse(p.name, p.value, str(exc), now)
+                    self.effects.event(p.name, REFUSED, DiagnosticStatus.WARN, reason, None,
+                                       {"value": repr(p.value)}, now)  # fmt: skip
                     return SetParametersResult(successful=False, reason=reason)
                 checked.append((p.name, value))
             order = list(fault_parameter_names())
@@ -112,13 +112,13 @@ class NodeFaults:
             try:
                 self.faults.apply(name, value)
             except DRSError as exc:  # checked when set: only a rung changed since would refuse
-                reason = self._refuse(full, value, str(exc), now_ns)
-                self._event(full, REFUSED, DiagnosticStatus.WARN, reason, None,
-                            {"value": repr(value)}, now_ns)  # fmt: skip
+                reason = self.effects.refuse(full, value, str(exc), now_ns)
+                self.effects.event(full, REFUSED, DiagnosticStatus.WARN, reason, None,
+                                   {"value": repr(value)}, now_ns)  # fmt: skip
                 continue
-            self.troubles.add(now_ns, "fault", f"{full} = {value!r}")
-            self._event(full, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)},
-                        now_ns)  # fmt: skip
+            self.effects.troubles.add(now_ns, "fault", f"{full} = {value!r}")
+            self.effects.event(full, ACCEPTED, DiagnosticStatus.OK, "", None,
+                               {"value": repr(value)}, now_ns)  # fmt: skip
 
     def faults_text(self) -> str:
         """The faults in force, for diagnostics ('none' when healthy)."""

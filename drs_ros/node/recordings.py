@@ -197,7 +197,7 @@ class NodeRecordings:
         log = self.get_logger()
 
         def lost(reason: str) -> None:  # an item lost: a trouble of the diagnostics window
-            self.troubles.add(self._now_ns(), "recording_error", reason)
+            self.effects.troubles.add(self._now_ns(), "recording_error", reason)
 
         bag = self.get_parameter("bag_path").value
         rrd = self.get_parameter("rrd_path").value

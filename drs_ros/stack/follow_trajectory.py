@@ -219,8 +219,10 @@ class FollowJointTrajectoryServer:
     Parameters
     ----------
     node : rclpy.node.Node
-    sim : drs_model.actuator.ActuatorSim
-        The actuator (touched only from :meth:`update`, under the node's tick).
+    actuator : callable
+        ``actuator()``: the node's actuator now (a rung of :mod:`drs_model.fidelity`; ``fidelity:
+        auto`` may replace it before the first step), touched only from :meth:`update`, under
+        the node's tick, and read (its parameters) by a goal's plan.
     joint : str
         The piston joint's name.
     defaults : Tolerances
@@ -230,10 +232,10 @@ class FollowJointTrajectoryServer:
         Duration [s] of the move that holds the piston after a cancel.
     """
 
-    def __init__(self, node, sim, joint: str, defaults: Tolerances,
+    def __init__(self, node, actuator: Callable[[], object], joint: str, defaults: Tolerances,
                  event: Callable[..., None], hold_duration: float,
                  now_ns: Callable[[], int]) -> None:  # fmt: skip
-        self.node, self.sim, self.joint = node, sim, joint
+        self.node, self._actuator, self.joint = node, actuator, joint
         self._now_ns = now_ns
         self.defaults = defaults
         self._event = event
@@ -254,6 +256,11 @@ class FollowJointTrajectoryServer:
             cancel_callback=lambda _handle: CancelResponse.ACCEPT,
         )
         self.name = node.resolve_topic_name("~/follow_joint_trajectory")
+
+    @property
+    def sim(self):
+        """The node's actuator now."""
+        return self._actuator()
 
     # ---- executor thread -----------------------------------------------------------------------
     def _on_goal(self, _goal) -> GoalResponse:
