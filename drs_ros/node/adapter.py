@@ -24,16 +24,13 @@ The physics runs on a fixed simulated step (``physics_rate_hz``); one timer at `
 catches the simulation up with the node clock (wall or ``/clock`` with ``use_sim_time``) and
 publishes. Stamps are ``t0 + simulated time``, so they follow the node clock without its jitter.
 
-Commands are latest-wins: a subscription callback only records the bytes that arrived and keeps
-the newest command per topic; the next tick applies it before stepping, so no queued, stale
-setpoint is ever executed. Every message is recorded as its exact CDR bytes: commands as they
-arrived (raw subscriptions, as rosbag2 does), the node's own messages serialised once by
-:mod:`drs_ros.recording.cdr`, published as those bytes and recorded as the same bytes.
+The node owns its parts, each in its module: the command intake (:mod:`.intake`: commands
+are latest-wins), the publishers (:mod:`.publishers`), the effect record (:mod:`.effect_record`),
+the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the faults and the recordings.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import threading
 import time
@@ -47,8 +44,7 @@ from rclpy.service_introspection import ServiceIntrospectionState
 from std_srvs.srv import SetBool
 
 from drs_model.errors import DRSError
-from drs_model.fidelity import HydraulicRung, make_rung
-from drs_model.fidelity.auto import choose_rung, ladder_errors
+from drs_model.fidelity import HydraulicRung
 from drs_model.fidelity.faults import RunFaults
 
 from .. import commands
@@ -56,35 +52,23 @@ from ..conversions import (
     diagnostics_msg,
     parameter_event_msg,
 )
-from ..names import ACCEPTED, FIDELITY, REFUSED, RESET, SUPERSEDED, TOPICS
-from ..recording import cdr, msgdefs
+from ..names import FIDELITY, RESET, TOPICS
+from ..recording import cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
 from ..timestamps import ns_from_seconds, seconds_from_ns
-from .effect_record import EffectRecord, PendingCommand, error_text, refusal_reason, state_values
+from .effect_record import EffectRecord, error_text, state_values
 from .fault_parameters import NodeFaults, declare_fault_parameters
+from .intake import COMMANDS, CommandIntake
 from .parameters import declare_parameters, effective_parameters, model_params, tick_settings
 from .publishers import HYDRAULIC_TOPICS, StatePublishers
 from .recordings import NodeRecordings
-from .trajectory_cdr import read_joint_trajectory
+from .rung_choice import RungChoice
 
-#: The command topics (``~/<key>``) and their message classes, as commands.COMMAND_TYPES names them.
-COMMANDS = {key: msgdefs.message_class(name) for key, name in commands.COMMAND_TYPES.items()}
 #: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
 CLOCK_WAIT_WARNING_S = 2.0
 #: A wall clock that moves this much [s] more or less than the steady clock between two ticks
 #: has jumped (NTP slews far slower: 0.5 ms/s at most).
 CLOCK_JUMP_THRESHOLD_S = 0.01
-
-
-def command_decoders() -> dict:
-    """Command key -> ``decode(data) -> (message, exact CDR bytes)``. A command is taken if it
-    decodes and is as long as its exact CDR (plus transport padding), and recorded as that exact
-    CDR, which every reader of the bag decodes; a trajectory is read in place (rclpy's decoder
-    would hold the GIL for ~100 ms on 10,000 points, a stall of the real-time tick)."""
-    decode = {key: functools.partial(cdr.decode_exact, msg_class=cls)
-              for key, cls in COMMANDS.items()}  # fmt: skip
-    decode["trajectory_cmd"] = lambda data: (v := read_joint_trajectory(data), v.exact)
-    return decode
 
 
 class DRSNode(NodeFaults, NodeRecordings, Node):
@@ -100,9 +84,8 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
     * :meth:`deactivate`: remove them again: the actuator holds its state, nothing is published;
     * :meth:`cleanup`: finish the recordings and drop the publishers and the actuator.
 
-    Two parts live in their own modules: the effect record and the diagnostics
-    (:class:`~drs_ros.node.effect_record.EffectRecord`) and the recordings
-    (:class:`~drs_ros.node.recordings.NodeRecordings`).
+    Its parts, built by :meth:`configure`: ``intake`` (the commands), ``outputs`` (the
+    publishers), ``effects`` (the effect record and counters), ``stack`` (the vehicle stack).
     """
 
     def __init__(self, *, tick_timer: bool = True, managed: bool = False, **kwargs) -> None:
@@ -140,7 +123,11 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         self.max_catch_up, self.fidelity = settings.max_catch_up, settings.fidelity
         self.markers_rate_hz, self.frame_id = settings.markers_rate_hz, settings.frame_id
         self.joint_names = list(settings.joint_names)
-        self.sim = self._first_rung()
+        gp = self.get_parameter
+        self.rungs = RungChoice(self.fidelity, self.params, self.physics_dt, {
+            name: gp(name).value for name in ("force_limit", "integrator", "force_method")
+        }, gp("fidelity_tolerance").value, gp("fidelity_force_tolerance").value)  # fmt: skip
+        self.sim = self.rungs.first()
         self._start_faults()
         self.outputs = StatePublishers(
             self, joint_states_topic=self.get_parameter("joint_states_topic").value,
@@ -158,12 +145,14 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
                                                  self.frame_id), NodeHooks(
             event=lambda source, outcome, level, reason, values, now: self.effects.event(
                 source, outcome, level, reason, None, values, now),
-            record=self._record, receive=self._receive, now_ns=self._now_ns,
+            record=self._record, receive=lambda key, data: self.intake.receive(key, data),
+            now_ns=self._now_ns,
             actuator=lambda: self.sim))  # fmt: skip
         self.command_topics.update(self.stack.command_topics)
-        self._decode = command_decoders()
+        self.intake = CommandIntake(self.command_topics, self.service_name, self.joint_names[0],
+                                    self.effects, lambda: self.sim, self._lock, self._now_ns,
+                                    self._record)  # fmt: skip
 
-        self._pending: dict[str, PendingCommand] = {}
         self._last_tick_ns: int | None = None
         self._last_tick_mono: int | None = None
         self._t0_ns: int | None = None
@@ -180,8 +169,8 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         # the first record: the node's name and its topics as resolved (remapping included), so
         # that the bag's tools find them whatever the node was called
         self.effects.event(TOPICS, TOPICS, DiagnosticStatus.OK, "", None,
-                    {"node": self.get_fully_qualified_name(), **self.topic_names()},
-                    self._now_ns())  # fmt: skip
+                           {"node": self.get_fully_qualified_name(), **self.topic_names()},
+                           self._now_ns())  # fmt: skip
         self.stack.start(self._now_ns())  # the robot description and the static TF, once
         self.configured = True
         self.get_logger().info(
@@ -190,26 +179,6 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
             f"[{self.sim.s_min:.6g}, {self.sim.s_max:.6g}] m"
         )
 
-    def _first_rung(self):
-        """The actuator the node starts with (``fidelity: auto``: rigid until the subscribers
-        are seen, :meth:`_choose_fidelity`; each rung's errors are measured now, for these
-        parameters: a few seconds, once per parameters)."""
-        gp = self.get_parameter
-        self._auto_deadline = None
-        self._auto_errors = ladder_errors(self.params) if self.fidelity == "auto" else None
-        self._make_rung = lambda rung: make_rung(
-            rung,
-            self.params,
-            self.physics_dt,
-            force_limit=gp("force_limit").value,
-            integrator=gp("integrator").value,
-            force_method=gp("force_method").value,
-        )
-        sim = self._make_rung("rigid" if self.fidelity == "auto" else self.fidelity)
-        if isinstance(sim, HydraulicRung):  # a model too stiff for the physics rate: now
-            sim.check_stiffness()  # TooStiffError, not a refusal at every tick
-        return sim
-
     def activate(self) -> None:
         """Take commands and publish: the command subscriptions, the service, the timers."""
         cmd_qos = QoSProfile(depth=commands.COMMAND_QOS_DEPTH)
@@ -217,7 +186,7 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         # that takes effect is ever deserialised
         self.sub_stroke, self.sub_force, self.sub_trajectory = (
             self.create_subscription(
-                COMMANDS[key], f"~/{key}", lambda b, key=key: self._receive(key, b), cmd_qos,
+                COMMANDS[key], f"~/{key}", lambda b, key=key: self.intake.receive(key, b), cmd_qos,
                 raw=True,
             )
             for key in ("stroke_cmd", "force_cmd", "trajectory_cmd")
@@ -241,8 +210,7 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
             )
         self._last_tick_ns = None  # the time inactive is no missed deadline
         if self.fidelity == "auto" and self.sim.t == 0.0 and self.effects.ticks == 0:
-            wait = self.get_parameter("fidelity_auto_discovery_s").value
-            self._auto_deadline = time.monotonic() + wait
+            self.rungs.wait_for_subscribers(self.get_parameter("fidelity_auto_discovery_s").value)
         self.stack.activate()  # JointState commands, goals taken
         self.active = True
 
@@ -262,7 +230,7 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
         self.sub_drs_events = None
         with self._lock:
-            self._pending.clear()  # a command that arrived for the active node acts never
+            self.intake.clear()  # a command that arrived for the active node acts never
             if self._t0_ns is not None:  # resume from the held state, not from the time away
                 self._t0_ns = None
 
@@ -359,99 +327,12 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
             return time.time_ns()
         return self.get_clock().now().nanoseconds
 
-    def _receive(self, key: str, data: bytes) -> None:
-        """A raw command arrived (executor thread): decode it and do the state-free part of its
-        work here, outside the lock the real-time tick takes (a 10,000-point trajectory is
-        planned in ~4 ms), then record it and keep it as the newest of its topic. Its log time
-        is taken under the lock: no tick logged after it applies an older command of its topic."""
-        topic = self.command_topics[key]
-        try:
-            msg, exact = self._decode[key](data)
-        except Exception as exc:  # noqa: BLE001 - any bytes from any participant: refused, kept
-            with self._lock:
-                self.effects.received += 1
-                self.effects.refuse_malformed(topic, COMMANDS[key], data, exc, self._now_ns())
-            return
-        try:
-            prepared, refusal = commands.prepare(self.sim, key, msg, self.joint_names[0]), None
-        except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
-            prepared, refusal = None, exc
-        with self._lock:
-            now = self._now_ns()
-            self.effects.received += 1
-            # only bytes that decode go on the typed topic: the bag stays readable by all readers
-            # recorded as its exact CDR: the bytes that arrived, any alignment padding zeroed
-            cmd = PendingCommand(key, topic, msg, self._record(topic, exact, now), now, prepared)
-            if refusal is not None:
-                self.effects.refuse_command(cmd, refusal, now)
-                return
-            older = self._pending.get(key)
-            if older is not None:  # counted and recorded (one record per step) when it comes
-                cmd.superseded = older.superseded
-                cmd.superseded.append(older.sequence)
-            self._pending[key] = cmd
-
-    def _apply_pending(self, now_ns: int) -> None:
-        """Apply the newest command of each topic at the present physics step, oldest first."""
-        pending = sorted(self._pending.values(), key=lambda c: c.received_ns)
-        self._pending.clear()
-        for cmd in pending:
-            if cmd.superseded:
-                n = len(cmd.superseded)
-                self.effects.superseded += n
-                reason = f"{n} {cmd.key} replaced by a newer one before the next physics step"
-                self.effects.troubles.add(now_ns, SUPERSEDED, reason)
-                known = [q for q in cmd.superseded if q is not None]
-                self.effects.event(cmd.topic, SUPERSEDED, DiagnosticStatus.STALE, reason, None, {
-                    "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
-                }, now_ns)  # fmt: skip
-            try:
-                commands.apply(self.sim, cmd.key, cmd.msg, self.joint_names[0], cmd.prepared)
-            except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
-                self.effects.refuse_command(cmd, exc, now_ns)
-                continue
-            self.effects.accepted += 1
-            value = commands.describe(cmd.key, cmd.msg)
-            self.effects.event(
-                cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, {"value": repr(value)}, now_ns
-            )
-
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         with self._lock:
-            return self._on_drs_locked(request, response)
-
-    def _on_drs_locked(self, request, response):
-        # a service call takes effect at once: the simulation is between two physics steps
-        now = self._now_ns()
-        if self._auto_deadline is not None:  # a call before auto chose: choose now
-            self._choose_fidelity(now)
-        self._apply_pending(now)  # commands that arrived earlier act first, as they would have
-        value = commands.describe(commands.SERVICE_KEY, request)
-        try:
-            seg = commands.apply(self.sim, commands.SERVICE_KEY, request, self.joint_names[0])
-        except Exception as exc:  # noqa: BLE001 - what a request carries never stops the node
-            response.success = False
-            response.message = self.effects.refuse("drs", value, refusal_reason(exc), now)
-            self.effects.event(
-                self.service_name,
-                REFUSED,
-                DiagnosticStatus.WARN,
-                response.message,
-                None,
-                {"value": repr(value)},
-                now,
-            )
-            return response
-        self.effects.accepted += 1
-        response.success = True
-        response.message = (
-            f"{'opening' if value else 'closing'} to {seg.evaluate(seg.t1)[0]:.6g} m "
-            f"in {seg.duration:g} s"
-        )
-        self.effects.event(
-            self.service_name, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)}, now
-        )
-        return response
+            now = self._now_ns()
+            if self.rungs.deadline is not None:  # a call before auto chose: choose now
+                self._choose_fidelity(now)
+            return self.intake.on_drs(request, response, now)
 
     def _on_service_event(self, data: bytes) -> None:
         # an event ends in a string, so the transport may have padded it (cdr.exact_bytes)
@@ -485,8 +366,8 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         now = self._now_ns()
         if now == 0:  # use_sim_time before the first /clock message
             return
-        if self._auto_deadline is not None:
-            if time.monotonic() < self._auto_deadline:
+        if self.rungs.deadline is not None:
+            if time.monotonic() < self.rungs.deadline:
                 return  # auto: the subscribers are still being discovered
             self._choose_fidelity(now)
         mono = time.monotonic_ns()
@@ -508,8 +389,8 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         self._last_tick_ns, self._last_tick_mono = now, mono
         self.effects.ticks += 1
         t = time.process_time()
-        if self._pending:
-            self._apply_pending(now)
+        if self.intake.waiting:
+            self.intake.apply_pending(now)
         if self._pending_faults:
             self._apply_faults(now)
         target = seconds_from_ns(now - self._t0_ns)
@@ -554,18 +435,15 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         at configure for the node's parameters (:func:`drs_model.fidelity.auto.choose_rung`),
         chosen once, before the first step, and recorded (source ``fidelity``) so that a re-run
         takes the same rung."""
-        self._auto_deadline = None
         asked = {kind for pub, kind in self.outputs.asked_by_topic()
                  if pub.get_subscription_count()}  # fmt: skip
-        gp = self.get_parameter
-        rung = choose_rung(asked, gp("fidelity_tolerance").value,
-                           gp("fidelity_force_tolerance").value, self._auto_errors)  # fmt: skip
+        rung = self.rungs.choose(asked)
         if rung != self.sim.name:
-            self.sim = self._make_rung(rung)
+            self.sim = self.rungs.make(rung)
             self.faults = RunFaults(self.sim)  # none applied yet: they act at ticks
         self.get_logger().info(f"fidelity auto: {rung} for {sorted(asked) or 'nothing'} asked")
         self.effects.event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None,
-                    {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
+                           {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
 
     def _check_clock_jump(self, now: int, mono: int) -> None:
         """A node clock that jumps (the system clock stepped by NTP or by hand; ``/clock`` going
