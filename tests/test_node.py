@@ -284,11 +284,11 @@ def test_a_failing_recorder_stops_recording_not_the_actuator(ros_context, tmp_pa
 
     try:
         spin_until(ex, lambda: node.effects.ticks > 5, 5.0)
-        node.recorder.write = disk_full
+        node.recordings.recorder.write = disk_full
         node.sim.command_drs(True)
         ticks = node.effects.ticks
         spin_until(ex, lambda: node.effects.ticks > ticks + 10, 5.0)
-        assert "No space left on device" in node.bag.health.failure
+        assert "No space left on device" in node.recordings.bag.health.failure
         assert node.diagnostics_values()["bag"].startswith("failed: OSError")
         assert node.effects.ticks > ticks + 10  # the actuator kept running
         assert node.sim.state.gap == pytest.approx(0.05, abs=1e-9)  # and opened

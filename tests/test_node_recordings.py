@@ -133,12 +133,12 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
     calls = {"bag": 0}
 
     def break_both(node):
-        calls["before"] = node.recorder.stats().message_count
+        calls["before"] = node.recordings.recorder.stats().message_count
         def rerun_fails(*args):
             raise RuntimeError("rerun logging failed on purpose")
 
-        node.rerun.log_state = rerun_fails
-        real_write = node.recorder.write
+        node.recordings.rerun.log_state = rerun_fails
+        real_write = node.recordings.recorder.write
 
         def bag_fails_once(topic, msg, **kw):
             calls["bag"] += 1
@@ -146,7 +146,7 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
                 raise TypeError("a bag write failed on purpose")
             return real_write(topic, msg, **kw)
 
-        node.recorder.write = bag_fails_once
+        node.recordings.recorder.write = bag_fails_once
 
     node = _run_in_process(ros_context, tmp_path, 1.0, during=break_both)
     try:

@@ -56,7 +56,7 @@ from ..names import FIDELITY, RESET, TOPICS
 from ..recording import cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
 from ..timestamps import ns_from_seconds, seconds_from_ns
-from .effect_record import EffectRecord, error_text, state_values
+from .effect_record import EffectRecord, diagnostics_values, error_text
 from .fault_parameters import NodeFaults, declare_fault_parameters
 from .intake import COMMANDS, CommandIntake
 from .parameters import declare_parameters, effective_parameters, model_params, tick_settings
@@ -71,7 +71,7 @@ CLOCK_WAIT_WARNING_S = 2.0
 CLOCK_JUMP_THRESHOLD_S = 0.01
 
 
-class DRSNode(NodeFaults, NodeRecordings, Node):
+class DRSNode(NodeFaults, Node):
     """The DRS actuator node. Keyword arguments go to :class:`rclpy.node.Node`.
 
     Its life has the stages of a ROS 2 managed node, which
@@ -101,9 +101,8 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         self._tick_timer = tick_timer
         self.configured = self.active = False
         self.callback_errors = 0
-        self.recorder = self.rerun = None
-        self.bag = self.rrd = None  # the recordings and their failures (NodeRecordings)
-        self.recording_problems: list[str] = []
+        # the bag and the rerun recording, and their failures: opened at configure
+        self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
         #: The stop the node obeys within a tick (drs_ros.stop_request.StopRequest, set by
         #: drs_ros.node.runner): a long tick ends at the next physics step once it is requested.
         self.stop_request = None
@@ -160,11 +159,15 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         self._clock_warned = False
 
         # all paths are checked before any file is created; a failure removes what was made
-        self._open_recordings()
+        gp = self.get_parameter
+        self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
+        self.recordings.open(gp("bag_path").value, gp("rrd_path").value,
+                             gp("rerun_connect").value, gp("flush_period").value, self.params,
+                             self.markers_rate_hz)  # fmt: skip
         try:
             self._register_recorded_topics()
         except Exception:
-            self.discard_recordings()
+            self.recordings.discard()
             raise
         # the first record: the node's name and its topics as resolved (remapping included), so
         # that the bag's tools find them whatever the node was called
@@ -195,7 +198,7 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         self.srv_drs.configure_introspection(
             self.get_clock(), QoSProfile(depth=100), ServiceIntrospectionState.CONTENTS
         )
-        if self.recorder is not None:  # record the service calls as rosbag2 does: their events
+        if self.recordings.recorder is not None:  # record the service calls as rosbag2 does
             self.sub_drs_events = self.create_subscription(
                 SetBool.Event, self.service_event_topic, self._on_service_event,
                 QoSProfile(depth=100), raw=True,
@@ -240,7 +243,6 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
             self.deactivate()
         self.stack.cleanup()
         self.close_recordings()
-        self.recorder = self.rerun = None
         self.outputs.destroy(self)
         self.configured = False
 
@@ -261,23 +263,12 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
     # ---- diagnostics ---------------------------------------------------------------------------
     def diagnostics_values(self) -> dict[str, object]:
         """The state, the counters, the faults, the recordings and the CPU spent, by name."""
-        fx = self.effects
-        return {
-            **state_values(self.sim.state),
-            **fx.counter_values(),
-            "faults": self.faults_text(),
-            "missed_deadlines": fx.missed_deadlines,
-            "dropped_steps": fx.dropped_steps,
-            "clock_jumps": fx.clock_jumps,
-            "callback_errors": self.callback_errors,
-            "ticks": fx.ticks,
-            **self.recordings_status(),
-            **{f"cpu_{part}_s": f"{spent:.3f}" for part, spent in fx.cpu.items()},
-        }
+        return diagnostics_values(self.sim.state, self.effects, self.faults_text(),
+                                  self.callback_errors, self.recordings.status())
 
     def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
         """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
-        return self.effects.level(now_ns, self.recording_failures(), self.sim.mode)
+        return self.effects.level(now_ns, self.recordings.failures(), self.sim.mode)
 
     def executor_error(self, exc: Exception) -> None:
         """A callback (or the middleware taking a message for it) raised: counted, reported in
@@ -303,10 +294,24 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         self._record(pubs.topics[pubs.diagnostics], data, now)
 
     # ---- recordings ----------------------------------------------------------------------------
+    def _record(self, topic: str, data, now_ns: int) -> int | None:
+        """Exact bytes (or a message) into the bag: the sequence number (None: not recorded)."""
+        return self.recordings.record(topic, data, now_ns)
+
+    def _recording_lost(self, reason: str) -> None:
+        """An item a recording lost: a trouble of the diagnostics window."""
+        self.effects.troubles.add(self._now_ns(), "recording_error", reason)
+
+    def close_recordings(self) -> list[str]:
+        """Finish the bag and the rerun recording (idempotent): one line per recording that is
+        incomplete, naming what it lacks (:meth:`NodeRecordings.close`)."""
+        return self.recordings.close()
+
     def _register_recorded_topics(self) -> None:
-        if self.recorder is None:
+        recorder = self.recordings.recorder
+        if recorder is None:
             return
-        register = self.recorder.register_topic
+        register = recorder.register_topic
         for topic, msg_type, qos in self.outputs.recorded_topics():
             register(topic, msg_type, qos=qos)
         for key, topic in self.command_topics.items():
@@ -319,7 +324,7 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         event = parameter_event_msg(
             self.get_fully_qualified_name(), effective_parameters(self, self.params), now
         )
-        self.recorder.write("/parameter_events", event, now)
+        recorder.write("/parameter_events", event, now)
 
     # ---- commands ------------------------------------------------------------------------------
     def _now_ns(self) -> int:
@@ -474,8 +479,9 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         stamp = self._t0_ns + ns_from_seconds(st.t)
         sensed = (None if self.faults.sensor_healthy
                   else self.faults.published_stroke(st.t, float(st.q[0])))  # fmt: skip
+        recording = self.recordings.recorder is not None
         out = self.outputs.state_messages(self.sim, st, stamp, sensed, self.effects.ticks,
-                                             recording=self.recorder is not None)  # fmt: skip
+                                          recording=recording)  # fmt: skip
         for pub, data in out:
             pub.publish(data)
         t1 = time.process_time()
@@ -484,7 +490,7 @@ class DRSNode(NodeFaults, NodeRecordings, Node):
         for pub, data in out:
             self._record(topics[pub], data, now_ns)
         self.stack.publish(st, stamp, now_ns)  # /tf, the action's feedback
-        self._log_rerun(st)  # its own failures: never the bag's
+        self.recordings.log_state(st)  # its own failures: never the bag's
         self.effects.cpu["record"] += time.process_time() - t1
 
 

@@ -203,8 +203,11 @@ class EffectRecord:
         return DiagnosticStatus.WARN, f"in the last {window:g} s: " + "; ".join(parts)
 
 
-def state_values(st) -> dict[str, object]:
-    """The actuator's state ``st`` as diagnostics report it."""
+def diagnostics_values(st, effects: EffectRecord, faults: str, callback_errors: int,
+                       recordings: dict[str, str]) -> dict[str, object]:  # fmt: skip
+    """What diagnostics report, by name: the actuator's state ``st``, the counters of
+    ``effects``, the ``faults`` in force, the callbacks that failed, the ``recordings``' status
+    and the CPU time spent."""
     return {
         "mode": st.mode,
         "sim_time_s": f"{st.t:.6f}",
@@ -214,6 +217,15 @@ def state_values(st) -> dict[str, object]:
         "at_stop": st.at_stop or "none",
         "dead_centre_distance_m": f"{st.dead_centre_distance:.6g}",
         "transmission_cos": f"{st.transmission:.4f}",
+        **effects.counter_values(),
+        "faults": faults,
+        "missed_deadlines": effects.missed_deadlines,
+        "dropped_steps": effects.dropped_steps,
+        "clock_jumps": effects.clock_jumps,
+        "callback_errors": callback_errors,
+        "ticks": effects.ticks,
+        **recordings,
+        **{f"cpu_{part}_s": f"{spent:.3f}" for part, spent in effects.cpu.items()},
     }
 
 
@@ -224,5 +236,5 @@ __all__ = [
     "TroubleWindow",
     "error_text",
     "refusal_reason",
-    "state_values",
+    "diagnostics_values",
 ]

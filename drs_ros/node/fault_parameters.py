@@ -92,7 +92,7 @@ class NodeFaults:
 
     def _record_parameter_change(self, params: list[Parameter]) -> None:
         """The change rclpy publishes on /parameter_events, in the node's bag as well."""
-        if self.bag is None:
+        if self.recordings.bag is None:
             return
         with self._lock:
             now = self._now_ns()
