@@ -151,7 +151,7 @@ def test_a_fault_the_rung_cannot_model_is_refused(ros_context):
         (result,) = node.set_parameters([Parameter("fault.sensor.dropout", value=1.5)])
         assert not result.successful and "[0, 1]" in result.reason
         node.tick()
-        assert node.faults.active() == {"sensor.bias_m": 1e-3}
+        assert node.fault_parameters.faults.active() == {"sensor.bias_m": 1e-3}
         assert node.effects.refused == 2
     finally:
         node.destroy_node()

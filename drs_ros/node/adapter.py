@@ -45,7 +45,6 @@ from std_srvs.srv import SetBool
 
 from drs_model.errors import DRSError
 from drs_model.fidelity import HydraulicRung
-from drs_model.fidelity.faults import RunFaults
 
 from .. import commands
 from ..conversions import (
@@ -71,7 +70,7 @@ CLOCK_WAIT_WARNING_S = 2.0
 CLOCK_JUMP_THRESHOLD_S = 0.01
 
 
-class DRSNode(NodeFaults, Node):
+class DRSNode(Node):
     """The DRS actuator node. Keyword arguments go to :class:`rclpy.node.Node`.
 
     Its life has the stages of a ROS 2 managed node, which
@@ -103,6 +102,8 @@ class DRSNode(NodeFaults, Node):
         self.callback_errors = 0
         # the bag and the rerun recording, and their failures: opened at configure
         self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
+        self.fault_parameters = NodeFaults(self, self._lock, self._now_ns,
+                                           lambda: self.configured)  # fmt: skip
         #: The stop the node obeys within a tick (drs_ros.stop_request.StopRequest, set by
         #: drs_ros.node.runner): a long tick ends at the next physics step once it is requested.
         self.stop_request = None
@@ -127,7 +128,6 @@ class DRSNode(NodeFaults, Node):
             name: gp(name).value for name in ("force_limit", "integrator", "force_method")
         }, gp("fidelity_tolerance").value, gp("fidelity_force_tolerance").value)  # fmt: skip
         self.sim = self.rungs.first()
-        self._start_faults()
         self.outputs = StatePublishers(
             self, joint_states_topic=self.get_parameter("joint_states_topic").value,
             joint_names=self.joint_names, frame_id=self.frame_id, params=self.params,
@@ -137,6 +137,8 @@ class DRSNode(NodeFaults, Node):
             self.outputs.events, self.outputs.diagnostic_bytes, self._record,
             lambda: (self.sim.t, self.sim.steps, self._t0_ns), self.get_logger(),
             self.get_parameter("diagnostics_window").value)  # fmt: skip
+        self.fault_parameters.start(self.sim, self.effects, self._record,
+                                    lambda: self.recordings.bag is not None)  # fmt: skip
         self.service_name = self.resolve_service_name("~/drs")
         self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
         # in a vehicle stack (drs_ros.stack): description, TF, the action, JointState commands
@@ -263,7 +265,7 @@ class DRSNode(NodeFaults, Node):
     # ---- diagnostics ---------------------------------------------------------------------------
     def diagnostics_values(self) -> dict[str, object]:
         """The state, the counters, the faults, the recordings and the CPU spent, by name."""
-        return diagnostics_values(self.sim.state, self.effects, self.faults_text(),
+        return diagnostics_values(self.sim.state, self.effects, self.fault_parameters.text(),
                                   self.callback_errors, self.recordings.status())
 
     def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
@@ -396,8 +398,8 @@ class DRSNode(NodeFaults, Node):
         t = time.process_time()
         if self.intake.waiting:
             self.intake.apply_pending(now)
-        if self._pending_faults:
-            self._apply_faults(now)
+        if self.fault_parameters.waiting:
+            self.fault_parameters.apply_pending(now)
         target = seconds_from_ns(now - self._t0_ns)
         due = int(math.floor((target - self.sim.t) / self.physics_dt + 1e-9))
         if due > self.max_catch_up:
@@ -445,7 +447,7 @@ class DRSNode(NodeFaults, Node):
         rung = self.rungs.choose(asked)
         if rung != self.sim.name:
             self.sim = self.rungs.make(rung)
-            self.faults = RunFaults(self.sim)  # none applied yet: they act at ticks
+            self.fault_parameters.new_actuator(self.sim)  # none applied yet: they act at ticks
         self.get_logger().info(f"fidelity auto: {rung} for {sorted(asked) or 'nothing'} asked")
         self.effects.event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None,
                            {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
@@ -477,8 +479,9 @@ class DRSNode(NodeFaults, Node):
         t = time.process_time()
         st = self.sim.state
         stamp = self._t0_ns + ns_from_seconds(st.t)
-        sensed = (None if self.faults.sensor_healthy
-                  else self.faults.published_stroke(st.t, float(st.q[0])))  # fmt: skip
+        faults = self.fault_parameters.faults
+        sensed = (None if faults.sensor_healthy
+                  else faults.published_stroke(st.t, float(st.q[0])))  # fmt: skip
         recording = self.recordings.recorder is not None
         out = self.outputs.state_messages(self.sim, st, stamp, sensed, self.effects.ticks,
                                           recording=recording)  # fmt: skip
