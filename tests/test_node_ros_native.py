@@ -102,7 +102,7 @@ def test_markers_are_not_computed_for_nobody(ros_context):
     ex.add_node(node)
     try:
         spin_for(ex, 0.5)
-        assert node.effects.ticks > 10 and node._last_markers_t is None
+        assert node.effects.ticks > 10 and node.outputs.last_markers_t is None
     finally:
         ex.shutdown()
         node.destroy_node()

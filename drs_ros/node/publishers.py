@@ -2,9 +2,10 @@
 :class:`drs_ros.node.adapter.DRSNode`, constructed with what it needs, owning its publishers,
 its serialisers, the marker scene and what it last drew.
 
-Every message is serialised once (:mod:`drs_ros.recording.cdr`), published as those bytes and
-handed back to the node to record as the same bytes. An optional topic (``~/joint_reactions``,
-``~/markers``) is computed only while someone listens (asked every
+Every message is serialised once (:mod:`drs_ros.recording.cdr`; the joint states and the
+pressures packed into their layouts, :class:`~drs_ros.recording.cdr.Layout`), published as
+those bytes and handed back to the node to record as the same bytes. An optional topic
+(``~/joint_reactions``, ``~/markers``) is computed only while someone listens (asked every
 :data:`LISTENER_CHECK_TICKS` ticks) or, for the markers, while the bag records them.
 """
 
@@ -16,14 +17,15 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import FluidPressure, JointState
-from std_msgs.msg import Float64, Header
+from std_msgs.msg import Float64
 from visualization_msgs.msg import MarkerArray
 
 from drs_model.fidelity import HydraulicRung
 
-from ..conversions import MechanismMarkers, joint_state_msg, reactions_msg, time_msg
+from ..conversions import MechanismMarkers, joint_state_packer, reactions_msg
 from ..drawing import moving_drawings, still_drawings
 from ..recording import cdr
+from ..timestamps import split_ns
 
 QOS_DEPTH = 10
 #: The effect record's queue: a burst of records (a flood of refused commands) is kept whole.
@@ -87,17 +89,22 @@ class StatePublishers:
         self.frame_id, self.params, self.markers_period = frame_id, params, markers_period
         self._serialize = {
             cls: cdr.serializer(cls)
-            for cls in (JointState, DiagnosticArray, MarkerArray, FluidPressure)
+            for cls in (JointState, DiagnosticArray, MarkerArray)
         }
         self._pack_float64 = cdr.flat_packer(Float64)
-        self._joint_names = list(joint_names)
-        self._joint_state = JointState(name=self._joint_names)  # filled in place at each publish
+        # the joint states and the pressures: numbers packed into their messages' layouts
+        self._pack_joint_state = joint_state_packer(joint_names)
+        pressure = FluidPressure()
+        pressure.header.frame_id = frame_id
+        self._pack_pressure = cdr.Layout(pressure).packer(
+            ["header.stamp.sec", "header.stamp.nanosec", "fluid_pressure"])
         lines, pins, _ = moving_drawings(np.array([[s_min, 0.0, 0.0]]), params)
         self._scene = MechanismMarkers(still_drawings(params),
                                        {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
                                        frame_id)  # fmt: skip
         self._listened = {self.reactions: False, self.markers: False}
-        self._last_markers_t: float | None = None
+        #: Simulated time [s] of the last ~/markers drawn (None: never drawn).
+        self.last_markers_t: float | None = None
         self._last_still_t: float | None = None
 
     # ---- what the node asks --------------------------------------------------------------------
@@ -137,8 +144,9 @@ class StatePublishers:
         ``recording``: a bag records the markers, listened to or not."""
         pack = self._pack_float64
         out = [
-            (self.joints, self._serialize[JointState](
-                self._joint_state_msg(st, stamp, published_stroke))),
+            # as the (possibly faulty) stroke sensor reports them: a sensor fault changes the
+            # piston's position only, never the simulation
+            (self.joints, self._pack_joint_state(st, stamp, published_stroke)),
             (self.force, pack(st.piston_force)),
             (self.gap, pack(st.gap)),
             (self.accel, pack(st.qdd[0])),
@@ -152,32 +160,24 @@ class StatePublishers:
             reactions = reactions_msg(sim.reactions(), stamp)
             out.append((self.reactions, self._serialize[JointState](reactions)))
         if (recording or self._listened[self.markers]) and (
-            self._last_markers_t is None
-            or st.t - self._last_markers_t >= self.markers_period - 1e-9
+            self.last_markers_t is None
+            or st.t - self.last_markers_t >= self.markers_period - 1e-9
         ):
-            self._last_markers_t = st.t
+            self.last_markers_t = st.t
             out.append((self.markers, self._serialize[MarkerArray](self._markers(st, stamp))))
         return out
-
-    def _joint_state_msg(self, st, stamp: int, published_stroke) -> JointState:
-        """The joint states as the (possibly faulty) stroke sensor reports them: a sensor fault
-        changes the piston's position only, never the simulation."""
-        msg = joint_state_msg(st, self._joint_names, stamp, self._joint_state)
-        if published_stroke is not None:
-            msg.position[0] = published_stroke
-        return msg
 
     def _hydraulic_messages(self, st, stamp: int) -> list[tuple]:
         """The hydraulic rung's pressures (sensor_msgs/FluidPressure [Pa], stamped like the joint
         states, in ``frame_id``) and its spool (std_msgs/Float64, -1..1; NaN without spool lag,
         where the spool is the servo's command itself)."""
-        header = Header(stamp=time_msg(stamp), frame_id=self.frame_id)
+        sec, nanosec = split_ns(stamp)
         pa, pb, ps, spool = self.hydraulic
-        ser = self._serialize[FluidPressure]
+        pack = self._pack_pressure
         return [
-            (pa, ser(FluidPressure(header=header, fluid_pressure=st.pressure_a))),
-            (pb, ser(FluidPressure(header=header, fluid_pressure=st.pressure_b))),
-            (ps, ser(FluidPressure(header=header, fluid_pressure=st.supply_pressure))),
+            (pa, pack(sec, nanosec, st.pressure_a)),
+            (pb, pack(sec, nanosec, st.pressure_b)),
+            (ps, pack(sec, nanosec, st.supply_pressure)),
             (spool, self._pack_float64(math.nan if st.spool is None else st.spool)),
         ]
 
