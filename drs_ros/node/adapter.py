@@ -47,10 +47,7 @@ from drs_model.errors import DRSError
 from drs_model.fidelity import HydraulicRung
 
 from .. import commands
-from ..conversions import (
-    diagnostics_msg,
-    parameter_event_msg,
-)
+from ..conversions import diagnostics_msg, parameter_event_msg
 from ..names import FIDELITY, RESET, TOPICS
 from ..recording import cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
@@ -83,8 +80,10 @@ class DRSNode(Node):
     * :meth:`deactivate`: remove them again: the actuator holds its state, nothing is published;
     * :meth:`cleanup`: finish the recordings and drop the publishers and the actuator.
 
-    Its parts, built by :meth:`configure`: ``intake`` (the commands), ``outputs`` (the
-    publishers), ``effects`` (the effect record and counters), ``stack`` (the vehicle stack).
+    Its parts: ``recordings`` and ``fault_parameters`` (built with the node), then, built by
+    :meth:`configure`, ``rungs`` (the actuator's rung), ``outputs`` (the publishers),
+    ``effects`` (the effect record and counters), ``stack`` (the vehicle stack) and ``intake``
+    (the commands). The node keeps the clock and the tick.
     """
 
     def __init__(self, *, tick_timer: bool = True, managed: bool = False, **kwargs) -> None:
