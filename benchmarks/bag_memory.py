@@ -1,7 +1,7 @@
 """Peak memory of ``drs-bag check`` against the size of the bag, up to a gigabyte and more.
 
-Writes bags of the seed manoeuvre repeated (:func:`drs_ros.bag.synthetic.write_long_bag`: the
-four checked topics at 1 kHz, plus one camera-like ``sensor_msgs/msg/Image`` of ``--image-kib``
+Writes bags of the seed manoeuvre repeated (the tests' ``long_bag_support.write_long_bag``:
+the four checked topics at 1 kHz, plus one camera-like ``sensor_msgs/msg/Image`` of ``--image-kib``
 per 50 ms manoeuvre, as a vehicle's bag holds) of each size in ``--sizes-mb`` into a temporary
 directory (``--tmp``, /tmp by default), checks each with ``drs-bag check`` in its own process,
 and reports that process's peak resident memory (``ru_maxrss`` of ``os.wait4``), its wall time,
@@ -23,6 +23,9 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+# the long bags are the tests' fixture (tests/long_bag_support.py), not a part of the product
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -51,7 +54,7 @@ def main(argv=None) -> int:
     ap.add_argument("--tmp", default=tempfile.gettempdir(), help="where the bags are written")
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
-    from drs_ros.bag.synthetic import write_long_bag
+    from long_bag_support import write_long_bag
 
     image = args.image_kib * 1024
     rows = []

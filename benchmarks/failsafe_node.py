@@ -16,40 +16,33 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+# the node is driven as the tests drive it (tests/node_support.py)
+sys.path.insert(0, str(ROOT / "tests"))
 RUNGS = ("quasi-static", "rigid", "hydraulic")  # kinematic refuses the fault (no forces)
 
 
 def run_node(rung: str, bag: Path, ramp: float, domain: int) -> dict:
     """One node run on ``rung``, recorded to ``bag``; what the parameter service answered."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
+    from node_support import node_with_client
     from rclpy.parameter import Parameter
     from rclpy.parameter_client import AsyncParameterClient
     from std_srvs.srv import SetBool
 
-    from drs_ros.node import DRSNode
+    overrides = [Parameter("fidelity", value=rung), Parameter("bag_path", value=str(bag)),
+                 Parameter("publish_rate_hz", value=250.0)]  # fmt: skip
+    with node_with_client(domain, overrides, "failsafe_client") as (_node, client, ex):
 
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=domain)
-    node = DRSNode(context=ctx, parameter_overrides=[
-        Parameter("fidelity", value=rung), Parameter("bag_path", value=str(bag)),
-        Parameter("publish_rate_hz", value=250.0)])  # fmt: skip
-    client = rclpy.create_node("failsafe_client", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    ex.add_node(client)
+        def spin(seconds: float, done=None) -> None:
+            end = time.monotonic() + seconds
+            while time.monotonic() < end and not (done and done()):
+                ex.spin_once(timeout_sec=0.01)
 
-    def spin(seconds: float, done=None) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end and not (done and done()):
-            ex.spin_once(timeout_sec=0.01)
-
-    try:
         drs = client.create_client(SetBool, "/drs/drs")
         params = AsyncParameterClient(client, "/drs")
         assert drs.wait_for_service(timeout_sec=10.0) and params.wait_for_services(10.0)
@@ -63,12 +56,6 @@ def run_node(rung: str, bag: Path, ramp: float, domain: int) -> dict:
         result = fut.result().result
         spin(0.6)
         return {"successful": result.successful, "reason": result.reason}
-    finally:
-        node.close_recordings()
-        ex.shutdown()
-        client.destroy_node()
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
 
 
 def closing_time(bag: Path) -> dict:

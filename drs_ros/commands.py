@@ -13,8 +13,8 @@ from __future__ import annotations
 import ast
 from dataclasses import dataclass
 
-from . import joint_commands
 from .conversions import trajectory_points
+from .stack import joint_commands
 
 #: key -> message type name of the command topics.
 COMMAND_TYPES = {
@@ -26,6 +26,9 @@ COMMAND_TYPES = {
 SERVICE_KEY = "drs"
 #: The FollowJointTrajectory action's moves (no topic: the effect record holds them).
 ACTION_KEY = "follow_joint_trajectory"
+#: The depth of every command topic's queue: commands are latest-wins, a short keep-last queue
+#: so that nothing waits in DDS to go stale.
+COMMAND_QOS_DEPTH = 10
 
 
 @dataclass(frozen=True)
@@ -56,7 +59,8 @@ class TrajectoryMove:
 
 @dataclass(frozen=True)
 class StrokeMove:
-    """Move to ``target`` [m] in ``duration`` [s] from the current state (a hold or a stop)."""
+    """Move to ``target`` [m] in ``duration`` [s] from the current state: the action's ``hold``
+    (joint_trajectory_controller's: a planned stop where the piston is, recorded as ``hold``)."""
 
     target: float
     duration: float
@@ -130,24 +134,26 @@ def apply(sim, key: str, msg, piston_joint: str, prepared=None):
     raise KeyError(f"unknown command {key!r}; known: {known}")
 
 
-def hold(sim) -> float:
-    """What the node does when the model refuses a physics step: hold the flap where it is, its
-    stroke kept within ``[s_min, s_max]``, at the present time (the re-simulation does the same).
-    Returns the stroke held [m]."""
-    s_hold = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
-    sim.reset(sim.t, s_hold)
-    return s_hold
+def reset_at_rest(sim) -> float:
+    """What the node does when the model refuses a physics step: reset the actuator at rest
+    where it is, its stroke kept within ``[s_min, s_max]``, at the present time (the
+    re-simulation does the same). Not a move (the action's ``hold``, a :class:`StrokeMove`,
+    plans a stop): velocity and force are gone at once. Returns the stroke [m]."""
+    s_rest = float(min(max(sim.state.q[0], sim.s_min), sim.s_max))
+    sim.reset(sim.t, s_rest)
+    return s_rest
 
 
 __all__ = [
     "ACTION_KEY",
+    "COMMAND_QOS_DEPTH",
     "COMMAND_TYPES",
     "SERVICE_KEY",
     "StrokeMove",
     "TrajectoryMove",
     "apply",
     "describe",
-    "hold",
     "move_from_record",
     "prepare",
+    "reset_at_rest",
 ]

@@ -32,10 +32,36 @@ def joint_state_msg(
     ``msg``: a JointState to fill in place (building one costs more than filling it)."""
     msg = JointState(name=list(names)) if msg is None else msg
     msg.header.stamp = time_msg(stamp_ns)
-    msg.position = array("d", state.q)
-    msg.velocity = array("d", state.qd)
-    msg.effort = array("d", (state.piston_force, math.nan, math.nan))
+    position, velocity, effort = joint_state_values(state)
+    msg.position = array("d", position)
+    msg.velocity = array("d", velocity)
+    msg.effort = array("d", effort)
     return msg
+
+
+def joint_state_values(state: ActuatorState, stroke: float | None = None) -> tuple:
+    """``(position, velocity, effort)`` of :func:`joint_state_msg`, each 3 floats; ``stroke``
+    [m]: the piston's position as a (faulty) sensor reports it (None: the true one)."""
+    position = tuple(state.q) if stroke is None else (stroke, *state.q[1:])
+    return position, tuple(state.qd), (state.piston_force, math.nan, math.nan)
+
+
+def joint_state_packer(names: Sequence[str]):
+    """``pack(state, stamp_ns, stroke=None) -> bytes``: the exact CDR of
+    :func:`joint_state_msg` (with :func:`joint_state_values`' ``stroke``), its numbers packed
+    into the message's layout (:class:`drs_ros.recording.cdr.Layout`) without building it."""
+    from .recording import cdr
+
+    pack = cdr.Layout(JointState(
+        name=list(names), position=[0.0] * 3, velocity=[0.0] * 3, effort=[0.0] * 3,
+    )).packer(["header.stamp.sec", "header.stamp.nanosec", "position", "velocity",
+               "effort"])  # fmt: skip
+
+    def pack_state(state: ActuatorState, stamp_ns: int, stroke: float | None = None) -> bytes:
+        position, velocity, effort = joint_state_values(state, stroke)
+        return pack(*split_ns(stamp_ns), *position, *velocity, *effort)
+
+    return pack_state
 
 
 def reactions_msg(reactions: Mapping[str, float], stamp_ns: int) -> JointState:

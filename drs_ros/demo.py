@@ -22,12 +22,10 @@ import signal
 import stat
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from drs_ros.errors import DRSRosError
-from drs_ros.timestamps import ns_from_seconds, set_ns
 
 
 class DemoError(DRSRosError, ValueError):
@@ -98,134 +96,39 @@ def _say(text: str) -> None:
 
 
 def drive(domain: int, timeout: float = 30.0) -> dict[str, object]:
-    """Run the scripted scenario against a running node; returns what the driver observed."""
-    import rclpy
-    from diagnostic_msgs.msg import DiagnosticArray
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.node import Node
+    """Run the scripted scenario against a running node through the product's client
+    (:class:`drs_ros.client.DRSClient`); returns what the client observed."""
     from sensor_msgs.msg import JointState
-    from std_msgs.msg import Float64
-    from std_srvs.srv import SetBool
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    ctx = Context()
-    rclpy.init(context=ctx, domain_id=domain)
-    node = Node("drs_demo_driver", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    seen: dict[str, object] = {"joint_states": 0, "gap_max": 0.0, "force_max": 0.0, "diag": None}
+    from drs_ros.client import DRSClient
 
-    def on_joints(msg: JointState) -> None:
-        seen["joint_states"] = int(seen["joint_states"]) + 1
-        seen["force_max"] = max(float(seen["force_max"]), abs(msg.effort[0]))
-
-    def on_gap(msg: Float64) -> None:
-        seen["gap_max"] = max(float(seen["gap_max"]), msg.data)
-
-    def on_diag(msg: DiagnosticArray) -> None:
-        seen["diag"] = {kv.key: kv.value for kv in msg.status[0].values}
-
-    node.create_subscription(JointState, "/joint_states", on_joints, 100)
-    node.create_subscription(Float64, "/drs/flap_gap", on_gap, 100)
-    node.create_subscription(DiagnosticArray, "/diagnostics", on_diag, 10)
-    # the node computes its reactions only while someone listens: listen, so the bag holds them
-    node.create_subscription(JointState, "/drs/joint_reactions", lambda _m: None, 100)
-    stroke = node.create_publisher(Float64, "/drs/stroke_cmd", 10)
-    force = node.create_publisher(Float64, "/drs/force_cmd", 10)
-    trajectory = node.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
-    client = node.create_client(SetBool, "/drs/drs")
-
-    def spin(seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            ex.spin_once(timeout_sec=0.002)
-
-    def call(value: bool) -> str:
-        fut = client.call_async(SetBool.Request(data=value))
-        end = time.monotonic() + 5.0
-        while not fut.done() and time.monotonic() < end:
-            ex.spin_once(timeout_sec=0.01)
-        res = fut.result()
-        if res is None:
-            raise RuntimeError("the ~/drs service did not answer")
-        return f"{'ok' if res.success else 'refused'}: {res.message}"
-
-    try:
-        if not client.wait_for_service(timeout_sec=timeout):
-            raise RuntimeError(f"the node's ~/drs service did not appear within {timeout} s")
-        end = time.monotonic() + timeout
-        while (
-            stroke.get_subscription_count() == 0 or force.get_subscription_count() == 0
-        ) and time.monotonic() < end:
-            spin(0.05)
-        # the service is discoverable before the node spins: wait for its joint states to flow
-        while int(seen["joint_states"]) < 25 and time.monotonic() < end:
-            spin(0.02)
-        if int(seen["joint_states"]) < 25:
-            raise RuntimeError(f"no /joint_states from the node within {timeout} s")
-        spin(0.2)
-        _say(f"open   -> {call(True)}")
-        spin(0.04)  # the seed holds 30 ms after the 10 ms opening
-        _say(f"close  -> {call(False)}")
-        spin(0.3)
+    with DRSClient(domain, timeout=timeout) as client:
+        # the node computes its reactions only while someone listens: listen, so the bag holds them
+        client.listen(JointState, "/drs/joint_reactions")
+        client.wait_ready()
+        client.spin(0.2)
+        _say(f"open   -> {client.call_drs(True)}")
+        client.spin(0.04)  # the seed holds 30 ms after the 10 ms opening
+        _say(f"close  -> {client.call_drs(False)}")
+        client.spin(0.3)
         _say("stroke -> 0.020 m")
-        stroke.publish(Float64(data=0.020))
-        spin(0.3)
+        client.stroke(0.020)
+        client.spin(0.3)
         _say("traj   -> 30 mm at 20 ms, 10 mm at 40 ms, 25 mm at 60 ms (JointTrajectory)")
-        msg = JointTrajectory(joint_names=["drs_piston"])
-        for t_ms, s in ((20, 0.030), (40, 0.010), (60, 0.025)):
-            point = JointTrajectoryPoint(positions=[s])
-            set_ns(point.time_from_start, t_ms * 1_000_000)
-            msg.points.append(point)
-        trajectory.publish(msg)
-        spin(0.3)
-        _say(f"action -> {follow(node, ex, 0.015, 0.05, timeout)}")
-        spin(0.1)
+        client.trajectory([(0.020, 0.030), (0.040, 0.010), (0.060, 0.025)])
+        client.spin(0.3)
+        _say(f"action -> {client.follow(0.015, 0.05)}")
+        client.spin(0.1)
         _say("force  -> 1500 N step (forward dynamics, onto the open stop)")
-        force.publish(Float64(data=1500.0))
-        spin(0.3)
+        client.force(1500.0)
+        client.spin(0.3)
         _say("force  -> 0 N (the air load closes the flap onto its stop)")
-        force.publish(Float64(data=0.0))
-        spin(0.3)
+        client.force(0.0)
+        client.spin(0.3)
         _say("bad    -> stroke NaN (must be refused, node keeps running)")
-        stroke.publish(Float64(data=float("nan")))
-        spin(1.5)  # let a diagnostics message report the refusal
-    finally:
-        ex.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
-    return seen
-
-
-def follow(node, ex, stroke: float, seconds: float, timeout: float) -> str:
-    """Send one FollowJointTrajectory goal as a motion client would; its result, in words."""
-    from control_msgs.action import FollowJointTrajectory
-    from rclpy.action import ActionClient
-    from trajectory_msgs.msg import JointTrajectoryPoint
-
-    client = ActionClient(node, FollowJointTrajectory, "/drs/follow_joint_trajectory")
-    if not client.wait_for_server(timeout_sec=timeout):
-        raise RuntimeError("the node's ~/follow_joint_trajectory did not appear")
-    goal = FollowJointTrajectory.Goal()
-    goal.trajectory.joint_names = ["drs_piston"]
-    point = JointTrajectoryPoint(positions=[stroke])
-    set_ns(point.time_from_start, ns_from_seconds(seconds))  # nanosec < 1e9, whatever seconds
-    goal.trajectory.points = [point]
-    feedback: list = []
-    sent = client.send_goal_async(goal, feedback_callback=feedback.append)
-    end = time.monotonic() + timeout
-    while not sent.done() and time.monotonic() < end:
-        ex.spin_once(timeout_sec=0.01)
-    result = sent.result().get_result_async()
-    while not result.done() and time.monotonic() < end:
-        ex.spin_once(timeout_sec=0.01)
-    if not result.done():
-        raise RuntimeError("no FollowJointTrajectory result")
-    res = result.result().result
-    client.destroy()
-    return (f"{stroke * 1e3:g} mm in {seconds * 1e3:g} ms (FollowJointTrajectory): error_code "
-            f"{res.error_code}, {res.error_string!r}, {len(feedback)} feedback messages")
+        client.stroke(float("nan"))
+        client.spin(1.5)  # let a diagnostics message report the refusal
+        return client.seen
 
 
 def _rrd_scalar_rows(path: Path) -> int:

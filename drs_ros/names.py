@@ -70,6 +70,8 @@ FIDELITY = "fidelity"
 #: The record the node writes first: its fully qualified name (``node``) and the topic each role
 #: of :data:`NODE_TOPICS` resolved to, remapping included (the bag's own account of its names).
 TOPICS = "topics"
+#: The prefix of the node's fault parameters (``fault.<name>``), the source of their effect records.
+FAULT_PREFIX = "fault."
 
 __all__ = [
     "ACCEPTED",
@@ -77,6 +79,7 @@ __all__ = [
     "DEFAULT_JOINT_NAMES",
     "DEFAULT_NODE",
     "DEFAULT_TOPICS",
+    "FAULT_PREFIX",
     "FIDELITY",
     "NODE_TOPICS",
     "REFUSED",

@@ -29,6 +29,9 @@ from __future__ import annotations
 
 #: Nanoseconds per second.
 NS_PER_S = 1_000_000_000
+#: The first stamp of a bag made without a node clock (a played goal, a test fixture) [ns]: a
+#: fixed instant (2023-11-14), so that such bags are reproducible byte for byte.
+T0_NS = 1_700_000_000_000_000_000
 
 
 def split_ns(ns: int) -> tuple[int, int]:
@@ -66,6 +69,7 @@ def ns_from_seconds(seconds: float) -> int:
 
 
 __all__ = [
+    "T0_NS",
     "NS_PER_S",
     "ns_from_parts",
     "ns_from_seconds",

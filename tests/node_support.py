@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 
 import pytest
 from ros_support import require_rclpy
@@ -33,6 +34,42 @@ def ros_context(request, tmp_path, monkeypatch):
     rclpy.init(context=ctx, domain_id=domain_for(request.node.nodeid))
     yield ctx
     rclpy.try_shutdown(context=ctx)
+
+
+@contextlib.contextmanager
+def node_with_client(domain: int, overrides: Sequence, client_name: str,
+                     before_node: Callable | None = None) -> Iterator[tuple]:  # fmt: skip
+    """A :class:`~drs_ros.node.DRSNode` with ``overrides`` (rclpy Parameters) and a client node
+    ``client_name`` in one new rclpy context on ``domain``, spun by one executor: yields
+    ``(node, client, executor)``. ``before_node(client)`` runs before the node exists (a
+    subscriber ``fidelity: auto`` must see). At the end the node's recordings are finished, then
+    the executor, both nodes and the context are shut down."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    from drs_ros.node import DRSNode
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=domain)
+    client = rclpy.create_node(client_name, context=ctx)
+    node = ex = None
+    try:
+        if before_node is not None:
+            before_node(client)
+        node = DRSNode(context=ctx, parameter_overrides=list(overrides))
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(node)
+        ex.add_node(client)
+        yield node, client, ex
+    finally:
+        if node is not None:
+            node.close_recordings()
+        if ex is not None:
+            ex.shutdown()
+        client.destroy_node()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
 
 
 def spin_until(executor, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:

@@ -25,11 +25,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from long_bag_support import T0_NS
+
 from drs_model.fidelity import make_rung
 from drs_model.fidelity.faults import FAULTS, RunFaults
 from drs_model.params import NUMERIC_FIELDS, DRSParams
 from drs_ros import commands as cmds
-from drs_ros.bag.synthetic import T0_NS
 from drs_ros.names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 
 

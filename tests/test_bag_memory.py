@@ -38,8 +38,9 @@ def _size(bag) -> int:
 
 def test_check_memory_does_not_grow_with_the_bag(tmp_path, monkeypatch):
     require_rclpy()
+    from long_bag_support import write_long_bag
+
     from drs_ros.bag import check, model_checks
-    from drs_ros.bag.synthetic import write_long_bag
 
     # blocks of 1000 joint states: the shorter bag already spans 5 of them
     monkeypatch.setattr(model_checks, "BLOCK_STATES", 1000)

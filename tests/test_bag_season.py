@@ -33,9 +33,8 @@ def seasons(tmp_path_factory):
     m^3/(s Pa), one whose leak stays at 1e-13."""
     require_rclpy()
     require_module("distributed")
+    from long_bag_support import T0_NS
     from run_support import Command, record_run
-
-    from drs_ros.bag.synthetic import T0_NS
 
     out = tmp_path_factory.mktemp("season")
     for season, growth in (("worn", 1.05), ("healthy", 1.0)):

@@ -206,7 +206,7 @@ def test_checks_block_by_block_equal_the_checks_over_the_whole_bag(tmp_path, par
     checks give over every sample at once (one block), on both force paths: the logged
     acceleration and the finite differences."""
     require_rclpy()
-    from drs_ros.bag.synthetic import write_long_bag
+    from long_bag_support import write_long_bag
 
     bag = write_long_bag(tmp_path / "long", 3, params=params)
     topics = ["/joint_states", "/drs/flap_gap", "/drs/piston_acceleration"]
@@ -231,7 +231,7 @@ def test_compressed_chunks_are_checked(tmp_path, params, compression, capsys):
     """Chunks compressed with lz4 or zstd (the lz4 and zstandard dependencies) read and pass; a
     flipped byte inside a compressed chunk is caught (its CRC or its decompression)."""
     require_rclpy()
-    from drs_ros.bag.synthetic import write_long_bag
+    from long_bag_support import write_long_bag
 
     bag = write_long_bag(tmp_path / compression, 4, params=params, compression=compression,
                          chunk_size=4096)  # fmt: skip

@@ -133,7 +133,7 @@ def test_stroke_command_moves_smoothly_and_reactions_on_demand(harness, params):
     assert np.all(np.diff(s) >= -1e-15)  # monotonic move, no overshoot
     assert s.max() <= 0.02 + 1e-12
     # reactions are published only while somebody listens
-    assert harness.node.pub_reactions.get_subscription_count() == 0
+    assert harness.node.outputs.reactions.get_subscription_count() == 0
     got = []
     harness.client.create_subscription(JointState, "/drs/joint_reactions", got.append, 10)
     assert spin_until(harness.exec, lambda: len(got) > 2, 5.0)
@@ -152,21 +152,21 @@ def test_bad_commands_are_refused_and_the_node_keeps_running(harness, params):
         (harness.force_pub, "force_cmd", math.nan),
         (harness.force_pub, "force_cmd", 1e9),
     ]:  # fmt: skip
-        refused = harness.node.refused
+        refused = harness.node.effects.refused
         pub.publish(Float64(data=bad))
-        assert spin_until(harness.exec, lambda r=refused: harness.node.refused > r, 5.0)
-        assert harness.node.refused == refused + 1
-        assert harness.node.last_refusal.startswith(f"{key} {bad!r} refused: ")
-    ticks = harness.node.ticks
+        assert spin_until(harness.exec, lambda r=refused: harness.node.effects.refused > r, 5.0)
+        assert harness.node.effects.refused == refused + 1
+        assert harness.node.effects.last_refusal.startswith(f"{key} {bad!r} refused: ")
+    ticks = harness.node.effects.ticks
     spin_for(harness.exec, 0.3)
-    assert harness.node.ticks > ticks  # still running at its rate
+    assert harness.node.effects.ticks > ticks  # still running at its rate
     assert harness.joints[-1].position[0] == pytest.approx(kin.stroke_limits(params)[0], abs=1e-12)
-    assert "refused" in harness.node.last_refusal
-    reasons = harness.node.refusals
+    assert "refused" in harness.node.effects.last_refusal
+    reasons = harness.node.effects.refusals
     assert any("stroke command must be finite, got nan" in r for r in reasons)
     assert any("target stroke 0.1 m is outside [s_min, s_max]" in r for r in reasons)
     assert any("force command 1000000000.0 N is outside [-20000, 20000] N" in r for r in reasons)
-    assert harness.node.superseded == 0
+    assert harness.node.effects.superseded == 0
     values = harness.node.diagnostics_values()
     assert int(values["refused_commands"]) >= 6
 
@@ -283,14 +283,14 @@ def test_a_failing_recorder_stops_recording_not_the_actuator(ros_context, tmp_pa
         raise OSError(28, "No space left on device")
 
     try:
-        spin_until(ex, lambda: node.ticks > 5, 5.0)
-        node.recorder.write = disk_full
+        spin_until(ex, lambda: node.effects.ticks > 5, 5.0)
+        node.recordings.recorder.write = disk_full
         node.sim.command_drs(True)
-        ticks = node.ticks
-        spin_until(ex, lambda: node.ticks > ticks + 10, 5.0)
-        assert "No space left on device" in node.bag.health.failure
+        ticks = node.effects.ticks
+        spin_until(ex, lambda: node.effects.ticks > ticks + 10, 5.0)
+        assert "No space left on device" in node.recordings.bag.health.failure
         assert node.diagnostics_values()["bag"].startswith("failed: OSError")
-        assert node.ticks > ticks + 10  # the actuator kept running
+        assert node.effects.ticks > ticks + 10  # the actuator kept running
         assert node.sim.state.gap == pytest.approx(0.05, abs=1e-9)  # and opened
     finally:
         ex.shutdown()
@@ -328,15 +328,15 @@ def test_trajectory_command_over_dds(harness, params):
     # moves of 0.2 s: a tick late by tens of ms on a loaded machine still samples the peak
     # within the tolerance (the path is flat at its turning point)
     pub.publish(traj("drs_piston", [(0.2, 0.03), (0.4, 0.01)]))
-    assert spin_until(harness.exec, lambda: harness.node.accepted >= 1, 3.0)
+    assert spin_until(harness.exec, lambda: harness.node.effects.accepted >= 1, 3.0)
     assert spin_until(harness.exec, lambda: abs(harness.joints[-1].position[0] - 0.01) < 1e-12, 3.0)
     assert max(m.position[0] for m in harness.joints) == pytest.approx(0.03, abs=2e-3)
     # a trajectory for another joint, or past the stroke range, is refused with the reason
     pub.publish(traj("elsewhere", [(0.02, 0.03)]))
-    assert spin_until(harness.exec, lambda: harness.node.refused >= 1, 3.0)
+    assert spin_until(harness.exec, lambda: harness.node.effects.refused >= 1, 3.0)
     pub.publish(traj("drs_piston", [(0.02, 0.3)]))
-    assert spin_until(harness.exec, lambda: harness.node.refused >= 2, 3.0)
-    reasons = list(harness.node.refusals)
+    assert spin_until(harness.exec, lambda: harness.node.effects.refused >= 2, 3.0)
+    reasons = list(harness.node.effects.refusals)
     assert any("trajectory must name joint 'drs_piston'" in r for r in reasons)
     assert any("stroke 0.3 m is outside [s_min, s_max]" in r for r in reasons)
 
@@ -372,9 +372,9 @@ def test_trajectory_validation_refuses_with_a_reason(harness, names, points, rea
     pub = harness.client.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
     assert spin_until(harness.exec, lambda: harness.node.sub_trajectory.get_publisher_count() > 0)
     pub.publish(_trajectory(names, points))
-    assert spin_until(harness.exec, lambda: harness.node.refused >= 1, 3.0)
-    assert harness.node.accepted == 0
-    assert reason in harness.node.last_refusal
+    assert spin_until(harness.exec, lambda: harness.node.effects.refused >= 1, 3.0)
+    assert harness.node.effects.accepted == 0
+    assert reason in harness.node.effects.last_refusal
 
 
 def test_a_trajectory_ends_at_rest_and_the_state_is_what_the_physics_holds(harness, params):
@@ -387,7 +387,7 @@ def test_a_trajectory_ends_at_rest_and_the_state_is_what_the_physics_holds(harne
     pub = harness.client.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
     assert spin_until(harness.exec, lambda: harness.node.sub_trajectory.get_publisher_count() > 0)
     pub.publish(_trajectory(["drs_piston"], [(0.02, [0.03], [0.5]), (0.04, [0.02], [0.0])]))
-    assert spin_until(harness.exec, lambda: harness.node.accepted >= 1, 3.0)
+    assert spin_until(harness.exec, lambda: harness.node.effects.accepted >= 1, 3.0)
     spin_for(harness.exec, 0.3)
     last = harness.joints[-1]
     assert last.position[0] == pytest.approx(0.02, abs=1e-12)
@@ -414,7 +414,7 @@ def test_diagnostics_recover_once_the_window_has_passed(ros_context, tmp_path):
         h.wait_connected()
         assert spin_until(h.exec, lambda: any(lv == DiagnosticStatus.OK for lv, _ in levels), 10.0)
         h.stroke_pub.publish(Float64(data=math.nan))
-        assert spin_until(h.exec, lambda: h.node.refused == 1, 3.0)
+        assert spin_until(h.exec, lambda: h.node.effects.refused == 1, 3.0)
         n = len(levels)
         assert spin_until(h.exec, lambda: len(levels) > n, 3.0)
         level, message = levels[-1]

@@ -215,12 +215,12 @@ def test_a_step_too_stiff_for_the_cap_holds_the_node_which_publishes_on(ros_cont
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     try:
-        assert spin_until(ex, lambda: node.ticks > 5, 10.0)
+        assert spin_until(ex, lambda: node.effects.ticks > 5, 10.0)
         node.sim._max_substeps = 1  # every step needs more
         node.sim.command_drs(True)
-        ticks, refused = node.ticks, node.refused
-        assert spin_until(ex, lambda: node.ticks > ticks + 20, 10.0)
-        assert node.refused > refused and "too stiff" in node.last_refusal
+        ticks, refused = node.effects.ticks, node.effects.refused
+        assert spin_until(ex, lambda: node.effects.ticks > ticks + 20, 10.0)
+        assert node.effects.refused > refused and "too stiff" in node.effects.last_refusal
         held = node.sim.state.q[0]
         node.sim._max_substeps = None  # the default cap again
         node.sim.command_drs(True)
@@ -233,6 +233,6 @@ def test_a_step_too_stiff_for_the_cap_holds_the_node_which_publishes_on(ros_cont
     records = effect_records(read_bag(tmp_path / "bag", ["/drs/command_events"])
                              .messages["/drs/command_events"])  # fmt: skip
     resets = [r for r in records if r.outcome == "reset"]
-    steps = [line for line in node.refusals if line.startswith("step ")]
+    steps = [line for line in node.effects.refusals if line.startswith("step ")]
     assert resets and steps  # each refused step held the flap, with the rung's reason
     assert all("too stiff for a physics step" in line for line in steps), steps[:3]

@@ -1,7 +1,7 @@
-"""Faults as run-time parameters of the node (drs_ros.node.faults): set with ``set_parameters``
-through the parameter service, refused with a reason when bad or not modelled by the rung,
-recorded on /parameter_events and in the effect record at the tick they act, in diagnostics,
-and re-simulated exactly by ``drs-bag resimulate``."""
+"""Faults as run-time parameters of the node (drs_ros.node.fault_parameters): set with
+``set_parameters`` through the parameter service, refused with a reason when bad or not
+modelled by the rung, recorded on /parameter_events and in the effect record at the tick they
+act, in diagnostics, and re-simulated exactly by ``drs-bag resimulate``."""
 
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ pytestmark = pytest.mark.ros
 
 require_rclpy()
 
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
@@ -45,44 +44,33 @@ STEPS = (
 def faulty_bag(tmp_path_factory):
     """A hydraulic node opened through the service, then the faults of STEPS set through the
     parameter service (as ``ros2 param set`` does), 0.1 s apart; what the client saw."""
-    import rclpy
-    from node_support import domain_for
+    from node_support import domain_for, node_with_client
 
     out = tmp_path_factory.mktemp("faults")
     mp = pytest.MonkeyPatch()
     mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=int(domain_for("test_node_faults::faulty_bag")))
     overrides = [Parameter("fidelity", value="hydraulic"),
                  Parameter("bag_path", value=str(out / "bag"))]  # fmt: skip
-    node = DRSNode(context=ctx, parameter_overrides=overrides)
-    client = rclpy.create_node("drs_faults_client", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    ex.add_node(client)
     joints: list = []
-    client.create_subscription(JointState, "/joint_states", joints.append, 100)
-    params = AsyncParameterClient(client, "/drs")
-    drs = client.create_client(SetBool, "/drs/drs")
     results = []
     try:
-        assert drs.wait_for_service(timeout_sec=10.0) and params.wait_for_services(10.0)
-        fut = drs.call_async(SetBool.Request(data=True))
-        assert spin_until(ex, fut.done, 5.0) and fut.result().success
-        spin_for(ex, 0.1)
-        for plist, _ in STEPS:
-            fut = params.set_parameters_atomically(plist)
-            assert spin_until(ex, fut.done, 5.0)
-            results.append(fut.result().result)
+        with node_with_client(int(domain_for("test_node_faults::faulty_bag")), overrides,
+                              "drs_faults_client") as (node, client, ex):  # fmt: skip
+            client.create_subscription(JointState, "/joint_states", joints.append, 100)
+            params = AsyncParameterClient(client, "/drs")
+            drs = client.create_client(SetBool, "/drs/drs")
+            assert drs.wait_for_service(timeout_sec=10.0) and params.wait_for_services(10.0)
+            fut = drs.call_async(SetBool.Request(data=True))
+            assert spin_until(ex, fut.done, 5.0) and fut.result().success
             spin_for(ex, 0.1)
-        diagnostics = node.diagnostics_values()
+            for plist, _ in STEPS:
+                fut = params.set_parameters_atomically(plist)
+                assert spin_until(ex, fut.done, 5.0)
+                results.append(fut.result().result)
+                spin_for(ex, 0.1)
+            diagnostics = node.diagnostics_values()
     finally:
-        node.close_recordings()
-        ex.shutdown()
-        client.destroy_node()
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
         mp.undo()
     return out / "bag", results, diagnostics, joints
 
@@ -152,8 +140,8 @@ def test_a_fault_the_rung_cannot_model_is_refused(ros_context):
         (result,) = node.set_parameters([Parameter("fault.sensor.dropout", value=1.5)])
         assert not result.successful and "[0, 1]" in result.reason
         node.tick()
-        assert node.faults.active() == {"sensor.bias_m": 1e-3}
-        assert node.refused == 2
+        assert node.fault_parameters.faults.active() == {"sensor.bias_m": 1e-3}
+        assert node.effects.refused == 2
     finally:
         node.destroy_node()
 
@@ -161,36 +149,26 @@ def test_a_fault_the_rung_cannot_model_is_refused(ros_context):
 def _auto_run(tmp_path, domain_key, topics, bag=True):
     """A ``fidelity: auto`` node with a client subscribed to ``topics`` (name -> type), 0.2 s
     to discover them, then open through the service and run 0.3 s; the node's chosen rung."""
-    import rclpy
-    from node_support import domain_for
+    from node_support import domain_for, node_with_client
 
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=int(domain_for(domain_key)))
     overrides = [Parameter("fidelity", value="auto"),
                  Parameter("fidelity_auto_discovery_s", value=0.5)]  # fmt: skip
     if bag:
         overrides.append(Parameter("bag_path", value=str(tmp_path / "bag")))
-    client = rclpy.create_node("drs_auto_client", context=ctx)
-    for topic, msg_type in topics.items():
-        client.create_subscription(msg_type, topic, lambda _m: None, 10)
-    node = DRSNode(context=ctx, parameter_overrides=overrides)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    ex.add_node(client)
-    drs = client.create_client(SetBool, "/drs/drs")
-    try:
+
+    def subscribe(client) -> None:
+        for topic, msg_type in topics.items():
+            client.create_subscription(msg_type, topic, lambda _m: None, 10)
+
+    with node_with_client(int(domain_for(domain_key)), overrides, "drs_auto_client",
+                          before_node=subscribe) as (node, client, ex):  # fmt: skip
+        drs = client.create_client(SetBool, "/drs/drs")
         assert drs.wait_for_service(timeout_sec=10.0)
         spin_for(ex, 0.6)  # auto chooses at the first tick after 0.5 s
         fut = drs.call_async(SetBool.Request(data=True))
         assert spin_until(ex, fut.done, 5.0) and fut.result().success
         spin_for(ex, 0.3)
         return node.sim.name
-    finally:
-        node.close_recordings()
-        ex.shutdown()
-        client.destroy_node()
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
 
 
 def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monkeypatch):

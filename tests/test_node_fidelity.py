@@ -11,7 +11,6 @@ pytestmark = pytest.mark.ros
 
 require_rclpy()
 
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import FluidPressure, JointState  # noqa: E402
 from std_srvs.srv import SetBool  # noqa: E402
@@ -28,46 +27,31 @@ HYDRAULIC = ("/drs/pressure_piston_side", "/drs/pressure_rod_side", "/drs/supply
 def hydraulic_bag(tmp_path_factory):
     """A hydraulic node's run: open through the service, 0.3 s, close, 0.3 s; the pressures it
     published as a subscriber saw them."""
-    import rclpy
-    from node_support import domain_for
+    from node_support import domain_for, node_with_client
 
     out = tmp_path_factory.mktemp("hydraulic")
     mp = pytest.MonkeyPatch()
     mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=int(domain_for("test_node_fidelity::hydraulic_bag")))
-    node = DRSNode(
-        context=ctx,
-        parameter_overrides=[
-            Parameter("fidelity", value="hydraulic"),
-            Parameter("bag_path", value=str(out / "bag")),
-        ],
-    )
-    client = rclpy.create_node("drs_fidelity_client", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    ex.add_node(client)
+    overrides = [Parameter("fidelity", value="hydraulic"),
+                 Parameter("bag_path", value=str(out / "bag"))]  # fmt: skip
     seen = {"pa": [], "joints": []}
-    client.create_subscription(FluidPressure, HYDRAULIC[0], seen["pa"].append, 100)
-    client.create_subscription(JointState, "/joint_states", seen["joints"].append, 100)
-    drs = client.create_client(SetBool, "/drs/drs")
     try:
-        assert drs.wait_for_service(timeout_sec=10.0)
-        assert spin_until(ex, lambda: len(seen["pa"]) > 3, 10.0), "no pressures published"
-        for value in (True, False):
-            fut = drs.call_async(SetBool.Request(data=value))
-            assert spin_until(ex, fut.done, 5.0) and fut.result().success
-            # 0.3 s of simulated time, however slowly a loaded machine runs it: the valve's
-            # swing each way takes tens of ms of it
-            t_end = node.sim.t + 0.3
-            assert spin_until(ex, lambda t_end=t_end: node.sim.t >= t_end, 60.0)
+        with node_with_client(int(domain_for("test_node_fidelity::hydraulic_bag")), overrides,
+                              "drs_fidelity_client") as (node, client, ex):  # fmt: skip
+            client.create_subscription(FluidPressure, HYDRAULIC[0], seen["pa"].append, 100)
+            client.create_subscription(JointState, "/joint_states", seen["joints"].append, 100)
+            drs = client.create_client(SetBool, "/drs/drs")
+            assert drs.wait_for_service(timeout_sec=10.0)
+            assert spin_until(ex, lambda: len(seen["pa"]) > 3, 10.0), "no pressures published"
+            for value in (True, False):
+                fut = drs.call_async(SetBool.Request(data=value))
+                assert spin_until(ex, fut.done, 5.0) and fut.result().success
+                # 0.3 s of simulated time, however slowly a loaded machine runs it: the
+                # valve's swing each way takes tens of ms of it
+                t_end = node.sim.t + 0.3
+                assert spin_until(ex, lambda t_end=t_end: node.sim.t >= t_end, 60.0)
     finally:
-        node.close_recordings()
-        ex.shutdown()
-        client.destroy_node()
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
         mp.undo()
     return out / "bag", seen
 

@@ -112,7 +112,7 @@ def _run_in_process(ros_context, tmp_path, seconds: float, during=None) -> DRSNo
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     try:
-        assert spin_until(ex, lambda: node.ticks > 5, 10.0)
+        assert spin_until(ex, lambda: node.effects.ticks > 5, 10.0)
         if during is not None:
             during(node)
         end = time.monotonic() + seconds
@@ -133,12 +133,12 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
     calls = {"bag": 0}
 
     def break_both(node):
-        calls["before"] = node.recorder.stats().message_count
+        calls["before"] = node.recordings.recorder.stats().message_count
         def rerun_fails(*args):
             raise RuntimeError("rerun logging failed on purpose")
 
-        node.rerun.log_state = rerun_fails
-        real_write = node.recorder.write
+        node.recordings.rerun.log_state = rerun_fails
+        real_write = node.recordings.recorder.write
 
         def bag_fails_once(topic, msg, **kw):
             calls["bag"] += 1
@@ -146,7 +146,7 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
                 raise TypeError("a bag write failed on purpose")
             return real_write(topic, msg, **kw)
 
-        node.recorder.write = bag_fails_once
+        node.recordings.recorder.write = bag_fails_once
 
     node = _run_in_process(ros_context, tmp_path, 1.0, during=break_both)
     try:
@@ -155,7 +155,7 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
         lines = node.close_recordings()
     finally:
         node.destroy_node()
-    lost = node.ticks - 6  # the ticks after the rerun call broke (within one)
+    lost = node.effects.ticks - 6  # the ticks after the rerun call broke (within one)
     assert "items not recorded (last: RuntimeError: rerun logging failed on purpose)" in (
         values["rerun"])  # fmt: skip
     assert "; 1 items not recorded (last: TypeError" in values["bag"]

@@ -1,4 +1,4 @@
-"""The node at its edges, as its own process over real DDS (issue 16): nothing a participant
+"""The node at its edges, as its own process over real DDS: nothing a participant
 sends stops it or spoils its bag, a stop is clean at any moment, its parameters are recorded as
 they were in force, and its clock may jump.
 """

@@ -102,7 +102,7 @@ def test_markers_are_not_computed_for_nobody(ros_context):
     ex.add_node(node)
     try:
         spin_for(ex, 0.5)
-        assert node.ticks > 10 and node._last_markers_t is None
+        assert node.effects.ticks > 10 and node.outputs.last_markers_t is None
     finally:
         ex.shutdown()
         node.destroy_node()
@@ -220,7 +220,7 @@ def test_the_parameter_file_holds_every_parameter_at_its_default(ros_context):
     node = DRSNode(context=ros_context)
     try:
         rclpy_own = {"use_sim_time", "start_type_description_service"}  # declared by rclpy
-        declared = {n for n in node._parameters if n not in rclpy_own}
+        declared = {n for n in node.get_parameters_by_prefix("") if n not in rclpy_own}
         assert set(flat) == declared
         for name, value in flat.items():
             have = node.get_parameter(name).value

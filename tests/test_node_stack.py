@@ -356,8 +356,8 @@ def test_joint_state_commands_move_and_push_the_piston(stack, params):
 def test_joint_state_commands_are_refused_like_the_other_paths(stack, command, words):
     stack.ready()
     stack.commands.publish(command)
-    assert spin_until(stack.exec, lambda: stack.node.refused >= 1, 3.0)
-    assert words in stack.node.last_refusal, stack.node.last_refusal
+    assert spin_until(stack.exec, lambda: stack.node.effects.refused >= 1, 3.0)
+    assert words in stack.node.effects.last_refusal, stack.node.effects.last_refusal
     assert stack.node.sim.mode == "hold"
 
 
@@ -365,13 +365,13 @@ def test_joint_command_refusals_match_stroke_cmd(stack, ros_context):
     """The same out-of-range stroke gets the same reason on both paths."""
     stack.ready()
     stack.commands.publish(joint_command(["drs_piston"], position=[0.5]))
-    assert spin_until(stack.exec, lambda: stack.node.refused >= 1, 3.0)
-    by_joint = stack.node.last_refusal.split("refused: ", 1)[1]
+    assert spin_until(stack.exec, lambda: stack.node.effects.refused >= 1, 3.0)
+    by_joint = stack.node.effects.last_refusal.split("refused: ", 1)[1]
     pub = stack.client.create_publisher(Float64, "/drs/stroke_cmd", 10)
     spin_until(stack.exec, lambda: pub.get_subscription_count() > 0, 3.0)
     pub.publish(Float64(data=0.5))
-    assert spin_until(stack.exec, lambda: stack.node.refused >= 2, 3.0)
-    assert stack.node.last_refusal.split("refused: ", 1)[1] == by_joint
+    assert spin_until(stack.exec, lambda: stack.node.effects.refused >= 2, 3.0)
+    assert stack.node.effects.last_refusal.split("refused: ", 1)[1] == by_joint
 
 
 def test_a_bag_of_the_action_tf_and_joint_commands_checks_and_re_runs(ros_context, tmp_path):
@@ -443,7 +443,7 @@ def test_a_joint_command_with_uninitialised_padding_is_taken_and_recorded_exact(
         assert spin_until(stack.exec, lambda: raw.get_subscription_count() > 0, 3.0)
         raw.publish(bytes(dirty))
         assert spin_until(stack.exec, lambda: stack.joints[-1].position[0] == 0.025, 3.0)
-        assert stack.node.refused == 0
+        assert stack.node.effects.refused == 0
     finally:
         stack.close()
     from drs_ros.bag.reader import scan

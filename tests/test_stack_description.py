@@ -16,7 +16,7 @@ from drs_model.params import DRSParams
 from drs_model.profile import drs_manoeuvre
 
 yourdfpy = require_module("yourdfpy")
-description = require_module("drs_ros.description")
+description = require_module("drs_ros.stack.description")
 
 NAMES = ("drs_piston", "drs_link", "drs_flap")
 

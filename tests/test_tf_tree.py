@@ -14,7 +14,7 @@ from rclpy.serialization import deserialize_message  # noqa: E402
 from tf2_msgs.msg import TFMessage  # noqa: E402
 
 from drs_ros.recording import cdr  # noqa: E402
-from drs_ros.tf_tree import MovingTransformsPacker, transform_msg  # noqa: E402
+from drs_ros.stack.tf_tree import MovingTransformsPacker, transform_msg  # noqa: E402
 
 frame = st.text(st.characters(codec="utf-8", exclude_characters="\0"), min_size=0, max_size=13)
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)

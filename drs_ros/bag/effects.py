@@ -16,10 +16,7 @@ from drs_model.fidelity.faults import FAULTS, RunFaults
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from ..errors import DRSRosError
-from ..names import FIDELITY
-
-#: The prefix of the node's fault parameters, the source of their effect records.
-FAULT_PREFIX = "fault."
+from ..names import FAULT_PREFIX, FIDELITY
 
 #: rcl_interfaces/ParameterType values -> the ParameterValue field holding the value.
 _VALUE_FIELDS = {

@@ -32,8 +32,7 @@ from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 from ..errors import DRSRosError
 from ..names import DEFAULT_NODE, NODE_TOPICS, expand_topic
 from ..recording.errors import RecordingError
-from ..timestamps import NS_PER_S, ns_from_parts, split_ns
-from .synthetic import T0_NS
+from ..timestamps import NS_PER_S, T0_NS, ns_from_parts, split_ns
 
 #: The fields of a trajectory point that hold one value per joint (the node takes these).
 POINT_VALUES = ("positions", "velocities", "accelerations")

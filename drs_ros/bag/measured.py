@@ -45,7 +45,7 @@ from .reader import scan
 from .recorded import MessageCallbackError
 
 #: The fit's roles, and the role of :data:`drs_ros.names.NODE_TOPICS` that names the node's
-#: topic of each (the hydraulic ones: ``drs_ros.node.adapter.HYDRAULIC_TOPICS``).
+#: topic of each (the hydraulic ones: ``drs_ros.node.publishers.HYDRAULIC_TOPICS``).
 NODE_ROLES = {
     "joint_states": "joint_states",
     "stroke_acceleration": "piston_acceleration",

@@ -65,7 +65,7 @@ class Rerun:
             except DRSError as exc:
                 # the re-run's model refuses to go on: hold where it is, as the node does; the
                 # run's RESET record, if it has one here, follows
-                s_hold = commands.hold(sim)
+                s_hold = commands.reset_at_rest(sim)
                 if self.step_of(sim.t) not in self.reset_steps:
                     self.notes.append(f"at {sim.t:.6f} s the re-run's model refuses a step the "
                                       f"run took ({exc}); held at {s_hold!r} m as the node "

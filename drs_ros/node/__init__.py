@@ -1,10 +1,11 @@
 """The ``drs`` ROS 2 node (``drs-node``, ``python -m drs_ros``): a thin adapter around
 :class:`drs_model.actuator.ActuatorSim`.
 
-Modules: ``adapter`` (:class:`DRSNode`: its topics, its life stages, the commands, the tick and
-what it publishes; the topics are listed there), ``parameters`` (the parameter table and its
-declaration), ``effect_record`` (the effect record and the diagnostics), ``recordings`` (the bag
-and the rerun recording), ``trajectory_cdr`` (a trajectory command read in place from its bytes),
+Modules: ``adapter`` (:class:`DRSNode`: its topics, its life stages, the clock and the tick;
+the topics are listed there); the node's parts ``intake`` (the commands), ``publishers``,
+``effect_record`` (the effect record and the diagnostics), ``rung_choice``, ``fault_parameters``
+and ``recordings`` (the bag and the rerun recording); ``parameters`` (the parameter table and its
+declaration), ``trajectory_cdr`` (a trajectory command read in place from its bytes),
 ``managed`` (:class:`ManagedDRSNode`, the lifecycle node) and ``runner`` (``main``, the stop a
 signal asks for and the deadline loop). This module re-exports their public names.
 """

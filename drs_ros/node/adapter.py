@@ -24,66 +24,42 @@ The physics runs on a fixed simulated step (``physics_rate_hz``); one timer at `
 catches the simulation up with the node clock (wall or ``/clock`` with ``use_sim_time``) and
 publishes. Stamps are ``t0 + simulated time``, so they follow the node clock without its jitter.
 
-Commands are latest-wins: a subscription callback only records the bytes that arrived and keeps
-the newest command per topic; the next tick applies it before stepping, so no queued, stale
-setpoint is ever executed. Every message is recorded as its exact CDR bytes: commands as they
-arrived (raw subscriptions, as rosbag2 does), the node's own messages serialised once by
-:mod:`drs_ros.recording.cdr`, published as those bytes and recorded as the same bytes.
+The node owns its parts, each in its module: the command intake (:mod:`.intake`: commands
+are latest-wins), the publishers (:mod:`.publishers`), the effect record (:mod:`.effect_record`),
+the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the faults and the recordings.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import threading
 import time
 
-import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 from rcl_interfaces.msg import ParameterEvent
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.service_introspection import ServiceIntrospectionState
-from sensor_msgs.msg import FluidPressure, JointState
-from std_msgs.msg import Float64, Header
 from std_srvs.srv import SetBool
-from visualization_msgs.msg import MarkerArray
 
 from drs_model.errors import DRSError
-from drs_model.fidelity import HydraulicRung, make_rung
-from drs_model.fidelity.auto import choose_rung, ladder_errors
-from drs_model.fidelity.faults import RunFaults
+from drs_model.fidelity import HydraulicRung
 
 from .. import commands
-from ..conversions import (
-    MechanismMarkers,
-    joint_state_msg,
-    parameter_event_msg,
-    reactions_msg,
-    time_msg,
-)
-from ..drawing import moving_drawings, still_drawings
-from ..names import ACCEPTED, FIDELITY, REFUSED, RESET, SUPERSEDED, TOPICS
-from ..recording import cdr, msgdefs
-from ..stack import NodeHooks, StackLayer
+from ..conversions import diagnostics_msg, parameter_event_msg
+from ..names import FIDELITY, RESET, TOPICS
+from ..recording import cdr
+from ..stack.layer import NodeHooks, StackLayer, StackModel
 from ..timestamps import ns_from_seconds, seconds_from_ns
-from .effect_record import EffectRecord, PendingCommand, refusal_reason
-from .faults import NodeFaults, declare_fault_parameters
-from .parameters import StartupError, declare_parameters, effective_parameters, model_params
+from .effect_record import EffectRecord, diagnostics_values, error_text
+from .fault_parameters import NodeFaults, declare_fault_parameters
+from .intake import COMMANDS, CommandIntake
+from .parameters import declare_parameters, effective_parameters, model_params, tick_settings
+from .publishers import HYDRAULIC_TOPICS, StatePublishers
 from .recordings import NodeRecordings
-from .trajectory_cdr import read_joint_trajectory
+from .rung_choice import RungChoice
 
-QOS_DEPTH = 10
-#: The still outlines (FIA box, main wing, pylon) are in ~/markers once per this [s] of sim time.
-STILL_MARKERS_PERIOD_S = 1.0
-#: Ticks between two questions to DDS whether the optional topics have listeners.
-LISTENER_CHECK_TICKS = 25
-#: The command topics (``~/<key>``) and their message classes, as commands.COMMAND_TYPES names them.
-COMMANDS = {key: msgdefs.message_class(name) for key, name in commands.COMMAND_TYPES.items()}
-#: Commands are latest-wins: a short keep-last queue, so that nothing waits in DDS to go stale.
-COMMAND_QOS_DEPTH = 10
 #: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
 CLOCK_WAIT_WARNING_S = 2.0
 #: A wall clock that moves this much [s] more or less than the steady clock between two ticks
@@ -91,7 +67,7 @@ CLOCK_WAIT_WARNING_S = 2.0
 CLOCK_JUMP_THRESHOLD_S = 0.01
 
 
-class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
+class DRSNode(Node):
     """The DRS actuator node. Keyword arguments go to :class:`rclpy.node.Node`.
 
     Its life has the stages of a ROS 2 managed node, which
@@ -104,9 +80,10 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
     * :meth:`deactivate`: remove them again: the actuator holds its state, nothing is published;
     * :meth:`cleanup`: finish the recordings and drop the publishers and the actuator.
 
-    Two parts live in their own modules: the effect record and the diagnostics
-    (:class:`~drs_ros.node.effect_record.EffectRecord`) and the recordings
-    (:class:`~drs_ros.node.recordings.NodeRecordings`).
+    Its parts: ``recordings`` and ``fault_parameters`` (built with the node), then, built by
+    :meth:`configure`, ``rungs`` (the actuator's rung), ``outputs`` (the publishers),
+    ``effects`` (the effect record and counters), ``stack`` (the vehicle stack) and ``intake``
+    (the commands). The node keeps the clock and the tick.
     """
 
     def __init__(self, *, tick_timer: bool = True, managed: bool = False, **kwargs) -> None:
@@ -122,9 +99,10 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         self._tick_timer = tick_timer
         self.configured = self.active = False
         self.callback_errors = 0
-        self.recorder = self.rerun = None
-        self.bag = self.rrd = None  # the recordings and their failures (NodeRecordings)
-        self.recording_problems: list[str] = []
+        # the bag and the rerun recording, and their failures: opened at configure
+        self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
+        self.fault_parameters = NodeFaults(self, self._lock, self._now_ns,
+                                           lambda: self.configured)  # fmt: skip
         #: The stop the node obeys within a tick (drs_ros.stop_request.StopRequest, set by
         #: drs_ros.node.runner): a long tick ends at the next physics step once it is requested.
         self.stop_request = None
@@ -139,149 +117,80 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
     def configure(self) -> None:
         """Validate the parameters, build the actuator and the publishers, open the recorders."""
         self.params = model_params(self, self._given_parameters)
+        settings = tick_settings(self)
+        self.physics_dt, self.publish_period = settings.physics_dt, settings.publish_period
+        self.max_catch_up, self.fidelity = settings.max_catch_up, settings.fidelity
+        self.markers_rate_hz, self.frame_id = settings.markers_rate_hz, settings.frame_id
+        self.joint_names = list(settings.joint_names)
         gp = self.get_parameter
-        physics_hz, publish_hz = gp("physics_rate_hz").value, gp("publish_rate_hz").value
-        if publish_hz > physics_hz:
-            raise StartupError(
-                f"publish_rate_hz {publish_hz:g} exceeds physics_rate_hz {physics_hz:g}: the node "
-                "cannot publish new states faster than it computes them; lower publish_rate_hz "
-                "or raise physics_rate_hz"
-            )
-        self.physics_dt = 1.0 / physics_hz
-        self.publish_period = 1.0 / publish_hz
-        self.markers_rate_hz = gp("markers_rate_hz").value
-        self.markers_period = 1.0 / self.markers_rate_hz
-        self.frame_id = gp("frame_id").value
-        self.joint_names = list(gp("joint_names").value)
-        if len(self.joint_names) != 3:
-            raise ParameterException(
-                f"joint_names must hold 3 names (piston, link, flap), got {self.joint_names}",
-                ["joint_names"],
-            )
-        self.fidelity = gp("fidelity").value
-        # auto: rigid until the subscribers are seen (activate, _choose_fidelity); each rung's
-        # errors measured now, for these parameters (a few seconds, once per parameters)
-        self._auto_deadline = None
-        self._auto_errors = ladder_errors(self.params) if self.fidelity == "auto" else None
-        self._make_rung = lambda rung: make_rung(
-            rung,
-            self.params,
-            self.physics_dt,
-            force_limit=gp("force_limit").value,
-            integrator=gp("integrator").value,
-            force_method=gp("force_method").value,
-        )
-        self.sim = self._make_rung("rigid" if self.fidelity == "auto" else self.fidelity)
-        if isinstance(self.sim, HydraulicRung):  # a model too stiff for the physics rate: now
-            self.sim.check_stiffness()  # TooStiffError, not a refusal at every tick
-        self._start_faults()
-        self.max_catch_up = int(gp("max_catch_up_steps").value)
-        # a tick late by one period must still catch up, or every tick would drop steps
-        needed = math.ceil(2.0 * physics_hz / publish_hz)
-        if self.max_catch_up < needed:
-            raise StartupError(
-                f"max_catch_up_steps {self.max_catch_up} is below the {needed} physics steps of "
-                f"two publish periods ({physics_hz:g} Hz physics, {publish_hz:g} Hz publish): "
-                f"every late tick would drop simulated time; give max_catch_up_steps >= {needed} "
-                "or publish faster"
-            )
-        lines, pins, _ = moving_drawings(np.array([[self.sim.s_min, 0.0, 0.0]]), self.params)
-        self._scene = MechanismMarkers(still_drawings(self.params),
-                                       {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
-                                       gp("frame_id").value)  # fmt: skip
-
-        qos = QoSProfile(depth=QOS_DEPTH)
-        self.pub_joints = self.create_publisher(JointState, gp("joint_states_topic").value, qos)
-        self.pub_force = self.create_publisher(Float64, "~/piston_force", qos)
-        self.pub_gap = self.create_publisher(Float64, "~/flap_gap", qos)
-        # JointState has no acceleration field; with it a bag replays the piston force exactly
-        self.pub_accel = self.create_publisher(Float64, "~/piston_acceleration", qos)
-        self.pub_reactions = self.create_publisher(JointState, "~/joint_reactions", qos)
-        self.pub_markers = self.create_publisher(MarkerArray, "~/markers", qos)
-        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", qos)
-        self.pub_events = self.create_publisher(
-            DiagnosticArray, "~/command_events", QoSProfile(depth=100)
-        )
-        # the hydraulic rung's chamber pressures, supply pressure and valve spool
-        self.pub_hydraulic = ()
-        if isinstance(self.sim, HydraulicRung) or self.fidelity == "auto":
-            self.pub_hydraulic = tuple(
-                self.create_publisher(msg_type, f"~/{name}", qos)
-                for name, msg_type in HYDRAULIC_TOPICS
-            )
-        self._own_publishers = (
-            self.pub_joints,
-            self.pub_force,
-            self.pub_gap,
-            self.pub_accel,
-            self.pub_reactions,
-            self.pub_markers,
-            self.pub_diag,
-            self.pub_events,
-            *self.pub_hydraulic,
-        )
+        self.rungs = RungChoice(self.fidelity, self.params, self.physics_dt, {
+            name: gp(name).value for name in ("force_limit", "integrator", "force_method")
+        }, gp("fidelity_tolerance").value, gp("fidelity_force_tolerance").value)  # fmt: skip
+        self.sim = self.rungs.first()
+        self.outputs = StatePublishers(
+            self, joint_states_topic=self.get_parameter("joint_states_topic").value,
+            joint_names=self.joint_names, frame_id=self.frame_id, params=self.params,
+            s_min=self.sim.s_min, markers_period=settings.markers_period,
+            hydraulic=isinstance(self.sim, HydraulicRung) or self.fidelity == "auto")  # fmt: skip
+        self.effects = EffectRecord(
+            self.outputs.events, self.outputs.diagnostic_bytes, self._record,
+            lambda: (self.sim.t, self.sim.steps, self._t0_ns), self.get_logger(),
+            self.get_parameter("diagnostics_window").value)  # fmt: skip
+        self.fault_parameters.start(self.sim, self.effects, self._record,
+                                    lambda: self.recordings.bag is not None)  # fmt: skip
         self.service_name = self.resolve_service_name("~/drs")
-        # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
-        self.topics = {pub: pub.topic_name for pub in self._own_publishers}
         self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
         # in a vehicle stack (drs_ros.stack): description, TF, the action, JointState commands
-        self.stack = StackLayer(self, NodeHooks(
-            event=lambda source, outcome, level, reason, values, now: self._event(
+        self.stack = StackLayer(self, StackModel(self.params, tuple(self.joint_names),
+                                                 self.frame_id), NodeHooks(
+            event=lambda source, outcome, level, reason, values, now: self.effects.event(
                 source, outcome, level, reason, None, values, now),
-            record=self._record, receive=self._receive, now_ns=self._now_ns))  # fmt: skip
+            record=self._record, receive=lambda key, data: self.intake.receive(key, data),
+            now_ns=self._now_ns,
+            actuator=lambda: self.sim))  # fmt: skip
         self.command_topics.update(self.stack.command_topics)
-        self._serialize = {
-            cls: cdr.serializer(cls)
-            for cls in (JointState, DiagnosticArray, MarkerArray, FluidPressure)
-        }
-        self._pack_float64 = cdr.flat_packer(Float64)
-        # a command is taken if it decodes and is as long as its exact CDR (plus transport
-        # padding), and recorded as that exact CDR, which every reader of the bag decodes; a
-        # trajectory is read in place (rclpy's decoder would hold the GIL for ~100 ms on 10,000
-        # points, a stall of the real-time tick)
-        self._decode = {key: functools.partial(cdr.decode_exact, msg_class=cls)
-                        for key, cls in COMMANDS.items()}  # fmt: skip
-        self._decode["trajectory_cmd"] = lambda data: (v := read_joint_trajectory(data), v.exact)
-        self._joint_state = JointState(name=self.joint_names)  # filled in place at each publish
-        self._listened = {self.pub_reactions: False, self.pub_markers: False}
+        self.intake = CommandIntake(self.command_topics, self.service_name, self.joint_names[0],
+                                    self.effects, lambda: self.sim, self._lock, self._now_ns,
+                                    self._record)  # fmt: skip
 
-        self._start_counters(gp("diagnostics_window").value)
-        self._pending: dict[str, PendingCommand] = {}
         self._last_tick_ns: int | None = None
         self._last_tick_mono: int | None = None
-        self._last_markers_t: float | None = None
-        self._last_still_t: float | None = None
         self._t0_ns: int | None = None
         self._started_wall = time.monotonic()
         self._clock_warned = False
 
         # all paths are checked before any file is created; a failure removes what was made
-        self._open_recordings()
+        gp = self.get_parameter
+        self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
+        self.recordings.open(gp("bag_path").value, gp("rrd_path").value,
+                             gp("rerun_connect").value, gp("flush_period").value, self.params,
+                             self.markers_rate_hz)  # fmt: skip
         try:
             self._register_recorded_topics()
         except Exception:
-            self.discard_recordings()
+            self.recordings.discard()
             raise
         # the first record: the node's name and its topics as resolved (remapping included), so
         # that the bag's tools find them whatever the node was called
-        self._event(TOPICS, TOPICS, DiagnosticStatus.OK, "", None,
-                    {"node": self.get_fully_qualified_name(), **self.topic_names()},
-                    self._now_ns())  # fmt: skip
+        self.effects.event(TOPICS, TOPICS, DiagnosticStatus.OK, "", None,
+                           {"node": self.get_fully_qualified_name(), **self.topic_names()},
+                           self._now_ns())  # fmt: skip
         self.stack.start(self._now_ns())  # the robot description and the static TF, once
         self.configured = True
         self.get_logger().info(
-            f"drs node configured: physics {physics_hz:g} Hz, publish {publish_hz:g} Hz, stroke "
+            f"drs node configured: physics {settings.physics_hz:g} Hz, publish "
+            f"{settings.publish_hz:g} Hz, stroke "
             f"[{self.sim.s_min:.6g}, {self.sim.s_max:.6g}] m"
         )
 
     def activate(self) -> None:
         """Take commands and publish: the command subscriptions, the service, the timers."""
-        cmd_qos = QoSProfile(depth=COMMAND_QOS_DEPTH)
+        cmd_qos = QoSProfile(depth=commands.COMMAND_QOS_DEPTH)
         # raw: the callback gets the bytes that arrived, recorded as they are; only the command
         # that takes effect is ever deserialised
         self.sub_stroke, self.sub_force, self.sub_trajectory = (
             self.create_subscription(
-                COMMANDS[key], f"~/{key}", lambda b, key=key: self._receive(key, b), cmd_qos,
+                COMMANDS[key], f"~/{key}", lambda b, key=key: self.intake.receive(key, b), cmd_qos,
                 raw=True,
             )
             for key in ("stroke_cmd", "force_cmd", "trajectory_cmd")
@@ -290,7 +199,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         self.srv_drs.configure_introspection(
             self.get_clock(), QoSProfile(depth=100), ServiceIntrospectionState.CONTENTS
         )
-        if self.recorder is not None:  # record the service calls as rosbag2 does: their events
+        if self.recordings.recorder is not None:  # record the service calls as rosbag2 does
             self.sub_drs_events = self.create_subscription(
                 SetBool.Event, self.service_event_topic, self._on_service_event,
                 QoSProfile(depth=100), raw=True,
@@ -304,9 +213,8 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
                 0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
         self._last_tick_ns = None  # the time inactive is no missed deadline
-        if self.fidelity == "auto" and self.sim.t == 0.0 and self.ticks == 0:
-            wait = self.get_parameter("fidelity_auto_discovery_s").value
-            self._auto_deadline = time.monotonic() + wait
+        if self.fidelity == "auto" and self.sim.t == 0.0 and self.effects.ticks == 0:
+            self.rungs.wait_for_subscribers(self.get_parameter("fidelity_auto_discovery_s").value)
         self.stack.activate()  # JointState commands, goals taken
         self.active = True
 
@@ -326,7 +234,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
         self.sub_drs_events = None
         with self._lock:
-            self._pending.clear()  # a command that arrived for the active node acts never
+            self.intake.clear()  # a command that arrived for the active node acts never
             if self._t0_ns is not None:  # resume from the held state, not from the time away
                 self._t0_ns = None
 
@@ -336,9 +244,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             self.deactivate()
         self.stack.cleanup()
         self.close_recordings()
-        self.recorder = self.rerun = None
-        for pub in self._own_publishers:
-            self.destroy_publisher(pub)
+        self.outputs.destroy(self)
         self.configured = False
 
     @property
@@ -348,30 +254,69 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
     def topic_names(self) -> dict[str, str]:
         """Role (of :data:`drs_ros.names.NODE_TOPICS`) -> the name the node resolved it to,
         remapping included: the ``topics`` record of the effect record."""
-        publishers = {"joint_states": self.pub_joints, "piston_force": self.pub_force,
-                      "flap_gap": self.pub_gap, "piston_acceleration": self.pub_accel,
-                      "joint_reactions": self.pub_reactions, "markers": self.pub_markers,
-                      "diagnostics": self.pub_diag, "command_events": self.pub_events}  # fmt: skip
-        names = {role: pub.topic_name for role, pub in publishers.items()}
-        if self.pub_hydraulic:  # the hydraulic rung's (or auto's) topics
-            names.update((role, pub.topic_name) for (role, _type), pub
-                         in zip(HYDRAULIC_TOPICS, self.pub_hydraulic, strict=True))  # fmt: skip
+        names = self.outputs.topic_names()
         names.update(self.command_topics)
         names.update(self.stack.topic_names())
         names.update(drs_service=self.service_name, drs_service_event=self.service_event_topic,
                      parameter_events="/parameter_events")  # fmt: skip
         return names
 
+    # ---- diagnostics ---------------------------------------------------------------------------
+    def diagnostics_values(self) -> dict[str, object]:
+        """The state, the counters, the faults, the recordings and the CPU spent, by name."""
+        return diagnostics_values(self.sim.state, self.effects, self.fault_parameters.text(),
+                                  self.callback_errors, self.recordings.status())
+
+    def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
+        """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
+        return self.effects.level(now_ns, self.recordings.failures(), self.sim.mode)
+
+    def executor_error(self, exc: Exception) -> None:
+        """A callback (or the middleware taking a message for it) raised: counted, reported in
+        diagnostics, and the node goes on."""
+        reason = error_text(exc)
+        with self._lock:
+            self.callback_errors += 1
+            if self.configured:
+                self.effects.troubles.add(self._now_ns(), "callback_error", reason)
+        self.get_logger().error(
+            f"a callback failed, the node goes on: {reason}", throttle_duration_sec=1.0
+        )
+
+    def _on_diagnostics(self) -> None:
+        now = self._now_ns()
+        with self._lock:  # the main thread may be stepping the actuator (deadline executor)
+            level, message = self.diagnostics_level(now)
+            values = self.diagnostics_values()
+        msg = diagnostics_msg(now, self.get_name(), level, message, values)
+        pubs = self.outputs
+        data = pubs.diagnostic_bytes(msg)
+        pubs.diagnostics.publish(data)
+        self._record(pubs.topics[pubs.diagnostics], data, now)
+
     # ---- recordings ----------------------------------------------------------------------------
+    def _record(self, topic: str, data, now_ns: int) -> int | None:
+        """Exact bytes (or a message) into the bag: the sequence number (None: not recorded)."""
+        return self.recordings.record(topic, data, now_ns)
+
+    def _recording_lost(self, reason: str) -> None:
+        """An item a recording lost: a trouble of the diagnostics window."""
+        self.effects.troubles.add(self._now_ns(), "recording_error", reason)
+
+    def close_recordings(self) -> list[str]:
+        """Finish the bag and the rerun recording (idempotent): one line per recording that is
+        incomplete, naming what it lacks (:meth:`NodeRecordings.close`)."""
+        return self.recordings.close()
+
     def _register_recorded_topics(self) -> None:
-        if self.recorder is None:
+        recorder = self.recordings.recorder
+        if recorder is None:
             return
-        register = self.recorder.register_topic
-        for pub, topic in self.topics.items():
-            register(topic, pub.msg_type, qos=QoSProfile(depth=100 if pub is self.pub_events
-                                                         else QOS_DEPTH))  # fmt: skip
+        register = recorder.register_topic
+        for topic, msg_type, qos in self.outputs.recorded_topics():
+            register(topic, msg_type, qos=qos)
         for key, topic in self.command_topics.items():
-            register(topic, COMMANDS[key], qos=QoSProfile(depth=COMMAND_QOS_DEPTH))
+            register(topic, COMMANDS[key], qos=QoSProfile(depth=commands.COMMAND_QOS_DEPTH))
         register(self.service_event_topic, SetBool.Event, qos=QoSProfile(depth=100))
         for topic, msg_type, qos in self.stack.recorded_topics():
             register(topic, msg_type, qos=qos)
@@ -380,7 +325,7 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         event = parameter_event_msg(
             self.get_fully_qualified_name(), effective_parameters(self, self.params), now
         )
-        self.recorder.write("/parameter_events", event, now)
+        recorder.write("/parameter_events", event, now)
 
     # ---- commands ------------------------------------------------------------------------------
     def _now_ns(self) -> int:
@@ -388,99 +333,12 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
             return time.time_ns()
         return self.get_clock().now().nanoseconds
 
-    def _receive(self, key: str, data: bytes) -> None:
-        """A raw command arrived (executor thread): decode it and do the state-free part of its
-        work here, outside the lock the real-time tick takes (a 10,000-point trajectory is
-        planned in ~4 ms), then record it and keep it as the newest of its topic. Its log time
-        is taken under the lock: no tick logged after it applies an older command of its topic."""
-        topic = self.command_topics[key]
-        try:
-            msg, exact = self._decode[key](data)
-        except Exception as exc:  # noqa: BLE001 - any bytes from any participant: refused, kept
-            with self._lock:
-                self.received += 1
-                self._refuse_malformed(topic, COMMANDS[key], data, exc, self._now_ns())
-            return
-        try:
-            prepared, refusal = commands.prepare(self.sim, key, msg, self.joint_names[0]), None
-        except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
-            prepared, refusal = None, exc
-        with self._lock:
-            now = self._now_ns()
-            self.received += 1
-            # only bytes that decode go on the typed topic: the bag stays readable by all readers
-            # recorded as its exact CDR: the bytes that arrived, any alignment padding zeroed
-            cmd = PendingCommand(key, topic, msg, self._record(topic, exact, now), now, prepared)
-            if refusal is not None:
-                self._refuse_command(cmd, refusal, now)
-                return
-            older = self._pending.get(key)
-            if older is not None:  # counted and recorded (one record per step) when it comes
-                cmd.superseded = older.superseded
-                cmd.superseded.append(older.sequence)
-            self._pending[key] = cmd
-
-    def _apply_pending(self, now_ns: int) -> None:
-        """Apply the newest command of each topic at the present physics step, oldest first."""
-        pending = sorted(self._pending.values(), key=lambda c: c.received_ns)
-        self._pending.clear()
-        for cmd in pending:
-            if cmd.superseded:
-                n = len(cmd.superseded)
-                self.superseded += n
-                reason = f"{n} {cmd.key} replaced by a newer one before the next physics step"
-                self.troubles.add(now_ns, SUPERSEDED, reason)
-                known = [q for q in cmd.superseded if q is not None]
-                self._event(cmd.topic, SUPERSEDED, DiagnosticStatus.STALE, reason, None, {
-                    "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
-                }, now_ns)  # fmt: skip
-            try:
-                commands.apply(self.sim, cmd.key, cmd.msg, self.joint_names[0], cmd.prepared)
-            except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
-                self._refuse_command(cmd, exc, now_ns)
-                continue
-            self.accepted += 1
-            value = commands.describe(cmd.key, cmd.msg)
-            self._event(
-                cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, {"value": repr(value)}, now_ns
-            )
-
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         with self._lock:
-            return self._on_drs_locked(request, response)
-
-    def _on_drs_locked(self, request, response):
-        # a service call takes effect at once: the simulation is between two physics steps
-        now = self._now_ns()
-        if self._auto_deadline is not None:  # a call before auto chose: choose now
-            self._choose_fidelity(now)
-        self._apply_pending(now)  # commands that arrived earlier act first, as they would have
-        value = commands.describe(commands.SERVICE_KEY, request)
-        try:
-            seg = commands.apply(self.sim, commands.SERVICE_KEY, request, self.joint_names[0])
-        except Exception as exc:  # noqa: BLE001 - what a request carries never stops the node
-            response.success = False
-            response.message = self._refuse("drs", value, refusal_reason(exc), now)
-            self._event(
-                self.service_name,
-                REFUSED,
-                DiagnosticStatus.WARN,
-                response.message,
-                None,
-                {"value": repr(value)},
-                now,
-            )
-            return response
-        self.accepted += 1
-        response.success = True
-        response.message = (
-            f"{'opening' if value else 'closing'} to {seg.evaluate(seg.t1)[0]:.6g} m "
-            f"in {seg.duration:g} s"
-        )
-        self._event(
-            self.service_name, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)}, now
-        )
-        return response
+            now = self._now_ns()
+            if self.rungs.deadline is not None:  # a call before auto chose: choose now
+                self._choose_fidelity(now)
+            return self.intake.on_drs(request, response, now)
 
     def _on_service_event(self, data: bytes) -> None:
         # an event ends in a string, so the transport may have padded it (cdr.exact_bytes)
@@ -514,53 +372,53 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         now = self._now_ns()
         if now == 0:  # use_sim_time before the first /clock message
             return
-        if self._auto_deadline is not None:
-            if time.monotonic() < self._auto_deadline:
+        if self.rungs.deadline is not None:
+            if time.monotonic() < self.rungs.deadline:
                 return  # auto: the subscribers are still being discovered
             self._choose_fidelity(now)
         mono = time.monotonic_ns()
         if self._t0_ns is None:
             self._t0_ns = now - ns_from_seconds(self.sim.t)
-            self._record_clock_origin(now)
+            self.effects.clock_origin(now)
         elif self._last_tick_ns is not None:
             self._check_clock_jump(now, mono)
         if (
             self._last_tick_ns is not None
             and now - self._last_tick_ns > ns_from_seconds(1.5 * self.publish_period)
         ):
-            self.missed_deadlines += 1
-            self.troubles.add(
+            self.effects.missed_deadlines += 1
+            self.effects.troubles.add(
                 now,
                 "missed_deadline",
                 f"tick {seconds_from_ns(now - self._last_tick_ns) * 1e3:.1f} ms after the last",
             )
         self._last_tick_ns, self._last_tick_mono = now, mono
-        self.ticks += 1
+        self.effects.ticks += 1
         t = time.process_time()
-        if self._pending:
-            self._apply_pending(now)
-        if self._pending_faults:
-            self._apply_faults(now)
+        if self.intake.waiting:
+            self.intake.apply_pending(now)
+        if self.fault_parameters.waiting:
+            self.fault_parameters.apply_pending(now)
         target = seconds_from_ns(now - self._t0_ns)
         due = int(math.floor((target - self.sim.t) / self.physics_dt + 1e-9))
         if due > self.max_catch_up:
             # too far behind (a stall): drop the excess instead of spiralling
             dropped = due - self.max_catch_up
-            self.dropped_steps += dropped
-            self.troubles.add(now, "dropped_steps", f"{dropped} physics steps dropped")
+            self.effects.dropped_steps += dropped
+            self.effects.troubles.add(now, "dropped_steps", f"{dropped} physics steps dropped")
             self._t0_ns += ns_from_seconds(dropped * self.physics_dt)
-            self._record_clock_origin(now, DiagnosticStatus.WARN, f"{dropped} steps dropped")
+            self.effects.clock_origin(now, DiagnosticStatus.WARN, f"{dropped} steps dropped")
             due = self.max_catch_up
         try:
             self._advance(due)
-        except DRSError as exc:  # the model refuses to go on: hold where it is and say why
-            reason = self._refuse("step", self.sim.mode, str(exc), now)
-            s_hold = commands.hold(self.sim)
-            self._event(
-                RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_hold)}, now
+        except DRSError as exc:  # the model refuses to go on: at rest where it is, and say why
+            reason = self.effects.refuse("step", self.sim.mode, str(exc), now)
+            s_rest = commands.reset_at_rest(self.sim)
+            self.effects.event(
+                RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_rest)}, now
             )
-        self._cpu["model"] += time.process_time() - t
-        if due > 0 or self.ticks == 1:  # publish new states only (stamps strictly increase)
+        self.effects.cpu["model"] += time.process_time() - t
+        if due > 0 or self.effects.ticks == 1:  # publish new states only (stamps strictly increase)
             self._publish(now)
 
     def _advance(self, due: int) -> None:
@@ -583,26 +441,15 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
         at configure for the node's parameters (:func:`drs_model.fidelity.auto.choose_rung`),
         chosen once, before the first step, and recorded (source ``fidelity``) so that a re-run
         takes the same rung."""
-        self._auto_deadline = None
-        asked = {kind for pub, kind in self._asked_by_topic() if pub.get_subscription_count()}
-        gp = self.get_parameter
-        rung = choose_rung(asked, gp("fidelity_tolerance").value,
-                           gp("fidelity_force_tolerance").value, self._auto_errors)  # fmt: skip
+        asked = {kind for pub, kind in self.outputs.asked_by_topic()
+                 if pub.get_subscription_count()}  # fmt: skip
+        rung = self.rungs.choose(asked)
         if rung != self.sim.name:
-            self.sim = self._make_rung(rung)
-            self.faults = RunFaults(self.sim)  # none applied yet: they act at ticks
-            if getattr(self.stack, "action", None) is not None:
-                self.stack.action.sim = self.sim
+            self.sim = self.rungs.make(rung)
+            self.fault_parameters.new_actuator(self.sim)  # none applied yet: they act at ticks
         self.get_logger().info(f"fidelity auto: {rung} for {sorted(asked) or 'nothing'} asked")
-        self._event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None,
-                    {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
-
-    def _asked_by_topic(self) -> list[tuple]:
-        """What a subscriber of each publisher asks of the model (drs_model.fidelity.auto)."""
-        out = [(self.pub_joints, "gap"), (self.pub_gap, "gap"), (self.pub_markers, "gap"),
-               (self.pub_force, "force"), (self.pub_accel, "force"),
-               (self.pub_reactions, "force")]  # fmt: skip
-        return out + [(pub, "hydraulics") for pub in self.pub_hydraulic]
+        self.effects.event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None,
+                           {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
 
     def _check_clock_jump(self, now: int, mono: int) -> None:
         """A node clock that jumps (the system clock stepped by NTP or by hand; ``/clock`` going
@@ -619,95 +466,34 @@ class DRSNode(EffectRecord, NodeFaults, NodeRecordings, Node):
                 return
             jump = now - self._last_tick_ns
         self._t0_ns += jump
-        self.clock_jumps += 1
+        self.effects.clock_jumps += 1
         way = "forward" if jump > 0 else "back"
         reason = f"node clock jumped {way} by {seconds_from_ns(abs(jump)):.6g} s"
-        self.troubles.add(now, "clock_jump", reason)
+        self.effects.troubles.add(now, "clock_jump", reason)
         self.get_logger().warning(f"{reason}: the simulation goes on from its state")
-        self._record_clock_origin(now, DiagnosticStatus.WARN, reason, jump_ns=jump)
+        self.effects.clock_origin(now, DiagnosticStatus.WARN, reason, jump_ns=jump)
         self._last_tick_ns = now  # no missed deadline for the jump itself
 
     def _publish(self, now_ns: int) -> None:
         t = time.process_time()
         st = self.sim.state
         stamp = self._t0_ns + ns_from_seconds(st.t)
-        pack = self._pack_float64
-        out = [
-            (self.pub_joints, self._serialize[JointState](
-                self._published_joint_state(st, stamp))),
-            (self.pub_force, pack(st.piston_force)),
-            (self.pub_gap, pack(st.gap)),
-            (self.pub_accel, pack(st.qdd[0])),
-        ]  # fmt: skip
-        if self.pub_hydraulic and isinstance(self.sim, HydraulicRung):
-            out += self._hydraulic_messages(st, stamp)
-        if self.ticks % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
-            self._listened = {pub: pub.get_subscription_count() > 0
-                              for pub in (self.pub_reactions, self.pub_markers)}  # fmt: skip
-        if self._listened[self.pub_reactions]:
-            reactions = reactions_msg(self.sim.reactions(), stamp)
-            out.append((self.pub_reactions, self._serialize[JointState](reactions)))
-        if (self.recorder is not None or self._listened[self.pub_markers]) and (
-            self._last_markers_t is None
-            or st.t - self._last_markers_t >= self.markers_period - 1e-9
-        ):
-            self._last_markers_t = st.t
-            out.append((self.pub_markers, self._serialize[MarkerArray](self._markers(st, stamp))))
+        faults = self.fault_parameters.faults
+        sensed = (None if faults.sensor_healthy
+                  else faults.published_stroke(st.t, float(st.q[0])))  # fmt: skip
+        recording = self.recordings.recorder is not None
+        out = self.outputs.state_messages(self.sim, st, stamp, sensed, self.effects.ticks,
+                                          recording=recording)  # fmt: skip
         for pub, data in out:
             pub.publish(data)
         t1 = time.process_time()
-        self._cpu["publish"] += t1 - t
+        self.effects.cpu["publish"] += t1 - t
+        topics = self.outputs.topics
         for pub, data in out:
-            self._record(self.topics[pub], data, now_ns)
+            self._record(topics[pub], data, now_ns)
         self.stack.publish(st, stamp, now_ns)  # /tf, the action's feedback
-        self._log_rerun(st)  # its own failures: never the bag's
-        self._cpu["record"] += time.process_time() - t1
+        self.recordings.log_state(st)  # its own failures: never the bag's
+        self.effects.cpu["record"] += time.process_time() - t1
 
-    def _published_joint_state(self, st, stamp: int) -> JointState:
-        """The joint states as the (possibly faulty) stroke sensor reports them: a sensor fault
-        changes the piston's position only, never the simulation."""
-        msg = joint_state_msg(st, self.joint_names, stamp, self._joint_state)
-        if not self.faults.sensor_healthy:
-            msg.position[0] = self.faults.published_stroke(st.t, float(st.q[0]))
-        return msg
-
-    def _hydraulic_messages(self, st, stamp: int) -> list[tuple]:
-        """The hydraulic rung's pressures (sensor_msgs/FluidPressure [Pa], stamped like the joint
-        states, in ``frame_id``) and its spool (std_msgs/Float64, -1..1; NaN without spool lag,
-        where the spool is the servo's command itself)."""
-        header = Header(stamp=time_msg(stamp), frame_id=self.frame_id)
-        pa, pb, ps, spool = self.pub_hydraulic
-        ser = self._serialize[FluidPressure]
-        return [
-            (pa, ser(FluidPressure(header=header, fluid_pressure=st.pressure_a))),
-            (pb, ser(FluidPressure(header=header, fluid_pressure=st.pressure_b))),
-            (ps, ser(FluidPressure(header=header, fluid_pressure=st.supply_pressure))),
-            (spool, self._pack_float64(math.nan if st.spool is None else st.spool)),
-        ]
-
-    def _markers(self, st, stamp: int) -> MarkerArray:
-        """The mechanism at state ``st`` as RViz and Foxglove draw it (drs_ros.drawing)."""
-        lines, pins, force_at = moving_drawings(st.q[None, :], self.params)
-        # the outlines that never move go out once a second (a marker lives until replaced)
-        still = self._last_still_t is None or st.t - self._last_still_t >= STILL_MARKERS_PERIOD_S
-        if still:
-            self._last_still_t = st.t
-        return self._scene.msg(
-            {k: v[0] for k, v in lines.items()},
-            pins[0],
-            force_at[0],
-            st.piston_force,
-            stamp,
-            with_still=still,
-        )
-
-
-#: The hydraulic rung's topics (under the node's name): chamber pressures, supply, spool.
-HYDRAULIC_TOPICS = (
-    ("pressure_piston_side", FluidPressure),
-    ("pressure_rod_side", FluidPressure),
-    ("supply_pressure", FluidPressure),
-    ("valve_spool", Float64),
-)
 
 __all__ = ["COMMANDS", "DRSNode", "HYDRAULIC_TOPICS"]

@@ -7,8 +7,8 @@ re-runs deterministically. Diagnostics (``/diagnostics``, ~1 Hz) report the cumu
 and the troubles of the last few seconds (:class:`TroubleWindow`), so they recover once a trouble
 is over.
 
-:class:`EffectRecord` is a part of :class:`drs_ros.node.adapter.DRSNode` (its methods use the
-node's actuator, clock origin, publishers and recorder); it holds the counters.
+:class:`EffectRecord` is a part of :class:`drs_ros.node.adapter.DRSNode`, constructed with the
+publisher, the recorder's hook and the actuator's instant it needs; it holds the counters.
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ import collections
 import dataclasses
 import hashlib
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 
 from drs_model.errors import DRSError
 
 from .. import commands
-from ..conversions import command_event_msg, diagnostics_msg
+from ..conversions import command_event_msg
 from ..errors import DRSRosError
 from ..names import CLOCK, REFUSED
 from ..recording.cdr import without_source_location
@@ -78,11 +78,31 @@ class TroubleWindow:
 
 
 class EffectRecord:
-    """The effect record and the diagnostics of the DRS node (a base class of ``DRSNode``)."""
+    """The effect record and the counters of one configured node: a part of
+    :class:`drs_ros.node.adapter.DRSNode`, constructed with what it needs.
 
-    def _start_counters(self, window_s: float) -> None:
-        """The counters for diagnostics (cumulative) and the window of recent troubles, from zero
-        (at configure)."""
+    Parameters
+    ----------
+    publisher : rclpy.publisher.Publisher
+        ``~/command_events`` (diagnostic_msgs/DiagnosticArray).
+    serialize : callable
+        ``serialize(msg) -> bytes``: a DiagnosticArray's exact CDR.
+    record : callable
+        ``record(topic, data, now_ns)``: the bytes into the bag (the sequence number, or None).
+    instant : callable
+        ``instant() -> (sim_time [s], steps, t0_ns or None)``: the actuator's simulated instant
+        and the clock origin (None before the first tick), which stamp each record.
+    logger
+        The node's logger (a refusal is logged at WARN, at most once a second).
+    window_s : float
+        Diagnostics report the troubles of the last this many seconds [s].
+    """
+
+    def __init__(self, publisher, serialize, record, instant, logger, window_s: float) -> None:
+        self._publisher, self._topic = publisher, publisher.topic_name
+        self._serialize, self._record, self._instant = serialize, record, instant
+        self._logger = logger
+        # diagnostics (cumulative) and the window of recent troubles, from zero
         self.refused = 0
         self.accepted = 0
         self.superseded = 0
@@ -94,39 +114,41 @@ class EffectRecord:
         self.ticks = 0
         self.troubles = TroubleWindow(window_s)
         self.clock_jumps = 0
-        self._cpu = {"model": 0.0, "publish": 0.0, "record": 0.0}
+        #: CPU time [s] of the ticks: stepping the model, publishing, recording.
+        self.cpu = {"model": 0.0, "publish": 0.0, "record": 0.0}
 
-    def _refuse_malformed(
-        self, topic: str, msg_type, data: bytes, exc: Exception, now_ns: int
-    ) -> None:
+    def refuse_malformed(self, topic: str, msg_type, data: bytes, exc: Exception,
+                         now_ns: int) -> None:  # fmt: skip
         """Bytes that are no ``msg_type``: refused with the reason; the bytes themselves go into
         the effect record (hex, for forensics), never onto the typed topic."""
         type_name = f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
-        reason = self._refuse(
+        reason = self.refuse(
             topic, f"<{len(data)} bytes>", f"not a valid {type_name} ({error_text(exc)})", now_ns
         )
-        self._event(topic, REFUSED, DiagnosticStatus.WARN, reason, None, {
+        self.event(topic, REFUSED, DiagnosticStatus.WARN, reason, None, {
             "value": f"<{len(data)} bytes>", "malformed": "true", "size": len(data),
             "sha256": hashlib.sha256(data).hexdigest(),
             "bytes_hex": data[:MALFORMED_BYTES_KEPT].hex(),
         }, now_ns)  # fmt: skip
 
-    def _refuse_command(self, cmd: PendingCommand, exc: Exception, now_ns: int) -> None:
+    def refuse_command(self, cmd: PendingCommand, exc: Exception, now_ns: int) -> None:
+        """A command its actuator refuses: counted, logged and recorded with the reason."""
         value = commands.describe(cmd.key, cmd.msg)
-        reason = self._refuse(cmd.key, value, refusal_reason(exc), now_ns)
-        self._event(
+        reason = self.refuse(cmd.key, value, refusal_reason(exc), now_ns)
+        self.event(
             cmd.topic, REFUSED, DiagnosticStatus.WARN, reason, cmd, {"value": repr(value)}, now_ns
         )
 
-    def _refuse(self, what: str, value, reason: str, now_ns: int) -> str:
+    def refuse(self, what: str, value, reason: str, now_ns: int) -> str:
+        """Count and log a refusal of ``value`` (``what`` it was for); returns its text."""
         self.refused += 1
         self.last_refusal = f"{what} {value!r} refused: {reason}"
         self.refusals.append(self.last_refusal)
         self.troubles.add(now_ns, REFUSED, self.last_refusal)
-        self.get_logger().warning(self.last_refusal, throttle_duration_sec=1.0)
+        self._logger.warning(self.last_refusal, throttle_duration_sec=1.0)
         return self.last_refusal
 
-    def _event(
+    def event(
         self,
         source: str,
         outcome: str,
@@ -138,86 +160,73 @@ class EffectRecord:
     ) -> None:
         """One record of the effect log: what happened, at which simulated instant. ``now_ns``
         is the node time of the tick or callback it happens in (its log time in the bag)."""
-        record = {"sim_time": repr(self.sim.t), "step": self.sim.steps}
+        sim_t, steps, t0_ns = self._instant()
+        record = {"sim_time": repr(sim_t), "step": steps}
         if cmd is not None:
             record["sequence"] = "" if cmd.sequence is None else cmd.sequence
             record["received_ns"] = cmd.received_ns
         record.update(values)
-        stamp = now_ns if self._t0_ns is None else self._t0_ns + ns_from_seconds(self.sim.t)
+        stamp = now_ns if t0_ns is None else t0_ns + ns_from_seconds(sim_t)
         msg = command_event_msg(stamp, source, outcome, level, reason, record)
-        data = self._serialize[DiagnosticArray](msg)
-        self.pub_events.publish(data)
-        self._record(self.topics[self.pub_events], data, now_ns)
+        data = self._serialize(msg)
+        self._publisher.publish(data)
+        self._record(self._topic, data, now_ns)
 
-    def _record_clock_origin(
-        self, now_ns: int, level: bytes = DiagnosticStatus.OK, reason: str = "", **values
-    ) -> None:
+    def clock_origin(self, now_ns: int, level: bytes = DiagnosticStatus.OK, reason: str = "",
+                     **values) -> None:  # fmt: skip
         """A ``clock`` record: the clock origin ``t0_ns`` now in force (at the first tick, after
         dropped steps, after a clock jump), with ``values`` after it."""
-        self._event(CLOCK, CLOCK, level, reason, None, {"t0_ns": self._t0_ns, **values}, now_ns)
+        t0_ns = self._instant()[2]
+        self.event(CLOCK, CLOCK, level, reason, None, {"t0_ns": t0_ns, **values}, now_ns)
 
-    def diagnostics_values(self) -> dict[str, object]:
-        st = self.sim.state
+    def counter_values(self) -> dict[str, object]:
+        """The cumulative counters, as diagnostics report them."""
         return {
-            "mode": st.mode,
-            "sim_time_s": f"{st.t:.6f}",
-            "stroke_m": f"{st.q[0]:.9g}",
-            "gap_m": f"{st.gap:.9g}",
-            "piston_force_N": f"{st.piston_force:.6g}",
-            "at_stop": st.at_stop or "none",
-            "dead_centre_distance_m": f"{st.dead_centre_distance:.6g}",
-            "transmission_cos": f"{st.transmission:.4f}",
             "received_commands": self.received,
             "accepted_commands": self.accepted,
             "refused_commands": self.refused,
             "superseded_commands": self.superseded,
             "last_refusal": self.last_refusal or "none",
-            "faults": self.faults_text(),
-            "missed_deadlines": self.missed_deadlines,
-            "dropped_steps": self.dropped_steps,
-            "clock_jumps": self.clock_jumps,
-            "callback_errors": self.callback_errors,
-            "ticks": self.ticks,
-            **self.recordings_status(),
-            "cpu_model_s": f"{self._cpu['model']:.3f}",
-            "cpu_publish_s": f"{self._cpu['publish']:.3f}",
-            "cpu_record_s": f"{self._cpu['record']:.3f}",
         }
 
-    def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
-        """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
-        failures = self.recording_failures()
+    def level(self, now_ns: int, failures: list[str], mode: str) -> tuple[bytes, str]:
+        """OK, WARN or ERROR with the reason: ERROR for ``failures`` (the recordings stopped),
+        WARN for the troubles of the recent window only, else OK in actuator ``mode``."""
         if failures:
             return DiagnosticStatus.ERROR, "; ".join(failures)
         recent = self.troubles.recent(now_ns)
         if not recent:
-            return DiagnosticStatus.OK, f"mode {self.sim.mode}"
+            return DiagnosticStatus.OK, f"mode {mode}"
         window = seconds_from_ns(self.troubles.window_ns)
         parts = [f"{n} {kind.replace('_', ' ')} (last: {reason})"
                  for kind, (n, reason) in sorted(recent.items())]  # fmt: skip
         return DiagnosticStatus.WARN, f"in the last {window:g} s: " + "; ".join(parts)
 
-    def executor_error(self, exc: Exception) -> None:
-        """A callback (or the middleware taking a message for it) raised: counted, reported in
-        diagnostics, and the node goes on."""
-        reason = error_text(exc)
-        with self._lock:
-            self.callback_errors += 1
-            if self.configured:
-                self.troubles.add(self._now_ns(), "callback_error", reason)
-        self.get_logger().error(
-            f"a callback failed, the node goes on: {reason}", throttle_duration_sec=1.0
-        )
 
-    def _on_diagnostics(self) -> None:
-        now = self._now_ns()
-        with self._lock:  # the main thread may be stepping the actuator (deadline executor)
-            level, message = self.diagnostics_level(now)
-            values = self.diagnostics_values()
-        msg = diagnostics_msg(now, self.get_name(), level, message, values)
-        data = self._serialize[DiagnosticArray](msg)
-        self.pub_diag.publish(data)
-        self._record(self.topics[self.pub_diag], data, now)
+def diagnostics_values(st, effects: EffectRecord, faults: str, callback_errors: int,
+                       recordings: dict[str, str]) -> dict[str, object]:  # fmt: skip
+    """What diagnostics report, by name: the actuator's state ``st``, the counters of
+    ``effects``, the ``faults`` in force, the callbacks that failed, the ``recordings``' status
+    and the CPU time spent."""
+    return {
+        "mode": st.mode,
+        "sim_time_s": f"{st.t:.6f}",
+        "stroke_m": f"{st.q[0]:.9g}",
+        "gap_m": f"{st.gap:.9g}",
+        "piston_force_N": f"{st.piston_force:.6g}",
+        "at_stop": st.at_stop or "none",
+        "dead_centre_distance_m": f"{st.dead_centre_distance:.6g}",
+        "transmission_cos": f"{st.transmission:.4f}",
+        **effects.counter_values(),
+        "faults": faults,
+        "missed_deadlines": effects.missed_deadlines,
+        "dropped_steps": effects.dropped_steps,
+        "clock_jumps": effects.clock_jumps,
+        "callback_errors": callback_errors,
+        "ticks": effects.ticks,
+        **recordings,
+        **{f"cpu_{part}_s": f"{spent:.3f}" for part, spent in effects.cpu.items()},
+    }
 
 
 __all__ = [
@@ -227,4 +236,5 @@ __all__ = [
     "TroubleWindow",
     "error_text",
     "refusal_reason",
+    "diagnostics_values",
 ]

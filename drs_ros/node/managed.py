@@ -31,7 +31,7 @@ class ManagedDRSNode(LifecycleNodeMixin, DRSNode):
         except (DRSError, DRSRosError, ParameterException) as exc:
             self.get_logger().error(f"{name} failed: {exc}")
             if name == "configure":
-                self.discard_recordings()
+                self.recordings.discard()
             return TransitionCallbackReturn.FAILURE
         return TransitionCallbackReturn.SUCCESS
 

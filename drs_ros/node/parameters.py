@@ -6,8 +6,11 @@ give, and every value the node runs with (what a re-run needs, recorded at start
 from __future__ import annotations
 
 import difflib
+import math
+from dataclasses import dataclass
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -18,7 +21,8 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
 from ..errors import DRSRosError
 from ..names import DEFAULT_JOINT_NAMES
-from ..stack import STACK_PARAMETERS
+from ..rclpy_private import parameter_overrides
+from ..stack.layer import STACK_PARAMETERS
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
 #: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and a
@@ -86,10 +90,10 @@ def declare_parameters(node: Node) -> frozenset[str]:
     known = [name for name, *_ in NODE_PARAMETERS]
     # and the ones rclpy declares itself
     known += [f"model.{name}" for name in NUMERIC_FIELDS]
-    known += [name for name in node._parameters if name not in known]
+    known += [name for name in node.get_parameters_by_prefix("") if name not in known]
     # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
     # the only place a misspelt name (never declared, silently ignored) can be seen
-    overrides = node._parameter_overrides
+    overrides = parameter_overrides(node)
     given_names = frozenset(overrides)
     for name in overrides:
         if name not in known and not name.startswith("qos_overrides."):
@@ -150,11 +154,73 @@ def model_params(node: Node, given_names: frozenset[str]) -> DRSParams:
         raise StartupError(f"the model refuses {named}: {exc}") from exc
 
 
+@dataclass(frozen=True)
+class TickSettings:
+    """The node's rates and names, checked together (:func:`tick_settings`)."""
+
+    physics_hz: float
+    publish_hz: float
+    markers_rate_hz: float
+    #: Physics steps one tick may catch up; the excess is dropped (a stall).
+    max_catch_up: int
+    frame_id: str
+    #: piston, link, flap
+    joint_names: tuple[str, str, str]
+    fidelity: str
+
+    @property
+    def physics_dt(self) -> float:
+        """The physics step [s]."""
+        return 1.0 / self.physics_hz
+
+    @property
+    def publish_period(self) -> float:
+        """The tick's period [s]."""
+        return 1.0 / self.publish_hz
+
+    @property
+    def markers_period(self) -> float:
+        """Least simulated time [s] between two ``~/markers`` messages."""
+        return 1.0 / self.markers_rate_hz
+
+
+def tick_settings(node: Node) -> TickSettings:
+    """The rates and names of the declared parameters, or the reason they cannot run together:
+    :class:`StartupError` for a publish rate above the physics rate or a catch-up too short for
+    one late tick, ``ParameterException`` for joint names that are not three."""
+    gp = node.get_parameter
+    physics_hz, publish_hz = gp("physics_rate_hz").value, gp("publish_rate_hz").value
+    if publish_hz > physics_hz:
+        raise StartupError(
+            f"publish_rate_hz {publish_hz:g} exceeds physics_rate_hz {physics_hz:g}: the node "
+            "cannot publish new states faster than it computes them; lower publish_rate_hz "
+            "or raise physics_rate_hz"
+        )
+    joint_names = list(gp("joint_names").value)
+    if len(joint_names) != 3:
+        raise ParameterException(
+            f"joint_names must hold 3 names (piston, link, flap), got {joint_names}",
+            ["joint_names"],
+        )
+    max_catch_up = int(gp("max_catch_up_steps").value)
+    # a tick late by one period must still catch up, or every tick would drop steps
+    needed = math.ceil(2.0 * physics_hz / publish_hz)
+    if max_catch_up < needed:
+        raise StartupError(
+            f"max_catch_up_steps {max_catch_up} is below the {needed} physics steps of "
+            f"two publish periods ({physics_hz:g} Hz physics, {publish_hz:g} Hz publish): "
+            f"every late tick would drop simulated time; give max_catch_up_steps >= {needed} "
+            "or publish faster"
+        )
+    return TickSettings(physics_hz, publish_hz, gp("markers_rate_hz").value, max_catch_up,
+                        gp("frame_id").value, tuple(joint_names), gp("fidelity").value)  # fmt: skip
+
+
 def effective_parameters(node: Node, params: DRSParams) -> list[Parameter]:
     """Every node parameter, the ``model.*`` ones at the values the model runs with (a
     ``model_params_file`` included): what a re-run needs."""
     out = []
-    for name in sorted(node._parameters):
+    for name in sorted(node.get_parameters_by_prefix("")):  # "": every declared parameter
         if name.startswith("model."):
             value = float(getattr(params, name.removeprefix("model.")))
             out.append(Parameter(name, Parameter.Type.DOUBLE, value))
@@ -168,7 +234,9 @@ __all__ = [
     "FIDELITIES",
     "NODE_PARAMETERS",
     "StartupError",
+    "TickSettings",
     "declare_parameters",
     "effective_parameters",
     "model_params",
+    "tick_settings",
 ]

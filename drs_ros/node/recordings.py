@@ -13,11 +13,11 @@ behind; both are finished when the node stops. What a failure does (docs/ros.md,
   a second), counted (diagnostics ``bag_errors``, ``rerun_errors``) and a trouble of the window;
   the recording goes on.
 * at the stop each recording is finished (a failed bag is closed as it is: what was flushed stays,
-  for ``drs-bag recover``), and :meth:`NodeRecordings.close_recordings` returns one line per
+  for ``drs-bag recover``), and :meth:`NodeRecordings.close` returns one line per
   recording that is incomplete, naming what it lacks; ``drs-node`` prints them and exits 1.
 
-:class:`NodeRecordings` is a part of :class:`drs_ros.node.adapter.DRSNode` (its methods read the
-node's parameters and log through it); it holds the recordings.
+:class:`NodeRecordings` is a part of :class:`drs_ros.node.adapter.DRSNode`, constructed with the
+node's logger; it holds the recordings.
 """
 
 from __future__ import annotations
@@ -183,25 +183,30 @@ class RerunRecording:
 
 
 class NodeRecordings:
-    """The bag and the rerun recording of the DRS node (a base class of ``DRSNode``):
-    ``self.bag`` and ``self.rrd`` (None: not recorded), their recorders ``self.recorder`` and
-    ``self.rerun``."""
+    """The bag and the rerun recording of one node: a part of
+    :class:`drs_ros.node.adapter.DRSNode`, constructed with what it needs; it holds the
+    recordings (``bag`` and ``rrd``: None when not recorded), their recorders (``recorder``,
+    ``rerun``) and the lines of the recordings found incomplete (``problems``).
 
-    def _open_recordings(self) -> None:
-        """Check both paths, then create both recorders; on any failure remove what was made."""
+    :meth:`open` checks both paths, then creates both recorders; on any failure it removes what
+    was made. ``lost(reason)`` is called for each item a recording loses (a trouble of the
+    diagnostics window)."""
+
+    def __init__(self, logger, lost) -> None:
+        self._logger, self._lost = logger, lost
+        self.recorder = self.rerun = None
+        self.bag = self.rrd = None
+        self.problems: list[str] = []
+        self._made_bag_dir = False
+
+    def open(self, bag: str, rrd: str, live: str, flush_period: float, params,
+             max_draw_hz: float) -> None:  # fmt: skip
+        """``bag``: the MCAP bag directory, ``rrd``: the rerun file, ``live``: a rerun viewer's
+        URL ('' = none of each); ``flush_period`` [s]: the bag's; ``params``: the mechanism the
+        rerun recording draws, at most ``max_draw_hz`` [Hz]."""
         from ..recording.errors import RecordingError
         from ..recording.mcap_recorder import McapRecorder, check_new_bag
 
-        self.bag = self.rrd = None
-        self.recording_problems: list[str] = []
-        log = self.get_logger()
-
-        def lost(reason: str) -> None:  # an item lost: a trouble of the diagnostics window
-            self.troubles.add(self._now_ns(), "recording_error", reason)
-
-        bag = self.get_parameter("bag_path").value
-        rrd = self.get_parameter("rrd_path").value
-        live = self.get_parameter("rerun_connect").value
         if bag:
             check_new_bag(bag)
         if rrd or live:
@@ -214,30 +219,24 @@ class NodeRecordings:
         made_dir = bool(bag) and not Path(bag).exists()
         try:
             if bag:
-                self.recorder = McapRecorder(
-                    bag, flush_period=self.get_parameter("flush_period").value
-                )
-                self.bag = BagRecording(self.recorder, log, lost)
+                self.recorder = McapRecorder(bag, flush_period=flush_period)
+                self.bag = BagRecording(self.recorder, self._logger, self._lost)
             if rrd or live:
                 from ..recording.rerun_recorder import RerunRecorder
 
                 # the mechanism drawn as often as ~/markers draws it; the series at every sample
-                self.rerun = RerunRecorder(
-                    rrd or None,
-                    self.params,
-                    connect_url=live or None,
-                    max_draw_hz=self.markers_rate_hz,
-                )
-                self.rrd = RerunRecording(self.rerun, log, lost)
+                self.rerun = RerunRecorder(rrd or None, params, connect_url=live or None,
+                                           max_draw_hz=max_draw_hz)  # fmt: skip
+                self.rrd = RerunRecording(self.rerun, self._logger, self._lost)
         except Exception as exc:
             self._made_bag_dir = made_dir
-            self.discard_recordings()
+            self.discard()
             if isinstance(exc, (DRSError, DRSRosError)):  # ours: its message says it all
                 raise
             raise RecordingError(f"cannot start the recordings: {exc}") from exc
         self._made_bag_dir = made_dir
 
-    def discard_recordings(self) -> None:
+    def discard(self) -> None:
         """Close and delete the recordings of a node that fails to start: nothing is left."""
         if self.recorder is not None:
             self.recorder.discard()
@@ -249,17 +248,17 @@ class NodeRecordings:
             self.rerun = None
         self.bag = self.rrd = None
 
-    def _record(self, topic: str, data, now_ns: int) -> int | None:
+    def record(self, topic: str, data, now_ns: int) -> int | None:
         """Append exact bytes (or a message) to the bag; the sequence number (None: not
         recorded)."""
         return None if self.bag is None else self.bag.write(topic, data, now_ns)
 
-    def _log_rerun(self, st) -> None:
+    def log_state(self, st) -> None:
         """The state ``st`` into the rerun recording, if any."""
         if self.rrd is not None:
             self.rrd.log_state(st.t, st.q, st.piston_force)
 
-    def recordings_status(self) -> dict[str, str]:
+    def status(self) -> dict[str, str]:
         """Diagnostics: ``bag`` and ``rerun``, each what it recorded or how it failed; a failure
         a recorder's own thread met is taken in here."""
         out = {}
@@ -269,22 +268,23 @@ class NodeRecordings:
             out[key] = "off" if part is None else part.status()
         return out
 
-    def recording_failures(self) -> list[str]:
+    def failures(self) -> list[str]:
         """The recordings stopped for good, each with its reason (for the diagnostics level)."""
         return [f"{p.health.name} stopped: {p.health.failure}" for p in (self.bag, self.rrd)
                 if p is not None and p.health.failure]  # fmt: skip
 
-    def close_recordings(self) -> list[str]:
+    def close(self) -> list[str]:
         """Finish the MCAP bag and the rerun file (idempotent); one line per recording that is
         incomplete, naming what it lacks (empty: both complete), kept for later calls."""
         for part in (self.rrd, self.bag):
             if part is not None:
                 lines = part.finish()
                 for line in lines:
-                    self.get_logger().error(line)
-                self.recording_problems += lines
+                    self._logger.error(line)
+                self.problems += lines
         self.bag = self.rrd = None
-        return list(self.recording_problems)
+        self.recorder = self.rerun = None
+        return list(self.problems)
 
 
 __all__ = ["BagRecording", "NodeRecordings", "RecordingHealth", "RerunRecording"]

@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         incomplete = []
         if node is not None:
             # a managed node's cleanup may have finished them already: its lines are kept
-            incomplete = node.close_recordings() if node.configured else node.recording_problems
+            incomplete = node.close_recordings()
             node.destroy_node()
         rclpy.try_shutdown()
     # the recordings are finished: a further SIGINT/SIGTERM (a second Ctrl-C) is ignored, not

@@ -15,7 +15,9 @@ only; an empty structure one zero byte.
 Each message class is compiled once (:func:`serializer`) into a chain of closures over
 ``struct.Struct`` objects, from the class's own rosidl introspection (``SLOT_TYPES``). The same
 code serves the node's publishers, the recorder and the bag checker (which re-serialises what it
-decoded and compares bytes).
+decoded and compares bytes). A :class:`Layout` is that serialiser's output for one prototype
+message with the offsets of its numeric fields: the template the node's real-time publishers pack
+their numbers into, so that nothing else writes CDR by hand.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ import importlib
 import operator
 import struct
 import sys
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Sequence
 
 from ..errors import DRSRosError
 
@@ -55,6 +58,17 @@ _LITTLE = sys.byteorder == "little"
 
 Writer = Callable[[bytearray, object], None]
 
+#: The layout pass of :class:`Layout` (this thread only): the path of the field being written,
+#: and the numeric fields written so far, ``(path, offset, struct code, count)``.
+_TRACE = threading.local()
+
+
+def _traced(buf: bytearray, code: str, count: int) -> None:
+    """In a layout pass: the numeric field(s) about to be written at the end of ``buf``."""
+    fields = getattr(_TRACE, "fields", None)
+    if fields is not None:
+        fields.append((".".join(_TRACE.path), len(buf), code, count))
+
 
 class CdrError(DRSRosError, TypeError):
     """A message type or value that cannot be serialised as ROS 2 CDR."""
@@ -80,8 +94,10 @@ def _basic_writer(typename: str) -> tuple[Writer, int]:
     packer = struct.Struct("<" + code)
     convert = _as_int if typename in ("octet", "char") else None
 
-    def write(buf: bytearray, value, pack=packer.pack, size=size) -> None:
+    def write(buf: bytearray, value, pack=packer.pack, size=size, code=code) -> None:
         _align(buf, size)
+        if _TRACE.__dict__:
+            _traced(buf, code, 1)
         buf += pack(convert(value) if convert else value)
 
     return write, size
@@ -105,6 +121,8 @@ def _basic_block_writer(typename: str) -> Writer:
         if n == 0:
             return
         _align(buf, size)
+        if _TRACE.__dict__:
+            _traced(buf, code, n)
         if (
             _LITTLE
             and isinstance(values, array.array)
@@ -141,6 +159,8 @@ def _element_writer(typ) -> Writer:
             def write_flat(buf: bytearray, value, code=code, size=size, get=get) -> None:
                 _align(buf, size)
                 values = get(value)
+                if _TRACE.__dict__:
+                    _traced(buf, code, len(values))
                 buf += struct.pack(f"<{len(values)}{code}", *values)
 
             return write_flat
@@ -189,12 +209,20 @@ def _field_writer(typ) -> Writer:
                 if values:
                     _align(buf, size)
                     flat_values = [v for item in values for v in get(item)]
+                    if _TRACE.__dict__:
+                        _traced(buf, code, len(flat_values))
                     buf += struct.pack(f"<{len(flat_values)}{code}", *flat_values)
 
         else:
             element = _element_writer(typ.value_type)
 
             def body(buf: bytearray, values, element=element) -> None:
+                if _TRACE.__dict__:  # a layout pass: each element's index is in the path
+                    for k, v in enumerate(values):
+                        _TRACE.path.append(str(k))
+                        element(buf, v)
+                        _TRACE.path.pop()
+                    return
                 for v in values:
                     element(buf, v)
 
@@ -226,6 +254,12 @@ def _struct_writer(msg_class: type) -> Writer:
     fields = [(name, _field_writer(typ)) for name, typ in zip(names, types, strict=True)]
 
     def write(buf: bytearray, msg, fields=fields) -> None:
+        if _TRACE.__dict__:  # a layout pass: each field's name is in the path
+            for name, writer in fields:
+                _TRACE.path.append(name)
+                writer(buf, getattr(msg, name))
+                _TRACE.path.pop()
+            return
         for name, writer in fields:
             writer(buf, getattr(msg, name))
 
@@ -274,6 +308,57 @@ def flat_packer(msg_class: type) -> Callable[..., bytes]:
         return CDR_LE_HEADER + pack(*values)
 
     return packer
+
+
+class Layout:
+    """The exact CDR of messages of one type and one shape, packed into a reused buffer.
+
+    A message's shape is everything but its numbers: its strings and the lengths of its
+    sequences. ``Layout(prototype)`` serialises the prototype once with :func:`serializer`,
+    noting where each numeric field lies (its path, e.g. ``header.stamp.sec``, ``position``,
+    ``transforms.1.transform.rotation``); :meth:`packer` then writes chosen fields with
+    ``struct.pack_into`` into a copy of those bytes, kept and reused. A message of the
+    prototype's shape packed this way has exactly the bytes :func:`serializer` gives it (~1-2 us
+    against ~10-30 us to fill the message and serialise it field by field).
+
+    ``fields``: path -> ``(offset, struct code, count)``, offsets counted from the start of the
+    bytes (the encapsulation header included)."""
+
+    def __init__(self, prototype) -> None:
+        _TRACE.path, _TRACE.fields = [], []
+        try:
+            self.template = serializer(type(prototype))(prototype)
+            traced = _TRACE.fields
+        finally:
+            _TRACE.__dict__.clear()
+        self.fields = {path: (offset, code, count) for path, offset, code, count in traced}
+
+    def packer(self, paths: Sequence[str]) -> Callable[..., bytes]:
+        """``pack(*values) -> bytes``: the template with the numeric fields ``paths`` set, in
+        that order, from ``values`` (a field of ``count`` numbers takes that many values). The
+        bytes are a copy of one buffer the packer keeps; the fields not named keep the
+        prototype's values."""
+        missing = [p for p in paths if p not in self.fields]
+        if missing:
+            raise CdrError(f"no numeric field {missing} in the layout; known: {list(self.fields)}")
+        slots = [(struct.Struct(f"<{self.fields[p][2]}{self.fields[p][1]}"), self.fields[p][0],
+                  self.fields[p][2]) for p in paths]  # fmt: skip
+        buf = bytearray(self.template)
+        n_values = sum(count for _s, _o, count in slots)
+
+        def pack(*values) -> bytes:
+            if len(values) != n_values:
+                raise CdrError(f"{len(values)} values for {n_values} numbers of {list(paths)}")
+            i = 0
+            try:
+                for packer, offset, count in slots:
+                    packer.pack_into(buf, offset, *values[i : i + count])
+                    i += count
+            except struct.error as exc:
+                raise CdrError(f"cannot pack {list(paths)}: {exc}") from exc
+            return bytes(buf)
+
+        return pack
 
 
 def serialize(msg) -> bytes:
@@ -339,6 +424,7 @@ __all__ = [
     "CDR_LE_HEADER",
     "MAX_TRANSPORT_PADDING",
     "CdrError",
+    "Layout",
     "decode_exact",
     "exact_bytes",
     "flat_packer",

@@ -1,5 +1,5 @@
-"""Long bags made to measure the bag tools: the seed manoeuvre recorded over and over, as the
-node records it, to any size.
+"""A test fixture: long bags made to measure the bag tools: the seed manoeuvre recorded over
+and over, as the node records it, to any size.
 
 :func:`write_long_bag` writes a rosbag2 bag directory (MCAP, ``metadata.yaml``) of ``cycles``
 manoeuvres back to back at 1 kHz: ``/joint_states`` (positions, velocities and the piston force
@@ -22,15 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from drs_model.params import NUMERIC_FIELDS, DRSParams
-
-from ..names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
-from ..timestamps import ns_from_seconds, split_ns
+from drs_ros.names import DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
+from drs_ros.timestamps import T0_NS, ns_from_seconds, split_ns
 
 #: Sample period of the recorded states [s] (the node's default publish rate is lower; 1 kHz is
 #: its physics rate).
 SAMPLE_PERIOD_S = 1e-3
-#: The first stamp [ns].
-T0_NS = 1_700_000_000_000_000_000
 BULK_TOPIC = "/camera/image_raw"
 
 
@@ -67,10 +64,10 @@ def write_long_bag(
     from sensor_msgs.msg import Image, JointState
     from std_msgs.msg import Float64
 
-    from ..conversions import float_msg
-    from ..recording import cdr
-    from ..recording.mcap_recorder import McapRecorder
-    from .effects import parameter_event
+    from drs_ros.bag.effects import parameter_event
+    from drs_ros.conversions import float_msg
+    from drs_ros.recording import cdr
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     p = params if params is not None else DRSParams()
     samples = cycle_samples(p)
@@ -118,4 +115,4 @@ def write_long_bag(
     return Path(bag_dir)
 
 
-__all__ = ["BULK_TOPIC", "cycle_samples", "write_long_bag"]
+__all__ = ["BULK_TOPIC", "T0_NS", "cycle_samples", "write_long_bag"]

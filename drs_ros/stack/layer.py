@@ -1,10 +1,10 @@
-"""What the node offers a vehicle stack (issue 20), as one object the node drives.
+"""What the node offers a vehicle stack, as one object the node drives.
 
-* the robot description and TF (:mod:`drs_ros.tf_tree`, :mod:`drs_ros.description`);
+* the robot description and TF (:mod:`drs_ros.stack.tf_tree`, :mod:`drs_ros.stack.description`);
 * ``~/follow_joint_trajectory``, joint_trajectory_controller's action
-  (:mod:`drs_ros.follow_trajectory`);
+  (:mod:`drs_ros.stack.follow_trajectory`);
 * ros2_control's topic interface: JointState commands in on ``joint_commands_topic``
-  (:mod:`drs_ros.joint_commands`), the joint states out on ``joint_states_topic``.
+  (:mod:`drs_ros.stack.joint_commands`), the joint states out on ``joint_states_topic``.
 
 The node builds one :class:`StackLayer` in ``configure``, and calls it in ``activate``,
 ``deactivate``, ``cleanup`` and at every publish (``publish``). The layer owns its publishers,
@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
+from ..commands import COMMAND_QOS_DEPTH
 from . import description
 from .follow_trajectory import FollowJointTrajectoryServer, Tolerances
 from .tf_tree import TfPublisher
@@ -51,10 +52,6 @@ STACK_PARAMETERS = (
     ("goal_time_tolerance", 0.0, "default time past a trajectory's end to reach the goal "
      "tolerance [s] (0 = wait; JTC's constraints.goal_time)", (0.0, 3600.0)),
 )  # fmt: skip
-#: The command topics of these features and their message types (the node's ``COMMANDS``).
-STACK_COMMANDS = {"joint_commands": JointState}
-#: The command queue's depth (as the node's other command topics).
-COMMAND_QOS_DEPTH = 10
 
 
 @dataclass(frozen=True)
@@ -63,22 +60,36 @@ class NodeHooks:
 
     ``event(source, outcome, level, reason, values, now_ns)``: a record of the effect log;
     ``record(topic, data, now_ns)``: exact bytes into the bag; ``receive(key, data)``: raw bytes
-    of a command topic, into the node's latest-wins queue; ``now_ns()``: the node clock.
+    of a command topic, into the node's latest-wins queue; ``now_ns()``: the node clock;
+    ``actuator()``: the actuator the node runs now (``fidelity: auto`` may replace it).
     """
 
     event: Callable[..., None]
     record: Callable[[str, bytes, int], object]
     receive: Callable[[str, bytes], None]
     now_ns: Callable[[], int]
+    actuator: Callable[[], object]
+
+
+@dataclass(frozen=True)
+class StackModel:
+    """What the layer draws and moves: the model's parameters, the joint names (piston, link,
+    flap) and the frame of the mechanism (the node's ``frame_id``)."""
+
+    params: object
+    joint_names: tuple[str, ...]
+    frame_id: str
 
 
 class StackLayer:
     """The features of :mod:`drs_ros.stack` for one configured node."""
 
-    def __init__(self, node, hooks: NodeHooks) -> None:
+    def __init__(self, node, model: StackModel, hooks: NodeHooks) -> None:
+        """``node``: the rclpy node the layer creates its publishers, subscription and action
+        server on, and reads its parameters (:data:`STACK_PARAMETERS`) from."""
         gp = node.get_parameter
         self.node, self.hooks = node, hooks
-        self.joint_names = list(node.joint_names)
+        self.joint_names = list(model.joint_names)
         self.commands_topic = node.resolve_topic_name(gp("joint_commands_topic").value)
         self.states_topic = node.resolve_topic_name(gp("joint_states_topic").value)
         for name in ("mount_xyz", "mount_rpy"):
@@ -94,8 +105,9 @@ class StackLayer:
                      if mount_frame else None)  # fmt: skip
             control = description.ros2_control_block(self.joint_names, self.commands_topic,
                                                      self.states_topic)  # fmt: skip
-            self.tf = TfPublisher(node, node.params, self.joint_names, node.frame_id,
-                                  node.sim.force_limit, mount, control, hooks.record)  # fmt: skip
+            self.tf = TfPublisher(node, model.params, self.joint_names, model.frame_id,
+                                  hooks.actuator().force_limit, mount, control,
+                                  hooks.record)  # fmt: skip
         self.defaults = Tolerances(
             path_position=gp("path_tolerance").value,
             goal_position=gp("goal_tolerance").value,
@@ -103,8 +115,8 @@ class StackLayer:
             goal_time=gp("goal_time_tolerance").value,
         )
         self.action = FollowJointTrajectoryServer(
-            node, node.sim, self.joint_names[0], self.defaults, self._action_event,
-            hold_duration=node.params.T_opening, now_ns=hooks.now_ns,
+            node, hooks.actuator, self.joint_names[0], self.defaults, self._action_event,
+            hold_duration=model.params.T_opening, now_ns=hooks.now_ns,
         )  # fmt: skip
         self.sub_commands = None
 
@@ -169,4 +181,4 @@ class StackLayer:
         self.hooks.event(self.action.name, outcome, level, reason, values, now_ns)
 
 
-__all__ = ["COMMAND_QOS_DEPTH", "STACK_COMMANDS", "STACK_PARAMETERS", "NodeHooks", "StackLayer"]
+__all__ = ["STACK_PARAMETERS", "NodeHooks", "StackLayer", "StackModel"]

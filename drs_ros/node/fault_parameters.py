@@ -8,7 +8,8 @@ applied at the next tick, before the physics steps: its effect record (``~/comma
 source ``fault.<name>``) gives the simulated instant, from which ``drs-bag resimulate`` applies it
 again. Values given at start (``-p fault.x:=...``) act at the first tick the same way.
 
-:class:`NodeFaults` is a part of :class:`drs_ros.node.adapter.DRSNode`.
+:class:`NodeFaults` is a part of :class:`drs_ros.node.adapter.DRSNode`, constructed with the
+node it watches; it owns the actuator's faults.
 """
 
 from __future__ import annotations
@@ -22,10 +23,8 @@ from drs_model.errors import DRSError
 from drs_model.fidelity.faults import FAULT_RANGES, FAULTS, RunFaults, describe_range
 
 from ..conversions import time_msg
-from ..names import ACCEPTED, REFUSED
-
-#: The prefix of the fault parameters.
-FAULT_PREFIX = "fault."
+from ..names import ACCEPTED, FAULT_PREFIX, REFUSED
+from ..rclpy_private import parameter_overrides
 
 
 def fault_parameter_names() -> list[str]:
@@ -36,7 +35,7 @@ def fault_parameter_names() -> list[str]:
 def declare_fault_parameters(node: Node) -> None:
     """Declare the ``fault.*`` parameters (writable, healthy by default). An integer given for a
     float one is taken as that float, as for the node's other parameters."""
-    overrides = node._parameter_overrides
+    overrides = parameter_overrides(node)
     for name, (healthy, description) in FAULTS.items():
         full = FAULT_PREFIX + name
         given = overrides.get(full)
@@ -50,27 +49,58 @@ def declare_fault_parameters(node: Node) -> None:
 
 
 class NodeFaults:
-    """The fault parameters of the DRS node (a base class of ``DRSNode``)."""
+    """The fault parameters of one node: a part of :class:`drs_ros.node.adapter.DRSNode` that
+    owns the actuator's :class:`~drs_model.fidelity.faults.RunFaults` (``faults``) and the
+    faults set but not yet applied.
 
-    def _start_faults(self) -> None:
-        """At configure: the faults of the new actuator, and the values given at start pending
-        for the first tick."""
-        self.faults = RunFaults(self.sim)
-        self._pending_faults: list[tuple[str, object]] = [
-            (name, self.get_parameter(name).value)
-            for name in fault_parameter_names()
-            if self.get_parameter(name).value != FAULTS[name.removeprefix(FAULT_PREFIX)][0]
-        ]
-        if not getattr(self, "_fault_callbacks", False):  # once, though configured again
-            self._fault_callbacks = True
-            self.add_on_set_parameters_callback(self._on_set_faults)
-            self.add_post_set_parameters_callback(self._record_parameter_change)
+    Parameters
+    ----------
+    node : rclpy.node.Node
+        Whose ``fault.*`` parameters these are (read, and watched for changes).
+    lock : threading.Lock
+        The node's lock, held by the tick.
+    now_ns : callable
+        The node clock [ns].
+    configured : callable
+        ``configured()``: the node is configured (a fault is refused before).
+    """
+
+    def __init__(self, node: Node, lock, now_ns, configured) -> None:
+        self._node, self._lock, self._now_ns, self._configured = node, lock, now_ns, configured
+        self.faults: RunFaults | None = None
+        self._pending: list[tuple[str, object]] = []
+        self._effects = self._record = self._recording = None
+        self._watching = False
+
+    def start(self, sim, effects, record, recording) -> None:
+        """At configure: the faults of the new actuator ``sim``, and the values given at start
+        pending for the first tick. ``effects``: the effect record; ``record(topic, msg,
+        now_ns)``: into the bag; ``recording()``: a bag is recorded."""
+        self._effects, self._record, self._recording = effects, record, recording
+        self.faults = RunFaults(sim)
+        gp = self._node.get_parameter
+        healthy = {FAULT_PREFIX + name: value for name, (value, _text) in FAULTS.items()}
+        self._pending = [(name, gp(name).value) for name in fault_parameter_names()
+                         if gp(name).value != healthy[name]]  # fmt: skip
+        if not self._watching:  # once, though configured again
+            self._watching = True
+            self._node.add_on_set_parameters_callback(self._on_set_faults)
+            self._node.add_post_set_parameters_callback(self._record_parameter_change)
+
+    def new_actuator(self, sim) -> None:
+        """The node runs another actuator (before its first step): none applied yet."""
+        self.faults = RunFaults(sim)
+
+    @property
+    def waiting(self) -> bool:
+        """A fault waits for the next tick."""
+        return bool(self._pending)
 
     def _on_set_faults(self, params: list[Parameter]) -> SetParametersResult:
         """Check every fault of a ``set_parameters`` call; all are taken or none (the first
         refusal's reason)."""
         checked = []
-        if not self.configured and any(p.name.startswith(FAULT_PREFIX) for p in params):
+        if not self._configured() and any(p.name.startswith(FAULT_PREFIX) for p in params):
             return SetParametersResult(
                 successful=False, reason="faults are set on a configured node only"
             )
@@ -83,49 +113,50 @@ class NodeFaults:
                 try:
                     value = self.faults.check(name, p.value)
                 except DRSError as exc:
-                    reason = self._refuse(p.name, p.value, str(exc), now)
-                    self._event(p.name, REFUSED, DiagnosticStatus.WARN, reason, None,
-                                {"value": repr(p.value)}, now)  # fmt: skip
+                    reason = self._effects.refuse(p.name, p.value, str(exc), now)
+                    self._effects.event(p.name, REFUSED, DiagnosticStatus.WARN, reason, None,
+                                        {"value": repr(p.value)}, now)  # fmt: skip
                     return SetParametersResult(successful=False, reason=reason)
                 checked.append((p.name, value))
             order = list(fault_parameter_names())
-            self._pending_faults.extend(sorted(checked, key=lambda nv: order.index(nv[0])))
+            self._pending.extend(sorted(checked, key=lambda nv: order.index(nv[0])))
         return SetParametersResult(successful=True)
 
     def _record_parameter_change(self, params: list[Parameter]) -> None:
         """The change rclpy publishes on /parameter_events, in the node's bag as well."""
-        if self.bag is None:
+        if self._recording is None or not self._recording():
             return
         with self._lock:
             now = self._now_ns()
             event = ParameterEvent(
                 stamp=time_msg(now),
-                node=self.get_fully_qualified_name(),
+                node=self._node.get_fully_qualified_name(),
                 changed_parameters=[p.to_parameter_msg() for p in params],
             )
             self._record("/parameter_events", event, now)
 
-    def _apply_faults(self, now_ns: int) -> None:
+    def apply_pending(self, now_ns: int) -> None:
         """Apply the faults set since the last tick, in the order set (a ramp set with a supply
         loss in one call comes first: :data:`FAULTS` order within a call)."""
-        pending, self._pending_faults = self._pending_faults, []
+        pending, self._pending = self._pending, []
+        fx = self._effects
         for full, value in pending:
             name = full.removeprefix(FAULT_PREFIX)
             try:
                 self.faults.apply(name, value)
             except DRSError as exc:  # checked when set: only a rung changed since would refuse
-                reason = self._refuse(full, value, str(exc), now_ns)
-                self._event(full, REFUSED, DiagnosticStatus.WARN, reason, None,
-                            {"value": repr(value)}, now_ns)  # fmt: skip
+                reason = fx.refuse(full, value, str(exc), now_ns)
+                fx.event(full, REFUSED, DiagnosticStatus.WARN, reason, None,
+                         {"value": repr(value)}, now_ns)  # fmt: skip
                 continue
-            self.troubles.add(now_ns, "fault", f"{full} = {value!r}")
-            self._event(full, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)},
-                        now_ns)  # fmt: skip
+            fx.troubles.add(now_ns, "fault", f"{full} = {value!r}")
+            fx.event(full, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)},
+                     now_ns)  # fmt: skip
 
-    def faults_text(self) -> str:
+    def text(self) -> str:
         """The faults in force, for diagnostics ('none' when healthy)."""
         active = self.faults.active()
         return ", ".join(f"{k}={v!r}" for k, v in active.items()) or "none"
 
 
-__all__ = ["FAULT_PREFIX", "NodeFaults", "declare_fault_parameters", "fault_parameter_names"]
+__all__ = ["NodeFaults", "declare_fault_parameters", "fault_parameter_names"]

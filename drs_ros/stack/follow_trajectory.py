@@ -55,16 +55,16 @@ from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drs_model.errors import DRSError, InputError
 
-from .commands import StrokeMove, TrajectoryMove
-from .conversions import time_msg, trajectory_points
-from .errors import DRSRosError
-from .names import ACCEPTED, REFUSED
-from .timestamps import ns_from_seconds, ns_of, seconds_from_ns, set_ns
+from ..commands import StrokeMove, TrajectoryMove
+from ..conversions import time_msg, trajectory_points
+from ..errors import DRSRosError
+from ..names import ACCEPTED, REFUSED
+from ..rclpy_private import mark_executing, schedule_result
+from ..timestamps import ns_from_seconds, ns_of, seconds_from_ns, set_ns
 
 Result = FollowJointTrajectory.Result
 #: JTC's "-1 erases a tolerance" (compared within float epsilon, as JTC does).
@@ -219,8 +219,10 @@ class FollowJointTrajectoryServer:
     Parameters
     ----------
     node : rclpy.node.Node
-    sim : drs_model.actuator.ActuatorSim
-        The actuator (touched only from :meth:`update`, under the node's tick).
+    actuator : callable
+        ``actuator()``: the node's actuator now (a rung of :mod:`drs_model.fidelity`; ``fidelity:
+        auto`` may replace it before the first step), touched only from :meth:`update`, under
+        the node's tick, and read (its parameters) by a goal's plan.
     joint : str
         The piston joint's name.
     defaults : Tolerances
@@ -230,10 +232,10 @@ class FollowJointTrajectoryServer:
         Duration [s] of the move that holds the piston after a cancel.
     """
 
-    def __init__(self, node, sim, joint: str, defaults: Tolerances,
+    def __init__(self, node, actuator: Callable[[], object], joint: str, defaults: Tolerances,
                  event: Callable[..., None], hold_duration: float,
                  now_ns: Callable[[], int]) -> None:  # fmt: skip
-        self.node, self.sim, self.joint = node, sim, joint
+        self.node, self._actuator, self.joint = node, actuator, joint
         self._now_ns = now_ns
         self.defaults = defaults
         self._event = event
@@ -254,6 +256,11 @@ class FollowJointTrajectoryServer:
             cancel_callback=lambda _handle: CancelResponse.ACCEPT,
         )
         self.name = node.resolve_topic_name("~/follow_joint_trajectory")
+
+    @property
+    def sim(self):
+        """The node's actuator now."""
+        return self._actuator()
 
     # ---- executor thread -----------------------------------------------------------------------
     def _on_goal(self, _goal) -> GoalResponse:
@@ -291,12 +298,13 @@ class FollowJointTrajectoryServer:
         with self._lock:
             self._outcomes[_uuid(handle)] = (status, Result(error_code=code,
                                                             error_string=message))  # fmt: skip
-        if handle.status == GoalStatus.STATUS_ACCEPTED:  # a goal ends from EXECUTING
-            handle._update_state(_rclpy.GoalEvent.EXECUTE)
         # rclpy runs the execute callback in a task of the executor: the terminal state and the
         # result are set there (a callback that awaited the outcome instead would keep the
         # Jazzy executor busy, since it resumes every pending task at every spin)
-        self.server.notify_execute(handle, self._finished)
+        if handle.status == GoalStatus.STATUS_ACCEPTED:  # a goal ends from EXECUTING
+            handle.execute(self._finished)
+        else:
+            schedule_result(self.server, handle, self._finished)
         self.results[status] = self.results.get(status, 0) + 1
         level = DiagnosticStatus.OK if status == "succeeded" else DiagnosticStatus.WARN
         self._event(RESULT, level, f"{status}: {message}" if message else status,
@@ -337,7 +345,7 @@ class FollowJointTrajectoryServer:
             if self.goal is not None:  # JTC's preempt_active_goal
                 self._end(self.goal.handle, "aborted", Result.INVALID_GOAL,
                           "Current goal preempted by new incoming action.", now_ns)  # fmt: skip
-            handle._update_state(_rclpy.GoalEvent.EXECUTE)
+            mark_executing(handle)
             self.goal = ActiveGoal(handle, move, path, self.sim.t, tolerances)
             values = {**move.record(), "goal_id": _uuid(handle)}
             self._event(ACCEPTED, DiagnosticStatus.OK, "", values, now_ns)
