@@ -33,7 +33,10 @@ then read
 a 2 x 2 system of determinant ``(C - B) x (D - C) = -L2 L3 cos(psi1 - psi3)`` (zero where B, C,
 D align: the dead centre, where no finite piston force moves the flap). Then the piston, with
 ``K1 = m1 (a_G1 - g)``: ``Np = K1x - rj1x``, ``F = K1y - rj1y``,
-``Tp = I1 * 0 - (P - G1) x (Np, 0) - (B - G1) x rj1``.
+``Tp = I1 * 0 - (P - G1) x (Np, 0) - (B - G1) x rj1``. Written once, as
+:func:`drs_model.kernels.newton_euler_reactions` (with the loads ``K_b`` of
+:func:`~drs_model.kernels.dalembert_loads`): arithmetic alone, so arrays run it with numpy and
+one sample (``q`` of shape ``(3,)``) runs it compiled by numba, on floats.
 
 Lagrange with multipliers (``"lagrange"``)
 ------------------------------------------
