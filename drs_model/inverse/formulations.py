@@ -151,8 +151,12 @@ def _as_state(state: KinematicState | tuple, p: DRSParams) -> tuple[np.ndarray, 
             f"q, qd, qdd must have equal shapes, got {arrays[0].shape}, {arrays[1].shape}, "
             f"{arrays[2].shape}"
         )
-    # one pass over the sum (a NaN or inf anywhere makes it non-finite); each array only then
-    if not np.isfinite(arrays[0] + arrays[1] + arrays[2]).all():
+    if arrays[0].ndim == 1:  # one sample: nine floats, checked without numpy's reductions
+        finite = all(map(math.isfinite, [*arrays[0].tolist(), *arrays[1].tolist(),
+                                         *arrays[2].tolist()]))  # fmt: skip
+    else:  # one pass over the sum (a NaN or inf anywhere makes it non-finite)
+        finite = bool(np.isfinite(arrays[0] + arrays[1] + arrays[2]).all())
+    if not finite:  # which array, and its first bad value
         for name, arr in zip(("q", "qd", "qdd"), arrays, strict=True):
             if not np.isfinite(arr).all():
                 bad = arr[~np.isfinite(arr)].ravel()[0]
