@@ -2,12 +2,19 @@
 
 Both paths go from time to piston force: profile -> kinematics -> force.
 
-* ours, vectorised: :func:`drs_model.inverse.manoeuvre_force` (default ``"virtual-work"``: the
-  fused closed form) and, for reference, the Newton-Euler route through ``kinematic_state``;
-* ours, one sample: :meth:`FusedInverseDynamics.force_at` (``math`` only, built once);
+* ours, vectorised: :func:`drs_model.inverse.manoeuvre_force` (default ``"fused"``: the fused
+  closed form) and, for reference, the Newton-Euler route through ``kinematic_state``;
+* ours, one sample: :meth:`FusedInverseDynamics.force_at` (the compiled kernel, built once);
 * baseline: the seed's profile (drs_model's, shared), the baseline's own Newton kinematics on its
   lambdified constraints, then its lambdified ``inverse_force``; one sample = the same call on an
   array of one.
+
+A second table, one sample of Newton-Euler with every joint reaction, side by side: from a
+state ``(q, qd, qdd)`` of shape ``(3,)`` through ``inverse_dynamics(state, p, "newton-euler")``
+(what a caller with a state pays: validation, the compiled kernel, the result); from a time
+through the scalar kinematics (:func:`~drs_model.kinematics.kinematic_state_scalar`) and the
+same call; the manoeuvre route ``manoeuvre_force(t, p, "newton-euler")`` on an array of one; and
+the baseline's lambdified ``inverse_force`` alone on the same state as arrays of one.
 
 Medians of repeats of ``time.process_time`` (``time.perf_counter`` for the single-sample loops,
 where process_time's resolution is too coarse).
@@ -28,7 +35,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from sympy_baseline import build_baseline  # noqa: E402
 
-from drs_model.inverse import FusedInverseDynamics, manoeuvre_force  # noqa: E402
+from drs_model.inverse import (  # noqa: E402
+    FusedInverseDynamics,
+    inverse_dynamics,
+    manoeuvre_force,
+    manoeuvre_state,
+)
+from drs_model.kinematics import kinematic_state_scalar  # noqa: E402
 from drs_model.params import DRSParams  # noqa: E402
 from drs_model.profile import drs_manoeuvre  # noqa: E402
 
@@ -110,10 +123,47 @@ def main() -> None:
             f"{base / ours:>13.1f}"
         )
     print(
-        "\nours at n = 1: FusedInverseDynamics.force_at (math, prebuilt); "
-        "at n > 1: manoeuvre_force(t, p) (fused numpy, blocks of 4096).\n"
+        "\nours at n = 1: FusedInverseDynamics.force_at (the compiled kernel, prebuilt); "
+        "at n > 1: manoeuvre_force(t, p) (the fused kernel on every element).\n"
         "ours NE: manoeuvre_force(t, p, 'newton-euler') (kinematic_state + closed-form NE)."
     )
+    one_sample_newton_euler(p, baseline)
+
+
+def one_sample_newton_euler(p: DRSParams, baseline) -> None:
+    """Median time of one sample of Newton-Euler with every reaction, by route (module doc)."""
+    t1 = 0.0042  # mid-opening: the rod accelerates, every term is non-zero
+    _, st = manoeuvre_state(np.array([t1]), p)
+    state = (st.q[0], st.qd[0], st.qdd[0])
+    man = drs_manoeuvre(p)
+
+    def from_time() -> None:
+        s, sd, sdd = (float(x) for x in man.evaluate(t1))
+        inverse_dynamics(kinematic_state_scalar(s, sd, sdd, p), p, "newton-euler")
+
+    routes = {
+        "inverse_dynamics(state of one, 'newton-euler')": (
+            lambda: inverse_dynamics(state, p, "newton-euler"),
+            20_000,
+        ),
+        "time -> kinematic_state_scalar -> the same": (from_time, 5_000),
+        "manoeuvre_force([t], p, 'newton-euler')": (
+            lambda: manoeuvre_force(np.array([t1]), p, "newton-euler"),
+            300,
+        ),
+        "baseline inverse_force(state of one) alone": (
+            lambda: baseline.inverse_force(st.q, st.qd, st.qdd),
+            3_000,
+        ),
+    }
+    res = inverse_dynamics(state, p, "newton-euler")
+    print(
+        f"\none sample of Newton-Euler, every reaction (F = {float(res.piston_force):.6g} N, "
+        f"{len(res.reactions)} reactions); medians of 5 loops, time.perf_counter"
+    )
+    print(f"{'route':<50}  {'us per sample':>13}")
+    for name, (fn, calls) in routes.items():
+        print(f"{name:<50}  {per_call(fn, calls) * 1e6:>13.3g}")
 
 
 if __name__ == "__main__":

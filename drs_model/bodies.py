@@ -57,7 +57,7 @@ def model_constants(
     p: DRSParams, flap_limits: tuple[float, float] | None = None
 ) -> tuple[float, ...]:
     """The constants vector of the kernels of :mod:`drs_model.kernels` (indexed ``XA`` ...
-    ``M22`` there): geometry, mass properties and the air law of ``p``.
+    ``YB`` there): geometry, mass properties and the air law of ``p``.
 
     ``flap_limits = (psi3_closed, psi3_open)`` [rad] of the air law defaults to our exact
     gap-rule angles.
@@ -65,6 +65,7 @@ def model_constants(
     psi_c, psi_o = flap_angle_limits(p) if flap_limits is None else flap_limits
     xg, yg = p.flap_com_local
     gx, gy = p.d_tip - p.L_wing + xg, yg  # G3 in RF3 (at D)
+    points = point_table(p)  # G1 and B in the piston frame (at P)
     dpsi = psi_c - psi_o
     out = (
         *p.loop_constants,
@@ -83,6 +84,8 @@ def model_constants(
         psi_o,
         p.m_link * p.L2**2 / 4.0 + p.Iz_link,
         p.m_wing * (gx * gx + gy * gy) + p.Iz_wing,
+        points["G1"][1][1],
+        points["B"][1][1],
     )
     return tuple(float(x) for x in out)
 

@@ -49,7 +49,8 @@ GX, GY = 6, 7  # G3 in the flap frame RF3 [m]
 M1, M2, M3, I2, I3, G = 8, 9, 10, 11, 12, 13  # masses [kg], inertias [kg m^2], gravity [m/s^2]
 DRAG_OPEN, DRAG_SLOPE, DOWN_OPEN, DOWN_SLOPE, PSI3_OPEN = 14, 15, 16, 17, 18  # air law [N, N/rad]
 M11, M22 = 19, 20  # m_link L2^2/4 + Iz_link, m_wing |r_G3|^2 + Iz_wing [kg m^2]
-N_CONSTANTS = 21
+YG1, YB = 21, 22  # G1 and B above P in the piston frame [m]
+N_CONSTANTS = 23
 #: Number of the manoeuvre's constants ``k`` (:meth:`drs_model.profile.Manoeuvre.constants`).
 N_PROFILE_CONSTANTS = 18
 
@@ -245,6 +246,71 @@ def projected_dynamics(sin1, cos1, sin3, cos3, psi3, u0, u1, u2, w0, w1, w2, c):
     return umu, umw + uh, u0 * q0 + u1 * q1 + u2 * q2
 
 
+def com_offsets(sin1, cos1, sin3, cos3, c):
+    """``(G2 - B, G3 - D)`` [m] as ``(r2x, r2y, r3x, r3y)``: the link's centre of mass halfway
+    along it, ``(L2/2)(-sin psi1, cos psi1)``, and the flap's ``R(psi3) (gx, gy)``."""
+    r3x, r3y = rotate(cos3, sin3, c[GX], c[GY])
+    return -0.5 * c[L2] * sin1, 0.5 * c[L2] * cos1, r3x, r3y
+
+
+def turning_acceleration(rx, ry, w, alpha):
+    """Acceleration [m/s^2] of a point at ``(rx, ry)`` [m] from the centre of a body turning at
+    ``w`` [rad/s] and ``alpha`` [rad/s^2], relative to that centre: ``alpha k x r - w^2 r``."""
+    return -alpha * ry - w * w * rx, alpha * rx - w * w * ry
+
+
+def dalembert_loads(sin1, cos1, sin3, cos3, psi3, w1, w3, sdd, a1, a3, c):
+    """``K_b = m_b (a_Gb - g) - F_air,b`` [N] (``g = (0, -g)``; the air force at G3 of flap
+    angle ``psi3`` [rad]): what the joint and piston forces on each body must supply, as
+    ``(K1y, K2x, K2y, K3x, K3y)`` (``K1x = 0``: the piston moves along y).
+
+    ``w1``, ``w3`` [rad/s] and ``a1``, ``a3`` [rad/s^2] are the rates of psi1 and psi3, ``sdd``
+    [m/s^2] the rod's acceleration. Arithmetic alone: takes floats or numpy arrays.
+    """
+    g = c[G]
+    r2x, r2y, r3x, r3y = com_offsets(sin1, cos1, sin3, cos3, c)
+    a2x, a2y = turning_acceleration(r2x, r2y, w1, a1)  # G2 turns about B, which moves with the rod
+    a3x, a3y = turning_acceleration(r3x, r3y, w3, a3)  # G3 turns about the fixed pivot D
+    drag, down = air_load(psi3, c)
+    return (
+        c[M1] * (sdd + g),
+        c[M2] * a2x,
+        c[M2] * (sdd + a2y + g),
+        c[M3] * a3x - drag,
+        c[M3] * (a3y + g) + down,
+    )
+
+
+def newton_euler_reactions(s, sin1, cos1, sin3, cos3, psi3, w1, w3, sdd, a1, a3, c):
+    """Per-body Newton-Euler in closed form: ``(Np, Tp, rj1x, rj1y, rj2x, rj2y, rj3x, rj3y, F)``
+    [N, N m, N ...] at stroke ``s`` [m], the sines and cosines of psi1 and psi3 and ``psi3``
+    [rad], with the rates of :func:`dalembert_loads` (equations and signs:
+    :mod:`drs_model.inverse.formulations`). Arithmetic alone: takes floats or numpy arrays;
+    inf or NaN at the dead centre (the caller refuses it first).
+
+    Link and flap Newton give ``rj1 = rj2 - K2`` and ``rj3 = rj2 + K3``; their Euler equations
+    about the centres of mass, ``(C - B) x rj2 = I2 psi1'' + r2 x K2`` and
+    ``(D - C) x rj2 = I3 psi3'' + r3 x K3``, are 2 x 2 in ``rj2`` (Cramer's rule); then the piston
+    gives ``Np``, ``F`` and ``Tp``. The pin-C reaction acts at the link's C, as in the seed.
+    """
+    k1y, k2x, k2y, k3x, k3y = dalembert_loads(sin1, cos1, sin3, cos3, psi3, w1, w3, sdd, a1, a3, c)
+    r2x, r2y, r3x, r3y = com_offsets(sin1, cos1, sin3, cos3, c)
+    ex, ey = -c[L2] * sin1, c[L2] * cos1  # C - B
+    fx, fy = c[XD] - c[XA] - ex, c[YD] - c[YB0] - s - ey  # D - C
+    m1 = c[I2] * a1 + (r2x * k2y - r2y * k2x)
+    m3 = c[I3] * a3 + (r3x * k3y - r3y * k3x)
+    det = ex * fy - ey * fx
+    rj2x = (m1 * fx - ex * m3) / det
+    rj2y = (m1 * fy - ey * m3) / det
+    rj1x, rj1y = rj2x - k2x, rj2y - k2y
+    rj3x, rj3y = rj2x + k3x, rj2y + k3y
+    np_ = -rj1x  # K1x = 0
+    force = k1y - rj1y
+    # Euler of the piston about G1 (it does not turn): Tp + (P - G1) x (Np, F) + (B - G1) x rj1 = 0
+    tp = -c[YG1] * np_ + (c[YB] - c[YG1]) * rj1x
+    return np_, tp, rj1x, rj1y, rj2x, rj2y, rj3x, rj3y, force
+
+
 def psi3_position(psi3, c):
     """``(sin psi3, cos psi3, s, sin psi1, cos psi1, cos^2 psi1)`` at ``psi3`` [rad] on
     branch 1 (:func:`flap_position`); ``cos^2 psi1 <= 0``: no assembly."""
@@ -291,31 +357,27 @@ def fused_force(s, sd, sdd, c):
 
         F = m_1 (\ddot s + g) + \sum_{b = 2, 3} \left[ m_b (a_{G_b} - g) \cdot \frac{dG_b}{ds}
             + I_b \ddot\psi_b \frac{d\psi_b}{ds} \right] - F_{air} \cdot \frac{dG_3}{ds}
+
+    (the d'Alembert loads of :func:`dalembert_loads` along ``dG/ds``).
     """
     s1, c1, s3, c3, h2 = stroke_position(s, c, 1.0)
     if not h2 >= -ASSEMBLY_TOL:  # the loop cannot close (or NaN)
         return math.nan
     tau1, tau3, a1, a3 = stroke_rates(s1, c1, s3, c3, sd, sdd, c)
     w1, w3 = tau1 * sd, tau3 * sd
-    g = c[G]
-    # link CoM relative to B: (L2/2)(-s1, c1); flap CoM relative to D: R(psi3) (gx, gy)
-    r2x, r2y = -0.5 * c[L2] * s1, 0.5 * c[L2] * c1
-    r3x, r3y = rotate(c3, s3, c[GX], c[GY])
-    # dG/ds and a_G - g
+    r2x, r2y, r3x, r3y = com_offsets(s1, c1, s3, c3, c)
+    k1y, k2x, k2y, k3x, k3y = dalembert_loads(
+        s1, c1, s3, c3, math.atan2(s3, c3), w1, w3, sdd, a1, a3, c
+    )
+    # dG/ds: G1 moves with the rod, G2 = B + r2 and G3 = D + r3 turn with psi1 and psi3
     v2x, v2y = -tau1 * r2y, 1.0 + tau1 * r2x
     v3x, v3y = -tau3 * r3y, tau3 * r3x
-    a2x = -a1 * r2y - w1 * w1 * r2x
-    a2y = sdd + a1 * r2x - w1 * w1 * r2y + g
-    a3x = -a3 * r3y - w3 * w3 * r3x
-    a3y = a3 * r3x - w3 * w3 * r3y + g
-    drag, down = air_load(math.atan2(s3, c3), c)
     return (
-        c[M1] * (sdd + g)
-        + c[M2] * (a2x * v2x + a2y * v2y)
+        k1y
+        + (k2x * v2x + k2y * v2y)
         + c[I2] * a1 * tau1
-        + c[M3] * (a3x * v3x + a3y * v3y)
+        + (k3x * v3x + k3y * v3y)
         + c[I3] * a3 * tau3
-        - (drag * v3x - down * v3y)
     )
 
 
@@ -343,6 +405,10 @@ KERNELS = (
     flap_rates,
     generalised_forces,
     projected_dynamics,
+    com_offsets,
+    turning_acceleration,
+    dalembert_loads,
+    newton_euler_reactions,
     psi3_position,
     psi3_acceleration_at,
     psi3_acceleration,

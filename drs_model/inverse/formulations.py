@@ -33,7 +33,10 @@ then read
 a 2 x 2 system of determinant ``(C - B) x (D - C) = -L2 L3 cos(psi1 - psi3)`` (zero where B, C,
 D align: the dead centre, where no finite piston force moves the flap). Then the piston, with
 ``K1 = m1 (a_G1 - g)``: ``Np = K1x - rj1x``, ``F = K1y - rj1y``,
-``Tp = I1 * 0 - (P - G1) x (Np, 0) - (B - G1) x rj1``.
+``Tp = I1 * 0 - (P - G1) x (Np, 0) - (B - G1) x rj1``. Written once, as
+:func:`drs_model.kernels.newton_euler_reactions` (with the loads ``K_b`` of
+:func:`~drs_model.kernels.dalembert_loads`): arithmetic alone, so arrays run it with numpy and
+one sample (``q`` of shape ``(3,)``) runs it compiled by numba, on floats.
 
 Lagrange with multipliers (``"lagrange"``)
 ------------------------------------------
@@ -72,6 +75,8 @@ N m); forces in ground axes.
 from __future__ import annotations
 
 import abc
+import functools
+import math
 import types
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -79,11 +84,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..bodies import air_forces, applied_forces, mass_matrix, velocity_forces
+from .. import kernels
+from ..bodies import applied_forces, mass_matrix, model_constants, velocity_forces
+from ..compiled.scalar import bind
 from ..constraints import PSI1, PSI3, S, constraint_jacobian, singularity_measure
 from ..errors import InputError, SingularConfigurationError
 from ..kernels import SINGULAR_TOL
-from ..kinematics import KinematicState, point_accelerations, point_positions, velocity_ratio
+from ..kinematics import KinematicState, point_positions, velocity_ratio
 from ..params import DRSParams
 from .fused import FusedInverseDynamics
 
@@ -138,28 +145,30 @@ def _as_state(state: KinematicState | tuple, p: DRSParams) -> tuple[np.ndarray, 
             ) from None
         if arr.ndim == 0 or arr.shape[-1] != 3:
             raise InputError(f"{name} must have shape (..., 3) = [s, psi1, psi3], got {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            bad = arr[~np.isfinite(arr)].ravel()[0]
-            raise InputError(f"{name} must be finite, got {float(bad)!r}")
         arrays.append(arr)
     if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
         raise InputError(
             f"q, qd, qdd must have equal shapes, got {arrays[0].shape}, {arrays[1].shape}, "
             f"{arrays[2].shape}"
         )
+    if arrays[0].ndim == 1:  # one sample: nine floats, checked without numpy's reductions
+        finite = all(map(math.isfinite, [*arrays[0].tolist(), *arrays[1].tolist(),
+                                         *arrays[2].tolist()]))  # fmt: skip
+    else:  # one pass over the sum (a NaN or inf anywhere makes it non-finite)
+        finite = bool(np.isfinite(arrays[0] + arrays[1] + arrays[2]).all())
+    if not finite:  # which array, and its first bad value
+        for name, arr in zip(("q", "qd", "qdd"), arrays, strict=True):
+            if not np.isfinite(arr).all():
+                bad = arr[~np.isfinite(arr)].ravel()[0]
+                raise InputError(f"{name} must be finite, got {float(bad)!r}")
     meas = singularity_measure(arrays[0], p, "s")
-    if np.any(meas < SINGULAR_TOL):
+    if (meas < SINGULAR_TOL).any():
         bad = arrays[0][meas < SINGULAR_TOL].reshape(-1, 3)[0]
         raise SingularConfigurationError(
             f"no finite piston force at q = {bad.tolist()}: B, C and D are aligned (dead centre, "
             f"|cos(psi1 - psi3)| = {float(np.min(meas)):.3g} < {SINGULAR_TOL:g})"
         )
     return tuple(arrays)
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """z-component of the planar cross product ``a x b``, shapes ``(..., 2)`` -> ``(...)``."""
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 # ---- formulations -------------------------------------------------------------------------------
@@ -212,8 +221,8 @@ class InverseMethod(abc.ABC):
 
 class _NewtonEulerTerms(NamedTuple):
     """What every body's Newton-Euler equations balance: the points ``P, G1, B, G2, C, G3, D``
-    [m] (each ``(..., 2)``) and ``K_b = m_b (a_Gb - g)`` [N] (``g = (0, -g)``), the flap's less
-    the air force: ``K3 = m3 (a_G3 - g) - F_air``."""
+    [m] (each ``(..., 2)``) and ``K_b = m_b (a_Gb - g) - F_air,b`` [N] (``g = (0, -g)``,
+    :func:`drs_model.kernels.dalembert_loads`), each ``(..., 2)``."""
 
     pos: dict[str, np.ndarray]
     k1: np.ndarray
@@ -222,47 +231,72 @@ class _NewtonEulerTerms(NamedTuple):
 
 
 def _newton_euler_terms(q, qd, qdd, p: DRSParams, flap_limits) -> _NewtonEulerTerms:
-    """The set-up of the Newton-Euler equations (:class:`NewtonEuler` and
-    :func:`newton_euler_system`)."""
+    """The set-up of the Newton-Euler equations for :func:`newton_euler_system`."""
     pos = point_positions(q, p, ("P", "G1", "B", "G2", "C", "G3", "D"))
-    acc = point_accelerations(q, qd, qdd, p, ("G1", "G2", "G3"))
-    drag, down = air_forces(q[..., PSI3], p, flap_limits)
-    k1 = p.m_pist * acc["G1"]
-    k1[..., 1] += p.m_pist * p.g
-    k2 = p.m_link * acc["G2"]
-    k2[..., 1] += p.m_link * p.g
-    k3 = p.m_wing * acc["G3"]
-    k3[..., 0] -= drag
-    k3[..., 1] += p.m_wing * p.g + down
-    return _NewtonEulerTerms(pos, k1, k2, k3)
+    k1y, k2x, k2y, k3x, k3y = kernels.dalembert_loads(
+        *_angles(q), q[..., PSI3], *_rates(qd, qdd), _constants(p, flap_limits)
+    )
+    return _NewtonEulerTerms(
+        pos, np.stack(np.broadcast_arrays(0.0, k1y), -1), np.stack((k2x, k2y), -1),
+        np.stack((k3x, k3y), -1),
+    )  # fmt: skip
+
+
+def _angles(q: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``(sin psi1, cos psi1, sin psi3, cos psi3)`` of ``q`` (..., 3)."""
+    psi1, psi3 = q[..., PSI1], q[..., PSI3]
+    return np.sin(psi1), np.cos(psi1), np.sin(psi3), np.cos(psi3)
+
+
+def _rates(qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``(psi1', psi3', s'', psi1'', psi3'')``, the rates :func:`kernels.dalembert_loads` reads."""
+    return qd[..., PSI1], qd[..., PSI3], qdd[..., S], qdd[..., PSI1], qdd[..., PSI3]
+
+
+@functools.lru_cache(maxsize=32)
+def _cached_constants(p: DRSParams, flap_limits: tuple[float, float] | None) -> tuple[float, ...]:
+    return model_constants(p, flap_limits)
+
+
+def _constants(p: DRSParams, flap_limits) -> tuple[float, ...]:
+    """:func:`~drs_model.bodies.model_constants` of ``p`` and the air law, computed once per
+    parameter set (it solves the gap rule for the flap angles: ~50 us, more than the force)."""
+    key = None if flap_limits is None else tuple(float(x) for x in flap_limits)
+    return _cached_constants(p, key)
+
+
+@functools.lru_cache(maxsize=32)
+def _newton_euler_sample(consts: tuple[float, ...]):
+    """:func:`kernels.newton_euler_reactions` bound to ``consts``, compiled when numba is
+    installed (one sample: its floats in, nine floats out)."""
+    return bind(kernels.newton_euler_reactions, consts)
 
 
 class NewtonEuler(InverseMethod):
-    """Per-body Newton-Euler with every joint reaction, in closed form (module docstring)."""
+    """Per-body Newton-Euler with every joint reaction, in closed form
+    (:func:`drs_model.kernels.newton_euler_reactions`; the module docstring has the equations).
+
+    One sample (``q`` of shape ``(3,)``) runs the kernel compiled, on floats; arrays run the same
+    kernel on numpy arrays."""
 
     name = "newton-euler"
 
     def solve(self, q, qd, qdd, p, flap_limits=None) -> InverseDynamicsResult:
-        pos, k1, k2, k3 = _newton_euler_terms(q, qd, qdd, p, flap_limits)
-        e = pos["C"] - pos["B"]
-        f = pos["D"] - pos["C"]
-        c1 = p.Iz_link * qdd[..., PSI1] - _cross(pos["B"] - pos["G2"], k2)
-        c2 = p.Iz_wing * qdd[..., PSI3] - _cross(pos["D"] - pos["G3"], k3)
-        det = _cross(e, f)
-        rj2x = (c1 * f[..., 0] - e[..., 0] * c2) / det
-        rj2y = (c1 * f[..., 1] - e[..., 1] * c2) / det
-        rj1x, rj1y = rj2x - k2[..., 0], rj2y - k2[..., 1]
-        rj3x, rj3y = rj2x + k3[..., 0], rj2y + k3[..., 1]
-        np_ = k1[..., 0] - rj1x
-        force = k1[..., 1] - rj1y
-        rp = pos["P"] - pos["G1"]
-        rb = pos["B"] - pos["G1"]
-        # I1 alpha1 = Tp + (P - G1) x (Np, 0) + (P - G1) x (0, F) + (B - G1) x rj1, alpha1 = 0
-        tp = rp[..., 1] * np_ - rp[..., 0] * force - (rb[..., 0] * rj1y - rb[..., 1] * rj1x)
-        reactions = types.MappingProxyType(
-            dict(zip(REACTION_NAMES, (np_, tp, rj1x, rj1y, rj2x, rj2y, rj3x, rj3y), strict=True))
-        )
-        return InverseDynamicsResult(self.name, force, reactions, None)
+        consts = _constants(p, flap_limits)
+        if q.ndim == 1:
+            s, psi1, psi3 = q.tolist()
+            sin, cos = math.sin, math.cos
+            out = _newton_euler_sample(consts)(
+                s, sin(psi1), cos(psi1), sin(psi3), cos(psi3), psi3,
+                float(qd[PSI1]), float(qd[PSI3]), *qdd.tolist(),
+            )  # fmt: skip
+            out = tuple(map(np.float64, out))
+        else:
+            out = kernels.newton_euler_reactions(
+                q[..., S], *_angles(q), q[..., PSI3], *_rates(qd, qdd), consts
+            )
+        reactions = types.MappingProxyType(dict(zip(REACTION_NAMES, out[:-1], strict=True)))
+        return InverseDynamicsResult(self.name, out[-1], reactions, None)
 
 
 class Lagrange(InverseMethod):
