@@ -15,7 +15,7 @@ from drs_ros.names import DEFAULT_TOPICS
 REPO = Path(__file__).resolve().parents[1]
 LAYOUT = REPO / "config" / "foxglove-layout.json"
 EXAMPLE_BAG = REPO / "bags" / "example"
-#: The node's MarkerArray topic (``~/markers``, issue 12), beside the names in drs_ros.names.
+#: The node's MarkerArray topic (``~/markers``), beside the names in drs_ros.names.
 MARKERS = "/drs/markers"
 #: What the plots must show: message path -> what it is.
 PLOTS = {

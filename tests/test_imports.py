@@ -18,49 +18,12 @@ from pathlib import Path
 import pytest
 from ros_support import require_rclpy
 
-ROOT = Path(__file__).resolve().parents[1]
-#: The packages checked; drs_ros's modules import rclpy, drs_model's never do.
-PACKAGES = ("drs_model", "drs_ros")
+import layout
 
-
-def _module_name(path: Path) -> str:
-    parts = path.relative_to(ROOT).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-
-
-MODULES = {_module_name(p): p for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py"))}
-
-
-def _imports(name: str, path: Path) -> set[str]:
-    """drs_model and drs_ros modules imported by ``name`` (anywhere in its source)."""
-    is_package = path.name == "__init__.py"
-    out = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            targets = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = name.split(".") if is_package else name.split(".")[:-1]
-                base = base[: len(base) - (node.level - 1)]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
-            # "from . import kernels" names a module; "from .kernels import x" names an attribute
-            targets = [mod] + [f"{mod}.{a.name}" for a in node.names]
-        else:
-            continue
-        out.update(t for t in targets if t in MODULES and t != name)
-    return out
-
-
-GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
-
-
-def _package_of(name: str) -> set[str]:
-    """The packages whose ``__init__`` runs when ``name`` is imported (not a dependency cycle:
-    Python imports a parent package before its modules)."""
-    parts = name.split(".")
-    return {".".join(parts[:i]) for i in range(1, len(parts))}
+ROOT = layout.ROOT
+#: The modules of drs_model and drs_ros and the graph of their imports, read by tests/layout.py.
+MODULES = layout.modules()
+GRAPH = layout.graph()
 
 
 def test_the_graph_is_read():
@@ -75,21 +38,9 @@ def test_the_graph_is_read():
 def test_no_import_cycle():
     """Depth-first search for a back edge; a module importing its own parent package's
     ``__init__`` (re-exports) is not counted."""
-    state: dict[str, int] = {}  # 1 on the stack, 2 done
-
-    def visit(node: str, stack: list[str]) -> None:
-        state[node] = 1
-        for nxt in sorted(GRAPH[node] - _package_of(node)):
-            if state.get(nxt) == 1:
-                cycle = stack[stack.index(nxt) :] + [nxt]
-                pytest.fail("import cycle: " + " -> ".join(cycle))
-            if nxt not in state:
-                visit(nxt, stack + [nxt])
-        state[node] = 2
-
-    for name in sorted(GRAPH):
-        if name not in state:
-            visit(name, [name])
+    cycle = layout.first_cycle(GRAPH)
+    if cycle:
+        pytest.fail("import cycle: " + " -> ".join(cycle))
 
 
 #: Modules that import numba (the optional extra ``fast``) when they are imported.

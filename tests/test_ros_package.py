@@ -24,7 +24,7 @@ from ros_support import require_module, require_rclpy
 REPO = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
 
-#: ROS packages the node needs at run time (issue 12); each must be an exec_depend.
+#: ROS packages the node needs at run time; each must be an exec_depend.
 ROS_DEPENDENCIES = {
     "rclpy",
     "sensor_msgs",

@@ -1,0 +1,53 @@
+"""The code keeps the shape a newcomer can live in (tests/layout.py measures it): no function of
+drs_model or drs_ros over 80 lines, no module over 500, and no line of the product's code, tests,
+docs or benchmarks that speaks of the work that built it (an issue by number, a dated session)
+instead of the product. Each check is also run on a planted file, so a pass means something."""
+
+from __future__ import annotations
+
+import layout
+
+
+def test_no_function_over_the_limit():
+    assert layout.long_functions() == []
+
+
+def test_no_module_over_the_limit():
+    assert layout.long_modules() == []
+
+
+def test_the_product_speaks_of_the_product():
+    assert layout.process_words() == []
+
+
+def _planted(tmp_path, body: str):
+    pkg = tmp_path / "drs_model"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "planted.py").write_text(body)
+    (tmp_path / "drs_ros").mkdir()
+    return tmp_path
+
+
+def test_a_long_function_and_module_would_be_found(tmp_path):
+    body = "def f():\n" + "    x = 1\n" * 90 + "\n\ndef g():\n    return 2\n" + "# pad\n" * 420
+    root = _planted(tmp_path, body)
+    assert layout.long_functions(root=root) == [("drs_model/planted.py", 1, "f", 91)]
+    assert layout.long_functions(limit=91, root=root) == []
+    assert layout.long_modules(root=root) == [("drs_model.planted", 515)]
+
+
+def test_process_words_would_be_found(tmp_path):
+    said = ["# the fix of iss" + "ue 17", "x = 1  # as before iss" + "ue", "see the sess" + "ion of 2026-11-23",
+            "today's " + "model takes it"]  # fmt: skip
+    kept = ["ros2/rosbag2#2365 (upstream)", "@pytest.fixture(scope='session')",
+            "a test session warms the cache", "the issues an engineer files"]  # fmt: skip
+    root = _planted(tmp_path, "\n".join(said + kept) + "\n")
+    found = layout.process_words(root)
+    assert [f.split(": ", 1)[1] for f in found] == said
+
+
+def test_a_cycle_would_be_found():
+    g = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "a.x": {"a"}}
+    assert layout.first_cycle(g) == ["a", "b", "c", "a"]
+    assert layout.first_cycle({"a": set(), "a.x": {"a"}, "b": {"a.x"}}) is None
