@@ -111,7 +111,8 @@ def first_cycle(g: dict[str, set[str]]) -> list[str] | None:
     return None
 
 
-def long_functions(limit: int = FUNCTION_LIMIT, root: Path = ROOT) -> list[tuple[str, int, str, int]]:
+def long_functions(limit: int = FUNCTION_LIMIT,
+                   root: Path = ROOT) -> list[tuple[str, int, str, int]]:
     """``(file, line, name, length)`` of every function of the packages longer than ``limit``
     lines, longest first."""
     out = []
@@ -129,6 +130,22 @@ def long_modules(limit: int = MODULE_LIMIT, root: Path = ROOT) -> list[tuple[str
     return [(m, lines(p)) for m, p in modules(root).items() if lines(p) > limit]
 
 
+def unlisted_modules(root: Path = ROOT) -> list[str]:
+    """Modules of the packages that the README's layout table (its rows starting ``| `drs_``)
+    does not name: by their file (```name```, ```name.py```) or, for a package, its folder."""
+    rows = [r for r in (root / "README.md").read_text().splitlines() if r.startswith("| `drs_")]
+    table = "\n".join(rows)
+    out = []
+    for name, path in modules(root).items():
+        leaf = path.parent.name if path.stem == "__init__" else path.stem
+        if leaf == "__main__":
+            continue
+        forms = (f"`{leaf}`", f"`{leaf}.py`", f"`{leaf}/", f"/{leaf}/", f"/{leaf}.py`")
+        if not any(form in table for form in forms):
+            out.append(name)
+    return out
+
+
 def text_files(root: Path = ROOT) -> list[Path]:
     """The product's text files (:data:`TEXT_PLACES`), caches and generated data left out."""
     out = []
@@ -136,7 +153,8 @@ def text_files(root: Path = ROOT) -> list[Path]:
         path = root / place
         files = [path] if path.is_file() else sorted(path.rglob("*")) if path.is_dir() else []
         out += [f for f in files if f.is_file() and f.suffix in TEXT_SUFFIXES
-                and "__pycache__" not in f.parts and "data" not in f.relative_to(root).parts]  # fmt: skip
+                and "__pycache__" not in f.parts
+                and "data" not in f.relative_to(root).parts]  # fmt: skip
     return out
 
 
@@ -157,7 +175,8 @@ def process_words(root: Path = ROOT) -> list[str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--graph", action="store_true", help="print each module's project imports")
-    ap.add_argument("--long", type=int, default=FUNCTION_LIMIT, help="function length limit [lines]")
+    ap.add_argument("--long", type=int, default=FUNCTION_LIMIT,
+                    help="function length limit [lines]")
     ap.add_argument("--root", type=Path, default=ROOT, help="the repository (default: this one)")
     args = ap.parse_args(argv)
     mods, g = modules(args.root), graph(args.root)

@@ -15,10 +15,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import layout
 import pytest
 from ros_support import require_rclpy
-
-import layout
 
 ROOT = layout.ROOT
 #: The modules of drs_model and drs_ros and the graph of their imports, read by tests/layout.py.

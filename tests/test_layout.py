@@ -1,7 +1,8 @@
 """The code keeps the shape a newcomer can live in (tests/layout.py measures it): no function of
 drs_model or drs_ros over 80 lines, no module over 500, and no line of the product's code, tests,
 docs or benchmarks that speaks of the work that built it (an issue by number, a dated session)
-instead of the product. Each check is also run on a planted file, so a pass means something."""
+instead of the product; and a README whose layout table names every module. Each check is also
+run on a planted case, so a pass means something."""
 
 from __future__ import annotations
 
@@ -18,6 +19,18 @@ def test_no_module_over_the_limit():
 
 def test_the_product_speaks_of_the_product():
     assert layout.process_words() == []
+
+
+def test_the_readme_names_every_module():
+    assert layout.unlisted_modules() == []
+
+
+def test_an_unlisted_module_would_be_found(tmp_path):
+    root = _planted(tmp_path, "x = 1\n")
+    (root / "README.md").write_text("| `drs_model/` | the model: `other` |\n")
+    assert layout.unlisted_modules(root) == ["drs_model.planted"]
+    (root / "README.md").write_text("| `drs_model/` | the model: `planted` |\n")
+    assert layout.unlisted_modules(root) == []
 
 
 def _planted(tmp_path, body: str):
@@ -38,8 +51,8 @@ def test_a_long_function_and_module_would_be_found(tmp_path):
 
 
 def test_process_words_would_be_found(tmp_path):
-    said = ["# the fix of iss" + "ue 17", "x = 1  # as before iss" + "ue", "see the sess" + "ion of 2026-11-23",
-            "today's " + "model takes it"]  # fmt: skip
+    said = ["# the fix of iss" + "ue 17", "x = 1  # as before iss" + "ue",
+            "see the sess" + "ion of 2026-11-23", "today's " + "model takes it"]  # fmt: skip
     kept = ["ros2/rosbag2#2365 (upstream)", "@pytest.fixture(scope='session')",
             "a test session warms the cache", "the issues an engineer files"]  # fmt: skip
     root = _planted(tmp_path, "\n".join(said + kept) + "\n")
