@@ -267,9 +267,11 @@ class CommandedActuator:
     def advance(self, n: int) -> None:
         """Advance ``n`` steps without building a snapshot per step (the real-time loop's way:
         :attr:`state` builds one, ~20 us)."""
-        if self.path_is_state and n > 1:
-            self.motion.steps += n - 1  # the steps between leave nothing behind
-            n = 1
+        if self.path_is_state:
+            if n > 0:
+                self.motion.steps += n - 1  # the steps between leave nothing behind
+                self._advance_one()
+            return
         for _ in range(n):
             self._advance_one()
 
