@@ -21,6 +21,7 @@ Every function is vectorised: ``q`` has shape ``(..., 3)``.
 
 from __future__ import annotations
 
+import math
 from types import MappingProxyType
 
 import numpy as np
@@ -80,23 +81,28 @@ def partition(independent: str) -> tuple[int, tuple[int, int]]:
 
 
 def dependent_determinant(q: np.ndarray, p: DRSParams, independent: str = "s") -> np.ndarray:
-    """det of the dependent Jacobian block, shape ``(...)`` [m^2 for s, m for psi3]."""
-    _, p1, p3 = _split(q)
+    """det of the dependent Jacobian block, shape ``(...)`` [m^2 for s, m for psi3]; ``q`` as a
+    tuple of three floats is one sample, computed with ``math`` (a float, no 0-d arrays)."""
+    if isinstance(q, tuple):
+        (_, p1, p3), cos = q, math.cos
+    else:
+        (_, p1, p3), cos = _split(q), np.cos
     partition(independent)
     if independent == "s":
-        return -p.L2 * p.L3 * np.cos(p1 - p3)
+        return -p.L2 * p.L3 * cos(p1 - p3)
     # dependent [s, psi1]: [[0, L2 c1], [-1, L2 s1]] -> det = L2 cos(psi1)
-    return p.L2 * np.cos(p1)
+    return p.L2 * cos(p1)
 
 
 def singularity_measure(q: np.ndarray, p: DRSParams, independent: str = "s") -> np.ndarray:
     """Normalised distance to a singular configuration, in [0, 1] (0 = singular).
 
     ``|cos(psi1 - psi3)|`` for ``independent="s"`` (the transmission of the link to the flap), and
-    ``|cos(psi1)|`` for ``independent="psi3"``.
+    ``|cos(psi1)|`` for ``independent="psi3"``. ``q`` as a tuple of three floats: a float.
     """
     scale = p.L2 * p.L3 if independent == "s" else p.L2
-    return np.abs(dependent_determinant(q, p, independent)) / scale
+    det = dependent_determinant(q, p, independent)
+    return (abs(det) if isinstance(q, tuple) else np.abs(det)) / scale
 
 
 def constraint_velocity_term(q: np.ndarray, qd: np.ndarray, p: DRSParams) -> np.ndarray:

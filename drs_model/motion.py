@@ -87,7 +87,9 @@ class StrokeMotion:
         if duration is None:
             frac = abs(target - s0) / (self.s_max - self.s_min)
             duration = max(self.p.T_opening * frac, 2 * self.dt)
-        seg = quintic_move(self.p, target, duration, s0, v0, a0, t0=self.t)
+        seg = quintic_move(
+            self.p, target, duration, s0, v0, a0, t0=self.t, limits=(self.s_min, self.s_max)
+        )
         path = seg.evaluate(np.linspace(seg.t0, seg.t1, 65))[0]
         if path.min() < self.s_min - 1e-12 or path.max() > self.s_max + 1e-12:
             raise StrokeRangeError(

@@ -155,8 +155,12 @@ def quintic_move(
     a0: float = 0.0,
     t0: float = 0.0,
     tol: float = 1e-12,
+    limits: tuple[float, float] | None = None,
 ) -> QuinticSegment:
     """A quintic from the current state ``(s0, v0, a0)`` at ``t0`` to rest at ``s_target`` [m].
+
+    ``limits`` is ``stroke_limits(p)`` when the caller holds it (solving for them costs more than
+    the move: a stepping actuator passes its own).
 
     Raises :class:`StrokeRangeError` for a target outside ``[s_min, s_max]`` and
     :class:`InputError` for a non-finite input or a non-positive duration. The path may overshoot
@@ -167,7 +171,7 @@ def quintic_move(
             raise InputError(f"{name} must be finite, got {value!r}")
     if not (math.isfinite(float(duration)) and duration > 0.0):
         raise InputError(f"duration must be a finite number > 0 s, got {duration!r}")
-    lo, hi = stroke_limits(p)
+    lo, hi = stroke_limits(p) if limits is None else limits
     if not lo - tol <= s_target <= hi + tol:
         raise StrokeRangeError(
             f"target stroke {s_target!r} m is outside [s_min, s_max] = [{lo:.9g}, {hi:.9g}] m"

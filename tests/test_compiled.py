@@ -442,3 +442,25 @@ def test_missing_numba_is_an_import_error():
 def test_importing_the_model_does_not_import_numba():
     code = "import sys, drs_model.forward; assert 'numba' not in sys.modules, 'numba imported'"
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_inlined_fused_batch_path_is_the_plain_kernel():
+    """The batch path of the fused inverse dynamics (its kernels inlined into the gufunc) gives,
+    at times through the open-hold-close manoeuvre and past it, the plain Python kernel's force
+    (rounding aside) and the build of the registered, not inlined, kernels to the bit."""
+    from drs_model import DRSParams, elementwise, kernels
+    from drs_model.compiled.jit import compiled
+    from drs_model.inverse import FusedInverseDynamics
+
+    fid = FusedInverseDynamics.from_params(DRSParams())
+    c, k = np.asarray(fid.consts, float), np.asarray(fid.profile, float)
+    t = np.linspace(-0.01, 0.32, 2001)
+    batch = elementwise.fused_manoeuvre_force(t, c, k)
+
+    def registered(t, c, k):  # the kernel as every other compiled caller builds it
+        return kernels.fused_manoeuvre_force(t, c, k)
+
+    plain = np.array([kernels.fused_manoeuvre_force(x, fid.consts, fid.profile) for x in t])
+    np.testing.assert_allclose(batch, plain, rtol=1e-12, atol=1e-9)
+    not_inlined = np.array([compiled(registered)(x, c, k) for x in t])
+    np.testing.assert_array_equal(batch, not_inlined)

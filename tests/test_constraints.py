@@ -87,3 +87,19 @@ def test_vectorised_shapes(params):
 def test_bad_partition():
     with pytest.raises(InputError, match=r"independent coordinate must be one of \['psi3', 's'\]"):
         partition("psi1")
+
+
+@given(coords)
+@settings(max_examples=40, deadline=None)
+def test_one_sample_of_floats_is_the_array_formula(params, q):
+    """A tuple of three floats (the one-sample path, ``math``) gives a float equal to the
+    determinant of the Jacobian block (numpy's ``det``) and to the array path."""
+    one = tuple(q.tolist())
+    for name in ("s", "psi3"):
+        _, jd = jacobian_blocks(q, params, name)
+        det = dependent_determinant(one, params, name)
+        assert type(det) is float
+        assert det == pytest.approx(np.linalg.det(jd), abs=1e-15)
+        measure = singularity_measure(one, params, name)
+        assert type(measure) is float
+        assert measure == pytest.approx(float(singularity_measure(q, params, name)), abs=1e-15)

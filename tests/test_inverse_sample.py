@@ -18,6 +18,7 @@ from drs_model import inverse as dyn
 from drs_model import kinematics as kin
 from drs_model.bodies import air_forces
 from drs_model.errors import InputError, SingularConfigurationError
+from drs_model.kernels import SINGULAR_TOL
 
 #: Agreement of the formulations, relative to the largest force or reaction of the sample [-]
 #: (the one used over the manoeuvre in test_inverse.py).
@@ -118,3 +119,24 @@ def test_one_sample_refuses_bad_states(params):
         dyn.inverse_dynamics((dead, qd, qdd), params, "newton-euler")
     with pytest.raises(InputError, match=r"qd must have shape \(\.\.\., 3\).*\(2,\)"):
         dyn.inverse_dynamics((q, qd[:2], qdd), params, "newton-euler")
+
+
+@pytest.mark.parametrize("offset", [0.0, 5e-10, -5e-10, 2e-9, -2e-9, 1e-3])
+def test_one_sample_refuses_the_dead_centre_as_the_batch_does(params, offset):
+    """The one-sample validation (floats) refuses exactly the states the batch validation
+    (arrays) refuses: around ``psi1 - psi3 = pi/2`` (B, C, D aligned), within and just outside
+    the tolerance of the transmission ``|cos(psi1 - psi3)|``."""
+    q, qd, qdd = _state(params, 0.5, 1.0, 10.0)
+    q = np.array([q[0], q[2] + math.pi / 2 + offset, q[2]])
+
+    def refused(state):
+        try:
+            dyn.inverse_dynamics(state, params, "newton-euler")
+        except SingularConfigurationError as exc:
+            assert "dead centre" in str(exc)
+            return True
+        return False
+
+    one = refused((q, qd, qdd))
+    assert one == refused((q[None], qd[None], qdd[None]))
+    assert one == (abs(math.cos(q[1] - q[2])) < SINGULAR_TOL)

@@ -37,8 +37,12 @@ def fused_force(s, sd, sdd, c, force):
 
 
 def fused_manoeuvre_force(t, c, k, force):
-    """:func:`drs_model.kernels.fused_manoeuvre_force`."""
-    force[0] = kernels.fused_manoeuvre_force(t, c, k)
+    """:func:`drs_model.kernels.fused_manoeuvre_force`, its callees inlined (the batch path of
+    the inverse dynamics along a manoeuvre)."""
+    force[0] = _FUSED_MANOEUVRE_FORCE(t, c, k)
+
+
+_FUSED_MANOEUVRE_FORCE = jit.inlined(kernels.fused_manoeuvre_force)
 
 
 def psi3_acceleration(b, bd, force, c, acc):

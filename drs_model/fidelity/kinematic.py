@@ -22,6 +22,7 @@ class KinematicRung(CommandedActuator):
 
     name = "kinematic"
     state_type = RungState
+    path_is_state = True
 
     def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
         """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are
@@ -50,10 +51,8 @@ class KinematicRung(CommandedActuator):
         state to integrate, its state at any time is the commanded path's."""
         m = self.motion
         n = int(math.floor((t - m.t_reset) / self.dt + 1e-9))
-        if n <= m.steps:
-            return
-        m.steps = n - 1
-        self._advance_one()
+        if n > m.steps:
+            self.advance(n - m.steps)
 
     def samples(self, times: np.ndarray) -> np.ndarray:
         """The stroke [m] at ``times`` [s] (sorted, none before now and none past the next

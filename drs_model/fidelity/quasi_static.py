@@ -27,6 +27,7 @@ class QuasiStaticRung(CommandedActuator):
 
     name = "quasi-static"
     state_type = RungState
+    path_is_state = True
 
     def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
         """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are

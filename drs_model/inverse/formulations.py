@@ -152,8 +152,8 @@ def _as_state(state: KinematicState | tuple, p: DRSParams) -> tuple[np.ndarray, 
             f"{arrays[2].shape}"
         )
     if arrays[0].ndim == 1:  # one sample: nine floats, checked without numpy's reductions
-        finite = all(map(math.isfinite, [*arrays[0].tolist(), *arrays[1].tolist(),
-                                         *arrays[2].tolist()]))  # fmt: skip
+        values = [*arrays[0].tolist(), *arrays[1].tolist(), *arrays[2].tolist()]
+        finite = all(map(math.isfinite, values))
     else:  # one pass over the sum (a NaN or inf anywhere makes it non-finite)
         finite = bool(np.isfinite(arrays[0] + arrays[1] + arrays[2]).all())
     if not finite:  # which array, and its first bad value
@@ -161,11 +161,16 @@ def _as_state(state: KinematicState | tuple, p: DRSParams) -> tuple[np.ndarray, 
             if not np.isfinite(arr).all():
                 bad = arr[~np.isfinite(arr)].ravel()[0]
                 raise InputError(f"{name} must be finite, got {float(bad)!r}")
-    meas = singularity_measure(arrays[0], p, "s")
-    if (meas < SINGULAR_TOL).any():
-        bad = arrays[0][meas < SINGULAR_TOL].reshape(-1, 3)[0]
+    if arrays[0].ndim == 1:  # a float from three floats (numpy's 0-d arithmetic costs ~3 us)
+        meas = singularity_measure(tuple(values[:3]), p, "s")
+        singular, bad = meas < SINGULAR_TOL, values[:3]
+    else:
+        meas = singularity_measure(arrays[0], p, "s")
+        singular = (meas < SINGULAR_TOL).any()
+        bad = arrays[0][meas < SINGULAR_TOL].reshape(-1, 3)[0].tolist() if singular else None
+    if singular:
         raise SingularConfigurationError(
-            f"no finite piston force at q = {bad.tolist()}: B, C and D are aligned (dead centre, "
+            f"no finite piston force at q = {bad}: B, C and D are aligned (dead centre, "
             f"|cos(psi1 - psi3)| = {float(np.min(meas)):.3g} < {SINGULAR_TOL:g})"
         )
     return tuple(arrays)
@@ -266,10 +271,16 @@ def _constants(p: DRSParams, flap_limits) -> tuple[float, ...]:
 
 
 @functools.lru_cache(maxsize=32)
-def _newton_euler_sample(consts: tuple[float, ...]):
-    """:func:`kernels.newton_euler_reactions` bound to ``consts``, compiled when numba is
-    installed (one sample: its floats in, nine floats out)."""
+def _newton_euler_bound(consts: tuple[float, ...]):
     return bind(kernels.newton_euler_reactions, consts)
+
+
+@functools.lru_cache(maxsize=32)
+def _newton_euler_sample(p: DRSParams, flap_limits: tuple[float, float] | None):
+    """:func:`kernels.newton_euler_reactions` bound to the constants of ``p`` and the air law,
+    compiled when numba is installed (one sample: its floats in, nine floats out); one cache
+    look-up per sample (hashing the 23 constants again would cost more than the kernel)."""
+    return _newton_euler_bound(_constants(p, flap_limits))
 
 
 class NewtonEuler(InverseMethod):
@@ -282,18 +293,18 @@ class NewtonEuler(InverseMethod):
     name = "newton-euler"
 
     def solve(self, q, qd, qdd, p, flap_limits=None) -> InverseDynamicsResult:
-        consts = _constants(p, flap_limits)
         if q.ndim == 1:
+            key = None if flap_limits is None else tuple(float(x) for x in flap_limits)
             s, psi1, psi3 = q.tolist()
+            _, psi1d, psi3d = qd.tolist()
             sin, cos = math.sin, math.cos
-            out = _newton_euler_sample(consts)(
-                s, sin(psi1), cos(psi1), sin(psi3), cos(psi3), psi3,
-                float(qd[PSI1]), float(qd[PSI3]), *qdd.tolist(),
-            )  # fmt: skip
+            out = _newton_euler_sample(p, key)(
+                s, sin(psi1), cos(psi1), sin(psi3), cos(psi3), psi3, psi1d, psi3d, *qdd.tolist()
+            )
             out = tuple(map(np.float64, out))
         else:
             out = kernels.newton_euler_reactions(
-                q[..., S], *_angles(q), q[..., PSI3], *_rates(qd, qdd), consts
+                q[..., S], *_angles(q), q[..., PSI3], *_rates(qd, qdd), _constants(p, flap_limits)
             )
         reactions = types.MappingProxyType(dict(zip(REACTION_NAMES, out[:-1], strict=True)))
         return InverseDynamicsResult(self.name, out[-1], reactions, None)
