@@ -69,6 +69,18 @@ def float_list(text: str) -> list[float]:
     return values
 
 
+def parameter_names_argument(text: str) -> list[str]:
+    """argparse ``type=`` of ``NAME,...`` (``drs excite``, ``drs-bag fit`` and ``trend``'s
+    ``--params``): at least one name, none twice."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("name at least one parameter")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise argparse.ArgumentTypeError(f"named twice: {repeated}")
+    return names
+
+
 def positive_number(text: str) -> float:
     """argparse ``type=``: a finite number > 0."""
     try:

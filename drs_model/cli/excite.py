@@ -19,7 +19,15 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 from ..fidelity.hydraulic_params import HydraulicParams
-from ._common import Output, add_common, load_params, positive_integer, positive_number, table
+from ._common import (
+    Output,
+    add_common,
+    load_params,
+    parameter_names_argument,
+    positive_integer,
+    positive_number,
+    table,
+)
 
 #: What ``drs excite --help`` and the report say of the bag form of the goal.
 BAG_RECIPE = ("drs-bag from-goal GOAL.yaml -o DIR [--node NAME] writes the goal as a bag that "
@@ -31,12 +39,7 @@ def design_names_argument(text: str) -> list[str]:
     a design can serve them is the model's to say)."""
     from ..identify.parameters import fit_parameter
 
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    if not names:
-        raise argparse.ArgumentTypeError("name at least one parameter")
-    repeated = sorted({n for n in names if names.count(n) > 1})
-    if repeated:
-        raise argparse.ArgumentTypeError(f"named twice: {repeated}")
+    names = parameter_names_argument(text)
     try:
         for name in names:
             fit_parameter(name)

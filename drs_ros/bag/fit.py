@@ -33,6 +33,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 
+from drs_model.cli._common import parameter_names_argument
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_INTERNAL,
@@ -69,18 +70,6 @@ REFUSED = "REFUSED"
 
 
 # ---- options, checked when parsed (argparse ``type=``) ---------------------------------------
-def parameter_names_argument(text: str) -> list[str]:
-    """``NAME,...`` (``drs-bag fit`` and ``drs-bag trend``'s ``--params``): at least one name,
-    none twice."""
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    if not names:
-        raise argparse.ArgumentTypeError("name at least one parameter")
-    repeated = sorted({n for n in names if names.count(n) > 1})
-    if repeated:
-        raise argparse.ArgumentTypeError(f"named twice: {repeated}")
-    return names
-
-
 def fit_names_argument(text: str) -> list[str]:
     """``--params NAME,...``: parameters that can be fitted (on some rung; whether the bag's
     rung holds them is the model's to say), none twice."""
