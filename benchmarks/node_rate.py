@@ -172,6 +172,10 @@ def measure(
         "missed_deadlines": delta("missed_deadlines", int),
         "dropped_steps": delta("dropped_steps", int),
         "exit_code": proc.returncode,
+        # since the node's start (a histogram has no window); deadline executor only
+        "tick_policy": last.get("tick_policy", "?"),
+        **{f"lateness_{q}_us": float(last.get(f"tick_lateness_{q}_us", "nan"))
+           for q in ("p50", "p99", "max")},  # fmt: skip
     }
     stats["missed_share"] = stats["missed_deadlines"] / ticks
     split = 0.0
@@ -296,7 +300,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{r['missed_deadlines']}/{r['ticks']} "
                   f"({100 * r['missed_share']:.2f} %), per cycle: model "
                   f"{r['us_per_cycle_model']:.0f} us, publish {r['us_per_cycle_publish']:.0f} us, "
-                  f"record {r['us_per_cycle_record']:.0f} us, rest {r['us_per_cycle_rest']:.0f} us",
+                  f"record {r['us_per_cycle_record']:.0f} us, rest {r['us_per_cycle_rest']:.0f} us;"
+                  f" lateness p50/p99/max {r['lateness_p50_us']:.0f}/{r['lateness_p99_us']:.0f}/"
+                  f"{r['lateness_max_us']:.0f} us ({r['tick_policy']})",
                   flush=True)  # fmt: skip
         write = recorder_cost(20000, 5, tmp)
     rows = [median_run(runs) for runs in by_config.values()]

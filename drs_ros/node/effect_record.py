@@ -27,6 +27,7 @@ from ..errors import DRSRosError
 from ..names import CLOCK, REFUSED
 from ..recording.cdr import without_source_location
 from ..timestamps import ns_from_seconds, seconds_from_ns
+from .tick_schedule import LatenessHistogram
 
 #: Bytes of a malformed command kept (hex) in its effect record, for forensics.
 MALFORMED_BYTES_KEPT = 4096
@@ -116,6 +117,9 @@ class EffectRecord:
         self.clock_jumps = 0
         #: CPU time [s] of the ticks: stepping the model, publishing, recording.
         self.cpu = {"model": 0.0, "publish": 0.0, "record": 0.0}
+        #: The tick thread's scheduling policy (set by the deadline loop) and its lateness.
+        self.tick_policy = "rclpy timer (executor thread)"
+        self.lateness = LatenessHistogram()
 
     def refuse_malformed(self, topic: str, msg_type, data: bytes, exc: Exception,
                          now_ns: int) -> None:  # fmt: skip
@@ -224,6 +228,8 @@ def diagnostics_values(st, effects: EffectRecord, faults: str, callback_errors: 
         "clock_jumps": effects.clock_jumps,
         "callback_errors": callback_errors,
         "ticks": effects.ticks,
+        "tick_policy": effects.tick_policy,
+        **effects.lateness.values(),
         **recordings,
         **{f"cpu_{part}_s": f"{spent:.3f}" for part, spent in effects.cpu.items()},
     }

@@ -23,6 +23,7 @@ from ..errors import DRSRosError
 from ..names import DEFAULT_JOINT_NAMES
 from ..rclpy_private import parameter_overrides
 from ..stack.layer import STACK_PARAMETERS
+from .tick_schedule import FIFO_PRIORITY_RANGE, TICK_SCHEDULING
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
 #: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and a
@@ -67,6 +68,9 @@ NODE_PARAMETERS = (
      (0.1, 3600.0)),
     ("executor", "deadline",
      "deadline (ticks on absolute deadlines, executor thread for the rest) or single", EXECUTORS),
+    ("tick_scheduling", "fifo", "the deadline loop's tick thread under SCHED_FIFO when the "
+     "process may have it (else SCHED_OTHER, saying why) or other (SCHED_OTHER)", TICK_SCHEDULING),
+    ("tick_fifo_priority", 10, "SCHED_FIFO priority of the tick thread", FIFO_PRIORITY_RANGE),
     ("bag_path", "", "MCAP bag directory ('' = no bag)", None),
     ("rrd_path", "", "rerun .rrd file ('' = none)", None),
     ("rerun_connect", "", "stream to a running rerun viewer on loopback, e.g. "

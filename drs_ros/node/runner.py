@@ -12,6 +12,7 @@ import threading
 import time
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -25,6 +26,7 @@ from ..stop_request import StopRequest
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
+from .tick_schedule import TickPolicy, apply_tick_policy
 
 #: How often [s] a thread holding the GIL offers it to the others (see main).
 GIL_SWITCH_INTERVAL_S = 0.0005
@@ -70,6 +72,11 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     thread = threading.Thread(target=spin_until_stopped, args=(node, executor, stop),
                               name="drs-executor")  # fmt: skip
     thread.start()
+    # after the executor thread started: SCHED_FIFO (when asked and allowed) is this thread's only
+    policy = apply_tick_policy(node.get_parameter("tick_scheduling").value,
+                               node.get_parameter("tick_fifo_priority").value)  # fmt: skip
+    report_tick_policy(node, policy)
+    lateness = node.effects.lateness
     period_ns = ns_from_seconds(node.publish_period)
     deadline = time.monotonic_ns()
     try:
@@ -79,15 +86,33 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
             while wait > 0 and not stop.requested:  # a long period still sees a stop soon
                 time.sleep(min(seconds_from_ns(wait), STOP_POLL_S))
                 wait = deadline - time.monotonic_ns()
-            if wait < -period_ns:
-                deadline = time.monotonic_ns()  # late by more than a period: resume from now
             if stop.requested or not context.ok():
                 break
+            lateness.add(-wait)
+            if wait < -period_ns:  # late by more than a period: the deadlines between are skipped
+                lateness.skipped += -wait // period_ns
+                deadline = time.monotonic_ns()  # resume from now
             node.tick()
     finally:
         stop()  # the executor thread ends too, whatever ended this loop
         thread.join()
         executor.shutdown(timeout_sec=1.0)
+
+
+def report_tick_policy(node: DRSNode, policy: TickPolicy) -> None:
+    """Say at start which policy the tick runs under (and why not SCHED_FIFO, when asked for
+    and refused): a log line, the diagnostics' ``tick_policy`` and a ``scheduling`` record of
+    the effect record (in the bag)."""
+    text = policy.text()
+    node.effects.tick_policy = text
+    if policy.note:
+        node.get_logger().warning(f"tick thread: {text}")
+    else:
+        node.get_logger().info(f"tick thread: {text}")
+    level = DiagnosticStatus.WARN if policy.note else DiagnosticStatus.OK
+    node.effects.event("scheduling", "scheduling", level, policy.note, None,
+                       {"policy": policy.name, "priority": policy.priority},
+                       node.get_clock().now().nanoseconds)  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -164,4 +189,6 @@ def main(argv: list[str] | None = None) -> int:
     return rc
 
 
-__all__ = ["StopRequest", "main", "run_deadline_loop", "spin_until_stopped"]
+__all__ = [
+    "StopRequest", "main", "report_tick_policy", "run_deadline_loop", "spin_until_stopped"
+]

@@ -1,0 +1,141 @@
+"""The tick thread's scheduling: the lateness histogram against numpy's percentiles, a tick
+late by several periods counted in diagnostics, and the node without the privilege of
+SCHED_FIFO starting, saying why and running."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from node_support import domain_for, node_env, ros_context, wait_for_file_growth  # noqa: F401
+from ros_support import require_rclpy
+
+from drs_ros.node.tick_schedule import _EDGES_US, LatenessHistogram, TickPolicy, apply_tick_policy
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(min_value=-5_000, max_value=3_000_000_000), min_size=1, max_size=400))
+def test_histogram_quantiles_bound_numpy_percentiles_within_a_bin(lateness_ns):
+    hist = LatenessHistogram()
+    for x in lateness_ns:
+        hist.add(x)
+    clipped = np.sort(np.maximum(np.array(lateness_ns, dtype=np.int64), 0))  # [ns]
+    assert hist.count == len(lateness_ns)
+    assert hist.max_ns == clipped[-1]
+    edges_ns = 1000 * np.array(_EDGES_US, dtype=np.int64)
+    for q in (0.5, 0.99):
+        # the order statistic of rank ceil(q n) lies in the bin reported: its upper edge (or
+        # the largest lateness, when smaller or beyond the last edge)
+        exact = clipped[max(int(np.ceil(q * len(clipped))) - 1, 0)]
+        k = np.searchsorted(edges_ns, exact, side="left")
+        edge = edges_ns[k] if k < len(edges_ns) else clipped[-1]
+        assert hist.quantile_us(q) == min(edge, clipped[-1]) / 1000.0
+
+
+def test_an_empty_histogram_reports_zero():
+    values = LatenessHistogram().values()
+    assert values["tick_lateness_p99_us"] == "0" and values["skipped_ticks"] == 0
+
+
+def test_other_is_not_fifo_and_a_refusal_names_why(monkeypatch):
+    assert apply_tick_policy("other", 10) == TickPolicy("SCHED_OTHER", 0)
+
+    def refuse(*_):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr("os.sched_setscheduler", refuse)
+    policy = apply_tick_policy("fifo", 10)
+    assert policy.name == "SCHED_OTHER"
+    assert "Operation not permitted" in policy.note and "CAP_SYS_NICE" in policy.note
+
+
+@pytest.mark.ros
+def test_a_tick_late_by_several_periods_is_counted_in_diagnostics(ros_context):  # noqa: F811
+    """The deadline loop in this thread, the tick held once for four periods: the deadlines
+    it overran are counted (skipped_ticks), the tick itself is a missed deadline, and the
+    histogram's maximum holds it. The loop is stopped from inside a tick (no wall clock)."""
+    from rclpy.parameter import Parameter
+
+    from drs_ros.node import DRSNode
+    from drs_ros.node.runner import run_deadline_loop
+    from drs_ros.stop_request import StopRequest
+
+    node = DRSNode(context=ros_context, tick_timer=False, parameter_overrides=[
+        Parameter("tick_scheduling", value="other"),  # this is pytest's own thread
+    ])  # fmt: skip
+    stop = StopRequest()
+    tick, count = node.tick, [0]
+    stall_s = 4 * node.publish_period
+
+    def held_tick():
+        count[0] += 1
+        if count[0] == 20:
+            import time
+
+            time.sleep(stall_s)  # the held tick (a stall of the process, say)
+        if count[0] == 60:
+            stop()
+        tick()
+
+    node.tick = held_tick
+    try:
+        run_deadline_loop(node, stop, ros_context)
+        values = node.diagnostics_values()
+    finally:
+        node.close_recordings()
+        node.destroy_node()
+    assert values["tick_policy"] == "SCHED_OTHER"
+    assert values["skipped_ticks"] >= 3
+    assert values["missed_deadlines"] >= 1
+    assert float(values["tick_lateness_max_us"]) >= 3e6 * node.publish_period
+    assert node.effects.lateness.count >= 59
+
+
+REFUSED_FIFO = textwrap.dedent(
+    """
+    import os, sys
+
+    def refuse(*_):
+        raise PermissionError(1, "Operation not permitted")
+
+    os.sched_setscheduler = refuse  # as for a process without root, CAP_SYS_NICE or rtprio
+    from drs_ros.node import runner
+    sys.exit(runner.main(["drs-node", "--ros-args", "-p", "bag_path:=" + sys.argv[1],
+                          "-p", "tick_scheduling:=fifo"]))
+    """
+)
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_without_the_privilege_of_fifo_the_node_starts_says_why_and_runs(tmp_path, request):
+    require_rclpy()
+    bag = tmp_path / "bag"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", REFUSED_FIFO, str(bag)],
+        env=node_env(tmp_path, domain_for(request.node.nodeid)),
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    try:
+        assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=64 * 1024)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0, out[-2000:]
+    assert "tick thread: SCHED_OTHER (SCHED_FIFO asked for, refused" in out
+    assert "CAP_SYS_NICE" in out
+    from decoded_support import read_bag
+    data = read_bag(bag, ["/drs/command_events", "/joint_states"])
+    scheduling = [status for _, msg in data.messages["/drs/command_events"]
+                  for status in msg.status if status.name == "scheduling"]  # fmt: skip
+    assert len(scheduling) == 1
+    values = {kv.key: kv.value for kv in scheduling[0].values}
+    assert values["policy"] == "SCHED_OTHER"
+    assert "Operation not permitted" in scheduling[0].message
+    assert len(data.messages["/joint_states"]) > 50  # it ran
