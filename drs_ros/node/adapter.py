@@ -491,7 +491,7 @@ class DRSNode(Node):
         topics = self.outputs.topics
         for pub, data in out:
             self._record(topics[pub], data, now_ns)
-        self.stack.publish(st, stamp, now_ns)  # /tf, the action's feedback
+        self.stack.publish(st, stamp, now_ns, recording)  # /tf, the action's feedback
         self.recordings.log_state(st)  # its own failures: never the bag's
         self.effects.cpu["record"] += time.process_time() - t1
 

@@ -24,6 +24,7 @@ from drs_model.fidelity import HydraulicRung
 
 from ..conversions import MechanismMarkers, joint_state_packer, reactions_msg
 from ..drawing import moving_drawings, still_drawings
+from ..publishing import LISTENER_CHECK_TICKS, create_publisher
 from ..recording import cdr
 from ..timestamps import split_ns
 
@@ -32,8 +33,6 @@ QOS_DEPTH = 10
 EVENTS_QOS_DEPTH = 100
 #: The still outlines (FIA box, main wing, pylon) are in ~/markers once per this [s] of sim time.
 STILL_MARKERS_PERIOD_S = 1.0
-#: Ticks between two questions to DDS whether the optional topics have listeners.
-LISTENER_CHECK_TICKS = 25
 
 #: The hydraulic rung's topics (under the node's name): chamber pressures, supply, spool.
 HYDRAULIC_TOPICS = (
@@ -67,7 +66,9 @@ class StatePublishers:
     def __init__(self, node, *, joint_states_topic: str, joint_names, frame_id: str, params,
                  s_min: float, markers_period: float, hydraulic: bool) -> None:  # fmt: skip
         qos = QoSProfile(depth=QOS_DEPTH)
-        make = node.create_publisher
+        def make(msg_type, topic, qos):
+            return create_publisher(node, msg_type, topic, qos)
+
         self.joints = make(JointState, joint_states_topic, qos)
         self.force = make(Float64, "~/piston_force", qos)
         self.gap = make(Float64, "~/flap_gap", qos)

@@ -170,10 +170,11 @@ class StackLayer:
         if self.tf is not None:
             self.tf.destroy()
 
-    def publish(self, state, stamp_ns: int, now_ns: int) -> None:
-        """At every published joint state: TF, then the action's goals and feedback."""
+    def publish(self, state, stamp_ns: int, now_ns: int, recording: bool = True) -> None:
+        """At every published joint state: TF (while listened to or ``recording`` in a bag),
+        then the action's goals and feedback."""
         if self.tf is not None:
-            self.tf.publish(state.q, stamp_ns, now_ns)
+            self.tf.publish(state.q, stamp_ns, now_ns, recording)
         self.action.update(stamp_ns, now_ns)
 
     def _action_event(self, outcome: str, level: bytes, reason: str, values: dict,

@@ -24,6 +24,7 @@ from tf2_msgs.msg import TFMessage
 from drs_model.params import DRSParams
 
 from ..conversions import time_msg
+from ..publishing import LISTENER_CHECK_TICKS, create_publisher
 from ..recording import cdr
 from ..timestamps import split_ns
 from . import description
@@ -115,12 +116,13 @@ class TfPublisher:
             self.static.insert(0, description.mount_transform(mount[0], base_frame, *mount[1:]))
         self._record = record
         self._node = node
-        self.pub_description = node.create_publisher(String, "/robot_description", LATCHED_QOS)
-        self.pub_static = node.create_publisher(TFMessage, "/tf_static", LATCHED_QOS)
-        self.pub_tf = node.create_publisher(TFMessage, "/tf", TF_QOS)
+        self.pub_description = create_publisher(node, String, "/robot_description", LATCHED_QOS)
+        self.pub_static = create_publisher(node, TFMessage, "/tf_static", LATCHED_QOS)
+        self.pub_tf = create_publisher(node, TFMessage, "/tf", TF_QOS)
         self._tf = cdr.serializer(TFMessage)
         zero = description.moving_transforms([0.0, 0.0, 0.0], self.origins, self.frames)
         self._moving = MovingTransformsPacker([(parent, child) for parent, child, *_ in zero])
+        self._calls, self._listened = 0, False
 
     @property
     def publishers(self) -> tuple:
@@ -141,8 +143,14 @@ class TfPublisher:
             pub.publish(data)
             self._record(pub.topic_name, data, now_ns)
 
-    def publish(self, q, stamp_ns: int, now_ns: int) -> None:
-        """Publish (and record) the joints' transforms at configuration ``q``."""
+    def publish(self, q, stamp_ns: int, now_ns: int, recording: bool = True) -> None:
+        """Publish (and record) the joints' transforms at configuration ``q``; nothing is
+        computed while no one subscribes to /tf and no bag is ``recording``."""
+        if self._calls % LISTENER_CHECK_TICKS == 0:  # asking DDS costs ~25 us: not every tick
+            self._listened = self.pub_tf.get_subscription_count() > 0
+        self._calls += 1
+        if not (recording or self._listened):
+            return
         moving = description.moving_transforms(q, self.origins, self.frames)
         data = self._moving.pack(stamp_ns, [(*xyz, *quat) for _p, _c, xyz, quat in moving])
         self.pub_tf.publish(data)
