@@ -69,18 +69,12 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     context = context or node.context
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    requested = node.get_parameter("tick_scheduling").value
-    priority = node.get_parameter("tick_fifo_priority").value
-
-    def serve() -> None:
-        # one priority below the tick: the tick waits for the GIL this thread may hold, and a
-        # holder preempted by other processes' ordinary threads would make the tick wait with it
-        apply_tick_policy(requested, max(priority - 1, 1))
-        spin_until_stopped(node, executor, stop)
-
-    thread = threading.Thread(target=serve, name="drs-executor")
+    thread = threading.Thread(target=spin_until_stopped, args=(node, executor, stop),
+                              name="drs-executor")  # fmt: skip
     thread.start()
-    policy = apply_tick_policy(requested, priority)  # this thread's own (Linux: per thread)
+    # after the executor thread started: SCHED_FIFO (when asked and allowed) is this thread's only
+    policy = apply_tick_policy(node.get_parameter("tick_scheduling").value,
+                               node.get_parameter("tick_fifo_priority").value)  # fmt: skip
     report_tick_policy(node, policy)
     lateness = node.effects.lateness
     period_ns = ns_from_seconds(node.publish_period)
