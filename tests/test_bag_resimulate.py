@@ -128,7 +128,7 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
     """The bag an older node recorded for: stroke 46 mm, then -5 kN at 100 Hz
     physics (its model raised IntegrationError in the first force step, so the node held the
     flap there and recorded a RESET), then 20 mm, +600 N, -20 kN. Written tick by tick as
-    ``DrsNode._tick_locked`` does (one physics step per 10 ms tick), with the node's own message
+    ``Tick.run`` does (one physics step per 10 ms tick), with the node's own message
     helpers: the effect record (command_event_msg), the parameters (parameter_event), the
     joint states (joint_state_msg). The current model takes that step, so the RESET is written
     where the node wrote it, with the stroke it held. Returns what was written."""

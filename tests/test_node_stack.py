@@ -252,7 +252,8 @@ def test_cancel_holds_the_current_position(stack, params):
     spin_for(stack.exec, float(_value(hold, "duration")) + 0.05)
     assert stack.joints[-1].position[0] == target and stack.joints[-1].velocity[0] == 0.0
     # the target is the stroke published at the cancelling step (the joint state of that step)
-    at = {round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec - stack.node._t0_ns) / 1e6):
+    t0_ns = stack.node.clock.t0_ns
+    at = {round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec - t0_ns) / 1e6):
           m.position[0] for m in stack.joints}  # fmt: skip
     assert at[step] == target
     assert 0.001 < target < 0.04

@@ -31,7 +31,6 @@ the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the faults and the recordi
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 
@@ -43,15 +42,14 @@ from rclpy.qos import QoSProfile
 from rclpy.service_introspection import ServiceIntrospectionState
 from std_srvs.srv import SetBool
 
-from drs_model.errors import DRSError
 from drs_model.fidelity import HydraulicRung
 
 from .. import commands
 from ..conversions import diagnostics_msg, parameter_event_msg
-from ..names import FIDELITY, RESET, TOPICS
+from ..names import FIDELITY, TOPICS
 from ..recording import cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
-from ..timestamps import ns_from_seconds, seconds_from_ns
+from ..timestamps import ns_from_seconds
 from .effect_record import EffectRecord, diagnostics_values, error_text
 from .fault_parameters import NodeFaults, declare_fault_parameters
 from .intake import COMMANDS, CommandIntake
@@ -59,12 +57,10 @@ from .parameters import declare_parameters, effective_parameters, model_params, 
 from .publishers import HYDRAULIC_TOPICS, StatePublishers
 from .recordings import NodeRecordings
 from .rung_choice import RungChoice
+from .tick import SimulationClock, Tick, TickParts
 
 #: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
 CLOCK_WAIT_WARNING_S = 2.0
-#: A wall clock that moves this much [s] more or less than the steady clock between two ticks
-#: has jumped (NTP slews far slower: 0.5 ms/s at most).
-CLOCK_JUMP_THRESHOLD_S = 0.01
 
 
 class DRSNode(Node):
@@ -83,7 +79,7 @@ class DRSNode(Node):
     Its parts: ``recordings`` and ``fault_parameters`` (built with the node), then, built by
     :meth:`configure`, ``rungs`` (the actuator's rung), ``outputs`` (the publishers),
     ``effects`` (the effect record and counters), ``stack`` (the vehicle stack) and ``intake``
-    (the commands). The node keeps the clock and the tick.
+    (the commands), and ``tick_part`` (:mod:`.tick`: the simulation's clock and the tick).
     """
 
     def __init__(self, *, tick_timer: bool = True, managed: bool = False, **kwargs) -> None:
@@ -134,7 +130,7 @@ class DRSNode(Node):
             hydraulic=isinstance(self.sim, HydraulicRung) or self.fidelity == "auto")  # fmt: skip
         self.effects = EffectRecord(
             self.outputs.events, self.outputs.diagnostic_bytes, self._record,
-            lambda: (self.sim.t, self.sim.steps, self._t0_ns), self.get_logger(),
+            lambda: (self.sim.t, self.sim.steps, self.clock.t0_ns), self.get_logger(),
             self.get_parameter("diagnostics_window").value)  # fmt: skip
         self.fault_parameters.start(self.sim, self.effects, self._record,
                                     lambda: self.recordings.bag is not None)  # fmt: skip
@@ -153,9 +149,14 @@ class DRSNode(Node):
                                     self.effects, lambda: self.sim, self._lock, self._now_ns,
                                     self._record)  # fmt: skip
 
-        self._last_tick_ns: int | None = None
-        self._last_tick_mono: int | None = None
-        self._t0_ns: int | None = None
+        self.clock = SimulationClock(self._wall_clock, ns_from_seconds(self.publish_period))
+        self.tick_part = Tick(TickParts(
+            actuator=lambda: self.sim, intake=self.intake, fault_parameters=self.fault_parameters,
+            effects=self.effects, now_ns=self._now_ns, publish=self._publish,
+            choose_fidelity=self._choose_fidelity, fidelity_deadline=lambda: self.rungs.deadline,
+            stop_request=lambda: self.stop_request, log_info=self.get_logger().info,
+            log_warning=self.get_logger().warning,
+        ), self.clock, self.physics_dt, self.max_catch_up)  # fmt: skip
         self._started_wall = time.monotonic()
         self._clock_warned = False
 
@@ -212,7 +213,7 @@ class DRSNode(Node):
             self.clock_watch = self.create_timer(
                 0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
             )
-        self._last_tick_ns = None  # the time inactive is no missed deadline
+        self.clock.pause()  # the time inactive is no missed deadline
         if self.fidelity == "auto" and self.sim.t == 0.0 and self.effects.ticks == 0:
             self.rungs.wait_for_subscribers(self.get_parameter("fidelity_auto_discovery_s").value)
         self.stack.activate()  # JointState commands, goals taken
@@ -235,8 +236,7 @@ class DRSNode(Node):
         self.sub_drs_events = None
         with self._lock:
             self.intake.clear()  # a command that arrived for the active node acts never
-            if self._t0_ns is not None:  # resume from the held state, not from the time away
-                self._t0_ns = None
+            self.clock.pause()  # resume from the held state, not from the time away
 
     def cleanup(self) -> None:
         """Finish the recordings and drop the publishers and the actuator."""
@@ -362,78 +362,10 @@ class DRSNode(Node):
             )
 
     def tick(self) -> None:
-        """Catch the simulation up with the node clock, apply the newest commands, publish."""
+        """Catch the simulation up with the node clock, apply the newest commands, publish
+        (:class:`~drs_ros.node.tick.Tick`)."""
         with self._lock:
-            self._tick_locked()
-
-    def _tick_locked(self) -> None:
-        # one node time per tick: every stamp and log time of the tick derives from it, so a
-        # record of the tick (a new clock origin) is never logged after the states it governs
-        now = self._now_ns()
-        if now == 0:  # use_sim_time before the first /clock message
-            return
-        if self.rungs.deadline is not None:
-            if time.monotonic() < self.rungs.deadline:
-                return  # auto: the subscribers are still being discovered
-            self._choose_fidelity(now)
-        mono = time.monotonic_ns()
-        if self._t0_ns is None:
-            self._t0_ns = now - ns_from_seconds(self.sim.t)
-            self.effects.clock_origin(now)
-        elif self._last_tick_ns is not None:
-            self._check_clock_jump(now, mono)
-        if (
-            self._last_tick_ns is not None
-            and now - self._last_tick_ns > ns_from_seconds(1.5 * self.publish_period)
-        ):
-            self.effects.missed_deadlines += 1
-            self.effects.troubles.add(
-                now,
-                "missed_deadline",
-                f"tick {seconds_from_ns(now - self._last_tick_ns) * 1e3:.1f} ms after the last",
-            )
-        self._last_tick_ns, self._last_tick_mono = now, mono
-        self.effects.ticks += 1
-        t = time.process_time()
-        if self.intake.waiting:
-            self.intake.apply_pending(now)
-        if self.fault_parameters.waiting:
-            self.fault_parameters.apply_pending(now)
-        target = seconds_from_ns(now - self._t0_ns)
-        due = int(math.floor((target - self.sim.t) / self.physics_dt + 1e-9))
-        if due > self.max_catch_up:
-            # too far behind (a stall): drop the excess instead of spiralling
-            dropped = due - self.max_catch_up
-            self.effects.dropped_steps += dropped
-            self.effects.troubles.add(now, "dropped_steps", f"{dropped} physics steps dropped")
-            self._t0_ns += ns_from_seconds(dropped * self.physics_dt)
-            self.effects.clock_origin(now, DiagnosticStatus.WARN, f"{dropped} steps dropped")
-            due = self.max_catch_up
-        try:
-            self._advance(due)
-        except DRSError as exc:  # the model refuses to go on: at rest where it is, and say why
-            reason = self.effects.refuse("step", self.sim.mode, str(exc), now)
-            s_rest = commands.reset_at_rest(self.sim)
-            self.effects.event(
-                RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_rest)}, now
-            )
-        self.effects.cpu["model"] += time.process_time() - t
-        if due > 0 or self.effects.ticks == 1:  # publish new states only (stamps strictly increase)
-            self._publish(now)
-
-    def _advance(self, due: int) -> None:
-        """``due`` physics steps, one at a time, each bounded (the hydraulic rung caps its
-        sub-steps): a stop requested meanwhile ends the tick at the next step, so that a tick
-        that overruns (a stall, a catch-up of many steps) stays stoppable within one step."""
-        stop = self.stop_request
-        for k in range(due):
-            if stop is not None and stop.requested:
-                self.get_logger().info(
-                    f"stop requested: the last tick ends after {k} of its {due} physics steps, "
-                    f"at simulated time {self.sim.t:.6f} s"
-                )
-                return
-            self.sim.advance(1)
+            self.tick_part.run()
 
     def _choose_fidelity(self, now_ns: int) -> None:
         """``fidelity: auto``: the lowest rung that meets ``fidelity_tolerance`` and
@@ -451,33 +383,10 @@ class DRSNode(Node):
         self.effects.event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None,
                            {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
 
-    def _check_clock_jump(self, now: int, mono: int) -> None:
-        """A node clock that jumps (the system clock stepped by NTP or by hand; ``/clock`` going
-        back, as ``drs-bag play --loop --clock`` does) moves the clock origin by the jump, as
-        ROS 2's time-jump callbacks would: the simulation goes on from its state, in step with
-        the new clock, and the jump is recorded. Without it, a clock stepped back froze the
-        simulation until the clock caught up again."""
-        if self._wall_clock:  # the wall clock against the steady one: any difference is a jump
-            jump = (now - self._last_tick_ns) - (mono - self._last_tick_mono)
-            if abs(jump) < ns_from_seconds(CLOCK_JUMP_THRESHOLD_S):
-                return
-        else:  # /clock may run at any rate: only a step back is a jump
-            if now >= self._last_tick_ns:
-                return
-            jump = now - self._last_tick_ns
-        self._t0_ns += jump
-        self.effects.clock_jumps += 1
-        way = "forward" if jump > 0 else "back"
-        reason = f"node clock jumped {way} by {seconds_from_ns(abs(jump)):.6g} s"
-        self.effects.troubles.add(now, "clock_jump", reason)
-        self.get_logger().warning(f"{reason}: the simulation goes on from its state")
-        self.effects.clock_origin(now, DiagnosticStatus.WARN, reason, jump_ns=jump)
-        self._last_tick_ns = now  # no missed deadline for the jump itself
-
     def _publish(self, now_ns: int) -> None:
-        t = time.process_time()
+        t = time.thread_time()  # this thread's own CPU: the executor's is not the tick's
         st = self.sim.state
-        stamp = self._t0_ns + ns_from_seconds(st.t)
+        stamp = self.clock.t0_ns + ns_from_seconds(st.t)
         faults = self.fault_parameters.faults
         sensed = (None if faults.sensor_healthy
                   else faults.published_stroke(st.t, float(st.q[0])))  # fmt: skip
@@ -486,14 +395,14 @@ class DRSNode(Node):
                                           recording=recording)  # fmt: skip
         for pub, data in out:
             pub.publish(data)
-        t1 = time.process_time()
+        t1 = time.thread_time()
         self.effects.cpu["publish"] += t1 - t
         topics = self.outputs.topics
         for pub, data in out:
             self._record(topics[pub], data, now_ns)
         self.stack.publish(st, stamp, now_ns, recording)  # /tf, the action's feedback
         self.recordings.log_state(st)  # its own failures: never the bag's
-        self.effects.cpu["record"] += time.process_time() - t1
+        self.effects.cpu["record"] += time.thread_time() - t1
 
 
 __all__ = ["COMMANDS", "DRSNode", "HYDRAULIC_TOPICS"]

@@ -26,7 +26,7 @@ from ..stop_request import StopRequest
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
-from .tick_schedule import TickPolicy, apply_tick_policy
+from .tick_schedule import TickPolicy, apply_tick_policy, leave_tick_policy
 
 #: How often [s] a thread holding the GIL offers it to the others (see main).
 GIL_SWITCH_INTERVAL_S = 0.0005
@@ -94,6 +94,7 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
                 deadline = time.monotonic_ns()  # resume from now
             node.tick()
     finally:
+        leave_tick_policy(policy)  # the loop is real-time; the shutdown is not
         stop()  # the executor thread ends too, whatever ended this loop
         thread.join()
         executor.shutdown(timeout_sec=1.0)

@@ -67,6 +67,16 @@ def apply_tick_policy(requested: str, priority: int) -> TickPolicy:
     return TickPolicy("SCHED_FIFO", priority)
 
 
+def leave_tick_policy(policy: TickPolicy) -> None:
+    """Put the calling thread back under SCHED_OTHER when ``policy`` is SCHED_FIFO: the loop
+    ends, and what follows (the executor's shutdown, the recordings' finish, the interpreter's
+    exit) runs as any thread does. Under SCHED_FIFO the exit was not preempted by the
+    middleware's and the recorders' own threads still winding down, and 1 stop in ~30 ended in
+    a heap abort after the recordings had finished (``benchmarks/shutdown_stress.py``)."""
+    if policy.name == "SCHED_FIFO":
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+
+
 class LatenessHistogram:
     """Lateness [ns] of each tick against its absolute deadline, in fixed bins (
     :data:`_EDGES_US`): adding one costs a bisection and an increment, nothing is allocated per
@@ -123,4 +133,5 @@ __all__ = [
     "LatenessHistogram",
     "TickPolicy",
     "apply_tick_policy",
+    "leave_tick_policy",
 ]
