@@ -28,8 +28,9 @@ compile at once are safe: numba writes each cache file under a temporary name an
 Two things to know when changing a kernel:
 
 * numba checks only the source file of the function it compiled: after editing
-  :mod:`drs_model.kernels`, the cached builds of the compiled functions in other files that call a
-  kernel (the RK driver, the fixed-step methods, the gufuncs) are stale. ``make clean-cache``
+  :mod:`drs_model.kernels` or :mod:`drs_model.explicit_steps`, the cached builds of the compiled
+  functions in other files that call them (the RK driver, the fixed steps of formulation (a) and
+  of the hydraulic rung, the gufuncs) are stale. ``make clean-cache``
   deletes every numba cache of the project (the tests compare the compiled paths with the plain
   kernels, so a stale cache fails them).
 * ``NUMBA_DISABLE_JIT=1`` runs every compiled function as the Python it is written in, for a

@@ -1,13 +1,14 @@
 """numba for drs_model: the options of every compiled function, and the kernels of
-:mod:`drs_model.kernels` made callable from compiled code.
+:mod:`drs_model.kernels` and the steps of :mod:`drs_model.explicit_steps` made callable from
+compiled code.
 
 Importing this module imports numba; without numba it raises
 :class:`~drs_model.errors.NumbaUnavailableError` (an ``ImportError``) saying how to install it.
 
-Every kernel is registered with :func:`numba.extending.register_jitable`: the function itself is
-unchanged (Python calls it as before), and a compiled function that calls it compiles it in.
-:func:`compiled` gives the compiled build of a plain function for Python to call, one per function
-and process; :func:`gufunc` builds a numpy gufunc.
+Every kernel and every step is registered with :func:`numba.extending.register_jitable`: the
+function itself is unchanged (Python calls it as before), and a compiled function that calls it
+compiles it in. :func:`compiled` gives the compiled build of a plain function for Python to call,
+one per function and process; :func:`gufunc` builds a numpy gufunc.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ except ImportError as exc:
         "('RK45', 'DOP853', 'LSODA', ...) and every model function work without it"
     ) from exc
 
-from .. import kernels
+from .. import explicit_steps, kernels
 
 #: numba's options for every compiled function: numpy's error model, so that a division by zero
 #: gives inf or NaN (which the callers treat as a failed stage or sample) instead of a
@@ -50,6 +51,13 @@ _INLINED = (kernels.psi3_position, kernels.psi3_acceleration_at)
 
 for _kernel in kernels.KERNELS:
     jitable(_kernel, "always" if _kernel in _INLINED else "never")
+
+# the fixed steps, each compiled once per right-hand side, which is inlined into it (registered by
+# the caller: drs_model.compiled.scalar.compiled_or_plain's ``inlined``): no call and no reference
+# counting per stage (an RK4 step of formulation (a) ~10 % faster); inlining the steps too into
+# their callers took numba several times longer to compile and was no faster
+for _step in explicit_steps.STEPS.values():
+    jitable(_step)
 
 
 def _inlined_kernels() -> dict:

@@ -16,7 +16,8 @@ accuracy:
 * ``"ros2"`` (Verwer et al. 1999, SIAM J. Sci. Comput. 20:1456): ``gamma = 1 + 1/sqrt(2)``,
   ``W k1 = f(y0)``, ``W k2 = f(y0 + h k1) - 2 k1``, ``y1 = y0 + h (3 k1 + k2) / 2`` (order 2).
 
-Each step function takes the state ``y`` (5 floats, :mod:`~drs_model.fidelity.hydraulic_kernels`),
+The RK4 step is :func:`drs_model.explicit_steps.rk4_step` on :func:`stage_rate`. Each step
+function takes the state ``y`` (5 floats, :mod:`~drs_model.fidelity.hydraulic_kernels`),
 the servo references at the start, middle and end of the step (``s0, v0, sm, vm, s1, v1``), the
 force reference, the supply pressure at the start and end, the spool-held flag, the step ``h``
 and the constants, and returns the new state as a float64 array of 5.
@@ -26,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import explicit_steps
 from . import hydraulic_kernels
 from .hydraulic_kernels import hydraulic_derivatives
 
@@ -39,23 +41,31 @@ JACOBIAN_EPS = 1e-7
 
 def state_rate(y, mode, s_ref, v_ref, f_ref, ps, held, c, h):
     """``dy/dt`` as a float64 array of 5 (:func:`~.hydraulic_kernels.hydraulic_derivatives`)."""
-    d = hydraulic_derivatives(
-        y[0], y[1], y[2], y[3], y[4], mode, s_ref, v_ref, f_ref, ps, held, c, h
-    )
     out = np.empty(5)
-    for i in range(5):
-        out[i] = d[i]
+    stage_rate(out, y, (s_ref, v_ref, ps), (mode, f_ref, held, c, h))
     return out
 
 
+def stage_rate(out, y, refs, args):
+    """``dy/dt`` into ``out`` in the form the steps of :mod:`drs_model.explicit_steps` call:
+    ``refs = (s_ref, v_ref, ps)``, the references at the stage's time [m, m/s, Pa], and
+    ``args = (mode, f_ref, held, c, h)``, what the step holds."""
+    s_ref, v_ref, ps = refs
+    mode, f_ref, held, c, h = args
+    d = hydraulic_derivatives(
+        y[0], y[1], y[2], y[3], y[4], mode, s_ref, v_ref, f_ref, ps, held, c, h
+    )
+    for i in range(5):
+        out[i] = d[i]
+
+
 def rk4_step(y, mode, s0, v0, sm, vm, s1, v1, f_ref, ps0, ps1, held, dt, c, h):
-    """One classic Runge-Kutta step of ``dt`` [s] (explicit, order 4)."""
+    """One classic Runge-Kutta step of ``dt`` [s] (explicit, order 4:
+    :func:`drs_model.explicit_steps.rk4_step`), the supply pressure at the middle the mean of the
+    ends'."""
     psm = 0.5 * (ps0 + ps1)
-    k1 = state_rate(y, mode, s0, v0, f_ref, ps0, held, c, h)
-    k2 = state_rate(y + 0.5 * dt * k1, mode, sm, vm, f_ref, psm, held, c, h)
-    k3 = state_rate(y + 0.5 * dt * k2, mode, sm, vm, f_ref, psm, held, c, h)
-    k4 = state_rate(y + dt * k3, mode, s1, v1, f_ref, ps1, held, c, h)
-    return y + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    start, middle, end = (s0, v0, ps0), (sm, vm, psm), (s1, v1, ps1)
+    return explicit_steps.rk4_step(stage_rate, y, dt, start, middle, end, (mode, f_ref, held, c, h))
 
 
 def jacobian(y, f0, mode, s_ref, v_ref, f_ref, ps, held, c, h):
@@ -100,7 +110,7 @@ STEP_METHODS = {
 }
 
 #: Every kernel of this module (registered with numba where a compiled step calls it).
-KERNELS = (state_rate, rk4_step, jacobian, linearly_implicit_euler_step, ros2_step)
+KERNELS = (state_rate, stage_rate, rk4_step, jacobian, linearly_implicit_euler_step, ros2_step)
 #: What a compiled kernel of the hydraulic rung may call: every function of its two modules
 #: (:func:`drs_model.compiled.scalar.compiled_or_plain` registers them with numba).
 CALLEES = hydraulic_kernels.KERNELS + KERNELS

@@ -1,19 +1,15 @@
 """The fixed-step integrator of the forward dynamics: the real-time loop.
 
 :class:`FixedStepIntegrator`: one call of :meth:`~FixedStepIntegrator.step` advances by ``dt``
-under a piston force held over the step (or a callable of t). For formulation (a) a step is one of
-the plain functions below (:data:`PSI3_STEPS`), each calling the psi3 kernel
-:func:`drs_model.kernels.psi3_acceleration`, compiled whole by numba when it is installed
+under a piston force held over the step (or a callable of t). Each method's step is
+:mod:`drs_model.explicit_steps`'s (:data:`~drs_model.explicit_steps.FIXED_STEP_METHODS`: explicit
+and semi-implicit Euler, RK2, RK4). For formulation (a) it runs on :func:`psi3_rate` (the psi3
+kernel :func:`drs_model.kernels.psi3_acceleration`), one function per method
+(:data:`PSI3_STEPS`) compiled whole by numba when it is installed
 (:func:`drs_model.compiled.scalar.bind`: one call of ~1 us per step; the plain Python step takes
-tens of microseconds); any other formulation runs through its numpy right-hand side. A step that
+tens of microseconds); any other formulation runs it on its numpy right-hand side. A step that
 would leave the stroke range (or cross the dead centre, or produce a non-finite state) is refused
 with a typed error and the state is kept.
-
-Fixed-step methods (Butcher tableaux; ``h = dt``):
-
-* ``"euler"`` (explicit, order 1), ``"semi-implicit-euler"`` (symplectic, order 1:
-  ``v += h a(x, v); x += h v``), ``"rk2"`` (explicit midpoint, order 2), ``"rk4"`` (classic,
-  order 4).
 """
 
 from __future__ import annotations
@@ -26,6 +22,14 @@ import numpy as np
 
 from ..compiled.scalar import bind
 from ..errors import InputError, IntegrationError, SingularConfigurationError, StrokeRangeError
+from ..explicit_steps import (
+    FIXED_STEP_METHODS,
+    STEPS,
+    euler_step,
+    rk2_step,
+    rk4_step,
+    semi_implicit_euler_step,
+)
 from ..kernels import flap_gap, psi3_acceleration
 from ..kinematics import (
     dead_centre,
@@ -40,44 +44,43 @@ from .formulations import Formulation, Psi3Minimal, get_formulation
 
 __all__ = ["FIXED_STEP_METHODS", "FixedStepIntegrator", "StepState"]
 
-#: Fixed-step methods and their orders.
-FIXED_STEP_METHODS = MappingProxyType({"euler": 1, "semi-implicit-euler": 1, "rk2": 2, "rk4": 4})
-
 
 # ---- one step of formulation (a): y = [psi3, psi3'], a(psi3, psi3', F) = psi3'' ------------------
-# f0, f1, f2: the piston force [N] at t, t + h/2 and t + h; h: the step [s]; c: the kernel constants
+def psi3_rate(out, y, force, c):
+    """Formulation (a)'s ``dy/dt = [psi3', psi3'']`` [rad/s, rad/s^2] at ``y = [psi3, psi3']``
+    [rad, rad/s] under the piston force [N] (``c``: the kernel constants), into ``out``."""
+    b, bd = float(y[0]), float(y[1])  # plain Python: floats, ~3x faster than numpy's scalars
+    out[0] = bd
+    out[1] = psi3_acceleration(b, bd, force, c)
+
+
+def _psi3_by(step, b, bd, f0, f1, f2, h, c):
+    """``(psi3, psi3')`` [rad, rad/s] after one step of ``h`` [s] by ``step`` (a step of
+    :mod:`drs_model.explicit_steps`) from ``(b, bd)`` under the piston force ``f0``, ``f1``,
+    ``f2`` [N] at the step's start, middle and end."""
+    y = step(psi3_rate, (b, bd), h, f0, f1, f2, c)
+    return float(y[0]), float(y[1])
+
+
+# one compiled function per method (numba types a function given from Python far more slowly)
 def psi3_euler_step(b, bd, f0, f1, f2, h, c):
-    """Explicit Euler: ``(psi3, psi3')`` [rad, rad/s] after one step."""
-    return b + h * bd, bd + h * psi3_acceleration(b, bd, f0, c)
+    """Explicit Euler on formulation (a) (:func:`_psi3_by`)."""
+    return _psi3_by(euler_step, b, bd, f0, f1, f2, h, c)
 
 
 def psi3_semi_implicit_euler_step(b, bd, f0, f1, f2, h, c):
-    """Semi-implicit (symplectic) Euler: the rate first, then the angle with the new rate."""
-    v = bd + h * psi3_acceleration(b, bd, f0, c)
-    return b + h * v, v
+    """Semi-implicit Euler on formulation (a) (:func:`_psi3_by`)."""
+    return _psi3_by(semi_implicit_euler_step, b, bd, f0, f1, f2, h, c)
 
 
 def psi3_rk2_step(b, bd, f0, f1, f2, h, c):
-    """Explicit midpoint rule (order 2)."""
-    k1 = psi3_acceleration(b, bd, f0, c)
-    v2 = bd + 0.5 * h * k1
-    return b + h * v2, bd + h * psi3_acceleration(b + 0.5 * h * bd, v2, f1, c)
+    """The explicit midpoint rule on formulation (a) (:func:`_psi3_by`)."""
+    return _psi3_by(rk2_step, b, bd, f0, f1, f2, h, c)
 
 
 def psi3_rk4_step(b, bd, f0, f1, f2, h, c):
-    """Classic Runge-Kutta (order 4); the angle's stages are the rate's (``k_psi3 = v``)."""
-    hh = 0.5 * h
-    k1 = psi3_acceleration(b, bd, f0, c)
-    v2 = bd + hh * k1
-    k2 = psi3_acceleration(b + hh * bd, v2, f1, c)
-    v3 = bd + hh * k2
-    k3 = psi3_acceleration(b + hh * v2, v3, f1, c)
-    v4 = bd + h * k3
-    k4 = psi3_acceleration(b + h * v3, v4, f2, c)
-    return (
-        b + h / 6.0 * (bd + 2.0 * v2 + 2.0 * v3 + v4),
-        bd + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4),
-    )
+    """Classic Runge-Kutta on formulation (a) (:func:`_psi3_by`)."""
+    return _psi3_by(rk4_step, b, bd, f0, f1, f2, h, c)
 
 
 #: One step of formulation (a) per method of :data:`FIXED_STEP_METHODS`.
@@ -89,6 +92,11 @@ PSI3_STEPS = MappingProxyType(
         "rk4": psi3_rk4_step,
     }
 )
+
+
+def _rate_at_time(out, y, t, fun):
+    """A formulation's right-hand side ``fun(t, y)``, into ``out``."""
+    out[:] = fun(t, y)
 
 
 class StepState(NamedTuple):
@@ -165,7 +173,11 @@ class FixedStepIntegrator:
         self.lo, self.hi = self.s_min - stroke_margin, self.s_max + stroke_margin
         self.psi3_dead = float(solve_position(self.s_dead, p)[2])
         self._fast = isinstance(self.form, Psi3Minimal)
-        self._psi3_step = bind(PSI3_STEPS[method], self.form.consts) if self._fast else None
+        self._psi3_step = (
+            bind(PSI3_STEPS[method], self.form.consts, inlined=(psi3_rate, _psi3_by))
+            if self._fast
+            else None
+        )
         self._gap = p.gap_constants
         self.steps = 0
         self.reset()
@@ -310,21 +322,7 @@ class FixedStepIntegrator:
         m = self.method
         try:
             with np.errstate(all="raise"):
-                if m == "rk4":
-                    k1 = fun(t, y)
-                    k2 = fun(t + 0.5 * h, y + 0.5 * h * k1)
-                    k3 = fun(t + 0.5 * h, y + 0.5 * h * k2)
-                    k4 = fun(t + h, y + h * k3)
-                    y_new = y + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-                elif m == "rk2":
-                    k1 = fun(t, y)
-                    y_new = y + h * fun(t + 0.5 * h, y + 0.5 * h * k1)
-                elif m == "euler":
-                    y_new = y + h * fun(t, y)
-                else:
-                    n = y.size // 2
-                    v = y[n:] + h * fun(t, y)[n:]
-                    y_new = np.concatenate([y[:n] + h * v, v])
+                y_new = STEPS[m](_rate_at_time, y, h, t, t + 0.5 * h, t + h, fun)
         except (FloatingPointError, OverflowError, ZeroDivisionError, ValueError) as exc:
             raise IntegrationError(
                 f"fixed step {m} (dt = {h:g} s) diverged at t = {t + h:.9g} s: {exc}; reduce dt"
