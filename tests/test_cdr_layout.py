@@ -16,11 +16,11 @@ from ros_support import require_rclpy
 
 require_rclpy()
 
-from message_support import serialize  # noqa: E402
+from message_support import joint_state_msg, serialize  # noqa: E402
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 from sensor_msgs.msg import FluidPressure, JointState  # noqa: E402
 
-from drs_ros.conversions import joint_state_msg, joint_state_packer  # noqa: E402
+from drs_ros.conversions import joint_state_packer  # noqa: E402
 from drs_ros.recording import cdr  # noqa: E402
 from drs_ros.timestamps import split_ns  # noqa: E402
 
