@@ -50,15 +50,20 @@ def joint_state_packer(names: Sequence[str]):
     return pack_state
 
 
-def reactions_msg(reactions: Mapping[str, float], stamp_ns: int) -> JointState:
-    """The joint reactions as a JointState whose names are the reactions and efforts their values
-    (self-describing and stamped; the model's :data:`~drs_model.inverse.REACTION_NAMES`, in that
-    order: N, Tp in N m)."""
-    msg = JointState()
-    msg.header.stamp = time_msg(stamp_ns)
-    msg.name = list(REACTION_NAMES)
-    msg.effort = [float(reactions[k]) for k in REACTION_NAMES]
-    return msg
+def reactions_packer():
+    """``pack(reactions, stamp_ns) -> bytes``: the exact CDR of the joint reactions as a
+    JointState whose names are the reactions and efforts their values (self-describing and
+    stamped ``stamp_ns``; the model's :data:`~drs_model.inverse.REACTION_NAMES`, in that order:
+    N, Tp in N m), packed into the message's layout (:class:`drs_ros.recording.cdr.Layout`)."""
+    from .recording import cdr
+
+    pack = cdr.Layout(JointState(name=list(REACTION_NAMES), effort=[0.0] * len(REACTION_NAMES)))
+    pack = pack.packer(["header.stamp.sec", "header.stamp.nanosec", "effort"])
+
+    def pack_reactions(reactions: Mapping[str, float], stamp_ns: int) -> bytes:
+        return pack(*split_ns(stamp_ns), *(float(reactions[k]) for k in REACTION_NAMES))
+
+    return pack_reactions
 
 
 def trajectory_points(msg, joint: str) -> tuple[list[float], list[float], list[float] | None]:

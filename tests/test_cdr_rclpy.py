@@ -21,6 +21,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from ros_support import JOINT_NAMES, require_rclpy
 
+from drs_model.inverse import REACTION_NAMES
+
 require_rclpy()
 
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
@@ -44,7 +46,7 @@ from tf2_msgs.msg import TFMessage  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
 from visualization_msgs.msg import MarkerArray  # noqa: E402
 
-from drs_ros.conversions import joint_state_packer, time_msg  # noqa: E402
+from drs_ros.conversions import joint_state_packer, reactions_packer, time_msg  # noqa: E402
 from drs_ros.node.trajectory_cdr import read_joint_trajectory  # noqa: E402
 from drs_ros.recording import cdr, msgdefs  # noqa: E402
 from drs_ros.stack.tf_tree import MovingTransformsPacker  # noqa: E402
@@ -181,6 +183,15 @@ def test_the_packed_joint_states_are_rclpy_s(names, numbers, stamp_ns, stroke):
                      position=[numbers[0] if stroke is None else stroke, *numbers[1:3]],
                      velocity=numbers[3:6], effort=[numbers[6], math.nan, math.nan])  # fmt: skip
     assert_rclpy_agrees(joint_state_packer(names)(state, stamp_ns, stroke), msg)
+
+
+@SLOW
+@given(values=st.lists(NUMBER, min_size=len(REACTION_NAMES), max_size=len(REACTION_NAMES)),
+       stamp_ns=STAMP_NS)  # fmt: skip
+def test_the_packed_reactions_are_rclpy_s(values, stamp_ns):
+    msg = JointState(header=_header(stamp_ns, ""), name=list(REACTION_NAMES), effort=values)
+    reactions = dict(zip(REACTION_NAMES, values, strict=True))
+    assert_rclpy_agrees(reactions_packer()(reactions, stamp_ns), msg)
 
 
 def _header(stamp_ns: int, frame_id: str):
