@@ -234,9 +234,9 @@ def recorder_cost(n: int, repeats: int, tmp: Path) -> dict[str, float]:
     return {
         "ours_us_per_msg": 1e6 * o, "bare_us_per_msg": 1e6 * b, "ratio": o / b,
         "trajectory_bytes_rclpy": len(serialize_message(traj)),
-        "trajectory_bytes_exact": len(cdr.serialize(traj)),
+        "trajectory_bytes_exact": len(cdr.serializer(JointTrajectory)(traj)),
         "reactions_bytes_rclpy": len(serialize_message(reactions)),
-        "reactions_bytes_exact": len(cdr.serialize(reactions)),
+        "reactions_bytes_exact": len(serialize(reactions)),
     }  # fmt: skip
 
 

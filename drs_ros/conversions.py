@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from array import array
 from collections.abc import Mapping, Sequence
 
 from builtin_interfaces.msg import Time
@@ -23,33 +22,20 @@ def time_msg(ns: int) -> Time:
     return Time(sec=sec, nanosec=nanosec)
 
 
-def joint_state_msg(
-    state: ActuatorState, names: Sequence[str], stamp_ns: int, msg: JointState | None = None
-) -> JointState:
-    """JointState like ros2_control's joint_state_broadcaster: the piston (prismatic: m, m/s,
-    effort = piston force N), the link and the flap (revolute: rad, rad/s, effort unknown = NaN).
-
-    ``msg``: a JointState to fill in place (building one costs more than filling it)."""
-    msg = JointState(name=list(names)) if msg is None else msg
-    msg.header.stamp = time_msg(stamp_ns)
-    position, velocity, effort = joint_state_values(state)
-    msg.position = array("d", position)
-    msg.velocity = array("d", velocity)
-    msg.effort = array("d", effort)
-    return msg
-
-
 def joint_state_values(state: ActuatorState, stroke: float | None = None) -> tuple:
-    """``(position, velocity, effort)`` of :func:`joint_state_msg`, each 3 floats; ``stroke``
-    [m]: the piston's position as a (faulty) sensor reports it (None: the true one)."""
+    """``(position, velocity, effort)`` of the node's JointState, each 3 floats, like
+    ros2_control's joint_state_broadcaster: the piston (prismatic: m, m/s, effort = piston force
+    N), the link and the flap (revolute: rad, rad/s, effort unknown = NaN); ``stroke`` [m]: the
+    piston's position as a (faulty) sensor reports it (None: the true one)."""
     position = tuple(state.q) if stroke is None else (stroke, *state.q[1:])
     return position, tuple(state.qd), (state.piston_force, math.nan, math.nan)
 
 
 def joint_state_packer(names: Sequence[str]):
-    """``pack(state, stamp_ns, stroke=None) -> bytes``: the exact CDR of
-    :func:`joint_state_msg` (with :func:`joint_state_values`' ``stroke``), its numbers packed
-    into the message's layout (:class:`drs_ros.recording.cdr.Layout`) without building it."""
+    """``pack(state, stamp_ns, stroke=None) -> bytes``: the exact CDR of the JointState of
+    joints ``names`` holding :func:`joint_state_values` (with its ``stroke``), stamped
+    ``stamp_ns``, its numbers packed into the message's layout
+    (:class:`drs_ros.recording.cdr.Layout`) without building it."""
     from .recording import cdr
 
     pack = cdr.Layout(JointState(
@@ -64,15 +50,20 @@ def joint_state_packer(names: Sequence[str]):
     return pack_state
 
 
-def reactions_msg(reactions: Mapping[str, float], stamp_ns: int) -> JointState:
-    """The joint reactions as a JointState whose names are the reactions and efforts their values
-    (self-describing and stamped; the model's :data:`~drs_model.inverse.REACTION_NAMES`, in that
-    order: N, Tp in N m)."""
-    msg = JointState()
-    msg.header.stamp = time_msg(stamp_ns)
-    msg.name = list(REACTION_NAMES)
-    msg.effort = [float(reactions[k]) for k in REACTION_NAMES]
-    return msg
+def reactions_packer():
+    """``pack(reactions, stamp_ns) -> bytes``: the exact CDR of the joint reactions as a
+    JointState whose names are the reactions and efforts their values (self-describing and
+    stamped ``stamp_ns``; the model's :data:`~drs_model.inverse.REACTION_NAMES`, in that order:
+    N, Tp in N m), packed into the message's layout (:class:`drs_ros.recording.cdr.Layout`)."""
+    from .recording import cdr
+
+    pack = cdr.Layout(JointState(name=list(REACTION_NAMES), effort=[0.0] * len(REACTION_NAMES)))
+    pack = pack.packer(["header.stamp.sec", "header.stamp.nanosec", "effort"])
+
+    def pack_reactions(reactions: Mapping[str, float], stamp_ns: int) -> bytes:
+        return pack(*split_ns(stamp_ns), *(float(reactions[k]) for k in REACTION_NAMES))
+
+    return pack_reactions
 
 
 def trajectory_points(msg, joint: str) -> tuple[list[float], list[float], list[float] | None]:

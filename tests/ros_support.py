@@ -185,10 +185,11 @@ def tampered_copy(bag, out, change) -> int:
     ``msg`` decoded) returns the message to write instead, or None to keep the recorded bytes.
     Every changed message is serialised again, so the copy is a valid bag whose CDR is exact:
     only the model checks can tell. Returns the number of messages changed."""
+    from message_support import serialize
+
     from drs_ros.bag.decoded import decoder
     from drs_ros.bag.reader import scan
     from drs_ros.bag.recover import _register
-    from drs_ros.recording.cdr import serialize
     from drs_ros.recording.mcap_recorder import McapRecorder
 
     decode = decoder()

@@ -128,10 +128,11 @@ class _Writer:
                                                "value": repr(cmds.describe(c.key, msg))})
 
     def publish(self, now: int, hydraulic: bool) -> None:
+        from message_support import joint_state_msg
         from sensor_msgs.msg import FluidPressure
         from std_msgs.msg import Header
 
-        from drs_ros.conversions import float_msg, joint_state_msg, time_msg
+        from drs_ros.conversions import float_msg, time_msg
 
         tp, st, stamp = DEFAULT_TOPICS, self.sim.state, self.stamp()
         js = joint_state_msg(st, self.names, stamp)

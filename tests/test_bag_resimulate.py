@@ -133,6 +133,7 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
     joint states (joint_state_msg). The current model takes that step, so the RESET is written
     where the node wrote it, with the stroke it held. Returns what was written."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from message_support import joint_state_msg
     from rcl_interfaces.msg import ParameterEvent
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
@@ -142,7 +143,7 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
     from drs_model.params import NUMERIC_FIELDS
     from drs_ros import commands
     from drs_ros.bag.effects import parameter_event
-    from drs_ros.conversions import command_event_msg, float_msg, joint_state_msg
+    from drs_ros.conversions import command_event_msg, float_msg
     from drs_ros.names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS, RESET
     from drs_ros.recording.mcap_recorder import McapRecorder
 

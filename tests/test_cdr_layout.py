@@ -16,10 +16,11 @@ from ros_support import require_rclpy
 
 require_rclpy()
 
+from message_support import joint_state_msg, serialize  # noqa: E402
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 from sensor_msgs.msg import FluidPressure, JointState  # noqa: E402
 
-from drs_ros.conversions import joint_state_msg, joint_state_packer  # noqa: E402
+from drs_ros.conversions import joint_state_packer  # noqa: E402
 from drs_ros.recording import cdr  # noqa: E402
 from drs_ros.timestamps import split_ns  # noqa: E402
 
@@ -43,7 +44,7 @@ def test_packed_joint_states_equal_the_serialiser_and_read_back(names, q, qd, fo
     msg = joint_state_msg(state, names, stamp_ns)
     if stroke is not None:
         msg.position[0] = stroke
-    assert packed == cdr.serialize(msg)
+    assert packed == serialize(msg)
     assert len(packed) <= len(serialize_message(msg))
     back = deserialize_message(packed, JointState)
     assert list(back.name) == list(names)
@@ -65,7 +66,7 @@ def test_a_layout_of_a_stamped_scalar_message(frame, pressure, stamp_ns):
     msg = FluidPressure(fluid_pressure=pressure)
     msg.header.frame_id = frame
     msg.header.stamp.sec, msg.header.stamp.nanosec = split_ns(stamp_ns)
-    assert packed == cdr.serialize(msg)
+    assert packed == serialize(msg)
     back = deserialize_message(packed, FluidPressure)
     assert back.header.frame_id == frame and _same(back.fluid_pressure, pressure)
 
@@ -77,11 +78,11 @@ def test_long_and_empty_sequences_keep_their_shape(n, values):
     layout = cdr.Layout(proto)
     if n == 0:  # an empty sequence holds no number to pack
         assert "position" not in layout.fields
-        assert layout.template == cdr.serialize(proto)
+        assert layout.template == serialize(proto)
         return
     xs = values.draw(st.lists(number, min_size=n, max_size=n))
     packed = layout.packer(["position"])(*xs)
-    assert packed == cdr.serialize(JointState(position=xs))
+    assert packed == serialize(JointState(position=xs))
 
 
 def test_a_layout_refuses_what_it_cannot_pack():

@@ -10,10 +10,10 @@ from ros_support import require_rclpy
 
 require_rclpy()
 
+from message_support import serialize  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from tf2_msgs.msg import TFMessage  # noqa: E402
 
-from drs_ros.recording import cdr  # noqa: E402
 from drs_ros.stack.tf_tree import MovingTransformsPacker, transform_msg  # noqa: E402
 
 frame = st.text(st.characters(codec="utf-8", exclude_characters="\0"), min_size=0, max_size=13)
@@ -31,7 +31,7 @@ def test_packed_transforms_read_back_and_equal_the_serialiser(pairs, stamp_ns, d
     packed = MovingTransformsPacker(pairs).pack(stamp_ns, values)
     msg = TFMessage(transforms=[transform_msg((p, c, v[:3], v[3:]), stamp_ns)
                                 for (p, c), v in zip(pairs, values, strict=True)])  # fmt: skip
-    assert packed == cdr.serialize(msg)
+    assert packed == serialize(msg)
     back = deserialize_message(packed, TFMessage)
     assert len(back.transforms) == len(pairs)
     for t, (parent, child), v in zip(back.transforms, pairs, values, strict=True):

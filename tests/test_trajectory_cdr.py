@@ -11,6 +11,7 @@ from ros_support import require_rclpy
 require_rclpy()
 
 from builtin_interfaces.msg import Duration  # noqa: E402
+from message_support import serialize  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
@@ -62,7 +63,7 @@ def same(a, b) -> bool:
 @settings(max_examples=300, deadline=None)
 @given(trajectories())
 def test_the_reader_sees_what_rclpy_decodes(msg):
-    data = cdr.serialize(msg)
+    data = serialize(msg)
     view = read_joint_trajectory(data)
     decoded = deserialize_message(data, JointTrajectory)
     assert view.joint_names == list(decoded.joint_names)
@@ -79,7 +80,7 @@ def test_what_the_reader_accepts_rclpy_decodes_exactly(msg, data):
     """Damaged bytes (cut, extended, one byte changed): if the reader takes them, rclpy decodes
     them too, to the same trajectory, and the view's exact CDR is the decoded message's (a
     changed alignment-padding byte is taken, and zeroed in what is recorded)."""
-    raw = bytearray(cdr.serialize(msg))
+    raw = bytearray(serialize(msg))
     how = data.draw(st.sampled_from(["cut", "extend", "flip"]))
     if how == "cut":
         raw = raw[: data.draw(st.integers(0, len(raw) - 1))]
@@ -114,7 +115,7 @@ def test_alignment_padding_of_any_content_is_taken_and_zeroed():
     """Fast DDS leaves alignment padding uninitialised in what rclpy publishers send."""
     msg = JointTrajectory(joint_names=["drs_piston"])
     msg.points = [JointTrajectoryPoint(positions=[0.01], time_from_start=Duration(sec=1))]
-    exact = cdr.serialize(msg)
+    exact = serialize(msg)
     view = read_joint_trajectory(exact)
     # the 4 bytes between the positions count and its first double are padding
     count_at = 4 + len(exact) - 4 - 8 - 3 * 4 - 8 - 4 - 4

@@ -2,9 +2,9 @@
 :class:`drs_ros.node.adapter.DRSNode`, constructed with what it needs, owning its publishers,
 its serialisers, the marker scene and what it last drew.
 
-Every message is serialised once (:mod:`drs_ros.recording.cdr`; the joint states and the
-pressures packed into their layouts, :class:`~drs_ros.recording.cdr.Layout`), published as
-those bytes and handed back to the node to record as the same bytes. An optional topic
+Every message is serialised once (:mod:`drs_ros.recording.cdr`; the joint states, the
+reactions and the pressures packed into their layouts, :class:`~drs_ros.recording.cdr.Layout`),
+published as those bytes and handed back to the node to record as the same bytes. An optional topic
 (``~/joint_reactions``, ``~/markers``) is computed only while someone listens (asked every
 :data:`LISTENER_CHECK_TICKS` ticks) or, for the markers, while the bag records them.
 """
@@ -22,7 +22,7 @@ from visualization_msgs.msg import MarkerArray
 
 from drs_model.fidelity import HydraulicRung
 
-from ..conversions import MechanismMarkers, joint_state_packer, reactions_msg
+from ..conversions import MechanismMarkers, joint_state_packer, reactions_packer
 from ..drawing import moving_drawings, still_drawings
 from ..publishing import LISTENER_CHECK_TICKS, create_publisher
 from ..recording import cdr
@@ -90,11 +90,12 @@ class StatePublishers:
         self.frame_id, self.params, self.markers_period = frame_id, params, markers_period
         self._serialize = {
             cls: cdr.serializer(cls)
-            for cls in (JointState, DiagnosticArray, MarkerArray)
+            for cls in (DiagnosticArray, MarkerArray)
         }
         self._pack_float64 = cdr.flat_packer(Float64)
-        # the joint states and the pressures: numbers packed into their messages' layouts
+        # the joint states, the reactions and the pressures: numbers packed into their layouts
         self._pack_joint_state = joint_state_packer(joint_names)
+        self._pack_reactions = reactions_packer()
         pressure = FluidPressure()
         pressure.header.frame_id = frame_id
         self._pack_pressure = cdr.Layout(pressure).packer(
@@ -158,8 +159,7 @@ class StatePublishers:
             self._listened = {pub: pub.get_subscription_count() > 0
                               for pub in (self.reactions, self.markers)}  # fmt: skip
         if self._listened[self.reactions]:
-            reactions = reactions_msg(sim.reactions(), stamp)
-            out.append((self.reactions, self._serialize[JointState](reactions)))
+            out.append((self.reactions, self._pack_reactions(sim.reactions(), stamp)))
         if (recording or self._listened[self.markers]) and (
             self.last_markers_t is None
             or st.t - self.last_markers_t >= self.markers_period - 1e-9

@@ -9,9 +9,10 @@ validated by the same code whichever way it was decoded.
 
 It accepts what :func:`drs_ros.recording.cdr.decode_exact` accepts: little-endian plain CDR with
 valid UTF-8 strings ending in NUL, followed by at most 3 zero bytes of transport padding; anything
-else raises :class:`drs_ros.recording.cdr.CdrError`. Alignment padding may hold any bytes (Fast
-DDS leaves it uninitialised in messages an rclpy publisher sends): the view's ``exact`` is the
-message's exact CDR, the bytes with their padding zeroed, which is what the node records.
+else raises :class:`drs_ros.recording.cdr.CdrError`. The bytes are walked by the CDR engine's
+:class:`drs_ros.recording.cdr.Reader` (its alignment and padding rules); alignment padding may hold
+any bytes (Fast DDS leaves it uninitialised in messages an rclpy publisher sends): the view's
+``exact`` is the message's exact CDR, the bytes with their padding zeroed, which the node records.
 """
 
 from __future__ import annotations
@@ -20,9 +21,8 @@ import struct
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from ..recording.cdr import CDR_LE_HEADER, MAX_TRANSPORT_PADDING, CdrError, is_transport_padding
+from ..recording.cdr import Reader
 
-_U32 = struct.Struct("<I")
 _TIME = struct.Struct("<iI")
 _F64 = struct.Struct("<d")
 
@@ -72,96 +72,27 @@ class JointTrajectoryView(NamedTuple):
     exact: bytes  # the exact CDR: the bytes read, alignment padding zeroed, no transport padding
 
 
-class _Reader:
-    """A cursor over the CDR body (offsets count from the end of the 4-byte header)."""
-
-    def __init__(self, body: memoryview) -> None:
-        self.body, self.pos = body, 0
-        self.dirty_padding: list[tuple[int, int]] = []  # (start, end) of non-zero padding
-
-    def align(self, n: int) -> None:
-        pad = min(-self.pos % n, len(self.body) - self.pos)
-        if any(self.body[self.pos : self.pos + pad]):
-            self.dirty_padding.append((self.pos, self.pos + pad))
-        self.pos += pad
-
-    def need(self, n: int, what: str) -> None:
-        if n < 0 or self.pos + n > len(self.body):
-            raise CdrError(
-                f"{what} at byte {self.pos + 4} needs {n} bytes; the message ends at "
-                f"{len(self.body) + 4}"
-            )
-
-    def u32(self, what: str) -> int:
-        self.align(4)
-        self.need(4, what)
-        (value,) = _U32.unpack_from(self.body, self.pos)
-        self.pos += 4
-        return value
-
-    def time(self, what: str) -> Duration:
-        self.align(4)
-        self.need(8, what)
-        value = Duration(*_TIME.unpack_from(self.body, self.pos))
-        self.pos += 8
-        return value
-
-    def string(self, what: str) -> str:
-        size = self.u32(what)
-        self.need(size, what)
-        if size == 0 or self.body[self.pos + size - 1] != 0:
-            raise CdrError(f"{what} at byte {self.pos + 4} is not a NUL-terminated string")
-        try:
-            text = str(self.body[self.pos : self.pos + size - 1], "utf-8")
-        except UnicodeDecodeError as exc:
-            raise CdrError(f"{what} at byte {self.pos + 4} is not UTF-8: {exc}") from None
-        if "\0" in text:
-            raise CdrError(f"{what} at byte {self.pos + 4} holds a NUL before its end")
-        self.pos += size
-        return text
-
-    def doubles(self, what: str) -> Doubles:
-        count = self.u32(what)
-        if count:
-            self.align(8)
-            self.need(8 * count, what)
-        view = Doubles(self.body, self.pos, count)
-        self.pos += 8 * count
-        return view
+def _doubles(r: Reader, what: str) -> Doubles:
+    return Doubles(r.buf, *r.block(_F64.size, what))
 
 
 def read_joint_trajectory(data: bytes) -> JointTrajectoryView:
     """The JointTrajectory whose exact CDR is ``data`` (plus at most 3 zero bytes of transport
     padding), read in place; :class:`~drs_ros.recording.cdr.CdrError` for anything else."""
-    buf = memoryview(bytes(data))
-    if len(buf) < 4 or buf[:4] != CDR_LE_HEADER:
-        raise CdrError(
-            f"{len(buf)} bytes do not start with the little-endian CDR header {CDR_LE_HEADER.hex()}"
-        )
-    r = _Reader(buf[4:])
-    stamp = r.time("header.stamp")
+    r = Reader(data)
+    stamp = Duration(*r.read(_TIME, 4, "header.stamp"))
     frame_id = r.string("header.frame_id")
-    names = [r.string(f"joint_names[{k}]") for k in range(r.u32("joint_names"))]
-    count = r.u32("points")
+    names = [r.string(f"joint_names[{k}]") for k in range(r.count("joint_names"))]
+    count = r.count("points")
     # each point needs at least 24 bytes: refuse a count the bytes cannot hold before looping
     r.need(24 * count, f"{count} points")
     points = []
     for k in range(count):
-        points.append(Point(r.doubles(f"points[{k}].positions"),
-                            r.doubles(f"points[{k}].velocities"),
-                            r.doubles(f"points[{k}].accelerations"),
-                            r.doubles(f"points[{k}].effort"),
-                            r.time(f"points[{k}].time_from_start")))  # fmt: skip
-    tail = r.body[r.pos :]
-    if not is_transport_padding(tail):
-        raise CdrError(
-            f"{len(tail)} bytes follow the JointTrajectory's CDR ({r.pos + 4} bytes): at most "
-            f"{MAX_TRANSPORT_PADDING} zero bytes of transport padding may"
-        )
-    exact = bytearray(buf[: r.pos + 4])
-    for start, end in r.dirty_padding:
-        exact[4 + start : 4 + end] = bytes(end - start)
-    return JointTrajectoryView(stamp, frame_id, names, points, bytes(exact))
+        where = f"points[{k}]"
+        points.append(Point(_doubles(r, f"{where}.positions"), _doubles(r, f"{where}.velocities"),
+                            _doubles(r, f"{where}.accelerations"), _doubles(r, f"{where}.effort"),
+                            Duration(*r.read(_TIME, 4, f"{where}.time_from_start"))))  # fmt: skip
+    return JointTrajectoryView(stamp, frame_id, names, points, r.finish("JointTrajectory"))
 
 
 __all__ = ["Doubles", "Duration", "JointTrajectoryView", "Point", "read_joint_trajectory"]

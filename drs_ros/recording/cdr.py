@@ -7,17 +7,18 @@ log, and readers that check sizes (rosbags) reject such messages.
 
 The encoding is what ``rmw_fastrtps`` puts on the wire for ROS 2 messages: the 4-byte
 encapsulation header ``00 01 00 00`` (plain CDR, little endian), then the fields in order, each
-primitive aligned to its own size (at most 8) counted from the end of the header, padding bytes
-zero, no padding after the last field. Strings are a ``uint32`` length (including the NUL), the
-UTF-8 bytes and a NUL; sequences a ``uint32`` count then the elements; fixed arrays the elements
-only; an empty structure one zero byte.
+primitive aligned to its own size (at most 8) counted from the end of the header
+(:func:`padding`), padding bytes zero, no padding after the last field. Strings are a ``uint32``
+length (including the NUL), the UTF-8 bytes and a NUL; sequences a ``uint32`` count then the
+elements; fixed arrays the elements only; an empty structure one zero byte.
 
 Each message class is compiled once (:func:`serializer`) into a chain of closures over
 ``struct.Struct`` objects, from the class's own rosidl introspection (``SLOT_TYPES``). The same
 code serves the node's publishers, the recorder and the bag checker (which re-serialises what it
 decoded and compares bytes). A :class:`Layout` is that serialiser's output for one prototype
 message with the offsets of its numeric fields: the template the node's real-time publishers pack
-their numbers into, so that nothing else writes CDR by hand.
+their numbers into, so that nothing else writes CDR by hand. A :class:`Reader` reads such bytes
+in place by the same rules, where rclpy's decoder would cost too much (a long trajectory).
 """
 
 from __future__ import annotations
@@ -74,8 +75,16 @@ class CdrError(DRSRosError, TypeError):
     """A message type or value that cannot be serialised as ROS 2 CDR."""
 
 
+def padding(offset: int, size: int) -> int:
+    """Bytes of alignment padding before a primitive of ``size`` bytes (its alignment, at most 8)
+    that would start at ``offset``, counted from the start of the bytes: CDR aligns each
+    primitive to its size counted from the end of the encapsulation header. The one statement of
+    the rule: the serialisers and :class:`Reader` both ask it."""
+    return -(offset - len(CDR_LE_HEADER)) % size
+
+
 def _align(buf: bytearray, n: int) -> None:
-    pad = -(len(buf) - 4) % n
+    pad = padding(len(buf), n)
     if pad:
         buf += _ZEROS[:pad]
 
@@ -301,7 +310,7 @@ def flat_packer(msg_class: type) -> Callable[..., bytes]:
     flat = _flat_class(msg_class)
     if flat is None:
         raise CdrError(f"{msg_class.__name__} is not made of one floating-point type only")
-    # the first field sits right after the header, at offset 0: aligned already
+    # the first field sits right after the header: no padding before it, none between them
     pack = struct.Struct(f"<{len(msg_class.SLOT_TYPES)}{flat[0]}").pack
 
     def packer(*values) -> bytes:
@@ -361,11 +370,6 @@ class Layout:
         return pack
 
 
-def serialize(msg) -> bytes:
-    """The exact CDR bytes of one rclpy message (see :func:`serializer`)."""
-    return serializer(type(msg))(msg)
-
-
 #: Fast DDS pads a message that crosses processes to a multiple of 4 bytes with zeros.
 MAX_TRANSPORT_PADDING = 3
 
@@ -374,6 +378,79 @@ def is_transport_padding(tail: bytes) -> bool:
     """Whether ``tail``, what follows a message's exact CDR, is the transport's padding: at most
     :data:`MAX_TRANSPORT_PADDING` zero bytes (none included)."""
     return len(tail) <= MAX_TRANSPORT_PADDING and not any(tail)
+
+
+class Reader:
+    """A cursor reading CDR bytes in place by the serialisers' rules (:func:`padding`), taking
+    what :func:`decode_exact` takes: the little-endian header, UTF-8 strings ending in their one
+    NUL, at most :data:`MAX_TRANSPORT_PADDING` zero bytes after the data, alignment padding of any
+    content (Fast DDS leaves it uninitialised in what rclpy sends; :meth:`finish` zeroes it).
+    ``pos`` and the offsets in :class:`CdrError` messages count from the start of the bytes."""
+
+    def __init__(self, data: bytes) -> None:
+        self.buf = memoryview(bytes(data))
+        if self.buf[: len(CDR_LE_HEADER)] != CDR_LE_HEADER:
+            raise CdrError(f"{len(self.buf)} bytes do not start with the little-endian CDR "
+                           f"header {CDR_LE_HEADER.hex()}")  # fmt: skip
+        self.pos = len(CDR_LE_HEADER)
+        self._dirty: list[int] = []  # where padding holds a non-zero byte
+
+    def align(self, size: int) -> None:
+        """Skip the padding before a primitive of ``size`` bytes."""
+        end = min(self.pos + padding(self.pos, size), len(self.buf))
+        self._dirty += [k for k in range(self.pos, end) if self.buf[k]]
+        self.pos = end
+
+    def need(self, n: int, what: str) -> None:
+        if n < 0 or self.pos + n > len(self.buf):
+            raise CdrError(f"{what} at byte {self.pos} needs {n} bytes; the message ends at "
+                           f"{len(self.buf)}")  # fmt: skip
+
+    def read(self, packer: struct.Struct, size: int, what: str) -> tuple:
+        """The values ``packer`` (little-endian) unpacks, its elements ``size`` bytes each."""
+        self.align(size)
+        self.need(packer.size, what)
+        self.pos += packer.size
+        return packer.unpack_from(self.buf, self.pos - packer.size)
+
+    def count(self, what: str) -> int:
+        """A string's length or a sequence's count (uint32)."""
+        return self.read(_U32, _U32.size, what)[0]
+
+    def string(self, what: str) -> str:
+        size = self.count(what)
+        self.need(size, what)
+        if size == 0 or self.buf[self.pos + size - 1] != 0:
+            raise CdrError(f"{what} at byte {self.pos} is not a NUL-terminated string")
+        try:
+            text = str(self.buf[self.pos : self.pos + size - 1], "utf-8")
+        except UnicodeDecodeError as exc:
+            raise CdrError(f"{what} at byte {self.pos} is not UTF-8: {exc}") from None
+        if "\0" in text:
+            raise CdrError(f"{what} at byte {self.pos} holds a NUL before its end")
+        self.pos += size
+        return text
+
+    def block(self, size: int, what: str) -> tuple[int, int]:
+        """``(offset, count)`` of a sequence of primitives of ``size`` bytes, skipped over."""
+        n = self.count(what)
+        if n:
+            self.align(size)
+            self.need(size * n, what)
+        offset, self.pos = self.pos, self.pos + size * n
+        return offset, n
+
+    def finish(self, what: str) -> bytes:
+        """The exact CDR of what was read: the bytes up to here, padding zeroed; refused if more
+        than the transport's padding follows."""
+        tail = self.buf[self.pos :]
+        if not is_transport_padding(tail):
+            raise CdrError(f"{len(tail)} bytes follow the {what}'s CDR ({self.pos} bytes): at "
+                           f"most {MAX_TRANSPORT_PADDING} zero bytes of transport padding may")
+        exact = bytearray(self.buf[: self.pos])
+        for k in self._dirty:
+            exact[k] = 0
+        return bytes(exact)
 
 
 def without_source_location(text: str) -> str:
@@ -404,32 +481,20 @@ def decode_exact(data: bytes, msg_class: type) -> tuple[object, bytes]:
 
 
 def exact_bytes(data: bytes, msg_class: type) -> bytes:
-    """``data`` (as a raw subscription received it) without the transport's padding.
-
-    Fast DDS pads a message that crosses processes to a multiple of 4 bytes with up to 3 zero
-    bytes (a 650-byte DiagnosticArray arrives as 652). The exact CDR is what the message
-    serialises to: ``data`` must be that, possibly followed by such padding; anything else
-    raises :class:`CdrError`.
-    """
+    """``data`` (as a raw subscription received it) without the transport's padding: Fast DDS
+    pads a message that crosses processes to a multiple of 4 bytes with up to 3 zero bytes (a
+    650-byte DiagnosticArray arrives as 652). ``data`` must be the exact CDR of the message it
+    decodes to, possibly followed by such padding; anything else raises :class:`CdrError`."""
     msg, exact = decode_exact(data, msg_class)
     if not data.startswith(exact):
-        raise CdrError(
-            f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
-            f"{msg_class.__name__} plus at most {MAX_TRANSPORT_PADDING} zero bytes of padding"
-        )
+        raise CdrError(f"{len(data)} bytes are not the {len(exact)}-byte CDR of their "
+                       f"{msg_class.__name__} plus at most {MAX_TRANSPORT_PADDING} zero bytes of "
+                       "padding")  # fmt: skip
     return exact
 
 
 __all__ = [
-    "CDR_LE_HEADER",
-    "MAX_TRANSPORT_PADDING",
-    "CdrError",
-    "Layout",
-    "decode_exact",
-    "exact_bytes",
-    "flat_packer",
-    "is_transport_padding",
-    "serialize",
-    "serializer",
+    "CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "Layout", "Reader", "decode_exact",
+    "exact_bytes", "flat_packer", "is_transport_padding", "padding", "serializer",
     "without_source_location",
-]
+]  # fmt: skip
