@@ -1,5 +1,5 @@
 """A recorded run judged against the model that ran it: the rung and the faults the bag recorded
-(:class:`~drs_ros.bag.run_record.RunRecord`), judged with the rung's own equations
+(:class:`~drs_ros.bag.recorded_run.RunRecord`), judged with the rung's own equations
 (:mod:`drs_model.fidelity.recorded`). Part of ``drs-bag check`` (docs/bags.md, "What check
 judges").
 
@@ -38,7 +38,7 @@ from ..names import ACCEPTED, RESET
 from ..timestamps import ns_of
 from .effects import EffectRecord, fault_of, is_fault_record
 from .model_checks import FORCE_CHECK, CheckResult, ModelChecker, _Worst, joint_row
-from .run_record import RunRecord
+from .recorded_run import RunRecord
 
 #: Topics read per tick besides the joint states: key of the topic -> how its value is read.
 TICK_TOPICS = {
