@@ -17,7 +17,6 @@ from ..names import ACCEPTED, RESET
 from .effects import (
     apply_fault_record,
     is_fault_record,
-    recorded_rung,
 )
 from .recorded_run import RecordedRun, ResimulationError
 
@@ -173,7 +172,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None, 
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
     sim = make_rung(
-        fidelity or recorded_rung(np_, run.records),
+        fidelity or run.rung(),
         model,
         dt,
         force_limit=float(np_["force_limit"]),
