@@ -78,14 +78,7 @@ def measure(
     """One run. ``load``: ``commands`` (open, close, stroke, force, one every 100 ms) or
     ``trajectory`` (a 10,000-point trajectory every second, each replacing the last).
     ``node_args``: more ``name:=value`` parameters of the node."""
-    import rclpy
-    from diagnostic_msgs.msg import DiagnosticArray
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.node import Node
-    from sensor_msgs.msg import JointState
-    from std_msgs.msg import Float64
-    from std_srvs.srv import SetBool
+    from drs_ros.client import DRSClient
 
     out = tmp / f"{executor}-{publish_hz:g}-{load}"
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
@@ -95,68 +88,36 @@ def measure(
          "-p", f"rrd_path:={out / 'run.rrd'}", *[a for v in node_args for a in ("-p", v)]],
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
-    ctx = Context()
-    rclpy.init(context=ctx, domain_id=domain)
-    driver = Node("bench_driver", context=ctx)
-    diag: dict[str, str] = {}
-    joints = [0]
-    driver.create_subscription(
-        DiagnosticArray, "/diagnostics",
-        lambda m: diag.update({kv.key: kv.value for kv in m.status[0].values}), 10,
-    )  # fmt: skip
-    driver.create_subscription(JointState, "/joint_states",
-                               lambda _m: joints.__setitem__(0, joints[0] + 1), 10)  # fmt: skip
-    client = driver.create_client(SetBool, "/drs/drs")
-    stroke = driver.create_publisher(Float64, "/drs/stroke_cmd", 10)
-    force = driver.create_publisher(Float64, "/drs/force_cmd", 10)
-    from trajectory_msgs.msg import JointTrajectory
-
-    trajectory = driver.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+    driver = DRSClient(domain, listen=("joint_states", "diagnostics"), client_name="bench_driver")
     big = big_trajectory() if load == "trajectory" else None
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(driver)
-
-    def spin(seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            ex.spin_once(timeout_sec=0.01)
-
     try:
-        end = time.monotonic() + 30
-        while (joints[0] < 50 or not diag) and time.monotonic() < end:
-            spin(0.1)
-        first = dict(diag)
+        driver.wait_for(lambda: driver.seen["joint_states"] >= 50 and driver.seen["diag"])
+        first = dict(driver.seen["diag"] or {})
         wall0, cpu0 = time.monotonic(), cpu_seconds(proc.pid)
         k = 0
         while time.monotonic() - wall0 < duration:
             step = k % 5
             if big is not None:
                 if k % 10 == 0:
-                    trajectory.publish(big)
-            elif step == 0:
-                client.call_async(SetBool.Request(data=True))
-            elif step == 1:
-                client.call_async(SetBool.Request(data=False))
+                    driver.trajectory(big)
+            elif step in (0, 1):
+                driver.request_drs(step == 0)  # open, then close; the answer is not awaited
             elif step == 2:
-                stroke.publish(Float64(data=0.02))
-            elif step == 3:
-                force.publish(Float64(data=1500.0))
+                driver.stroke(0.02)
             else:
-                force.publish(Float64(data=0.0))
+                driver.force(1500.0 if step == 3 else 0.0)
             k += 1
-            spin(0.1)
-        spin(1.1)  # one more diagnostics message
+            driver.spin(0.1)
+        driver.spin(1.1)  # one more diagnostics message
         wall, cpu = time.monotonic() - wall0, cpu_seconds(proc.pid) - cpu0
-        last = dict(diag)
+        last = dict(driver.seen["diag"] or {})
     finally:
         proc.send_signal(signal.SIGINT)
         try:
             proc.wait(timeout=30)
         except subprocess.TimeoutExpired:
             proc.kill()
-        ex.shutdown()
-        driver.destroy_node()
-        rclpy.try_shutdown(context=ctx)
+        driver.close()
 
     def delta(key: str, cast=float) -> float:
         return cast(last[key]) - cast(first[key])

@@ -46,22 +46,17 @@ def main(argv: list[str] | None = None) -> int:
     work = Path(tempfile.mkdtemp(prefix="drs-stress-"))
     env = dict(os.environ, ROS_DOMAIN_ID=str(args.domain), ROS_LOG_DIR=str(work / "log"))
 
-    import rclpy
-    from rclpy.node import Node
-    from std_msgs.msg import Float64
-
     from drs_model.kinematics import stroke_limits
     from drs_model.params import DRSParams
     from drs_ros.bag.cli import main as bag_main
+    from drs_ros.client import DRSClient
     from drs_ros.recording.rerun_cli import run_rerun_cli
 
     rng = random.Random(args.seed)
     lo, hi = stroke_limits(DRSParams())
     code = "while True: pass"
     burners = [subprocess.Popen([sys.executable, "-c", code]) for _ in range(2)]
-    rclpy.init(domain_id=args.domain)
-    client = Node("stress_client")
-    cmd = client.create_publisher(Float64, "/drs/stroke_cmd", 10)
+    client = DRSClient(args.domain, listen=(), client_name="stress_client")
     failures: Counter = Counter()
     done = 0
     t_start = time.monotonic()
@@ -77,8 +72,8 @@ def main(argv: list[str] | None = None) -> int:
             at = {n: time.monotonic() + 0.1 + 1.5 * rng.random() for n in names}
             sent: set = set()
             while len(sent) < len(names):
-                cmd.publish(Float64(data=lo + (hi - lo) * rng.random()))
-                rclpy.spin_once(client, timeout_sec=0.005)
+                client.stroke(lo + (hi - lo) * rng.random())
+                client.spin(0.005)
                 for n in names:
                     if n not in sent and time.monotonic() >= at[n]:
                         procs[n].send_signal(rng.choice([signal.SIGINT, signal.SIGTERM]))
@@ -103,8 +98,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{done}/{args.stops} stops, failures so far: {dict(failures) or 'none'}",
                   file=sys.stderr)  # fmt: skip
     finally:
-        client.destroy_node()
-        rclpy.try_shutdown()
+        client.close()
         for b in burners:
             b.kill()
     minutes = (time.monotonic() - t_start) / 60

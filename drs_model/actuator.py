@@ -72,8 +72,8 @@ class ActuatorSim(CommandedActuator):
     force_method : str
         Inverse-dynamics formulation for stroke and hold modes, a name of
         :data:`drs_model.inverse.INVERSE_METHODS`; ``"fused"`` (the default) is the one-sample
-        fused kernel. ``"virtual-work"`` is also read as ``"fused"``: the node's ``force_method``
-        parameter and the bags it recorded name the fused path so.
+        fused kernel, every other name runs that formulation (``"virtual-work"`` the virtual
+        work along ``dq/dpsi3``) through :func:`drs_model.inverse.inverse_dynamics`.
     """
 
     def __init__(
@@ -91,9 +91,7 @@ class ActuatorSim(CommandedActuator):
         from .inverse import FusedInverseDynamics
 
         self._scalar_force = (
-            FusedInverseDynamics.from_params(p)
-            if force_method in ("fused", "virtual-work")
-            else None
+            FusedInverseDynamics.from_params(p) if force_method == "fused" else None
         )
         # force mode: a step of at most MAX_FORCE_STEP is first tried whole (the real-time loop's
         # common case); a longer one, or one that fails or meets a stop, in `_pieces` equal

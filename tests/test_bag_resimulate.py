@@ -28,9 +28,14 @@ def resimulate(*args) -> tuple[int, dict | str]:
 def test_a_recorded_run_re_runs_exactly(which, request):
     """Joint states to <= 1e-9 (m, rad), force to <= 1e-6 N (the exit status). A bag the current
     code recorded re-runs to the last bit (the same code runs the same commands at the same
-    steps); the committed example may have been recorded by an earlier version of the model,
-    whose round-off may differ: there the tolerances are the promise."""
+    steps); the committed example was recorded by an earlier version of the model, whose
+    round-off may differ: there the tolerances are the promise. It names its force_method
+    'virtual-work' (the fused closed form ran under that name then): the re-run runs the
+    virtual-work formulation, says so, and its force stays within the formulations' agreement
+    (1e-9 relative of the 25 kN peak)."""
     require_rclpy()
+    from drs_ros.bag.rerun import VIRTUAL_WORK_NOTE
+
     bag = EXAMPLE if which == "example" else request.getfixturevalue("node_bag")
     rc, report = resimulate(str(bag), "--json")
     assert rc == 0, report
@@ -38,7 +43,10 @@ def test_a_recorded_run_re_runs_exactly(which, request):
     assert rows["stroke"]["samples"] > 500 and rows["piston_force"]["samples"] > 500
     if which == "node":
         assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows
-    assert not report["notes"]
+        assert not report["notes"]
+    else:
+        assert rows["piston_force"]["max_deviation"] <= 1e-9 * 2.6e4  # N
+        assert report["notes"] == [VIRTUAL_WORK_NOTE]
 
 
 def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
@@ -124,14 +132,15 @@ def test_bad_set_is_refused_with_a_reason(tmp_path):
 T0_NS = 1_700_000_000_000_000_000
 
 
-def write_bag_with_a_reset(bag_dir, params) -> dict:
+def write_bag_with_a_reset(bag_dir, params, force_method: str = "fused") -> dict:
     """The bag an older node recorded for: stroke 46 mm, then -5 kN at 100 Hz
     physics (its model raised IntegrationError in the first force step, so the node held the
     flap there and recorded a RESET), then 20 mm, +600 N, -20 kN. Written tick by tick as
     ``Tick.run`` does (one physics step per 10 ms tick), with the node's own message
     helpers: the effect record (command_event_msg), the parameters (parameter_event), the
     joint states (joint_state_msg). The current model takes that step, so the RESET is written
-    where the node wrote it, with the stroke it held. Returns what was written."""
+    where the node wrote it, with the stroke it held. The forces are the fused closed form's,
+    whatever ``force_method`` the bag records. Returns what was written."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from message_support import joint_state_msg
     from rcl_interfaces.msg import ParameterEvent
@@ -149,9 +158,9 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
 
     tp, names, hz = DEFAULT_TOPICS, list(DEFAULT_JOINT_NAMES), 100.0
     node_params = {"physics_rate_hz": hz, "publish_rate_hz": hz, "force_limit": 2.0e4,
-                   "integrator": "rk4", "force_method": "virtual-work", "joint_names": names,
+                   "integrator": "rk4", "force_method": force_method, "joint_names": names,
                    **{f"model.{k}": float(getattr(params, k)) for k in NUMERIC_FIELDS}}  # fmt: skip
-    sim = ActuatorSim(params, dt=1.0 / hz)
+    sim = ActuatorSim(params, dt=1.0 / hz, force_method="fused")
     schedule = {1: ("stroke_cmd", 0.046), 30: ("force_cmd", -5000.0), 50: ("stroke_cmd", 0.02),
                 80: ("force_cmd", 600.0), 120: ("force_cmd", -20000.0)}  # fmt: skip
     reset_tick, written = 30, {"resets": [], "states": {}}
@@ -212,7 +221,7 @@ def write_bag_with_a_reset(bag_dir, params) -> dict:
 
 def test_a_bag_with_a_reset_re_runs_exactly(tmp_path, params):
     """The RESET is applied at its recorded step with its recorded stroke, and the run goes on
-    from there: every signal re-runs with zero deviation, no note. (Today's model would not
+    from there: every signal re-runs with zero deviation, no note. (The current model would not
     hold at 46 mm under -5 kN but close the flap: without the RESET the re-run deviates by
     ~46 mm; with the model of the time, the re-run itself raised at that step.)"""
     require_rclpy()
@@ -229,6 +238,23 @@ def test_a_bag_with_a_reset_re_runs_exactly(tmp_path, params):
     assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows
     assert not report["notes"], report["notes"]
 
+
+
+def test_a_bag_naming_virtual_work_re_runs_the_virtual_work_formulation(tmp_path, params):
+    """A bag whose force_method is 'virtual-work' but whose forces are the fused closed form's
+    (as drs nodes recorded while the name meant the fused path): the re-run runs the
+    virtual-work formulation, says so in a note, and passes within the formulations'
+    agreement (1e-9 relative); the motion does not depend on the formulation."""
+    require_rclpy()
+    from drs_ros.bag.rerun import VIRTUAL_WORK_NOTE
+
+    write_bag_with_a_reset(tmp_path / "vw", params, force_method="virtual-work")
+    rc, report = resimulate(str(tmp_path / "vw"), "--json")
+    assert rc == 0, report
+    rows = {r["signal"]: r for r in report["signals"]}
+    assert rows["stroke"]["max_deviation"] == 0.0 and rows["gap"]["max_deviation"] == 0.0
+    assert 0.0 < rows["piston_force"]["max_deviation"] <= 1e-9 * 2.0e4  # N
+    assert report["notes"] == [VIRTUAL_WORK_NOTE]
 
 @pytest.mark.parametrize(
     "overrides",

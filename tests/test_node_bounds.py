@@ -5,7 +5,6 @@ its own process over loopback DDS); and SIGINT/SIGTERM in the middle of a tick o
 
 from __future__ import annotations
 
-import math
 import re
 import signal
 import time
@@ -19,38 +18,15 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 require_rclpy()
 
 from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
-from std_msgs.msg import Float64  # noqa: E402
-from std_srvs.srv import SetBool  # noqa: E402
-from test_node_robustness import Client, start_node, stop_node  # noqa: E402
+from test_node_robustness import start_node, stop_node  # noqa: E402
 
 from drs_model.fidelity import RUNGS  # noqa: E402
 from drs_model.fidelity.faults import FAULT_RANGES, FAULTS, HYDRAULIC_ONLY  # noqa: E402
 from drs_model.kinematics import stroke_limits  # noqa: E402
+from drs_ros.client import DRSClient  # noqa: E402
 
 PUBLISH_HZ = 100.0
 INT64_MAX = 2**63 - 1
-
-
-class Participant(Client):
-    """A client that keeps when each joint state arrived, and sets the node's parameters."""
-
-    def __init__(self, domain: int) -> None:
-        super().__init__(domain)
-        self.arrivals: list[tuple[float, JointState]] = []
-        self.node.create_subscription(
-            JointState, "/joint_states", lambda m: self.arrivals.append((time.monotonic(), m)), 100
-        )
-        self.params = AsyncParameterClient(self.node, "/drs")
-
-    def set(self, name: str, value):
-        fut = self.params.set_parameters([Parameter(name, value=value)])
-        assert self.wait_for(fut.done, timeout=30.0), f"no answer setting {name}"
-        return fut.result().results[0]
-
-    def stroke(self) -> float:
-        return self.arrivals[-1][1].position[0] if self.arrivals else math.nan
 
 
 def _modelled(name: str, rung: str) -> bool:
@@ -101,16 +77,15 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
     bag = tmp_path / "bag"
     proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"fidelity:={rung}",
                       f"publish_rate_hz:={PUBLISH_HZ}")  # fmt: skip
-    client = Participant(domain)
+    client = DRSClient(domain, timeout=60.0, keep=True, listen=("joint_states",))
     lo, hi = stroke_limits(params)
     target = lo + 0.4 * (hi - lo)
     plan = _plan(rung)
     try:
-        assert client.params.wait_for_services(60.0)
-        assert client.wait_for(lambda: len(client.arrivals) > 10, timeout=60.0)
+        assert client.wait_for(lambda: len(client.arrival_times) > 10)
         start = time.monotonic()
         for name, value, outcome in plan:
-            result = client.set(f"fault.{name}", value)
+            result = client.set_parameter(f"fault.{name}", value)
             assert result.successful == (outcome == "taken"), (name, value, result.reason)
             if outcome == "out of range":
                 edges = ", ".join(f"{v:g}" if isinstance(v, float) else str(v)
@@ -120,16 +95,15 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
                     result.reason)  # fmt: skip
             elif outcome == "not modelled":
                 assert f"'{rung}' rung cannot model fault {name}" in result.reason
-        client.spin_for(0.2)
-        during = [t for t, _ in client.arrivals if t >= start]
+        client.spin(0.2)
+        during = [t for t in client.arrival_times if t >= start]
         elapsed = during[-1] - start
         assert len(during) >= 0.5 * PUBLISH_HZ * elapsed, (len(during), elapsed)
         assert max(b - a for a, b in zip([start, *during[:-1]], during, strict=True)) < 1.0
         # a good command afterwards: the stroke goes where it is told
-        cmd = client.node.create_publisher(Float64, "/drs/stroke_cmd", 10)
-        cmd.publish(Float64(data=target))
-        assert client.wait_for(lambda: abs(client.stroke() - target) < 1e-5, timeout=30.0), (
-            client.stroke(), target)  # fmt: skip
+        client.stroke(target)
+        assert client.wait_for(lambda: abs(client.stroke_now() - target) < 1e-5, timeout=30.0), (
+            client.stroke_now(), target)  # fmt: skip
     finally:
         client.close()
         out = stop_node(proc)
@@ -166,15 +140,12 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
     proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
                       "fidelity:=hydraulic", "max_catch_up_steps:=100000",
                       f"executor:={executor}")  # fmt: skip
-    client = Participant(domain)
+    client = DRSClient(domain, timeout=60.0, keep=True, listen=("joint_states",))
     _, s_max = stroke_limits(params)
     try:
-        drs = client.node.create_client(SetBool, "/drs/drs")
-        assert drs.wait_for_service(timeout_sec=60.0) and client.params.wait_for_services(60.0)
-        fut = drs.call_async(SetBool.Request(data=True))
-        assert client.wait_for(fut.done, timeout=30.0) and fut.result().success
-        assert client.wait_for(lambda: client.stroke() > s_max - 1e-4, timeout=30.0)
-        client.spin_for(0.3)
+        assert client.call_drs(True).startswith("ok")
+        assert client.wait_for(lambda: client.stroke_now() > s_max - 1e-4, timeout=30.0)
+        client.spin(0.3)
         proc.send_signal(signal.SIGSTOP)
         time.sleep(6.0)
         proc.send_signal(signal.SIGCONT)

@@ -18,33 +18,27 @@ pytestmark = pytest.mark.ros
 
 require_rclpy()
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticStatus  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
-from test_node_robustness import Client, bag_check, start_node, stop_node  # noqa: E402
+from test_node_robustness import bag_check, start_node, stop_node  # noqa: E402
 
+from drs_ros.client import DRSClient  # noqa: E402
 from drs_ros.node import DRSNode  # noqa: E402
 from drs_ros.recording.rerun_cli import run_rerun_cli  # noqa: E402
 
 
-class Watcher(Client):
-    """A participant that keeps the node's joint states and diagnostics."""
+def errors(watcher: DRSClient) -> list:
+    """The node's diagnostics at ERROR that ``watcher`` kept, as {key: value} with the
+    message."""
+    return [{"message": s.message, **{kv.key: kv.value for kv in s.values}}
+            for s in watcher.diagnostic_statuses if s.level == DiagnosticStatus.ERROR]  # fmt: skip
 
-    def __init__(self, domain: int) -> None:
-        super().__init__(domain)
-        self.diagnostics: list = []
-        self.node.create_subscription(DiagnosticArray, "/diagnostics",
-                                      lambda m: self.diagnostics.extend(m.status), 10)  # fmt: skip
 
-    def errors(self) -> list:
-        """The node's diagnostics at ERROR, as {key: value} with the message."""
-        return [{"message": s.message, **{kv.key: kv.value for kv in s.values}}
-                for s in self.diagnostics if s.level == DiagnosticStatus.ERROR]  # fmt: skip
-
-    def states_keep_coming(self, seconds: float = 1.0) -> bool:
-        n = len(self.joints)
-        self.spin_for(seconds)
-        return len(self.joints) > n + 10
+def states_keep_coming(watcher: DRSClient, seconds: float = 1.0) -> bool:
+    n = len(watcher.joint_state_msgs)
+    watcher.spin(seconds)
+    return len(watcher.joint_state_msgs) > n + 10
 
 
 @pytest.mark.slow
@@ -58,14 +52,14 @@ def test_a_full_file_system_cuts_the_rrd_and_the_bag_goes_on(tmp_path, request):
     bag, rrd = tmp_path / "bag", tmp_path / "small" / "run.rrd"
     with small_filesystem(tmp_path / "small", 128 * 1024):
         proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}")
-        watcher = Watcher(domain)
+        watcher = DRSClient(domain, keep=True, listen=("joint_states", "diagnostics"))
         try:
-            assert watcher.wait_for(lambda: watcher.errors(), timeout=90), "no ERROR diagnostics"
-            error = watcher.errors()[-1]
+            assert watcher.wait_for(lambda: errors(watcher), timeout=90), "no ERROR diagnostics"
+            error = errors(watcher)[-1]
             assert f"rerun recording '{rrd}' stopped" in error["message"]
             assert "file writer stopped" in error["rerun"] and "0 bytes are free" in error["rerun"]
             assert error["bag"].endswith("flushes")  # the bag goes on, unharmed
-            assert watcher.states_keep_coming()
+            assert states_keep_coming(watcher)
         finally:
             watcher.close()
             out = stop_node(proc)
@@ -85,15 +79,15 @@ def test_a_removed_bag_is_named_and_the_rrd_is_complete(tmp_path, request):
     bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
     proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
                       "flush_period:=0.2")  # fmt: skip
-    watcher = Watcher(domain)
+    watcher = DRSClient(domain, keep=True, listen=("joint_states", "diagnostics"))
     try:
         assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=50_000)
         shutil.rmtree(bag)
-        assert watcher.wait_for(lambda: watcher.errors(), timeout=30), "no ERROR diagnostics"
-        error = watcher.errors()[-1]
+        assert watcher.wait_for(lambda: errors(watcher), timeout=30), "no ERROR diagnostics"
+        error = errors(watcher)[-1]
         assert f"bag '{bag}' stopped" in error["message"] and "removed" in error["message"]
         assert error["rerun"].endswith("samples")
-        assert watcher.states_keep_coming()
+        assert states_keep_coming(watcher)
     finally:
         watcher.close()
         out = stop_node(proc)

@@ -16,6 +16,8 @@ import pytest
 from node_support import domain_for, node_env, wait_for_file_growth
 from ros_support import require_rclpy
 
+from drs_ros.client import DRSClient
+
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
@@ -42,45 +44,6 @@ def stop_node(proc, sig=signal.SIGINT, timeout: float = 30.0) -> str:
         if proc.poll() is None:
             proc.kill()
     return out or ""
-
-
-class Client:
-    """A plain rclpy participant in the node's domain (its own context)."""
-
-    def __init__(self, domain: int) -> None:
-        import rclpy
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.node import Node
-        from sensor_msgs.msg import JointState
-
-        self.ctx = Context()
-        rclpy.init(context=self.ctx, domain_id=domain)
-        self.node = Node("edge_client", context=self.ctx)
-        self.joints: list = []
-        self.node.create_subscription(JointState, "/joint_states", self.joints.append, 100)
-        self.ex = SingleThreadedExecutor(context=self.ctx)
-        self.ex.add_node(self.node)
-
-    def spin_for(self, seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            self.ex.spin_once(timeout_sec=0.01)
-
-    def wait_for(self, predicate, timeout: float = 30.0) -> bool:
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if predicate():
-                return True
-            self.ex.spin_once(timeout_sec=0.02)
-        return predicate()
-
-    def close(self) -> None:
-        import rclpy
-
-        self.ex.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.ctx)
 
 
 def bag_check(bag) -> int:
@@ -120,17 +83,17 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
     proc = start_node(tmp_path, domain, f"bag_path:={bag}", "publish_rate_hz:=250.0")
-    client = Client(domain)
+    client = DRSClient(domain, keep=True, listen=("joint_states",))
     lo, hi = stroke_limits(params)
     target = lo + 0.3 * (hi - lo)
     try:
         pubs = {topic: client.node.create_publisher(types[t], topic, 10)
                 for topic, t, _ in MALFORMED}  # fmt: skip
         evil_events = client.node.create_publisher(SetBool.Event, "/drs/drs/_service_event", 10)
-        good = client.node.create_publisher(Float64, "/drs/stroke_cmd", 10)
         assert client.wait_for(
             lambda: (
-                len(client.joints) > 20
+                len(client.joint_state_msgs) > 20
+                and client.commands_matched()
                 and all(p.get_subscription_count() for p in pubs.values())
                 and evil_events.get_subscription_count()
             )
@@ -138,15 +101,15 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
         for topic, _t, payloads in MALFORMED:
             for data in payloads:
                 pubs[topic].publish(data)  # bytes: published as they are
-                client.spin_for(0.05)
+                client.spin(0.05)
         evil_events.publish(b"\x00\x01\x00\x00\x09\x09")
-        n0 = len(client.joints)
-        client.spin_for(1.0)
-        rate = len(client.joints) - n0  # joint states in 1 s after the malformed bytes
+        n0 = len(client.joint_state_msgs)
+        client.spin(1.0)
+        rate = len(client.joint_state_msgs) - n0  # joint states in 1 s after the malformed bytes
         assert proc.poll() is None, "the node exited on malformed input"
-        good.publish(Float64(data=target))
+        client.stroke(target)
         assert client.wait_for(
-            lambda: abs(client.joints[-1].position[0] - target) < 1e-12, timeout=5.0
+            lambda: abs(client.joint_state_msgs[-1].position[0] - target) < 1e-12, timeout=5.0
         ), "a good command after the malformed ones was not obeyed"
     finally:
         out = stop_node(proc)
@@ -200,7 +163,6 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
     would all pass by chance with probability ~0.3 if that regressed (the benchmark
     ``benchmarks/shutdown_stress.py`` runs more). Three nodes run at once (one domain, one
     command stream for all), each stopped at its own random moment."""
-    from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
     from drs_ros.recording.rerun_cli import run_rerun_cli
@@ -210,8 +172,7 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
     domain = domain_for(request.node.nodeid)
     lo, hi = stroke_limits(params)
     burners = _burn(900.0)  # killed at the end; the cap only guards a crashed test run
-    client = Client(domain)
-    cmd = client.node.create_publisher(Float64, "/drs/stroke_cmd", 10)
+    client = DRSClient(domain, listen=())  # a command stream alone
     try:
         for k in range(batches):
             names = [f"b{k}_{i}" for i in range(per_batch)]
@@ -226,8 +187,8 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
                 start = time.monotonic()
                 at = {name: start + 0.1 + 1.5 * rng.random() for name in names}
                 while len(stops) < per_batch:  # a command stream until the last stop
-                    cmd.publish(Float64(data=lo + (hi - lo) * rng.random()))
-                    client.spin_for(0.005)
+                    client.stroke(lo + (hi - lo) * rng.random())
+                    client.spin(0.005)
                     for name in names:
                         if name not in stops and time.monotonic() >= at[name]:
                             stops[name] = rng.choice([signal.SIGINT, signal.SIGTERM])
@@ -293,17 +254,14 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     publishing, stamps its states on the new clock, and records the jump."""
     from decoded_support import read_bag
     from rosgraph_msgs.msg import Clock
-    from std_msgs.msg import Float64
 
     from drs_ros.bag.effects import effect_records
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
     proc = start_node(tmp_path, domain, f"bag_path:={bag}", "use_sim_time:=true")
-    client = Client(domain)
+    client = DRSClient(domain, keep=True, listen=("joint_states",))
     clock = client.node.create_publisher(Clock, "/clock", 10)
-
-    force = client.node.create_publisher(Float64, "/drs/force_cmd", 10)
 
     def run_clock(t0_s: float, seconds: float, force_at: float) -> None:
         start, forced = time.monotonic(), False
@@ -312,20 +270,20 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = divmod(ns, 10**9)
             clock.publish(msg)
-            client.spin_for(0.002)
+            client.spin(0.002)
             if not forced and el > 0.5:  # motion, so that a state matched to the wrong step
-                force.publish(Float64(data=force_at))  # would deviate in the re-run
+                client.force(force_at)  # would deviate in the re-run
                 forced = True
 
     try:
         assert client.wait_for(
-            lambda: clock.get_subscription_count() > 0 and force.get_subscription_count() > 0
+            lambda: clock.get_subscription_count() > 0 and client.commands_matched()
         )
         run_clock(1000.0, 2.0, 3000.0)
-        before = len(client.joints)
+        before = len(client.joint_state_msgs)
         assert before > 50, "no joint states on /clock"
         run_clock(1000.5, 2.0, -1500.0)  # back into times already logged: log times alone mislead
-        after = client.joints[before:]
+        after = client.joint_state_msgs[before:]
     finally:
         out = stop_node(proc)
         client.close()
@@ -358,25 +316,21 @@ def test_force_mode_at_100_hz_lands_on_the_stop_the_force_drives_to(tmp_path, re
     """At the lowest allowed physics rate a +20 kN force opens the flap onto the open stop (it
     parked on the closed stop for ever before), and -5 kN from there closes it onto the closed
     stop (an IntegrationError escaped the step before, and the command was dropped)."""
-    from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
 
     domain = domain_for(request.node.nodeid)
     proc = start_node(tmp_path, domain, "physics_rate_hz:=100.0", "publish_rate_hz:=50.0")
-    client = Client(domain)
-    force = client.node.create_publisher(Float64, "/drs/force_cmd", 10)
+    client = DRSClient(domain, keep=True, listen=("joint_states",))
     lo, hi = stroke_limits(params)
     try:
-        assert client.wait_for(lambda: client.joints and force.get_subscription_count() > 0)
-        force.publish(Float64(data=20000.0))
-        assert client.wait_for(lambda: client.joints[-1].position[0] == hi, timeout=5.0), (
-            client.joints[-1].position[0]
-        )
-        force.publish(Float64(data=-5000.0))
-        assert client.wait_for(lambda: client.joints[-1].position[0] == lo, timeout=5.0), (
-            client.joints[-1].position[0]
-        )
+        assert client.wait_for(lambda: client.joint_state_msgs and client.commands_matched())
+        client.force(20000.0)
+        assert client.wait_for(lambda: client.stroke_now() == hi, timeout=5.0), (
+            client.stroke_now())  # fmt: skip
+        client.force(-5000.0)
+        assert client.wait_for(lambda: client.stroke_now() == lo, timeout=5.0), (
+            client.stroke_now())  # fmt: skip
     finally:
         out = stop_node(proc)
         client.close()
@@ -392,7 +346,6 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
     ``benchmarks/node_rate.py`` (missed deadlines with a 10,000-point trajectory a second)."""
     from builtin_interfaces.msg import Duration
     from decoded_support import read_bag
-    from std_msgs.msg import Float64
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from drs_model.kinematics import stroke_limits
@@ -401,8 +354,7 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
     proc = start_node(tmp_path, domain, f"bag_path:={bag}")
-    client = Client(domain)
-    pub = client.node.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+    client = DRSClient(domain, keep=True, listen=("joint_states",))
     lo, hi = stroke_limits(params)
     mid, amp, n, span = 0.5 * (lo + hi), 0.3 * (hi - lo), 10_000, 5.0
     t = span * np.arange(1, n + 1) / n
@@ -417,14 +369,13 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
             )
         )
     try:
-        assert client.wait_for(lambda: len(client.joints) > 10 and pub.get_subscription_count())
+        assert client.wait_for(lambda: len(client.joint_state_msgs) > 10
+                               and client.commands_matched())  # fmt: skip
         # start at rest where the sine starts: a move there, then the trajectory
-        stroke = client.node.create_publisher(Float64, "/drs/stroke_cmd", 10)
-        assert client.wait_for(lambda: stroke.get_subscription_count() > 0)
-        stroke.publish(Float64(data=mid))
-        client.spin_for(0.5)
-        pub.publish(msg)
-        client.spin_for(span + 1.0)
+        client.stroke(mid)
+        client.spin(0.5)
+        client.trajectory(msg)
+        client.spin(span + 1.0)
     finally:
         out = stop_node(proc)
         client.close()

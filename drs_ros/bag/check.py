@@ -351,7 +351,7 @@ def run_notes(checker: RunChecker) -> list[str]:
         rung = f"judged on the {checker.rung} rung (fidelity auto's choice, in the effect record)"
     else:
         rung = f"judged on the {checker.rung} rung (the recorded fidelity parameter)"
-    return [rung, *record.notes]
+    return [rung, *record.fault_notes]
 
 
 #: Table columns of each check's result: check name -> column prefix.

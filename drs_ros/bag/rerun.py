@@ -17,13 +17,22 @@ from ..names import ACCEPTED, RESET
 from .effects import (
     apply_fault_record,
     is_fault_record,
-    recorded_rung,
 )
 from .recorded_run import RecordedRun, ResimulationError
 
 #: Re-simulated steps kept behind the latest one asked for (a recorded state is compared with
 #: the step its stamp names; a bag in the node's order never looks back more than a few).
 STATE_WINDOW = 65536
+
+#: What a re-run says of a bag whose ``force_method`` is ``virtual-work``: the name is the
+#: virtual-work formulation, but drs nodes ran the fused closed form under it while the two
+#: were not yet two values of the parameter. A bag does not say which ran; the two agree to
+#: 1e-9 relative (~1e-14 measured, docs/dynamics.md), far inside the force's tolerance.
+VIRTUAL_WORK_NOTE = (
+    "force_method 'virtual-work': re-run with the virtual-work formulation; drs nodes ran the "
+    "fused closed form under this name until 'fused' and 'virtual-work' were two values of "
+    "force_method (the two agree to 1e-9 relative)"
+)
 
 
 class Rerun:
@@ -163,7 +172,7 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None, 
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
     sim = make_rung(
-        fidelity or recorded_rung(np_, run.records),
+        fidelity or run.rung(),
         model,
         dt,
         force_limit=float(np_["force_limit"]),
@@ -172,6 +181,8 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None, 
         **(rung_options or {}),
     )
     rerun = Rerun(run, sim, dt, replay_faults)
+    if np_["force_method"] == "virtual-work":
+        rerun.notes.append(VIRTUAL_WORK_NOTE)
     return {"sim": sim, "states": rerun.states, "dt": dt, "notes": rerun.notes,
             "advance_to": rerun.advance_to, "state_at": rerun.state_at,
             "finish": rerun.finish}  # fmt: skip
@@ -182,4 +193,4 @@ class _Value:
     data: object
 
 
-__all__ = ["STATE_WINDOW", "Rerun", "resimulate"]
+__all__ = ["STATE_WINDOW", "VIRTUAL_WORK_NOTE", "Rerun", "resimulate"]

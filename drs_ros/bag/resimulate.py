@@ -63,7 +63,6 @@ from . import fleet, look_ahead
 from .deviations import SIGNALS, compare
 from .effects import (
     MissingRecordError,
-    recorded_rung,
 )
 from .files import BagReadError
 from .nodes import (
@@ -223,7 +222,7 @@ def _row(bag: str, args: argparse.Namespace, outcome: ResimulationOutcome,
         row.update(fleet.count_columns(recorded.counts, recorded.start_ns, recorded.end_ns, False))
     row["notes"] = list(outcome.notes)
     # the rung of the re-run: asked for, or the one the bag recorded
-    rung = None if recorded is None else recorded_rung(recorded.node_parameters, recorded.records)
+    rung = None if recorded is None else recorded.rung()
     row["fidelity"] = getattr(args, "fidelity", None) or rung
     row.update(fleet.param_columns(outcome.model))
     return row

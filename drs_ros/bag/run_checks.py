@@ -1,5 +1,5 @@
 """A recorded run judged against the model that ran it: the rung and the faults the bag recorded
-(:class:`~drs_ros.bag.run_record.RunRecord`), judged with the rung's own equations
+(:class:`~drs_ros.bag.recorded_run.RecordedRun`), judged with the rung's own equations
 (:mod:`drs_model.fidelity.recorded`). Part of ``drs-bag check`` (docs/bags.md, "What check
 judges").
 
@@ -38,7 +38,7 @@ from ..names import ACCEPTED, RESET
 from ..timestamps import ns_of
 from .effects import EffectRecord, fault_of, is_fault_record
 from .model_checks import FORCE_CHECK, CheckResult, ModelChecker, _Worst, joint_row
-from .run_record import RunRecord
+from .recorded_run import RecordedRun
 
 #: Topics read per tick besides the joint states: key of the topic -> how its value is read.
 TICK_TOPICS = {
@@ -72,7 +72,7 @@ class RunChecker:
 
     def __init__(self, model: ModelChecker, *, pressure_tol: float = 1.0, node: str = "/drs"):
         self.model, self.p = model, model.p
-        self.run = RunRecord(node)
+        self.run = RecordedRun(node)
         self.tp = model.tp
         self.pressure_tol = pressure_tol
         self.rung: str | None = None
@@ -105,10 +105,10 @@ class RunChecker:
         """One decoded message, in the bag's order (other topics are ignored)."""
         tp = self.tp
         if topic == tp["parameter_events"]:
-            self.run.parameters(msg)
+            self.run.take_parameters(msg)
         elif topic == tp["command_events"]:
             self._flush()
-            for r in self.run.records(log_ns, msg):
+            for r in self.run.take_effects(log_ns, msg):
                 self._act(r)
         elif topic == tp["joint_states"]:
             self._joint_state(log_ns, msg)
@@ -320,7 +320,7 @@ class RunChecker:
         return out
 
 
-def fault_report(run: RunRecord) -> list[dict]:
+def fault_report(run: RecordedRun) -> list[dict]:
     """The recorded faults' spans, JSON-ready: fault, value, from and to in simulated time [s]
     and log time [ns] (``to`` None: to the end of the recording)."""
     return [

@@ -46,7 +46,8 @@ NODE_PARAMETERS = (
     ("joint_names", DEFAULT_JOINT_NAMES, "JointState names: piston, link, flap", None),
     ("integrator", "rk4", "fixed-step method of force mode", None),
     ("force_method", "fused",
-     "inverse-dynamics formulation: fused, newton-euler, lagrange, virtual-work", None),
+     "inverse-dynamics formulation: fused (the fused closed form), newton-euler, lagrange, "
+     "virtual-work (d'Alembert along dq/dpsi3)", None),
     ("fidelity", "rigid",
      "model rung: kinematic, quasi-static, rigid, hydraulic or auto (docs/fidelity.md)",
      FIDELITIES),
