@@ -185,6 +185,16 @@ def start_listener(domain: int) -> subprocess.Popen:
     return proc
 
 
+def stop_listener(proc: subprocess.Popen) -> None:
+    """End the listener: SIGTERM, then SIGKILL if it has not ended within 5 s."""
+    proc.terminate()
+    try:
+        proc.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
 def make_node(tmp: Path, fidelity: str, domain: int):
     import rclpy
     from rclpy.parameter import Parameter
@@ -351,8 +361,7 @@ def main() -> int:
             node.destroy_node()
             rclpy.try_shutdown(context=ctx)
             if listener is not None:
-                listener.terminate()
-                listener.wait(timeout=10)
+                stop_listener(listener)
     res.update(listener=args.listener, fidelity=args.fidelity, loadavg=os.getloadavg(),
                cpus=os.cpu_count())  # fmt: skip
     print(f"tick_cost: {args.rounds} x {args.ticks} ticks of each kind, listener "
