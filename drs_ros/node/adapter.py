@@ -393,8 +393,10 @@ class DRSNode(Node):
         recording = self.recordings.recorder is not None
         out = self.outputs.state_messages(self.sim, st, stamp, sensed, self.effects.ticks,
                                           recording=recording)  # fmt: skip
+        listened = self.outputs.listened
         for pub, data in out:
-            pub.publish(data)
+            if listened[pub]:  # no subscriber: DDS would deliver it to no one
+                pub.publish(data)
         t1 = time.thread_time()
         self.effects.cpu["publish"] += t1 - t
         topics = self.outputs.topics

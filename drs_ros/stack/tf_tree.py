@@ -145,7 +145,8 @@ class TfPublisher:
 
     def publish(self, q, stamp_ns: int, now_ns: int, recording: bool = True) -> None:
         """Publish (and record) the joints' transforms at configuration ``q``; nothing is
-        computed while no one subscribes to /tf and no bag is ``recording``."""
+        computed while no one subscribes to /tf and no bag is ``recording``, and nothing is
+        published while no one subscribes (asked every :data:`LISTENER_CHECK_TICKS` calls)."""
         if self._calls % LISTENER_CHECK_TICKS == 0:  # asking DDS costs ~25 us: not every tick
             self._listened = self.pub_tf.get_subscription_count() > 0
         self._calls += 1
@@ -153,7 +154,8 @@ class TfPublisher:
             return
         moving = description.moving_transforms(q, self.origins, self.frames)
         data = self._moving.pack(stamp_ns, [(*xyz, *quat) for _p, _c, xyz, quat in moving])
-        self.pub_tf.publish(data)
+        if self._listened:  # recorded only: DDS would deliver it to no one
+            self.pub_tf.publish(data)
         self._record(self.pub_tf.topic_name, data, now_ns)
 
     def destroy(self) -> None:
