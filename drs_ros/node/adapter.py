@@ -165,7 +165,7 @@ class DRSNode(Node):
         self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
         self.recordings.open(gp("bag_path").value, gp("rrd_path").value,
                              gp("rerun_connect").value, gp("flush_period").value, self.params,
-                             self.markers_rate_hz)  # fmt: skip
+                             self.markers_rate_hz, settings.publish_hz)  # fmt: skip
         try:
             self._register_recorded_topics()
         except Exception:
