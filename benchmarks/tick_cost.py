@@ -168,7 +168,11 @@ def instrument(node, timer: PartTimer) -> None:
     timer.wrap(node.stack.action, "update", "action update")
     timer.wrap(node.recordings, "record", lambda topic, *_a: f"record {topic}")
     if node.recordings.recorder is not None:
-        timer.wrap(node.recordings.recorder, "_append", "record: mcap message record")
+        recorder = node.recordings.recorder
+        if hasattr(recorder, "_append"):
+            timer.wrap(recorder, "_append", "record: mcap message record")
+        else:  # a recorder that goes through mcap's own add_message
+            timer.wrap(recorder._writer, "add_message", "record: mcap message record")
     timer.wrap(node.recordings, "log_state", "rerun: log_state")
     if node.recordings.rerun is not None:
         timer.wrap(node.recordings.rerun, "flush", "rerun: send_columns batch")
