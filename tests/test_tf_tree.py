@@ -45,3 +45,7 @@ def test_a_wrong_number_of_transforms_is_refused():
     packer = MovingTransformsPacker([("a", "b"), ("b", "c")])
     with pytest.raises(ValueError):
         packer.pack(0, [(0.0,) * 7])
+    # numbers moved from one transform to the next (6 + 8) are refused too, not shifted
+    for lengths in ((6, 8), (8, 6), (7, 8), (7, 6)):
+        with pytest.raises(ValueError, match=r"2 transforms of 7 numbers each are packed, got"):
+            packer.pack(0, [(0.0,) * n for n in lengths])

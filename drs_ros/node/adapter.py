@@ -165,7 +165,7 @@ class DRSNode(Node):
         self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
         self.recordings.open(gp("bag_path").value, gp("rrd_path").value,
                              gp("rerun_connect").value, gp("flush_period").value, self.params,
-                             self.markers_rate_hz)  # fmt: skip
+                             self.markers_rate_hz, settings.publish_hz)  # fmt: skip
         try:
             self._register_recorded_topics()
         except Exception:
@@ -393,8 +393,10 @@ class DRSNode(Node):
         recording = self.recordings.recorder is not None
         out = self.outputs.state_messages(self.sim, st, stamp, sensed, self.effects.ticks,
                                           recording=recording)  # fmt: skip
+        listened = self.outputs.listened
         for pub, data in out:
-            pub.publish(data)
+            if listened[pub]:  # no subscriber: DDS would deliver it to no one
+                pub.publish(data)
         t1 = time.thread_time()
         self.effects.cpu["publish"] += t1 - t
         topics = self.outputs.topics

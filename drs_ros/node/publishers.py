@@ -4,9 +4,12 @@ its serialisers, the marker scene and what it last drew.
 
 Every message is serialised once (:mod:`drs_ros.recording.cdr`; the joint states, the
 reactions and the pressures packed into their layouts, :class:`~drs_ros.recording.cdr.Layout`),
-published as those bytes and handed back to the node to record as the same bytes. An optional topic
-(``~/joint_reactions``, ``~/markers``) is computed only while someone listens (asked every
-:data:`LISTENER_CHECK_TICKS` ticks) or, for the markers, while the bag records them.
+published as those bytes and handed back to the node to record as the same bytes. An optional
+topic (``~/joint_reactions``, ``~/markers``) is computed only while someone listens (asked every
+:data:`LISTENER_CHECK_TICKS` ticks) or, for the markers, while the bag records them; a state
+message is handed to DDS only while its topic has a subscriber (the bag records it either way):
+a new subscriber gets the states from at most :data:`LISTENER_CHECK_TICKS` ticks after it
+matched.
 """
 
 from __future__ import annotations
@@ -104,7 +107,11 @@ class StatePublishers:
         self._scene = MechanismMarkers(still_drawings(params),
                                        {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
                                        frame_id)  # fmt: skip
-        self._listened = {self.reactions: False, self.markers: False}
+        #: The publishers of the states, and whether each had a subscriber at the last check
+        #: (a message no one would receive is not handed to DDS: ~5-10 us each).
+        self.state_publishers = (self.joints, self.force, self.gap, self.accel, self.reactions,
+                                 self.markers, *self.hydraulic)  # fmt: skip
+        self.listened = dict.fromkeys(self.state_publishers, False)
         #: Simulated time [s] of the last ~/markers drawn (None: never drawn).
         self.last_markers_t: float | None = None
         self._last_still_t: float | None = None
@@ -156,11 +163,11 @@ class StatePublishers:
         if self.hydraulic and isinstance(sim, HydraulicRung):
             out += self._hydraulic_messages(st, stamp)
         if tick % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
-            self._listened = {pub: pub.get_subscription_count() > 0
-                              for pub in (self.reactions, self.markers)}  # fmt: skip
-        if self._listened[self.reactions]:
+            self.listened = {pub: pub.get_subscription_count() > 0
+                             for pub in self.state_publishers}  # fmt: skip
+        if self.listened[self.reactions]:
             out.append((self.reactions, self._pack_reactions(sim.reactions(), stamp)))
-        if (recording or self._listened[self.markers]) and (
+        if (recording or self.listened[self.markers]) and (
             self.last_markers_t is None
             or st.t - self.last_markers_t >= self.markers_period - 1e-9
         ):

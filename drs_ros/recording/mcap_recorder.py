@@ -56,6 +56,7 @@ from .bag_metadata import TopicInfo, bag_metadata
 from .destinations import check_new_bag
 from .errors import RecordingError
 from .flush_schedule import FlushSchedule
+from .mcap_append import MessageAppender
 from .qos import qos_dict, qos_yaml
 
 _COMPRESSION = {
@@ -174,6 +175,7 @@ class McapRecorder:
             compression=_COMPRESSION[compression],
         )
         self._writer.start(profile="ros2", library=_LIBRARY)
+        self._append = MessageAppender(self._writer).append  # add_message's bytes, faster
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
         self._schemas: dict[str, int] = {}
@@ -343,7 +345,7 @@ class McapRecorder:
             self._check_open()
             seq = self._sequence[topic] + 1 if sequence is None else int(sequence)
             self._sequence[topic] = seq
-            self._writer.add_message(info.channel_id, log_ns, data, pub_ns, sequence=seq)
+            self._append(info.channel_id, log_ns, data, pub_ns, seq)
             self._counts[topic] += 1
             self._message_count += 1
             self._schedule.wrote()

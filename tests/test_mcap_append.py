@@ -1,0 +1,85 @@
+"""MessageAppender writes exactly what mcap's Writer.add_message writes, chunk for chunk."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+
+from drs_ros.recording.mcap_append import MessageAppender
+
+MESSAGES = st.lists(
+    st.tuples(st.integers(1, 3), st.integers(0, 2**40), st.binary(max_size=300),
+              st.integers(0, 2**32 - 1), st.booleans()),
+    max_size=60,
+)  # fmt: skip
+
+
+def write_bag(messages, *, direct: bool, chunk_size: int, compression, chunking=True) -> bytes:
+    """A small bag of three channels; ``direct``: through MessageAppender, else add_message.
+    A message whose flag is set is followed by a flush (the recorder's chunk closes)."""
+    out = io.BytesIO()
+    writer = Writer(out, chunk_size=chunk_size, compression=compression, use_chunking=chunking)
+    writer.start(profile="ros2", library="test")
+    schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
+    for k in (1, 2, 3):
+        assert writer.register_channel(f"/t{k}", "cdr", schema, {"k": str(k)}) == k
+    add = MessageAppender(writer).append if direct else writer.add_message
+    for channel, log_time, data, sequence, flush in messages:
+        add(channel, log_time, data, log_time + 7, sequence)
+        if flush:
+            writer.flush()
+    writer.finish()
+    return out.getvalue()
+
+
+@settings(max_examples=60, deadline=None)
+@given(messages=MESSAGES, chunk_size=st.sampled_from([64, 1000, 1 << 20]),
+       compression=st.sampled_from([CompressionType.NONE, CompressionType.LZ4]))  # fmt: skip
+def test_the_file_is_byte_for_byte_what_add_message_writes(messages, chunk_size, compression):
+    # log times in any order (the statistics' and chunks' start and end), chunks closed by
+    # size and by flushes, empty payloads: every byte of the file the same
+    direct = write_bag(messages, direct=True, chunk_size=chunk_size, compression=compression)
+    assert direct == write_bag(messages, direct=False, chunk_size=chunk_size,
+                               compression=compression)  # fmt: skip
+
+
+def test_the_messages_read_back_in_order_with_their_fields():
+    messages = [(1 + k % 3, 10_000 - k, bytes([k]) * k, k, k % 7 == 0) for k in range(50)]
+    data = write_bag(messages, direct=True, chunk_size=200, compression=CompressionType.NONE)
+    reader = make_reader(io.BytesIO(data))
+    read = [(c.id, m.log_time, m.data, m.sequence, m.publish_time)
+            for _s, c, m in reader.iter_messages(log_time_order=False)]  # fmt: skip
+    assert read == [(c, t, d, s, t + 7) for c, t, d, s, _f in messages]
+    summary = make_reader(io.BytesIO(data)).get_summary()
+    assert summary.statistics.message_count == 50
+    assert summary.statistics.message_start_time == 10_000 - 49
+    assert summary.statistics.message_end_time == 10_000
+
+
+def test_a_writer_without_chunks_gets_add_message_itself():
+    out = io.BytesIO()
+    writer = Writer(out, use_chunking=False)
+    appender = MessageAppender(writer)
+    assert not appender.direct
+    assert appender.append == writer.add_message
+    messages = [(2, 5, b"abc", 1, False), (1, 3, b"", 2, False)]
+    assert write_bag(messages, direct=True, chunk_size=64, compression=CompressionType.NONE,
+                     chunking=False) == write_bag(messages, direct=False, chunk_size=64,
+                                                  compression=CompressionType.NONE,
+                                                  chunking=False)  # fmt: skip
+
+
+def test_a_sequence_beyond_32_bits_is_refused_as_add_message_refuses_it():
+    out = io.BytesIO()
+    writer = Writer(out)
+    writer.start()
+    with pytest.raises(Exception) as direct:
+        MessageAppender(writer).append(1, 0, b"", 0, 2**32)
+    with pytest.raises(Exception) as library:
+        writer.add_message(1, 0, b"", 0, 2**32)
+    assert type(direct.value) is type(library.value)
