@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 import time
 import zlib
 from collections.abc import Callable, Iterator, Sequence
@@ -100,6 +102,19 @@ def node_env(tmp_path, domain: int) -> dict[str, str]:
         PYTHONUNBUFFERED="1",
     )
     return env
+
+
+def start_node(tmp_path, domain: int, *params: str, stdout=subprocess.PIPE,
+               argv: list[str] | None = None) -> subprocess.Popen:
+    """The node as its own process (``python -m drs_ros``, or ``argv``) on ``domain`` with
+    ``-p`` for each of ``params`` (``name:=value``); its output (stdout and stderr) in ``stdout``
+    as text."""
+    require_rclpy()
+    args = list(argv or [sys.executable, "-m", "drs_ros"]) + ["--ros-args"]
+    for p in params:
+        args += ["-p", p]
+    return subprocess.Popen(args, env=node_env(tmp_path, domain), stdout=stdout,
+                            stderr=subprocess.STDOUT, text=True)  # fmt: skip
 
 
 def wait_for_file_growth(path, timeout: float = 20.0, min_size: int = 1) -> bool:

@@ -9,24 +9,13 @@ import sys
 import time
 
 import pytest
-from node_support import domain_for, node_env, wait_for_file_growth
-from ros_support import require_rclpy
+from node_support import domain_for, node_env, start_node, wait_for_file_growth
 
 pytestmark = pytest.mark.ros
 
 
-def start_node(tmp_path, request, *params: str) -> subprocess.Popen:
-    require_rclpy()
-    args = [sys.executable, "-m", "drs_ros", "--ros-args"]
-    for p in params:
-        args += ["-p", p]
-    return subprocess.Popen(
-        args,
-        env=node_env(tmp_path, domain_for(request.node.nodeid)),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+def _domain(request) -> int:
+    return domain_for(request.node.nodeid)
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
@@ -34,7 +23,7 @@ def test_clean_exit_on_signal_finishes_the_recordings(tmp_path, request, sig):
     bag = tmp_path / "bag"
     rrd = tmp_path / "run.rrd"
     proc = start_node(
-        tmp_path, request, f"bag_path:={bag}", f"rrd_path:={rrd}", "flush_period:=0.2"
+        tmp_path, _domain(request), f"bag_path:={bag}", f"rrd_path:={rrd}", "flush_period:=0.2"
     )
     try:
         assert wait_for_file_growth(bag / "bag_0.mcap", min_size=2000), proc.stdout
@@ -58,7 +47,7 @@ def test_clean_exit_on_signal_finishes_the_recordings(tmp_path, request, sig):
 
 def test_sigkill_leaves_a_recoverable_bag(tmp_path, request):
     bag = tmp_path / "bag"
-    proc = start_node(tmp_path, request, f"bag_path:={bag}", "flush_period:=0.2")
+    proc = start_node(tmp_path, _domain(request), f"bag_path:={bag}", "flush_period:=0.2")
     try:
         assert wait_for_file_growth(bag / "bag_0.mcap", min_size=2000), "no flush"
         time.sleep(1.5)
@@ -90,7 +79,7 @@ def test_sigkill_leaves_a_recoverable_bag(tmp_path, request):
 
 
 def test_refused_parameter_exits_2_with_the_reason(tmp_path, request):
-    proc = start_node(tmp_path, request, "model.L2:=-1.0")
+    proc = start_node(tmp_path, _domain(request), "model.L2:=-1.0")
     out, _ = proc.communicate(timeout=30)
     assert proc.returncode == 2
     assert "L2 must be > 0 m" in out
@@ -108,7 +97,7 @@ def test_a_signal_during_a_callback_is_still_a_clean_stop(tmp_path, request):
     for k in range(10):
         proc = start_node(
             tmp_path,
-            request,
+            _domain(request),
             f"bag_path:={tmp_path / f'bag{k}'}",
             "publish_rate_hz:=2000.0",
             "physics_rate_hz:=2000.0",
@@ -127,7 +116,7 @@ def test_a_signal_during_a_callback_is_still_a_clean_stop(tmp_path, request):
 
 def test_use_sim_time_without_clock_says_so(tmp_path, request):
     """With use_sim_time and no /clock the node publishes nothing: it must say why."""
-    proc = start_node(tmp_path, request, "use_sim_time:=true")
+    proc = start_node(tmp_path, _domain(request), "use_sim_time:=true")
     try:
         # from the node's start on (its start-up, numba's cache included, varies with the load)
         started = _read_until(proc, "drs node configured", timeout=60.0)

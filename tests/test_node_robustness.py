@@ -13,26 +13,11 @@ import time
 
 import numpy as np
 import pytest
-from node_support import domain_for, node_env, wait_for_file_growth
-from ros_support import require_rclpy
+from node_support import domain_for, start_node, wait_for_file_growth
 
 from drs_ros.client import DRSClient
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
-
-
-def start_node(tmp_path, domain: int, *params: str, stdout=subprocess.PIPE):
-    require_rclpy()
-    args = [sys.executable, "-m", "drs_ros", "--ros-args"]
-    for p in params:
-        args += ["-p", p]
-    return subprocess.Popen(
-        args,
-        env=node_env(tmp_path, domain),
-        stdout=stdout,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
 
 
 def stop_node(proc, sig=signal.SIGINT, timeout: float = 30.0) -> str:

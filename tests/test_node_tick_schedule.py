@@ -5,16 +5,21 @@ SCHED_FIFO starting, saying why and running."""
 from __future__ import annotations
 
 import signal
-import subprocess
 import sys
 import textwrap
+import time
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from node_support import domain_for, node_env, ros_context, wait_for_file_growth  # noqa: F401
-from ros_support import require_rclpy
+from node_support import (  # noqa: F401
+    domain_for,
+    node_env,
+    ros_context,
+    start_node,
+    wait_for_file_growth,
+)
 
 from drs_ros.node.tick_schedule import (
     _EDGES_US,
@@ -140,21 +145,22 @@ REFUSED_FIFO = textwrap.dedent(
 )
 
 
+def _wait_past_start_up(bag, more: int) -> None:
+    """Wait for the bag's file, then for ``more`` bytes after what start-up writes (the
+    description, the parameters): the ticks' own."""
+    assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=64 * 1024)
+    started = (bag / "bag_0.mcap").stat().st_size
+    assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=started + more)
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 def test_without_the_privilege_of_fifo_the_node_starts_says_why_and_runs(tmp_path, request):
-    require_rclpy()
     bag = tmp_path / "bag"
-    proc = subprocess.Popen(
-        [sys.executable, "-c", REFUSED_FIFO, str(bag)],
-        env=node_env(tmp_path, domain_for(request.node.nodeid)),
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )  # fmt: skip
+    proc = start_node(tmp_path, domain_for(request.node.nodeid),
+                      argv=[sys.executable, "-c", REFUSED_FIFO, str(bag)])  # fmt: skip
     try:
-        assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=64 * 1024)
-        # what start-up writes (the description, the parameters) is behind: now the ticks
-        started = (bag / "bag_0.mcap").stat().st_size
-        assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=started + 64 * 1024)
+        _wait_past_start_up(bag, 64 * 1024)
     finally:
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=60)
@@ -185,24 +191,15 @@ def test_at_1_khz_for_10_s_every_recorded_message_is_exact_and_every_tick_is_cou
     uncounted: between the first published state and a diagnostics message, the deadlines that
     passed are the ticks plus the skipped deadlines that diagnostics report (a resume from now
     after a skip loses less than a period: one more per skip at most)."""
-    require_rclpy()
     from mcap.reader import make_reader
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     bag = tmp_path / "bag"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={bag}",
-         "-p", f"rrd_path:={tmp_path / 'run.rrd'}", "-p", "publish_rate_hz:=1000.0",
-         "-p", "physics_rate_hz:=1000.0", "-p", "fidelity:=rigid"],
-        env=node_env(tmp_path, domain_for(request.node.nodeid)),
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )  # fmt: skip
+    proc = start_node(tmp_path, domain_for(request.node.nodeid), f"bag_path:={bag}",
+                      f"rrd_path:={tmp_path / 'run.rrd'}", "publish_rate_hz:=1000.0",
+                      "physics_rate_hz:=1000.0", "fidelity:=rigid")  # fmt: skip
     try:
-        assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=64 * 1024)
-        started = (bag / "bag_0.mcap").stat().st_size
-        assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=started + 1024)
-        import time
-
+        _wait_past_start_up(bag, 1024)
         time.sleep(10.0)
     finally:
         proc.send_signal(signal.SIGINT)
