@@ -15,8 +15,11 @@ interleaved over ``--rounds`` repeats (the median is quoted: the cores are share
 CDR + MCAP write) against rclpy's serialize_message + a bare mcap writer, and the bytes per
 message of both serialisations.
 
+``--stress``: the deadline loop at 1 kHz publish, idle, beside two busy processes (one per
+core), and under a 10 kHz stroke-command flood from another process, interleaved.
+
 Usage: ``python benchmarks/node_rate.py [--duration 12] [--rounds 3] [--quick]
-[--trajectory | --tf-cost]``
+[--trajectory | --tf-cost | --stress]``
 """
 
 from __future__ import annotations
@@ -201,6 +204,43 @@ def recorder_cost(n: int, repeats: int, tmp: Path) -> dict[str, float]:
     }  # fmt: skip
 
 
+FLOOD = """
+import os, sys, time, rclpy
+from std_msgs.msg import Float64
+rclpy.init()
+node = rclpy.create_node("bench_flood")
+pub = node.create_publisher(Float64, "/drs/stroke_cmd", 10)
+period = 1.0 / float(sys.argv[1])
+lo, hi = float(sys.argv[2]), float(sys.argv[3])
+deadline, k = time.perf_counter(), 0
+while True:
+    deadline += period
+    pub.publish(Float64(data=lo if k % 2 else hi))
+    k += 1
+    wait = deadline - time.perf_counter()
+    if wait > 0:
+        time.sleep(wait)
+    elif wait < -0.1:
+        deadline = time.perf_counter()
+"""
+
+
+def background(kind: str, domain: int) -> list[subprocess.Popen]:
+    """What else runs during a measurement: ``idle`` (nothing), ``hogs`` (two busy processes,
+    one per core) or ``flood`` (stroke commands at 10 kHz from another process)."""
+    if kind == "hogs":
+        return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    if kind == "flood":
+        from drs_model.kinematics import stroke_limits
+        from drs_model.params import DRSParams
+
+        lo, hi = stroke_limits(DRSParams())
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
+        return [subprocess.Popen([sys.executable, "-c", FLOOD, "10000", str(0.2 * hi + 0.8 * lo),
+                                  str(0.8 * hi + 0.2 * lo)], env=env)]  # fmt: skip
+    return []
+
+
 def median_run(runs: list[dict]) -> dict:
     """The run with the median CPU share of repeats of one configuration (noise: shared cores)."""
     runs = sorted(runs, key=lambda r: r["cpu_share_of_core"])
@@ -232,6 +272,12 @@ def main(argv: list[str] | None = None) -> int:
         help="only: deadline at 250 Hz under the command cycle with publish_tf true and false, "
         "interleaved (what /tf costs)",
     )
+    ap.add_argument(
+        "--stress",
+        action="store_true",
+        help="only: deadline at 1 kHz idle, beside two busy processes and under a 10 kHz "
+        "command flood, interleaved",
+    )
     ap.add_argument("--domain", type=int, default=91)
     ap.add_argument("--json", default="benchmarks/results/node_rate.json")
     args = ap.parse_args(argv)
@@ -248,15 +294,25 @@ def main(argv: list[str] | None = None) -> int:
     if args.tf_cost:
         plan = [("deadline", 250.0, "commands", ("publish_tf:=true",)),
                 ("deadline", 250.0, "commands", ("publish_tf:=false",))] * rounds  # fmt: skip
+    if args.stress:
+        plan = [("deadline", 1000.0, "commands", (), beside)
+                for beside in ("idle", "hogs", "flood")] * rounds  # fmt: skip
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         os.environ.setdefault("ROS_LOG_DIR", str(tmp / "log"))
         for k, (executor, hz, load, *more) in enumerate(plan):
             node_args = more[0] if more else ()
-            r = measure(executor, hz, duration, args.domain, tmp / str(k), load, node_args)
-            r["node_args"] = list(node_args)
-            by_config.setdefault((executor, hz, load, node_args), []).append(r)
-            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10} {' '.join(node_args)}: CPU "
+            beside = more[1] if len(more) > 1 else "idle"
+            others = background(beside, args.domain)
+            try:
+                r = measure(executor, hz, duration, args.domain, tmp / str(k), load, node_args)
+            finally:
+                for proc in others:
+                    proc.kill()
+                    proc.wait()
+            r["node_args"], r["beside"] = list(node_args), beside
+            by_config.setdefault((executor, hz, load, node_args, beside), []).append(r)
+            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10} {' '.join(node_args)} ({beside}): CPU "
                   f"{100 * r['cpu_share_of_core']:5.1f} % of a core, missed "
                   f"{r['missed_deadlines']}/{r['ticks']} "
                   f"({100 * r['missed_share']:.2f} %), per cycle: model "
@@ -265,8 +321,18 @@ def main(argv: list[str] | None = None) -> int:
                   f" lateness p50/p99/max {r['lateness_p50_us']:.0f}/{r['lateness_p99_us']:.0f}/"
                   f"{r['lateness_max_us']:.0f} us ({r['tick_policy']})",
                   flush=True)  # fmt: skip
-        write = recorder_cost(20000, 5, tmp)
+        write = recorder_cost(20000, 5, tmp) if not args.stress else None
     rows = [median_run(runs) for runs in by_config.values()]
+    if args.stress:
+        for r in rows:
+            print(f"deadline 1 kHz {r['beside']:>5}: CPU {100 * r['cpu_share_of_core']:.1f} % of "
+                  f"a core, missed {100 * r['missed_share']:.2f} %, lateness p99 "
+                  f"{r['lateness_p99_us']:.0f} us, max {r['lateness_max_us']:.0f} us")  # fmt: skip
+        out = Path(args.json).with_name("node_rate_stress.json")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps({"runs": rows}, indent=2))
+        print(f"wrote {out}")
+        return 0
     if args.tf_cost:
         on, off = rows
         share_on, share_off = on["cpu_share_of_core"], off["cpu_share_of_core"]
