@@ -38,7 +38,7 @@ class SimulationClock:
 
     def __init__(self, wall_clock: bool, publish_period_ns: int) -> None:
         self.wall_clock = wall_clock
-        self.late_ns = ns_from_seconds(1.5 * seconds_from_ns(publish_period_ns))
+        self.late_ns = 3 * publish_period_ns // 2
         #: Node time [ns] at simulated time 0 (None until the first tick, and after a pause).
         self.t0_ns: int | None = None
         self._last_ns: int | None = None
@@ -96,8 +96,8 @@ class TickParts:
     the ``fault_parameters``, the ``effects`` (record and counters), ``now_ns()`` (the node
     clock), ``publish(now_ns)`` (the new state out), ``choose_fidelity(now_ns)`` (``auto``'s
     choice, when due), ``fidelity_deadline()`` (steady time [s] before which ``auto`` still
-    waits; None when chosen), ``stop_request()`` (the stop the node obeys, or None) and
-    ``log_info`` (a line for the log)."""
+    waits; None when chosen), ``stop_request()`` (the stop the node obeys, or None),
+    ``log_info`` and ``log_warning`` (a line for the log)."""
 
     actuator: Callable
     intake: object
