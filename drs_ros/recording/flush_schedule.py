@@ -57,10 +57,18 @@ class FlushSchedule:
 
     def flushed(self, message_count: int) -> None:
         """A flush happened with ``message_count`` messages written in all."""
+        self.closed()
+        self.written(message_count)
+
+    def closed(self) -> None:
+        """The chunk in progress closed (its writing may follow in another thread)."""
         self.count += 1
-        self.messages_flushed = message_count
         self.since = 0
         self.last = time.monotonic()
+
+    def written(self, message_count: int) -> None:
+        """A closed chunk reached the file, with ``message_count`` messages in it in all."""
+        self.messages_flushed = max(self.messages_flushed, message_count)
 
     def age_s(self) -> float:
         """Time since the last flush (or the start) [s]."""

@@ -32,15 +32,17 @@ _MESSAGE = int(Opcode.MESSAGE)
 class MessageAppender:
     """``append(channel_id, log_time, data, publish_time, sequence)``: one message into
     ``writer`` (an ``mcap.writer.Writer`` that has started), as ``writer.add_message`` with the
-    same arguments would add it."""
+    same arguments would add it. ``on_full()``: what closes a chunk that outgrew the writer's
+    chunk size (by default the writer's own closing, as ``add_message`` does; the recorder hands
+    it to another thread, :mod:`drs_ros.recording.mcap_chunks`)."""
 
-    def __init__(self, writer) -> None:
+    def __init__(self, writer, on_full=None) -> None:
         self._writer = writer
         try:
             self._stats = writer._Writer__statistics
             self._chunk = writer._Writer__chunk_builder  # None: the writer writes no chunks
             self._chunk_size = writer._Writer__chunk_size
-            self._finalize = writer._Writer__maybe_finalize_chunk
+            self._on_full = on_full or writer._Writer__maybe_finalize_chunk
             if self._chunk is not None:
                 self._chunk.record_writer._buffer.tell()
                 self._chunk.message_indices.get(0)
@@ -77,7 +79,7 @@ class MessageAppender:
                                        sequence, log_time, publish_time))  # fmt: skip
         buffer.write(data)
         if buffer.tell() > self._chunk_size:
-            self._finalize()
+            self._on_full()
 
 
 __all__ = ["MESSAGE_HEAD", "MessageAppender"]

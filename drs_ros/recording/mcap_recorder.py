@@ -22,10 +22,10 @@ A bag is a directory: ``McapRecorder("bags/demo")`` writes ``bags/demo/demo_0.mc
 
 Crash safety: the MCAP writer buffers a chunk (1 MiB by default) in memory, so a process killed
 with SIGKILL before its first chunk completes leaves a file holding only the header. The recorder
-therefore closes the chunk in progress and hands it to the OS (``mcap.writer.Writer.flush``)
-every ``flush_period`` seconds and every ``flush_messages`` messages, from :meth:`write` and from
-a background thread (so a recorder whose writes stop is flushed too). A SIGKILL then loses at most
-the last period; ``drs-bag recover`` turns the flushed prefix into a complete bag. A seeking
+therefore closes the chunk in progress every ``flush_period`` seconds and every
+``flush_messages`` messages (and when writes stop for a period), and a background thread
+compresses it and hands it to the OS (:mod:`drs_ros.recording.chunk_flusher`): the thread that
+writes messages never waits for the file. A SIGKILL then loses at most the last period; ``drs-bag recover`` turns the flushed prefix into a complete bag. A seeking
 reader needs the summary, which only :meth:`finish` writes: the node finishes the recorder on
 SIGINT/SIGTERM.
 
@@ -38,7 +38,6 @@ its owner sees it whichever thread met it first. :meth:`finish` names what it co
 
 from __future__ import annotations
 
-import errno
 import operator
 import os
 import threading
@@ -53,6 +52,7 @@ from mcap.writer import CompressionType, Writer
 
 from . import cdr, msgdefs
 from .bag_metadata import TopicInfo, bag_metadata
+from .chunk_flusher import ChunkFlusher
 from .destinations import check_new_bag
 from .errors import RecordingError
 from .flush_schedule import FlushSchedule
@@ -175,7 +175,6 @@ class McapRecorder:
             compression=_COMPRESSION[compression],
         )
         self._writer.start(profile="ros2", library=_LIBRARY)
-        self._append = MessageAppender(self._writer).append  # add_message's bytes, faster
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
         self._schemas: dict[str, int] = {}
@@ -185,18 +184,13 @@ class McapRecorder:
         self._bytes = 0
         self._t_min: int | None = None
         self._t_max: int | None = None
-        self._schedule = schedule
-        self._file_bytes = self._stream.tell()
         self._finished = False
         #: The first I/O error of a write or a flush (None: none); every later write raises it.
         self.io_error: OSError | None = None
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        if flush_thread:
-            self._thread = threading.Thread(
-                target=self._flush_loop, name="mcap-recorder-flush", daemon=True
-            )
-            self._thread.start()
+        # closes the chunks on the schedule; the flush thread compresses and writes them
+        self._flusher = ChunkFlusher(self._writer, self._stream, self.path, self._lock, schedule,
+                                     self._failed, flush_thread)  # fmt: skip
+        self._append = MessageAppender(self._writer, self._flusher.on_full()).append
 
     # ---- context manager --------------------------------------------------------------------
     def __enter__(self) -> McapRecorder:
@@ -348,45 +342,25 @@ class McapRecorder:
             self._append(info.channel_id, log_ns, data, pub_ns, seq)
             self._counts[topic] += 1
             self._message_count += 1
-            self._schedule.wrote()
             self._bytes += len(data)
             self._t_min = log_ns if self._t_min is None else min(self._t_min, log_ns)
             self._t_max = log_ns if self._t_max is None else max(self._t_max, log_ns)
-            if self._schedule.due():
-                self._flush_locked()
+            closed = self._flusher.wrote_locked(self._message_count)
+        if closed:
+            self._flusher.write_closed()
         return seq
 
     def flush(self) -> None:
-        """Close the chunk in progress and hand everything to the OS (no fsync)."""
+        """Close the chunk in progress and hand everything to the OS (no fsync); returns once
+        every closed chunk is in the file."""
         with self._lock:
-            if not self._finished:
-                self._flush_locked()
+            if self._finished:
+                return
+            self._flusher.close_locked(self._message_count)
+        self._flusher.drain()
 
-    def _flush_locked(self) -> None:
-        try:
-            self._writer.flush()
-            if os.fstat(self._stream.fileno()).st_nlink == 0:
-                raise FileNotFoundError(
-                    errno.ENOENT, "the bag file was removed while recording", str(self.path)
-                )
-        except OSError as exc:
-            self.io_error = self.io_error or exc
-            raise
-        self._file_bytes = self._stream.tell()
-        self._schedule.flushed(self._message_count)
-
-    def _flush_loop(self) -> None:
-        while not self._stop.wait(self._schedule.period / 2.0):
-            with self._lock:
-                if self._finished:
-                    return
-                if self.io_error is not None:
-                    return  # kept: the next write raises it
-                if self._schedule.idle_due():
-                    try:
-                        self._flush_locked()
-                    except OSError:
-                        return
+    def _failed(self, exc: OSError) -> None:
+        self.io_error = self.io_error or exc
 
     def _check_open(self) -> None:
         if self._finished:
@@ -403,10 +377,10 @@ class McapRecorder:
                 messages=dict(self._counts),
                 message_count=self._message_count,
                 bytes_written=self._bytes,
-                file_bytes=self._file_bytes,
-                flush_count=self._schedule.count,
-                messages_flushed=self._schedule.messages_flushed,
-                seconds_since_flush=self._schedule.age_s(),
+                file_bytes=self._flusher.file_bytes,
+                flush_count=self._flusher.schedule.count,
+                messages_flushed=self._flusher.schedule.messages_flushed,
+                seconds_since_flush=self._flusher.schedule.age_s(),
                 finished=self._finished,
             )
 
@@ -425,7 +399,7 @@ class McapRecorder:
         the directory itself is the caller's to remove."""
         with self._lock:
             self._finished = True
-            self._stop.set()
+            self._flusher.stop()
             self._stream.close()
         for path in (self.path, self.metadata_path):
             path.unlink(missing_ok=True)
@@ -435,7 +409,7 @@ class McapRecorder:
         what was flushed stays, for ``drs-bag recover``."""
         with self._lock:
             self._finished = True
-            self._stop.set()
+            self._flusher.stop()
             self._stream.close()
 
     # ---- finish -----------------------------------------------------------------------------
@@ -451,15 +425,24 @@ class McapRecorder:
             if self._finished:
                 return self.bag_dir
             self._finished = True
-            self._stop.set()
+            self._flusher.stop()
             meta = self._bag_metadata_locked()
             try:
-                self._flush_locked()
-                self._writer.add_metadata(
-                    "rosbag2", {"serialized_metadata": yaml.safe_dump(meta, sort_keys=False)}
-                )
-                self._writer.finish()
-                self._file_bytes = self._stream.tell()
+                self._flusher.close_locked(self._message_count)
+            except OSError as exc:
+                missing.append(f"its summary and footer ({exc.strerror or exc})")
+        try:
+            self._flusher.drain()  # the chunks closed and not yet written, in order
+        except OSError as exc:
+            missing.append(f"its summary and footer ({exc.strerror or exc})")
+        with self._lock:
+            try:
+                if not missing:  # a summary after a chunk that failed would index what is not
+                    self._flusher.check_file()
+                    self._writer.add_metadata("rosbag2", {
+                        "serialized_metadata": yaml.safe_dump(meta, sort_keys=False)})
+                    self._writer.finish()
+                    self._flusher.file_bytes = self._stream.tell()
             except OSError as exc:
                 missing.append(f"its summary and footer ({exc.strerror or exc})")
             finally:
@@ -470,8 +453,7 @@ class McapRecorder:
                 )
             except OSError as exc:
                 missing.append(f"{self.metadata_path.name} ({exc.strerror or exc})")
-        if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=5.0)
+        self._flusher.join()
         if missing:
             raise RecordingError(
                 f"bag {str(self.bag_dir)!r} is incomplete: {' and '.join(missing)} could not be "
