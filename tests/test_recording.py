@@ -349,3 +349,39 @@ def test_sigkill_leaves_a_recoverable_prefix(tmp_path):
     assert len(recovered) >= flushed > 0
     assert recovered == list(range(len(recovered)))  # the prefix, in order, nothing lost before it
     assert not (bag_dir / "metadata.yaml").exists()
+
+
+def test_write_many_is_write_for_each_and_refuses_a_bad_record_before_writing(tmp_path):
+    """A tick's records under one lock: the same file as one write each (sequence numbers,
+    times, statistics, metadata.yaml); a record of an unregistered topic refuses the batch
+    before any of it is written."""
+    require_rclpy()
+    from std_msgs.msg import Float64
+
+    from drs_ros.recording import cdr
+    from drs_ros.recording.errors import RecordingError
+    from drs_ros.recording.mcap_recorder import McapRecorder
+
+    pack = cdr.flat_packer(Float64)
+    ticks = [[("/a", pack(float(k))), ("/b", pack(-float(k))), ("/a", pack(0.5 * k))]
+             for k in range(40)]  # fmt: skip
+    files = []
+    for many in (False, True):
+        # chunks closed by size (the schedule counts a batch at once, so it is kept out)
+        with McapRecorder(tmp_path / f"m{many}" / "bag", flush_thread=False, flush_period=10.0,
+                          chunk_size=300) as rec:  # fmt: skip
+            rec.register_topic("/a", Float64)
+            rec.register_topic("/b", Float64)
+            for k, records in enumerate(ticks):
+                if many:
+                    assert rec.write_many(records, 1000 + k) == [2 * k + 1, k + 1, 2 * k + 2]
+                else:
+                    for topic, data in records:
+                        rec.write(topic, data, 1000 + k)
+            if many:
+                before = rec.stats().message_count
+                with pytest.raises(RecordingError, match="'/c' is not registered"):
+                    rec.write_many([("/a", pack(1.0)), ("/c", pack(2.0))], 5000)
+                assert rec.stats().message_count == before
+        files.append(((rec.path).read_bytes(), rec.metadata_path.read_text()))
+    assert files[0] == files[1]

@@ -400,8 +400,7 @@ class DRSNode(Node):
         t1 = time.thread_time()
         self.effects.cpu["publish"] += t1 - t
         topics = self.outputs.topics
-        for pub, data in out:
-            self._record(topics[pub], data, now_ns)
+        self.recordings.record_many([(topics[pub], data) for pub, data in out], now_ns)
         self.stack.publish(st, stamp, now_ns, recording)  # /tf, the action's feedback
         self.recordings.log_state(st)  # its own failures: never the bag's
         self.effects.cpu["record"] += time.thread_time() - t1

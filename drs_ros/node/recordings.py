@@ -118,6 +118,10 @@ class BagRecording:
         not recorded."""
         return self.health.run(self.recorder.write, topic, msg, log_time_ns=now_ns)
 
+    def write_many(self, records, now_ns: int) -> None:
+        """Append a tick's ``(topic, bytes)`` records, logged at ``now_ns``, under one lock."""
+        self.health.run(self.recorder.write_many, records, now_ns)
+
     def poll(self) -> None:
         """Take in a failure the recorder's flush thread met (a removed file, a full disk)."""
         if self.recorder.io_error is not None:
@@ -261,6 +265,11 @@ class NodeRecordings:
         """Append exact bytes (or a message) to the bag; the sequence number (None: not
         recorded)."""
         return None if self.bag is None else self.bag.write(topic, data, now_ns)
+
+    def record_many(self, records, now_ns: int) -> None:
+        """A tick's ``(topic, bytes)`` records into the bag, if any."""
+        if self.bag is not None:
+            self.bag.write_many(records, now_ns)
 
     def log_state(self, st) -> None:
         """The state ``st`` into the rerun recording, if any."""

@@ -49,10 +49,10 @@ class ChunkFlusher:
         :class:`~drs_ros.recording.mcap_append.MessageAppender`; None: the writer's own."""
         return None if self._handoff is None else lambda: self.close_locked(0)
 
-    def wrote_locked(self, message_count: int) -> bool:
-        """One message more (``lock`` held): close the chunk when the schedule says so. True
-        when closed chunks wait: call :meth:`write_closed` once the lock is released."""
-        self.schedule.wrote()
+    def wrote_locked(self, message_count: int, new: int = 1) -> bool:
+        """``new`` messages more (``lock`` held): close the chunk when the schedule says so.
+        True when closed chunks wait: call :meth:`write_closed` once the lock is released."""
+        self.schedule.wrote(new)
         if self.schedule.due():
             self.close_locked(message_count)
         return self._handoff is not None and self._handoff.pending > 0

@@ -41,9 +41,9 @@ class FlushSchedule:
         self.since = 0  # messages written since the last flush
         self.last = time.monotonic()  # monotonic time of the last flush (or of the start) [s]
 
-    def wrote(self) -> None:
-        """One more message written since the last flush."""
-        self.since += 1
+    def wrote(self, n: int = 1) -> None:
+        """``n`` more messages written since the last flush."""
+        self.since += n
 
     def due(self) -> bool:
         """A write's flush is due: ``messages`` since the last flush, or ``period`` passed."""

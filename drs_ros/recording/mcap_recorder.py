@@ -25,7 +25,8 @@ with SIGKILL before its first chunk completes leaves a file holding only the hea
 therefore closes the chunk in progress every ``flush_period`` seconds and every
 ``flush_messages`` messages (and when writes stop for a period), and a background thread
 compresses it and hands it to the OS (:mod:`drs_ros.recording.chunk_flusher`): the thread that
-writes messages never waits for the file. A SIGKILL then loses at most the last period; ``drs-bag recover`` turns the flushed prefix into a complete bag. A seeking
+writes messages never waits for the file. A SIGKILL then loses at most the last period;
+``drs-bag recover`` turns the flushed prefix into a complete bag. A seeking
 reader needs the summary, which only :meth:`finish` writes: the node finishes the recorder on
 SIGINT/SIGTERM.
 
@@ -304,50 +305,64 @@ class McapRecorder:
     ) -> int:
         """Append one message (thread-safe); returns its sequence number on the channel.
 
-        Parameters
-        ----------
-        topic : str
-            A registered topic.
-        msg : ROS message or bytes
-            A message of the topic's type (serialised exactly by :mod:`drs_ros.recording.cdr`),
-            or its exact CDR bytes (as a raw subscription receives them).
-        log_time_ns : int
-            Receive/record time [ns].
-        publish_time_ns : int, optional
-            Send time [ns]; ``log_time_ns`` when None.
-        sequence : int, optional
-            The sequence number to store (a copied message keeps its own); by default one more
-            than the channel's last.
+        ``topic``: a registered topic; ``msg``: a message of its type (serialised exactly by
+        :mod:`drs_ros.recording.cdr`) or its exact CDR bytes (as a raw subscription receives
+        them); ``log_time_ns``: receive/record time [ns]; ``publish_time_ns``: send time [ns]
+        (``log_time_ns`` when None); ``sequence``: the sequence number to store (a copied
+        message keeps its own; by default one more than the channel's last).
         """
+        data = self._data(topic, msg)
+        log_ns = _time_ns(log_time_ns, "log_time_ns")
+        pub_ns = log_ns if publish_time_ns is None else _time_ns(publish_time_ns, "publish_time_ns")
+        with self._lock:
+            self._check_open()
+            seq = self._append_locked(topic, data, log_ns, pub_ns, sequence)
+            closed = self._flusher.wrote_locked(self._message_count)
+        if closed:
+            self._flusher.write_closed()
+        return seq
+
+    def write_many(self, records, log_time_ns: int) -> list[int]:
+        """Append messages logged at one time (the states of a tick) under one lock: as
+        :meth:`write` each, publish time = log time. ``records``: ``(topic, msg or bytes)``
+        pairs; a bad one is refused before any is written. Returns their sequence numbers."""
+        items = [(topic, self._data(topic, msg)) for topic, msg in records]
+        log_ns = _time_ns(log_time_ns, "log_time_ns")
+        with self._lock:
+            self._check_open()
+            seqs = [self._append_locked(topic, data, log_ns, log_ns, None)
+                    for topic, data in items]  # fmt: skip
+            closed = self._flusher.wrote_locked(self._message_count, len(items))
+        if closed:
+            self._flusher.write_closed()
+        return seqs
+
+    def _data(self, topic: str, msg) -> bytes:
+        """The exact CDR of ``msg`` (a message of ``topic``'s type, or its bytes)."""
         info = self._topics.get(topic)
         if info is None:
             raise RecordingError(
                 f"topic {topic!r} is not registered; registered: {sorted(self._topics)}"
             )
         if isinstance(msg, (bytes, bytearray, memoryview)):
-            data = bytes(msg)
-        elif info.msg_class is not None and type(msg) is info.msg_class:
-            data = cdr.serializer(info.msg_class)(msg)
-        else:
-            raise RecordingError(
-                f"topic {topic!r} carries {info.type_name}, got {type(msg).__module__}."
-                f"{type(msg).__name__}"
-            )
-        log_ns = _time_ns(log_time_ns, "log_time_ns")
-        pub_ns = log_ns if publish_time_ns is None else _time_ns(publish_time_ns, "publish_time_ns")
-        with self._lock:
-            self._check_open()
-            seq = self._sequence[topic] + 1 if sequence is None else int(sequence)
-            self._sequence[topic] = seq
-            self._append(info.channel_id, log_ns, data, pub_ns, seq)
-            self._counts[topic] += 1
-            self._message_count += 1
-            self._bytes += len(data)
-            self._t_min = log_ns if self._t_min is None else min(self._t_min, log_ns)
-            self._t_max = log_ns if self._t_max is None else max(self._t_max, log_ns)
-            closed = self._flusher.wrote_locked(self._message_count)
-        if closed:
-            self._flusher.write_closed()
+            return bytes(msg)
+        if info.msg_class is not None and type(msg) is info.msg_class:
+            return cdr.serializer(info.msg_class)(msg)
+        raise RecordingError(
+            f"topic {topic!r} carries {info.type_name}, got {type(msg).__module__}."
+            f"{type(msg).__name__}"
+        )
+
+    def _append_locked(self, topic: str, data: bytes, log_ns: int, pub_ns: int,
+                       sequence: int | None) -> int:  # fmt: skip
+        seq = self._sequence[topic] + 1 if sequence is None else int(sequence)
+        self._sequence[topic] = seq
+        self._append(self._topics[topic].channel_id, log_ns, data, pub_ns, seq)
+        self._counts[topic] += 1
+        self._message_count += 1
+        self._bytes += len(data)
+        self._t_min = log_ns if self._t_min is None else min(self._t_min, log_ns)
+        self._t_max = log_ns if self._t_max is None else max(self._t_max, log_ns)
         return seq
 
     def flush(self) -> None:
