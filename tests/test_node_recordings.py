@@ -141,6 +141,16 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
             return real_write(topic, msg, **kw)
 
         node.recordings.recorder.write = bag_fails_once
+        real_many = node.recordings.recorder.write_many
+
+        def bag_many(records, log_time_ns):  # a tick's states: the first batch refused
+            if not calls.get("refused"):  # (written record by record, the first write fails)
+                calls["refused"] = True
+                raise TypeError("a tick's batch refused on purpose")
+            calls["bag"] += len(records)
+            return real_many(records, log_time_ns)
+
+        node.recordings.recorder.write_many = bag_many
 
     node = _run_in_process(ros_context, tmp_path, 1.0, during=break_both)
     try:
@@ -184,3 +194,28 @@ def test_a_finish_that_fails_names_what_is_missing(ros_context, tmp_path):
     assert scan(tmp_path / "bag" / "bag_0.mcap").complete
     assert run_rerun_cli(["rrd", "verify", str(tmp_path / "run.rrd")]).returncode == 0
 
+
+
+def test_a_tick_batch_with_a_bad_record_loses_that_record_only(tmp_path):
+    """The bag refuses a tick's batch naming an unregistered topic before writing any of it:
+    the node's bag then writes the batch record by record, so the good records are kept and
+    the bad one is lost and counted."""
+    import logging
+
+    from std_msgs.msg import Float64
+
+    from drs_ros.bag.reader import scan
+    from drs_ros.node.recordings import BagRecording
+    from drs_ros.recording import cdr
+    from drs_ros.recording.mcap_recorder import McapRecorder
+
+    pack = cdr.flat_packer(Float64)
+    rec = McapRecorder(tmp_path / "bag", flush_thread=False)
+    rec.register_topic("/a", Float64)
+    bag = BagRecording(rec, logging.getLogger("test"))
+    bag.write_many([("/a", pack(1.0)), ("/nowhere", pack(2.0)), ("/a", pack(3.0))], 10)
+    bag.write_many([("/a", pack(4.0))], 11)
+    assert bag.health.errors == 1 and "'/nowhere' is not registered" in bag.health.last_error
+    (line,) = bag.finish()
+    assert line.startswith(f"bag '{tmp_path / 'bag'}' lacks 1 items") and "/nowhere" in line
+    assert scan(tmp_path / "bag").message_count == 3

@@ -119,8 +119,18 @@ class BagRecording:
         return self.health.run(self.recorder.write, topic, msg, log_time_ns=now_ns)
 
     def write_many(self, records, now_ns: int) -> None:
-        """Append a tick's ``(topic, bytes)`` records, logged at ``now_ns``, under one lock."""
-        self.health.run(self.recorder.write_many, records, now_ns)
+        """Append a tick's ``(topic, bytes)`` records, logged at ``now_ns``, under one lock. A
+        batch the recorder refuses (it refuses before writing any) is written record by record,
+        so that only the records at fault are lost, each counted."""
+        if self.health.failure:
+            return
+        try:
+            self.recorder.write_many(records, now_ns)
+        except OSError as exc:
+            self.health.fail(error_text(exc))
+        except Exception:  # noqa: BLE001 - which record is at fault: each on its own
+            for topic, data in records:
+                self.write(topic, data, now_ns)
 
     def poll(self) -> None:
         """Take in a failure the recorder's flush thread met (a removed file, a full disk)."""
