@@ -219,3 +219,50 @@ def test_a_tick_batch_with_a_bad_record_loses_that_record_only(tmp_path):
     (line,) = bag.finish()
     assert line.startswith(f"bag '{tmp_path / 'bag'}' lacks 1 items") and "/nowhere" in line
     assert scan(tmp_path / "bag").message_count == 3
+
+
+class Lines:
+    """A logger that keeps its lines (the node's logger's calls: ``error(msg, **kw)``)."""
+
+    def __init__(self):
+        self.lines: list[str] = []
+
+    def error(self, msg, **kw):
+        self.lines.append(msg)
+
+
+@pytest.mark.parametrize("error", [RuntimeError("rerun refused a batch on purpose"),
+                                   OSError(28, "No space left on device")])  # fmt: skip
+def test_a_batch_the_rerun_sender_fails_reaches_the_health_not_the_tick(tmp_path, params, error):
+    """rerun's send_columns raises in the recorder's sender thread for the second batch: the
+    tick-side log_state never raises, and the next one takes the failure in: a RuntimeError
+    counts its ten states lost (diagnostics, the window's trouble, the stop's line); an OSError
+    stops the recording (diagnostics 'failed', the stop says it is incomplete)."""
+    from test_rerun_recorder import held_send_columns
+
+    from drs_ros.node.recordings import RerunRecording
+    from drs_ros.recording.rerun_recorder import RerunRecorder
+
+    rec = RerunRecorder(tmp_path / "run.rrd", params, batch=10)
+    release = held_send_columns(rec, fail_batch=1, error=error)
+    release.set()
+    logger, lost = Lines(), []
+    part = RerunRecording(rec, logger, lost.append)
+    for k in range(25):
+        part.log_state(k * 1e-3, [0.01, 0.5, 0.6], 1.0)
+    rec.flush()  # the sender has met the failure; the next tick takes it in
+    part.log_state(0.025, [0.01, 0.5, 0.6], 1.0)
+    if isinstance(error, OSError):
+        assert part.health.failure == "OSError: [Errno 28] No space left on device"
+        assert part.status().startswith("failed: OSError")
+        assert part.finish() == [f"{part.health.name} is incomplete: recording stopped "
+                                 f"(OSError: [Errno 28] No space left on device)"]  # fmt: skip
+    else:
+        assert part.health.errors == 10 and not part.health.failure
+        assert part.status().endswith("10 items not recorded (last: RuntimeError: rerun refused "
+                                      "a batch on purpose)")  # fmt: skip
+        assert lost == [f"{part.health.name}: RuntimeError: rerun refused a batch on purpose"]
+        assert "10 items were not recorded" in logger.lines[0] and "Traceback" in logger.lines[0]
+        name = part.health.name
+        assert part.finish() == [f"{name} lacks 10 items that could not be recorded (last: "
+                                 "RuntimeError: rerun refused a batch on purpose)"]  # fmt: skip

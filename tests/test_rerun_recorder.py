@@ -93,6 +93,8 @@ def test_rerun_input_errors(tmp_path, params):
             rec.log_trajectory([1.0, 0.0], np.zeros((2, 3)))
         with pytest.raises(RerunLogError, match=r"q must hold \[s, psi1, psi3\]"):
             rec.log_state(0.0, [0.0, 0.0])
+        with pytest.raises(RerunLogError, match="t must be a finite time"):
+            rec.log_state(float("nan"), [0.0, 0.0, 0.0])  # refused alone, not its whole batch
 
 
 # ---- live streaming ---------------------------------------------------------------------------
@@ -344,3 +346,136 @@ def test_a_removed_rrd_is_seen(tmp_path, params):
     assert rec.sink_error == f"the file {str(path)!r} was removed while recording"
     with pytest.raises(RerunSinkError, match="was removed while recording"):
         rec.close()
+
+
+# ---- the sender thread ------------------------------------------------------------------------
+def held_send_columns(rec, fail_batch: int | None = None, error: Exception | None = None):
+    """Wrap ``rec.rec.send_columns`` (rerun's own, called by the recorder's sender thread): each
+    call waits for the returned event; the ``fail_batch``-th batch (0-based, counted by its
+    first call, the stroke series) raises ``error`` instead of being sent."""
+    import threading
+
+    real = rec.rec.send_columns
+    release = threading.Event()
+    batches = {"n": -1}
+
+    def send_columns(entity, **kw):
+        release.wait()
+        if entity == "series/stroke":
+            batches["n"] += 1
+        if batches["n"] == fail_batch:
+            raise error
+        return real(entity, **kw)
+
+    rec.rec.send_columns = send_columns
+    return release
+
+
+def verified(path) -> bool:
+    from drs_ros.recording.rerun_cli import run_rerun_cli
+
+    return run_rerun_cli(["rrd", "verify", str(path)]).returncode == 0
+
+
+def test_close_sends_the_partial_batch_and_the_queue_every_state_in_order(tmp_path, params):
+    """Twenty-five batches of 8 and a partial one of 3 are logged while the sender is held at
+    its first batch (so the queue is full and nothing is sent when close() starts): the .rrd
+    then holds every state logged, in order, with the values given (read back with rerun's
+    reader; ``rerun rrd verify`` passes), and close() joined the sender thread."""
+    import threading
+
+    t, q, _ = manoeuvre_states(params, 203)
+    force = np.arange(t.size) * 7.0
+    path = tmp_path / "run.rrd"
+    before = set(threading.enumerate())
+    rec = RerunRecorder(path, params, max_draw_hz=500.0, batch=8)
+    ours = set(threading.enumerate()) - before
+    release = held_send_columns(rec)
+    flags = [rec.log_state(ti, qi, fi) for ti, qi, fi in zip(t, q, force, strict=True)]
+    assert rec.sample_count == 0  # nothing sent yet: 25 batches queued, 3 states buffered
+    threading.Timer(0.3, release.set).start()
+    rec.close()
+    assert not any(th.is_alive() for th in ours)  # the sender (and the sink watch) joined
+    rec.close()  # idempotent
+    assert rec.sample_count == t.size and rec.draw_count == sum(flags)
+    t_read, stroke = read_series(path, "/series/stroke")
+    np.testing.assert_allclose(t_read, t, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(stroke, q[:, 0])
+    np.testing.assert_array_equal(read_series(path, "/series/piston_force")[1], force)
+    np.testing.assert_allclose(read_series(path, "/series/gap")[1], kinematics.gap(q, params),
+                               rtol=0, atol=1e-15)  # fmt: skip
+    _, other = read_rows(path)
+    assert all(other["/" + e] == sum(flags) for e in DRAWINGS)
+    assert verified(path)
+
+
+@pytest.mark.parametrize("taken", [True, False])
+def test_a_batch_the_sender_fails_is_kept_and_logging_neither_raises_nor_waits(
+    tmp_path, params, taken
+):
+    """rerun's send_columns raises (ENOSPC) for the second batch, while the sender is held:
+    log_state went on returning meanwhile (no wait, no raise); the failure is kept with its ten
+    states (take_send_failures), or, when nobody took it, close() names them. The .rrd holds
+    every other state and passes ``rerun rrd verify``."""
+    import errno
+
+    t, q, _ = manoeuvre_states(params, 35)
+    path = tmp_path / "run.rrd"
+    rec = RerunRecorder(path, params, batch=10)
+    full = OSError(errno.ENOSPC, "No space left on device")
+    release = held_send_columns(rec, fail_batch=1, error=full)
+    for ti, qi in zip(t, q, strict=True):
+        rec.log_state(ti, qi, 1.0)  # the sender is held: these must neither wait nor raise
+    assert not release.is_set() and not rec.send_failed
+    release.set()
+    if taken:
+        rec.flush()
+        (failure,) = rec.take_send_failures()
+        assert failure.error is full and failure.states == 10
+        rec.close()
+    else:
+        with pytest.raises(RerunLogError, match=r"lacks 10 states the sender could not send "
+                           r"\(1 batches; last: OSError: \[Errno 28\] No space left"):  # fmt: skip
+            rec.close()
+    t_read, _ = read_series(path, "/series/stroke")
+    np.testing.assert_allclose(t_read, np.concatenate([t[:10], t[20:]]), rtol=0, atol=1e-9)
+    assert verified(path)
+
+
+@pytest.mark.parametrize("close_after", [1, 45, 700])
+def test_a_close_while_another_thread_logs_loses_no_state(tmp_path, params, close_after):
+    """A thread logs states as fast as it can; this one closes the recorder once
+    ``close_after`` were logged. Every log_state that returned is in the .rrd, in order, and the
+    first one after the close is refused ('is closed'): nothing in between is lost. (A race:
+    run it repeated with both cores busy.)"""
+    import threading
+    import time
+
+    _, q, _ = manoeuvre_states(params, 50)
+    path = tmp_path / "run.rrd"
+    rec = RerunRecorder(path, params, batch=16)
+    returned, refused = [], []
+
+    def log_until_closed():
+        k = 0
+        while True:
+            try:
+                rec.log_state(k * 1e-4, q[k % len(q)], float(k))
+            except RerunLogError as exc:
+                refused.append(str(exc))
+                return
+            returned.append(k)
+            k += 1
+
+    th = threading.Thread(target=log_until_closed)
+    th.start()
+    end = time.monotonic() + 60.0
+    while len(returned) < close_after and time.monotonic() < end:
+        time.sleep(1e-4)
+    rec.close()
+    th.join(timeout=60.0)
+    assert not th.is_alive() and len(refused) == 1 and "is closed" in refused[0]
+    _, force = read_series(path, "/series/piston_force")
+    np.testing.assert_array_equal(force, np.arange(len(returned), dtype=float))
+    assert len(returned) >= close_after and rec.sample_count == len(returned)
+    assert verified(path)

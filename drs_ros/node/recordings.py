@@ -34,7 +34,9 @@ from .effect_record import error_text
 #: The fewest states sent to rerun at a time. A ``send_columns`` batch costs ~4 ms whatever its
 #: size: every 250 samples it was 2/3 of the rerun recording's cost at 1 kHz. One second of
 #: states at a time (1000 at 1 kHz) cut it to ~9 us a state; a live viewer sees them up to a
-#: second late, and a process killed with SIGKILL loses up to a second of the .rrd.
+#: second late, and a process killed with SIGKILL loses up to a second of the .rrd. The batch
+#: is sent by the recorder's sender thread, never in the tick (a burst of milliseconds there was
+#: a missed deadline every second at 1 kHz).
 RERUN_BATCH_MIN = 250
 
 
@@ -59,20 +61,27 @@ class RecordingHealth:
             return None
         try:
             return action(*args, **kwargs)
-        except OSError as exc:
-            self.fail(error_text(exc))
         except Exception as exc:  # noqa: BLE001 - a bug in one write must not stop the node
-            self.errors += 1
-            self.last_error = error_text(exc)
-            if self._on_error is not None:
-                self._on_error(f"{self.name}: {self.last_error}")
-            if self.errors == 1:  # loudly, with where it came from; then one line a second
-                self._logger.error(f"{self.name}: an item was not recorded (the recording goes "
-                                   f"on): {traceback.format_exc()}")  # fmt: skip
-            else:
-                self._logger.error(f"{self.name}: {self.errors} items not recorded, last: "
-                                   f"{self.last_error}", throttle_duration_sec=1.0)  # fmt: skip
+            self.take(exc)
         return None
+
+    def take(self, exc: Exception, items: int = 1) -> None:
+        """An exception that lost ``items`` items (raised in :meth:`run`, or met by a
+        recorder's own thread): an OSError stops the recording, any other is counted."""
+        if isinstance(exc, OSError):
+            self.fail(error_text(exc))
+            return
+        self.errors += items
+        self.last_error = error_text(exc)
+        if self._on_error is not None:
+            self._on_error(f"{self.name}: {self.last_error}")
+        if self.errors == items:  # loudly, with where it came from; then one line a second
+            where = "".join(traceback.format_exception(exc))
+            self._logger.error(f"{self.name}: {items} items were not recorded (the recording "
+                               f"goes on): {where}")  # fmt: skip
+        else:
+            self._logger.error(f"{self.name}: {self.errors} items not recorded, last: "
+                               f"{self.last_error}", throttle_duration_sec=1.0)  # fmt: skip
 
     def fail(self, reason: str) -> None:
         """Stop the recording for good (the first reason is kept)."""
@@ -176,7 +185,14 @@ class RerunRecording:
         self.health = RecordingHealth(f"rerun recording {str(target)!r}", logger, on_error)
 
     def log_state(self, t: float, q, piston_force: float) -> None:
+        if self.recorder.send_failed:  # taken here: the one thread that counts the errors
+            self._take_send_failures()
         self.health.run(self.recorder.log_state, t, q, piston_force)
+
+    def _take_send_failures(self) -> None:
+        """The batches the recorder's sender could not send, each its states lost."""
+        for failure in self.recorder.take_send_failures():
+            self.health.take(failure.error, failure.states)
 
     def poll(self) -> None:
         """Take in a failure of the file sink (rerun's writer stopped, the file removed)."""
@@ -187,8 +203,10 @@ class RerunRecording:
         return self.health.status(f"{self.recorder.sample_count} samples")
 
     def finish(self) -> list[str]:
-        """Flush and close; what the recording lacks, one line each."""
+        """Flush and close; what the recording lacks, one line each (the batches the sender
+        fails to send in the close are named by the close's error)."""
         lines = []
+        self._take_send_failures()
         try:
             self.recorder.close()
         except Exception as exc:  # noqa: BLE001 - the file's end is missing: the stop names it

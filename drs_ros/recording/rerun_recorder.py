@@ -19,12 +19,20 @@ Time series (``series/...``): ``stroke`` [m], ``flap_angle_deg`` [deg], ``gap`` 
 ``piston_force`` [N].
 
 Drawings are decimated to at most ``max_draw_hz`` per second of simulated time; the scalars are
-logged at every sample. Everything goes through ``send_columns``: :meth:`RerunRecorder.log_state`
-only buffers (a few microseconds) and sends every ``batch`` samples, since logging scalars one
-``rr.log`` at a time costs 50-80 us each.
+logged at every sample. Everything goes through ``send_columns``, since logging scalars one
+``rr.log`` at a time costs 50-80 us each. :meth:`RerunRecorder.log_state` only writes a row of
+its arrays (about a microsecond); every ``batch`` samples it hands the full arrays to the
+recorder's sender thread (:mod:`~drs_ros.recording.rerun_sender`), which computes the series and
+the drawings and calls ``send_columns``: the milliseconds a batch costs are never the caller's.
+A batch the sender fails to send is kept (:meth:`RerunRecorder.take_send_failures`).
 
 A failing file sink is seen while recording (:mod:`~drs_ros.recording.rerun_sink`); :meth:`close`
 then raises :class:`RerunSinkError` naming what the file lacks.
+
+:meth:`~RerunRecorder.log_state`, :meth:`~RerunRecorder.flush`, :meth:`~RerunRecorder.close` and
+:meth:`~RerunRecorder.discard` may be called from different threads: a state whose
+:meth:`~RerunRecorder.log_state` returned is in the recording, one logged after the close is
+refused.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ from __future__ import annotations
 import math
 import os
 import shutil
+import threading
 from collections.abc import Sequence
 
 import numpy as np
@@ -45,6 +54,7 @@ from drs_model.params import DRSParams
 from ..drawing import PIN_NAMES, moving_drawings, still_drawings
 from .destinations import check_connect_url, check_new_rrd
 from .errors import RerunLogError
+from .rerun_sender import BatchSender, SendFailure
 from .rerun_sink import FileSinkWatch, RerunSinkError
 
 TIMELINE = "sim_time"
@@ -118,12 +128,12 @@ class RerunRecorder:
 
     Notes
     -----
-    Call :meth:`close` (or use ``with``) to flush the file. With ``connect_url``, :meth:`close`
-    waits at most :data:`STREAM_FLUSH_TIMEOUT_S` for the stream to drain. A stream that could not
-    be delivered is not an error (the file, if any, is complete): its reason is left in
-    :attr:`stream_error`. When nothing listens at the URL, rerun-sdk 0.41 blocks: the
-    constructor 5 s (10 s with a file too) and :meth:`close` about 6 s (measured); with a
-    listening viewer both take milliseconds.
+    Call :meth:`close` (or use ``with``) to send what is buffered and queued and flush the
+    file. With ``connect_url``, :meth:`close` waits at most :data:`STREAM_FLUSH_TIMEOUT_S` for
+    the stream to drain. A stream that could not be delivered is not an error (the file, if any,
+    is complete): its reason is left in :attr:`stream_error`. When nothing listens at the URL,
+    rerun-sdk 0.41 blocks: the constructor 5 s (10 s with a file too) and :meth:`close` about
+    6 s (measured); with a listening viewer both take milliseconds.
     """
 
     def __init__(
@@ -157,16 +167,16 @@ class RerunRecorder:
         self.sample_count = 0
         #: Scalar rows sent per series entity.
         self.scalar_rows: dict[str, int] = {}
-        self._buf_t: list[float] = []
-        self._buf_q: list = []
-        self._buf_f: list[float] = []
-        self._buf_draw: list[bool] = []
+        self._new_buffer()
+        #: Held by each call that logs, hands off or closes (they may come from two threads).
+        self._lock = threading.Lock()
         self.rec = self._open_sinks(application_id)
         self._closed = False
         #: The file sink's health (None: no file): its first failure, found while recording.
         self.sink = None if self.path is None else FileSinkWatch(self.rec, self.path,
                                                                  live=connect_url is not None)
         self._log_static()
+        self._sender = BatchSender(self._send_logged, name="rerun-sender")
 
     def _open_sinks(self, application_id: str) -> rr.RecordingStream:
         """A recording stream writing to the file, the gRPC endpoint, or both."""
@@ -251,31 +261,64 @@ class RerunRecorder:
         bool
             Whether the mechanism will be drawn for this sample.
         """
-        self._check_open()
         if len(q) != 3:
             raise RerunLogError(f"q must hold [s, psi1, psi3], got {q!r}")
         t = float(t)
-        draw = self._last_draw is None or t - self._last_draw >= self._draw_dt - 1e-12
-        if draw:
-            self._last_draw = t
-        self._buf_t.append(t)
-        self._buf_q.append(q)
-        self._buf_f.append(piston_force)
-        self._buf_draw.append(draw)
-        if len(self._buf_t) >= self.batch:
-            self.flush()
+        if not math.isfinite(t):  # refused alone, rather than failing its whole batch later
+            raise RerunLogError(f"t must be a finite time [s], got {t!r}")
+        with self._lock:
+            self._check_open()
+            draw = self._last_draw is None or t - self._last_draw >= self._draw_dt - 1e-12
+            n = self._n
+            self._buf_q[n] = q  # first: a q that is not three numbers raises before any change
+            self._buf_t[n] = t
+            self._buf_f[n] = piston_force
+            self._buf_draw[n] = draw
+            if draw:
+                self._last_draw = t
+            self._n = n + 1
+            if self._n >= self.batch:
+                self._hand_off()
         return draw
 
+    def _new_buffer(self) -> None:
+        """Empty arrays for the next batch (the sender owns the ones handed off)."""
+        self._buf_t = np.empty(self.batch)
+        self._buf_q = np.empty((self.batch, 3))
+        self._buf_f = np.empty(self.batch)
+        self._buf_draw = np.empty(self.batch, dtype=bool)
+        self._n = 0
+
+    def _hand_off(self) -> None:
+        """Queue the buffered samples to the sender (with the lock held); never waits."""
+        n = self._n
+        if n:
+            batch = self._buf_t[:n], self._buf_q[:n], self._buf_f[:n], self._buf_draw[:n]
+            self._new_buffer()
+            self._sender.put(*batch)
+
+    def _send_logged(self, t, q, force, draw) -> None:
+        """The sender's work for one batch of :meth:`log_state`."""
+        self._send(t, q, force, np.flatnonzero(draw))
+
     def flush(self) -> None:
-        """Send the samples buffered by :meth:`log_state`."""
-        if not self._buf_t:
-            return
-        t = np.array(self._buf_t, dtype=float)
-        q = np.array(self._buf_q, dtype=float).reshape(-1, 3)
-        f = np.array(self._buf_f, dtype=float)
-        idx = np.flatnonzero(self._buf_draw)
-        self._buf_t, self._buf_q, self._buf_f, self._buf_draw = [], [], [], []
-        self._send(t, q, f, idx)
+        """Send the samples buffered by :meth:`log_state`, and wait until the sender has sent
+        every batch handed to it."""
+        with self._lock:
+            if self._closed:
+                return
+            self._hand_off()
+            self._sender.drain()
+
+    def take_send_failures(self) -> list[SendFailure]:
+        """The batches the sender could not send since the last call (each lost whole: its
+        exception and its number of states), in order; :meth:`close` raises for those left."""
+        return self._sender.take_failures()
+
+    @property
+    def send_failed(self) -> bool:
+        """Whether :meth:`take_send_failures` has failures to give (cheap)."""
+        return self._sender.failed
 
     # ---- bulk ----------------------------------------------------------------------------------
     def log_trajectory(self, t, q, piston_force=None) -> int:
@@ -295,7 +338,7 @@ class RerunRecorder:
         int
             Number of mechanism drawings sent.
         """
-        self._check_open()
+        self._check_open()  # then again under the lock: a close may come meanwhile
         t = np.asarray(t, dtype=float)
         q = np.asarray(q, dtype=float)
         if t.ndim != 1 or q.shape != (t.size, 3):
@@ -309,11 +352,14 @@ class RerunRecorder:
         )
         if force.shape != t.shape:
             raise RerunLogError(f"piston_force must have shape {t.shape}, got {force.shape}")
-        self.flush()
-        idx = self._decimate(t)
-        if idx.size:
-            self._last_draw = float(t[idx[-1]])
-        self._send(t, q, force, idx)
+        with self._lock:
+            self._check_open()
+            self._hand_off()
+            self._sender.drain()  # the states logged before go first
+            idx = self._decimate(t)
+            if idx.size:
+                self._last_draw = float(t[idx[-1]])
+            self._send(t, q, force, idx)  # here, not in the sender: the caller sees its errors
         return int(idx.size)
 
     def _send(self, t: np.ndarray, q: np.ndarray, force: np.ndarray, idx: np.ndarray) -> None:
@@ -367,33 +413,44 @@ class RerunRecorder:
         return None if self.sink is None else self.sink.failure
 
     def discard(self) -> None:
-        """Close and delete the file, if any (a node that failed to start)."""
+        """Drop what is not sent, close, and delete the file, if any (a node that failed to
+        start)."""
         if self.sink is not None:
             self.sink.stop()
-        if not self._closed:
-            self._closed = True
+        with self._lock:
+            was_open, self._closed = not self._closed, True
+        self._sender.abandon()
+        if was_open:
             self.rec.disconnect()
         if self.path is not None:
             self.path.unlink(missing_ok=True)
 
     def close(self) -> None:
-        """Flush and close the file and the live stream (idempotent). Raises
+        """Send what :meth:`log_state` buffered and the sender holds, join the sender, then
+        flush and close the file and the live stream (idempotent). Raises
         :class:`RerunSinkError` when the file is incomplete (its end is missing): the file sink
-        failed while recording or in this last flush, or the file was removed."""
-        if self._closed:
-            return
+        failed while recording or in this last flush, or the file was removed; else
+        :class:`RerunLogError` when batches the sender failed to send were not taken
+        (:meth:`take_send_failures`)."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True  # a log_state from now on is refused, not lost
+            self._hand_off()
         if self.sink is not None:
             self.sink.stop()
         try:
-            self.flush()
+            self._sender.close()
         finally:
-            self._closed = True
             self._close_sinks()
+        unsent = _unsent(self.take_send_failures())
         if self.sink_error is not None:
             raise RerunSinkError(
                 f"the rerun recording {str(self.path)!r} is incomplete, its end is missing: "
-                f"{self.sink_error}"
+                f"{self.sink_error}" + (f"; and {unsent}" if unsent else "")
             )
+        if unsent:
+            raise RerunLogError(f"the rerun recording of {self._target} lacks {unsent}")
 
     def _close_sinks(self) -> None:
         if self.connect_url is not None:
@@ -404,6 +461,15 @@ class RerunRecorder:
         if self.sink is not None:  # the last flush: everything sent reaches the file
             self.sink.check(math.inf, flush=self.connect_url is None)
         self.rec.disconnect()
+
+
+def _unsent(failures: list[SendFailure]) -> str:
+    """What ``failures`` lost, for the message of :meth:`RerunRecorder.close` ('' for none)."""
+    if not failures:
+        return ""
+    last = failures[-1].error
+    return (f"{sum(f.states for f in failures)} states the sender could not send "
+            f"({len(failures)} batches; last: {type(last).__name__}: {last})")  # fmt: skip
 
 
 __all__ = [
