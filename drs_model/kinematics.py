@@ -25,6 +25,7 @@ coordinates; points by rigid-body kinematics of the three bodies.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -278,26 +279,48 @@ def _cross_z(w: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 def _body_origin(q: np.ndarray, body: int, p: DRSParams) -> np.ndarray:
     s = q[..., S]
+    origin = np.empty(s.shape + (2,))
     if body == 2:
-        return np.stack(np.broadcast_arrays(np.full_like(s, p.x_D), np.full_like(s, p.y_D)), -1)
-    y0 = p.y_A + s + (p.L1 if body == 1 else 0.0)
-    return np.stack([np.full_like(s, p.x_A), y0], axis=-1)
+        origin[...] = (p.x_D, p.y_D)
+        return origin
+    origin[..., 0] = p.x_A
+    origin[..., 1] = p.y_A + s + (p.L1 if body == 1 else 0.0)
+    return origin
+
+
+def _body_points(q: np.ndarray, body: int | None, local: np.ndarray, p: DRSParams) -> np.ndarray:
+    """Ground positions [m], shape ``(..., k, 2)``, of the points at ``local`` (k, 2) in the frame
+    of ``body`` (:func:`point_table`'s numbering; None: the ground) at configuration(s) ``q``."""
+    # filled with np.empty and assignments: np.stack and np.broadcast_to cost several times more
+    # than the arithmetic on a few points
+    out = np.empty(q.shape[:-1] + local.shape)
+    if body is None:
+        out[...] = local
+        return out
+    if body == 0:  # the piston translates only
+        out[...] = local
+    else:
+        angle = q[..., PSI1 if body == 1 else PSI3, None]
+        out[..., 0], out[..., 1] = kernels.rotate(np.cos(angle), np.sin(angle), *local.T)
+    out += _body_origin(q, body, p)[..., None, :]
+    return out
 
 
 def point_positions(q, p: DRSParams, names=POINT_NAMES) -> dict[str, np.ndarray]:
-    """Ground positions [m] of the named points, each of shape ``(..., 2)``."""
+    """Ground positions [m] of the named points, each of shape ``(..., 2)``.
+
+    The points of one body are placed together (:func:`_body_points`): its origin and its turn
+    are computed once, so that one configuration (the node draws one every marker tick) costs a
+    few small numpy operations per body rather than per point."""
     q = np.asarray(q, dtype=float)
     table = point_table(p)
-    out = {}
+    bodies: dict[int | None, list[str]] = {}
     for name in names:
-        body, local = table[name]
-        if body is None:
-            out[name] = np.broadcast_to(np.array(local), q.shape[:-1] + (2,)).copy()
-        elif body == 0:
-            out[name] = _body_origin(q, 0, p) + np.array(local)
-        else:
-            angle = q[..., PSI1] if body == 1 else q[..., PSI3]
-            out[name] = _body_origin(q, body, p) + _rotate(angle, local)
+        bodies.setdefault(table[name][0], []).append(name)
+    out = {}
+    for body, members in bodies.items():
+        ground = _body_points(q, body, np.array([table[name][1] for name in members]), p)
+        out.update((name, ground[..., k, :]) for k, name in enumerate(members))
     return out
 
 
@@ -342,11 +365,16 @@ def point_jacobian(name: str, q, p: DRSParams) -> np.ndarray:
 
 def flap_outline(q, p: DRSParams) -> np.ndarray:
     """Flap-wing outline in ground [m], shape ``(..., n, 2)``."""
-    q = np.asarray(q, dtype=float)
+    return _body_points(np.asarray(q, dtype=float), 2, _flap_outline_local(p), p)
+
+
+@functools.lru_cache(maxsize=8)
+def _flap_outline_local(p: DRSParams) -> np.ndarray:
+    """The flap outline (n, 2) [m] in the flap frame RF3 (at D; the outline's own frame is
+    ``L_wing - d_tip`` further, as T), read-only: made once per parameter set, not per drawing."""
     local = np.asarray(p.flap_outline) + np.array([p.d_tip - p.L_wing, 0.0])
-    c, s = np.cos(q[..., PSI3])[..., None], np.sin(q[..., PSI3])[..., None]
-    x, y = kernels.rotate(c, s, local[:, 0], local[:, 1])
-    return np.stack([p.x_D + x, p.y_D + y], axis=-1)
+    local.flags.writeable = False
+    return local
 
 
 def main_wing_outline(p: DRSParams) -> np.ndarray:

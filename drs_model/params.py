@@ -289,9 +289,10 @@ class DRSParams:
         """Distance D -> T along the flap frame's -x [m] (= L_wing - d_tip)."""
         return self.L_wing - self.d_tip
 
-    @property
+    @cached_property
     def flap_com_local(self) -> tuple[float, float]:
-        """G3 in RF_flap_wing [m]: the mean of the flap outline points (the seed's ``getCoM``)."""
+        """G3 in RF_flap_wing [m]: the mean of the flap outline points (the seed's ``getCoM``;
+        computed once: every point table reads it)."""
         arr = np.asarray(self.flap_outline)
         return float(arr[:, 0].mean()), float(arr[:, 1].mean())
 

@@ -214,6 +214,10 @@ class MechanismMarkers:
     ~3 us. One LINE_STRIP per drawing (``still`` and the moving ``names``: drs_ros.drawing), the
     pins as a SPHERE_LIST, the piston force as an ARROW from its point of action along +y
     (:data:`FORCE_ARROW_M_PER_N`). Ids are fixed per drawing, so each message replaces the last.
+
+    The array has two shapes (with the still markers and without), so its CDR has two layouts:
+    :meth:`packer` packs a configuration's numbers straight into them, the bytes :meth:`msg`'s
+    message serialises to, without moving a Point.
     """
 
     def __init__(self, still, moving_sizes: dict[str, int], n_pins: int, frame_id: str) -> None:
@@ -235,6 +239,8 @@ class MechanismMarkers:
         markers += [self._pins, self._arrow]
         self._all = MarkerArray(markers=markers)
         self._moving = MarkerArray(markers=markers[len(still) :])
+        #: the moving drawings, in the order of their markers (the pins and the arrow follow)
+        self.line_names = tuple(moving_sizes)
 
     def msg(self, lines, pins, force_origin, piston_force: float, stamp_ns: int,
             with_still: bool = True):  # fmt: skip
@@ -242,8 +248,7 @@ class MechanismMarkers:
         force [N] at ``force_origin`` (2,) [m]; every marker stamped ``stamp_ns``. Without
         ``with_still`` only the moving markers (markers live until replaced: the still ones
         drawn once stay)."""
-        x, y = float(force_origin[0]), float(force_origin[1])
-        arrow = ((x, y), (x, y + FORCE_ARROW_M_PER_N * float(piston_force)))
+        arrow = force_arrow(force_origin, piston_force)
         for marker, pts in [*((self._lines[k], v) for k, v in lines.items()),
                             (self._pins, pins), (self._arrow, arrow)]:  # fmt: skip
             for point, (px, py) in zip(marker.points, pts, strict=True):
@@ -253,3 +258,74 @@ class MechanismMarkers:
         for marker in array.markers:
             marker.header.stamp = stamp
         return array
+
+    def packer(self):
+        """``pack(lines, pins, force_origin, piston_force, stamp_ns, with_still=True) -> bytes``:
+        the exact CDR of :meth:`msg`'s array for the same arguments, without moving a Point. Each
+        shape's bytes are laid out once (:class:`~drs_ros.recording.cdr.Layout`); a call writes
+        the moving points' x and y and every marker's stamp into them through numpy views (the
+        still outlines and every z = 0 stay the template's). Raises
+        :class:`~drs_ros.recording.cdr.CdrError` for a stamp beyond the int32 seconds of
+        builtin_interfaces/Time, as the serialiser does."""
+        import numpy as np
+
+        from .recording import cdr
+
+        names, n_moving = self.line_names, len(self._moving.markers)
+        shapes = {with_still: _PackedArray(cdr.Layout(array), len(array.markers), n_moving)
+                  for with_still, array in ((True, self._all), (False, self._moving))}  # fmt: skip
+
+        def pack(lines, pins, force_origin, piston_force: float, stamp_ns: int,
+                 with_still: bool = True) -> bytes:  # fmt: skip
+            sec, nanosec = split_ns(stamp_ns)
+            if not -(2**31) <= sec < 2**31:
+                raise cdr.CdrError(f"stamp {stamp_ns!r} ns is beyond builtin_interfaces/Time's "
+                                   f"int32 seconds ({sec} s)")  # fmt: skip
+            shape = shapes[with_still]
+            shape.xy[shape.points] = np.concatenate(
+                [*(lines[k] for k in names), pins, force_arrow(force_origin, piston_force)]
+            ).ravel()
+            shape.sec[shape.secs] = sec
+            shape.nanosec[shape.nanosecs] = nanosec
+            return bytes(shape.buf)
+
+        return pack
+
+
+class _PackedArray:
+    """One shape of :class:`MechanismMarkers`' array: its CDR (``buf``, from ``layout``'s
+    template) seen as float64 ``xy`` (from byte 4: CDR aligns a double to 8 counted from the end
+    of the 4-byte header) and as int32 ``sec`` / uint32 ``nanosec``; ``points`` the indices in
+    ``xy`` of the x and y of the last ``n_moving`` of its ``n`` markers' points, in order;
+    ``secs`` / ``nanosecs`` the indices in ``sec`` / ``nanosec`` of each marker's stamp."""
+
+    def __init__(self, layout, n: int, n_moving: int) -> None:
+        import numpy as np
+
+        from .recording import cdr
+
+        self.buf = bytearray(layout.template)
+        n_words = len(self.buf) // 4
+        self.xy = np.ndarray(((len(self.buf) - 4) // 8,), "<f8", self.buf, 4)
+        self.sec = np.ndarray((n_words,), "<i4", self.buf)
+        self.nanosec = np.ndarray((n_words,), "<u4", self.buf)
+        fields = layout.fields
+        points = []
+        for i in range(n - n_moving, n):
+            offset, code, count = fields[f"markers.{i}.points"]
+            if code != "d" or cdr.padding(offset, 8):
+                raise cdr.CdrError(f"markers.{i}.points at byte {offset} is not aligned doubles")
+            first = (offset - 4) // 8
+            points += [first + k for k in range(count) if k % 3 != 2]  # x, y; z stays 0
+        self.points = np.array(points)
+        self.secs, self.nanosecs = (
+            np.array([fields[f"markers.{i}.header.stamp.{part}"][0] // 4 for i in range(n)])
+            for part in ("sec", "nanosec")
+        )
+
+
+def force_arrow(force_origin, piston_force: float) -> tuple[tuple[float, float], ...]:
+    """The piston force [N] drawn as an arrow from ``force_origin`` (2,) [m] along +y,
+    :data:`FORCE_ARROW_M_PER_N` long per newton: its two ends [m]."""
+    x, y = float(force_origin[0]), float(force_origin[1])
+    return (x, y), (x, y + FORCE_ARROW_M_PER_N * float(piston_force))

@@ -32,21 +32,33 @@ def still_drawings(p: DRSParams) -> dict[str, np.ndarray]:
     }
 
 
+#: The points :func:`moving_drawings` asks of the kinematics: the pins, then P.
+_DRAWN = (*PIN_NAMES, "P")
+_A, _B, _C, _R, _T = (_DRAWN.index(name) for name in ("A", "B", "C", "R", "T"))
+
+
 def moving_drawings(
     q: np.ndarray, p: DRSParams
 ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """Drawings of configurations ``q`` (n, 3): piston A-B, link B-C, the closed flap outline,
     the gap (from R up to the height of the flap tip T), as (n, k, 2) arrays [m]; the pins
-    (n, len(PIN_NAMES), 2); and P, where the piston force acts (n, 2)."""
-    pts = kinematics.point_positions(q, p, (*PIN_NAMES, "P"))
-    gap_top = np.stack([pts["R"][:, 0], pts["T"][:, 1]], axis=-1)
+    (n, len(PIN_NAMES), 2); and P, where the piston force acts (n, 2).
+
+    The points are placed by one call of the kinematics and gathered into one array, which the
+    drawings index (one configuration, the node's marker tick, is a few numpy calls)."""
+    pts = kinematics.point_positions(q, p, _DRAWN)
+    at = np.empty(np.shape(q)[:-1] + (len(_DRAWN), 2))
+    for k, name in enumerate(_DRAWN):
+        at[..., k, :] = pts[name]
+    gap = at[..., [_R, _R], :]
+    gap[..., 1, 1] = at[..., _T, 1]  # straight up from R to the tip's height
     lines = {
-        "piston": np.stack([pts["A"], pts["B"]], axis=1),
-        "link": np.stack([pts["B"], pts["C"]], axis=1),
+        "piston": at[..., [_A, _B], :],
+        "link": at[..., [_B, _C], :],
         "flap": closed(kinematics.flap_outline(q, p)),
-        "gap": np.stack([pts["R"], gap_top], axis=1),
+        "gap": gap,
     }
-    return lines, np.stack([pts[name] for name in PIN_NAMES], axis=1), pts["P"]
+    return lines, at[..., : len(PIN_NAMES), :], at[..., -1, :]
 
 
 __all__ = ["PIN_NAMES", "closed", "moving_drawings", "still_drawings"]

@@ -3,7 +3,8 @@
 its serialisers, the marker scene and what it last drew.
 
 Every message is serialised once (:mod:`drs_ros.recording.cdr`; the joint states, the
-reactions and the pressures packed into their layouts, :class:`~drs_ros.recording.cdr.Layout`),
+reactions, the pressures and the markers packed into their layouts,
+:class:`~drs_ros.recording.cdr.Layout`),
 published as those bytes and handed back to the node to record as the same bytes. An optional
 topic (``~/joint_reactions``, ``~/markers``) is computed only while someone listens (asked every
 :data:`LISTENER_CHECK_TICKS` ticks) or, for the markers, while the bag records them; a state
@@ -91,10 +92,7 @@ class StatePublishers:
         # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
         self.topics = {pub: pub.topic_name for pub in self.all}
         self.frame_id, self.params, self.markers_period = frame_id, params, markers_period
-        self._serialize = {
-            cls: cdr.serializer(cls)
-            for cls in (DiagnosticArray, MarkerArray)
-        }
+        self._serialize_diagnostics = cdr.serializer(DiagnosticArray)
         self._pack_float64 = cdr.flat_packer(Float64)
         # the joint states, the reactions and the pressures: numbers packed into their layouts
         self._pack_joint_state = joint_state_packer(joint_names)
@@ -107,6 +105,8 @@ class StatePublishers:
         self._scene = MechanismMarkers(still_drawings(params),
                                        {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
                                        frame_id)  # fmt: skip
+        # the markers' numbers packed into the layouts of the array's two shapes
+        self._pack_markers = self._scene.packer()
         #: The publishers of the states, and whether each had a subscriber at the last check
         #: (a message no one would receive is not handed to DDS: ~5-10 us each).
         self.state_publishers = (self.joints, self.force, self.gap, self.accel, self.reactions,
@@ -142,7 +142,7 @@ class StatePublishers:
 
     def diagnostic_bytes(self, msg: DiagnosticArray) -> bytes:
         """A diagnostics or effect-record message, serialised once."""
-        return self._serialize[DiagnosticArray](msg)
+        return self._serialize_diagnostics(msg)
 
     # ---- each published state ------------------------------------------------------------------
     def state_messages(self, sim, st, stamp: int, published_stroke, tick: int,
@@ -172,7 +172,7 @@ class StatePublishers:
             or st.t - self.last_markers_t >= self.markers_period - 1e-9
         ):
             self.last_markers_t = st.t
-            out.append((self.markers, self._serialize[MarkerArray](self._markers(st, stamp))))
+            out.append((self.markers, self._markers(st, stamp)))
         return out
 
     def _hydraulic_messages(self, st, stamp: int) -> list[tuple]:
@@ -189,14 +189,15 @@ class StatePublishers:
             (spool, self._pack_float64(math.nan if st.spool is None else st.spool)),
         ]
 
-    def _markers(self, st, stamp: int) -> MarkerArray:
-        """The mechanism at state ``st`` as RViz and Foxglove draw it (drs_ros.drawing)."""
+    def _markers(self, st, stamp: int) -> bytes:
+        """The CDR of the mechanism at state ``st`` as RViz and Foxglove draw it
+        (drs_ros.drawing), packed (:meth:`~drs_ros.conversions.MechanismMarkers.packer`)."""
         lines, pins, force_at = moving_drawings(st.q[None, :], self.params)
         # the outlines that never move go out once a second (a marker lives until replaced)
         still = self._last_still_t is None or st.t - self._last_still_t >= STILL_MARKERS_PERIOD_S
         if still:
             self._last_still_t = st.t
-        return self._scene.msg(
+        return self._pack_markers(
             {k: v[0] for k, v in lines.items()},
             pins[0],
             force_at[0],
