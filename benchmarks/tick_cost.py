@@ -13,11 +13,11 @@ Measured on this thread's CPU clock (``time.thread_time_ns``), which the machine
 barely moves, in two interleaved kinds of blocks of ticks:
 
 * bare: the tick alone, nothing wrapped: the figure to compare (median and mean per tick; the
-  mean includes what a tick does every N ticks: the rerun batch, the bag's flush);
+  mean includes what a tick does every N ticks: the markers, a command);
 * instrumented: each part wrapped by a timer that counts its own time (a part's time excludes
   the timed parts it calls): the physics, packing each message, each publish, each bag write
-  (the MCAP writer's ``add_message`` apart), the rerun log (its ``send_columns`` batch apart),
-  /tf (computed, packed), the action's update, the commands applied. ``rest`` is the tick's
+  (the MCAP writer's ``add_message`` apart), the rerun log (buffering the state: its thread
+  sends the batches),  /tf (computed, packed), the action's update, the commands applied. ``rest`` is the tick's
   time outside every timed part (the tick's own bookkeeping, the lock). The wrappers' own cost
   (two reads of the thread clock, ~1 us) is measured first on a timed no-op and taken off.
 
@@ -167,15 +167,15 @@ def instrument(node, timer: PartTimer) -> None:
         timer.wrap(pub, "publish", f"publish {pub.topic_name}")
     timer.wrap(node.stack.action, "update", "action update")
     timer.wrap(node.recordings, "record", lambda topic, *_a: f"record {topic}")
+    timer.wrap(node.recordings, "record_many", "record: the tick's states (one batch)")
     if node.recordings.recorder is not None:
         recorder = node.recordings.recorder
         if hasattr(recorder, "_append"):
             timer.wrap(recorder, "_append", "record: mcap message record")
         else:  # a recorder that goes through mcap's own add_message
             timer.wrap(recorder._writer, "add_message", "record: mcap message record")
+    # the rerun batches are sent by the recorder's own thread: the tick only buffers the state
     timer.wrap(node.recordings, "log_state", "rerun: log_state")
-    if node.recordings.rerun is not None:
-        timer.wrap(node.recordings.rerun, "flush", "rerun: send_columns batch")
     timer.wrap(node.intake, "apply_pending", "commands applied")
 
 
