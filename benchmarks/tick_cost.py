@@ -18,8 +18,9 @@ barely moves, in two interleaved kinds of blocks of ticks:
   the timed parts it calls): the physics, packing each message, each publish, each bag write
   (the MCAP writer's ``add_message`` apart), the rerun log (buffering the state: its thread
   sends the batches), /tf (computed, packed), the action's update, the commands applied.
-  ``rest`` is the tick's time outside every timed part (the tick's own bookkeeping, the lock). The wrappers' own cost
-  (two reads of the thread clock, ~1 us) is measured first on a timed no-op and taken off.
+  ``rest`` is the tick's time outside every timed part (the tick's own bookkeeping, the lock).
+  The wrappers' own cost (two reads of the thread clock, ~1 us) is measured first on a timed
+  no-op and taken off.
 
 The process's CPU per tick (every thread: DDS's, the recorders' writers) is given beside the
 tick thread's. Results go to ``benchmarks/results/tick_cost.json``.
