@@ -10,12 +10,17 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from . import kinematics as kin
 from .errors import InputError, StrokeRangeError
 from .params import DRSParams
-from .profile import QuinticPath, TrajectoryPlan, plan_trajectory, quintic_move
+from .profile import (
+    PATH_TOL,
+    QuinticPath,
+    TrajectoryPlan,
+    path_extremes,
+    plan_trajectory,
+    quintic_move,
+)
 
 
 class StrokeMotion:
@@ -90,8 +95,9 @@ class StrokeMotion:
         seg = quintic_move(
             self.p, target, duration, s0, v0, a0, t0=self.t, limits=(self.s_min, self.s_max)
         )
-        path = seg.evaluate(np.linspace(seg.t0, seg.t1, 65))[0]
-        if path.min() < self.s_min - 1e-12 or path.max() > self.s_max + 1e-12:
+        # the trajectories' check of a segment (its samples in local time), on this one segment
+        lo, hi = path_extremes(seg.coeffs, seg.duration)
+        if lo[0] < self.s_min - PATH_TOL or hi[0] > self.s_max + PATH_TOL:
             raise StrokeRangeError(
                 f"the move to {target!r} m from s = {s0:.6g} m at {v0:.3g} m/s would leave "
                 f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"

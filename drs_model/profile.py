@@ -187,6 +187,10 @@ MAX_TRAJECTORY_POINTS = 10_000
 PATH_SAMPLES = 65
 #: Tolerance [m] of that check (and of the strokes' range check).
 PATH_TOL = 1e-12
+#: Those instants as fractions of a segment's duration (made once: a stroke command checks its
+#: one segment on the real-time tick).
+_PATH_FRACTIONS = np.linspace(0.0, 1.0, PATH_SAMPLES)
+_PATH_FRACTIONS.flags.writeable = False
 #: A time within this [s] after a segment's end still belongs to that segment.
 _END_SLACK = 1e-12
 
@@ -215,7 +219,7 @@ def path_extremes(coeffs: np.ndarray, durations: np.ndarray, chunk: int = 2048):
     ``(n,)``."""
     coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
     durations = np.asarray(durations, dtype=float).ravel()
-    u = np.linspace(0.0, 1.0, PATH_SAMPLES)
+    u = _PATH_FRACTIONS
     lo, hi = np.empty(len(durations)), np.empty(len(durations))
     for a in range(0, len(durations), chunk):
         c = coeffs[a : a + chunk]

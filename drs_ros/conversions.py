@@ -13,6 +13,7 @@ from std_msgs.msg import Float64
 from drs_model.actuator import ActuatorState
 from drs_model.inverse import REACTION_NAMES
 
+from .recording.diagnostic_cdr import Status
 from .timestamps import ns_of, seconds_from_ns, split_ns
 
 
@@ -119,6 +120,20 @@ def float_msg(value: float) -> Float64:
     return Float64(data=float(value))
 
 
+def command_event_status(
+    source: str, outcome: str, level: bytes, message: str, values: Mapping[str, object]
+) -> Status:
+    """The one status of a record of the effect log ``~/command_events`` (see docs/ros.md,
+    "Effect record"): ``name`` the command's topic or service (or ``clock`` / ``reset``),
+    ``level`` OK (accepted), WARN (refused) or STALE (superseded), ``message`` the outcome and
+    reason, and key/values (``outcome`` first, then ``values``, each as ``str()`` gives it).
+    A record is a DiagnosticArray stamped at the simulated instant it speaks of, holding this
+    status: :func:`diagnostic_array_msg`, or packed directly by
+    :func:`drs_ros.recording.diagnostic_cdr.diagnostic_array_cdr`."""
+    return Status(level, source, f"{outcome}: {message}" if message else outcome, "drs",
+                  [("outcome", outcome), *_key_values(values)])  # fmt: skip
+
+
 def command_event_msg(
     stamp_ns: int,
     source: str,
@@ -127,20 +142,10 @@ def command_event_msg(
     message: str,
     values: Mapping[str, object],
 ) -> DiagnosticArray:
-    """One record of the effect log ``~/command_events`` (see docs/ros.md, "Effect record").
-
-    A DiagnosticArray stamped at the simulated instant the record speaks of, holding one status:
-    ``name`` the command's topic or service (or ``clock`` / ``reset``), ``level`` OK (accepted),
-    WARN (refused) or STALE (superseded), ``message`` the outcome and reason, and key/values.
-    """
-    status = DiagnosticStatus(
-        level=level,
-        name=source,
-        message=f"{outcome}: {message}" if message else outcome,
-        hardware_id="drs",
-        values=[KeyValue(key="outcome", value=outcome), *_key_values(values)],
+    """One record of the effect log as a message (:func:`command_event_status`)."""
+    return diagnostic_array_msg(
+        stamp_ns, [command_event_status(source, outcome, level, message, values)]
     )
-    return _status_array(stamp_ns, status)
 
 
 def parameter_event_msg(node_name: str, parameters: Sequence, stamp_ns: int):
@@ -155,29 +160,29 @@ def parameter_event_msg(node_name: str, parameters: Sequence, stamp_ns: int):
     )
 
 
-def diagnostics_msg(
-    stamp_ns: int, node_name: str, level: bytes, message: str, values: Mapping[str, object]
-) -> DiagnosticArray:
-    """One DiagnosticStatus named ``<node>: actuator`` with the given key/values."""
-    status = DiagnosticStatus(
-        level=level,
-        name=f"{node_name}: actuator",
-        message=message,
-        hardware_id="drs",
-        values=_key_values(values),
-    )
-    return _status_array(stamp_ns, status)
+def diagnostics_status(
+    node_name: str, level: bytes, message: str, values: Mapping[str, object]
+) -> Status:
+    """The node's status in ``/diagnostics``: named ``<node>: actuator``, with the key/values
+    (each as ``str()`` gives it)."""
+    return Status(level, f"{node_name}: actuator", message, "drs", _key_values(values))
 
 
-def _key_values(values: Mapping[str, object]) -> list[KeyValue]:
-    return [KeyValue(key=str(k), value=str(v)) for k, v in values.items()]
+def _key_values(values: Mapping[str, object]) -> list[tuple[str, str]]:
+    return [(str(k), str(v)) for k, v in values.items()]
 
 
-def _status_array(stamp_ns: int, status: DiagnosticStatus) -> DiagnosticArray:
-    """A DiagnosticArray stamped ``stamp_ns`` holding the one ``status``."""
+def diagnostic_array_msg(stamp_ns: int, statuses: Sequence[Status]) -> DiagnosticArray:
+    """A DiagnosticArray stamped ``stamp_ns`` [ns] holding ``statuses`` as rclpy messages (the
+    message :func:`drs_ros.recording.diagnostic_cdr.diagnostic_array_cdr` packs directly)."""
     arr = DiagnosticArray()
     arr.header.stamp = time_msg(stamp_ns)
-    arr.status = [status]
+    arr.status = [
+        DiagnosticStatus(level=st.level, name=st.name, message=st.message,
+                         hardware_id=st.hardware_id,
+                         values=[KeyValue(key=k, value=v) for k, v in st.values])
+        for st in statuses
+    ]  # fmt: skip
     return arr
 
 

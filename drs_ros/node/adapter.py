@@ -45,9 +45,10 @@ from std_srvs.srv import SetBool
 from drs_model.fidelity import HydraulicRung
 
 from .. import commands
-from ..conversions import diagnostics_msg, parameter_event_msg
+from ..conversions import diagnostics_status, parameter_event_msg
 from ..names import FIDELITY, TOPICS
 from ..recording import cdr
+from ..recording.diagnostic_cdr import diagnostic_array_cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
 from ..timestamps import ns_from_seconds
 from .effect_record import EffectRecord, diagnostics_values, error_text
@@ -129,7 +130,7 @@ class DRSNode(Node):
             s_min=self.sim.s_min, markers_period=settings.markers_period,
             hydraulic=isinstance(self.sim, HydraulicRung) or self.fidelity == "auto")  # fmt: skip
         self.effects = EffectRecord(
-            self.outputs.events, self.outputs.diagnostic_bytes, self._record,
+            self.outputs.events, self._record,
             lambda: (self.sim.t, self.sim.steps, self.clock.t0_ns), self.get_logger(),
             self.get_parameter("diagnostics_window").value)  # fmt: skip
         self.fault_parameters.start(self.sim, self.effects, self._record,
@@ -288,9 +289,11 @@ class DRSNode(Node):
         with self._lock:  # the main thread may be stepping the actuator (deadline executor)
             level, message = self.diagnostics_level(now)
             values = self.diagnostics_values()
-        msg = diagnostics_msg(now, self.get_name(), level, message, values)
+        # packed straight into CDR: no rclpy message built in the executor thread, which holds
+        # the GIL against the real-time tick
+        status = diagnostics_status(self.get_name(), level, message, values)
+        data = diagnostic_array_cdr(now, [status])
         pubs = self.outputs
-        data = pubs.diagnostic_bytes(msg)
         pubs.diagnostics.publish(data)
         self._record(pubs.topics[pubs.diagnostics], data, now)
 

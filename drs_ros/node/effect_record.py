@@ -22,10 +22,11 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from drs_model.errors import DRSError
 
 from .. import commands
-from ..conversions import command_event_msg
+from ..conversions import command_event_status
 from ..errors import DRSRosError
 from ..names import CLOCK, REFUSED
 from ..recording.cdr import without_source_location
+from ..recording.diagnostic_cdr import diagnostic_array_cdr
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .tick_schedule import LatenessHistogram
 
@@ -86,8 +87,6 @@ class EffectRecord:
     ----------
     publisher : rclpy.publisher.Publisher
         ``~/command_events`` (diagnostic_msgs/DiagnosticArray).
-    serialize : callable
-        ``serialize(msg) -> bytes``: a DiagnosticArray's exact CDR.
     record : callable
         ``record(topic, data, now_ns)``: the bytes into the bag (the sequence number, or None).
     instant : callable
@@ -99,9 +98,9 @@ class EffectRecord:
         Diagnostics report the troubles of the last this many seconds [s].
     """
 
-    def __init__(self, publisher, serialize, record, instant, logger, window_s: float) -> None:
+    def __init__(self, publisher, record, instant, logger, window_s: float) -> None:
         self._publisher, self._topic = publisher, publisher.topic_name
-        self._serialize, self._record, self._instant = serialize, record, instant
+        self._record, self._instant = record, instant
         self._logger = logger
         # diagnostics (cumulative) and the window of recent troubles, from zero
         self.refused = 0
@@ -163,7 +162,9 @@ class EffectRecord:
         now_ns: int,
     ) -> None:
         """One record of the effect log: what happened, at which simulated instant. ``now_ns``
-        is the node time of the tick or callback it happens in (its log time in the bag)."""
+        is the node time of the tick or callback it happens in (its log time in the bag). Packed
+        once, straight into CDR (no rclpy message on the tick): the bytes published and recorded
+        are the same."""
         sim_t, steps, t0_ns = self._instant()
         record = {"sim_time": repr(sim_t), "step": steps}
         if cmd is not None:
@@ -171,8 +172,8 @@ class EffectRecord:
             record["received_ns"] = cmd.received_ns
         record.update(values)
         stamp = now_ns if t0_ns is None else t0_ns + ns_from_seconds(sim_t)
-        msg = command_event_msg(stamp, source, outcome, level, reason, record)
-        data = self._serialize(msg)
+        status = command_event_status(source, outcome, level, reason, record)
+        data = diagnostic_array_cdr(stamp, [status])
         self._publisher.publish(data)
         self._record(self._topic, data, now_ns)
 

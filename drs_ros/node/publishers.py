@@ -92,7 +92,6 @@ class StatePublishers:
         # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
         self.topics = {pub: pub.topic_name for pub in self.all}
         self.frame_id, self.params, self.markers_period = frame_id, params, markers_period
-        self._serialize_diagnostics = cdr.serializer(DiagnosticArray)
         self._pack_float64 = cdr.flat_packer(Float64)
         # the joint states, the reactions and the pressures: numbers packed into their layouts
         self._pack_joint_state = joint_state_packer(joint_names)
@@ -139,10 +138,6 @@ class StatePublishers:
         out = [(self.joints, "gap"), (self.gap, "gap"), (self.markers, "gap"),
                (self.force, "force"), (self.accel, "force"), (self.reactions, "force")]  # fmt: skip
         return out + [(pub, "hydraulics") for pub in self.hydraulic]
-
-    def diagnostic_bytes(self, msg: DiagnosticArray) -> bytes:
-        """A diagnostics or effect-record message, serialised once."""
-        return self._serialize_diagnostics(msg)
 
     # ---- each published state ------------------------------------------------------------------
     def state_messages(self, sim, st, stamp: int, published_stroke, tick: int,

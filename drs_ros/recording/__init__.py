@@ -1,6 +1,7 @@
 """What the node records, and how: the bytes of the messages and the files that hold them.
 
-* ``cdr``: exact CDR serialisation, the bytes a ROS 2 subscriber receives;
+* ``cdr``: exact CDR serialisation, the bytes a ROS 2 subscriber receives (``diagnostic_cdr``:
+  a DiagnosticArray of text packed directly, for the effect record and diagnostics);
 * ``msgdefs``: rosbag2's schema text and RIHS01 type hashes of a message type;
 * ``qos``: QoS profiles as the ``offered_qos_profiles`` channel metadata holds them;
 * ``mcap_recorder``: the rosbag2-compatible MCAP recorder (``flush_schedule``: when it flushes;

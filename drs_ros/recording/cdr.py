@@ -112,7 +112,7 @@ def _basic_writer(typename: str) -> tuple[Writer, int]:
     return write, size
 
 
-def _string_writer(buf: bytearray, value: str) -> None:
+def write_string(buf: bytearray, value: str) -> None:
     data = value.encode("utf-8")
     _align(buf, 4)
     buf += _U32.pack(len(data) + 1)
@@ -159,7 +159,7 @@ def _element_writer(typ) -> Writer:
     if isinstance(typ, AbstractString):
         if type(typ).__name__.endswith("WString"):
             raise CdrError("wide strings (wstring) are not supported")
-        return _string_writer
+        return write_string
     if isinstance(typ, NamespacedType):
         flat = _flat_struct(typ)
         if flat is not None:  # e.g. a Vector3 or a Quaternion: one pack
@@ -496,5 +496,5 @@ def exact_bytes(data: bytes, msg_class: type) -> bytes:
 __all__ = [
     "CDR_LE_HEADER", "MAX_TRANSPORT_PADDING", "CdrError", "Layout", "Reader", "decode_exact",
     "exact_bytes", "flat_packer", "is_transport_padding", "padding", "serializer",
-    "without_source_location",
+    "without_source_location", "write_string",
 ]  # fmt: skip
