@@ -147,3 +147,14 @@ def test_a_recorder_whose_writes_stop_has_its_chunk_in_the_file(tmp_path):
     assert rec.stats().messages_flushed == 30
     assert rec.stats().file_bytes == rec.path.stat().st_size
     rec.finish()
+
+
+@given(st.lists(st.tuples(st.integers(0, 2**64 - 1), st.integers(0, 2**64 - 1)), max_size=600))
+def test_index_entries_packed_in_pieces_are_the_uint64_pairs(entries):
+    # across the piece boundaries (0, 1, 128, 129... entries), the extremes of uint64
+    import numpy as np
+
+    from drs_ros.recording.mcap_chunks import packed_entries
+
+    expected = np.array(entries, dtype="<u8").reshape(-1, 2).tobytes()
+    assert packed_entries(entries) == expected
