@@ -28,8 +28,12 @@ from .adapter import DRSNode
 from .managed import ManagedDRSNode
 from .tick_schedule import TickPolicy, apply_tick_policy, leave_tick_policy
 
-#: How often [s] a thread holding the GIL offers it to the others (see main).
-GIL_SWITCH_INTERVAL_S = 0.0005
+#: How often [s] a thread holding the GIL offers it to the others (see main). The tick waits
+#: up to this long for the GIL when it wakes while the executor, the bag's flush thread or the
+#: rerun sender runs Python: at 1 kHz, 0.5 ms gave 1.5 % missed deadlines and a lateness p99
+#: of 0.6 ms, 0.2 ms 0.5 % and 0.34 ms, 0.1 ms no better for 1 point more of a core
+#: (benchmarks/node_rate.py, docs/ros.md).
+GIL_SWITCH_INTERVAL_S = 0.0002
 
 
 #: The longest a loop waits before it looks at the stop flag again [s].
@@ -135,9 +139,9 @@ def main(argv: list[str] | None = None) -> int:
         args.remove("--managed")
     stop = StopRequest()
     stop.install()  # before rclpy starts: a signal during start-up is a stop too
-    # the executor thread's Python work (reading a large trajectory) hands the GIL to the
-    # real-time tick within this [s] when the tick wakes up (CPython's default: 5 ms, more than
-    # a publish period at 250 Hz)
+    # the other threads' Python work (reading a large trajectory, a chunk's index, a rerun
+    # batch) hands the GIL to the real-time tick within this [s] when the tick wakes up
+    # (CPython's default: 5 ms, more than a publish period at 250 Hz)
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
