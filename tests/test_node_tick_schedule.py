@@ -88,6 +88,45 @@ def test_a_thread_leaves_fifo_for_the_ordinary_policy_after_the_loop():
     assert seen["after"] == os.SCHED_OTHER
 
 
+def test_no_callback_starts_while_the_tick_holds_the_gate():
+    """The deadline loop holds the gate for each tick: the executor's loop waits for the tick
+    to be over before each callback (a flood's callbacks do not share the GIL with the whole
+    tick), for at most a stop poll (a tick that stalls does not stall the executor)."""
+    import threading
+
+    from drs_ros.node.runner import STOP_POLL_S, spin_until_stopped
+    from drs_ros.stop_request import StopRequest
+
+    class Context:
+        def ok(self):
+            return True
+
+    class Executor:
+        context = Context()
+        calls = 0
+
+        def spin_once(self, timeout_sec):
+            self.calls += 1
+            time.sleep(0.0005)
+
+    executor, stop, gate = Executor(), StopRequest(), threading.Lock()
+    gate.acquire()  # a tick in progress
+    thread = threading.Thread(target=spin_until_stopped, args=(None, executor, stop, gate))
+    thread.start()
+    try:
+        time.sleep(0.2)  # four of the loop's stop polls: one callback after each
+        held = executor.calls
+        gate.release()  # the tick is over
+        time.sleep(0.4)
+        free = executor.calls - held
+    finally:
+        stop()
+        thread.join(timeout=5.0)
+    assert held <= 0.2 / STOP_POLL_S + 1
+    assert free >= 20  # 0.5 ms each (~800), nothing to wait for; a busy machine is slower
+    assert not thread.is_alive()
+
+
 @pytest.mark.ros
 def test_a_tick_late_by_several_periods_is_counted_in_diagnostics(ros_context):  # noqa: F811
     """The deadline loop in this thread, the tick held once for four periods: the deadlines

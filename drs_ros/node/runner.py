@@ -40,11 +40,19 @@ GIL_SWITCH_INTERVAL_S = 0.0002
 STOP_POLL_S = 0.05
 
 
-def spin_until_stopped(node: Node, executor, stop: StopRequest) -> None:
+def spin_until_stopped(node: Node, executor, stop: StopRequest,
+                       tick_gate: threading.Lock | None = None) -> None:  # fmt: skip
     """Run ``executor``'s callbacks until ``stop`` is requested or the context ends. A callback
     that raises is logged and counted, and the executor goes on: nothing a participant sends
-    (a message the middleware cannot take, say) ends the node's service of the others."""
+    (a message the middleware cannot take, say) ends the node's service of the others.
+
+    ``tick_gate``: held by the real-time tick while it runs; each callback waits for it to be
+    free (a tick that starts meanwhile shares the GIL with that one callback only). Why: under a
+    command flood the executor runs Python without pause, and every 0.2 ms (the GIL switch
+    interval) it would take the GIL from the tick, doubling the tick's time."""
     while not stop.requested and executor.context.ok():
+        if tick_gate is not None and tick_gate.acquire(timeout=STOP_POLL_S):
+            tick_gate.release()  # the tick is over: one callback's turn
         try:
             executor.spin_once(timeout_sec=STOP_POLL_S)
         except ExternalShutdownException:
@@ -73,7 +81,9 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     context = context or node.context
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    thread = threading.Thread(target=spin_until_stopped, args=(node, executor, stop),
+    tick_gate = threading.Lock()  # held while a tick runs: the executor's callbacks wait
+    thread = threading.Thread(target=spin_until_stopped,
+                              args=(node, executor, stop, tick_gate),
                               name="drs-executor")  # fmt: skip
     thread.start()
     # after the executor thread started: SCHED_FIFO (when asked and allowed) is this thread's only
@@ -96,7 +106,8 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
             if wait < -period_ns:  # late by more than a period: the deadlines between are skipped
                 lateness.skipped += -wait // period_ns
                 deadline = time.monotonic_ns()  # resume from now
-            node.tick()
+            with tick_gate:
+                node.tick()
     finally:
         leave_tick_policy(policy)  # the loop is real-time; the shutdown is not
         stop()  # the executor thread ends too, whatever ended this loop
