@@ -1,7 +1,5 @@
 """``python -m drs_ros``: start the node (same as ``drs-node``)."""
 
-import sys
+from .node import run
 
-from .node import main
-
-sys.exit(main())
+run()

@@ -376,6 +376,35 @@ def test_node_refusal_at_start_names_the_parameter(tmp_path, request):
     assert not (tmp_path / "bag").exists()
 
 
+#: ``run`` with a ``main`` that says a last line and returns 3: the process must end with 3,
+#: after the exit handlers registered in Python, and nothing after ``run`` may execute.
+RUN_ENDS = textwrap.dedent(
+    """
+    import atexit, sys
+    import drs_ros.node.runner as runner
+
+    atexit.register(lambda: print("an exit handler ran", file=sys.stderr))
+
+    def main():
+        print("main's last line", file=sys.stderr)
+        return 3
+
+    runner.main = main
+    runner.run()
+    print("after run", file=sys.stderr)
+    """
+)
+
+
+def test_run_ends_the_process_with_mains_status_after_the_exit_handlers():
+    """``drs-node`` ends the process itself once main returned (the middleware's teardown is
+    skipped): main's status, its last lines, the exit handlers, nothing after."""
+    res = subprocess.run([sys.executable, "-c", RUN_ENDS], capture_output=True, text=True,
+                         timeout=120)  # fmt: skip
+    assert res.returncode == 3, res.stderr
+    assert res.stderr.splitlines()[-2:] == ["main's last line", "an exit handler ran"]
+
+
 #: A node whose run ends with a model error after its first tick (as a failure escaping the
 #: loop would): it must not say it refused to start, and it finishes its recordings.
 FAILING_RUN = textwrap.dedent(

@@ -13,7 +13,7 @@ signal asks for and the deadline loop). This module re-exports their public name
 from .adapter import COMMANDS, DRSNode
 from .managed import ManagedDRSNode
 from .parameters import NODE_PARAMETERS, StartupError
-from .runner import StopRequest, main, run_deadline_loop, spin_until_stopped
+from .runner import StopRequest, main, run, run_deadline_loop, spin_until_stopped
 
 __all__ = [
     "COMMANDS",
@@ -23,6 +23,7 @@ __all__ = [
     "StartupError",
     "StopRequest",
     "main",
+    "run",
     "run_deadline_loop",
     "spin_until_stopped",
 ]
