@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import threading
+import time
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -123,6 +124,11 @@ def test_the_writing_thread_never_encodes_a_chunk(tmp_path, monkeypatch):
         rec.register_topic("/x", Float64)
         for k in range(500):
             rec.write("/x", Float64(data=float(k)), k)
+        # the flush thread writes what the writes closed, when it gets the GIL (a busy machine
+        # delays it): wait for it, then only then look (finish drains in the caller)
+        deadline = time.monotonic() + 30.0
+        while rec._flusher._handoff.pending and time.monotonic() < deadline:
+            time.sleep(0.01)
         writer_threads = set(threads)
     assert writer_threads == {"mcap-recorder-flush"}
     with open(rec.path, "rb") as f:
