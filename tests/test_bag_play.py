@@ -28,8 +28,9 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
 START = ("--delay", "0.1", "--wait-for-subscribers")
 
 
-def no_loss(tmp_path, bag: Path = EXAMPLE) -> tuple[str, str]:
-    """``--qos-profile-overrides-path`` offering keep-last 1000 on every topic of ``bag``.
+def no_loss(tmp_path, bag: Path = EXAMPLE) -> tuple[str, ...]:
+    """``--qos-profile-overrides-path`` offering keep-last 1000 on every topic of ``bag``, and
+    ``--wait-for-all-acked 10000``.
 
     rosbag2 offers a recorded profile with keep-last 10. A reliable Fast DDS writer drops its
     oldest sample once 10 are unacknowledged, so a subscriber process stalled for 20 ms (500
@@ -41,7 +42,9 @@ def no_loss(tmp_path, bag: Path = EXAMPLE) -> tuple[str, str]:
     types, _messages = recorded(bag)
     path = tmp_path / "qos_overrides.yaml"
     path.write_text(yaml.safe_dump({topic: {"depth": 1000} for topic in types}))
-    return ("--qos-profile-overrides-path", str(path))
+    # and the player waits up to 10 s (not its default 1 s) for every message to be
+    # acknowledged before it exits: one message of 1679 was missing once in a full test run
+    return ("--qos-profile-overrides-path", str(path), "--wait-for-all-acked", "10000")
 
 
 FLOAT64 = "std_msgs/msg/Float64"
