@@ -22,7 +22,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from .files import BagFiles, BagReadError, resolve
-from .mcap_file import MCAP_MAGIC, mcap_read_errors
+from .mcap_file import MCAP_MAGIC, chunk_records, mcap_read_errors
 from .recorded import RecordedMessage
 
 
@@ -96,7 +96,7 @@ def _streamed_records(file: Path):
     """Every record of an MCAP file from its start, those of its chunks in their place, up to
     the first that cannot be read (the verifying scan says why it ends)."""
     from mcap.records import Chunk
-    from mcap.stream_reader import StreamReader, breakup_chunk
+    from mcap.stream_reader import StreamReader
 
     try:
         with open(file, "rb") as f:
@@ -104,7 +104,7 @@ def _streamed_records(file: Path):
                 return
             f.seek(0)
             for record in StreamReader(f, validate_crcs=True, emit_chunks=True).records:
-                yield from breakup_chunk(record, True) if isinstance(record, Chunk) else [record]
+                yield from chunk_records(record) if isinstance(record, Chunk) else [record]
     except mcap_read_errors():
         return
 
@@ -173,12 +173,12 @@ def _chunk_messages(f, index, ids: list[int], first_only: set[str], by_id: dict)
     from mcap.data_stream import ReadDataStream
     from mcap.opcode import Opcode
     from mcap.records import Chunk, Message, MessageIndex
-    from mcap.stream_reader import breakup_chunk, get_chunk_data_stream
+    from mcap.stream_reader import get_chunk_data_stream
 
     f.seek(index.chunk_start_offset + 1 + 8)  # past the opcode and the length
     chunk = Chunk.read(ReadDataStream(f))
     if not index.message_index_offsets:
-        return [r for r in breakup_chunk(chunk, validate_crc=True) if isinstance(r, Message)]
+        return [r for r in chunk_records(chunk) if isinstance(r, Message)]
     offsets = []
     for cid in ids:
         f.seek(index.message_index_offsets[cid])

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import struct
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from .files import BagReadError
@@ -16,6 +16,8 @@ from .recorded import BagScan, ChannelInfo
 #: The MCAP magic (8 bytes at both ends of a file).
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
+_MESSAGE_HEAD_LEN = 2 + 4 + 8 + 8  # channel id, sequence, log time, publish time
+_U64 = struct.Struct("<Q")
 
 
 def scan_file(
@@ -84,7 +86,7 @@ class _McapFileScan:
             Schema,
             Statistics,
         )
-        from mcap.stream_reader import StreamReader, breakup_chunk
+        from mcap.stream_reader import StreamReader
 
         with open(self.path, "rb") as f:
             head = f.read(8)
@@ -98,7 +100,7 @@ class _McapFileScan:
                 if isinstance(record, Chunk):
                     self.where = f"the chunk at offset {offset}"
                     self.chunk_offsets[offset] = end - offset
-                    for inner in breakup_chunk(record, validate_crc=True):
+                    for inner in chunk_records(record):
                         self.data_record(inner, offset)
                 elif isinstance(record, (Message, Schema, Channel)):
                     self.data_record(record, offset)
@@ -200,6 +202,41 @@ def _add_channel(out: BagScan, schemas, record, fail) -> None:
     out.counts.setdefault(record.topic, 0)
 
 
+def chunk_records(chunk) -> Iterator[object]:
+    """The Schema, Channel and Message records of an MCAP ``chunk``, in order, made one at a time
+    (mcap's ``breakup_chunk`` makes the list of all of them first: a 1 MiB chunk of small
+    messages is ~3 MB of objects at once). The chunk's CRC and the framing of every record in it
+    (opcode, length, within the chunk) are checked before the first is made, so a damaged chunk
+    gives none."""
+    from mcap.opcode import Opcode
+    from mcap.records import Channel, Message, Schema
+    from mcap.stream_reader import get_chunk_data_stream
+
+    stream, length = get_chunk_data_stream(chunk, validate_crc=True)
+    data = stream._stream.getbuffer()  # the BytesIO it wraps: framing read without copying
+    at = 0
+    while at < length:
+        if at + 9 > length:
+            raise EOFError(f"a record header cut at byte {at} of a {length}-byte chunk")
+        opcode, record_len = data[at], _U64.unpack_from(data, at + 1)[0]
+        if opcode == Opcode.MESSAGE and record_len < _MESSAGE_HEAD_LEN:
+            raise EOFError(f"a message record of {record_len} bytes at byte {at} of its chunk "
+                           f"(its fixed fields alone take {_MESSAGE_HEAD_LEN})")  # fmt: skip
+        at += 9 + record_len
+        if at > length:
+            raise EOFError(f"a record of {record_len} bytes overruns its {length}-byte chunk")
+    del data
+    read = {Opcode.SCHEMA: Schema.read, Opcode.CHANNEL: Channel.read}
+    while stream.count < length:
+        opcode, record_len = stream.read1(), stream.read8()
+        if opcode == Opcode.MESSAGE:
+            yield Message.read(stream, record_len)
+        elif opcode in read:
+            yield read[opcode](stream)
+        else:
+            stream.read(record_len)  # a record type a chunk may hold that no check reads
+
+
 def _check_summary(f, footer, size: int, fail) -> None:
     """The footer's summary CRC: bytes from the summary start through summary_offset_start."""
     if footer.summary_start == 0 or footer.summary_crc == 0:
@@ -231,4 +268,4 @@ def _recovered_note(out: BagScan) -> None:
     )
 
 
-__all__ = ["MCAP_MAGIC", "mcap_read_errors", "scan_file"]
+__all__ = ["MCAP_MAGIC", "chunk_records", "mcap_read_errors", "scan_file"]
