@@ -82,6 +82,19 @@ def fused_manoeuvre_force(t, c, k):
     return u.gufunc(u.fused_manoeuvre_force)(t, _array(c), _array(k))
 
 
+def fused_manoeuvre_force_series(t, c, k):
+    """:func:`~drs_model.kernels.fused_manoeuvre_force` [N] at each time of ``t`` [s] (any
+    shape) for one set of constants ``c`` and ``k``: the same values as
+    :func:`fused_manoeuvre_force`, in one compiled pass over the times that computes the force
+    once per stretch of rest (:func:`drs_model.compiled.ufuncs.fused_manoeuvre_force_series`)."""
+    u = _gufuncs()
+    if u is None:
+        return fused_manoeuvre_force(t, c, k)
+    t = np.asarray(t, dtype=np.float64)
+    series = u.gufunc(u.fused_manoeuvre_force_series)
+    return series(t.reshape(-1), _array(c), _array(k)).reshape(t.shape)
+
+
 def psi3_acceleration(b, bd, force, c):
     """:func:`~drs_model.kernels.psi3_acceleration` [rad/s^2] at each ``(psi3, psi3', F)``."""
     u = _gufuncs()

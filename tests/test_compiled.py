@@ -21,6 +21,8 @@ import sys
 import forward_support
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from drs_model import forward as fw
 from drs_model import kinematics as kin
@@ -464,3 +466,27 @@ def test_inlined_fused_batch_path_is_the_plain_kernel():
     np.testing.assert_allclose(batch, plain, rtol=1e-12, atol=1e-9)
     not_inlined = np.array([compiled(registered)(x, c, k) for x in t])
     np.testing.assert_array_equal(batch, not_inlined)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    times=st.lists(st.floats(-0.01, 0.06, allow_nan=False), min_size=0, max_size=60),
+    order=st.sampled_from(["sorted", "drawn", "reversed"]),
+    shape=st.sampled_from(["flat", "column"]),
+)
+def test_the_series_path_is_the_per_time_path_to_the_bit(times, order, shape):
+    """elementwise.fused_manoeuvre_force_series (the force computed once per stretch of rest)
+    gives every time's force exactly as the per-element gufunc does: in any order, with times
+    repeated, resting or moving, in any shape (the seed manoeuvre: 10 ms open, 30 ms hold)."""
+    from drs_model import DRSParams, elementwise
+    from drs_model.inverse import FusedInverseDynamics
+
+    fid = FusedInverseDynamics.from_params(DRSParams())
+    # the move's ends and the hold's, where the branch changes, and draws in between
+    t = np.array(times + [0.0, 0.01, 0.01, 0.04, 0.05, 0.05, 0.005, 0.045])
+    t = {"sorted": np.sort(t), "drawn": t, "reversed": np.sort(t)[::-1]}[order]
+    t = t.reshape(-1, 1) if shape == "column" else t
+    series = elementwise.fused_manoeuvre_force_series(t, fid.consts, fid.profile)
+    per_time = elementwise.fused_manoeuvre_force(t, fid.consts, fid.profile)
+    assert series.shape == t.shape
+    np.testing.assert_array_equal(series, per_time)

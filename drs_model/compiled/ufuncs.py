@@ -10,6 +10,7 @@ cache), so a process builds only those it uses.
 
 from __future__ import annotations
 
+import math
 from functools import cache
 
 from .. import kernels
@@ -43,6 +44,23 @@ def fused_manoeuvre_force(t, c, k, force):
 
 
 _FUSED_MANOEUVRE_FORCE = jit.inlined(kernels.fused_manoeuvre_force)
+_MANOEUVRE_PROFILE = jit.inlined(kernels.manoeuvre_profile)
+_FUSED_FORCE = jit.inlined(kernels.fused_force)
+
+
+def fused_manoeuvre_force_series(t, c, k, force):
+    """:func:`drs_model.kernels.fused_manoeuvre_force` along a series of times ``t``: its two
+    halves, the profile and then the force, with the force of the time before taken again
+    where the profile gives the same ``(s, s', s'')`` (the rod resting: before the opening, in
+    the hold, after the closing). The force is a pure function of those three, so the value is
+    the same to the bit; a series of times spends the kernel's trigonometry on the moves only."""
+    s_before = sd_before = sdd_before = force_before = math.nan
+    for i in range(t.shape[0]):
+        s, sd, sdd = _MANOEUVRE_PROFILE(t[i], k)
+        if s != s_before or sd != sd_before or sdd != sdd_before:
+            force_before = _FUSED_FORCE(s, sd, sdd, c)
+            s_before, sd_before, sdd_before = s, sd, sdd
+        force[i] = force_before
 
 
 def psi3_acceleration(b, bd, force, c, acc):
@@ -74,6 +92,10 @@ SIGNATURES = {
     fused_manoeuvre_force: (
         "void(float64, float64[:], float64[:], float64[:])",
         "(),(n),(m)->()",
+    ),
+    fused_manoeuvre_force_series: (
+        "void(float64[:], float64[:], float64[:], float64[:])",
+        "(t),(n),(m)->(t)",
     ),
     psi3_acceleration: (
         "void(float64, float64, float64, float64[:], float64[:])",

@@ -107,7 +107,7 @@ class FusedInverseDynamics:
         if not np.all(np.isfinite(t)):
             raise InputError(f"time must be finite, got {float(t[~np.isfinite(t)].ravel()[0])!r}")
         return np.asarray(
-            elementwise.fused_manoeuvre_force(t, self.consts, self.profile), dtype=float
+            elementwise.fused_manoeuvre_force_series(t, self.consts, self.profile), dtype=float
         )
 
     def _diagnose(self, s: np.ndarray) -> None:
