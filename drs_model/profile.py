@@ -137,10 +137,17 @@ def drs_manoeuvre(
 
     The defaults are our exact gap-rule strokes; pass the seed's NLPSolve values to reproduce its
     printed coefficients.
+
+    Raises :class:`InputError` for a non-finite stroke or ``s_min >= s_max``.
     """
     lo, hi = stroke_limits(p)
     s_min = lo if s_min is None else float(s_min)
     s_max = hi if s_max is None else float(s_max)
+    if not (math.isfinite(s_min) and math.isfinite(s_max) and s_min < s_max):
+        raise InputError(
+            f"the manoeuvre's strokes must be finite with s_min < s_max [m], got s_min = "
+            f"{s_min!r}, s_max = {s_max!r} (the gap rule's: {lo:.9g}, {hi:.9g})"
+        )
     opening = QuinticSegment.between(0.0, p.T_opening, s_min, s_max)
     closing = QuinticSegment.between(p.T_opening + p.T_still, p.T_closing, s_max, s_min)
     return Manoeuvre(opening, closing, s_min, s_max)

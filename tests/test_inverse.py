@@ -487,3 +487,29 @@ def test_cli_peak_refines_every_extremum(capsys, params):
 def test_cli_error_is_one_line(capsys):
     assert cli_main(["inverse", "--time", "0", "--set", "Iz_wing=-1"]) == 2
     assert "error" in capsys.readouterr().err
+
+
+def test_the_manoeuvre_force_follows_each_call_s_parameters_and_limits():
+    """manoeuvre_force builds its fused inverse dynamics once per parameters and limits: calls
+    that alternate between two flap masses and two sets of limits (as a tuple, as a list) each
+    give the force of their own, built afresh for the comparison; a bad limit is still refused."""
+    from drs_model import DRSParams
+    from drs_model.errors import DRSError
+    from drs_model.inverse.fused import FusedInverseDynamics
+
+    t = np.linspace(0.0, 0.05, 101)
+    light, heavy = DRSParams(), DRSParams(m_wing=3.0)
+    limits = kin.stroke_limits(light)
+    narrower = (limits[0], 0.5 * (limits[0] + limits[1]))
+    for _ in range(2):
+        for p in (light, heavy):
+            for s_limits in (None, narrower, list(narrower)):
+                fresh = FusedInverseDynamics.from_params(p, None, s_limits).force_at_times(t)
+                np.testing.assert_array_equal(dyn.manoeuvre_force(t, p, s_limits=s_limits), fresh)
+    assert not np.array_equal(dyn.manoeuvre_force(t, light), dyn.manoeuvre_force(t, heavy))
+    assert not np.array_equal(
+        dyn.manoeuvre_force(t, light), dyn.manoeuvre_force(t, light, s_limits=narrower)
+    )
+    for bad in ((limits[1], limits[0]), (math.nan, limits[1]), [limits[0], math.inf]):
+        with pytest.raises(DRSError, match="s_min < s_max"):
+            dyn.manoeuvre_force(t, light, s_limits=bad)

@@ -3,6 +3,7 @@ force by any formulation, its peak and its ratio to the air load."""
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -66,9 +67,24 @@ def manoeuvre_force(
     """
     formulation = get_method(method)
     if formulation.name == Fused.name:
-        return FusedInverseDynamics.from_params(p, flap_limits, s_limits).force_at_times(t)
+        return _fused(p, flap_limits, s_limits).force_at_times(t)
     _, state = manoeuvre_state(t, p, s_limits)
     return formulation(state, p, flap_limits).piston_force
+
+
+def _fused(p: DRSParams, flap_limits, s_limits) -> FusedInverseDynamics:
+    """The fused inverse dynamics of ``p`` and the limits, built once per set of them (the
+    manoeuvre's planning alone takes ~150 us, as long as 2,500 samples of the force); limits
+    given as lists (unhashable) are built for the call."""
+    try:
+        return _fused_built(p, flap_limits, s_limits)
+    except TypeError:  # unhashable limits (a bad value raises again, from the build itself)
+        return FusedInverseDynamics.from_params(p, flap_limits, s_limits)
+
+
+@functools.lru_cache(maxsize=32)
+def _fused_built(p: DRSParams, flap_limits, s_limits) -> FusedInverseDynamics:
+    return FusedInverseDynamics.from_params(p, flap_limits, s_limits)
 
 
 def air_load_magnitude(
