@@ -15,11 +15,13 @@ import functools
 from collections.abc import Callable
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from std_msgs.msg import Float64
 
 from .. import commands
 from ..names import ACCEPTED, REFUSED, SUPERSEDED
 from ..recording import cdr, msgdefs
 from .effect_record import EffectRecord, PendingCommand, refusal_reason
+from .float64_cdr import read_float64
 from .trajectory_cdr import read_joint_trajectory
 
 #: The command topics (``~/<key>``) and their message classes, as commands.COMMAND_TYPES names them.
@@ -30,9 +32,11 @@ def command_decoders() -> dict:
     """Command key -> ``decode(data) -> (message, exact CDR bytes)``. A command is taken if it
     decodes and is as long as its exact CDR (plus transport padding), and recorded as that exact
     CDR, which every reader of the bag decodes; a trajectory is read in place (rclpy's decoder
-    would hold the GIL for ~100 ms on 10,000 points, a stall of the real-time tick)."""
+    would hold the GIL for ~100 ms on 10,000 points, a stall of the real-time tick), and so is a
+    Float64 (~2 us against ~13)."""
     decode = {key: functools.partial(cdr.decode_exact, msg_class=cls)
               for key, cls in COMMANDS.items()}  # fmt: skip
+    decode.update({key: read_float64 for key, cls in COMMANDS.items() if cls is Float64})
     decode["trajectory_cmd"] = lambda data: (v := read_joint_trajectory(data), v.exact)
     return decode
 
