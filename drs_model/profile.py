@@ -246,6 +246,16 @@ _TO_BERNSTEIN = np.array(
 )
 
 
+def hull_leaves(coeffs, durations, limits: tuple[float, float]) -> np.ndarray:
+    """Whether the Bernstein control points of each quintic ``coeffs[k]`` (local time, on
+    ``[0, durations[k]]``) leave ``limits = (s_min, s_max)`` [m]: where they do not, the path
+    lies inside their convex hull, so inside the limits. Boolean array of shape ``(n,)``."""
+    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
+    durations = np.asarray(durations, dtype=float).ravel()
+    bern = (coeffs * np.vander(durations, 6, increasing=True)) @ _TO_BERNSTEIN.T
+    return (bern.min(axis=1) < limits[0]) | (bern.max(axis=1) > limits[1])
+
+
 def check_paths(coeffs, durations, limits: tuple[float, float], first: int = 0, n=None) -> None:
     """Raise :class:`StrokeRangeError` if the path of a quintic ``coeffs[i]`` (local time, on
     ``[0, durations[i]]``) leaves ``limits = (s_min, s_max)`` [m] by more than 1e-12 m at one of
@@ -259,8 +269,7 @@ def check_paths(coeffs, durations, limits: tuple[float, float], first: int = 0, 
     durations = np.asarray(durations, dtype=float).ravel()
     s_min, s_max = limits
     n = len(durations) + first if n is None else n
-    bern = (coeffs * np.vander(durations, 6, increasing=True)) @ _TO_BERNSTEIN.T
-    suspect = np.flatnonzero((bern.min(axis=1) < s_min) | (bern.max(axis=1) > s_max))
+    suspect = np.flatnonzero(hull_leaves(coeffs, durations, limits))
     if not suspect.size:
         return
     lo, hi = path_extremes(coeffs[suspect], durations[suspect])

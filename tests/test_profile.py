@@ -215,3 +215,59 @@ def test_a_plan_refuses_what_the_actuator_refuses(params, times, strokes, rates,
 
     with pytest.raises(error, match=match):
         plan_trajectory(params, times, strokes, rates)
+
+
+@given(
+    coeffs=st.lists(st.floats(-1.0, 1.0), min_size=6, max_size=6),
+    duration=st.floats(1e-3, 0.5),
+    width=st.floats(0.01, 2.0),
+)
+@settings(max_examples=200, deadline=None)
+def test_a_path_whose_hull_stays_inside_is_sampled_inside(coeffs, duration, width):
+    """hull_leaves is a safe short cut for path_extremes: where the control points stay inside
+    the limits, every sampled instant (and a dense sampling) lies inside too."""
+    from drs_model.profile import hull_leaves, path_extremes
+
+    c = np.array(coeffs)
+    tau = np.linspace(0.0, duration, 2001)
+    path = np.polynomial.polynomial.polyval(tau, c)
+    centre = 0.5 * (path.min() + path.max())
+    for limits in ((centre - width, centre + width), (path.min(), path.max())):
+        if not hull_leaves(c, duration, limits)[0]:
+            lo, hi = path_extremes(c, duration)
+            assert limits[0] - 1e-12 <= lo[0] and hi[0] <= limits[1] + 1e-12
+            assert limits[0] - 1e-12 <= path.min() and path.max() <= limits[1] + 1e-12
+
+
+@given(
+    start=st.floats(0.0, 1.0),
+    v0=st.floats(-40.0, 40.0),
+    a0=st.floats(-2e4, 2e4),
+    target=st.floats(0.0, 1.0),
+    duration=st.sampled_from([None, 0.002, 0.01, 0.05]),
+)
+@settings(max_examples=150, deadline=None)
+def test_a_move_is_refused_exactly_when_its_samples_leave_the_range(
+    params, start, v0, a0, target, duration
+):
+    """StrokeMotion.command_stroke (the hull first, the samples only when it leaves) refuses a
+    move exactly when the move's sampled path leaves [s_min, s_max], computed independently
+    from the same segment; from moving states that overshoot and from rest."""
+    from drs_model.motion import StrokeMotion
+    from drs_model.profile import PATH_SAMPLES
+
+    lo, hi = stroke_limits(params)
+    s0, s1 = lo + start * (hi - lo), lo + target * (hi - lo)
+    motion = StrokeMotion(params, 1e-3)
+    dur = duration if duration is not None else max(params.T_opening * abs(s1 - s0) / (hi - lo),
+                                                    2e-3)  # fmt: skip
+    seg = quintic_move(params, s1, dur, s0, v0, a0, limits=(lo, hi))
+    tau = np.linspace(0.0, seg.duration, PATH_SAMPLES)
+    path = np.polynomial.polynomial.polyval(tau, seg.coeffs)
+    leaves = path.min() < lo - 1e-12 or path.max() > hi + 1e-12
+    try:
+        motion.command_stroke(s1, duration, start=(s0, v0, a0))
+        refused = False
+    except StrokeRangeError:
+        refused = True
+    assert refused == leaves, (path.min() - lo, hi - path.max())
