@@ -136,18 +136,15 @@ def drs_manoeuvre(
     """The open-hold-close manoeuvre of ``p`` between ``s_min`` and ``s_max`` [m].
 
     The defaults are our exact gap-rule strokes; pass the seed's NLPSolve values to reproduce its
-    printed coefficients.
-
-    Raises :class:`InputError` for a non-finite stroke or ``s_min >= s_max``.
+    printed coefficients. A non-finite stroke or ``s_min >= s_max`` raises :class:`InputError`.
     """
     lo, hi = stroke_limits(p)
     s_min = lo if s_min is None else float(s_min)
     s_max = hi if s_max is None else float(s_max)
     if not (math.isfinite(s_min) and math.isfinite(s_max) and s_min < s_max):
-        raise InputError(
-            f"the manoeuvre's strokes must be finite with s_min < s_max [m], got s_min = "
-            f"{s_min!r}, s_max = {s_max!r} (the gap rule's: {lo:.9g}, {hi:.9g})"
-        )
+        raise InputError(f"the manoeuvre's strokes must be finite with s_min < s_max [m], got "
+                         f"s_min = {s_min!r}, s_max = {s_max!r} (the gap rule's: {lo:.9g}, "
+                         f"{hi:.9g})")  # fmt: skip
     opening = QuinticSegment.between(0.0, p.T_opening, s_min, s_max)
     closing = QuinticSegment.between(p.T_opening + p.T_still, p.T_closing, s_max, s_min)
     return Manoeuvre(opening, closing, s_min, s_max)
@@ -247,9 +244,8 @@ _TO_BERNSTEIN = np.array(
 
 
 def hull_leaves(coeffs, durations, limits: tuple[float, float]) -> np.ndarray:
-    """Whether the Bernstein control points of each quintic ``coeffs[k]`` (local time, on
-    ``[0, durations[k]]``) leave ``limits = (s_min, s_max)`` [m]: where they do not, the path
-    lies inside their convex hull, so inside the limits. Boolean array of shape ``(n,)``."""
+    """Whether the Bernstein control points of each quintic ``coeffs[k]`` (local time, on ``[0,
+    durations[k]]``) leave ``limits`` [m], shape ``(n,)``; if not, the path lies inside them."""
     coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
     durations = np.asarray(durations, dtype=float).ravel()
     bern = (coeffs * np.vander(durations, 6, increasing=True)) @ _TO_BERNSTEIN.T
