@@ -252,30 +252,31 @@ def hull_leaves(coeffs, durations, limits: tuple[float, float]) -> np.ndarray:
     return (bern.min(axis=1) < limits[0]) | (bern.max(axis=1) > limits[1])
 
 
-def check_paths(coeffs, durations, limits: tuple[float, float], first: int = 0, n=None) -> None:
-    """Raise :class:`StrokeRangeError` if the path of a quintic ``coeffs[i]`` (local time, on
-    ``[0, durations[i]]``) leaves ``limits = (s_min, s_max)`` [m] by more than 1e-12 m at one of
-    :data:`PATH_SAMPLES` equally spaced instants, naming the first such segment (segment
-    ``first + i`` leads to point ``first + i`` of ``0..n-1``).
-
-    Only segments whose Bernstein control points leave the range are sampled: the others' paths
-    lie inside the control points' convex hull, so their samples are inside too.
-    """
+def leaving_paths(coeffs, durations, limits: tuple[float, float]):
+    """``(k, lo, hi)``: the quintics ``coeffs[k]`` (local time) whose path leaves ``limits`` [m]
+    by more than :data:`PATH_TOL` at one of :data:`PATH_SAMPLES` instants, and their lowest and
+    highest samples [m]; sampled only where the control points leave (:func:`hull_leaves`)."""
     coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
     durations = np.asarray(durations, dtype=float).ravel()
-    s_min, s_max = limits
-    n = len(durations) + first if n is None else n
-    suspect = np.flatnonzero(hull_leaves(coeffs, durations, limits))
-    if not suspect.size:
-        return
-    lo, hi = path_extremes(coeffs[suspect], durations[suspect])
-    bad = np.flatnonzero((lo < s_min - PATH_TOL) | (hi > s_max + PATH_TOL))
-    if bad.size:
-        i = int(bad[0])
+    k = np.flatnonzero(hull_leaves(coeffs, durations, limits))
+    if not k.size:
+        return k, np.empty(0), np.empty(0)
+    lo, hi = path_extremes(coeffs[k], durations[k])
+    bad = (lo < limits[0] - PATH_TOL) | (hi > limits[1] + PATH_TOL)
+    return k[bad], lo[bad], hi[bad]
+
+
+def check_paths(coeffs, durations, limits: tuple[float, float], first: int = 0, n=None) -> None:
+    """Raise :class:`StrokeRangeError` if the path of a quintic ``coeffs[i]`` leaves ``limits``
+    (:func:`leaving_paths`), naming the first such segment (segment ``first + i`` leads to point
+    ``first + i`` of ``0..n-1``)."""
+    leaving, lo, hi = leaving_paths(coeffs, durations, limits)
+    if leaving.size:
+        n = np.size(durations) + first if n is None else n
         raise StrokeRangeError(
-            f"the trajectory leaves [s_min, s_max] = [{s_min:.9g}, {s_max:.9g}] m on its way "
-            f"to point {first + int(suspect[i])} (of 0..{n - 1}), reaching "
-            f"{lo[i]:.6g}..{hi[i]:.6g} m"
+            f"the trajectory leaves [s_min, s_max] = [{limits[0]:.9g}, {limits[1]:.9g}] m on "
+            f"its way to point {first + int(leaving[0])} (of 0..{n - 1}), reaching "
+            f"{lo[0]:.6g}..{hi[0]:.6g} m"
         )
 
 

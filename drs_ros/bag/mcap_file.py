@@ -5,6 +5,7 @@ read); what reading damaged MCAP bytes raises (:func:`mcap_read_errors`).
 
 from __future__ import annotations
 
+import io
 import struct
 import zlib
 from collections.abc import Callable, Iterator
@@ -208,12 +209,14 @@ def chunk_records(chunk) -> Iterator[object]:
     messages is ~3 MB of objects at once). The chunk's CRC and the framing of every record in it
     (opcode, length, within the chunk) are checked before the first is made, so a damaged chunk
     gives none."""
+    from mcap.data_stream import ReadDataStream
     from mcap.opcode import Opcode
     from mcap.records import Channel, Message, Schema
     from mcap.stream_reader import get_chunk_data_stream
 
     stream, length = get_chunk_data_stream(chunk, validate_crc=True)
-    data = stream._stream.getbuffer()  # the BytesIO it wraps: framing read without copying
+    # the whole of the BytesIO it wraps: CPython hands back the same bytes object, no copy
+    data = stream.read(length)
     at = 0
     while at < length:
         if at + 9 > length:
@@ -225,7 +228,7 @@ def chunk_records(chunk) -> Iterator[object]:
         at += 9 + record_len
         if at > length:
             raise EOFError(f"a record of {record_len} bytes overruns its {length}-byte chunk")
-    del data
+    stream = ReadDataStream(io.BytesIO(data))
     read = {Opcode.SCHEMA: Schema.read, Opcode.CHANNEL: Channel.read}
     while stream.count < length:
         opcode, record_len = stream.read1(), stream.read8()

@@ -26,9 +26,9 @@ EXACT_LEN = len(cdr.CDR_LE_HEADER) + _DOUBLE.size
 def read_float64(data: bytes) -> tuple[Float64, bytes]:
     """``(message, its exact CDR)`` of ``data`` as a raw subscription received it: what
     :func:`drs_ros.recording.cdr.decode_exact` returns or raises for it (module docstring)."""
-    if data[:4] == cdr.CDR_LE_HEADER and cdr.is_transport_padding(data[EXACT_LEN:]):
-        if len(data) >= EXACT_LEN:
-            (value,) = _DOUBLE.unpack_from(data, 4)
-            # packed again, as the serialiser packs the decoded value: the same bytes
-            return Float64(data=value), cdr.CDR_LE_HEADER + _DOUBLE.pack(value)
+    plain = data[:4] == cdr.CDR_LE_HEADER and len(data) >= EXACT_LEN
+    if plain and cdr.is_transport_padding(data[EXACT_LEN:]):
+        (value,) = _DOUBLE.unpack_from(data, 4)
+        # packed again, as the serialiser packs the decoded value: the same bytes
+        return Float64(data=value), cdr.CDR_LE_HEADER + _DOUBLE.pack(value)
     return cdr.decode_exact(data, Float64)
