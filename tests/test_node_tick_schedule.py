@@ -169,6 +169,54 @@ def test_a_tick_late_by_several_periods_is_counted_in_diagnostics(ros_context): 
     assert node.effects.lateness.count >= 59
 
 
+@pytest.mark.ros
+def test_the_executor_thread_waits_for_work_and_the_stop_wakes_it(ros_context, monkeypatch):  # noqa: F811
+    """The deadline loop's executor thread does not poll: over a second of ticks an idle node's
+    executor wakes a few times (start-up), not every 50 ms, and the loop's stop wakes it at once
+    instead of at the end of its idle wait (20 s here; the diagnostics' timer, which would end
+    it within a second, is cancelled)."""
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from drs_ros.node import DRSNode, runner
+    from drs_ros.stop_request import StopRequest
+
+    monkeypatch.setattr(runner, "EXECUTOR_IDLE_WAIT_S", 20.0)
+    spins = []
+    spin_once = SingleThreadedExecutor.spin_once_until_future_complete
+
+    def counted(self, future, timeout_sec=None):
+        spins.append(timeout_sec)
+        return spin_once(self, future, timeout_sec)
+
+    monkeypatch.setattr(SingleThreadedExecutor, "spin_once_until_future_complete", counted)
+    node = DRSNode(context=ros_context, tick_timer=False, parameter_overrides=[
+        Parameter("tick_scheduling", value="other"),  # this is pytest's own thread
+    ])  # fmt: skip
+    stop = StopRequest()
+    tick, count, stopped_at = node.tick, [0], []
+    ticks = round(1.0 / node.publish_period)  # a second of ticks
+
+    def counting_tick():
+        count[0] += 1
+        if count[0] == ticks:
+            stopped_at.append(time.monotonic())
+            stop()
+        tick()
+
+    node.tick = counting_tick
+    node.diag_timer.cancel()  # its once a second would end the idle wait too
+    try:
+        runner.run_deadline_loop(node, stop, ros_context)
+        returned_at = time.monotonic()
+    finally:
+        node.close_recordings()
+        node.destroy_node()
+    assert set(spins) == {20.0}
+    assert len(spins) < 10, spins  # polling every 50 ms: >= 20
+    assert returned_at - stopped_at[0] < 10.0  # not the idle wait's 20 s
+
+
 REFUSED_FIFO = textwrap.dedent(
     """
     import os, sys

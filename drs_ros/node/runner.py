@@ -15,6 +15,7 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.exceptions import ParameterException
+from rclpy.task import Future
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -40,12 +41,24 @@ GIL_SWITCH_INTERVAL_S = 0.0002
 #: The longest a loop waits before it looks at the stop flag again [s].
 STOP_POLL_S = 0.05
 
+#: The longest the deadline loop's executor thread waits for work [s]: it needs no poll to see a
+#: stop (the loop wakes it, :func:`run_deadline_loop`; rclpy's shutdown wakes it too), and each
+#: wake of an idle ``spin_once`` cost ~1 ms of CPU (its wait set rebuilt, cold): at 20 a second,
+#: a point of a core (docs/ros.md, "Rate, fifth pass"). The bound is a safety net only.
+EXECUTOR_IDLE_WAIT_S = 1.0
+
 
 def spin_until_stopped(node: Node, executor, stop: StopRequest,
-                       tick_gate: threading.Lock | None = None) -> None:  # fmt: skip
+                       tick_gate: threading.Lock | None = None,
+                       idle_wait_s: float = STOP_POLL_S, stopped: Future | None = None) -> None:  # fmt: skip
     """Run ``executor``'s callbacks until ``stop`` is requested or the context ends. A callback
     that raises is logged and counted, and the executor goes on: nothing a participant sends
     (a message the middleware cannot take, say) ends the node's service of the others.
+
+    ``idle_wait_s``: the longest one ``spin_once`` waits for work [s], so the longest before a
+    stop is seen, unless ``stopped`` is given: a future that whoever stops completes before
+    calling ``executor.wake()``, which ends the wait at once (an idle executor's wait goes on
+    after a wake until there is work, the future completes or the time is up).
 
     ``tick_gate``: held by the real-time tick while it runs; each callback waits for it to be
     free (a tick that starts meanwhile shares the GIL with that one callback only). Why: under a
@@ -55,7 +68,10 @@ def spin_until_stopped(node: Node, executor, stop: StopRequest,
         if tick_gate is not None and tick_gate.acquire(timeout=STOP_POLL_S):
             tick_gate.release()  # the tick is over: one callback's turn
         try:
-            executor.spin_once(timeout_sec=STOP_POLL_S)
+            if stopped is None:
+                executor.spin_once(timeout_sec=idle_wait_s)
+            else:
+                executor.spin_once_until_future_complete(stopped, timeout_sec=idle_wait_s)
         except ExternalShutdownException:
             return
         except Exception as exc:  # noqa: BLE001
@@ -83,8 +99,10 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     tick_gate = threading.Lock()  # held while a tick runs: the executor's callbacks wait
+    stopped = Future()  # completed when this loop ends: the executor thread's wait ends too
     thread = threading.Thread(target=spin_until_stopped,
-                              args=(node, executor, stop, tick_gate),
+                              args=(node, executor, stop, tick_gate, EXECUTOR_IDLE_WAIT_S,
+                                    stopped),
                               name="drs-executor")  # fmt: skip
     thread.start()
     # after the executor thread started: SCHED_FIFO (when asked and allowed) is this thread's only
@@ -112,6 +130,8 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     finally:
         leave_tick_policy(policy)  # the loop is real-time; the shutdown is not
         stop()  # the executor thread ends too, whatever ended this loop
+        stopped.set_result(True)
+        executor.wake()  # now, not at the end of its idle wait
         thread.join()
         executor.shutdown(timeout_sec=1.0)
 
