@@ -25,7 +25,14 @@ barely moves, in two interleaved kinds of blocks of ticks:
 The process's CPU per tick (every thread: DDS's, the recorders' writers) is given beside the
 tick thread's. Results go to ``benchmarks/results/tick_cost.json``.
 
-Usage: ``python benchmarks/tick_cost.py [--ticks 3000] [--rounds 3] [--listener process|none]
+``--gaps``: the cold tick. The deadline loop sleeps between ticks, and on this kind of machine
+(a KVM guest) a tick costs more CPU the longer the thread was idle before it (most likely the
+caches and predictors it warmed were taken meanwhile: a busy wait instead of the sleep costs
+about as much). The bare tick's thread CPU after idle gaps of 0,
+1, 4 and 10 ms (a 1 kHz, 250 Hz and 100 Hz period), beside a plain-Python control of about a
+tick's CPU that touches less code.
+
+Usage: ``python benchmarks/tick_cost.py [--gaps] [--ticks 3000] [--rounds 3] [--listener process|none]
 [--fidelity rigid] [--domain N]``
 """
 
@@ -311,6 +318,62 @@ def measure(node, clock: FakeClock, ticks: int, rounds: int) -> dict:
     }
 
 
+#: ``--gaps``: the idle times [s] before a tick, and the ticks measured per gap and round.
+GAPS_S = (0.0, 0.001, 0.004, 0.010)
+GAP_TICKS = 300
+
+
+def _control_work() -> None:
+    """Plain Python of about a tick's CPU on this machine (~0.2 ms): ``json.dumps`` of a fixed
+    structure, the control of ``--gaps``: it touches less code than a tick does."""
+    json.dumps(_CONTROL_DATA)
+
+
+_CONTROL_DATA = [{f"k{i}": [i / 7.0] * 8, "s": str(i)} for i in range(25)]
+
+
+def cold_ticks(node, clock: FakeClock, rounds: int) -> dict:
+    """The bare tick's thread CPU [us] after each idle gap of :data:`GAPS_S` (``time.sleep``:
+    what the deadline loop does between ticks), and the control workload's after the same
+    gaps, rounds interleaved; medians per gap and the ratio to back to back (gap 0)."""
+    state = {"n": 0}
+    drive(node, clock, 1000, state)  # warm-up
+    tt = time.thread_time_ns
+    runs: dict[str, dict[float, list]] = {"tick": collections.defaultdict(list),
+                                          "control": collections.defaultdict(list)}  # fmt: skip
+    for _ in range(rounds):
+        for gap in GAPS_S:
+            for kind in ("tick", "control"):
+                values = []
+                for _ in range(GAP_TICKS):
+                    if gap:
+                        time.sleep(gap)
+                    if kind == "tick":
+                        values.append(drive(node, clock, 1, state)[0][0])
+                    else:
+                        t0 = tt()
+                        _control_work()
+                        values.append(tt() - t0)
+                runs[kind][gap].append(statistics.median(values) / 1e3)
+    out = {}
+    for kind, by_gap in runs.items():
+        base = statistics.median(by_gap[0.0])
+        out[kind] = {f"{1e3 * gap:g} ms": {"median_us": statistics.median(v),
+                                            "ratio": statistics.median(v) / base,
+                                            "rounds_us": v}
+                     for gap, v in by_gap.items()}  # fmt: skip
+    return out
+
+
+def print_cold(res: dict) -> None:
+    print(f"{'idle before the tick':22s} {'tick us':>9s} {'ratio':>6s} {'control us':>11s} "
+          f"{'ratio':>6s}")  # fmt: skip
+    for gap in res["tick"]:
+        tick, control = res["tick"][gap], res["control"][gap]
+        print(f"{gap:22s} {tick['median_us']:9.1f} {tick['ratio']:6.2f} "
+              f"{control['median_us']:11.1f} {control['ratio']:6.2f}")  # fmt: skip
+
+
 def print_table(res: dict) -> None:
     total = res["tick_instrumented"]["mean_us"]
     print(f"{'part of a tick':44s} {'median us':>10s} {'mean us':>10s} {'share':>7s}")
@@ -336,6 +399,9 @@ def main() -> int:
     ap.add_argument("--fidelity", default="rigid")
     ap.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0")))
     ap.add_argument("--output", type=Path, default=RESULTS)
+    ap.add_argument("--gaps", action="store_true",
+                    help="only the tick's CPU after idle gaps of 0, 1, 4, 10 ms (the cold tick), "
+                         "beside a plain-Python control; results to tick_cost_gaps.json")  # fmt: skip
     args = ap.parse_args()
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     if os.environ.pop("ROS_PYTHON_CHECK_FIELDS", None):
@@ -360,7 +426,10 @@ def main() -> int:
                     time.sleep(0.05)
             gc.collect()
             gc.freeze()  # as drs-node does after start-up
-            res = measure(node, clock, args.ticks, args.rounds)
+            if args.gaps:
+                res = {"cold": cold_ticks(node, clock, args.rounds)}
+            else:
+                res = measure(node, clock, args.ticks, args.rounds)
         finally:
             node.close_recordings()
             node.destroy_node()
@@ -372,7 +441,12 @@ def main() -> int:
     print(f"tick_cost: {args.rounds} x {args.ticks} ticks of each kind, listener "
           f"{args.listener}, fidelity {args.fidelity}, load {os.getloadavg()[0]:.1f} on "
           f"{os.cpu_count()} cores")  # fmt: skip
-    print_table(res)
+    if args.gaps:
+        print_cold(res["cold"])
+        if args.output == RESULTS:
+            args.output = RESULTS.with_name("tick_cost_gaps.json")
+    else:
+        print_table(res)
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps(res, indent=2) + "\n")
     return 0
