@@ -32,8 +32,8 @@ about as much). The bare tick's thread CPU after idle gaps of 0,
 1, 4 and 10 ms (a 1 kHz, 250 Hz and 100 Hz period), beside a plain-Python control of about a
 tick's CPU that touches less code.
 
-Usage: ``python benchmarks/tick_cost.py [--gaps] [--ticks 3000] [--rounds 3] [--listener process|none]
-[--fidelity rigid] [--domain N]``
+Usage: ``python benchmarks/tick_cost.py [--gaps] [--ticks 3000] [--rounds 3]
+[--listener process|none] [--fidelity rigid] [--domain N]``
 """
 
 from __future__ import annotations
@@ -400,8 +400,8 @@ def main() -> int:
     ap.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0")))
     ap.add_argument("--output", type=Path, default=RESULTS)
     ap.add_argument("--gaps", action="store_true",
-                    help="only the tick's CPU after idle gaps of 0, 1, 4, 10 ms (the cold tick), "
-                         "beside a plain-Python control; results to tick_cost_gaps.json")  # fmt: skip
+                    help="only the tick's CPU after idle gaps of 0, 1, 4, 10 ms (the cold "
+                         "tick) beside a plain-Python control; to tick_cost_gaps.json")  # fmt: skip
     args = ap.parse_args()
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     if os.environ.pop("ROS_PYTHON_CHECK_FIELDS", None):

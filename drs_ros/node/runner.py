@@ -15,10 +15,10 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.exceptions import ParameterException
-from rclpy.task import Future
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
 
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_REFUSED
 from drs_model.errors import DRSError
@@ -50,7 +50,8 @@ EXECUTOR_IDLE_WAIT_S = 1.0
 
 def spin_until_stopped(node: Node, executor, stop: StopRequest,
                        tick_gate: threading.Lock | None = None,
-                       idle_wait_s: float = STOP_POLL_S, stopped: Future | None = None) -> None:  # fmt: skip
+                       idle_wait_s: float = STOP_POLL_S,
+                       stopped: Future | None = None) -> None:  # fmt: skip
     """Run ``executor``'s callbacks until ``stop`` is requested or the context ends. A callback
     that raises is logged and counted, and the executor goes on: nothing a participant sends
     (a message the middleware cannot take, say) ends the node's service of the others.
