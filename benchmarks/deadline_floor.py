@@ -1,0 +1,113 @@
+"""The machine's own floor for the node's deadline goals: a bare Python loop that sleeps to
+absolute deadlines as the node's tick thread does (``drs_ros.node.runner.run_deadline_loop``:
+``time.sleep`` to the deadline, resume from now after a late tick; SCHED_FIFO when allowed,
+through the node's own ``apply_tick_policy``), with no ROS, no model and no recording, and
+``--work-us`` of busy work per tick in place of the tick.
+
+It counts what the node's diagnostics count: a tick more than 1.5 periods after the last is a
+missed deadline, and the lateness against the absolute deadline (p50, p99, max). Whatever this
+loop misses, the node cannot do better on the same machine. The CPU time the hypervisor took from
+the guest meanwhile (``steal`` in ``/proc/stat``, both cores) is printed beside.
+
+Usage: ``python benchmarks/deadline_floor.py [--rate 1000] [--duration 10] [--repeats 2]
+[--work-us 0 300]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import time
+from pathlib import Path
+
+from drs_ros.node.tick_schedule import apply_tick_policy, leave_tick_policy
+
+RESULTS = Path(__file__).with_name("results") / "deadline_floor.json"
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+def steal_s() -> float:
+    """CPU time [s] the hypervisor took from this guest so far, summed over the cores."""
+    total = 0
+    for line in Path("/proc/stat").read_text().splitlines():
+        if line.startswith("cpu") and not line.startswith("cpu "):
+            total += int(line.split()[8])
+    return total / CLK_TCK
+
+
+def run(rate_hz: float, duration_s: float, work_us: float) -> dict:
+    """One loop of ``duration_s`` at ``rate_hz`` with ``work_us`` of busy work per tick."""
+    period_ns = round(1e9 / rate_hz)
+    late_ns, missed, last = [], 0, None
+    steal0 = steal_s()
+    deadline = time.monotonic_ns()
+    end = deadline + round(duration_s * 1e9)
+    while deadline < end:
+        deadline += period_ns
+        wait = deadline - time.monotonic_ns()
+        if wait > 0:
+            time.sleep(wait / 1e9)
+        now = time.monotonic_ns()
+        late_ns.append(now - deadline)
+        if last is not None and now - last > 3 * period_ns // 2:
+            missed += 1
+        last = now
+        if work_us:
+            stop = time.perf_counter() + work_us * 1e-6
+            while time.perf_counter() < stop:
+                pass
+        if now - deadline > period_ns:  # late by more than a period: resume from now
+            deadline = time.monotonic_ns()
+    late_ns.sort()
+    n = len(late_ns)
+    return {
+        "work_us": work_us,
+        "ticks": n,
+        "missed": missed,
+        "missed_share": missed / n,
+        "lateness_p50_us": late_ns[n // 2] / 1e3,
+        "lateness_p99_us": late_ns[int(0.99 * n)] / 1e3,
+        "lateness_max_us": late_ns[-1] / 1e3,
+        "steal_s": steal_s() - steal0,
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rate", type=float, default=1000.0, help="ticks per second [Hz]")
+    ap.add_argument("--duration", type=float, default=10.0, help="seconds per loop")
+    ap.add_argument("--repeats", type=int, default=2, help="loops per amount of work, alternated")
+    ap.add_argument("--work-us", type=float, nargs="+", default=[0.0, 300.0],
+                    help="busy work per tick [us], each measured")  # fmt: skip
+    ap.add_argument("--output", type=Path, default=RESULTS)
+    args = ap.parse_args()
+    policy = apply_tick_policy("fifo", 10)  # the node's default priority
+    print(f"deadline loop at {args.rate:g} Hz under {policy.text()}")
+    runs = []
+    try:
+        for _ in range(args.repeats):
+            for work in args.work_us:
+                r = run(args.rate, args.duration, work)
+                runs.append(r)
+                print(f"work {work:5g} us a tick: missed {r['missed']}/{r['ticks']} "
+                      f"({100 * r['missed_share']:.2f} %), lateness p50/p99/max "
+                      f"{r['lateness_p50_us']:.0f}/{r['lateness_p99_us']:.0f}/"
+                      f"{r['lateness_max_us']:.0f} us, steal {r['steal_s']:.2f} s",
+                      flush=True)  # fmt: skip
+    finally:
+        leave_tick_policy(policy)
+    for work in args.work_us:
+        mine = [r for r in runs if r["work_us"] == work]
+        print(f"work {work:5g} us: median missed "
+              f"{100 * statistics.median(r['missed_share'] for r in mine):.2f} %, p99 "
+              f"{statistics.median(r['lateness_p99_us'] for r in mine):.0f} us")  # fmt: skip
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text(json.dumps({"rate_hz": args.rate, "policy": policy.text(),
+                                       "runs": runs}, indent=2) + "\n")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
