@@ -5,7 +5,8 @@ through the node's own ``apply_tick_policy``), with no ROS, no model and no reco
 ``--work-us`` of busy work per tick in place of the tick.
 
 It counts what the node's diagnostics count: a tick more than 1.5 periods after the last is a
-missed deadline, and the lateness against the absolute deadline (p50, p99, max). Whatever this
+missed deadline (``SimulationClock``), and the lateness against the absolute deadline in the
+node's histogram (``LatenessHistogram``: p50, p99 as its bins' upper edges, max). Whatever this
 loop misses, the node cannot do better on the same machine. The CPU time the hypervisor took from
 the guest meanwhile (``steal`` in ``/proc/stat``, both cores) is printed beside.
 
@@ -22,7 +23,8 @@ import statistics
 import time
 from pathlib import Path
 
-from drs_ros.node.tick_schedule import apply_tick_policy, leave_tick_policy
+from drs_ros.node.tick import SimulationClock
+from drs_ros.node.tick_schedule import LatenessHistogram, apply_tick_policy, leave_tick_policy
 
 RESULTS = Path(__file__).with_name("results") / "deadline_floor.json"
 CLK_TCK = os.sysconf("SC_CLK_TCK")
@@ -38,9 +40,10 @@ def steal_s() -> float:
 
 
 def run(rate_hz: float, duration_s: float, work_us: float) -> dict:
-    """One loop of ``duration_s`` at ``rate_hz`` with ``work_us`` of busy work per tick."""
+    """One loop of ``duration_s`` at ``rate_hz`` with ``work_us`` of busy work per tick, counted
+    by the node's own parts: its clock's missed deadline and its lateness histogram."""
     period_ns = round(1e9 / rate_hz)
-    late_ns, missed, last = [], 0, None
+    clock, lateness, missed = SimulationClock(False, period_ns), LatenessHistogram(), 0
     steal0 = steal_s()
     deadline = time.monotonic_ns()
     end = deadline + round(duration_s * 1e9)
@@ -50,26 +53,26 @@ def run(rate_hz: float, duration_s: float, work_us: float) -> dict:
         if wait > 0:
             time.sleep(wait / 1e9)
         now = time.monotonic_ns()
-        late_ns.append(now - deadline)
-        if last is not None and now - last > 3 * period_ns // 2:
+        lateness.add(now - deadline)
+        if clock.since_last_if_late(now) is not None:
             missed += 1
-        last = now
+        clock.ticked(now, now)
         if work_us:
             stop = time.perf_counter() + work_us * 1e-6
             while time.perf_counter() < stop:
                 pass
         if now - deadline > period_ns:  # late by more than a period: resume from now
+            lateness.skipped += (now - deadline) // period_ns
             deadline = time.monotonic_ns()
-    late_ns.sort()
-    n = len(late_ns)
     return {
         "work_us": work_us,
-        "ticks": n,
+        "ticks": lateness.count,
         "missed": missed,
-        "missed_share": missed / n,
-        "lateness_p50_us": late_ns[n // 2] / 1e3,
-        "lateness_p99_us": late_ns[int(0.99 * n)] / 1e3,
-        "lateness_max_us": late_ns[-1] / 1e3,
+        "missed_share": missed / lateness.count,
+        "lateness_p50_us": lateness.quantile_us(0.5),
+        "lateness_p99_us": lateness.quantile_us(0.99),
+        "lateness_max_us": lateness.max_ns / 1e3,
+        "skipped_deadlines": lateness.skipped,
         "steal_s": steal_s() - steal0,
     }
 
