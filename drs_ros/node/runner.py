@@ -15,7 +15,13 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import (
+    ConditionReachedException,
+    ExternalShutdownException,
+    ShutdownException,
+    SingleThreadedExecutor,
+    TimeoutException,
+)
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
@@ -72,7 +78,7 @@ def spin_until_stopped(node: Node, executor, stop: StopRequest,
             if stopped is None:
                 executor.spin_once(timeout_sec=idle_wait_s)
             else:
-                executor.spin_once_until_future_complete(stopped, timeout_sec=idle_wait_s)
+                spin_once_until_done(executor, stopped, idle_wait_s)
         except ExternalShutdownException:
             return
         except Exception as exc:  # noqa: BLE001
@@ -83,6 +89,21 @@ def spin_until_stopped(node: Node, executor, stop: StopRequest,
                 note(exc)
             else:
                 node.get_logger().error(f"callback failed: {type(exc).__name__}: {exc}")
+
+
+def spin_once_until_done(executor, stopped: Future, timeout_s: float) -> None:
+    """Run one ready callback of ``executor``, waiting at most ``timeout_s`` [s] for one, or
+    none once ``stopped`` is done. It is rclpy's ``spin_once_until_future_complete`` without
+    the done callback that one adds to the future at every call: those pile up on a future
+    that stays pending for the node's whole life (one per wake-up: 2 million an hour under a
+    command flood). Whoever completes ``stopped`` wakes the executor itself."""
+    try:
+        handler, _entity, _node = executor.wait_for_ready_callbacks(timeout_s, None, stopped.done)
+    except (ShutdownException, TimeoutException, ConditionReachedException):
+        return
+    handler()
+    if handler.exception() is not None:
+        raise handler.exception()
 
 
 def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
