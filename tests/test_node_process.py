@@ -85,6 +85,25 @@ def test_refused_parameter_exits_2_with_the_reason(tmp_path, request):
     assert "L2 must be > 0 m" in out
 
 
+@pytest.mark.parametrize("flag", ["--help", "-h"])
+def test_help_lists_every_parameter_and_starts_nothing(tmp_path, flag):
+    """``drs-node --help`` prints how to start it and every parameter, with defaults and
+    ranges, and exits 0 without starting ROS (rclpy's log directory is never made)."""
+    from drs_model.fidelity.faults import FAULTS
+    from drs_ros.node import NODE_PARAMETERS
+
+    res = subprocess.run([sys.executable, "-m", "drs_ros", flag], capture_output=True, text=True,
+                         timeout=120, cwd=tmp_path, env=node_env(tmp_path, 0))  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("usage: drs-node")
+    listed = {line.split()[0] for line in res.stdout.splitlines() if line.startswith("  ")}
+    assert {name for name, *_ in NODE_PARAMETERS} <= listed
+    assert {f"fault.{name}" for name in FAULTS} <= listed
+    assert "publish_rate_hz (default 250.0; [1, 2000])" in res.stdout
+    assert not (tmp_path / "ros-log").exists()
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.slow
 def test_a_signal_during_a_callback_is_still_a_clean_stop(tmp_path, request):
     """SIGINT/SIGTERM shut the context down under a running callback (rclpy then raises RCLError

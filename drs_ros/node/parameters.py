@@ -16,6 +16,7 @@ from rclpy.parameter import Parameter
 
 from drs_model.errors import ParameterError
 from drs_model.fidelity import RUNGS
+from drs_model.fidelity.faults import FAULT_RANGES, FAULTS, describe_range
 from drs_model.overrides import from_file
 from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
 
@@ -234,6 +235,37 @@ def effective_parameters(node: Node, params: DRSParams) -> list[Parameter]:
     return out
 
 
+def _valid_text(valid) -> str:
+    """A parameter's valid range or choices, as ``usage_text`` prints them."""
+    if valid is None:
+        return ""
+    if isinstance(valid[0], str):
+        return f"; one of {', '.join(valid)}"
+    return f"; [{valid[0]:g}, {valid[1]:g}]"
+
+
+def usage_text() -> str:
+    """What ``drs-node --help`` prints: how to start the node, and every parameter it takes
+    with its default, its valid range and what it means (the tables it declares them from)."""
+    lines = [
+        "usage: drs-node [--managed] [--ros-args -p NAME:=VALUE ... --params-file FILE]",
+        "",
+        "The DRS actuator's ROS 2 node (docs/ros.md). --managed: a lifecycle node.",
+        "",
+        "parameters (read-only once started):",
+    ]
+    for name, default, description, valid in NODE_PARAMETERS:
+        shown = list(default) if isinstance(default, tuple) else default
+        lines.append(f"  {name} (default {shown!r}{_valid_text(valid)}): {description}")
+    lines.append("  model.<field> (default: the seed's value): a DRSParams field, SI units; one of "
+                 + ", ".join(NUMERIC_FIELDS))  # fmt: skip
+    lines += ["", "fault parameters (may change while the node runs; healthy by default):"]
+    for name, (healthy, description) in FAULTS.items():
+        valid = f"; {describe_range(name)}" if name in FAULT_RANGES else ""
+        lines.append(f"  fault.{name} (default {healthy!r}{valid}): {description}")
+    return "\n".join(lines)
+
+
 __all__ = [
     "EXECUTORS",
     "FIDELITIES",
@@ -244,4 +276,5 @@ __all__ = [
     "effective_parameters",
     "model_params",
     "tick_settings",
+    "usage_text",
 ]

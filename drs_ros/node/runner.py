@@ -34,6 +34,7 @@ from ..stop_request import StopRequest
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
+from .parameters import usage_text
 from .tick_schedule import TickPolicy, apply_tick_policy, leave_tick_policy
 
 #: How often [s] a thread holding the GIL offers it to the others (see main). The tick waits
@@ -205,6 +206,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     if managed:
         args.remove("--managed")
+    own = args[1 : args.index("--ros-args")] if "--ros-args" in args else args[1:]
+    if "-h" in own or "--help" in own:  # before rclpy: nothing is started
+        print(usage_text())
+        return EXIT_OK
     stop = StopRequest()
     stop.install()  # before rclpy starts: a signal during start-up is a stop too
     # the other threads' Python work (reading a large trajectory, a chunk's index, a rerun
