@@ -190,8 +190,9 @@ def run() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Console script ``drs-node [--managed]`` (``--ros-args -p name:=value`` or
-    ``--params-file FILE`` as usual). Returns 0 on SIGINT/SIGTERM, with both recordings
+    """Console script ``drs-node [--managed] [--help]`` (``--ros-args -p name:=value`` or
+    ``--params-file FILE`` as usual). ``--help`` prints :func:`~.parameters.usage_text` and
+    returns 0, starting nothing. Returns 0 on SIGINT/SIGTERM, with both recordings
     finished; 1 when a recording is incomplete (one line on stderr for each, naming what it
     lacks: a bag cut by a full disk or removed, its summary or metadata.yaml, the end of the
     .rrd, items lost to errors); 2 when the parameters or the recording paths are refused (one
