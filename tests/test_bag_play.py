@@ -28,20 +28,31 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
 START = ("--delay", "0.1", "--wait-for-subscribers")
 
 
+#: The history both sides keep where a test needs every message: keep-last this deep on the
+#: player's writers (``no_loss``) and on the test's readers (:class:`RawSubscriber`), more than
+#: any topic of a bag these tests play holds (the example: 1,679 on a topic), so that neither side
+#: ever replaces a sample the other has not taken, however long the test process falls behind.
+LOSSLESS_DEPTH = 4096
+
+
 def no_loss(tmp_path, bag: Path = EXAMPLE) -> tuple[str, ...]:
-    """``--qos-profile-overrides-path`` offering keep-last 1000 on every topic of ``bag``, and
-    ``--wait-for-all-acked 10000``.
+    """``--qos-profile-overrides-path`` offering keep-last :data:`LOSSLESS_DEPTH` on every topic
+    of ``bag``, and ``--wait-for-all-acked 10000``.
 
     rosbag2 offers a recorded profile with keep-last 10. A reliable Fast DDS writer drops its
-    oldest sample once 10 are unacknowledged, so a subscriber process stalled for 20 ms (500
-    messages/s on /joint_states) on this loaded 2-core machine loses messages: seen once in 8
-    benchmark runs at rate 1. Tests that require every message therefore offer a deeper history.
+    oldest sample once that many are unacknowledged, and a keep-last reader drops its oldest
+    unread one, so a test process that falls behind loses messages: with keep-last 10, seen once
+    in 8 benchmark runs at rate 1; with keep-last 1000, once in a full test run while both cores
+    were busy (69 of 1,679 on a topic: the example plays ~2,450 messages a second into the test's
+    Python executor). A test process stopped for 2.5 s during the play loses none now.
     """
     import yaml
 
-    types, _messages = recorded(bag)
+    types, messages = recorded(bag)
+    most = max(len(v) for v in messages.values())
+    assert most <= LOSSLESS_DEPTH, f"{bag} has {most} messages on a topic: raise LOSSLESS_DEPTH"
     path = tmp_path / "qos_overrides.yaml"
-    path.write_text(yaml.safe_dump({topic: {"depth": 1000} for topic in types}))
+    path.write_text(yaml.safe_dump({topic: {"depth": LOSSLESS_DEPTH} for topic in types}))
     # and the player waits up to 10 s (not its default 1 s) for every message to be
     # acknowledged before it exits: one message of 1679 was missing once in a full test run
     return ("--qos-profile-overrides-path", str(path), "--wait-for-all-acked", "10000")
@@ -141,7 +152,7 @@ class RawSubscriber:
         self.node = Node(node_name, context=context, **node_kw)
         self.received: dict[str, list[bytes]] = {t: [] for t in types}
         self.arrival: dict[str, list[float]] = {t: [] for t in types}
-        qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        qos = QoSProfile(depth=LOSSLESS_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
         for topic, type_name in types.items():
             self.node.create_subscription(
                 message_class(type_name), topic, self._callback(topic), qos, raw=True
@@ -178,12 +189,14 @@ def start_play(tmp_path, request, *args: str) -> subprocess.Popen:
 
 
 def receive_until_exit(sub: RawSubscriber, proc: subprocess.Popen, expected: int, timeout=60.0):
-    """Spin until ``expected`` messages arrived or the player ended (plus a grace period)."""
+    """Spin until ``expected`` messages arrived or the player ended; then until the messages
+    DDS holds for this process are taken (at most 30 s: a test process that fell behind drains
+    them at a few thousand a second)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end and sub.count() < expected:
         sub.executor.spin_once(timeout_sec=0.01)
         if proc.poll() is not None:
-            spin_until(sub.executor, lambda: sub.count() >= expected, timeout=2.0)
+            spin_until(sub.executor, lambda: sub.count() >= expected, timeout=30.0)
             break
     out, err = proc.communicate(timeout=30)
     return out, err
