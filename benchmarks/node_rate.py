@@ -77,10 +77,13 @@ def measure(
     tmp: Path,
     load: str = "commands",
     node_args: tuple[str, ...] = (),
+    observe=None,
 ) -> dict:
     """One run. ``load``: ``commands`` (open, close, stroke, force, one every 100 ms) or
     ``trajectory`` (a 10,000-point trajectory every second, each replacing the last).
-    ``node_args``: more ``name:=value`` parameters of the node."""
+    ``node_args``: more ``name:=value`` parameters of the node. ``observe(pid)``, if given, is
+    called with the node's pid as the measured window opens and returns what to call as it
+    closes (a profiler's start and stop)."""
     from drs_ros.client import DRSClient
 
     out = tmp / f"{executor}-{publish_hz:g}-{load}"
@@ -97,6 +100,7 @@ def measure(
         driver.wait_for(lambda: driver.seen["joint_states"] >= 50 and driver.seen["diag"])
         first = dict(driver.seen["diag"] or {})
         wall0, cpu0 = time.monotonic(), cpu_seconds(proc.pid)
+        closing = observe(proc.pid) if observe is not None else None
         k = 0
         while time.monotonic() - wall0 < duration:
             step = k % 5
@@ -111,6 +115,8 @@ def measure(
                 driver.force(1500.0 if step == 3 else 0.0)
             k += 1
             driver.spin(0.1)
+        if closing is not None:
+            closing()
         driver.spin(1.1)  # one more diagnostics message
         wall, cpu = time.monotonic() - wall0, cpu_seconds(proc.pid) - cpu0
         last = dict(driver.seen["diag"] or {})
