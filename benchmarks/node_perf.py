@@ -137,12 +137,12 @@ def main(argv: list[str] | None = None) -> int:
         run = node_rate.measure("deadline", 1000.0, args.duration, args.domain, tmp / "run",
                                 observe=observe)  # fmt: skip
         report = subprocess.run(
-            ["perf", "report", "-i", str(data), "--no-children", "--sort", "pid,dso", "--stdio",
-             "-g", "none", "--percent-limit", "0"],
+            [observe.perf, "report", "-i", str(data), "--no-children", "--sort", "pid,dso",
+             "--stdio", "-g", "none", "--percent-limit", "0"],
             capture_output=True, text=True, check=True,
         ).stdout  # fmt: skip
     by_thread = shares(report, observe.pid)
-    libraries = sorted({lib for libs in by_thread.values() for lib in libs})
+    libraries = {lib for libs in by_thread.values() for lib in libs}
     totals = {t: sum(libs.values()) for t, libs in by_thread.items()}
     print(f"drs-node, deadline loop at 1 kHz: {100 * run['cpu_share_of_core']:.1f} % of a core, "
           f"missed {100 * run['missed_share']:.2f} %; perf samples by thread and library, % of "
