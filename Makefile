@@ -42,9 +42,10 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/work_precision.py
 
 # numba checks only the file of the function it compiled: after editing drs_model/kernels.py, the
-# cached builds of the compiled functions in other files that call a kernel are stale
+# cached builds of the compiled functions in other files that call a kernel are stale (the tests'
+# and benchmarks' own compiled functions too)
 clean-cache:
-	find drs_model -name '*.nbi' -delete -o -name '*.nbc' -delete
+	find drs_model tests benchmarks -name '*.nbi' -delete -o -name '*.nbc' -delete
 
 clean: clean-cache
 	rm -rf $(VENV) .ros-log .pytest_cache

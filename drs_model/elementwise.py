@@ -32,7 +32,9 @@ def _gufuncs():
 
 
 def _array(constants) -> np.ndarray:
-    return np.asarray(constants, dtype=np.float64)
+    """The constants as the gufuncs take them: float64, C-contiguous (their signatures say so and
+    numba reads them without strides)."""
+    return np.ascontiguousarray(constants, dtype=np.float64)
 
 
 def stroke_position(s, c, sign):
@@ -92,7 +94,7 @@ def fused_manoeuvre_force_series(t, c, k):
         return fused_manoeuvre_force(t, c, k)
     t = np.asarray(t, dtype=np.float64)
     series = u.gufunc(u.fused_manoeuvre_force_series)
-    return series(t.reshape(-1), _array(c), _array(k)).reshape(t.shape)
+    return series(_array(t.reshape(-1)), _array(c), _array(k)).reshape(t.shape)
 
 
 def psi3_acceleration(b, bd, force, c):
