@@ -56,6 +56,19 @@ def median_cpu(fn, repeats: int, clock=time.process_time) -> float:
     return statistics.median(out)
 
 
+def interleaved_medians(fns, repeats: int) -> list[float]:
+    """Median CPU time [s] of one call of each of ``fns``, the calls taken in turn at each
+    repeat (the machine's slow and fast moments shared by all: a ratio of two medians taken
+    apart moved by half between runs)."""
+    out = [[] for _ in fns]
+    for _ in range(repeats):
+        for times, fn in zip(out, fns, strict=True):
+            t0 = time.process_time()
+            fn()
+            times.append(time.process_time() - t0)
+    return [statistics.median(times) for times in out]
+
+
 def per_call(fn, calls: int, repeats: int = 5) -> float:
     """Median time [s] per call of ``fn`` in loops of ``calls`` calls."""
 
@@ -101,7 +114,7 @@ def main() -> None:
         (100_000, "1e5 mv", np.linspace(0.0, p.T_opening, 100_002)[1:-1]),
     ]
     for n, label, t in cases:
-        reps = 7 if n == 100_000 else 31
+        reps = 15 if n == 100_000 else 31
         if n == 1:
             ours = per_call(lambda: fused.force_at(0.0042), 20_000)
             ours_ne = per_call(lambda t=t: manoeuvre_force(t, p, "newton-euler"), 300)
@@ -121,9 +134,8 @@ def main() -> None:
                 for _ in range(k):
                     base_force(t)
 
-            ours = median_cpu(run_ours, reps) / (n * clock_reps)
-            ours_ne = median_cpu(run_ne, reps) / (n * clock_reps)
-            base = median_cpu(run_base, reps) / (n * clock_reps)
+            medians = interleaved_medians((run_ours, run_ne, run_base), reps)
+            ours, ours_ne, base = (m / (n * clock_reps) for m in medians)
         print(
             f"{label:>8}  {ours * 1e6:>17.4g}  {ours_ne * 1e6:>20.4g}  {base * 1e6:>21.4g}  "
             f"{base / ours:>13.1f}"
