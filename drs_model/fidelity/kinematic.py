@@ -54,35 +54,39 @@ class KinematicRung(CommandedActuator):
         if n > m.steps:
             self.advance(n - m.steps)
 
-    def samples(self, times: np.ndarray) -> np.ndarray:
+    def samples(self, times: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """The stroke [m] at ``times`` [s] (sorted, none before now and none past the next
-        command) from the path in force, on arrays: the batch path of a scene."""
+        command) from the path in force, on arrays: the batch path of a scene. Written into
+        ``out`` (the shape of ``times``) when given, and returned."""
         m = self.motion
         times = np.asarray(times, dtype=float)
-        s = np.full(times.shape, float(m.q[0]))
+        s = np.empty(times.shape) if out is None else out
+        s[:] = float(m.q[0])
         if m.mode != "stroke" or m.settled:
             return s
-        s[times >= m.path.t_end] = m.target
+        # sorted: each stretch is a slice found by bisection, not a mask over every time
+        s[np.searchsorted(times, m.path.t_end, side="left") :] = m.target
         for seg in m.path:
-            inside = (times >= seg.t0) & (times < seg.t1)
-            if inside.any():
-                s[inside] = seg.evaluate(times[inside])[0]
+            first, stop = np.searchsorted(times, (seg.t0, seg.t1), side="left")
+            if stop > first:
+                s[first:stop] = seg.evaluate(times[first:stop])[0]
         return s
 
 
 def batch_strokes(rung: KinematicRung, events, times: np.ndarray) -> np.ndarray:
     """The stroke [m] at every time of ``times`` [s] (sorted, from the rung's time on) under the
     commands ``events`` (``(t, apply)`` pairs, ``apply(rung)`` issues one command): the rung
-    jumps from command to command and evaluates each stretch between them on arrays."""
+    jumps from command to command and evaluates each stretch between them on arrays, in place
+    (a fresh array of a lap's samples costs more in the kernel's page faults than its values)."""
     out = np.empty(times.shape)
     bounds = [e[0] for e in events] + [math.inf]
     start = 0
     # a command at t acts on the steps after t: the sample at t is the state before it
     k_stop = int(np.searchsorted(times, bounds[0], side="right"))
-    out[start:k_stop] = rung.samples(times[start:k_stop])
+    rung.samples(times[start:k_stop], out[start:k_stop])
     for i, (t_event, apply) in enumerate(events):
         rung.skip_to(t_event)
         apply(rung)
         start, k_stop = k_stop, int(np.searchsorted(times, bounds[i + 1], side="right"))
-        out[start:k_stop] = rung.samples(times[start:k_stop])
+        rung.samples(times[start:k_stop], out[start:k_stop])
     return out

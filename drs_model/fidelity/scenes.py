@@ -147,15 +147,16 @@ def _apply(rung, action: str, argument) -> None:
         raise ValueError(f"unknown scene action {action!r}")
 
 
-def flap_angles(s: np.ndarray, p: DRSParams) -> np.ndarray:
-    """``psi3`` [rad] at the strokes ``s`` [m] (closed form, on arrays), solved only where the
-    stroke changes from one sample to the next (a lap holds still most of the time)."""
+def gaps(s: np.ndarray, p: DRSParams) -> np.ndarray:
+    """The gap [m] at the strokes ``s`` [m] (closed forms, on arrays), solved only where the
+    stroke changes from one sample to the next (a lap holds still most of the time) and repeated
+    over each stretch of rest: the values of every sample solved alone."""
     moves = np.empty(s.shape, dtype=bool)
     moves[0] = True
     np.not_equal(s[1:], s[:-1], out=moves[1:])
-    idx = np.flatnonzero(moves)
-    psi3_at = kin.solve_position(s[idx], p)[:, 2]
-    return psi3_at[np.cumsum(moves) - 1]
+    starts = np.flatnonzero(moves)
+    psi3_at = kin.solve_position(s[starts], p)[:, 2]
+    return np.repeat(kin.gap_from_flap_angle(psi3_at, p), np.diff(starts, append=s.size))
 
 
 def run_scene(
@@ -182,10 +183,12 @@ def run_scene(
         if batch:
             if not isinstance(rung, KinematicRung):
                 raise InputError(f"batch runs only the kinematic rung, not {rung_name!r}")
-            t = rung.t + dt * np.arange(n + 1)
+            t = np.arange(n + 1, dtype=float)  # rung.t + dt k, in place: no second array
+            t *= dt
+            t += rung.t
             actions = [(e[0], lambda r, e=e: _apply(r, e[1], e[2])) for e in events]
             s, force = batch_strokes(rung, actions, t), np.full(n + 1, np.nan)
-            psi3 = flap_angles(s, p)
+            gap = gaps(s, p)
         else:
             t, s, psi3, force = (np.empty(n + 1) for _ in range(4))
             t[0], s[0], psi3[0], force[0] = st.t, st.q[0], st.q[2], st.piston_force
@@ -198,9 +201,9 @@ def run_scene(
                 rung.advance(1)
                 t[k], s[k], psi3[k], force[k] = rung.sample()
                 chambers.sample(k)
+            gap = kin.gap_from_flap_angle(psi3, p)
     except UnsupportedCommandError as exc:
         return Trace(rung_name, scene.name, refused=str(exc))
-    gap = kin.gap_from_flap_angle(psi3, p)
     cost = time.perf_counter() - clock
     label = rung_name + (" (batch)" if batch else "")
     trace = Trace(label, scene.name, t, s, gap, force, cost=cost)
