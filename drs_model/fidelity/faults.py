@@ -99,8 +99,9 @@ class RunFaults:
 
     def __init__(self, sim) -> None:
         self.sim = sim
-        self.values = {name: healthy for name, (healthy, _) in FAULTS.items()}
+        self._values = {name: healthy for name, (healthy, _) in FAULTS.items()}
         self.sensor = StrokeSensor(SensorFaults())
+        self._sensor_healthy = True
 
     def check(self, name: str, value):
         """``value`` as the fault ``name`` takes it; raises :class:`InputError` for a bad value
@@ -138,15 +139,19 @@ class RunFaults:
         if name.startswith("sensor."):
             self._apply_to_sensor(name, value)
         elif name == "supply_loss" and not value:
-            if self.values["supply_loss"]:  # back on: only a supply that was lost comes back
-                self.sim.apply_fault(name, value, self.values["supply_loss_ramp_s"])
+            if self._values["supply_loss"]:  # back on: only a supply that was lost comes back
+                self.sim.apply_fault(name, value, self._values["supply_loss_ramp_s"])
         elif name != "supply_loss_ramp_s":
-            self.sim.apply_fault(name, value, self.values["supply_loss_ramp_s"])
-        self.values[name] = value
+            self.sim.apply_fault(name, value, self._values["supply_loss_ramp_s"])
+        self._values[name] = value
+        # asked at every tick of the node, changed only here
+        self._sensor_healthy = all(
+            self._values[n] == FAULTS[n][0] for n in FAULTS if n.startswith("sensor.")
+        )
 
     def _apply_to_sensor(self, name: str, value) -> None:
         if name == "sensor.frozen":
-            if value and not self.values["sensor.frozen"]:
+            if value and not self._values["sensor.frozen"]:
                 t, s, _, _ = self.sim.sample()
                 self.sensor.freeze(t, self._step(t), s)
             elif not value:
@@ -160,9 +165,15 @@ class RunFaults:
         return int(round(t / self.sim.dt))
 
     @property
+    def values(self) -> MappingProxyType:
+        """Every fault's value in force, ``name -> value`` (read-only: :meth:`apply` sets them)."""
+        return MappingProxyType(self._values)
+
+    @property
     def sensor_healthy(self) -> bool:
-        """Whether the published stroke is the true one."""
-        return all(self.values[n] == FAULTS[n][0] for n in FAULTS if n.startswith("sensor."))
+        """Whether the published stroke is the true one (every sensor fault at its healthy
+        value)."""
+        return self._sensor_healthy
 
     def published_stroke(self, t: float, stroke: float) -> float:
         """The stroke [m] the sensor reports at simulated time ``t`` [s] for the true ``stroke``
@@ -173,7 +184,7 @@ class RunFaults:
 
     def active(self) -> dict:
         """The faults set away from healthy, ``name -> value``."""
-        return {n: v for n, v in self.values.items() if v != FAULTS[n][0]}
+        return {n: v for n, v in self._values.items() if v != FAULTS[n][0]}
 
 
 __all__ = ["FAULTS", "FAULT_RANGES", "HYDRAULIC_ONLY", "RunFaults", "describe_range"]
