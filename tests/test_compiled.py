@@ -468,6 +468,28 @@ def test_inlined_fused_batch_path_is_the_plain_kernel():
     np.testing.assert_array_equal(batch, not_inlined)
 
 
+def test_the_gufuncs_read_strided_constants_as_contiguous_ones():
+    """The gufuncs index their constants without strides (C-contiguous signatures):
+    elementwise hands them contiguous copies, so constants given as a strided view (every
+    second element of a longer array) give the same forces to the bit."""
+    from drs_model import DRSParams, elementwise
+    from drs_model.inverse import FusedInverseDynamics
+
+    fid = FusedInverseDynamics.from_params(DRSParams())
+    c, k = np.asarray(fid.consts, float), np.asarray(fid.profile, float)
+    c_view, k_view = np.repeat(c, 2)[::2], np.repeat(k, 2)[::2]
+    assert not c_view.flags.c_contiguous and not k_view.flags.c_contiguous
+    t = np.linspace(0.0, 0.05, 201)
+    np.testing.assert_array_equal(
+        elementwise.fused_manoeuvre_force(t, c_view, k_view),
+        elementwise.fused_manoeuvre_force(t, c, k),
+    )
+    np.testing.assert_array_equal(
+        elementwise.fused_manoeuvre_force_series(t, c_view, k_view),
+        elementwise.fused_manoeuvre_force_series(t, c, k),
+    )
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     times=st.lists(st.floats(-0.01, 0.06, allow_nan=False), min_size=0, max_size=60),

@@ -187,6 +187,32 @@ def test_a_bad_value_is_refused_and_changes_nothing(name, value):
     assert run.values[name] == value
 
 
+SENSOR_FAULTS = sorted(n for n in FAULTS if n.startswith("sensor."))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    changes=st.lists(st.tuples(st.sampled_from(SENSOR_FAULTS), st.booleans()), max_size=12)
+)
+def test_the_sensor_is_healthy_exactly_when_every_sensor_fault_is_at_its_healthy_value(changes):
+    """Whatever the order of the sensor faults set and cleared, ``sensor_healthy`` (kept where a
+    fault is applied) is the comparison of every sensor fault with its healthy value, and the
+    stroke published is the true one exactly then; the values cannot be changed but by apply."""
+    sim = make_rung("rigid", P, 1e-3)
+    run = RunFaults(sim)
+    faulty = {"sensor.bias_m": 1e-3, "sensor.noise_std_m": 1e-4, "sensor.noise_seed": 7,
+              "sensor.dropout": 0.5, "sensor.frozen": True}  # fmt: skip
+    for name, set_faulty in changes:
+        run.apply(name, faulty[name] if set_faulty else FAULTS[name][0])
+        sim.advance(1)
+        expected = all(run.values[n] == FAULTS[n][0] for n in SENSOR_FAULTS)
+        assert run.sensor_healthy is expected
+        if expected:
+            assert run.published_stroke(sim.t, 0.01) == 0.01
+    with pytest.raises(TypeError):
+        run.values["sensor.bias_m"] = 1.0  # read-only: the kept answer cannot go stale
+
+
 # ---- physical ranges and the rung's stiffness bound ---------------------------------------------
 def _rung_for(name: str) -> str:
     return "hydraulic" if name in HYDRAULIC_ONLY or name.startswith("supply") else "rigid"
