@@ -52,6 +52,22 @@ def test_kinematic_positions_equal_rigid_in_stroke_mode(dt):
     assert np.max(np.abs(kin.gap(c[0], P) - kin.gap_from_flap_angle(c[0][:, 2], P))) < 1e-15
 
 
+def test_kinematic_samples_are_the_stepped_strokes_into_a_new_array_or_in_place():
+    """``KinematicRung.samples`` at the times of the next steps (a trajectory of three points
+    in force) gives the strokes stepping gives, into a new array or into ``out``; a view into a
+    larger array is written in place and nothing around it changes."""
+    rung, stepped = make_rung("kinematic", P, 1e-3), make_rung("kinematic", P, 1e-3)
+    for r in (rung, stepped):
+        r.command_trajectory([0.005, 0.012, 0.02], [0.03, 0.01, 0.025])
+    times = rung.t + 1e-3 * np.arange(1, 31)
+    expected = np.array([stepped.step().q[0] for _ in range(30)])
+    np.testing.assert_allclose(rung.samples(times), expected, rtol=0, atol=1e-15)
+    whole = np.full(40, -1.0)
+    assert rung.samples(times, whole[5:35]) is not None
+    np.testing.assert_allclose(whole[5:35], expected, rtol=0, atol=1e-15)
+    assert np.all(whole[:5] == -1.0) and np.all(whole[35:] == -1.0)
+
+
 def test_kinematic_refuses_forces():
     rung = make_rung("kinematic", P)
     with pytest.raises(UnsupportedCommandError, match="'kinematic' rung cannot represent a force"):
