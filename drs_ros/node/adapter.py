@@ -403,8 +403,10 @@ class DRSNode(Node):
         t1 = time.thread_time()
         self.effects.cpu["publish"] += t1 - t
         topics = self.outputs.topics
-        self.recordings.record_many([(topics[pub], data) for pub, data in out], now_ns)
-        self.stack.publish(st, stamp, now_ns, recording)  # /tf, the action's feedback
+        records = [(topics[pub], data) for pub, data in out]
+        records += self.stack.transforms(st, stamp, recording)  # /tf: one bag write for all
+        self.recordings.record_many(records, now_ns)
+        self.stack.update_action(stamp, now_ns)  # the action's goals and feedback
         self.recordings.log_state(st)  # its own failures: never the bag's
         self.effects.cpu["record"] += time.thread_time() - t1
 

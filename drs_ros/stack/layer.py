@@ -170,11 +170,16 @@ class StackLayer:
         if self.tf is not None:
             self.tf.destroy()
 
-    def publish(self, state, stamp_ns: int, now_ns: int, recording: bool = True) -> None:
+    def transforms(self, state, stamp_ns: int, recording: bool = True) -> list[tuple[str, bytes]]:
         """At every published joint state: TF (while listened to or ``recording`` in a bag),
-        then the action's goals and feedback."""
-        if self.tf is not None:
-            self.tf.publish(state.q, stamp_ns, now_ns, recording)
+        published; its record for the bag returned (``[]``: none), written by the caller with
+        the tick's other states."""
+        if self.tf is None:
+            return []
+        return self.tf.publish(state.q, stamp_ns, recording)
+
+    def update_action(self, stamp_ns: int, now_ns: int) -> None:
+        """After the states of a tick are out: the action's goals and feedback."""
         self.action.update(stamp_ns, now_ns)
 
     def _action_event(self, outcome: str, level: bytes, reason: str, values: dict,

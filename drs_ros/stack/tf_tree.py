@@ -115,7 +115,8 @@ class TfPublisher:
     ros2_control : str
         A ``<ros2_control>`` element for the description.
     record : callable
-        ``record(topic, data, now_ns)``: the node's recorder (exact bytes).
+        ``record(topic, data, now_ns)``: the node's recorder (exact bytes), for the description
+        and the static transforms (the moving ones go back to the caller: :meth:`publish`).
     """
 
     def __init__(self, node, params: DRSParams, joint_names: Sequence[str], base_frame: str,
@@ -159,20 +160,22 @@ class TfPublisher:
             pub.publish(data)
             self._record(pub.topic_name, data, now_ns)
 
-    def publish(self, q, stamp_ns: int, now_ns: int, recording: bool = True) -> None:
-        """Publish (and record) the joints' transforms at configuration ``q``; nothing is
-        computed while no one subscribes to /tf and no bag is ``recording``, and nothing is
-        published while no one subscribes (asked every :data:`LISTENER_CHECK_TICKS` calls)."""
+    def publish(self, q, stamp_ns: int, recording: bool = True) -> list[tuple[str, bytes]]:
+        """Publish the joints' transforms at configuration ``q`` and return their record for the
+        bag, ``[(topic, bytes)]``, which the caller writes with the tick's other states (one
+        write for them all); nothing is computed while no one subscribes to /tf and no bag is
+        ``recording`` (``[]``), and nothing is published while no one subscribes (asked every
+        :data:`LISTENER_CHECK_TICKS` calls)."""
         if self._calls % LISTENER_CHECK_TICKS == 0:  # asking DDS costs ~25 us: not every tick
             self._listened = self.pub_tf.get_subscription_count() > 0
         self._calls += 1
         if not (recording or self._listened):
-            return
+            return []
         moving = description.moving_transforms(q, self.origins, self.frames)
         data = self._moving.pack(stamp_ns, [(*xyz, *quat) for _p, _c, xyz, quat in moving])
         if self._listened:  # recorded only: DDS would deliver it to no one
             self.pub_tf.publish(data)
-        self._record(self._tf_topic, data, now_ns)
+        return [(self._tf_topic, data)]
 
     def destroy(self) -> None:
         for pub in self.publishers:
