@@ -48,6 +48,47 @@ def test_the_file_is_byte_for_byte_what_add_message_writes(messages, chunk_size,
                                compression=compression)  # fmt: skip
 
 
+BATCHES = st.lists(
+    st.tuples(st.integers(0, 2**40), st.lists(st.tuples(st.integers(1, 3), st.binary(max_size=300),
+                                                        st.integers(0, 2**32 - 1)), max_size=6),
+              st.booleans()),
+    max_size=20,
+)  # fmt: skip
+
+
+def write_batches(batches, *, many: bool, chunk_size: int, compression) -> bytes:
+    """A small bag of three channels from batches of one log time each (a tick's states):
+    through ``append_many``, or ``add_message`` for each message (publish time = log time)."""
+    out = io.BytesIO()
+    writer = Writer(out, chunk_size=chunk_size, compression=compression)
+    writer.start(profile="ros2", library="test")
+    schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
+    for k in (1, 2, 3):
+        writer.register_channel(f"/t{k}", "cdr", schema, {"k": str(k)})
+    appender = MessageAppender(writer)
+    for log_time, records, flush in batches:
+        if many:
+            appender.append_many(log_time, records)
+        else:
+            for channel, data, sequence in records:
+                writer.add_message(channel, log_time, data, log_time, sequence)
+        if flush:
+            writer.flush()
+    writer.finish()
+    return out.getvalue()
+
+
+@settings(max_examples=60, deadline=None)
+@given(batches=BATCHES, chunk_size=st.sampled_from([64, 1000, 1 << 20]),
+       compression=st.sampled_from([CompressionType.NONE, CompressionType.LZ4]))  # fmt: skip
+def test_a_batch_of_one_log_time_is_byte_for_byte_what_add_message_writes(batches, chunk_size,
+                                                                         compression):  # fmt: skip
+    # empty batches, chunks closed by size in the middle of a batch and by flushes between them
+    many = write_batches(batches, many=True, chunk_size=chunk_size, compression=compression)
+    assert many == write_batches(batches, many=False, chunk_size=chunk_size,
+                                 compression=compression)  # fmt: skip
+
+
 def test_the_messages_read_back_in_order_with_their_fields():
     messages = [(1 + k % 3, 10_000 - k, bytes([k]) * k, k, k % 7 == 0) for k in range(50)]
     data = write_bag(messages, direct=True, chunk_size=200, compression=CompressionType.NONE)

@@ -191,7 +191,7 @@ class McapRecorder:
         # closes the chunks on the schedule; the flush thread compresses and writes them
         self._flusher = ChunkFlusher(self._writer, self._stream, self.path, self._lock, schedule,
                                      self._failed, flush_thread)  # fmt: skip
-        self._append = MessageAppender(self._writer, self._flusher.on_full()).append
+        self._appender = MessageAppender(self._writer, self._flusher.on_full())
 
     # ---- context manager --------------------------------------------------------------------
     def __enter__(self) -> McapRecorder:
@@ -330,12 +330,15 @@ class McapRecorder:
         log_ns = _time_ns(log_time_ns, "log_time_ns")
         with self._lock:
             self._check_open()
-            seqs = [self._append_locked(topic, data, log_ns, log_ns, None)
-                    for topic, data in items]  # fmt: skip
+            topics = self._topics
+            count = self._count_locked
+            batch = [(topics[topic].channel_id, data, count(topic, data, log_ns, None))
+                     for topic, data in items]  # fmt: skip
+            self._appender.append_many(log_ns, batch)  # the file's statistics updated once
             closed = self._flusher.wrote_locked(self._message_count, len(items))
         if closed:
             self._flusher.write_closed()
-        return seqs
+        return [seq for _channel, _data, seq in batch]
 
     def _data(self, topic: str, msg) -> bytes:
         """The exact CDR of ``msg`` (a message of ``topic``'s type, or its bytes)."""
@@ -355,9 +358,15 @@ class McapRecorder:
 
     def _append_locked(self, topic: str, data: bytes, log_ns: int, pub_ns: int,
                        sequence: int | None) -> int:  # fmt: skip
+        seq = self._count_locked(topic, data, log_ns, sequence)
+        self._appender.append(self._topics[topic].channel_id, log_ns, data, pub_ns, seq)
+        return seq
+
+    def _count_locked(self, topic: str, data: bytes, log_ns: int, sequence: int | None) -> int:
+        """One message more of ``topic`` in the recorder's counts; its sequence number (the
+        one given, or one more than the channel's last)."""
         seq = self._sequence[topic] + 1 if sequence is None else int(sequence)
         self._sequence[topic] = seq
-        self._append(self._topics[topic].channel_id, log_ns, data, pub_ns, seq)
         self._counts[topic] += 1
         self._message_count += 1
         self._bytes += len(data)
