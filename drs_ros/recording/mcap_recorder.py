@@ -316,7 +316,8 @@ class McapRecorder:
         pub_ns = log_ns if publish_time_ns is None else _time_ns(publish_time_ns, "publish_time_ns")
         with self._lock:
             self._check_open()
-            seq = self._append_locked(topic, data, log_ns, pub_ns, sequence)
+            seq = self._count_locked(topic, data, log_ns, sequence)
+            self._appender.append(self._topics[topic].channel_id, log_ns, data, pub_ns, seq)
             closed = self._flusher.wrote_locked(self._message_count)
         if closed:
             self._flusher.write_closed()
@@ -355,12 +356,6 @@ class McapRecorder:
             f"topic {topic!r} carries {info.type_name}, got {type(msg).__module__}."
             f"{type(msg).__name__}"
         )
-
-    def _append_locked(self, topic: str, data: bytes, log_ns: int, pub_ns: int,
-                       sequence: int | None) -> int:  # fmt: skip
-        seq = self._count_locked(topic, data, log_ns, sequence)
-        self._appender.append(self._topics[topic].channel_id, log_ns, data, pub_ns, seq)
-        return seq
 
     def _count_locked(self, topic: str, data: bytes, log_ns: int, sequence: int | None) -> int:
         """One message more of ``topic`` in the recorder's counts; its sequence number (the
