@@ -284,7 +284,9 @@ def test_a_failing_recorder_stops_recording_not_the_actuator(ros_context, tmp_pa
 
     try:
         spin_until(ex, lambda: node.effects.ticks > 5, 5.0)
+        # every write of the bag fails: the tick's batch (states, /tf) and single records
         node.recordings.recorder.write = disk_full
+        node.recordings.recorder.write_many = disk_full
         node.sim.command_drs(True)
         ticks = node.effects.ticks
         spin_until(ex, lambda: node.effects.ticks > ticks + 10, 5.0)
