@@ -19,15 +19,26 @@ MESSAGES = st.lists(
 )  # fmt: skip
 
 
-def write_bag(messages, *, direct: bool, chunk_size: int, compression, chunking=True) -> bytes:
-    """A small bag of three channels; ``direct``: through MessageAppender, else add_message.
-    A message whose flag is set is followed by a flush (the recorder's chunk closes)."""
-    out = io.BytesIO()
+#: Chunks closed by size after every message or two, now and then, or only by flushes.
+CHUNK_SIZES = st.sampled_from([64, 1000, 1 << 20])
+COMPRESSIONS = st.sampled_from([CompressionType.NONE, CompressionType.LZ4])
+
+
+def three_channel_writer(out, chunk_size: int, compression, chunking=True) -> Writer:
+    """A started writer into ``out`` with the channels 1, 2, 3 (``/t1`` .. ``/t3``)."""
     writer = Writer(out, chunk_size=chunk_size, compression=compression, use_chunking=chunking)
     writer.start(profile="ros2", library="test")
     schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
     for k in (1, 2, 3):
         assert writer.register_channel(f"/t{k}", "cdr", schema, {"k": str(k)}) == k
+    return writer
+
+
+def write_bag(messages, *, direct: bool, chunk_size: int, compression, chunking=True) -> bytes:
+    """A small bag of three channels; ``direct``: through MessageAppender, else add_message.
+    A message whose flag is set is followed by a flush (the recorder's chunk closes)."""
+    out = io.BytesIO()
+    writer = three_channel_writer(out, chunk_size, compression, chunking)
     add = MessageAppender(writer).append if direct else writer.add_message
     for channel, log_time, data, sequence, flush in messages:
         add(channel, log_time, data, log_time + 7, sequence)
@@ -38,8 +49,7 @@ def write_bag(messages, *, direct: bool, chunk_size: int, compression, chunking=
 
 
 @settings(max_examples=60, deadline=None)
-@given(messages=MESSAGES, chunk_size=st.sampled_from([64, 1000, 1 << 20]),
-       compression=st.sampled_from([CompressionType.NONE, CompressionType.LZ4]))  # fmt: skip
+@given(messages=MESSAGES, chunk_size=CHUNK_SIZES, compression=COMPRESSIONS)
 def test_the_file_is_byte_for_byte_what_add_message_writes(messages, chunk_size, compression):
     # log times in any order (the statistics' and chunks' start and end), chunks closed by
     # size and by flushes, empty payloads: every byte of the file the same
@@ -60,11 +70,7 @@ def write_batches(batches, *, many: bool, chunk_size: int, compression) -> bytes
     """A small bag of three channels from batches of one log time each (a tick's states):
     through ``append_many``, or ``add_message`` for each message (publish time = log time)."""
     out = io.BytesIO()
-    writer = Writer(out, chunk_size=chunk_size, compression=compression)
-    writer.start(profile="ros2", library="test")
-    schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
-    for k in (1, 2, 3):
-        writer.register_channel(f"/t{k}", "cdr", schema, {"k": str(k)})
+    writer = three_channel_writer(out, chunk_size, compression)
     appender = MessageAppender(writer)
     for log_time, records, flush in batches:
         if many:
@@ -79,8 +85,7 @@ def write_batches(batches, *, many: bool, chunk_size: int, compression) -> bytes
 
 
 @settings(max_examples=60, deadline=None)
-@given(batches=BATCHES, chunk_size=st.sampled_from([64, 1000, 1 << 20]),
-       compression=st.sampled_from([CompressionType.NONE, CompressionType.LZ4]))  # fmt: skip
+@given(batches=BATCHES, chunk_size=CHUNK_SIZES, compression=COMPRESSIONS)
 def test_a_batch_of_one_log_time_is_byte_for_byte_what_add_message_writes(batches, chunk_size,
                                                                          compression):  # fmt: skip
     # empty batches, chunks closed by size in the middle of a batch and by flushes between them
