@@ -46,26 +46,16 @@ from drs_model.params import DRSParams  # noqa: E402
 from drs_model.profile import drs_manoeuvre  # noqa: E402
 
 
-def median_cpu(fn, repeats: int, clock=time.process_time) -> float:
-    """Median time [s] of one call of ``fn`` over ``repeats`` runs."""
-    out = []
-    for _ in range(repeats):
-        t0 = clock()
-        fn()
-        out.append(clock() - t0)
-    return statistics.median(out)
-
-
-def interleaved_medians(fns, repeats: int) -> list[float]:
-    """Median CPU time [s] of one call of each of ``fns``, the calls taken in turn at each
-    repeat (the machine's slow and fast moments shared by all: a ratio of two medians taken
+def interleaved_medians(fns, repeats: int, clock=time.process_time) -> list[float]:
+    """Median time [s] on ``clock`` of one call of each of ``fns``, the calls taken in turn at
+    each repeat (the machine's slow and fast moments shared by all: a ratio of two medians taken
     apart moved by half between runs)."""
     out = [[] for _ in fns]
     for _ in range(repeats):
         for times, fn in zip(out, fns, strict=True):
-            t0 = time.process_time()
+            t0 = clock()
             fn()
-            times.append(time.process_time() - t0)
+            times.append(clock() - t0)
     return [statistics.median(times) for times in out]
 
 
@@ -76,7 +66,7 @@ def per_call(fn, calls: int, repeats: int = 5) -> float:
         for _ in range(calls):
             fn()
 
-    return median_cpu(loop, repeats, time.perf_counter) / calls
+    return interleaved_medians((loop,), repeats, time.perf_counter)[0] / calls
 
 
 def main() -> None:

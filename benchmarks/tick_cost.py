@@ -178,11 +178,9 @@ def instrument(node, timer: PartTimer) -> None:
     timer.wrap(node.recordings, "record_many", "record: the tick's states (one batch)")
     if node.recordings.recorder is not None:
         recorder = node.recordings.recorder
-        if getattr(recorder, "_appender", None) is not None and recorder._appender.direct:
-            for attr in ("append", "append_many"):
-                timer.wrap(recorder._appender, attr, "record: mcap message record")
-        else:  # a recorder that goes through mcap's own add_message
-            timer.wrap(recorder._writer, "add_message", "record: mcap message record")
+        # without chunks the appender's append is mcap's own add_message: timed the same way
+        for attr in ("append", "append_many"):
+            timer.wrap(recorder._appender, attr, "record: mcap message record")
     # the rerun batches are sent by the recorder's own thread: the tick only buffers the state
     timer.wrap(node.recordings, "log_state", "rerun: log_state")
     timer.wrap(node.intake, "apply_pending", "commands applied")
