@@ -203,7 +203,7 @@ def test_the_held_segment_evaluates_its_force_once_and_changes_no_bit(
     """The hold (10-40 ms) runs on one force value (kernels.profile_held): the run is the same,
     bit for bit, as one that calls the manoeuvre kernel at every stage of the hold."""
     form = compiled.psi3_formulation(params)
-    args, _ = compiled._plan(
+    _, args, _ = compiled._plan(
         form, mforce, method, 0.0, params.T_total, 1e-7, None, None, math.inf, 1e-12, (), None,
         False, 1_000_000,
     )  # fmt: skip
@@ -212,8 +212,9 @@ def test_the_held_segment_evaluates_its_force_once_and_changes_no_bit(
     every_stage = (args[0], np.ones_like(kinds), *args[2:])
     y = compiled._rest_state(params)
     te = grid if dense else np.zeros(0)
-    held = rk.integrate(y[0], y[1], te, dense, *args)
-    kernel = rk.integrate(y[0], y[1], te, dense, *every_stage)
+    driver = rk.DRIVERS[method]
+    held = driver(y[0], y[1], te, dense, *args)
+    kernel = driver(y[0], y[1], te, dense, *every_stage)
     assert held[0] == rk.OK
     assert held[:9] == kernel[:9]  # status, nfev, steps, rejections, ...
     np.testing.assert_array_equal(held[9], kernel[9])  # t, y, q, qd: every bit

@@ -5,7 +5,7 @@ Importing this module imports numba (:mod:`.jit`); :func:`drs_model.forward.simu
 for the methods ``"dopri5-numba"`` and ``"dop853-numba"`` only, so without numba those raise
 :class:`~drs_model.errors.NumbaUnavailableError` (an ``ImportError``) and everything else works.
 
-One run is one call of :func:`.rk.integrate`. What it computes, compiled:
+One run is one call of the method's driver (:data:`.rk.DRIVERS`). What it computes, compiled:
 
 * the psi3 acceleration: :func:`drs_model.kernels.psi3_acceleration` (constants: the
   formulation's ``consts`` as a float64 array);
@@ -50,7 +50,6 @@ from ..forward.solution import Solution
 from ..kinematics import dead_centre, solve_position
 from ..params import DRSParams
 from . import rk
-from .tableaux import tableau
 
 __all__ = [
     "manoeuvre_constants",
@@ -173,9 +172,9 @@ def _plan(
     stop_at_dead_centre,
     max_steps,
 ):
-    """``(driver arguments after the start state and the output times, the segments as (start,
-    end) pairs [s])``, validated. Cached: they depend on these (hashable) inputs only, and the
-    driver only reads them."""
+    """``(the method's driver, its arguments after the start state and the output times, the
+    segments as (start, end) pairs [s])``, validated. Cached: they depend on these (hashable)
+    inputs only, and the driver only reads them."""
     time_span((t0, t1))
     rtol = max(relative_tolerance(rtol), 100 * _EPS)  # scipy's floor
     if atol is None:
@@ -202,7 +201,7 @@ def _plan(
                 f"stroke_range must be (lo, hi) with lo < hi [m], got {stroke_range!r}"
             )
     checks = _checks(form, lo, hi, stroke_range is not None, bool(stop_at_dead_centre))
-    a, c, e, e3, dense, ns, n_ext, order, is853 = tableau(method)
+    driver = _driver(method)
     driver_args = (
         edges,
         kinds,
@@ -210,15 +209,6 @@ def _plan(
         mc,
         mp,
         psi3_constants(form),
-        a,
-        c,
-        e,
-        e3,
-        dense,
-        ns,
-        n_ext,
-        order,
-        is853,
         rtol,
         atol_arr,
         fs,
@@ -228,7 +218,16 @@ def _plan(
         int(max_steps),
     )
     edge_list = edges.tolist()
-    return driver_args, tuple(zip(edge_list[:-1], edge_list[1:], strict=True))
+    return driver, driver_args, tuple(zip(edge_list[:-1], edge_list[1:], strict=True))
+
+
+def _driver(method: str):
+    """The compiled driver of ``method`` (:data:`.rk.DRIVERS`)."""
+    try:
+        return rk.DRIVERS[method]
+    except (KeyError, TypeError):
+        methods = " or ".join(repr(m) for m in rk.DRIVERS)
+        raise InputError(f"method must be {methods}, got {method!r}") from None
 
 
 def _raise(status, label, t, y, info, seg, edges, checks, p, max_steps, min_step):
@@ -392,7 +391,7 @@ def run_formulation(
         y = _rest_state(form.p)
     if atol is not None:  # hashable, for the plan's cache
         atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
-    plan, segments = _plan(
+    driver, plan, segments = _plan(
         form, fobj, method, t0, t1, rtol, atol, first_step, max_step, min_step,
         tuple(breakpoints), None if stroke_range is None else tuple(stroke_range),
         bool(stop_at_dead_centre), max_steps,
@@ -402,7 +401,7 @@ def run_formulation(
     else:
         te = output_times(t_eval, (t0, t1))
         has_eval = True
-    status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block = rk.integrate(
+    status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block = driver(
         float(y[0]), float(y[1]), te, has_eval, *plan
     )
     label = label or f"{method}-numba"

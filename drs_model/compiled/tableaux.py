@@ -10,6 +10,9 @@ from scipy.integrate import DOP853, RK45
 
 from ..errors import InputError
 
+#: The methods of the compiled driver.
+METHODS = ("dopri5", "dop853")
+
 
 @lru_cache(maxsize=2)
 def tableau(method: str):

@@ -2,16 +2,16 @@
 call of the RK driver of :mod:`drs_model.compiled.rk`.
 
 For each sample, :func:`crossing_times` starts the flap at rest at ``psi3_start`` [rad] and runs
-:func:`drs_model.compiled.rk.integrate` (formulation (a), ``psi3``) under the constant force with
-its stroke-range check on ``[lo, hi]`` [m]: the first accepted step that ends outside the range
-stops the run. If it ends past the target side, the crossing lies in that step. The driver runs
-that step again from its start in steps of at most 1/64 of it, and the crossing time is where the
-cubic Hermite interpolant of ``psi3(t)`` through the ends of the new crossing step (values and
-rates, from the driver) meets ``psi3_target``, found by bisection. A cubic Hermite step's error
-is ``O(h^4)``: on the whole DOP853 step (~1 ms near the stop) it is ~6e-9 s, on 1/64 of it far
-below the integration error; against scipy's event location on another formulation the times
-agree to 1e-10 s (``tests/test_study_evaluate.py``). The loop over samples is compiled as well
-(numba): no Python per sample.
+:func:`drs_model.compiled.rk.integrate` (formulation (a), ``psi3``: the method's compiled driver)
+under the constant force with its stroke-range check on ``[lo, hi]`` [m]: the first accepted step
+that ends outside the range stops the run. If it ends past the target side, the crossing lies in
+that step. The driver runs that step again from its start in steps of at most 1/64 of it, and the
+crossing time is where the cubic Hermite interpolant of ``psi3(t)`` through the ends of the new
+crossing step (values and rates, from the driver) meets ``psi3_target``, found by bisection. A
+cubic Hermite step's error is ``O(h^4)``: on the whole DOP853 step (~1 ms near the stop) it is
+~6e-9 s, on 1/64 of it far below the integration error; against scipy's event location on another
+formulation the times agree to 1e-10 s (``tests/test_study_evaluate.py``). The loop over samples is
+compiled as well (numba): no Python per sample.
 
 Each sample's outcome is a code (:data:`REACHED` ... :data:`FAILED`); the driver's own status of a
 failed run is kept next to it.
@@ -85,8 +85,8 @@ def _hermite(x, h, y0, d0, y1, d1):
 
 @jit
 def _crossings(
-    psi3_start, psi3_target, kcs, lo, hi, towards_hi, force, horizon, tab_a, tab_c, tab_e,
-    tab_e3, tab_dense, ns, n_ext, err_order, is853, rtol, atol, max_steps,
+    psi3_start, psi3_target, kcs, lo, hi, towards_hi, force, horizon, is853, rtol, atol,
+    max_steps,
 ):  # fmt: skip
     n = psi3_start.shape[0]
     times = np.full(n, np.nan)
@@ -107,9 +107,8 @@ def _crossings(
         checks[4] = 1.0  # check the stroke range
         checks[5] = 0.0  # formulation (a) passes through the dead centre
         status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = rk.integrate(
-            psi3_start[i], 0.0, no_eval, False, edges, kinds, values, mc, mp, kcs[i], tab_a,
-            tab_c, tab_e, tab_e3, tab_dense, ns, n_ext, err_order, is853, rtol, atol, 0.0,
-            math.inf, 1e-12, checks, max_steps,
+            is853, psi3_start[i], 0.0, no_eval, False, edges, kinds, values, mc, mp, kcs[i],
+            rtol, atol, 0.0, math.inf, 1e-12, checks, max_steps,
         )  # fmt: skip
         driver_status[i] = status
         if status == rk.OK:
@@ -128,9 +127,8 @@ def _crossings(
         h = t_fail - t0
         edges[0], edges[1] = t0, t0 + 2.0 * h
         status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = rk.integrate(
-            y0, d0, no_eval, False, edges, kinds, values, mc, mp, kcs[i], tab_a, tab_c, tab_e,
-            tab_e3, tab_dense, ns, n_ext, err_order, is853, rtol, atol, 0.0, h / _REFINE, 1e-12,
-            checks, max_steps,
+            is853, y0, d0, no_eval, False, edges, kinds, values, mc, mp, kcs[i], rtol, atol, 0.0,
+            h / _REFINE, 1e-12, checks, max_steps,
         )  # fmt: skip
         edges[0], edges[1] = 0.0, horizon
         if status != rk.STROKE_RANGE or (info > hi[i]) != towards_hi:
@@ -196,6 +194,7 @@ def crossing_times(
     driver_status : ndarray of int, shape (n,)
         The status code of :mod:`drs_model.compiled.rk` for each run.
     """
+    *_, is853 = tableau(method)  # an unknown method raises InputError here
     kcs = np.ascontiguousarray(constants, dtype=np.float64)
     lo, hi = (np.ascontiguousarray(x, dtype=np.float64) for x in stroke_range)
     rtol = float(rtol)
@@ -203,6 +202,6 @@ def crossing_times(
     return _crossings(
         np.ascontiguousarray(psi3_start, dtype=np.float64),
         np.ascontiguousarray(psi3_target, dtype=np.float64),
-        kcs, lo, hi, bool(towards_hi), float(force), float(horizon), *tableau(method), rtol,
+        kcs, lo, hi, bool(towards_hi), float(force), float(horizon), is853, rtol,
         atol, int(max_steps),
     )  # fmt: skip
