@@ -171,10 +171,16 @@ def test_q_qd_from_the_closed_form(params, mforce, grid):
         rtol=1e-9,
         t_eval=grid,
     )
-    q, qd = fw.Psi3Minimal(params).to_q_qd(sol.y)
+    form = fw.Psi3Minimal(params)
+    q, qd = form.to_q_qd(sol.y)
     np.testing.assert_allclose(sol.q, q, rtol=0.0, atol=1e-13)
     np.testing.assert_allclose(sol.qd, qd, rtol=1e-12, atol=1e-12)
     assert np.max(np.abs(constraint(sol.q, params))) < 1e-15
+    # the residuals as the scipy path gives them for minimal coordinates, one per output time
+    res, vres = form.residual(sol.y)
+    assert sol.residual.shape == sol.velocity_residual.shape == sol.t.shape == grid.shape
+    np.testing.assert_array_equal(sol.residual, res)
+    np.testing.assert_array_equal(sol.velocity_residual, vres)
 
 
 # ---- the driver ---------------------------------------------------------------------------------

@@ -85,16 +85,19 @@ def _force(t, kind, value, mc, mp):
 
 @jitable
 def _output_block(t_out, y_out, n, kc):
-    """The run's output as one exact-size block ``(9, n)``: rows ``t``, ``[psi3, psi3']``, ``q``
-    and ``qd`` (``(s, psi1, psi3)`` and their rates, closed form) of the first ``n`` outputs. One
-    array crosses back to Python (each returned array costs a boxing of its own)."""
-    out = np.empty((9, n))
+    """The run's output as one exact-size block ``(11, n)``: rows ``t``, ``[psi3, psi3']``,
+    ``q`` and ``qd`` (``(s, psi1, psi3)`` and their rates, closed form) of the first ``n``
+    outputs, and two rows of zeros (the constraint residuals of minimal coordinates). One array
+    crosses back to Python (each returned array costs a boxing of its own, and a view of it less
+    than a new array)."""
+    out = np.empty((11, n))
     for i in range(n):
         b, bd = y_out[0, i], y_out[1, i]
         s, psi1, u0, u1 = psi3_configuration(b, kc)
         out[0, i], out[1, i], out[2, i] = t_out[i], b, bd
         out[3, i], out[4, i], out[5, i] = s, psi1, b
         out[6, i], out[7, i], out[8, i] = u0 * bd, u1 * bd, bd
+        out[9, i] = out[10, i] = 0.0
     return out
 
 

@@ -385,10 +385,12 @@ def run_formulation(
     if y0 is not None:
         y = np.asarray(y0, dtype=float).reshape(2)
         form.check(t0, y)
+        b0, bd0 = float(y[0]), float(y[1])
     elif initial is not None:
         y = form.initial_state(*initial)
+        b0, bd0 = float(y[0]), float(y[1])
     else:
-        y = _rest_state(form.p)
+        b0, bd0 = _rest_state(form.p)
     if atol is not None:  # hashable, for the plan's cache
         atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
     driver, plan, segments = _plan(
@@ -402,16 +404,16 @@ def run_formulation(
         te = output_times(t_eval, (t0, t1))
         has_eval = True
     status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block = driver(
-        float(y[0]), float(y[1]), te, has_eval, *plan
+        b0, bd0, te, has_eval, *plan
     )
     label = label or f"{method}-numba"
     if status != rk.OK:
         edges, min_step, checks, max_steps = plan[0], plan[-3], plan[-2], plan[-1]
         _raise(status, label, t_fail, (b_fail, bd_fail), info, seg, edges, checks, form.p,
                max_steps, min_step)  # fmt: skip
-    n_out = block.shape[1]
-    # views into the one block the driver returned (q, qd: (n, 3), Fortran order)
+    # views into the one block the driver returned (q, qd: (n, 3), Fortran order; the
+    # residuals of minimal coordinates: its rows of zeros)
     return Solution(
-        form.name, label, block[0], block[1:3], block[3:6].T, block[6:9].T, np.zeros(n_out),
-        np.zeros(n_out), nfev, 0, 0, nsteps, list(segments), nrej,
+        form.name, label, block[0], block[1:3], block[3:6].T, block[6:9].T, block[9], block[10],
+        nfev, 0, 0, nsteps, list(segments), nrej,
     )  # fmt: skip

@@ -165,13 +165,14 @@ def simulate(
     SingularConfigurationError
         The s formulation approached the dead centre.
     """
-    steps = dict(rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, min_step=min_step)
     if isinstance(method, str) and method in COMPILED_METHODS:
         form, extra = _compiled_formulation(formulation, params, method, formulation_options)
         return _compiled_driver().run_formulation(
             form, force, t_span, method=COMPILED_METHODS[method], initial=initial, y0=y0,
-            label=method, t_eval=t_eval, breakpoints=breakpoints, **steps, **extra,
+            label=method, rtol=rtol, atol=atol, t_eval=t_eval, first_step=first_step,
+            max_step=max_step, min_step=min_step, breakpoints=breakpoints, **extra,
         )  # fmt: skip
+    steps = dict(rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, min_step=min_step)
     form, base = _scipy_formulation(formulation, params, method, formulation_options)
     return _simulate_scipy(form, base, method, force, t_span, (y0, initial), t_eval,
                            breakpoints, steps)  # fmt: skip
