@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from .. import kernels
 from ..compiled import rk
 from ..compiled.jit import jit, jitable
 from ..compiled.tableaux import tableau
@@ -95,8 +96,8 @@ def _crossings(
     edges = np.array([0.0, horizon])
     kinds = np.zeros(1, dtype=np.int64)  # rk.CONSTANT
     values = np.array([force])
-    mc = np.zeros(21)
-    mp = np.ones(18)
+    mc = np.zeros(kernels.N_CONSTANTS)  # the manoeuvre's: unread under a constant force
+    mp = np.ones(kernels.N_PROFILE_CONSTANTS)
     no_eval = np.zeros(0)
     checks = np.zeros(6)
     for i in range(n):
@@ -172,7 +173,7 @@ def crossing_times(
     ----------
     psi3_start, psi3_target : array_like, shape (n,)
         Flap angle at rest at the start and at the target stroke [rad].
-    constants : array_like, shape (n, 21)
+    constants : array_like, shape (n, N_CONSTANTS)
         Each sample's kernel constants (:func:`drs_model.bodies.model_constants`).
     stroke_range : (array_like, array_like), each shape (n,)
         ``(lo, hi)`` [m]: the run stops at the first step ending outside; the target is ``hi``

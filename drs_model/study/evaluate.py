@@ -70,9 +70,8 @@ STOP_ALLOWANCE_M = 1e-9
 class Prepared(NamedTuple):
     """The per-sample stage of :func:`evaluate`: each row's reason (None when it has
     parameters), and for the rows with parameters (``rows``, their indices) their kernel
-    constants (k, 21), manoeuvre constants (k, 18) over the design's strokes, gap constants
-    (k, 2), dead centre [m] (k,) and manoeuvre duration [s] (k,)."""
-
+    constants (k, N_CONSTANTS), manoeuvre constants (k, N_PROFILE_CONSTANTS) over the design's
+    strokes, gap constants (k, 2), dead centre [m] (k,) and manoeuvre duration [s] (k,)."""
     errors: list
     rows: np.ndarray
     consts: np.ndarray
