@@ -41,7 +41,7 @@ if importlib.util.find_spec("numba") is None:
     pytest.skip("numba is not installed (pip install drs[fast])", allow_module_level=True)
 
 from drs_model import elementwise  # noqa: E402
-from drs_model.compiled import rk  # noqa: E402
+from drs_model.compiled import drivers, rk  # noqa: E402
 from drs_model.compiled import simulate as compiled  # noqa: E402
 from drs_model.compiled.tableaux import tableau  # noqa: E402
 from drs_model.compiled.warm import warm_up  # noqa: E402
@@ -218,7 +218,7 @@ def test_the_held_segment_evaluates_its_force_once_and_changes_no_bit(
     every_stage = (args[0], np.ones_like(kinds), *args[2:])
     y = compiled._rest_state(params)
     te = grid if dense else np.zeros(0)
-    driver = rk.DRIVERS[method]
+    driver = drivers.DRIVERS[method]
     held = driver(y[0], y[1], te, dense, *args)
     kernel = driver(y[0], y[1], te, dense, *every_stage)
     assert held[0] == rk.OK

@@ -1,12 +1,12 @@
 r"""The adaptive Runge-Kutta driver of formulation (a) (``psi3``), compiled whole by numba.
 
 Plain Python in numba's subset: the helpers are registered as callable from compiled code
-(:func:`~drs_model.compiled.jit.jitable`), and the driver :func:`_integrate` is compiled once per
-method with its tableau bound in (:data:`DRIVERS`), with numba's on-disk cache
-(:data:`~drs_model.compiled.jit.jit`); ``NUMBA_DISABLE_JIT=1`` runs it as Python. It has no physics
-of its own: the stages call :func:`drs_model.kernels.psi3_position` and
-:func:`~drs_model.kernels.psi3_acceleration_at` (inlined, so that a step's checks read the stroke
-and ``cos psi1`` of ``y_new`` from its last stage), the piston force is a constant per segment or
+(:func:`~drs_model.compiled.jit.jitable`), and the driver :func:`integrate` is compiled once per
+method with its tableau bound in (:mod:`.drivers`), with numba's on-disk cache;
+``NUMBA_DISABLE_JIT=1`` runs it as Python. It has no physics of its own: the stages call
+:func:`drs_model.kernels.psi3_position` and :func:`~drs_model.kernels.psi3_acceleration_at`
+(inlined, so that a step's checks read the stroke and ``cos psi1`` of ``y_new`` from its last
+stage), the piston force is a constant per segment or
 :func:`~drs_model.kernels.fused_manoeuvre_force`, and the output's ``(q, qd)`` come from
 :func:`~drs_model.kernels.psi3_configuration`.
 
@@ -36,8 +36,7 @@ from ..kernels import (
     psi3_configuration,
     psi3_position,
 )
-from .jit import inlined, jit, jitable
-from .tableaux import METHODS, tableau
+from .jit import inlined, jitable
 
 
 def _inlined(fn):
@@ -395,11 +394,12 @@ def _start_segment(K, t, b, y0, y1, kind, value, mc, mp, kc, rtol, atol, err_ord
 
 
 @_inlined
-def _integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, tab_a,
-               tab_c, tab_e, tab_e3, tab_dense, ns, n_ext, err_order, is853, rtol, atol,
-               first_step, max_step, min_step, checks, max_steps):  # fmt: skip
+def integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, tab_a,
+              tab_c, tab_e, tab_e3, tab_dense, ns, n_ext, err_order, is853, rtol, atol,
+              first_step, max_step, min_step, checks, max_steps):  # fmt: skip
     """The adaptive RK driver over the segments ``edges`` (see the module docstring), for the
-    tableau ``tab_a ... is853`` (:func:`~.tableaux.tableau`).
+    tableau ``tab_a ... is853`` (:func:`~.tableaux.tableau`); compiled once per method with it
+    bound in (:mod:`.drivers`), inlined there.
 
     ``tab_a`` (n_ext, n_ext) holds the stages' coefficients with the weights B in row ``ns``
     (``y_new`` is "stage" ``ns`` at ``c = 1``, FSAL) and the dense-output stages of DOP853 in
@@ -468,41 +468,3 @@ def _integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, m
     block = _output_block(t_out, y_out, n_out, kc)
     return status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block
 
-
-def _driver(method: str):
-    """:func:`_integrate` compiled for one method, its tableau (:func:`~.tableaux.tableau`) bound
-    in: numba freezes the arrays and numbers of a closure into the build, so the number of
-    stages, the coefficients and the method's branches are constants to the compiler (its loops
-    unrolled, DOP853's branches gone from dopri5), and a call passes 17 arguments instead of 26.
-    A run at rtol 1e-6 costs ~3 us (~8 %) less than with the tableau passed at each call
-    (``benchmarks/work_precision.py --floor``); the warm-up compiles one build per method."""
-    a, c, e, e3, dense, ns, n_ext, err_order, is853 = tableau(method)
-
-    def integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, rtol,
-                  atol, first_step, max_step, min_step, checks, max_steps):  # fmt: skip
-        return _integrate(
-            y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, a, c, e, e3,
-            dense, ns, n_ext, err_order, is853, rtol, atol, first_step, max_step, min_step,
-            checks, max_steps,
-        )  # fmt: skip
-
-    integrate.__qualname__ = integrate.__name__ = f"integrate_{method}"
-    integrate.__doc__ = f"""The driver of {method!r}: the arguments of :func:`_integrate` without
-    the tableau, the same returns."""
-    return jit(integrate)
-
-
-#: The driver of each method (``DRIVERS[method](y_start0, y_start1, t_eval, has_eval, edges,
-#: kinds, values, mc, mp, kc, rtol, atol, first_step, max_step, min_step, checks, max_steps)``).
-DRIVERS = {method: _driver(method) for method in METHODS}
-integrate_dopri5 = DRIVERS["dopri5"]
-integrate_dop853 = DRIVERS["dop853"]
-
-
-@jitable
-def integrate(is853, *arguments):
-    """The driver of DOP853 (``is853``) or dopri5 on ``arguments`` (those of :data:`DRIVERS`'s),
-    for compiled callers that choose the method at run time (:mod:`drs_model.study.crossing`)."""
-    if is853:
-        return integrate_dop853(*arguments)
-    return integrate_dopri5(*arguments)

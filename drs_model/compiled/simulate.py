@@ -5,7 +5,7 @@ Importing this module imports numba (:mod:`.jit`); :func:`drs_model.forward.simu
 for the methods ``"dopri5-numba"`` and ``"dop853-numba"`` only, so without numba those raise
 :class:`~drs_model.errors.NumbaUnavailableError` (an ``ImportError``) and everything else works.
 
-One run is one call of the method's driver (:data:`.rk.DRIVERS`). What it computes, compiled:
+One run is one call of the method's driver (:data:`.drivers.DRIVERS`). What it computes, compiled:
 
 * the psi3 acceleration: :func:`drs_model.kernels.psi3_acceleration` (constants: the
   formulation's ``consts`` as a float64 array);
@@ -50,6 +50,7 @@ from ..forward.solution import Solution
 from ..kinematics import dead_centre, solve_position
 from ..params import DRSParams
 from . import rk
+from .drivers import DRIVERS
 
 __all__ = [
     "manoeuvre_constants",
@@ -222,11 +223,11 @@ def _plan(
 
 
 def _driver(method: str):
-    """The compiled driver of ``method`` (:data:`.rk.DRIVERS`)."""
+    """The compiled driver of ``method`` (:data:`.drivers.DRIVERS`)."""
     try:
-        return rk.DRIVERS[method]
+        return DRIVERS[method]
     except (KeyError, TypeError):
-        methods = " or ".join(repr(m) for m in rk.DRIVERS)
+        methods = " or ".join(repr(m) for m in DRIVERS)
         raise InputError(f"method must be {methods}, got {method!r}") from None
 
 

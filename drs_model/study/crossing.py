@@ -2,16 +2,16 @@
 call of the RK driver of :mod:`drs_model.compiled.rk`.
 
 For each sample, :func:`crossing_times` starts the flap at rest at ``psi3_start`` [rad] and runs
-:func:`drs_model.compiled.rk.integrate` (formulation (a), ``psi3``: the method's compiled driver)
-under the constant force with its stroke-range check on ``[lo, hi]`` [m]: the first accepted step
-that ends outside the range stops the run. If it ends past the target side, the crossing lies in
-that step. The driver runs that step again from its start in steps of at most 1/64 of it, and the
-crossing time is where the cubic Hermite interpolant of ``psi3(t)`` through the ends of the new
-crossing step (values and rates, from the driver) meets ``psi3_target``, found by bisection. A
-cubic Hermite step's error is ``O(h^4)``: on the whole DOP853 step (~1 ms near the stop) it is
-~6e-9 s, on 1/64 of it far below the integration error; against scipy's event location on another
-formulation the times agree to 1e-10 s (``tests/test_study_evaluate.py``). The loop over samples is
-compiled as well (numba): no Python per sample.
+:func:`drs_model.compiled.drivers.integrate_method` (formulation (a), ``psi3``: the method's
+driver) under the constant force with its stroke-range check on ``[lo, hi]`` [m]: the first
+accepted step that ends outside the range stops the run. If it ends past the target side, the
+crossing lies in that step. The driver runs that step again from its start in steps of at most 1/64
+of it, and the crossing time is where the cubic Hermite interpolant of ``psi3(t)`` through the ends
+of the new crossing step (values and rates, from the driver) meets ``psi3_target``, found by
+bisection. A cubic Hermite step's error is ``O(h^4)``: on the whole DOP853 step (~1 ms near the
+stop) it is ~6e-9 s, on 1/64 of it far below the integration error; against scipy's event location
+on another formulation the times agree to 1e-10 s (``tests/test_study_evaluate.py``). The loop over
+samples is compiled as well (numba): no Python per sample.
 
 Each sample's outcome is a code (:data:`REACHED` ... :data:`FAILED`); the driver's own status of a
 failed run is kept next to it.
@@ -25,6 +25,7 @@ import numpy as np
 
 from .. import kernels
 from ..compiled import rk
+from ..compiled.drivers import integrate_method
 from ..compiled.jit import jit, jitable
 from ..compiled.tableaux import tableau
 from ..forward.formulations import Psi3Minimal
@@ -107,7 +108,7 @@ def _crossings(
         checks[3] = math.inf
         checks[4] = 1.0  # check the stroke range
         checks[5] = 0.0  # formulation (a) passes through the dead centre
-        status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = rk.integrate(
+        status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = integrate_method(
             is853, psi3_start[i], 0.0, no_eval, False, edges, kinds, values, mc, mp, kcs[i],
             rtol, atol, 0.0, math.inf, 1e-12, checks, max_steps,
         )  # fmt: skip
@@ -127,7 +128,7 @@ def _crossings(
         # error falls as h^4 (one DOP853 step near the stop spans ~1 ms, 6e-9 s of error)
         h = t_fail - t0
         edges[0], edges[1] = t0, t0 + 2.0 * h
-        status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = rk.integrate(
+        status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = integrate_method(
             is853, y0, d0, no_eval, False, edges, kinds, values, mc, mp, kcs[i], rtol, atol, 0.0,
             h / _REFINE, 1e-12, checks, max_steps,
         )  # fmt: skip
