@@ -1,6 +1,5 @@
-"""The node's publishers and subscriptions add no QoS-event waitables to the executor (the
-node tells of a publisher its subscriptions cannot take itself), and /tf is computed only while
-someone subscribes to it or a bag records it."""
+"""The node's publishers add no QoS-event waitables to the executor, and /tf is computed only
+while someone subscribes to it or a bag records it."""
 
 from __future__ import annotations
 
@@ -21,13 +20,11 @@ def _node(ctx, *overrides):
                    parameter_overrides=[Parameter(k, value=v) for k, v in overrides])  # fmt: skip
 
 
-def test_the_nodes_publishers_and_subscriptions_have_no_event_handlers(ros_context):  # noqa: F811
-    node = _node(ros_context, ("bag_path", ""))
+def test_the_nodes_publishers_have_no_event_handlers(ros_context):  # noqa: F811
+    node = _node(ros_context)
     try:
         pubs = [*node.outputs.all, *node.stack.tf.publishers]
         assert pubs and all(pub.event_handlers == [] for pub in pubs)
-        subs = list(node.subscriptions)
-        assert len(subs) >= 4 and all(sub.event_handlers == [] for sub in subs)
         # what rclpy does by default, for contrast: two waitables (matched, incompatible QoS)
         from std_msgs.msg import Float64
 
@@ -76,55 +73,3 @@ def test_tf_is_computed_only_while_listened_to_or_recorded(ros_context, tmp_path
         for node in nodes.values():
             node.close_recordings()
             node.destroy_node()
-
-
-def test_a_publisher_the_commands_cannot_reach_is_logged_once_and_reported(ros_context):  # noqa: F811
-    """What the subscriptions' event handlers warned of: a best-effort publisher to the reliable
-    command subscription, and a publisher of another type on a command topic. Each is found by
-    the diagnostics' check, logged once (not at every check) and reported as long as it stays;
-    a compatible publisher is not."""
-    import rclpy
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
-    from std_msgs.msg import Float64, String
-
-    from drs_ros.node.publisher_check import INCOMPATIBLE_PUBLISHER
-
-    node = _node(ros_context)
-    # another participant: DDS refuses two types on one topic within one
-    source = rclpy.Context()
-    rclpy.init(context=source, domain_id=ros_context.get_domain_id())
-    other = rclpy.create_node("command_source", context=source)
-    try:
-        stroke, force = node.sub_stroke.topic_name, node.sub_force.topic_name
-        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-        other.create_publisher(Float64, stroke, best_effort)
-        other.create_publisher(Float64, stroke, 10)  # compatible: not reported
-        other.create_publisher(String, force, 10)
-        warned = []
-        node.publisher_check._warn = warned.append
-
-        def named() -> dict[str, str]:
-            return {text.split(" publishes on ")[1].split(",")[0]: text for text in warned
-                    if text.startswith("/command_source publishes on")}  # fmt: skip
-
-        deadline = time.monotonic() + 10.0
-        while len(named()) < 2 and time.monotonic() < deadline:
-            node._on_diagnostics()
-            time.sleep(0.1)
-        by_topic = named()
-        assert set(by_topic) == {stroke, force}, warned
-        assert "incompatible QoS" in by_topic[stroke] and "reliab" in by_topic[stroke].lower()
-        assert "its type is std_msgs/msg/String, the node's std_msgs/msg/Float64" in by_topic[force]
-        # at most once before its node was known and once after, for each of the two
-        assert len(warned) <= 4 and all("publishes on /drs/" in text for text in warned), warned
-        logged = len(warned)
-        for _ in range(3):
-            node._on_diagnostics()
-        assert len(warned) == logged  # not at every check
-        level, message = node.diagnostics_level(node._now_ns())
-        assert INCOMPATIBLE_PUBLISHER.replace("_", " ") in message
-    finally:
-        other.destroy_node()
-        rclpy.try_shutdown(context=source)
-        node.close_recordings()
-        node.destroy_node()

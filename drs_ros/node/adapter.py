@@ -47,7 +47,6 @@ from drs_model.fidelity import HydraulicRung
 from .. import commands
 from ..conversions import diagnostics_status, parameter_event_msg
 from ..names import FIDELITY, TOPICS
-from ..publishing import create_subscription
 from ..recording import cdr
 from ..recording.diagnostic_cdr import diagnostic_array_cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
@@ -56,7 +55,6 @@ from .effect_record import EffectRecord, diagnostics_values, error_text
 from .fault_parameters import NodeFaults, declare_fault_parameters
 from .intake import COMMANDS, CommandIntake
 from .parameters import declare_parameters, effective_parameters, model_params, tick_settings
-from .publisher_check import INCOMPATIBLE_PUBLISHER, PublisherCheck
 from .publishers import HYDRAULIC_TOPICS, StatePublishers
 from .recordings import NodeRecordings
 from .rung_choice import RungChoice
@@ -108,8 +106,6 @@ class DRSNode(Node):
         self.timer = self.diag_timer = self.clock_watch = None
         self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
         self.sub_drs_events = None
-        # what the subscriptions' QoS-event waitables warned of, asked with the diagnostics
-        self.publisher_check = PublisherCheck(self, self.get_logger().warning)
         if not managed:
             self.configure()
             self.activate()
@@ -195,9 +191,9 @@ class DRSNode(Node):
         # raw: the callback gets the bytes that arrived, recorded as they are; only the command
         # that takes effect is ever deserialised
         self.sub_stroke, self.sub_force, self.sub_trajectory = (
-            create_subscription(
-                self, COMMANDS[key], f"~/{key}", lambda b, key=key: self.intake.receive(key, b),
-                cmd_qos, raw=True,
+            self.create_subscription(
+                COMMANDS[key], f"~/{key}", lambda b, key=key: self.intake.receive(key, b), cmd_qos,
+                raw=True,
             )
             for key in ("stroke_cmd", "force_cmd", "trajectory_cmd")
         )  # fmt: skip
@@ -206,8 +202,8 @@ class DRSNode(Node):
             self.get_clock(), QoSProfile(depth=100), ServiceIntrospectionState.CONTENTS
         )
         if self.recordings.recorder is not None:  # record the service calls as rosbag2 does
-            self.sub_drs_events = create_subscription(
-                self, SetBool.Event, self.service_event_topic, self._on_service_event,
+            self.sub_drs_events = self.create_subscription(
+                SetBool.Event, self.service_event_topic, self._on_service_event,
                 QoSProfile(depth=100), raw=True,
             )  # fmt: skip
         use_sim_time = self.get_parameter("use_sim_time").value
@@ -290,12 +286,7 @@ class DRSNode(Node):
 
     def _on_diagnostics(self) -> None:
         now = self._now_ns()
-        unreachable = self.publisher_check.problems(
-            (self.sub_stroke, self.sub_force, self.sub_trajectory, self.stack.sub_commands)
-        )
         with self._lock:  # the main thread may be stepping the actuator (deadline executor)
-            for reason in unreachable:
-                self.effects.troubles.add(now, INCOMPATIBLE_PUBLISHER, reason)
             level, message = self.diagnostics_level(now)
             values = self.diagnostics_values()
         # packed straight into CDR: no rclpy message built in the executor thread, which holds

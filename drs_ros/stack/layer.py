@@ -23,7 +23,6 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
 from ..commands import COMMAND_QOS_DEPTH
-from ..publishing import create_subscription
 from . import description
 from .follow_trajectory import FollowJointTrajectoryServer, Tolerances
 from .tf_tree import TfPublisher
@@ -146,8 +145,8 @@ class StackLayer:
             self.tf.start(now_ns, now_ns)
 
     def activate(self) -> None:
-        self.sub_commands = create_subscription(
-            self.node, JointState, self.commands_topic, self._on_joint_command,
+        self.sub_commands = self.node.create_subscription(
+            JointState, self.commands_topic, self._on_joint_command,
             QoSProfile(depth=COMMAND_QOS_DEPTH), raw=True,
         )  # fmt: skip
         self.action.active_flag = True
