@@ -43,7 +43,8 @@ bench: $(STAMP)
 
 # numba checks only the file of the function it compiled: after editing drs_model/kernels.py, the
 # cached builds of the compiled functions in other files that call a kernel are stale (the tests'
-# and benchmarks' own compiled functions too)
+# and benchmarks' own compiled functions too; the RK driver's builds, drs_model/compiled/drivers.py,
+# carry the digest of the code they inline and compile anew by themselves)
 clean-cache:
 	find drs_model tests benchmarks -name '*.nbi' -delete -o -name '*.nbc' -delete
 

@@ -151,6 +151,26 @@ def test_compiled_psi3_kernel_equals_the_numpy_reference(params):
     )
 
 
+def test_each_driver_build_is_keyed_on_the_code_it_inlines():
+    """numba's cache checks the stamp of the file a function is defined in (drivers.py), and a
+    driver build inlines rk.integrate and the kernels: each build carries the digest of their
+    source files (rk.py, kernels.py, jit.py, read here) among its closure's values, which
+    numba's cache key includes, so an edit of them compiles anew."""
+    import hashlib
+    from pathlib import Path
+
+    from drs_model import kernels
+    from drs_model.compiled import jit as jit_module
+
+    digest = hashlib.sha256()
+    for module in (rk, kernels, jit_module):
+        digest.update(Path(module.__file__).read_bytes())
+    for build in drivers.DRIVERS.values():
+        texts = [c.cell_contents for c in build.py_func.__closure__
+                 if isinstance(c.cell_contents, str)]  # fmt: skip
+        assert texts == [digest.hexdigest()]
+
+
 def test_tableaux_satisfy_the_order_conditions():
     for method, order in (("dopri5", 5), ("dop853", 8)):
         a, c, e, e3, dense, ns, n_ext, err_order, _ = tableau(method)

@@ -10,18 +10,40 @@ warm-up compiles the driver once per method.
 
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
+from .. import kernels
+from . import jit as jit_options
+from . import rk
 from .jit import jit, jitable
 from .rk import integrate as integrate_tableau
 from .tableaux import METHODS, tableau
+
+
+def source_digest(*modules) -> str:
+    """SHA-256 of the source files of ``modules``."""
+    digest = hashlib.sha256()
+    for module in modules:
+        digest.update(Path(module.__file__).read_bytes())
+    return digest.hexdigest()
+
+
+#: The code a build inlines (the driver, the kernels, their inlined builds), bound into each
+#: build as well: numba's on-disk cache checks the stamp of this file alone, and the closure's
+#: values are part of its key, so an edit there compiles anew instead of loading a stale build.
+INLINED_SOURCE = source_digest(rk, kernels, jit_options)
 
 
 def _driver(method: str):
     """:func:`.rk.integrate` compiled for ``method`` with its tableau
     (:func:`~.tableaux.tableau`) bound in."""
     a, c, e, e3, dense, ns, n_ext, err_order, is853 = tableau(method)
+    inlined_source = INLINED_SOURCE
 
     def integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, rtol,
                   atol, first_step, max_step, min_step, checks, max_steps):  # fmt: skip
+        inlined_source  # noqa: B018 - a value of the closure: part of numba's cache key
         return integrate_tableau(
             y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, a, c, e, e3,
             dense, ns, n_ext, err_order, is853, rtol, atol, first_step, max_step, min_step,
@@ -50,4 +72,11 @@ def integrate_method(is853, *arguments):
     return integrate_dopri5(*arguments)
 
 
-__all__ = ["DRIVERS", "integrate_dop853", "integrate_dopri5", "integrate_method"]
+__all__ = [
+    "DRIVERS",
+    "INLINED_SOURCE",
+    "integrate_dop853",
+    "integrate_dopri5",
+    "integrate_method",
+    "source_digest",
+]
