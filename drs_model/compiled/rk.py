@@ -467,4 +467,3 @@ def integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp
             break
     block = _output_block(t_out, y_out, n_out, kc)
     return status, nfev, nsteps, nrej, t_fail, b_fail, bd_fail, info, seg, block
-

@@ -386,12 +386,11 @@ def run_formulation(
     if y0 is not None:
         y = np.asarray(y0, dtype=float).reshape(2)
         form.check(t0, y)
-        b0, bd0 = float(y[0]), float(y[1])
     elif initial is not None:
         y = form.initial_state(*initial)
-        b0, bd0 = float(y[0]), float(y[1])
     else:
-        b0, bd0 = _rest_state(form.p)
+        y = _rest_state(form.p)
+    b0, bd0 = float(y[0]), float(y[1])
     if atol is not None:  # hashable, for the plan's cache
         atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
     driver, plan, segments = _plan(

@@ -72,6 +72,7 @@ class Prepared(NamedTuple):
     parameters), and for the rows with parameters (``rows``, their indices) their kernel
     constants (k, N_CONSTANTS), manoeuvre constants (k, N_PROFILE_CONSTANTS) over the design's
     strokes, gap constants (k, 2), dead centre [m] (k,) and manoeuvre duration [s] (k,)."""
+
     errors: list
     rows: np.ndarray
     consts: np.ndarray
