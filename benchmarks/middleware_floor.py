@@ -14,7 +14,7 @@ Configurations, interleaved over ``--rounds`` and quoted as medians: ``loop`` (t
 alone), ``joint_states`` (one JointState a tick), ``joint_states + /tf`` (and one TFMessage of
 the three moving transforms, as the node publishes with ``publish_tf`` true). The CPU share is
 the publisher process's (all its threads: ``time.process_time``) over the measured window. The
-goals of issue 26 for the whole node (1 kHz within 15 % of a core, 250 Hz within 6 %) are printed
+rate goals for the whole node (1 kHz within 15 % of a core, 250 Hz within 6 %) are printed
 beside: whatever this floor takes, the node's Python, recordings and executor add to it.
 
 Usage: ``python benchmarks/middleware_floor.py [--rates 1000 250] [--duration 8] [--rounds 3]
@@ -35,7 +35,7 @@ from pathlib import Path
 
 RESULTS = Path(__file__).with_name("results") / "middleware_floor.json"
 CONFIGS = ("loop", "joint_states", "joint_states + /tf")
-GOALS = {1000.0: 0.15, 250.0: 0.06}  # issue 26: the whole node's share of a core
+GOALS = {1000.0: 0.15, 250.0: 0.06}  # the rate goals: the whole node's share of a core
 JOINTS = ("drs_piston", "drs_link", "drs_flap")  # drs_ros.names.DEFAULT_JOINT_NAMES
 FRAMES = (("drs_base", "drs_piston"), ("drs_piston", "drs_link"), ("drs_base", "drs_flap"))
 
