@@ -39,42 +39,61 @@ def steal_s() -> float:
     return total / CLK_TCK
 
 
+class DeadlineLoop:
+    """The tick thread's loop (``time.sleep`` to absolute deadlines at ``rate_hz``, resumed from
+    now after a tick late by more than a period), counted by the node's own parts: its clock's
+    missed deadline and its lateness histogram."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self.period_ns = round(1e9 / rate_hz)
+        self.clock = SimulationClock(False, self.period_ns)
+        self.lateness = LatenessHistogram()
+        self.missed = 0
+
+    def ticks(self, duration_s: float):
+        """Wake at each deadline for ``duration_s`` [s], counting it; yield the wake-up time [ns]
+        (the caller's work a tick runs between two wake-ups)."""
+        deadline = time.monotonic_ns()
+        end = deadline + round(duration_s * 1e9)
+        while deadline < end:
+            deadline += self.period_ns
+            wait = deadline - time.monotonic_ns()
+            if wait > 0:
+                time.sleep(wait / 1e9)
+            now = time.monotonic_ns()
+            self.lateness.add(now - deadline)
+            if self.clock.since_last_if_late(now) is not None:
+                self.missed += 1
+            self.clock.ticked(now, now)
+            yield now
+            if now - deadline > self.period_ns:  # late by more than a period: resume from now
+                self.lateness.skipped += (now - deadline) // self.period_ns
+                deadline = time.monotonic_ns()
+
+    def counts(self) -> dict:
+        """Ticks, missed deadlines and lateness quantiles [us] so far."""
+        lateness = self.lateness
+        return {
+            "ticks": lateness.count,
+            "missed": self.missed,
+            "missed_share": self.missed / max(lateness.count, 1),
+            "lateness_p50_us": lateness.quantile_us(0.5),
+            "lateness_p99_us": lateness.quantile_us(0.99),
+            "lateness_max_us": lateness.max_ns / 1e3,
+            "skipped_deadlines": lateness.skipped,
+        }
+
+
 def run(rate_hz: float, duration_s: float, work_us: float) -> dict:
-    """One loop of ``duration_s`` at ``rate_hz`` with ``work_us`` of busy work per tick, counted
-    by the node's own parts: its clock's missed deadline and its lateness histogram."""
-    period_ns = round(1e9 / rate_hz)
-    clock, lateness, missed = SimulationClock(False, period_ns), LatenessHistogram(), 0
+    """One loop of ``duration_s`` at ``rate_hz`` with ``work_us`` of busy work per tick."""
+    loop = DeadlineLoop(rate_hz)
     steal0 = steal_s()
-    deadline = time.monotonic_ns()
-    end = deadline + round(duration_s * 1e9)
-    while deadline < end:
-        deadline += period_ns
-        wait = deadline - time.monotonic_ns()
-        if wait > 0:
-            time.sleep(wait / 1e9)
-        now = time.monotonic_ns()
-        lateness.add(now - deadline)
-        if clock.since_last_if_late(now) is not None:
-            missed += 1
-        clock.ticked(now, now)
+    for _ in loop.ticks(duration_s):
         if work_us:
             stop = time.perf_counter() + work_us * 1e-6
             while time.perf_counter() < stop:
                 pass
-        if now - deadline > period_ns:  # late by more than a period: resume from now
-            lateness.skipped += (now - deadline) // period_ns
-            deadline = time.monotonic_ns()
-    return {
-        "work_us": work_us,
-        "ticks": lateness.count,
-        "missed": missed,
-        "missed_share": missed / lateness.count,
-        "lateness_p50_us": lateness.quantile_us(0.5),
-        "lateness_p99_us": lateness.quantile_us(0.99),
-        "lateness_max_us": lateness.max_ns / 1e3,
-        "skipped_deadlines": lateness.skipped,
-        "steal_s": steal_s() - steal0,
-    }
+    return {"work_us": work_us, **loop.counts(), "steal_s": steal_s() - steal0}
 
 
 def main() -> int:

@@ -1,8 +1,9 @@
 """The middleware's floor under the node's rate goals: what publishing the node's messages costs a
 process that does nothing else, on this machine, with the pinned rclpy and Fast DDS.
 
-A publisher process sleeps to absolute deadlines as the node's tick thread does (SCHED_FIFO when
-allowed, through the node's own ``apply_tick_policy``) and at each deadline publishes the node's
+A publisher process sleeps to absolute deadlines as the node's tick thread does
+(``deadline_floor.DeadlineLoop``; SCHED_FIFO when allowed, through the node's own
+``apply_tick_policy``) and at each deadline publishes the node's
 per-tick messages as bytes serialised once (``Publisher.publish(bytes)``: no message building,
 no packing, no model, no recording, no executor). A second process subscribes as the
 ``node_rate.py`` driver does (reliable, depth 10, to ``/joint_states``; ``--tf-subscribed`` adds
@@ -32,6 +33,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+from deadline_floor import DeadlineLoop  # the tick thread's loop, counted as the node counts
 
 RESULTS = Path(__file__).with_name("results") / "middleware_floor.json"
 CONFIGS = ("loop", "joint_states", "joint_states + /tf")
@@ -74,8 +77,7 @@ def publisher(
     from sensor_msgs.msg import JointState
     from tf2_msgs.msg import TFMessage
 
-    from drs_ros.node.tick import SimulationClock
-    from drs_ros.node.tick_schedule import LatenessHistogram, apply_tick_policy, leave_tick_policy
+    from drs_ros.node.tick_schedule import apply_tick_policy, leave_tick_policy
     from drs_ros.publishing import create_publisher
 
     rclpy.init()
@@ -93,34 +95,18 @@ def publisher(
         while made[topic].get_subscription_count() < 1 and time.monotonic() < give_up:
             time.sleep(0.05)
     policy = apply_tick_policy("fifo", 10)  # the node's default priority
-    period_ns = round(1e9 / rate_hz)
     published = 0
-    deadline = time.monotonic_ns()
-    window = None
-    end_warm = deadline + round(warm_s * 1e9)
-    end = end_warm + round(duration_s * 1e9)
-    clock, lateness, missed = SimulationClock(False, period_ns), LatenessHistogram(), 0
     try:
-        while deadline < end:
-            deadline += period_ns
-            wait = deadline - time.monotonic_ns()
-            if wait > 0:
-                time.sleep(wait / 1e9)
-            now = time.monotonic_ns()
-            if window is None and now >= end_warm:
-                window = (time.process_time(), time.monotonic())
-            if window is not None:
-                lateness.add(now - deadline)
-                if clock.since_last_if_late(now) is not None:
-                    missed += 1
-            clock.ticked(now, now)
+        for _ in DeadlineLoop(rate_hz).ticks(warm_s):  # not counted
             for pub, data in pubs:
                 pub.publish(data)
-            published += 1 if pubs and window is not None else 0
-            if now - deadline > period_ns:  # late by more than a period: resume from now
-                deadline = time.monotonic_ns()
-        cpu = time.process_time() - window[0]
-        wall = time.monotonic() - window[1]
+        loop = DeadlineLoop(rate_hz)
+        cpu0, wall0 = time.process_time(), time.monotonic()
+        for _ in loop.ticks(duration_s):
+            for pub, data in pubs:
+                pub.publish(data)
+            published += 1 if pubs else 0
+        cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
     finally:
         leave_tick_policy(policy)
     node.destroy_node()
@@ -130,9 +116,7 @@ def publisher(
         "rate_hz": rate_hz,
         "policy": policy.text(),
         "cpu_share": cpu / wall,
-        "ticks": lateness.count,
-        "missed_share": missed / max(lateness.count, 1),
-        "lateness_p99_us": lateness.quantile_us(0.99),
+        **loop.counts(),
         "published": published,  # in the measured window
     }
 
