@@ -78,8 +78,9 @@ def _same(a, b) -> bool:
 
 def test_compiled_kernels_equal_the_plain_ones_to_the_bit(params):
     """numba's builds of the one-sample kernels and fixed steps (what the real-time loop, the
-    psi3 right-hand side and one inverse-dynamics force run) give the plain Python functions'
-    values to the last bit, NaN where they give NaN, inside and outside the assembly range."""
+    psi3 right-hand side and one inverse-dynamics force run, and the arctangent the force calls)
+    give the plain Python functions' values to the last bit, NaN where they give NaN, inside and
+    outside the assembly range."""
     from drs_model import kernels
     from drs_model.bodies import model_constants
     from drs_model.compiled.jit import compiled as build
@@ -106,6 +107,9 @@ def test_compiled_kernels_equal_the_plain_ones_to_the_bit(params):
             build(kernels.fused_manoeuvre_force)(t, ca, ka), kernels.fused_manoeuvre_force(t, c, k)
         )
     assert math.isnan(build(kernels.fused_force)(-0.01, 0.0, 0.0, ca))  # past the dead centre
+    yx = rng.normal(size=(2000, 2)) * 10.0 ** rng.uniform(-5.0, 5.0, (2000, 2))
+    for y, x in (*yx.tolist(), (-0.0, 1.0), (1.0, -1.0), (math.inf, 2.0), (math.nan, 1.0)):
+        assert _same(build(kernels.arctangent)(y, x), kernels.arctangent(y, x)), (y, x)
 
 
 def test_compiled_force_equals_newton_euler(params, mforce):
