@@ -23,28 +23,33 @@ $(STAMP): pyproject.toml $(INTERFACES) | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[ros,plots,dev,fast,fleet]" -r interfaces/build-requirements.txt
 	$(BIN)/python interfaces/build.py --quiet
-	# numba's on-disk cache, filled once here: no test, demo or node start compiles on a cold cache
-	$(BIN)/python -m drs_model.compiled
 	touch $(STAMP)
 
-venv: $(STAMP)
+# numba's on-disk cache, filled here so that no test, demo or node start compiles on a cold cache,
+# and emptied first whenever a model source changed since: numba checks only the file of the
+# function it compiled, so a kernel edited in drs_model/kernels.py would leave the builds that
+# inline it from other files (the gufuncs, the study's loops, the tests' own) stale
+NUMBA_STAMP := $(VENV)/.numba-cache
+$(NUMBA_STAMP): $(STAMP) $(shell find drs_model -name '*.py')
+	$(MAKE) --no-print-directory clean-cache
+	$(BIN)/python -m drs_model.compiled
+	touch $(NUMBA_STAMP)
 
-demo: $(STAMP)
+venv: $(STAMP) $(NUMBA_STAMP)
+
+demo: $(STAMP) $(NUMBA_STAMP)
 	$(BIN)/drs-demo
 
-test: $(STAMP)
+test: $(STAMP) $(NUMBA_STAMP)
 	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest
 
 lint: $(STAMP)
 	$(BIN)/ruff check drs_model drs_ros tests benchmarks interfaces
 
-bench: $(STAMP)
+bench: $(STAMP) $(NUMBA_STAMP)
 	$(BIN)/python benchmarks/work_precision.py
 
-# numba checks only the file of the function it compiled: after editing drs_model/kernels.py, the
-# cached builds of the compiled functions in other files that call a kernel are stale (the tests'
-# and benchmarks' own compiled functions too; the RK driver's builds, drs_model/compiled/drivers.py,
-# carry the digest of the code they inline and compile anew by themselves)
+# every numba build cached in the tree (make venv, demo and test do it after a model edit)
 clean-cache:
 	find drs_model tests benchmarks -name '*.nbi' -delete -o -name '*.nbc' -delete
 
