@@ -49,7 +49,7 @@ lint: $(STAMP)
 bench: $(STAMP) $(NUMBA_STAMP)
 	$(BIN)/python benchmarks/work_precision.py
 
-# every numba build cached in the tree (make venv, demo and test do it after a model edit)
+# every numba build cached in the tree (make venv, demo, test and bench do it after a model edit)
 clean-cache:
 	find drs_model tests benchmarks -name '*.nbi' -delete -o -name '*.nbc' -delete
 

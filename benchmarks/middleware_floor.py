@@ -39,31 +39,33 @@ from deadline_floor import DeadlineLoop  # the tick thread's loop, counted as th
 RESULTS = Path(__file__).with_name("results") / "middleware_floor.json"
 CONFIGS = ("loop", "joint_states", "joint_states + /tf")
 GOALS = {1000.0: 0.15, 250.0: 0.06}  # the rate goals: the whole node's share of a core
-JOINTS = ("drs_piston", "drs_link", "drs_flap")  # drs_ros.names.DEFAULT_JOINT_NAMES
-FRAMES = (("drs_base", "drs_piston"), ("drs_piston", "drs_link"), ("drs_base", "drs_flap"))
+BASE_FRAME = "drs_base"  # the node's frame_id by default
 
 
 def node_messages() -> dict[str, bytes]:
-    """The node's per-tick messages, serialised once: a JointState of the three joints and a
-    TFMessage of their three moving transforms (sizes as the node's)."""
-    from geometry_msgs.msg import TransformStamped
+    """The node's per-tick messages at the seed's closed stroke, serialised once: a JointState
+    of its default joints and the TFMessage of their three moving transforms, built by the
+    node's own description (``description.moving_transforms``, ``tf_tree.transform_msg``)."""
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
     from tf2_msgs.msg import TFMessage
 
-    states = JointState(name=list(JOINTS), position=[0.01, 0.2, -0.1],
-                        velocity=[1.0, 2.0, -3.0], effort=[1500.0, 0.0, 0.0])  # fmt: skip
-    states.header.frame_id = "drs_base"
-    transforms = []
-    for parent, child in FRAMES:
-        t = TransformStamped(child_frame_id=child)
-        t.header.frame_id = parent
-        t.transform.translation.y = 0.01
-        t.transform.rotation.w = 1.0
-        transforms.append(t)
+    from drs_model import DRSParams
+    from drs_model.kinematics import solve_position, stroke_limits
+    from drs_ros.names import DEFAULT_JOINT_NAMES
+    from drs_ros.stack import description
+    from drs_ros.stack.tf_tree import transform_msg
+
+    p = DRSParams()
+    q = solve_position(stroke_limits(p)[0], p)
+    states = JointState(name=list(DEFAULT_JOINT_NAMES), position=[float(v) for v in q],
+                        velocity=[0.0, 0.0, 0.0], effort=[0.0, 0.0, 0.0])  # fmt: skip
+    states.header.frame_id = BASE_FRAME
+    frames = description.Frames.of(DEFAULT_JOINT_NAMES, BASE_FRAME)
+    moving = description.moving_transforms(q, description.JointOrigins.of(p), frames)
     return {
         "/joint_states": serialize_message(states),
-        "/tf": serialize_message(TFMessage(transforms=transforms)),
+        "/tf": serialize_message(TFMessage(transforms=[transform_msg(t, 0) for t in moving])),
     }
 
 
@@ -95,7 +97,6 @@ def publisher(
         while made[topic].get_subscription_count() < 1 and time.monotonic() < give_up:
             time.sleep(0.05)
     policy = apply_tick_policy("fifo", 10)  # the node's default priority
-    published = 0
     try:
         for _ in DeadlineLoop(rate_hz).ticks(warm_s):  # not counted
             for pub, data in pubs:
@@ -105,7 +106,6 @@ def publisher(
         for _ in loop.ticks(duration_s):
             for pub, data in pubs:
                 pub.publish(data)
-            published += 1 if pubs else 0
         cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
     finally:
         leave_tick_policy(policy)
@@ -117,7 +117,7 @@ def publisher(
         "policy": policy.text(),
         "cpu_share": cpu / wall,
         **loop.counts(),
-        "published": published,  # in the measured window
+        "published": loop.lateness.count if pubs else 0,  # a message a tick of the window
     }
 
 

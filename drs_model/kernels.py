@@ -75,15 +75,16 @@ _PI_2_LOW = 6.123233995736765886130e-17  # pi/2 - float(pi/2): the bits pi/2 los
 def arctangent(y, x):
     """The angle [rad] of the point ``(x, y)``: :func:`math.atan2`'s, within 1 ulp of it.
 
-    Why not ``math.atan2``: compiled, libm's call was 20-28 ns of the ~70 ns of
-    :func:`fused_force` on a sample; this costs a third of it for ``x > 0`` (the flap's half
-    plane), Cephes' rational ``atan`` of ``y / x``, and is ``math.atan2`` elsewhere (NaN and
-    the left half plane included). A signed zero keeps its sign.
+    Why not ``math.atan2``: compiled, libm's call was 15-28 ns of the ~70 ns of
+    :func:`fused_force` on a sample; for ``x > 0`` (the flap's half plane) this is Cephes'
+    rational ``atan`` of ``y / x``, ~7.5 ns cheaper (a moving sample 66.4 -> 59 ns,
+    docs/dynamics.md), and ``math.atan2`` elsewhere (NaN and the left half plane included). A
+    signed zero keeps its sign.
     """
     if not x > 0.0:
         return math.atan2(y, x)
     t = y / x
-    if t == 0.0 or t != t:  # a signed zero, or inf / inf
+    if t == 0.0 or t != t:  # a signed zero, or NaN (a NaN y, inf / inf)
         return math.atan2(y, x)
     negative = t < 0.0
     if negative:
