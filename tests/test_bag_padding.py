@@ -26,8 +26,32 @@ FILLED = {"/drs/joint_reactions": 1679, "/diagnostics": 3, "/drs/drs/_service_ev
 FILL = 0xA5
 
 
-def ignored_zero_bytes(data: bytes, cls) -> list[int]:
-    """The zero bytes of ``data`` (after the encapsulation header) that rclpy's decoder ignores."""
+def _rosbags_judge(type_name: str, schema: bytes) -> callable:
+    """``same(data, changed)``: whether rosbags decodes ``changed`` to what ``data`` decodes to
+    (its exact CDR again); a service event by its own schema, under rosbags' name for it."""
+    from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys.msg import get_types_from_msg
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    name = type_name
+    if "/srv/" in type_name:
+        store.register(get_types_from_msg(schema.decode(), type_name))
+        name = type_name.replace("/srv/", "/srv/msg/")
+
+    def same(data: bytes, changed: bytes) -> bool:
+        try:
+            return bytes(store.serialize_cdr(store.deserialize_cdr(changed, name), name)) == data
+        except Exception:  # noqa: BLE001 - a byte the decoder needs: not padding
+            return False
+
+    return same
+
+
+def ignored_zero_bytes(data: bytes, cls, rosbags_same) -> list[int]:
+    """The zero bytes of ``data`` (after the encapsulation header) that neither rclpy's decoder
+    nor rosbags' reads: the message decodes equal with the byte changed. Both, as rclpy (with
+    these wheels) reads a sequence count it cannot honour as an empty sequence, with a line on
+    stderr and no error."""
     from rclpy.serialization import deserialize_message
 
     ref = deserialize_message(data, cls)
@@ -37,10 +61,11 @@ def ignored_zero_bytes(data: bytes, cls) -> list[int]:
             changed = bytearray(data)
             changed[k] = FILL
             try:
-                if deserialize_message(bytes(changed), cls) == ref:
-                    out.append(k)
-            except Exception:  # noqa: BLE001, S112 - a byte the decoder needs: not padding
-                continue
+                same = deserialize_message(bytes(changed), cls) == ref
+            except Exception:  # noqa: BLE001 - a byte the decoder needs: not padding
+                same = False
+            if same and rosbags_same(data, bytes(changed)):
+                out.append(k)
     return out
 
 
@@ -49,8 +74,11 @@ def padded_bag(tmp_path_factory) -> Path:
     require_rclpy()
     from rclpy.serialization import deserialize_message
 
+    from drs_ros.bag.reader import scan
     from drs_ros.recording import msgdefs
 
+    judges = {c.topic: _rosbags_judge(c.type_name, c.schema_data)
+              for c in scan(EXAMPLE).channels.values()}  # fmt: skip
     filled: dict[str, int] = {}
     where: dict[tuple[str, int], list[int]] = {}  # (topic, length) -> padding offsets
 
@@ -60,7 +88,7 @@ def padded_bag(tmp_path_factory) -> Path:
         cls = msgdefs.message_class(type_name)
         key = (topic, len(data))
         if key not in where:
-            where[key] = ignored_zero_bytes(data, cls)
+            where[key] = ignored_zero_bytes(data, cls, judges[topic])
         out = bytearray(data)
         for k in where[key]:
             out[k] = FILL
@@ -137,3 +165,34 @@ def test_a_difference_beyond_the_padding_is_still_refused(padded_bag, tmp_path):
         rec.write("/flag", two, 1)
     with pytest.raises(BagReadError, match=r"at byte 4, which is not alignment padding"):
         scan(tmp_path / "bool")
+
+
+def test_the_padding_zeroed_is_what_two_independent_decoders_ignore():
+    """For the first message of every topic of the example bag: the zero bytes that rclpy and
+    rosbags both ignore, filled, are zeroed again by ``zero_padding``, and nothing else is
+    changed; a count byte that rclpy alone ignores (it reads an impossible count of an empty
+    sequence as empty) is not padding, and is refused."""
+    require_rclpy()
+    from drs_ros.bag.reader import scan
+    from drs_ros.recording import cdr, msgdefs
+    from drs_ros.recording.cdr_padding import zero_padding
+
+    first = {}
+    result = scan(EXAMPLE, lambda m: first.setdefault(m.topic, m))
+    assert len(first) == len(result.counts)
+    padded_types = 0
+    for m in first.values():
+        cls = msgdefs.message_class(m.type_name)
+        where = ignored_zero_bytes(m.data, cls, _rosbags_judge(m.type_name, m.channel.schema_data))
+        filled = bytearray(m.data)
+        for k in where:
+            filled[k] = FILL
+        assert zero_padding(bytes(filled), cls) == m.data, m.topic
+        padded_types += bool(where)
+    assert padded_types >= 6  # JointState, DiagnosticArray, MarkerArray, ParameterEvent, ...
+    events = first["/parameter_events"]
+    cls = msgdefs.message_class(events.type_name)
+    count = bytearray(events.data)
+    count[97] = FILL  # a byte of new_parameters[0]'s string_array_value count (0)
+    with pytest.raises(cdr.CdrError, match="string_array_value"):
+        zero_padding(bytes(count), cls)
