@@ -16,7 +16,7 @@ import functools
 import importlib
 import struct
 
-from .cdr import _BASIC, CdrError, Reader
+from .cdr import BASIC_TYPES, CdrError, Reader
 
 
 def _message_class(typ) -> type:
@@ -26,7 +26,7 @@ def _message_class(typ) -> type:
 def _skip_basic(r: Reader, typename: str, n: int, what: str) -> None:
     """``n`` primitives of ``typename`` back to back (aligned once, as the serialisers write
     them); none: no alignment either."""
-    size = _BASIC[typename][1]
+    size = BASIC_TYPES[typename][1]
     if n:
         r.align(size)
         r.need(size * n, what)
