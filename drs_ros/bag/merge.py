@@ -189,8 +189,8 @@ def merge(sources: Sequence[str | Path], out: str | Path) -> dict:
     except BaseException:
         _remove(rec, out, made)
         raise
-    return {"output": str(out), "sources": [{"bag": str(s.path), "messages": s.message_count}
-                                            for s in scans],
+    return {"output": str(out), "sources": [{"bag": str(source), "messages": s.message_count}
+                                            for source, s in zip(sources, scans, strict=True)],
             "messages": sum(counts.values()), "per_topic": counts}  # fmt: skip
 
 
