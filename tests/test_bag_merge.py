@@ -74,3 +74,32 @@ def test_two_bags_of_one_run_split_by_topic_merge_back_into_it(tmp_path, capsys)
 
     assert sorted(records(tmp_path / "ab")) == sorted(records(EXAMPLE))
     assert main(["check", str(tmp_path / "ab")]) == 0
+
+
+def test_a_sqlite3_bag_merges_with_an_mcap_bag(tmp_path, capsys):
+    """A sqlite3 bag (rosbags' writer) and an MCAP bag of no drs node (the example's records
+    on other topics): every record of both,
+    each bag's in its own order; the result checks."""
+    require_rclpy()
+    from ros_support import mcap_to_db3
+
+    from drs_ros.bag.reader import scan
+
+    db3 = mcap_to_db3(EXAMPLE, tmp_path / "db3")
+    topics = [t for t in scan(EXAMPLE).counts if t != "/parameter_events"]
+    other = copy_bags([EXAMPLE], tmp_path / "other", leave_out=["/parameter_events"],
+                      rename={t: "/other" + t for t in topics})  # fmt: skip
+    assert main(["merge", str(db3), str(other), "-o", str(tmp_path / "both")]) == 0
+    assert "db3: 8517 messages" in capsys.readouterr().out
+
+    def records(bag):
+        out = []
+        scan(bag, lambda m: out.append((m.topic, m.log_time, m.sequence, m.data)))
+        return out
+
+    merged, sources = records(tmp_path / "both"), [records(db3), records(other)]
+    assert sorted(merged) == sorted(sources[0] + sources[1])
+    for source in sources:
+        mine = set(source)
+        assert [r for r in merged if r in mine] == source
+    assert main(["check", str(tmp_path / "both")]) == 0
