@@ -4,7 +4,9 @@ several real bags merged into one (two drs nodes in one bag), written as rosbag2
 
 Every source is read verified (:func:`drs_ros.bag.reader.scan`); channels keep their schema and
 metadata (the first source's, for a topic two sources share); messages keep their bytes, times
-and sequence numbers, and are written in log-time order (ties in source order).
+and sequence numbers, in the order ``drs-bag merge`` writes them
+(:func:`drs_ros.bag.merge.merged_messages`: each source's in its recorded order, interleaved by
+log time). Bags merged as they are: ``drs-bag merge`` itself.
 """
 
 from __future__ import annotations
@@ -22,19 +24,16 @@ def copy_bags(sources: Sequence[str | Path], out: str | Path,
     them); ``change(topic, type_name, data) -> data`` may replace a message's bytes. Returns
     ``out``."""
     rename = rename or {}
+    from drs_ros.bag.merge import merged_messages
     from drs_ros.bag.reader import scan
     from drs_ros.recording.mcap_recorder import McapRecorder
     from drs_ros.recording.qos import parse_qos_yaml
 
     channels: dict[str, object] = {}
-    messages: list[tuple[int, int, int, object]] = []
-    for i, source in enumerate(sources):
-        result = scan(source, lambda m, i=i: messages.append((m.log_time, i, len(messages), m)))
-        for channel in result.channels.values():
+    for source in sources:  # verified, every byte
+        for channel in scan(source).channels.values():
             if channel.topic not in leave_out:
                 channels.setdefault(channel.topic, channel)
-    messages = [item for item in messages if item[3].topic not in leave_out]
-    messages.sort(key=lambda item: item[:3])
     with McapRecorder(out, flush_thread=False) as rec:
         for channel in channels.values():
             rec.register_recorded_topic(
@@ -43,7 +42,9 @@ def copy_bags(sources: Sequence[str | Path], out: str | Path,
                 parse_qos_yaml(channel.metadata.get("offered_qos_profiles", "")),
                 channel.metadata.get("topic_type_hash", ""),
             )  # fmt: skip
-        for _log, _i, _n, m in messages:
+        for m in merged_messages(sources):
+            if m.topic in leave_out:
+                continue
             data = m.data if change is None else change(m.topic, m.type_name, m.data)
             rec.write(rename.get(m.topic, m.topic), data, m.log_time, m.publish_time,
                       sequence=m.sequence)  # fmt: skip

@@ -247,3 +247,33 @@ def test_compressed_chunks_are_checked(tmp_path, params, compression, capsys):
     raw[chunk.chunk_start_offset + chunk.chunk_length - 8] ^= 0xFF  # in its compressed data
     mcap_file.write_bytes(bytes(raw))
     assert check.main([str(bag)]) == check.EXIT_UNREADABLE
+
+
+def _notes(bag, capsys) -> list[str]:
+    assert check.main([str(bag), "--json"]) == 0
+    return json.loads(capsys.readouterr().out)["notes"]
+
+
+def test_notes_say_only_what_the_bag_records(tmp_path, capsys):
+    """The example bag was recorded before the fidelity parameter: its rung is the node's
+    default, assumed, not a recorded value; without its /parameter_events it records no
+    parameters at all; a bare .mcap file has no metadata.yaml to verify."""
+    require_rclpy()
+    from pathlib import Path
+
+    from bag_support import copy_bags
+
+    example = Path(__file__).resolve().parents[1] / "bags" / "example"
+    notes = _notes(example, capsys)
+    assert not any("recorded fidelity parameter" in n for n in notes)
+    assert ("judged on the rigid rung: no fidelity was recorded (the parameters /drs recorded "
+            "hold none); the node's default, rigid, was assumed") in notes
+    assert "model parameters: recorded by /drs on /parameter_events" in notes
+    bare = copy_bags([example], tmp_path / "bare", leave_out=["/parameter_events"])
+    notes = _notes(bare, capsys)
+    assert ("judged on the rigid rung: no fidelity was recorded (the bag records no parameters "
+            "of the node); the node's default, rigid, was assumed") in notes
+    assert any(n.startswith("model parameters: the seed's") for n in notes)
+    assert notes[0].endswith("(CRCs, summary, metadata.yaml, exact CDR)")
+    (mcap,) = bare.glob("*.mcap")
+    assert _notes(mcap, capsys)[0].endswith("(CRCs, summary, exact CDR)")

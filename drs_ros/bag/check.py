@@ -241,6 +241,9 @@ def recorded_params(node: BagNode | None) -> tuple[DRSParams, str]:
         return DRSParams(), "the seed's (the bag names no drs node)"
     if node.parameters is None:
         return DRSParams(), f"the seed's (the bag recorded none for {node.name})"
+    if not any(name.startswith("model.") for name in node.parameters):
+        return DRSParams(), (f"the seed's (the parameters {node.name} recorded on "
+                             "/parameter_events hold no model.* value)")  # fmt: skip
     return model_params_from(node.parameters), f"recorded by {node.name} on /parameter_events"
 
 
@@ -349,8 +352,13 @@ def run_notes(checker: RunChecker) -> list[str]:
         rung = f"the rung of the run is unknown: {checker.rung_error}"
     elif record.fidelity == "auto":
         rung = f"judged on the {checker.rung} rung (fidelity auto's choice, in the effect record)"
-    else:
+    elif record.fidelity_recorded:
         rung = f"judged on the {checker.rung} rung (the recorded fidelity parameter)"
+    else:  # say what the bag lacks: the rung is the node's default, not a recorded value
+        why = ("the bag records no parameters of the node" if record.node_parameters is None
+               else f"the parameters {record.node} recorded hold none")  # fmt: skip
+        rung = (f"judged on the {checker.rung} rung: no fidelity was recorded ({why}); the "
+                f"node's default, {record.fidelity}, was assumed")  # fmt: skip
     return [rung, *record.fault_notes]
 
 

@@ -5,6 +5,7 @@
   (:mod:`drs_ros.bag.check`; ``drs-check`` is its alias);
 * ``drs-bag recover BAG -o OUT``: a killed or truncated recording made whole
   (:mod:`drs_ros.bag.recover`);
+* ``drs-bag merge A B -o OUT``: several bags in one, byte for byte (:mod:`drs_ros.bag.merge`);
 * ``drs-bag resimulate BAG``: re-run the recorded commands in the model and compare
   (:mod:`drs_ros.bag.resimulate`);
 * ``drs-bag play BAG``: publish the recorded messages onto ROS 2 topics (:mod:`drs_ros.bag.play`);
@@ -38,6 +39,7 @@ VERBS = {
     "info": ("drs_ros.bag.info", "print what a bag holds (as ros2 bag info)"),
     "check": ("drs_ros.bag.check", "verify every byte of a bag and check it against the model"),
     "recover": ("drs_ros.bag.recover", "make a killed or truncated recording a complete bag"),
+    "merge": ("drs_ros.bag.merge", "merge several bags into one rosbag2 bag, byte for byte"),
     "resimulate": ("drs_ros.bag.resimulate", "re-run a recorded run in the model and compare"),
     "play": ("drs_ros.bag.play", "publish a bag onto ROS 2 topics (as ros2 bag play)"),
     "index": ("drs_ros.bag.catalogue", "catalogue many bags from their summaries (Parquet)"),

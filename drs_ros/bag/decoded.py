@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..timestamps import ns_of, seconds_from_ns
 from .reader import scan
-from .recorded import RecordedMessage
+from .recorded import BagScan, RecordedMessage
 
 
 @dataclass
@@ -78,6 +78,17 @@ def decoder() -> Callable[[RecordedMessage], object]:
     return decode
 
 
+def verified_what(result: BagScan) -> str:
+    """What :func:`~drs_ros.bag.reader.scan` verified of a complete bag: the storage's own
+    checks, ``metadata.yaml`` only when the bag has one, the exact CDR."""
+    meta = result.metadata or {}
+    sqlite = meta.get("storage_identifier") == "sqlite3" or result.path.suffix == ".db3"
+    what = ["SQLite integrity check"] if sqlite else ["CRCs", "summary"]
+    if result.metadata is not None:
+        what.append("metadata.yaml")
+    return ", ".join([*what, "exact CDR"])
+
+
 def stream_bag(
     path: str | Path,
     topics: Sequence[str],
@@ -111,9 +122,9 @@ def stream_bag(
     notes = list(result.notes)
     if result.complete:
         notes.insert(0, f"verified: {result.message_count} messages, every byte read "
-                        "(CRCs, summary, metadata.yaml, exact CDR)")  # fmt: skip
+                        f"({verified_what(result)})")  # fmt: skip
     return BagData(result.path, {}, dict(result.counts), not result.complete, notes, first,
                    result.start_ns, result.end_ns)  # fmt: skip
 
 
-__all__ = ["BagData", "decoder", "stamp_s", "stream_bag"]
+__all__ = ["BagData", "decoder", "stamp_s", "stream_bag", "verified_what"]

@@ -10,7 +10,9 @@
   counts per channel against the messages actually read;
 * every message: its channel is known, and its bytes are exactly its CDR serialisation: it is
   decoded by the installed type support (``rclpy.serialization.deserialize_message``) and
-  serialised again by :mod:`drs_ros.recording.cdr`; trailing bytes or non-zero padding are an error;
+  serialised again by :mod:`drs_ros.recording.cdr`; bytes that differ from it are an error,
+  but for up to 3 trailing zero bytes (the transport's) and non-zero alignment padding (its
+  content is unspecified; noted per topic);
 * a bag directory's ``metadata.yaml``: present, well formed
   (:func:`drs_ros.bag.files.read_metadata`), naming files that exist, and its per-topic counts
   equal to what was read from all of them.
@@ -47,18 +49,24 @@ from .mcap_file import scan_file
 from .recorded import BagScan, ChannelInfo, MessageCallbackError, RecordedMessage
 
 
-def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]:
-    """``check(type_name, data) -> problem, '' (exact) or None (type not installed)``: decode
-    with the installed type support and serialise again exactly. Up to 3 zero bytes after the
-    exact CDR are the DDS transport's padding (:func:`drs_ros.recording.cdr.exact_bytes`):
-    rosbag2 records them as they arrive; they are counted in ``padded`` per type, not refused."""
+def _exact_checker(padded: dict[str, int],
+                   filled: dict[str, int]) -> Callable[[str, str, bytes], str | None]:  # fmt: skip
+    """``check(topic, type_name, data) -> problem, '' (exact) or None (type not installed)``:
+    decode with the installed type support and serialise again exactly. Up to 3 zero bytes
+    after the exact CDR are the DDS transport's padding
+    (:func:`drs_ros.recording.cdr.exact_bytes`): rosbag2 records them as they arrive; they are
+    counted in ``padded`` per type, not refused. Non-zero alignment padding (its content is
+    unspecified, rclpy decodes the message) is counted in ``filled`` per topic, not refused: the
+    bytes with their padding zeroed (:func:`~drs_ros.recording.cdr_padding.zero_padding`) must
+    be the exact CDR; any other difference is a problem."""
     from rclpy.serialization import deserialize_message
 
     from drs_ros.recording import cdr, msgdefs
+    from drs_ros.recording.cdr_padding import zero_padding
 
     classes: dict[str, Any] = {}
 
-    def check(type_name: str, data: bytes) -> str | None:
+    def check(topic: str, type_name: str, data: bytes) -> str | None:
         cls = classes.get(type_name)
         if cls is None:
             try:
@@ -78,11 +86,18 @@ def _exact_checker(padded: dict[str, int]) -> Callable[[str, bytes], str | None]
         if data.startswith(again) and cdr.is_transport_padding(tail):
             padded[type_name] = padded.get(type_name, 0) + 1  # DDS's padding, not a leak
             return ""
+        try:
+            if zero_padding(data, cls) == again:  # a difference in alignment padding only
+                filled[topic] = filled.get(topic, 0) + 1
+                return ""
+        except cdr.CdrError:
+            pass  # not even CDR of its type in the walk: the difference below says where
         if len(data) != len(again):
             return (f"is {len(data)} bytes where its CDR serialisation is {len(again)} "
                     f"({len(data) - len(again):+d} bytes)")  # fmt: skip
         first = next(i for i, (a, b) in enumerate(zip(data, again, strict=True)) if a != b)
-        return f"differs from its CDR serialisation at byte {first} (non-zero padding?)"
+        return (f"differs from its CDR serialisation at byte {first}, which is not alignment "
+                "padding")  # fmt: skip
 
     return check
 
@@ -126,7 +141,8 @@ def scan(
     bag = resolve(path, require_metadata=not recover)
     wanted = None if topics is None else set(topics)
     padded: dict[str, int] = {}
-    check = _exact_checker(padded) if exact else None
+    filled: dict[str, int] = {}
+    check = _exact_checker(padded, filled) if exact else None
     unverified: set[str] = set()
     take = partial(_take, check=check, unverified=unverified, on_message=on_message,
                    wanted=wanted)  # fmt: skip
@@ -151,6 +167,10 @@ def scan(
         _check_metadata(out, bag.metadata, bag.bag_dir / "metadata.yaml")
     if out.complete and unverified:
         out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
+    if filled:  # said of a recovered part too: what was read of it holds them
+        out.notes.append(f"messages whose CDR alignment padding holds non-zero bytes (its "
+                         f"content is unspecified; rclpy decodes them, every other byte is "
+                         f"their exact CDR), per topic: {filled}")  # fmt: skip
     if out.complete and padded:
         out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
                          f"their exact CDR: {padded}")  # fmt: skip
@@ -193,7 +213,7 @@ def _take(
     rec,
     at: int,
     path: Path,
-    check: Callable[[str, bytes], str | None] | None,
+    check: Callable[[str, str, bytes], str | None] | None,
     unverified: set[str],
     on_message: Callable[[RecordedMessage], None] | None,
     wanted: set[str] | None,
@@ -206,7 +226,7 @@ def _take(
         raise BagReadError(f"{str(path)!r}: a message at offset {at} names channel "
                            f"{rec.channel_id}, never declared")  # fmt: skip
     if check is not None:
-        problem = check(channel.type_name, rec.data)
+        problem = check(channel.topic, channel.type_name, rec.data)
         if problem is None:
             unverified.add(channel.type_name)
         elif problem:
@@ -234,7 +254,7 @@ def _take(
 def _scan_sqlite(
     bag: BagFiles,
     on_message: Callable[[RecordedMessage], None] | None,
-    check: Callable[[str, bytes], str | None] | None,
+    check: Callable[[str, str, bytes], str | None] | None,
     wanted: set[str] | None,
     unverified: set[str],
 ) -> BagScan:

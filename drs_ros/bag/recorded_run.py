@@ -156,6 +156,12 @@ class RecordedRun:
         return str((self.node_parameters or {}).get("fidelity", "rigid"))
 
     @property
+    def fidelity_recorded(self) -> bool:
+        """Whether the node recorded its ``fidelity`` parameter (else :attr:`fidelity` is the
+        node's default, assumed)."""
+        return "fidelity" in (self.node_parameters or {})
+
+    @property
     def dt(self) -> float:
         """The physics step [s]."""
         rate = (self.node_parameters or {}).get("physics_rate_hz")

@@ -38,7 +38,7 @@ from ..errors import DRSRosError
 CDR_LE_HEADER = b"\x00\x01\x00\x00"
 
 # rosidl basic type -> (struct code, size [bytes]); size is also the alignment
-_BASIC = {
+BASIC_TYPES = {
     "boolean": ("?", 1),
     "octet": ("B", 1),
     "char": ("B", 1),
@@ -99,7 +99,7 @@ def _as_int(value) -> int:
 
 
 def _basic_writer(typename: str) -> tuple[Writer, int]:
-    code, size = _BASIC[typename]
+    code, size = BASIC_TYPES[typename]
     packer = struct.Struct("<" + code)
     convert = _as_int if typename in ("octet", "char") else None
 
@@ -122,7 +122,7 @@ def write_string(buf: bytearray, value: str) -> None:
 
 def _basic_block_writer(typename: str) -> Writer:
     """Elements of a basic type, back to back (the body of an array or a sequence)."""
-    code, size = _BASIC[typename]
+    code, size = BASIC_TYPES[typename]
     convert = typename in ("octet", "char", "boolean")
 
     def write(buf: bytearray, values) -> None:
@@ -196,7 +196,7 @@ def _flat_class(cls: type):
     kinds = {t.typename if isinstance(t, BasicType) else None for t in cls.SLOT_TYPES}
     if len(kinds) != 1 or kinds & {None} or next(iter(kinds)) not in ("double", "float"):
         return None
-    code, size = _BASIC[next(iter(kinds))]
+    code, size = BASIC_TYPES[next(iter(kinds))]
     getter = operator.attrgetter(*cls.get_fields_and_field_types())
     if len(cls.SLOT_TYPES) == 1:
         return code, size, lambda item, g=getter: (g(item),)
