@@ -15,11 +15,11 @@ from .recorded_run import RecordedRun
 
 
 @contextmanager
-def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams, rung: str):
+def bag_writer(out: str | Path, run: RecordedRun, models: tuple[DRSParams, object], rung: str):
     """The re-simulated run as a new bag, written as :func:`.deviations.compare` goes (its
     ``on_state``): the parameters it ran with, then joint states, force, gap and acceleration
-    at the recorded stamps (so ``drs-bag check`` checks it too). Nothing is left of it if the
-    re-run fails."""
+    at the recorded stamps (so ``drs-bag check`` checks it too). ``models``: the re-run's
+    DRSParams and HydraulicParams. Nothing is left of it if the re-run fails."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rcl_interfaces.msg import ParameterEvent
     from sensor_msgs.msg import JointState
@@ -32,7 +32,11 @@ def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams, rung: str):
     names = list(run.node_parameters["joint_names"])
     tp = run.topics
     values = dict(run.node_parameters)
+    model, hydraulic = models
     values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
+    for k, v in hydraulic.to_dict().items():  # the ratio run, as the node records it
+        v = hydraulic.port_ratio if k == "valve_port_ratio" else v
+        values[f"hydraulic.{k}"] = v if isinstance(v, str) else float(v)
     values["fidelity"] = rung  # the rung it ran on (--fidelity)
     made = not Path(out).exists()
     rec = McapRecorder(out, flush_thread=False)
