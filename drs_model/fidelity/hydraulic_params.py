@@ -290,9 +290,14 @@ def hydraulic_from_dict(overrides: dict[str, Any], base: HydraulicParams | None 
     its mass (:func:`drs_model.params.from_dict`)."""
     base = HydraulicParams() if base is None else base
     overrides = dict(overrides)
-    ratio = base.valve_port_ratio
-    if "valve_port_ratio" not in overrides and ratio is not None and ratio == (
-        base.rod_side_area / base.piston_area
-    ):
+    if "valve_port_ratio" not in overrides and _ratio_is_derived(base):
         overrides["valve_port_ratio"] = None
-    return base.replace(**overrides) if overrides else base
+    out = base.replace(**overrides) if overrides else base
+    # a ratio given as the area ratio is the derived one (what the node records for None)
+    return out.replace(valve_port_ratio=None) if _ratio_is_derived(out) else out
+
+
+def _ratio_is_derived(hp: HydraulicParams) -> bool:
+    """``valve_port_ratio`` is set, to the area ratio it would default to."""
+    ratio = hp.valve_port_ratio
+    return ratio is not None and ratio == hp.rod_side_area / hp.piston_area

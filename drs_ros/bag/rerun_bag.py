@@ -7,8 +7,9 @@ import shutil
 from contextlib import contextmanager
 from pathlib import Path
 
-from drs_model.params import NUMERIC_FIELDS, DRSParams
+from drs_model.params import DRSParams
 
+from ..model_parameters import served_values
 from ..names import TOPICS
 from ..timestamps import ns_of
 from .recorded_run import RecordedRun
@@ -32,11 +33,7 @@ def bag_writer(out: str | Path, run: RecordedRun, models: tuple[DRSParams, objec
     names = list(run.node_parameters["joint_names"])
     tp = run.topics
     values = dict(run.node_parameters)
-    model, hydraulic = models
-    values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
-    for k, v in hydraulic.to_dict().items():  # the ratio run, as the node records it
-        v = hydraulic.port_ratio if k == "valve_port_ratio" else v
-        values[f"hydraulic.{k}"] = v if isinstance(v, str) else float(v)
+    values.update(served_values(*models))  # as the node records them
     values["fidelity"] = rung  # the rung it ran on (--fidelity)
     made = not Path(out).exists()
     rec = McapRecorder(out, flush_thread=False)

@@ -28,6 +28,7 @@ from drs_model.overrides import apply_overrides, file_overrides, split_overrides
 from drs_model.params import NUMERIC_FIELDS, DRSParams
 
 from ..errors import DRSRosError
+from ..model_parameters import MODEL_PARAMETERS, served_value
 from ..names import DEFAULT_JOINT_NAMES
 from ..rclpy_private import parameter_overrides
 from ..stack.layer import STACK_PARAMETERS
@@ -91,12 +92,6 @@ NODE_PARAMETERS = (
 
 class StartupError(DRSRosError):
     """The node refuses to start: a parameter or a recording path is wrong (the reason says)."""
-
-
-#: The model's parameters the node serves: ``model.<DRSParams field>``, then
-#: ``hydraulic.<HydraulicParams field>``.
-MODEL_PARAMETERS = (*(f"model.{name}" for name in NUMERIC_FIELDS),
-                    *(f"hydraulic.{name}" for name in HYDRAULIC_FIELDS))  # fmt: skip
 
 
 def declare_parameters(node: Node) -> frozenset[str]:
@@ -191,17 +186,6 @@ def model_params(node: Node, given_names: frozenset[str]) -> tuple[DRSParams, Hy
         raise StartupError(f"the model refuses {named}: {exc}") from exc
 
 
-def _served_value(name: str, params: DRSParams, hydraulic: HydraulicParams):
-    """The value the model runs for node parameter ``name``."""
-    owner, field = name.split(".", 1)
-    if owner == "model":
-        return float(getattr(params, field))
-    if field == "valve_port_ratio":
-        return float(hydraulic.port_ratio)  # None means the area ratio: serve the number run
-    value = getattr(hydraulic, field)
-    return value if isinstance(value, str) else float(value)
-
-
 def _descriptor(name: str) -> ParameterDescriptor:
     owner, field = name.split(".", 1)
     if owner == "model":
@@ -220,7 +204,7 @@ def serve_model_parameters(node: Node, params: DRSParams, hydraulic: HydraulicPa
     refused with :class:`StartupError`."""
     changed = []
     for name in MODEL_PARAMETERS:
-        value = _served_value(name, params, hydraulic)
+        value = served_value(name, params, hydraulic)
         if node.has_parameter(name):
             if node.get_parameter(name).value != value:
                 changed.append(f"{name} {node.get_parameter(name).value!r} -> {value!r}")
