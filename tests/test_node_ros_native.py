@@ -3,7 +3,6 @@ services, and parameter files (real DDS, loopback only)."""
 
 from __future__ import annotations
 
-import re
 import signal
 import subprocess
 import sys
