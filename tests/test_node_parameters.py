@@ -6,11 +6,12 @@ what the bag records; a value that would shadow model_params_file refuses to sta
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import pytest
 import yaml
-from node_support import spin_until
+from node_support import domain_for, spin_until, start_node
 from ros_support import require_rclpy
 
 pytestmark = pytest.mark.ros
@@ -34,16 +35,18 @@ def _result(ex, future, what: str):
     return future.result()
 
 
-def served_over_dds(ctx, node: DRSNode) -> dict:
-    """Every ``model.*`` and ``hydraulic.*`` value of ``node`` as another node gets it over
-    the parameter services (what ``ros2 param get`` does), after checking each is read-only."""
+def served_over_dds(ctx, node: DRSNode | None, name: str = "/drs") -> dict:
+    """Every ``model.*`` and ``hydraulic.*`` value of ``node`` (in this process; None: the
+    node ``name`` of another process) as another node gets it over the parameter services
+    (what ``ros2 param get`` does), after checking each is read-only."""
     client = Node("param_reader", context=ctx)
     ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
+    if node is not None:
+        ex.add_node(node)
     ex.add_node(client)
     try:
-        params = AsyncParameterClient(client, node.get_fully_qualified_name())
-        assert spin_until(ex, params.services_are_ready, 30.0), "no parameter services"
+        params = AsyncParameterClient(client, name)
+        assert spin_until(ex, params.services_are_ready, 60.0), "no parameter services"
         names = list(_result(ex, params.list_parameters(["model", "hydraulic"]), "list")
                      .result.names)  # fmt: skip
         values = _result(ex, params.get_parameters(names), "get").values
@@ -170,3 +173,33 @@ def test_a_managed_node_configured_again_serves_the_same_values(ros_context):
         assert first == pytest.approx(3.0 * L_WING**2 / 3.0, rel=1e-15)
     finally:
         node.destroy_node()
+
+
+def test_drs_node_serves_what_its_bag_records(ros_context, tmp_path, request):
+    """``drs-node -p model.m_wing:=3.0`` as its own process: what another process reads over
+    DDS (``ros2 param get /drs model.Iz_wing``) is the derived 0.0144, and every served value
+    is the one its bag records."""
+    from dataclasses import fields
+
+    from decoded_support import read_bag
+
+    from drs_model.fidelity import HydraulicParams
+    from drs_model.params import NUMERIC_FIELDS
+    from drs_ros.bag.effects import recorded_node_parameters
+
+    bag = tmp_path / "bag"
+    proc = start_node(tmp_path, domain_for(request.node.nodeid), "model.m_wing:=3.0",
+                      f"bag_path:={bag}")  # fmt: skip
+    try:
+        served = served_over_dds(ros_context, None)
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0, out[-2000:]
+    assert served["model.Iz_wing"] == pytest.approx(3.0 * L_WING**2 / 3.0, rel=1e-15)
+    got = recorded_node_parameters(read_bag(bag, ["/parameter_events"]).messages[
+        "/parameter_events"])  # fmt: skip
+    assert {k: got[k] for k in served} == served
+    # every DRSParams number and every HydraulicParams field
+    assert len(served) == len(NUMERIC_FIELDS) + len(fields(HydraulicParams))
