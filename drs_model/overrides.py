@@ -2,10 +2,13 @@
 TOML/YAML parameter files (of ``drs``, ``drs-bag`` and the node's ``model_params_file``).
 
 Each parser returns the ``name: value`` pairs it read; :func:`drs_model.params.from_dict` checks
-the names and values when it applies them. :func:`parameter_file_argument` and
-:func:`assignment_argument` are the argparse ``type=`` of ``--params`` and ``--set``: a file
-that cannot be read or parsed, or names no parameter, is argparse's usage error naming the
-option, before a tool reads anything else.
+the names and values when it applies them. A name is a :class:`~drs_model.params.DRSParams` field
+or a :class:`~drs_model.fidelity.hydraulic_params.HydraulicParams` field (the two share no name),
+bare or as the node names it (``model.m_wing``, ``hydraulic.leak_to_outside``);
+:func:`split_overrides` sorts them and :func:`apply_overrides` applies both.
+:func:`parameter_file_argument` and :func:`assignment_argument` are the argparse ``type=`` of
+``--params`` and ``--set``: a file that cannot be read or parsed, or names no parameter, is
+argparse's usage error naming the option, before a tool reads anything else.
 """
 
 from __future__ import annotations
@@ -22,9 +25,51 @@ from .params import DRSParams, from_dict
 
 
 def from_file(path: str | Path, base: DRSParams | None = None) -> DRSParams:
-    """Parameters from ``base`` (default: the seed) with the overrides of a TOML (``.toml``) or
-    YAML (``.yaml``/``.yml``) file applied (:func:`file_overrides`)."""
-    return from_dict(file_overrides(path), base=base)
+    """Parameters from ``base`` (default: the seed) with the model overrides of a TOML
+    (``.toml``) or YAML (``.yaml``/``.yml``) file applied (:func:`file_overrides`); its hydraulic
+    values, if any, are :func:`both_from_file`'s."""
+    return from_dict(split_overrides(file_overrides(path))[0], base=base)
+
+
+def _hydraulic_fields() -> tuple[str, ...]:
+    # imported here: drs_model.fidelity loads the compiled kernels, which a tool that only
+    # parses its options does not need
+    from .fidelity.hydraulic_params import HYDRAULIC_FIELDS
+
+    return HYDRAULIC_FIELDS
+
+
+def split_overrides(values: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``values`` sorted into DRSParams and HydraulicParams overrides (bare names, or prefixed
+    ``model.`` / ``hydraulic.``); a name that is neither stays with the model's, whose check
+    refuses it with the valid names."""
+    hydraulic_fields = _hydraulic_fields()
+    model: dict[str, Any] = {}
+    hydraulic: dict[str, Any] = {}
+    for name, value in values.items():
+        bare = name.removeprefix("model.").removeprefix("hydraulic.")
+        if bare in hydraulic_fields and not name.startswith("model."):
+            hydraulic[bare] = value
+        else:
+            model[bare if name.startswith("model.") else name] = value
+    return model, hydraulic
+
+
+def apply_overrides(values: Mapping[str, Any], model: DRSParams | None = None,
+                    hydraulic=None) -> tuple[DRSParams, Any]:  # fmt: skip
+    """``model`` and ``hydraulic`` (default: the seed's and HydraulicParams' defaults) with
+    ``values`` applied (:func:`split_overrides`), each checked by its dataclass."""
+    from .fidelity.hydraulic_params import hydraulic_from_dict
+
+    model_values, hydraulic_values = split_overrides(values)
+    model = from_dict(model_values, base=model) if model_values or model is None else model
+    return model, hydraulic_from_dict(hydraulic_values, base=hydraulic)
+
+
+def both_from_file(path: str | Path, model: DRSParams | None = None,
+                   hydraulic=None) -> tuple[DRSParams, Any]:  # fmt: skip
+    """:func:`apply_overrides` with a parameter file's values: DRSParams and HydraulicParams."""
+    return apply_overrides(file_overrides(path), model, hydraulic)
 
 
 def assignment_overrides(items) -> dict[str, float]:
@@ -33,13 +78,17 @@ def assignment_overrides(items) -> dict[str, float]:
     Raises :class:`ParameterError` for an item without ``=`` or a value that is no number (the
     names are checked where the overrides are applied, :func:`from_dict`).
     """
-    overrides: dict[str, float] = {}
+    overrides: dict[str, float | str] = {}
     for item in items:
         name, sep, value = item.partition("=")
         if not sep:
             raise ParameterError(f"--set expects NAME=VALUE, got {item!r}")
+        name = name.strip()
+        if name.removeprefix("hydraulic.") == "flow_law":  # the one parameter that is a word
+            overrides[name] = value.strip()
+            continue
         try:
-            overrides[name.strip()] = float(value)
+            overrides[name] = float(value)
         except ValueError:
             raise ParameterError(f"--set {name}: {value!r} is not a number") from None
     return overrides
@@ -80,10 +129,14 @@ def file_overrides(path: str | Path) -> dict[str, Any]:
 
 
 def _known_names(names) -> None:
-    known = {f.name for f in dataclasses.fields(DRSParams)}
+    model = {f.name for f in dataclasses.fields(DRSParams)}
+    hydraulic = set(_hydraulic_fields())
+    known = model | hydraulic | {f"model.{n}" for n in model}
+    known |= {f"hydraulic.{n}" for n in hydraulic}
     unknown = sorted(set(names) - known)
     if unknown:
-        raise ParameterError(f"unknown parameter(s) {unknown}; valid names: {sorted(known)}")
+        raise ParameterError(f"unknown parameter(s) {unknown}; valid names: {sorted(model)} "
+                             f"and the hydraulic {sorted(hydraulic)}")
 
 
 def parameter_file_argument(path: str) -> str:

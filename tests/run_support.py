@@ -27,10 +27,11 @@ from pathlib import Path
 
 from long_bag_support import T0_NS
 
-from drs_model.fidelity import make_rung
+from drs_model.fidelity import HydraulicParams, make_rung
 from drs_model.fidelity.faults import FAULTS, RunFaults
-from drs_model.params import NUMERIC_FIELDS, DRSParams
+from drs_model.params import DRSParams
 from drs_ros import commands as cmds
+from drs_ros.model_parameters import served_values
 from drs_ros.names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS
 
 
@@ -55,11 +56,11 @@ def seed_commands(params: DRSParams, physics_rate_hz: float = 1000.0,
     return (Command(1, "drs", True), Command(close, "drs", False))
 
 
-def _node_parameters(params, fidelity, physics_rate_hz, faults, joint_names) -> dict:
+def _node_parameters(params, fidelity, physics_rate_hz, faults, joint_names, hydraulic) -> dict:
     values = {"physics_rate_hz": float(physics_rate_hz), "publish_rate_hz": float(physics_rate_hz),
               "force_limit": 2.0e4, "integrator": "rk4", "force_method": "fused",
               "fidelity": fidelity, "joint_names": list(joint_names)}  # fmt: skip
-    values.update({f"model.{k}": float(getattr(params, k)) for k in NUMERIC_FIELDS})
+    values.update(served_values(params, hydraulic))  # model.* and hydraulic.*, as served
     for name, (healthy, _) in FAULTS.items():
         values[f"fault.{name}"] = faults.get(name, healthy)
     return values
@@ -159,18 +160,21 @@ class _Data:
 def record_run(bag_dir: str | Path, steps: int, commands: Sequence[Command] = (), *,
                fidelity: str = "rigid", params: DRSParams | None = None,
                faults: dict | None = None, physics_rate_hz: float = 1000.0,
-               t0_ns: int = T0_NS, joint_names: Sequence[str] = DEFAULT_JOINT_NAMES) -> Path:
+               t0_ns: int = T0_NS, joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
+               hydraulic_params: HydraulicParams | None = None) -> Path:
     """Record ``steps`` physics steps of a run (module docstring) into the new bag directory
     ``bag_dir``: ``commands`` act at their steps, ``faults`` (``name -> value`` of
     :data:`~drs_model.fidelity.faults.FAULTS`) from the first tick, at the node time ``t0_ns``
-    onwards, one tick per physics step. Returns the bag directory."""
+    onwards, one tick per physics step; ``hydraulic_params``: the hydraulic rung's (default:
+    HydraulicParams' defaults). Returns the bag directory."""
     from drs_ros.bag.effects import parameter_event
     from drs_ros.recording.mcap_recorder import McapRecorder
 
     params = DRSParams() if params is None else params
     faults = dict(faults or {})
     dt = 1.0 / physics_rate_hz
-    sim = make_rung(fidelity, params, dt)
+    hp = HydraulicParams() if hydraulic_params is None else hydraulic_params
+    sim = make_rung(fidelity, params, dt, **({"hydraulic": hp} if fidelity == "hydraulic" else {}))
     run_faults = RunFaults(sim)
     hydraulic = fidelity == "hydraulic"
     by_step: dict[int, list[Command]] = {}
@@ -178,7 +182,7 @@ def record_run(bag_dir: str | Path, steps: int, commands: Sequence[Command] = ()
         by_step.setdefault(int(c.step), []).append(c)
     with McapRecorder(bag_dir, flush_thread=False) as rec:
         _register(rec, hydraulic)
-        values = _node_parameters(params, fidelity, physics_rate_hz, faults, joint_names)
+        values = _node_parameters(params, fidelity, physics_rate_hz, faults, joint_names, hp)
         rec.write(DEFAULT_TOPICS["parameter_events"], parameter_event("/drs", values, t0_ns),
                   t0_ns)  # fmt: skip
         w = _Writer(rec, sim, run_faults, joint_names, t0_ns)

@@ -194,9 +194,10 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
 
 
 def test_parameters_given_are_used_and_recorded_even_at_their_defaults(tmp_path, request):
-    """``-p model.m_wing:=2.0`` (the seed's value) wins over a model_params_file's 3.0, and a
-    file's ``Iz_wing = 0.0096`` (the value derived at the default mass) stays 0.0096 with
-    ``m_wing = 3``: the recorded parameters rebuild exactly the run's DRSParams."""
+    """A file's ``Iz_wing = 0.0096`` (the value derived at the default mass) stays 0.0096 with
+    ``m_wing = 3``: the recorded parameters rebuild exactly the run's DRSParams. ``-p
+    model.m_wing:=2.0`` (the seed's value) against the file's 3.0 would shadow the file: refused
+    at start (exit 2), naming both."""
     from decoded_support import read_bag
 
     from drs_model.params import DRSParams
@@ -205,22 +206,25 @@ def test_parameters_given_are_used_and_recorded_even_at_their_defaults(tmp_path,
     domain = domain_for(request.node.nodeid)
     model_file = tmp_path / "car.toml"
     model_file.write_text("m_wing = 3.0\nIz_wing = 0.0096\nL2 = 0.05\n")
-    runs = {
-        "file": ([], DRSParams(m_wing=3.0, Iz_wing=0.0096)),
-        "given": (["model.m_wing:=2.0"], DRSParams(m_wing=2.0, Iz_wing=0.0096)),
-    }
-    for name, (extra, expected) in runs.items():
-        bag = tmp_path / f"bag_{name}"
-        proc = start_node(tmp_path, domain, f"bag_path:={bag}",
-                          f"model_params_file:={model_file}", *extra)  # fmt: skip
-        try:
-            assert wait_for_file_growth(bag / f"bag_{name}_0.mcap", min_size=1, timeout=60)
-        finally:
-            out = stop_node(proc)
-        assert proc.returncode == 0, out[-2000:]
-        data = read_bag(bag, ["/parameter_events"])
-        recorded = recorded_node_parameters(data.messages["/parameter_events"])
-        assert model_params_from(recorded) == expected, name
+    bag = tmp_path / "bag_file"
+    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"model_params_file:={model_file}")
+    try:
+        assert wait_for_file_growth(bag / "bag_file_0.mcap", min_size=1, timeout=60)
+    finally:
+        out = stop_node(proc)
+    assert proc.returncode == 0, out[-2000:]
+    data = read_bag(bag, ["/parameter_events"])
+    recorded = recorded_node_parameters(data.messages["/parameter_events"])
+    assert model_params_from(recorded) == DRSParams(m_wing=3.0, Iz_wing=0.0096)
+    proc = start_node(tmp_path, domain, f"bag_path:={tmp_path / 'bag_given'}",
+                      f"model_params_file:={model_file}", "model.m_wing:=2.0")  # fmt: skip
+    try:
+        proc.wait(timeout=60)  # a refusal ends it
+    finally:
+        out = stop_node(proc)
+    assert proc.returncode == 2, out[-2000:]
+    assert "model.m_wing:=2.0" in out and str(model_file) in out, out[-2000:]
+    assert not (tmp_path / "bag_given").exists()
 
 
 def test_a_catch_up_limit_below_two_publish_periods_is_refused_at_start(tmp_path, request):

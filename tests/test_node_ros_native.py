@@ -3,7 +3,6 @@ services, and parameter files (real DDS, loopback only)."""
 
 from __future__ import annotations
 
-import re
 import signal
 import subprocess
 import sys
@@ -206,25 +205,33 @@ def test_a_failing_configure_is_reported_and_leaves_nothing(ros_context, tmp_pat
 
 
 def test_the_parameter_file_holds_every_parameter_at_its_default(ros_context):
+    """config/drs.yaml holds every node parameter at its default but the model's: those it
+    leaves to model_params_file (it would shadow the file), and the node serves them at the
+    seed's and HydraulicParams' values."""
+    from drs_model.fidelity import HydraulicParams
+    from drs_model.params import DRSParams
+    from drs_ros.node.parameters import MODEL_PARAMETERS
+
     values = yaml.safe_load(CONFIG.read_text())["/drs"]["ros__parameters"]
-    flat = {k: v for k, v in values.items() if k not in ("model", "fault")}
-    flat.update({f"model.{k}": v for k, v in values["model"].items()})
+    assert "model" not in values and "hydraulic" not in values
+    flat = {k: v for k, v in values.items() if k != "fault"}
     for k, v in values["fault"].items():  # fault.sensor.* nest one level deeper
         subs = v.items() if isinstance(v, dict) else [(None, v)]
         flat.update({f"fault.{k}" + ("" if s is None else f".{s}"): x for s, x in subs})
-    # the derived inertias are shown commented out: given, they would no longer follow their
-    # mass and length (a value given is the value used)
-    derived = re.findall(r"^      # (Iz_\w+): (\S+)$", CONFIG.read_text(), re.M)
-    assert {name for name, _ in derived} == {"Iz_link", "Iz_wing"}
-    flat.update({f"model.{k}": float(v) for k, v in derived})
     node = DRSNode(context=ros_context)
     try:
         rclpy_own = {"use_sim_time", "start_type_description_service"}  # declared by rclpy
         declared = {n for n in node.get_parameters_by_prefix("") if n not in rclpy_own}
-        assert set(flat) == declared
+        assert set(flat) | set(MODEL_PARAMETERS) == declared
         for name, value in flat.items():
             have = node.get_parameter(name).value
             assert (list(have) if isinstance(have, (list, tuple)) else have) == value, name
+        seed, hp = DRSParams(), HydraulicParams()
+        for name in MODEL_PARAMETERS:
+            owner, field = name.split(".", 1)
+            want = getattr(seed if owner == "model" else hp, field)
+            want = hp.port_ratio if field == "valve_port_ratio" else want
+            assert node.get_parameter(name).value == want, name
     finally:
         node.destroy_node()
     text = CONFIG.read_text().splitlines()
@@ -265,7 +272,7 @@ def test_the_parameter_file_round_trip(tmp_path, request):
     values = yaml.safe_load(CONFIG.read_text())
     params = values["/drs"]["ros__parameters"]
     params["publish_rate_hz"] = 125  # an integer for a double, as a person would write it
-    params["model"]["m_wing"] = 2.5
+    params["model"] = {"m_wing": 2.5}  # the shipped file sets no model.* value
     params["bag_path"] = str(tmp_path / "bag")
     path = tmp_path / "drs.yaml"
     path.write_text(yaml.safe_dump(values))

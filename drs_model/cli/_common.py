@@ -11,12 +11,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, ParameterError
 from ..overrides import (
+    apply_overrides,
     assignment_argument,
     assignment_overrides,
-    from_file,
+    file_overrides,
     parameter_file_argument,
+    split_overrides,
 )
 from ..params import DRSParams
 
@@ -39,21 +41,41 @@ def add_common(parser: argparse.ArgumentParser) -> None:
     model (the Coriolis examples take their own options)."""
     add_json(parser)
     parser.add_argument("--params", metavar="FILE", type=parameter_file_argument,
-                        help="TOML/YAML file of DRSParams overrides")  # fmt: skip
+                        help="TOML/YAML file of DRSParams (and, where a hydraulic rung runs, "
+                        "HydraulicParams) overrides")  # fmt: skip
     parser.add_argument(
         "--set",
         metavar="NAME=VALUE",
         action="append",
         default=[],
         type=assignment_argument,
-        help="override one DRSParams value (repeatable), e.g. --set Iz_wing=0.08",
+        help="override one DRSParams value (repeatable), e.g. --set Iz_wing=0.08; where a "
+        "hydraulic rung runs, a HydraulicParams one too, e.g. --set leak_to_outside=1e-12",
     )
 
 
+def _given_values(args: argparse.Namespace) -> tuple[dict, dict]:
+    """``--params FILE``'s values, then ``--set``'s: (model, hydraulic) overrides."""
+    values = dict(file_overrides(args.params)) if getattr(args, "params", None) else {}
+    values.update(assignment_overrides(getattr(args, "set", []) or []))
+    return split_overrides(values)
+
+
 def load_params(args: argparse.Namespace) -> DRSParams:
-    base = from_file(args.params) if getattr(args, "params", None) else DRSParams()
-    overrides = assignment_overrides(getattr(args, "set", []) or [])
-    return base.replace(**overrides) if overrides else base
+    """The DRSParams of ``--params`` and ``--set``, for a subcommand that runs no hydraulic rung:
+    a hydraulic value given to it is refused (it would change nothing)."""
+    model, hydraulic = _given_values(args)
+    if hydraulic:
+        raise ParameterError(f"{sorted(hydraulic)}: hydraulic parameters, and this command runs "
+                             "no hydraulic rung")  # fmt: skip
+    return apply_overrides(model)[0]
+
+
+def load_both(args: argparse.Namespace):
+    """The DRSParams and HydraulicParams of ``--params`` and ``--set`` (a subcommand that runs
+    the hydraulic rung: ``drs excite``, ``drs fidelity``)."""
+    model, hydraulic = _given_values(args)
+    return apply_overrides({**model, **{f"hydraulic.{k}": v for k, v in hydraulic.items()}})
 
 
 def float_list(text: str) -> list[float]:

@@ -18,11 +18,10 @@ import json
 import numpy as np
 
 from ..errors import InputError, ParameterError
-from ..fidelity.hydraulic_params import HydraulicParams
 from ._common import (
     Output,
     add_common,
-    load_params,
+    load_both,
     parameter_names_argument,
     positive_integer,
     positive_number,
@@ -129,7 +128,7 @@ def run_excite(args: argparse.Namespace) -> Output:
     )
     from ..identify.parameters import fit_parameter
 
-    p, hp = load_params(args), HydraulicParams()
+    p, hp = load_both(args)
     names = args.names  # checked when parsed (design_names_argument)
     limits = default_limits(p, hp, args.force_limit)
     ex = design_excitation(names, p, hp, rung=args.fidelity, duration=args.duration,

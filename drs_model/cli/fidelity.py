@@ -9,7 +9,7 @@ import sys
 from ..errors import InputError
 from ..fidelity.ladder import DEFAULT_TOLERANCES, QUANTITIES, measure, needed_rung
 from ..fidelity.scenes import SCENES, STANDARD_SCENES
-from ._common import Output, add_common, load_params, table
+from ._common import Output, add_common, load_both, table
 
 #: What a scene's subscribers ask for, for the "needs" table: gap only (a lap simulation), and
 #: everything (a supervisor or hydraulic sizing test).
@@ -52,7 +52,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_fidelity(args: argparse.Namespace) -> Output:
-    params = load_params(args)
+    params, hydraulic = load_both(args)
     if not (math.isfinite(args.dt) and 0.0 < args.dt <= 0.01):
         raise InputError(f"--dt must be in (0, 0.01] s, got {args.dt!r}")
     tolerances = {name: getattr(args, f"{name}_tol") for name in QUANTITIES}
@@ -65,7 +65,8 @@ def run_fidelity(args: argparse.Namespace) -> Output:
             print(f"[fidelity] {label}", file=sys.stderr, flush=True)
 
     scenes = STANDARD_SCENES if not args.scene else tuple(SCENES[n] for n in args.scene)
-    rows = measure(params, args.dt, scenes=scenes, lap_seconds=args.lap, progress=progress)
+    rows = measure(params, args.dt, scenes=scenes, lap_seconds=args.lap, progress=progress,
+                   hydraulic=hydraulic)
     scenes = list(dict.fromkeys(r.scene for r in rows))
     needs = {
         scene: {ask: needed_rung(rows, scene, qs, tolerances) for ask, qs in ASKS.items()}

@@ -67,17 +67,22 @@ def errors_from_rows(rows) -> Mapping[str, RungErrors]:
 
 
 @functools.lru_cache(maxsize=8)
-def _measured(p: DRSParams) -> Mapping[str, RungErrors]:
+def _measured(p: DRSParams, hydraulic) -> Mapping[str, RungErrors]:
     from .ladder import measure
     from .scenes import SCENES
 
-    return errors_from_rows(measure(p, AUTO_DT, scenes=(SCENES[AUTO_SCENE],)))
+    return errors_from_rows(measure(p, AUTO_DT, scenes=(SCENES[AUTO_SCENE],),
+                                    hydraulic=hydraulic))  # fmt: skip
 
 
-def ladder_errors(p: DRSParams | None = None) -> Mapping[str, RungErrors]:
-    """Each rung's errors on :data:`AUTO_SCENE` for parameters ``p`` (default: the seed's),
-    measured now: a few seconds of simulation, once per parameters in a process."""
-    return _measured(DRSParams() if p is None else p)
+def ladder_errors(p: DRSParams | None = None, hydraulic=None) -> Mapping[str, RungErrors]:
+    """Each rung's errors on :data:`AUTO_SCENE` for parameters ``p`` (default: the seed's) and
+    ``hydraulic`` (the reference's HydraulicParams, default: their defaults), measured now: a
+    few seconds of simulation, once per parameters in a process."""
+    from .hydraulic_params import HydraulicParams
+
+    return _measured(DRSParams() if p is None else p,
+                     HydraulicParams() if hydraulic is None else hydraulic)
 
 
 def choose_rung(asked, gap_tolerance: float, force_tolerance: float,

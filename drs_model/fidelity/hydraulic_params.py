@@ -248,3 +248,56 @@ class HydraulicParams:
 
     def to_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+#: The fields of :class:`HydraulicParams`, in declaration order: each is the node parameter
+#: ``hydraulic.<field>`` and a ``--set`` name of the tools.
+HYDRAULIC_FIELDS = tuple(f.name for f in dataclasses.fields(HydraulicParams))
+
+#: The valid range of each field with more than a sign (what ``__post_init__`` checks).
+_RANGES = {
+    "flow_law": f"one of {', '.join(FLOW_LAWS)}",
+    "return_pressure": ">= 0, < supply_pressure",
+    "relief_pressure": "> return_pressure",
+    "vapour_pressure": "> 0, < return_pressure",
+    "rod_diameter": ">= 0, < bore_diameter",
+    "air_polytropic_index": "[1, 1.4]",
+    "entrained_air_fraction": "[0, 0.2]",
+    "breakaway_friction": ">= coulomb_friction",
+    "stribeck_velocity": "> 0 with Coulomb friction",
+    "friction_smoothing_velocity": "> 0 with Coulomb friction",
+    "valve_port_ratio": "> 0; the node serves the ratio it runs (default: the area ratio)",
+}
+
+
+def field_range(name: str) -> str:
+    """The valid range of field ``name``, as text (what :class:`HydraulicParams` refuses)."""
+    if name in _RANGES:
+        return _RANGES[name]
+    if name in HydraulicParams._POSITIVE:
+        return "> 0"
+    return ">= 0"
+
+
+def hydraulic_from_dict(overrides: dict[str, Any], base: HydraulicParams | None = None
+                        ) -> HydraulicParams:  # fmt: skip
+    """``base`` (default: the defaults) with ``overrides`` applied, validated; an unknown name or
+    a bad value raises :class:`ParameterError` naming it and the valid range.
+
+    ``valve_port_ratio`` follows the bore and rod (the area ratio) unless given: a ``base``
+    whose ratio is the area ratio (a recorded run, which records the ratio it ran) keeps
+    following them when ``overrides`` change the bore or the rod, as a derived inertia follows
+    its mass (:func:`drs_model.params.from_dict`)."""
+    base = HydraulicParams() if base is None else base
+    overrides = dict(overrides)
+    if "valve_port_ratio" not in overrides and _ratio_is_derived(base):
+        overrides["valve_port_ratio"] = None
+    out = base.replace(**overrides) if overrides else base
+    # a ratio given as the area ratio is the derived one (what the node records for None)
+    return out.replace(valve_port_ratio=None) if _ratio_is_derived(out) else out
+
+
+def _ratio_is_derived(hp: HydraulicParams) -> bool:
+    """``valve_port_ratio`` is set, to the area ratio it would default to."""
+    ratio = hp.valve_port_ratio
+    return ratio is not None and ratio == hp.rod_side_area / hp.piston_area

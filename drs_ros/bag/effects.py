@@ -2,7 +2,8 @@
 effect (the effect record ``~/command_events``; docs/ros.md, "Effect record").
 
 The node records, once at start, a ``rcl_interfaces/ParameterEvent`` on ``/parameter_events``
-listing every node parameter, the ``model.*`` ones at the values the model ran with. This module
+listing every node parameter, the ``model.*`` and ``hydraulic.*`` ones at the values the model
+ran with (the values the node serves). This module
 turns such records back into values; it holds no state.
 """
 
@@ -93,6 +94,18 @@ def model_params_from(values: dict[str, object]) -> DRSParams:
     return from_dict(known) if known else DRSParams()
 
 
+def hydraulic_params_from(values: dict[str, object] | None):
+    """HydraulicParams from recorded ``hydraulic.<field>`` values, each as recorded (the valve's
+    port ratio recorded as the area ratio keeps following the bore and rod:
+    :func:`~drs_model.fidelity.hydraulic_params.hydraulic_from_dict`); a bag recorded before
+    the node recorded them (none) gives HydraulicParams' defaults."""
+    from drs_model.fidelity.hydraulic_params import HYDRAULIC_FIELDS, hydraulic_from_dict
+
+    recorded = {k.removeprefix("hydraulic."): v for k, v in (values or {}).items()
+                if k.startswith("hydraulic.")}  # fmt: skip
+    return hydraulic_from_dict({k: v for k, v in recorded.items() if k in HYDRAULIC_FIELDS})
+
+
 @dataclass(frozen=True)
 class EffectRecord:
     """One record of ``~/command_events``: ``source`` (a command topic, the service, ``clock``
@@ -170,6 +183,7 @@ __all__ = [
     "is_fault_record",
     "recorded_rung",
     "effect_records",
+    "hydraulic_params_from",
     "model_params_from",
     "parameter_event",
     "parameter_values",

@@ -44,7 +44,6 @@ from drs_model.cli.exit_status import (
 )
 from drs_model.errors import DRSError, ParameterError
 from drs_model.fidelity import RUNGS
-from drs_model.fidelity.hydraulic_params import HydraulicParams
 from drs_model.identify import driver as identify
 from drs_model.identify.parameters import (
     RIGID_PARAMETERS,
@@ -57,6 +56,7 @@ from drs_model.params import NUMERIC_FIELDS
 
 from ..errors import DRSRosError, UsageError
 from . import fleet
+from .effects import hydraulic_params_from
 from .fit_report import document, dumps, format_text, plot, row_columns
 from .fit_rerun import SIMULATED_SIGNALS
 from .measured import MeasurementError, parse_topic_map, read_measured
@@ -189,14 +189,15 @@ class FitOutcome:
 
 
 def _models(measured, sets):
-    """The starting DRSParams and HydraulicParams: as recorded, then ``--set`` (a geometry
-    value through :meth:`DRSParams.replace`, which keeps the parameters consistent)."""
+    """The starting DRSParams and HydraulicParams: as recorded (the defaults where the bag
+    recorded none), then ``--set`` (a geometry value through :meth:`DRSParams.replace`, which
+    keeps the parameters consistent)."""
     values = assignment_overrides(sets)
     geometry = {k: v for k, v in values.items() if k in NUMERIC_FIELDS and k not in
                 RIGID_PARAMETERS}  # fmt: skip
     p = measured.params.replace(**geometry) if geometry else measured.params
     rest = {k: v for k, v in values.items() if k not in geometry}
-    return with_values(rest, p, HydraulicParams())
+    return with_values(rest, p, hydraulic_params_from(measured.node_parameters))
 
 
 def _simulation(measured, rung, p, hp):

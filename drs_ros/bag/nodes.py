@@ -4,7 +4,7 @@ recorded: the one place the bag tools learn them (nothing assumes ``/drs`` or a 
 A drs node records at its start (docs/ros.md, "Effect record"):
 
 * on ``/parameter_events``, a ``ParameterEvent`` from its fully qualified name listing every
-  parameter as new, the ``model.*`` ones at the values the model ran with;
+  parameter as new, the ``model.*`` and ``hydraulic.*`` ones at the values the model ran with;
 * as the first record of its effect record (``~/command_events``), a ``topics`` record
   (:data:`drs_ros.names.TOPICS`): its name and the name each role of
   :data:`drs_ros.names.NODE_TOPICS` resolved to, remapping included.

@@ -8,7 +8,7 @@ its effect record and commands.
 ``drs-bag check`` follows it as the bag streams past, keeping no message: a few numbers and one
 span per fault set (what the check makes of it: :mod:`drs_ros.bag.run_checks`). ``drs-bag
 resimulate`` and ``fit`` read it whole from a verified bag (:func:`read_run`), effect record and
-commands kept; :func:`run_params` is the model of the re-run.
+commands kept; :func:`run_models` is the model of the re-run (DRSParams and HydraulicParams).
 """
 
 from __future__ import annotations
@@ -19,11 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from drs_model.fidelity.faults import FAULTS
-from drs_model.overrides import (
-    assignment_overrides,
-    from_file,
-)
-from drs_model.params import from_dict
+from drs_model.overrides import apply_overrides, assignment_overrides, both_from_file
 
 from .. import commands
 from ..errors import DRSRosError
@@ -35,6 +31,7 @@ from .effects import (
     MissingRecordError,
     effect_records,
     fault_of,
+    hydraulic_params_from,
     is_fault_record,
     model_params_from,
     parameter_values,
@@ -261,13 +258,19 @@ def read_run(bag: str | Path, node=_FIND, topics: dict[str, str] | None = None) 
     return run
 
 
-def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
-    """The model of the re-run: as recorded, then a parameter file's overrides, then ``--set``."""
-    model = model_params_from(node_params)
+def run_models(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
+    """The model of the re-run, DRSParams and HydraulicParams: as recorded (``model.*``,
+    ``hydraulic.*``), then a parameter file's overrides, then ``--set`` (names of either)."""
+    models = model_params_from(node_params), hydraulic_params_from(node_params)
     if params_file:
-        model = from_file(params_file, base=model)
+        models = both_from_file(params_file, *models)
     overrides = assignment_overrides(sets)
-    return from_dict(overrides, model) if overrides else model
+    return apply_overrides(overrides, *models) if overrides else models
+
+
+def run_params(node_params: dict, sets: Sequence[str] = (), params_file: str | None = None):
+    """The DRSParams of the re-run (:func:`run_models`)."""
+    return run_models(node_params, sets, params_file)[0]
 
 
 __all__ = [
@@ -279,5 +282,6 @@ __all__ = [
     "RecordedRun",
     "ResimulationError",
     "read_run",
+    "run_models",
     "run_params",
 ]

@@ -7,19 +7,20 @@ import shutil
 from contextlib import contextmanager
 from pathlib import Path
 
-from drs_model.params import NUMERIC_FIELDS, DRSParams
+from drs_model.params import DRSParams
 
+from ..model_parameters import served_values
 from ..names import TOPICS
 from ..timestamps import ns_of
 from .recorded_run import RecordedRun
 
 
 @contextmanager
-def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams, rung: str):
+def bag_writer(out: str | Path, run: RecordedRun, models: tuple[DRSParams, object], rung: str):
     """The re-simulated run as a new bag, written as :func:`.deviations.compare` goes (its
     ``on_state``): the parameters it ran with, then joint states, force, gap and acceleration
-    at the recorded stamps (so ``drs-bag check`` checks it too). Nothing is left of it if the
-    re-run fails."""
+    at the recorded stamps (so ``drs-bag check`` checks it too). ``models``: the re-run's
+    DRSParams and HydraulicParams. Nothing is left of it if the re-run fails."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rcl_interfaces.msg import ParameterEvent
     from sensor_msgs.msg import JointState
@@ -32,7 +33,7 @@ def bag_writer(out: str | Path, run: RecordedRun, model: DRSParams, rung: str):
     names = list(run.node_parameters["joint_names"])
     tp = run.topics
     values = dict(run.node_parameters)
-    values.update({f"model.{k}": float(getattr(model, k)) for k in NUMERIC_FIELDS})
+    values.update(served_values(*models))  # as the node records them
     values["fidelity"] = rung  # the rung it ran on (--fidelity)
     made = not Path(out).exists()
     rec = McapRecorder(out, flush_thread=False)

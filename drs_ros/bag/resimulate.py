@@ -81,7 +81,7 @@ from .recorded_run import (
     RecordedRun,
     ResimulationError,
     read_run,
-    run_params,
+    run_models,
 )
 from .rerun import resimulate
 from .rerun_bag import bag_writer
@@ -103,10 +103,12 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=VALUE",
         type=assignment_argument,
-        help="change a model parameter for the re-run (repeatable), e.g. m_wing=0.5",
+        help="change a model or hydraulic parameter for the re-run (repeatable), e.g. "
+        "m_wing=0.5 or leak_to_outside=1e-12",
     )
     ap.add_argument("--params", type=parameter_file_argument,
-                    help="a .toml/.yaml file of model parameters for the re-run")  # fmt: skip
+                    help="a .toml/.yaml file of model (and hydraulic) parameters for the "
+                    "re-run")  # fmt: skip
     ap.add_argument(
         "--fidelity",
         choices=list(RUNGS),
@@ -162,13 +164,15 @@ def resimulate_one(bag, args: argparse.Namespace, output: str | None = None,
                            look_ahead.channels(bag))  # fmt: skip
     try:
         recorded = read_run(bag, node, named.topics)
-        model = run_params(recorded.node_parameters, args.set, args.params)
-        result = resimulate(recorded, model, getattr(args, "fidelity", None))
+        model, hydraulic = run_models(recorded.node_parameters, args.set, args.params)
+        rung = getattr(args, "fidelity", None) or recorded.rung()
+        result = resimulate(recorded, model, rung, rung_options={"hydraulic": hydraulic}
+                            if rung == "hydraulic" else None)  # fmt: skip
         with ExitStack() as stack:
             on_state = None
             if output:
                 on_state = stack.enter_context(
-                    bag_writer(output, recorded, model, result["sim"].name)
+                    bag_writer(output, recorded, (model, hydraulic), result["sim"].name)
                 )
             rows = compare(recorded, result, tolerances, on_state)
     except MessageCallbackError as exc:  # our own failure on an intact message

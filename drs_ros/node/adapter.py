@@ -54,7 +54,13 @@ from ..timestamps import ns_from_seconds
 from .effect_record import EffectRecord, diagnostics_values, error_text
 from .fault_parameters import NodeFaults, declare_fault_parameters
 from .intake import COMMANDS, CommandIntake
-from .parameters import declare_parameters, effective_parameters, model_params, tick_settings
+from .parameters import (
+    declare_parameters,
+    effective_parameters,
+    model_params,
+    serve_model_parameters,
+    tick_settings,
+)
 from .publishers import HYDRAULIC_TOPICS, StatePublishers
 from .recordings import NodeRecordings
 from .rung_choice import RungChoice
@@ -113,14 +119,15 @@ class DRSNode(Node):
     # ---- life stages ---------------------------------------------------------------------------
     def configure(self) -> None:
         """Validate the parameters, build the actuator and the publishers, open the recorders."""
-        self.params = model_params(self, self._given_parameters)
+        self.params, self.hydraulic = model_params(self, self._given_parameters)
+        serve_model_parameters(self, self.params, self.hydraulic)
         settings = tick_settings(self)
         self.physics_dt, self.publish_period = settings.physics_dt, settings.publish_period
         self.max_catch_up, self.fidelity = settings.max_catch_up, settings.fidelity
         self.markers_rate_hz, self.frame_id = settings.markers_rate_hz, settings.frame_id
         self.joint_names = list(settings.joint_names)
         gp = self.get_parameter
-        self.rungs = RungChoice(self.fidelity, self.params, self.physics_dt, {
+        self.rungs = RungChoice(self.fidelity, (self.params, self.hydraulic), self.physics_dt, {
             name: gp(name).value for name in ("force_limit", "integrator", "force_method")
         }, gp("fidelity_tolerance").value, gp("fidelity_force_tolerance").value)  # fmt: skip
         self.sim = self.rungs.first()
@@ -326,7 +333,7 @@ class DRSNode(Node):
         register("/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000))
         now = self._now_ns()
         event = parameter_event_msg(
-            self.get_fully_qualified_name(), effective_parameters(self, self.params), now
+            self.get_fully_qualified_name(), effective_parameters(self), now
         )
         recorder.write("/parameter_events", event, now)
 

@@ -1,6 +1,12 @@
-"""The node's parameters: the table of its own, the ``model.*`` ones of :class:`DRSParams`, their
-declaration (read-only, with ranges; a misspelt name is refused), the model's parameters they
-give, and every value the node runs with (what a re-run needs, recorded at start).
+"""The node's parameters: the table of its own, the ``model.*`` ones of :class:`DRSParams` and the
+``hydraulic.*`` ones of :class:`HydraulicParams`, their declaration (read-only, with ranges; a
+misspelt name is refused), the model's parameters they give, and every value the node runs with
+(what a re-run needs, recorded at start).
+
+The ``model.*`` and ``hydraulic.*`` parameters are declared once the model is built (at
+configure), at the values it runs: a derived inertia, ``model_params_file``'s values and the
+valve's port ratio are served as the model has them, read-only, and what the bag records is
+what ``ros2 param get`` gives.
 """
 
 from __future__ import annotations
@@ -17,10 +23,12 @@ from rclpy.parameter import Parameter
 from drs_model.errors import ParameterError
 from drs_model.fidelity import RUNGS
 from drs_model.fidelity.faults import FAULT_RANGES, FAULTS, describe_range
-from drs_model.overrides import from_file
-from drs_model.params import NUMERIC_FIELDS, DRSParams, from_dict
+from drs_model.fidelity.hydraulic_params import HYDRAULIC_FIELDS, HydraulicParams, field_range
+from drs_model.overrides import apply_overrides, file_overrides, split_overrides
+from drs_model.params import NUMERIC_FIELDS, DRSParams
 
 from ..errors import DRSRosError
+from ..model_parameters import MODEL_PARAMETERS, served_value
 from ..names import DEFAULT_JOINT_NAMES
 from ..rclpy_private import parameter_overrides
 from ..stack.layer import STACK_PARAMETERS
@@ -87,15 +95,16 @@ class StartupError(DRSRosError):
 
 
 def declare_parameters(node: Node) -> frozenset[str]:
-    """Declare every parameter of :data:`NODE_PARAMETERS` and the ``model.*`` ones (read-only,
-    with their ranges); returns the names given to the node (``-p`` or ``--params-file``).
+    """Declare every parameter of :data:`NODE_PARAMETERS` (read-only, with their ranges);
+    returns the names given to the node (``-p`` or ``--params-file``), the ``model.*`` and
+    ``hydraulic.*`` ones among them (declared at configure: :func:`serve_model_parameters`).
 
     Raises :class:`StartupError` for a name given that the node does not know (with the closest
     known one), and for a string outside its choices. An integer given for a float parameter is
     taken as that float."""
     known = [name for name, *_ in NODE_PARAMETERS]
+    known += MODEL_PARAMETERS
     # and the ones rclpy declares itself
-    known += [f"model.{name}" for name in NUMERIC_FIELDS]
     known += [name for name in node.get_parameters_by_prefix("") if name not in known]
     # rclpy keeps the --ros-args / parameter_overrides values here before they are declared:
     # the only place a misspelt name (never declared, silently ignored) can be seen
@@ -106,12 +115,11 @@ def declare_parameters(node: Node) -> frozenset[str]:
             close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise StartupError(f"unknown parameter {name!r}{hint} (known: {', '.join(known)})")
-    defaults = DRSParams()
-    table = [*NODE_PARAMETERS] + [
-        (f"model.{name}", float(getattr(defaults, name)), f"DRSParams.{name} (SI)", None)
-        for name in NUMERIC_FIELDS
-    ]
-    for name, default, description, valid in table:
+    for name in MODEL_PARAMETERS:  # -p model.m_wing:=3 means 3.0
+        given = overrides.get(name)
+        if given is not None and given.type_ == Parameter.Type.INTEGER:
+            overrides[name] = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
+    for name, default, description, valid in NODE_PARAMETERS:
         desc = ParameterDescriptor(description=description, read_only=True)
         if isinstance(default, float):
             given = overrides.get(name)
@@ -134,30 +142,77 @@ def declare_parameters(node: Node) -> frozenset[str]:
     return given_names
 
 
-def model_params(node: Node, given_names: frozenset[str]) -> DRSParams:
-    """The model's parameters: the seed's, then ``model_params_file``'s, then every
-    ``model.*`` parameter given to the node (``-p`` or a ROS ``--params-file``), whatever
-    its value: a value given is the value used, even when it equals a default.
+def _given_values(node: Node, given_names: frozenset[str]) -> dict[str, object]:
+    """The ``model.*`` and ``hydraulic.*`` values given to the node, by parameter name."""
+    overrides = parameter_overrides(node)
+    return {name: overrides[name].value for name in MODEL_PARAMETERS
+            if name in given_names and name in overrides}  # fmt: skip
 
-    Raises :class:`StartupError` naming the node parameter the model refuses (the file, or the
-    ``model.*`` values given) and the model's reason."""
-    path = node.get_parameter("model_params_file").value
+
+def _file_values(path: str) -> dict[str, object]:
+    """``model_params_file``'s values by node parameter name (``model.m_wing``, ...)."""
     try:
-        base = from_file(path) if path else DRSParams()
+        model, hydraulic = split_overrides(file_overrides(path))
     except ParameterError as exc:
         raise StartupError(f"model_params_file {path!r}: {exc}") from exc
-    given = {name: node.get_parameter(f"model.{name}").value for name in NUMERIC_FIELDS
-             if f"model.{name}" in given_names}  # fmt: skip
-    if path:
-        over = [f"model.{k} {v!r} over {getattr(base, k)!r}" for k, v in given.items()
-                if v != getattr(base, k)]  # fmt: skip
-        if over:
-            node.get_logger().info(f"parameters given win over {path}: {', '.join(over)}")
+    return {**{f"model.{k}": v for k, v in model.items()},
+            **{f"hydraulic.{k}": v for k, v in hydraulic.items()}}  # fmt: skip
+
+
+def model_params(node: Node, given_names: frozenset[str]) -> tuple[DRSParams, HydraulicParams]:
+    """The model's parameters: the seed's and HydraulicParams' defaults, then
+    ``model_params_file``'s, then every ``model.*`` and ``hydraulic.*`` parameter given to the
+    node (``-p`` or a ROS ``--params-file``), whatever its value.
+
+    Raises :class:`StartupError` naming the node parameter the model refuses (the file, or the
+    values given) and the model's reason, and for a value given both to the node and in
+    ``model_params_file`` that differ (one would silently shadow the other)."""
+    path = node.get_parameter("model_params_file").value
+    given = _given_values(node, given_names)
+    from_file = _file_values(path) if path else {}
+    shadowed = [f"{name}:={given[name]!r} shadows model_params_file {path!r}'s "
+                f"{name.split('.', 1)[1]} = {from_file[name]!r}" for name in given
+                if name in from_file and given[name] != from_file[name]]  # fmt: skip
+    if shadowed:
+        raise StartupError(f"{'; '.join(shadowed)}: give each value in one place")
     try:
-        return from_dict(given, base=base) if given else base
+        base = apply_overrides(from_file)
     except ParameterError as exc:
-        named = ", ".join(f"model.{k}:={v!r}" for k, v in given.items())
+        raise StartupError(f"model_params_file {path!r}: {exc}") from exc
+    try:
+        return apply_overrides(given, *base) if given else base
+    except ParameterError as exc:
+        named = ", ".join(f"{k}:={v!r}" for k, v in given.items())
         raise StartupError(f"the model refuses {named}: {exc}") from exc
+
+
+def _descriptor(name: str) -> ParameterDescriptor:
+    owner, field = name.split(".", 1)
+    if owner == "model":
+        return ParameterDescriptor(description=f"DRSParams.{field} (SI), as the model runs it",
+                                   read_only=True)  # fmt: skip
+    desc = ParameterDescriptor(description=f"HydraulicParams.{field} (SI), as the model runs it",
+                               read_only=True)  # fmt: skip
+    desc.additional_constraints = field_range(field)
+    return desc
+
+
+def serve_model_parameters(node: Node, params: DRSParams, hydraulic: HydraulicParams) -> None:
+    """Declare every ``model.*`` and ``hydraulic.*`` parameter at the value the model runs
+    (read-only). A managed node configured again serves them already: its values cannot change
+    (read-only), so a model that now differs (``model_params_file`` edited in between) is
+    refused with :class:`StartupError`."""
+    changed = []
+    for name in MODEL_PARAMETERS:
+        value = served_value(name, params, hydraulic)
+        if node.has_parameter(name):
+            if node.get_parameter(name).value != value:
+                changed.append(f"{name} {node.get_parameter(name).value!r} -> {value!r}")
+            continue
+        node.declare_parameter(name, value, _descriptor(name), ignore_override=True)
+    if changed:
+        raise StartupError(f"the model's parameters changed since the node was first configured "
+                           f"({', '.join(changed)}): they are read-only; start a new node")
 
 
 @dataclass(frozen=True)
@@ -222,17 +277,11 @@ def tick_settings(node: Node) -> TickSettings:
                         gp("frame_id").value, tuple(joint_names), gp("fidelity").value)  # fmt: skip
 
 
-def effective_parameters(node: Node, params: DRSParams) -> list[Parameter]:
-    """Every node parameter, the ``model.*`` ones at the values the model runs with (a
-    ``model_params_file`` included): what a re-run needs."""
-    out = []
-    for name in sorted(node.get_parameters_by_prefix("")):  # "": every declared parameter
-        if name.startswith("model."):
-            value = float(getattr(params, name.removeprefix("model.")))
-            out.append(Parameter(name, Parameter.Type.DOUBLE, value))
-        else:
-            out.append(node.get_parameter(name))
-    return out
+def effective_parameters(node: Node) -> list[Parameter]:
+    """Every node parameter as served, the ``model.*`` and ``hydraulic.*`` ones at the values
+    the model runs with (:func:`serve_model_parameters`): what a re-run needs."""
+    # "": every declared parameter
+    return [node.get_parameter(name) for name in sorted(node.get_parameters_by_prefix(""))]
 
 
 def _valid_text(valid) -> str:
@@ -259,6 +308,10 @@ def usage_text() -> str:
         lines.append(f"  {name} (default {shown!r}{_valid_text(valid)}): {description}")
     lines.append("  model.<field> (default: the seed's value): a DRSParams field, SI units; one of "
                  + ", ".join(NUMERIC_FIELDS))  # fmt: skip
+    lines.append("  hydraulic.<field> (default: HydraulicParams'): the hydraulic rung's, SI units; "
+                 + ", ".join(f"{n} ({field_range(n)})" for n in HYDRAULIC_FIELDS))  # fmt: skip
+    lines.append("  model_params_file may set both; a value given there and as a parameter that "
+                 "differ refuse to start. Served once configured, as the model runs them.")
     lines += ["", "fault parameters (may change while the node runs; healthy by default):"]
     for name, (healthy, description) in FAULTS.items():
         valid = f"; {describe_range(name)}" if name in FAULT_RANGES else ""
@@ -269,12 +322,14 @@ def usage_text() -> str:
 __all__ = [
     "EXECUTORS",
     "FIDELITIES",
+    "MODEL_PARAMETERS",
     "NODE_PARAMETERS",
     "StartupError",
     "TickSettings",
     "declare_parameters",
     "effective_parameters",
     "model_params",
+    "serve_model_parameters",
     "tick_settings",
     "usage_text",
 ]

@@ -16,16 +16,19 @@ class RungChoice:
     """The rung of one configured node (``fidelity``, a rung's name or ``auto``).
 
     ``auto`` runs ``rigid`` until the subscribers are seen; each rung's errors are measured at
-    construction, for ``params`` (a few seconds, once per parameters). ``options``: the node's
+    construction, for ``params`` (a few seconds, once per parameters). ``params``: the
+    DRSParams and HydraulicParams the node runs (the latter given to the hydraulic rung, and to
+    the reference ``auto`` measures the others against). ``options``: the node's
     ``force_limit``, ``integrator`` and ``force_method``; ``tolerance`` [m] and
     ``force_tolerance`` [N]: the node's ``fidelity_tolerance`` and
     ``fidelity_force_tolerance``."""
 
     def __init__(self, fidelity: str, params, physics_dt: float, options: dict,
                  tolerance: float, force_tolerance: float) -> None:  # fmt: skip
-        self.fidelity, self.params, self.physics_dt = fidelity, params, physics_dt
+        (self.params, self.hydraulic), self.physics_dt = params, physics_dt
+        self.fidelity = fidelity
         self.options, self.tolerance, self.force_tolerance = options, tolerance, force_tolerance
-        self._errors = ladder_errors(params) if fidelity == "auto" else None
+        self._errors = ladder_errors(*params) if fidelity == "auto" else None
         #: Monotonic time [s] until which auto waits for the subscribers (None: chosen).
         self.deadline: float | None = None
 
@@ -35,7 +38,8 @@ class RungChoice:
 
     def make(self, rung: str):
         """A new actuator of rung ``rung``, at rest."""
-        return make_rung(rung, self.params, self.physics_dt, **self.options)
+        extra = {"hydraulic": self.hydraulic} if rung == "hydraulic" else {}
+        return make_rung(rung, self.params, self.physics_dt, **self.options, **extra)
 
     def first(self):
         """The actuator the node starts with (a model too stiff for the physics rate raises
