@@ -32,7 +32,7 @@ from pathlib import Path
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 
 from ..errors import DRSRosError
-from ..recording.destinations import check_new_bag
+from ..recording.destinations import check_new_bag, remove_unfinished_bag
 from ..recording.errors import RecordingError
 from ..recording.mcap_recorder import McapRecorder
 from ..recording.qos import parse_qos_yaml
@@ -187,23 +187,12 @@ def merge(sources: Sequence[str | Path], out: str | Path) -> dict:
             counts[m.topic] = counts.get(m.topic, 0) + 1
         rec.finish()
     except BaseException:
-        _remove(rec, out, made)
+        remove_unfinished_bag(rec, out, made)
         raise
     return {"output": str(out), "sources": [{"bag": str(source), "messages": s.message_count}
                                             for source, s in zip(sources, scans, strict=True)],
             "messages": sum(counts.values()), "per_topic": counts}  # fmt: skip
 
-
-def _remove(rec: McapRecorder, out: str | Path, made: bool) -> None:
-    """Leave nothing of a merged bag that could not be finished."""
-    try:
-        rec.discard()
-    except OSError:  # closing flushes what could not be written: the same error again
-        pass
-    for path in (rec.path, rec.metadata_path):
-        path.unlink(missing_ok=True)
-    if made:
-        shutil.rmtree(out, ignore_errors=True)
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:

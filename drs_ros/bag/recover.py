@@ -26,7 +26,7 @@ from pathlib import Path
 
 from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EXIT_UNREADABLE
 
-from ..recording.destinations import check_new_bag
+from ..recording.destinations import check_new_bag, remove_unfinished_bag
 from ..recording.errors import RecordingError
 from ..recording.mcap_recorder import McapRecorder
 from ..recording.qos import parse_qos_yaml
@@ -54,17 +54,6 @@ def _unwritable(out: str | Path, cause: BaseException) -> RecordingError:
         "nothing of it was kept"
     )
 
-
-def _remove(rec: McapRecorder, out: str | Path, made: bool) -> None:
-    """Leave nothing of a recovered bag that could not be finished."""
-    try:
-        rec.discard()
-    except OSError:  # closing flushes what could not be written: the same error again
-        pass
-    for path in (rec.path, rec.metadata_path):
-        path.unlink(missing_ok=True)
-    if made:
-        shutil.rmtree(out, ignore_errors=True)
 
 
 def recover(bag: str | Path, out: str | Path) -> dict:
@@ -111,7 +100,7 @@ def recover(bag: str | Path, out: str | Path) -> dict:
         except OSError as exc:
             raise _unwritable(out, exc) from exc
     except BaseException:
-        _remove(rec, out, made)
+        remove_unfinished_bag(rec, out, made)
         raise
     files = [
         {

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ipaddress
 import os
+import shutil
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -37,6 +38,19 @@ def check_new_bag(bag_dir: str | os.PathLike) -> Path:
         )
     check_writable_parent(path)
     return path
+
+
+def remove_unfinished_bag(recorder, bag_dir: str | os.PathLike, made: bool) -> None:
+    """Leave nothing of a bag that a tool (recover, merge) could not finish: the recorder's
+    ``.mcap`` and ``metadata.yaml``, and ``bag_dir`` itself when the tool ``made`` it."""
+    try:
+        recorder.discard()
+    except OSError:  # closing flushes what could not be written: the same error again
+        pass
+    for path in (recorder.path, recorder.metadata_path):
+        path.unlink(missing_ok=True)
+    if made:
+        shutil.rmtree(bag_dir, ignore_errors=True)
 
 
 def check_writable_parent(path: str | os.PathLike) -> Path:
