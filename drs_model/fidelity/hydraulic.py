@@ -33,7 +33,7 @@ from .base import RungState
 from .hydraulic_events import EventLocator
 from .hydraulic_kernels import hydraulic_constants
 from .hydraulic_params import HydraulicParams
-from .hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, state_rate
+from .hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, state_rate, substep_count
 from .supply import SupplyPressure
 
 #: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
@@ -426,14 +426,14 @@ class HydraulicRung(CommandedActuator):
             longest = self.stability_fraction * limit if self.substep is None else self.substep
         else:
             longest = DEFAULT_IMPLICIT_SUBSTEP if self.substep is None else self.substep
-        needed = (t1 - t0) / longest * (1.0 - 1e-12)
-        if not needed <= self.max_substeps:  # NaN too: a rate that is no number is refused
+        needed = (t1 - t0) / longest if longest > 0.0 else math.inf
+        n = substep_count(needed)
+        if not n <= self.max_substeps:  # NaN too: a rate that is no number is refused
             raise TooStiffError(
                 f"the hydraulic state at t = {t0:.6g} s is too stiff for a physics step of "
                 f"{self.dt:.3g} s: its stiffest rate {rate:.4g} 1/s needs {needed:.4g} "
                 f"{self.method} sub-steps, above the cap of {self.max_substeps} (max_substeps)"
             )
-        n = max(1, math.ceil(needed))
         hsub = (t1 - t0) / n
         held = 1.0 if self._spool_held else 0.0
         f_ref = self._force_cmd

@@ -85,6 +85,13 @@ def effective_bulk_modulus(p, h):
     return h[BETA] * (1.0 + phi) / (1.0 + h[BETA] * phi / (n * p))
 
 
+def cavity_modulus(h):
+    """The scale [Pa] of a chamber's state below the vapour pressure: the mixture's modulus at
+    the vapour pressure, ``beta_e(p_v)`` (``beta`` without air), so that the state's rate is
+    continuous where a cavity opens or closes (module docstring)."""
+    return effective_bulk_modulus(h[P_VAPOUR], h)
+
+
 def chamber_pressure(x, h):
     """The pressure [Pa] of a chamber in the state ``x`` [Pa]: ``x``, never below the vapour
     pressure."""
@@ -97,7 +104,7 @@ def cavity_volume(x, v, h):
     below = h[P_VAPOUR] - x
     if below <= 0.0:
         return 0.0
-    return v * below / h[BETA]
+    return v * below / cavity_modulus(h)
 
 
 def chamber_rate(x, v, v_rate, q_in, h):
@@ -107,7 +114,7 @@ def chamber_rate(x, v, v_rate, q_in, h):
     pv = h[P_VAPOUR]
     if x >= pv:
         return effective_bulk_modulus(x, h) / v * (q_in - v_rate)
-    return h[BETA] / v * (q_in - v_rate) + v_rate / v * (pv - x)
+    return cavity_modulus(h) / v * (q_in - v_rate) + v_rate / v * (pv - x)
 
 
 def edge_flow(k, opening, dp, p_laminar, linear, q_lin):
@@ -307,7 +314,7 @@ def power_balance(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_
         if x >= h[P_VAPOUR]:
             compression += x * v * dx / effective_bulk_modulus(x, h)
         else:
-            d_cavity = (dv * (h[P_VAPOUR] - x) - v * dx) / h[BETA]
+            d_cavity = (dv * (h[P_VAPOUR] - x) - v * dx) / cavity_modulus(h)
             cavitation -= h[P_VAPOUR] * d_cavity
     return (
         supply,
@@ -391,6 +398,7 @@ def hydraulic_constants(hp, p) -> tuple[float, ...]:
 #: Every kernel of this module (registered with numba where a compiled kernel calls it).
 KERNELS = (
     effective_bulk_modulus,
+    cavity_modulus,
     chamber_pressure,
     cavity_volume,
     chamber_rate,

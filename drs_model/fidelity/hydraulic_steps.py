@@ -25,6 +25,8 @@ and the constants, and returns the new state as a float64 array of 5.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .. import explicit_steps
@@ -37,6 +39,21 @@ RK4_LIMIT = 2.5
 
 #: Relative perturbation of the forward-difference Jacobian.
 JACOBIAN_EPS = 1e-7
+
+
+#: Relative slack of :func:`substep_count`: a step's length is ``t1 - t0`` of two clock readings,
+#: which rounds up to ~1e-12 of a 10 us step late in a run (a 1e-6 s sub-step of a 1e-5 s step
+#: is then 10.000000000002 of them).
+COUNT_SLACK = 1e-9
+
+
+def substep_count(needed: float) -> float:
+    """The whole number of sub-steps that covers ``needed`` (a ratio of step lengths, rounded
+    in the clock's arithmetic) to within :data:`COUNT_SLACK`, at least 1; NaN or inf as given
+    (refused by the cap's comparison)."""
+    if not math.isfinite(needed):
+        return needed
+    return max(1, math.ceil(needed * (1.0 - COUNT_SLACK)))
 
 
 def state_rate(y, mode, s_ref, v_ref, f_ref, ps, held, c, h):
