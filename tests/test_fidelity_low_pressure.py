@@ -140,7 +140,8 @@ def test_only_the_supply_loss_cavitates_among_the_standard_scenes():
 
 # ---- the limit: no air, high pressure ------------------------------------------------------------
 def _trace(name, hp):
-    rung = make_rung("hydraulic", P, 1e-3, hydraulic=hp)
+    # the old rung's sub-steps: set by the stiffest rate at each step's start alone
+    rung = make_rung("hydraulic", P, 1e-3, hydraulic=hp, recheck=False)
     scene = SCENES[name]
     events = sorted(scene.events, key=lambda e: e[0])
     out, k_event = [], 0
@@ -203,7 +204,10 @@ def test_without_air_the_charts_figures_are_reproduced():
         r = new[(o["scene"], o["run"])]
         assert same(r.opening, o["opening_time"], 1e-12)
         assert same(r.closing, o["closing_time"], 1e-12)
-        for q, tol in (("gap", 3e-6), ("stroke", 3e-6), ("force", 20.0), ("opening", 1e-12),
+        # force: the stop's contact, a jump of its damping force, is crossed inside a sub-step,
+        # and where it falls in it moves the force step's impact by 2-30 N (RK4 at 1.0, 0.9,
+        # 0.8 of the stable sub-step: 5, 30, 2 N); the reference locates it
+        for q, tol in (("gap", 3e-6), ("stroke", 3e-6), ("force", 30.0), ("opening", 1e-12),
                        ("closing", 1e-12)):  # fmt: skip
             assert same(r.errors[q], o["errors"][q], tol), (o["scene"], o["run"], q)
         checked += 1
