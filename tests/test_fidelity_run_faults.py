@@ -336,4 +336,3 @@ def test_the_sub_step_cap_counts_whole_sub_steps():
     tight = make_rung("hydraulic", P, 1e-5, substep=0.9e-6)
     with pytest.raises(TooStiffError, match=r"needs 11\.\d+ rk4 sub-steps, above the cap of 10"):
         tight.advance(1)
-
