@@ -9,7 +9,7 @@ measures the vapour cavity instead (:func:`chamber_pressure`, :func:`cavity_volu
 
 .. math::
 
-    p = \max(x, p_v), \qquad V_{cav} = V \, (p_v - x) / \beta \quad (x < p_v)
+    p = \max(x, p_v), \qquad V_{cav} = V \, (p_v - x) / \beta_e(p_v) \quad (x < p_v)
 
 Equations (Merritt, "Hydraulic Control Systems"; ``s`` and ``s' = u_s psi3'`` from the psi3
 kinematics):
@@ -18,7 +18,8 @@ kinematics):
 
     V_A = V_{A0} + A_A (s - s_{min}), \quad V_B = V_{B0} + A_B (s_{max} - s)
 
-    \dot x = \frac{\beta_e(p)}{V} (Q_{in} - \dot V) + [x < p_v] \frac{\dot V}{V} (p_v - x)
+    \dot x = \frac{\beta_e(\max(x, p_v))}{V} (Q_{in} - \dot V)
+             + [x < p_v] \frac{\dot V}{V} (p_v - x)
 
     Q_{A,in} = Q_A - Q_{AB} - Q_{A,ext} - Q_{A,relief}, \quad
     Q_{B,in} = Q_B + Q_{AB} - Q_{B,ext} - Q_{B,relief}
@@ -30,10 +31,13 @@ kinematics):
 
 Above the vapour pressure the chamber equation is continuity, ``p' = beta_e / V (Q_in - V')``;
 below it the cavity takes the volume the oil does not fill (``V_cav' = V' - Q_in``, the pressure
-held at ``p_v``). The state is continuous through ``x = p_v``; its rate changes there from the
-oil-air mixture's ``beta_e(p_v)`` to the oil's ``beta`` (the cavity is measured in the oil's
-scale, so that a step that overshoots the floor by some pressure opens a cavity as small as the
-oil's compression over that pressure; without air the rate is continuous). The effective bulk
+held at ``p_v``). The cavity is measured on the mixture's modulus at the floor,
+``beta_e(p_v)`` (:func:`cavity_modulus`; ``beta`` without air), so that the state and its rate
+are both continuous through ``x = p_v`` (only the rate's slope changes there): a step that
+crosses the floor, either way, carries no rate from the other side. (Measured on the oil's
+``beta``, 1.4e5 times ``beta_e(p_v)`` with the default air, a step crossing upward would keep
+the cavity's fast rate past the crossing and overshoot, and the free air, whose volume goes as
+``1/p``, would lose more volume than the cavity held.) The effective bulk
 modulus of the oil with its entrained air (:func:`effective_bulk_modulus`, the model and its
 sources in :mod:`~drs_model.fidelity.hydraulic_params`), with ``phi = a (p_sat / p)^(1/n)`` the
 free air per volume of oil:
