@@ -299,7 +299,7 @@ class HydraulicRung(CommandedActuator):
         full = self.hydraulic.supply_pressure
         probes = [(self._y, self.supply_pressure(self.t))]
         probes += [(y, full) for y in self._rest_at_stops]
-        rate = max(self._rate_fn(float(y[0]), float(y[2]), float(y[3]), float(y[4]), p, c, h_arr)
+        rate = max(self._rate_fn(*(float(v) for v in y[:5]), p, c, h_arr)
                    for y, p in probes)  # fmt: skip
         longest = self.stability_fraction * RK4_LIMIT / rate
         needed = self.dt / (longest if self.substep is None else self.substep)
@@ -435,8 +435,9 @@ class HydraulicRung(CommandedActuator):
         """:func:`~.hydraulic_kernels.stiffest_rate` [1/s] at the state ``y`` at ``t`` [s]."""
         c, h = self._consts
         return self._rate_fn(
-            float(y[0]), float(y[2]), float(y[3]), float(y[4]), self.supply_pressure(t), c, h
-        )
+            float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(y[4]),
+            self.supply_pressure(t), c, h,
+        )  # fmt: skip
 
     def _substeps_for(self, rate: float, t0: float, t1: float, used: int) -> int:
         return hs.substeps_needed(

@@ -237,13 +237,14 @@ def hydraulic_derivatives(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps
     return psi3d, kernels.psi3_acceleration(psi3, psi3d, force, c), dpa, dpb, dx
 
 
-def stiffest_rate(psi3, pa, pb, xv, ps, c, h):
+def stiffest_rate(psi3, psi3d, pa, pb, xv, ps, c, h):
     """An upper estimate of the fastest rate [1/s] of the linearised hydraulic rung at this
     state: the oil column's natural frequency with the end stop's stiffness added where the rod
     is in contact, ``sqrt((beta (A_A^2 / V_A + A_B^2 / V_B) + k_stop) / m_eff)`` with the
-    mechanism's inertia reflected to the rod, ``m_eff = u.M.u / u_s^2``; or the fastest decay
-    (spool, friction, pressure relaxation through the valve, leaks and relief), whichever is
-    larger."""
+    mechanism's inertia reflected to the rod, ``m_eff = u.M.u / u_s^2``; the fastest decay
+    (spool, friction, pressure relaxation through the valve, leaks and relief); or the rate at
+    which a chamber's entrained air stiffens it (:func:`air_stiffening_rate`), whichever is
+    largest."""
     sin3, cos3, s, sin1, cos1, _ = kernels.psi3_position(psi3, c)
     pa, pb = chamber_pressure(pa, h), chamber_pressure(pb, h)
     u0, u1, w0, w1 = kernels.flap_rates(sin1, cos1, sin3, cos3, c)
@@ -273,7 +274,33 @@ def stiffest_rate(psi3, pa, pb, xv, ps, c, h):
     decay = max(decay, h[BETA] * max(slope_a / va, slope_b / vb))
     if h[TAU_SPOOL] > 0.0:
         decay = max(decay, 1.0 / h[TAU_SPOOL])
-    return max(omega, decay)
+    sd = u0 * psi3d
+    air = max(air_stiffening_rate(pa, va, h[AREA_A] * sd, xv, ps - pa, pa - h[P_RETURN], 1.0, h),
+              air_stiffening_rate(pb, vb, -h[AREA_B] * sd, -xv, ps - pb, pb - h[P_RETURN],
+                                  h[PORT_RATIO], h))  # fmt: skip
+    return max(omega, decay, air)
+
+
+def air_stiffening_rate(p, v, v_rate, opening, dp_in, dp_out, port, h):
+    """``|d beta_e/dp| / V |Q_in - V'|`` [1/s]: how fast a chamber at ``p`` [Pa] of volume ``v``
+    [m^3] growing at ``v_rate`` [m^3/s] changes its own pressure's rate through its entrained
+    air's modulus, ``beta_e(p)``, steep between the vapour pressure and ~10 bar (a closed
+    cavity's air compressed from ``p_v``). ``Q_in``: the metering edges' flow at ``opening``
+    (its inflow edge under ``dp_in``, its outflow edge under ``dp_out`` [Pa]; with no spool lag,
+    either edge fully open, whichever passes more), the edges ``port`` times the piston side's.
+    0 without air."""
+    if h[AIR_FRACTION] == 0.0:
+        return 0.0
+    k, plam, lin, q = h[K_EDGE] * port, h[P_LAMINAR], h[LINEAR_LAW], h[Q_NO_LOAD] * port
+    if h[TAU_SPOOL] > 0.0:
+        q_in = edge_flow(k, max(opening, 0.0), dp_in, plam, lin, q)
+        q_in -= edge_flow(k, max(-opening, 0.0), dp_out, plam, lin, q)
+    else:
+        q_in = max(abs(edge_flow(k, 1.0, dp_in, plam, lin, q)),
+                   abs(edge_flow(k, 1.0, dp_out, plam, lin, q)))  # fmt: skip
+    dp = 1e-6 * p
+    slope = (effective_bulk_modulus(p + dp, h) - effective_bulk_modulus(p, h)) / dp
+    return abs(slope) / v * abs(q_in - v_rate)
 
 
 def power_balance(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
@@ -418,6 +445,7 @@ KERNELS = (
     servo_command,
     hydraulic_derivatives,
     stiffest_rate,
+    air_stiffening_rate,
     power_balance,
     switching_functions,
 )
