@@ -125,8 +125,8 @@ def test_only_the_supply_loss_cavitates_among_the_standard_scenes():
     """The chart's reference (events located, a sixteenth of the stable sub-step) of every
     standard scene but the lap (whose moves are the 100 ms scene's): the lowest pressures are at
     or above the vapour pressure, and only the supply loss (and its return) reaches it, on the
-    rod side, for more than 100 ms (the default rung also touches it for a step at the relief scene's impact on
-    the open stop: a crossing it does not resolve)."""
+    rod side, for more than 100 ms (the default rung also touches it for a step at the relief
+    scene's impact on the open stop: a crossing it does not resolve)."""
     for scene in SCENES.values():
         if scene.repeat > 1:
             continue
