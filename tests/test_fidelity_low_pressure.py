@@ -64,6 +64,23 @@ def test_the_modulus_falls_below_the_saturation_pressure_and_tends_to_beta_above
     assert all(hk.effective_bulk_modulus(x, h0) == NO_AIR.bulk_modulus for x in (2e3, 1e5, 3e7))
 
 
+def test_the_air_stiffening_rate_is_the_modulus_slope_times_the_volume_rate():
+    """``air_stiffening_rate`` (what the sub-step's estimate adds for the air) is ``|d beta_e/dp|
+    / V |Q_in - V'|``: its slope against a central difference of the mixture's modulus as the
+    literature writes it, from the vapour pressure to 200 bar; 0 without air."""
+    hp = HydraulicParams()
+    h = make_rung("hydraulic", P, hydraulic=hp)._h
+    for p in np.geomspace(hp.vapour_pressure, 2e7, 25):
+        fd = (_mixture_modulus(p * (1 + 1e-7), hp) - _mixture_modulus(p * (1 - 1e-7), hp)) / (
+            2e-7 * p
+        )
+        # a closed valve (no flow in), a 2 cm^3 chamber shrinking at 1e-5 m^3/s
+        rate = hk.air_stiffening_rate(p, 2e-6, -1e-5, 0.0, 1e7, 1e6, 1.0, h)
+        assert rate == pytest.approx(abs(fd) * 1e-5 / 2e-6, rel=1e-5, abs=1e-3), p
+    h0 = make_rung("hydraulic", P, hydraulic=NO_AIR)._h
+    assert hk.air_stiffening_rate(1e5, 2e-6, -1e-5, 0.0, 1e7, 1e6, 1.0, h0) == 0.0
+
+
 # ---- the floor ---------------------------------------------------------------------------------
 def _floor_run(fault, hp=None, steps=400, **options):
     """Open, hold, the fault at 0.1 s (with the controller's close command where the fault is a

@@ -291,6 +291,15 @@ def air_stiffening_rate(p, v, v_rate, opening, dp_in, dp_out, port, h):
     0 without air."""
     if h[AIR_FRACTION] == 0.0:
         return 0.0
+    n, beta = h[AIR_INDEX], h[BETA]
+    phi = h[AIR_FRACTION] * (h[P_AIR_SATURATION] / p) ** (1.0 / n)
+    air = beta * phi / (n * p)  # the air's share of the compliance, over the oil's
+    if air < 1e-4:  # the modulus is beta's within 1e-4: it no longer changes with p
+        return 0.0
+    # d beta_e / dp of effective_bulk_modulus, beta (1 + phi) / (1 + air), with phi' = -phi/(n p)
+    d_num = -phi / (n * p)
+    d_den = -air * (1.0 + 1.0 / n) / p
+    slope = beta * (d_num * (1.0 + air) - (1.0 + phi) * d_den) / ((1.0 + air) * (1.0 + air))
     k, plam, lin, q = h[K_EDGE] * port, h[P_LAMINAR], h[LINEAR_LAW], h[Q_NO_LOAD] * port
     if h[TAU_SPOOL] > 0.0:
         q_in = edge_flow(k, max(opening, 0.0), dp_in, plam, lin, q)
@@ -298,8 +307,6 @@ def air_stiffening_rate(p, v, v_rate, opening, dp_in, dp_out, port, h):
     else:
         q_in = max(abs(edge_flow(k, 1.0, dp_in, plam, lin, q)),
                    abs(edge_flow(k, 1.0, dp_out, plam, lin, q)))  # fmt: skip
-    dp = 1e-6 * p
-    slope = (effective_bulk_modulus(p + dp, h) - effective_bulk_modulus(p, h)) / dp
     return abs(slope) / v * abs(q_in - v_rate)
 
 
