@@ -71,7 +71,8 @@ def predicted_limit(hp: HydraulicParams) -> float:
     rung.command_stroke(rung.s_max, 0.1)
     for _ in range(400):
         y = rung.y
-        rate = hk.stiffest_rate(y[0], y[2], y[3], y[4], hp.supply_pressure, tuple(c), tuple(h))
+        ps = hp.supply_pressure
+        rate = hk.stiffest_rate(y[0], y[1], y[2], y[3], y[4], ps, tuple(c), tuple(h))
         worst = max(worst, rate)
         rung.step()
     return RK4_LIMIT / worst
@@ -87,7 +88,7 @@ def oil_frequency(hp: HydraulicParams) -> float:
     hz = list(hz)
     hz[hk.C_VISCOUS] = hz[hk.C_LEAK_AB] = hz[hk.TAU_SPOOL] = 0.0
     hz[hk.LINEAR_LAW] = 1.0
-    return hk.stiffest_rate(y[0], y[2], y[3], y[4], hp.supply_pressure, tuple(c), tuple(hz))
+    return hk.stiffest_rate(y[0], y[1], y[2], y[3], y[4], hp.supply_pressure, tuple(c), tuple(hz))
 
 
 def work_precision(quick: bool) -> list[dict]:

@@ -236,7 +236,7 @@ def test_the_stiff_limit_is_where_rk4_blows_up():
     c, h = rung._consts
     y0 = rung.y
     y0[2] += 5e5  # a 5 bar disturbance rings the oil column
-    rate = hk.stiffest_rate(y0[0], y0[2], y0[3], y0[4], 210e5, tuple(c), tuple(h))
+    rate = hk.stiffest_rate(y0[0], y0[1], y0[2], y0[3], y0[4], 210e5, tuple(c), tuple(h))
 
     def run(factor):
         y, step = y0.copy(), factor * RK4_LIMIT / rate

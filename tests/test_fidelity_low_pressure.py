@@ -21,7 +21,7 @@ from drs_model.bodies import air_forces, kinetic_energy, model_constants, potent
 from drs_model.fidelity import HydraulicParams, make_rung
 from drs_model.fidelity import hydraulic_kernels as hk
 from drs_model.fidelity.ladder import REFERENCE, chamber_floor, event_times, measure
-from drs_model.fidelity.scenes import SCENES, run_scene
+from drs_model.fidelity.scenes import SCENES, _apply, run_scene
 from drs_model.inverse import FusedInverseDynamics
 
 P = DRSParams()
@@ -62,6 +62,23 @@ def test_the_modulus_falls_below_the_saturation_pressure_and_tends_to_beta_above
     # no air: the constant, exactly
     h0 = make_rung("hydraulic", P, hydraulic=NO_AIR)._h
     assert all(hk.effective_bulk_modulus(x, h0) == NO_AIR.bulk_modulus for x in (2e3, 1e5, 3e7))
+
+
+def test_the_air_stiffening_rate_is_the_modulus_slope_times_the_volume_rate():
+    """``air_stiffening_rate`` (what the sub-step's estimate adds for the air) is ``|d beta_e/dp|
+    / V |Q_in - V'|``: its slope against a central difference of the mixture's modulus as the
+    literature writes it, from the vapour pressure to 200 bar; 0 without air."""
+    hp = HydraulicParams()
+    h = make_rung("hydraulic", P, hydraulic=hp)._h
+    for p in np.geomspace(hp.vapour_pressure, 2e7, 25):
+        fd = (_mixture_modulus(p * (1 + 1e-7), hp) - _mixture_modulus(p * (1 - 1e-7), hp)) / (
+            2e-7 * p
+        )
+        # a closed valve (no flow in), a 2 cm^3 chamber shrinking at 1e-5 m^3/s
+        rate = hk.air_stiffening_rate(p, 2e-6, -1e-5, 0.0, 1e7, 1e6, 1.0, h)
+        assert rate == pytest.approx(abs(fd) * 1e-5 / 2e-6, rel=1e-5, abs=1e-3), p
+    h0 = make_rung("hydraulic", P, hydraulic=NO_AIR)._h
+    assert hk.air_stiffening_rate(1e5, 2e-6, -1e-5, 0.0, 1e7, 1e6, 1.0, h0) == 0.0
 
 
 # ---- the floor ---------------------------------------------------------------------------------
@@ -124,15 +141,15 @@ def test_no_pressure_below_the_vapour_pressure(fault, options):
 def test_only_the_supply_loss_cavitates_among_the_standard_scenes():
     """The chart's reference (events located, a sixteenth of the stable sub-step) of every
     standard scene but the lap (whose moves are the 100 ms scene's): the lowest pressures are at
-    or above the vapour pressure, and only the supply loss reaches it, on the rod side, for more
-    than 100 ms (the default rung also touches it for a step at the relief scene's impact on
-    the open stop: a crossing it does not resolve)."""
+    or above the vapour pressure, and only the supply loss (and its return) reaches it, on the
+    rod side, for more than 100 ms (the default rung also touches it for a step at the relief
+    scene's impact on the open stop: a crossing it does not resolve)."""
     for scene in SCENES.values():
         if scene.repeat > 1:
             continue
         floor = chamber_floor(run_scene("hydraulic", scene, P, **REFERENCE[2]))
         assert min(floor["lowest_pressure_a"], floor["lowest_pressure_b"]) >= 2e3, scene.name
-        if scene.name == "supply-loss":
+        if scene.name in ("supply-loss", "supply-return"):
             assert floor["time_at_floor_a"] == 0.0 and floor["time_at_floor_b"] > 0.1, floor
         else:
             assert floor["time_at_floor_a"] == floor["time_at_floor_b"] == 0.0, scene.name
@@ -140,11 +157,11 @@ def test_only_the_supply_loss_cavitates_among_the_standard_scenes():
 
 # ---- the limit: no air, high pressure ------------------------------------------------------------
 def _trace(name, hp):
-    rung = make_rung("hydraulic", P, 1e-3, hydraulic=hp)
+    # the old rung's sub-steps: set by the stiffest rate at each step's start alone
+    rung = make_rung("hydraulic", P, 1e-3, hydraulic=hp, recheck=False)
     scene = SCENES[name]
     events = sorted(scene.events, key=lambda e: e[0])
     out, k_event = [], 0
-    from drs_model.fidelity.scenes import _apply
 
     for _ in range(int(round(scene.duration / 1e-3))):
         while k_event < len(events) and events[k_event][0] <= rung.t + 1e-12:
@@ -203,7 +220,10 @@ def test_without_air_the_charts_figures_are_reproduced():
         r = new[(o["scene"], o["run"])]
         assert same(r.opening, o["opening_time"], 1e-12)
         assert same(r.closing, o["closing_time"], 1e-12)
-        for q, tol in (("gap", 3e-6), ("stroke", 3e-6), ("force", 20.0), ("opening", 1e-12),
+        # force: the stop's contact, a jump of its damping force, is crossed inside a sub-step,
+        # and where it falls in it moves the force step's impact by 2-30 N (RK4 at 1.0, 0.9,
+        # 0.8 of the stable sub-step: 5, 30, 2 N); the reference locates it
+        for q, tol in (("gap", 3e-6), ("stroke", 3e-6), ("force", 30.0), ("opening", 1e-12),
                        ("closing", 1e-12)):  # fmt: skip
             assert same(r.errors[q], o["errors"][q], tol), (o["scene"], o["run"], q)
         checked += 1
@@ -211,15 +231,18 @@ def test_without_air_the_charts_figures_are_reproduced():
 
 
 # ---- energy -------------------------------------------------------------------------------------
-def test_energy_balance_over_the_failsafe_scene():
+@pytest.mark.parametrize("name", ["supply-loss", "supply-return"])
+def test_energy_balance_over_the_failsafe_scene(name):
     """Over the supply-loss scene (open, the supply lost at 0.1 s, the close command; the rod
-    side cavitates), at 10 us steps: the supply's work = valve, leak and relief losses +
-    friction - what the stops give back + the work stored in the oil and its air + the work of
-    the vapour cavities + the change of kinetic and potential energy - the air load's work,
-    within 1e-6 of the supply's work. Mechanical energies from drs_model.bodies, the air load's
-    work from the air force and G3's velocity, the oil's and air's from the recorded pressures
-    and the literature's mixture modulus, the cavities' from the recorded cavity volumes at the
-    vapour pressure: none from the rung's right-hand side."""
+    side cavitates) and the supply-return scene (the supply back at 0.3 s: the cavity refills
+    and closes; open again at 0.32 s), at 10 us steps: the supply's work = valve, leak and
+    relief losses + friction - what the stops give back + the work stored in the oil and its air
+    + the work of the vapour cavities + the change of kinetic and potential energy - the air
+    load's work, within 1e-6 of the supply's work (measured 7e-9 and 9e-8). Mechanical
+    energies from drs_model.bodies, the air load's work from the air force and G3's velocity,
+    the oil's and air's from the recorded pressures and the literature's mixture modulus, the
+    cavities' from the recorded cavity volumes at the vapour pressure: none from the rung's
+    right-hand side."""
     dt = 1e-5
     hp = HydraulicParams()
     rung = make_rung("hydraulic", P, dt, hydraulic=hp)
@@ -235,11 +258,13 @@ def test_energy_balance_over_the_failsafe_scene():
         rows.append((rung.t, *powers, *st.q, *st.qd, *rung.chamber_pressures(),
                      *rung.cavity_volumes()))  # fmt: skip
 
-    rung.command_drs(True)
-    for k in range(int(0.4 / dt)):
-        if k == int(0.1 / dt):
-            sample()  # the instant before the loss ...
-            rung.lose_supply()
+    scene = SCENES[name]
+    events = {round(t / dt): (action, argument) for t, action, argument in scene.events}
+    for k in range(round(scene.duration / dt)):
+        if k in events:
+            if k:
+                sample()  # the instant before a command ...
+            _apply(rung, *events[k])
         sample()  # ... and each step's start, after its commands
         rung.step()
     sample()
@@ -255,9 +280,10 @@ def test_energy_balance_over_the_failsafe_scene():
     def work(x):
         return float(np.sum(0.5 * (x[1:] + x[:-1]) * np.diff(t)))
 
-    def stored(p, v):  # the integral of p V / beta_e dp, midpoint in each step
+    def stored(p, v, gross=False):  # the integral of p V / beta_e dp, midpoint in each step
         pm, vm = 0.5 * (p[1:] + p[:-1]), 0.5 * (v[1:] + v[:-1])
-        return float(np.sum(pm * vm / _mixture_modulus(pm, hp) * np.diff(p)))
+        dp = np.abs(np.diff(p)) if gross else np.diff(p)
+        return float(np.sum(pm * vm / _mixture_modulus(pm, hp) * dp))
 
     compression = stored(pa, va) + stored(pb, vb)
     cavitation = -hp.vapour_pressure * float((cav_a[-1] - cav_a[0]) + (cav_b[-1] - cav_b[0]))
@@ -270,8 +296,12 @@ def test_energy_balance_over_the_failsafe_scene():
     budget = losses + compression + cavitation + (energy[-1] - energy[0]) - work(air)
     assert w_supply > 1.0
     assert abs(w_supply - budget) < 1e-6 * w_supply, (w_supply, budget, w_supply - budget)
-    assert abs(compression) > 1e-3 * w_supply  # the oil and air terms are not idle
-    assert cavitation != 0.0
+    # the oil and air terms are not idle (stored and given back: the gross work)
+    assert stored(pa, va, True) + stored(pb, vb, True) > 1e-3 * w_supply
+    if name == "supply-return":  # the cavity closed again: what it gave the piston, it took back
+        assert cav_b[-1] == 0.0 and cavitation == 0.0
+    else:
+        assert cavitation != 0.0
 
 
 # ---- the reference ------------------------------------------------------------------------------

@@ -309,3 +309,30 @@ def test_no_step_takes_more_sub_steps_than_the_cap():
         stiff.advance(1)
     np.testing.assert_array_equal(stiff.y, before)
     assert stiff.steps == 0
+
+
+def test_the_sub_step_cap_counts_whole_sub_steps():
+    """1 us sub-steps of a 10 us step are 10 sub-steps at every step, the cap's 10, though the
+    step's length ``t1 - t0`` rounds above 10 us late in the run (first at 62.5 ms): the cap
+    compares counts, not lengths; 0.9 us sub-steps are refused (11 needed)."""
+    sim = make_rung("hydraulic", P, 1e-5, substep=1e-6)
+    calls = [0]
+    step = sim._step_fn
+
+    def counted(*args):
+        calls[0] += 1
+        return step(*args)
+
+    sim.__dict__["_step_fn"] = counted
+    sim.command_drs(True)
+    lengths = []
+    for _ in range(8000):
+        t0 = sim.t
+        sim.advance(1)
+        lengths.append(sim.t - t0)
+    assert sim.max_substeps == 10 and calls[0] == 10 * 8000
+    # the rounding that was refused is in the run: a length comparison finds 10 too few
+    assert max(lengths) / 1e-6 * (1 - 1e-12) > 10
+    tight = make_rung("hydraulic", P, 1e-5, substep=0.9e-6)
+    with pytest.raises(TooStiffError, match=r"needs 11\.\d+ rk4 sub-steps, above the cap of 10"):
+        tight.advance(1)

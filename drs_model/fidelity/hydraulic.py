@@ -29,29 +29,13 @@ from ..errors import InputError, StiffStepError, TooStiffError
 from ..inverse import FusedInverseDynamics
 from ..params import DRSParams
 from . import hydraulic_kernels as hk
+from . import hydraulic_steps as hs
 from .base import RungState
 from .hydraulic_events import EventLocator
 from .hydraulic_kernels import hydraulic_constants
 from .hydraulic_params import HydraulicParams
 from .hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, state_rate
 from .supply import SupplyPressure
-
-#: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
-#: at any step); at 0.1 ms ``ros2`` keeps the stroke within 3e-5 m of the tight reference on the
-#: open-hold-close scene (docs/fidelity.md).
-DEFAULT_IMPLICIT_SUBSTEP = 1e-4
-
-#: The shortest sub-step [s] the rung takes by default at a ``stability_fraction`` of 1
-#: (``max_substeps = ceil(dt / MIN_SUBSTEP)``, 1000 at 1 kHz): a state whose stability needs
-#: shorter ones (a stiffest rate above ``RK4_LIMIT / MIN_SUBSTEP`` = 2.5e6 1/s, 170 times the oil
-#: column's at the closed stop) is refused with :class:`~drs_model.errors.TooStiffError`, so that
-#: no state makes a step unbounded.
-MIN_SUBSTEP = 1e-6
-
-#: A fault (or a start) is refused when its stiffest probed state needs more than
-#: ``1 / STIFFNESS_MARGIN`` of the cap: the state's own swings (a chamber pressure near supply or
-#: return stiffens the valve's edges 5-fold) then stay within it.
-STIFFNESS_MARGIN = 2.0
 
 
 def equilibrium_state(s: float, p: DRSParams, hp: HydraulicParams, ps: float | None = None):
@@ -103,6 +87,9 @@ class HydraulicRung(CommandedActuator):
         Most sub-steps of one physics step; a step that needs more raises
         :class:`~drs_model.errors.TooStiffError` before it is taken (the state is kept). Default:
         ``ceil(dt / (MIN_SUBSTEP * stability_fraction))``.
+    recheck : bool
+        With RK4's own sub-step: check the stiffest rate at each sub-step's end and take a
+        sub-step again, shorter, where the state stiffened within it (default; :meth:`step`).
     """
 
     name = "hydraulic"
@@ -122,6 +109,7 @@ class HydraulicRung(CommandedActuator):
         guard: bool = True,
         locate_events: bool = False,
         max_substeps: int | None = None,
+        recheck: bool = True,
     ) -> None:
         if method not in STEP_METHODS:
             raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
@@ -137,6 +125,7 @@ class HydraulicRung(CommandedActuator):
         self.stability_fraction = float(stability_fraction)
         self.guard = bool(guard)
         self.locate_events = bool(locate_events)
+        self.recheck = bool(recheck)
         self.hydraulic = HydraulicParams() if hydraulic is None else hydraulic
         self.method = method
         self.substep = substep
@@ -153,7 +142,7 @@ class HydraulicRung(CommandedActuator):
         chart's reference) may take proportionally more, and the bound stays finite."""
         if self._max_substeps is not None:
             return self._max_substeps
-        shortest = MIN_SUBSTEP * self.stability_fraction
+        shortest = hs.MIN_SUBSTEP * self.stability_fraction
         return max(1, math.ceil(self.dt / shortest * (1.0 - 1e-12)))
 
     @cached_property
@@ -178,6 +167,7 @@ class HydraulicRung(CommandedActuator):
         self._supply = SupplyPressure(t, hp.supply_pressure)
         self._spool_held = False
         self._force_cmd = 0.0
+        self._peak_rate = 0.0
         super().reset(t, s)
         self._update_outputs()
         return self.state
@@ -304,20 +294,20 @@ class HydraulicRung(CommandedActuator):
         that is above ``max_substeps / STIFFNESS_MARGIN`` (module constants)."""
         h = self._h if h is None else h
         if not self._explicit:
-            return math.ceil(self.dt / (self.substep or DEFAULT_IMPLICIT_SUBSTEP) * (1 - 1e-12))
+            return math.ceil(self.dt / (self.substep or hs.DEFAULT_IMPLICIT_SUBSTEP) * (1 - 1e-12))
         c, h_arr = self._consts[0], np.array(h)
         full = self.hydraulic.supply_pressure
         probes = [(self._y, self.supply_pressure(self.t))]
         probes += [(y, full) for y in self._rest_at_stops]
-        rate = max(self._rate_fn(float(y[0]), float(y[2]), float(y[3]), float(y[4]), p, c, h_arr)
+        rate = max(self._rate_fn(*(float(v) for v in y[:5]), p, c, h_arr)
                    for y, p in probes)  # fmt: skip
         longest = self.stability_fraction * RK4_LIMIT / rate
         needed = self.dt / (longest if self.substep is None else self.substep)
-        if not needed * STIFFNESS_MARGIN <= self.max_substeps:
+        if not needed * hs.STIFFNESS_MARGIN <= self.max_substeps:
             raise TooStiffError(
                 f"too stiff for a physics step of {self.dt:.3g} s: its stiffest rate {rate:.4g} "
                 f"1/s needs {needed:.4g} {self.method} sub-steps per step, above "
-                f"1/{STIFFNESS_MARGIN:g} of the cap of {self.max_substeps} (max_substeps); "
+                f"1/{hs.STIFFNESS_MARGIN:g} of the cap of {self.max_substeps} (max_substeps); "
                 "a shorter physics step (a higher rate) needs fewer"
             )
         return max(1, math.ceil(needed * (1 - 1e-12)))
@@ -406,47 +396,62 @@ class HydraulicRung(CommandedActuator):
 
     # ---- stepping ------------------------------------------------------------------------------
     def _advance_one(self) -> None:
-        t0 = self.t
-        t1 = self.motion.t_reset + (self.steps + 1) * self.dt
-        c, h = self._consts
+        """One physics step in sub-steps; with ``recheck``, a sub-step whose end is stiffer than
+        its length allows is taken again with the rest of the step, shorter
+        (:data:`~.hydraulic_steps.RETAKE_HEADROOM`). At most ``max_substeps`` sub-steps."""
+        t, t1 = self.t, self.motion.t_reset + (self.steps + 1) * self.dt
         y = self._y
         mode = hk.MODE_FORCE if self.mode == "force" else hk.MODE_STROKE
-        rate = self._rate_fn(
-            float(y[0]), float(y[2]), float(y[3]), float(y[4]), self.supply_pressure(t0), c, h
-        )
-        if self._explicit:
-            limit = RK4_LIMIT / rate
-            if self.guard and self.substep is not None and self.substep > limit:
-                raise StiffStepError(
-                    f"an explicit {self.method} sub-step of {self.substep:.3g} s exceeds the "
-                    f"stability limit {limit:.3g} s of the stiffest mode ({rate:.4g} rad/s, "
-                    f"h * rate must stay <= {RK4_LIMIT}): use substep <= {limit:.3g} s or an "
-                    "implicit method ('ros2', 'linearly-implicit-euler')"
-                )
-            longest = self.stability_fraction * limit if self.substep is None else self.substep
-        else:
-            longest = DEFAULT_IMPLICIT_SUBSTEP if self.substep is None else self.substep
-        needed = (t1 - t0) / longest * (1.0 - 1e-12)
-        if not needed <= self.max_substeps:  # NaN too: a rate that is no number is refused
-            raise TooStiffError(
-                f"the hydraulic state at t = {t0:.6g} s is too stiff for a physics step of "
-                f"{self.dt:.3g} s: its stiffest rate {rate:.4g} 1/s needs {needed:.4g} "
-                f"{self.method} sub-steps, above the cap of {self.max_substeps} (max_substeps)"
-            )
-        n = max(1, math.ceil(needed))
-        hsub = (t1 - t0) / n
-        held = 1.0 if self._spool_held else 0.0
-        f_ref = self._force_cmd
-        for k in range(n):
-            y = self._substep(y, t0 + k * hsub, hsub, mode, f_ref, held)
+        held, f_ref = (1.0 if self._spool_held else 0.0), self._force_cmd
+        watch = self.recheck and self._explicit and self.substep is None
+        rate = self._stiffest(y, t)
+        if watch:  # what the previous step met: a stiffening that lasts is not met again
+            rate = max(rate, self._peak_rate)
+        n, used, peak, k = self._substeps_for(rate, t, t1, 0), 0, 0.0, 0
+        hsub = (t1 - t) / n
+        while k < n:  # sub-step k of n of hsub from t
+            y1 = self._substep(y, t + k * hsub, hsub, mode, f_ref, held)
+            used += 1
+            if watch:
+                met = self._stiffest(y1, t + (k + 1) * hsub)
+                if not met * hsub <= self.stability_fraction * RK4_LIMIT:  # NaN: refused below
+                    rate, t = hs.RETAKE_HEADROOM * met, t + k * hsub
+                    n, k = max(n - k + 1, self._substeps_for(rate, t, t1, used)), 0
+                    hsub = (t1 - t) / n
+                    continue
+                peak = max(peak, met)
+            y, k = y1, k + 1
         if not np.all(np.isfinite(y)):
             raise StiffStepError(
                 f"the hydraulic state became non-finite in a step of {self.dt:.3g} s "
-                f"({n} sub-steps of {hsub:.3g} s, method {self.method!r}) at t = {t0:.6g} s"
+                f"({used} sub-steps, method {self.method!r}) at t = {self.t:.6g} s"
             )
+        self._peak_rate = max(peak, hs.RATE_MEMORY * rate)
         self.motion.tick()  # t1, as computed from the reset time
         self._y = np.asarray(y, dtype=float)
         self._update_outputs()
+
+    def _stiffest(self, y, t: float) -> float:
+        """:func:`~.hydraulic_kernels.stiffest_rate` [1/s] at the state ``y`` at ``t`` [s]."""
+        c, h = self._consts
+        return self._rate_fn(
+            float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(y[4]),
+            self.supply_pressure(t), c, h,
+        )  # fmt: skip
+
+    def _substeps_for(self, rate: float, t0: float, t1: float, used: int) -> int:
+        return hs.substeps_needed(
+            rate,
+            t0,
+            t1,
+            used,
+            self.max_substeps,
+            self.method,
+            self.substep,
+            self.stability_fraction,
+            self.guard,
+            self.dt,
+        )
 
     def _substep(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
         """One sub-step of ``hsub`` [s] from ``ta`` [s]; with ``locate_events``, split where the
@@ -466,20 +471,15 @@ class HydraulicRung(CommandedActuator):
             self.supply_pressure(ta + hsub), held, hsub, c, h,
         )  # fmt: skip
 
-    def _refs(self, t: float):
-        """``(s_ref, v_ref, supply pressure)`` at ``t`` [s]."""
-        s_ref, v_ref = self._reference(t)
-        return s_ref, v_ref, self.supply_pressure(t)
-
     def _switches(self, y, t: float, mode: float, f_ref: float, held: float):
         c, h = self._consts
-        s_ref, v_ref, ps = self._refs(t)
+        (s_ref, v_ref), ps = self._reference(t), self.supply_pressure(t)
         return self._switch_fn(float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(y[4]),
                                mode, s_ref, v_ref, f_ref, ps, held, c, h)  # fmt: skip
 
     def _rate(self, y, t: float, mode: float, f_ref: float, held: float):
         c, h = self._consts
-        s_ref, v_ref, ps = self._refs(t)
+        (s_ref, v_ref), ps = self._reference(t), self.supply_pressure(t)
         return self._rhs_fn(np.asarray(y, dtype=float), mode, s_ref, v_ref, f_ref, ps, held, c, h)
 
     @cached_property

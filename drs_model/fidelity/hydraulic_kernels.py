@@ -9,7 +9,7 @@ measures the vapour cavity instead (:func:`chamber_pressure`, :func:`cavity_volu
 
 .. math::
 
-    p = \max(x, p_v), \qquad V_{cav} = V \, (p_v - x) / \beta \quad (x < p_v)
+    p = \max(x, p_v), \qquad V_{cav} = V \, (p_v - x) / \beta_e(p_v) \quad (x < p_v)
 
 Equations (Merritt, "Hydraulic Control Systems"; ``s`` and ``s' = u_s psi3'`` from the psi3
 kinematics):
@@ -18,7 +18,8 @@ kinematics):
 
     V_A = V_{A0} + A_A (s - s_{min}), \quad V_B = V_{B0} + A_B (s_{max} - s)
 
-    \dot x = \frac{\beta_e(p)}{V} (Q_{in} - \dot V) + [x < p_v] \frac{\dot V}{V} (p_v - x)
+    \dot x = \frac{\beta_e(\max(x, p_v))}{V} (Q_{in} - \dot V)
+             + [x < p_v] \frac{\dot V}{V} (p_v - x)
 
     Q_{A,in} = Q_A - Q_{AB} - Q_{A,ext} - Q_{A,relief}, \quad
     Q_{B,in} = Q_B + Q_{AB} - Q_{B,ext} - Q_{B,relief}
@@ -30,10 +31,13 @@ kinematics):
 
 Above the vapour pressure the chamber equation is continuity, ``p' = beta_e / V (Q_in - V')``;
 below it the cavity takes the volume the oil does not fill (``V_cav' = V' - Q_in``, the pressure
-held at ``p_v``). The state is continuous through ``x = p_v``; its rate changes there from the
-oil-air mixture's ``beta_e(p_v)`` to the oil's ``beta`` (the cavity is measured in the oil's
-scale, so that a step that overshoots the floor by some pressure opens a cavity as small as the
-oil's compression over that pressure; without air the rate is continuous). The effective bulk
+held at ``p_v``). The cavity is measured on the mixture's modulus at the floor,
+``beta_e(p_v)`` (:func:`cavity_modulus`; ``beta`` without air), so that the state and its rate
+are both continuous through ``x = p_v`` (only the rate's slope changes there): a step that
+crosses the floor, either way, carries no rate from the other side. (Measured on the oil's
+``beta``, 1.4e5 times ``beta_e(p_v)`` with the default air, a step crossing upward would keep
+the cavity's fast rate past the crossing and overshoot, and the free air, whose volume goes as
+``1/p``, would lose more volume than the cavity held.) The effective bulk
 modulus of the oil with its entrained air (:func:`effective_bulk_modulus`, the model and its
 sources in :mod:`~drs_model.fidelity.hydraulic_params`), with ``phi = a (p_sat / p)^(1/n)`` the
 free air per volume of oil:
@@ -85,6 +89,13 @@ def effective_bulk_modulus(p, h):
     return h[BETA] * (1.0 + phi) / (1.0 + h[BETA] * phi / (n * p))
 
 
+def cavity_modulus(h):
+    """The scale [Pa] of a chamber's state below the vapour pressure: the mixture's modulus at
+    the vapour pressure, ``beta_e(p_v)`` (``beta`` without air), so that the state's rate is
+    continuous where a cavity opens or closes (module docstring)."""
+    return effective_bulk_modulus(h[P_VAPOUR], h)
+
+
 def chamber_pressure(x, h):
     """The pressure [Pa] of a chamber in the state ``x`` [Pa]: ``x``, never below the vapour
     pressure."""
@@ -97,7 +108,7 @@ def cavity_volume(x, v, h):
     below = h[P_VAPOUR] - x
     if below <= 0.0:
         return 0.0
-    return v * below / h[BETA]
+    return v * below / cavity_modulus(h)
 
 
 def chamber_rate(x, v, v_rate, q_in, h):
@@ -107,7 +118,7 @@ def chamber_rate(x, v, v_rate, q_in, h):
     pv = h[P_VAPOUR]
     if x >= pv:
         return effective_bulk_modulus(x, h) / v * (q_in - v_rate)
-    return h[BETA] / v * (q_in - v_rate) + v_rate / v * (pv - x)
+    return cavity_modulus(h) / v * (q_in - v_rate) + v_rate / v * (pv - x)
 
 
 def edge_flow(k, opening, dp, p_laminar, linear, q_lin):
@@ -226,13 +237,14 @@ def hydraulic_derivatives(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps
     return psi3d, kernels.psi3_acceleration(psi3, psi3d, force, c), dpa, dpb, dx
 
 
-def stiffest_rate(psi3, pa, pb, xv, ps, c, h):
+def stiffest_rate(psi3, psi3d, pa, pb, xv, ps, c, h):
     """An upper estimate of the fastest rate [1/s] of the linearised hydraulic rung at this
     state: the oil column's natural frequency with the end stop's stiffness added where the rod
     is in contact, ``sqrt((beta (A_A^2 / V_A + A_B^2 / V_B) + k_stop) / m_eff)`` with the
-    mechanism's inertia reflected to the rod, ``m_eff = u.M.u / u_s^2``; or the fastest decay
-    (spool, friction, pressure relaxation through the valve, leaks and relief), whichever is
-    larger."""
+    mechanism's inertia reflected to the rod, ``m_eff = u.M.u / u_s^2``; the fastest decay
+    (spool, friction, pressure relaxation through the valve, leaks and relief); or the rate at
+    which a chamber's entrained air stiffens it (:func:`air_stiffening_rate`), whichever is
+    largest."""
     sin3, cos3, s, sin1, cos1, _ = kernels.psi3_position(psi3, c)
     pa, pb = chamber_pressure(pa, h), chamber_pressure(pb, h)
     u0, u1, w0, w1 = kernels.flap_rates(sin1, cos1, sin3, cos3, c)
@@ -262,7 +274,40 @@ def stiffest_rate(psi3, pa, pb, xv, ps, c, h):
     decay = max(decay, h[BETA] * max(slope_a / va, slope_b / vb))
     if h[TAU_SPOOL] > 0.0:
         decay = max(decay, 1.0 / h[TAU_SPOOL])
-    return max(omega, decay)
+    sd = u0 * psi3d
+    air = max(air_stiffening_rate(pa, va, h[AREA_A] * sd, xv, ps - pa, pa - h[P_RETURN], 1.0, h),
+              air_stiffening_rate(pb, vb, -h[AREA_B] * sd, -xv, ps - pb, pb - h[P_RETURN],
+                                  h[PORT_RATIO], h))  # fmt: skip
+    return max(omega, decay, air)
+
+
+def air_stiffening_rate(p, v, v_rate, opening, dp_in, dp_out, port, h):
+    """``|d beta_e/dp| / V |Q_in - V'|`` [1/s]: how fast a chamber at ``p`` [Pa] of volume ``v``
+    [m^3] growing at ``v_rate`` [m^3/s] changes its own pressure's rate through its entrained
+    air's modulus, ``beta_e(p)``, steep between the vapour pressure and ~10 bar (a closed
+    cavity's air compressed from ``p_v``). ``Q_in``: the metering edges' flow at ``opening``
+    (its inflow edge under ``dp_in``, its outflow edge under ``dp_out`` [Pa]; with no spool lag,
+    either edge fully open, whichever passes more), the edges ``port`` times the piston side's.
+    0 without air."""
+    if h[AIR_FRACTION] == 0.0:
+        return 0.0
+    n, beta = h[AIR_INDEX], h[BETA]
+    phi = h[AIR_FRACTION] * (h[P_AIR_SATURATION] / p) ** (1.0 / n)
+    air = beta * phi / (n * p)  # the air's share of the compliance, over the oil's
+    if air < 1e-4:  # the modulus is beta's within 1e-4: it no longer changes with p
+        return 0.0
+    # d beta_e / dp of effective_bulk_modulus, beta (1 + phi) / (1 + air), with phi' = -phi/(n p)
+    d_num = -phi / (n * p)
+    d_den = -air * (1.0 + 1.0 / n) / p
+    slope = beta * (d_num * (1.0 + air) - (1.0 + phi) * d_den) / ((1.0 + air) * (1.0 + air))
+    k, plam, lin, q = h[K_EDGE] * port, h[P_LAMINAR], h[LINEAR_LAW], h[Q_NO_LOAD] * port
+    if h[TAU_SPOOL] > 0.0:
+        q_in = edge_flow(k, max(opening, 0.0), dp_in, plam, lin, q)
+        q_in -= edge_flow(k, max(-opening, 0.0), dp_out, plam, lin, q)
+    else:
+        q_in = max(abs(edge_flow(k, 1.0, dp_in, plam, lin, q)),
+                   abs(edge_flow(k, 1.0, dp_out, plam, lin, q)))  # fmt: skip
+    return abs(slope) / v * abs(q_in - v_rate)
 
 
 def power_balance(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_held, c, h):
@@ -307,7 +352,7 @@ def power_balance(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, spool_
         if x >= h[P_VAPOUR]:
             compression += x * v * dx / effective_bulk_modulus(x, h)
         else:
-            d_cavity = (dv * (h[P_VAPOUR] - x) - v * dx) / h[BETA]
+            d_cavity = (dv * (h[P_VAPOUR] - x) - v * dx) / cavity_modulus(h)
             cavitation -= h[P_VAPOUR] * d_cavity
     return (
         supply,
@@ -391,6 +436,7 @@ def hydraulic_constants(hp, p) -> tuple[float, ...]:
 #: Every kernel of this module (registered with numba where a compiled kernel calls it).
 KERNELS = (
     effective_bulk_modulus,
+    cavity_modulus,
     chamber_pressure,
     cavity_volume,
     chamber_rate,
@@ -406,6 +452,7 @@ KERNELS = (
     servo_command,
     hydraulic_derivatives,
     stiffest_rate,
+    air_stiffening_rate,
     power_balance,
     switching_functions,
 )

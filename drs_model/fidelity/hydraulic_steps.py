@@ -25,9 +25,12 @@ and the constants, and returns the new state as a float64 array of 5.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .. import explicit_steps
+from ..errors import StiffStepError, TooStiffError
 from . import hydraulic_kernels
 from .hydraulic_kernels import hydraulic_derivatives
 
@@ -37,6 +40,82 @@ RK4_LIMIT = 2.5
 
 #: Relative perturbation of the forward-difference Jacobian.
 JACOBIAN_EPS = 1e-7
+
+
+#: Relative slack of :func:`substep_count`: a step's length is ``t1 - t0`` of two clock readings,
+#: which rounds up to ~1e-12 of a 10 us step late in a run (a 1e-6 s sub-step of a 1e-5 s step
+#: is then 10.000000000002 of them).
+COUNT_SLACK = 1e-9
+
+
+def substep_count(needed: float) -> float:
+    """The whole number of sub-steps that covers ``needed`` (a ratio of step lengths, rounded
+    in the clock's arithmetic) to within :data:`COUNT_SLACK`, at least 1; NaN or inf as given
+    (refused by the cap's comparison)."""
+    if not math.isfinite(needed):
+        return needed
+    return max(1, math.ceil(needed * (1.0 - COUNT_SLACK)))
+
+
+#: The shortest sub-step [s] the rung takes by default at a ``stability_fraction`` of 1
+#: (``max_substeps = ceil(dt / MIN_SUBSTEP)``, 1000 at 1 kHz): a state whose stability needs
+#: shorter ones (a stiffest rate above ``RK4_LIMIT / MIN_SUBSTEP`` = 2.5e6 1/s, 170 times the oil
+#: column's at the closed stop) is refused with :class:`~drs_model.errors.TooStiffError`, so that
+#: no state makes a step unbounded.
+MIN_SUBSTEP = 1e-6
+
+#: A fault (or a start) is refused when its stiffest probed state needs more than
+#: ``1 / STIFFNESS_MARGIN`` of the cap: the state's own swings (a chamber pressure near supply or
+#: return stiffens the valve's edges 5-fold) then stay within it.
+STIFFNESS_MARGIN = 2.0
+
+
+#: Default longest sub-step [s] of the implicit methods: set by accuracy alone (they are stable
+#: at any step); at 0.1 ms ``ros2`` keeps the stroke within 3e-5 m of the tight reference on the
+#: open-hold-close scene (docs/fidelity.md).
+DEFAULT_IMPLICIT_SUBSTEP = 1e-4
+
+#: RK4's own sub-step is set by the stiffest rate at its start; a state can stiffen within it (a
+#: chamber filling towards the supply or draining towards the return, where a metering edge's
+#: slope grows as its drop falls; the air of a chamber whose cavity closed, compressed from the
+#: vapour pressure). The rung checks the rate at each sub-step's end and, above what the
+#: sub-step's length allows, takes that sub-step again, with the rest of the step, at this
+#: multiple of the rate met (so that a state that goes on stiffening is not taken again at every
+#: sub-step) ...
+RETAKE_HEADROOM = 1.25
+#: ... and the next step starts from at least this fraction of the rate a step was taken at.
+RATE_MEMORY = 0.9
+
+
+def substeps_needed(rate, t0, t1, used, cap, method, substep, fraction, guard, dt) -> int:
+    """The sub-steps of ``method`` from ``t0`` to ``t1`` [s] at the stiffest rate ``rate``
+    [1/s], ``used`` sub-steps of the physics step (``dt`` [s]) already taken: the longest
+    ``substep`` [s] given, else ``fraction`` of RK4's stable one or
+    :data:`DEFAULT_IMPLICIT_SUBSTEP`. Raises :class:`~drs_model.errors.StiffStepError` for an
+    RK4 ``substep`` above the stability limit (with ``guard``) and
+    :class:`~drs_model.errors.TooStiffError` for a count above what is left of the ``cap``."""
+    if STEP_METHODS[method][1]:
+        limit = RK4_LIMIT / rate
+        if guard and substep is not None and substep > limit:
+            raise StiffStepError(
+                f"an explicit {method} sub-step of {substep:.3g} s exceeds the stability limit "
+                f"{limit:.3g} s of the stiffest mode ({rate:.4g} rad/s, h * rate must stay <= "
+                f"{RK4_LIMIT}): use substep <= {limit:.3g} s or an implicit method ('ros2', "
+                "'linearly-implicit-euler')"
+            )
+        longest = fraction * limit if substep is None else substep
+    else:
+        longest = DEFAULT_IMPLICIT_SUBSTEP if substep is None else substep
+    needed = (t1 - t0) / longest if longest > 0.0 else math.inf
+    n = substep_count(needed)
+    if not n <= cap - used:  # NaN too: a rate that is no number is refused
+        raise TooStiffError(
+            f"the hydraulic state at t = {t0:.6g} s is too stiff for a physics step of "
+            f"{dt:.3g} s: its stiffest rate {rate:.4g} 1/s needs {needed:.4g} {method} "
+            f"sub-steps, above the cap of {cap} (max_substeps)"
+            + (f" less the {used} taken" if used else "")
+        )
+    return n
 
 
 def state_rate(y, mode, s_ref, v_ref, f_ref, ps, held, c, h):

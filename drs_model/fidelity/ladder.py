@@ -3,7 +3,7 @@ reference and its cost per simulated second, and the cheapest rung that meets a 
 
 The reference is the hydraulic rung stepped with RK4 at a quarter of the largest stable
 sub-step of every step (the tight run; the default, the whole stable sub-step, is within
-1.6e-6 m and 10 N of RK4 at 2 us sub-steps on the open-hold-close scene). Errors are the
+2e-6 m and 10 N of RK4 at 2 us sub-steps on the open-hold-close scene). Errors are the
 largest differences over the scene, sampled at every step: gap and stroke [m], piston force [N]
 (none on the kinematic rung), and the opening and closing times [s] (from the command to 95 %
 of the gap's travel, :func:`event_times`).

@@ -13,6 +13,10 @@ A scene is a list of timed commands (the actuator's: ``drs`` open/close, ``force
     at rest closed; a 1500 N force step at 5 ms (the demo's): the flap goes onto its open stop.
 ``supply-loss``
     open, then the supply fails at 0.1 s (the controller commands closed, its fail-safe).
+``supply-return``
+    the supply loss's end: open, the supply fails at 0.1 s (the rod side cavitates), returns at
+    0.3 s in a step (as the node's ``fault.supply_loss`` cleared: the cavity refills and closes),
+    and the flap opens again at 0.32 s.
 ``relief``
     a 10 kN force command (more than the cylinder gives: full spool) holds the flap on its open
     stop; at 0.15 s the supply rises to 300 bar (its regulator fails) and the piston side's relief
@@ -42,7 +46,8 @@ from .kinematic import KinematicRung, batch_strokes
 class Scene:
     """A scene: ``events`` are ``(t [s], action, argument)`` with action ``"drs"`` (argument: open
     True/False, the seed's move times), ``"move"`` (``(open, duration [s])``), ``"force"`` (N),
-    ``"lose_supply"`` (ramp time [s]) or ``"supply"`` (a new supply pressure [Pa], at once; only
+    ``"lose_supply"`` (ramp time [s]), ``"restore_supply"`` (the supply loss's end, over a ramp
+    time [s]) or ``"supply"`` (a new supply pressure [Pa], at once; only
     a rung with a supply takes it); ``duration`` [s];
     ``repeat`` is how many times the scene stands for itself (the hour of laps)."""
 
@@ -77,6 +82,17 @@ STANDARD_SCENES = (
         0.4,
         ((0.0, "drs", True), (0.1, "lose_supply", 0.0)),
         description="open; the supply fails at 0.1 s",
+    ),
+    Scene(
+        "supply-return",
+        0.45,
+        (
+            (0.0, "drs", True),
+            (0.1, "lose_supply", 0.0),
+            (0.3, "restore_supply", 0.0),
+            (0.32, "drs", True),
+        ),
+        description="open; the supply fails at 0.1 s, returns at 0.3 s; open again at 0.32 s",
     ),
     Scene(
         "relief",
@@ -137,6 +153,8 @@ def _apply(rung, action: str, argument) -> None:
         rung.command_stroke(rung.s_max if open_flap else rung.s_min, duration)
     elif action == "lose_supply":
         rung.lose_supply(float(argument))
+    elif action == "restore_supply":  # as the node's fault.supply_loss set back to false
+        rung.apply_fault("supply_loss", False, float(argument))
     elif action == "supply":
         if not hasattr(rung, "set_supply_pressure"):
             raise UnsupportedCommandError(
