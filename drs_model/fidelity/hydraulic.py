@@ -66,8 +66,8 @@ class HydraulicRung(CommandedActuator):
     method : str
         A key of :data:`~drs_model.fidelity.hydraulic_steps.STEP_METHODS`; ``"rk4"`` (default)
         at its largest stable sub-step is both the most accurate and the cheapest on the
-        standard scenes (docs/fidelity.md: 1.6e-6 m and 10 N from the tight reference at 9 %
-        of a core at 1 kHz; ``ros2`` needs 20 us sub-steps and 42 % for the same accuracy).
+        standard scenes (docs/fidelity.md gives each method's error against the tight
+        reference and its cost per step; ``ros2`` needs 20 us sub-steps for the same accuracy).
     substep : float, optional
         Longest sub-step [s]. Default: for ``"rk4"`` ``stability_fraction`` times the largest
         stable one at each step's start (``RK4_LIMIT / stiffest_rate``); for the implicit
