@@ -1,8 +1,9 @@
 """The code keeps the shape a newcomer can live in (tests/layout.py measures it): no function of
 drs_model or drs_ros over 80 lines, no module over 500, and no line of the product's code, tests,
-docs or benchmarks that speaks of the work that built it (an issue by number, a dated session)
-instead of the product; and a README whose layout table names every module. Each check is also
-run on a planted case, so a pass means something."""
+docs or benchmarks that speaks of the work that built it (an issue by number, its rounds, its
+sittings and workers, the builds of the past) instead of the product; and a README whose
+layout table names every module. Each check is also run on a planted case, so a pass means
+something."""
 
 from __future__ import annotations
 
@@ -52,12 +53,47 @@ def test_a_long_function_and_module_would_be_found(tmp_path):
 
 def test_process_words_would_be_found(tmp_path):
     said = ["# the fix of iss" + "ue 17", "x = 1  # as before iss" + "ue",
-            "see the sess" + "ion of 2026-11-23", "today's " + "model takes it"]  # fmt: skip
+            "see the sess" + "ion of 2026-11-23", "today's " + "model takes it",
+            "a test sess" + "ion warms the cache"]  # fmt: skip
     kept = ["ros2/rosbag2#2365 (upstream)", "@pytest.fixture(scope='session')",
-            "a test session warms the cache", "the issues an engineer files"]  # fmt: skip
+            "the issues an engineer files"]  # fmt: skip
     root = _planted(tmp_path, "\n".join(said + kept) + "\n")
     found = layout.process_words(root)
     assert [f.split(": ", 1)[1] for f in found] == said
+
+
+#: Lines that tell the project's history, one per place the check reads, each with where it is
+#: planted; and lines of the product that use the same words for what the product does.
+HISTORY = {
+    "docs/ros.md": "**Rate, third " + "pass** (the same commands on a quiet machine)",
+    "README.md": "measured against the build before this " + "pass",
+    "benchmarks/results/node_rate.md": "on a machine shared with three other ag" + "ents",
+    "docs/scale.md": "The machine is shared with other sess" + "ions: its load",
+    "drs_ros/bag/planted.py": "# a re-run: older " + "builds ran the fused path",
+    "drs_model/planted.py": "# as in earlier " + "builds",
+    "tests/test_planted.py": "# see the composition " + "pass",
+    "docs/layout.md": "## The Second " + "Pass: one copy of what was left",
+    "docs/forward.md": "Not taken in that " + "pass; the ag" + "ent moved on",
+}
+PRODUCT = [
+    '@pytest.fixture(scope="session")', "# second solve with the noise estimated",
+    "one compiled pass over the times", "the relief passes what the valve gives",
+    "a bag recorded before the effect record existed", "the bag passes `check`",
+    "each pass of the sweep", "a build of the driver per method",
+]
+
+
+def test_history_would_be_found_in_every_place(tmp_path):
+    root = _planted(tmp_path, "")
+    for place, line in HISTORY.items():
+        path = root / place
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("\n".join(PRODUCT + [line]) + "\n")
+    found = sorted(f.split(":", 1)[0] for f in layout.process_words(root))
+    assert found == sorted(HISTORY)
+    for place in HISTORY:
+        (root / place).write_text("\n".join(PRODUCT) + "\n")
+    assert layout.process_words(root) == []
 
 
 def test_a_cycle_would_be_found():

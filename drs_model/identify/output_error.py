@@ -149,7 +149,7 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     given = dict(problem.noise or {})
     noise = {k: given.get(k, RESOLUTION.get(k, 1.0)) for k in problem.measured}
     res, fn = _solve(problem, noise, problem.start / scale, max_nfev)
-    if not given.keys() >= problem.measured.keys():  # second pass with the noise estimated
+    if not given.keys() >= problem.measured.keys():  # solved again, the noise estimated
         sim = fn.last
         for k, measured in problem.measured.items():
             if k in given or k not in sim:

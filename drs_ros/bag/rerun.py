@@ -24,14 +24,12 @@ from .recorded_run import RecordedRun, ResimulationError
 #: the step its stamp names; a bag in the node's order never looks back more than a few).
 STATE_WINDOW = 65536
 
-#: What a re-run says of a bag whose ``force_method`` is ``virtual-work``: the name is the
-#: virtual-work formulation, but drs nodes ran the fused closed form under it while the two
-#: were not yet two values of the parameter. A bag does not say which ran; the two agree to
+#: What a re-run says of a bag whose ``force_method`` is ``virtual-work``: a bag of that name may
+#: hold the fused closed form's forces, and does not say which formulation ran; the two agree to
 #: 1e-9 relative (~1e-14 measured, docs/dynamics.md), far inside the force's tolerance.
 VIRTUAL_WORK_NOTE = (
-    "force_method 'virtual-work': re-run with the virtual-work formulation; drs nodes ran the "
-    "fused closed form under this name until 'fused' and 'virtual-work' were two values of "
-    "force_method (the two agree to 1e-9 relative)"
+    "force_method 'virtual-work': re-run with the virtual-work formulation, which agrees with "
+    "the fused closed form to 1e-9 relative: forces recorded by either compare within tolerance"
 )
 
 

@@ -51,7 +51,8 @@ STOP_POLL_S = 0.05
 #: The longest the deadline loop's executor thread waits for work [s]: it needs no poll to see a
 #: stop (the loop wakes it, :func:`run_deadline_loop`; rclpy's shutdown wakes it too), and each
 #: wake of an idle ``spin_once`` cost ~1 ms of CPU (its wait set rebuilt, cold): at 20 a second,
-#: a point of a core (docs/ros.md, "Rate, fifth pass"). The bound is a safety net only.
+#: a point of a core (benchmarks/results/node_rate.md, "the cold tick"). The bound is a safety
+#: net only.
 EXECUTOR_IDLE_WAIT_S = 1.0
 
 
