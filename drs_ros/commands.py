@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 from dataclasses import dataclass
 
-from .conversions import trajectory_points
+from .conversions import started_points
 from .stack import joint_commands
 
 #: key -> message type name of the command topics.
@@ -101,13 +101,15 @@ def describe(key: str, msg) -> object:
     return msg.data
 
 
-def prepare(sim, key: str, msg, piston_joint: str):
+def prepare(sim, key: str, msg, piston_joint: str, now_ns: int | None = None):
     """The part of applying ``msg`` that does not depend on the actuator's state, done before
     the physics step that applies it (in the node, outside its real-time tick): a trajectory's
     plan (:meth:`~drs_model.actuator.ActuatorSim.plan_trajectory`, bounded work, refusals
-    raised here). None for the other commands."""
+    raised here), its times from ``header.stamp`` when ``now_ns`` [ns] gives the clock it
+    is read on (:func:`drs_ros.conversions.started_points`; None: from the step that applies
+    it). None for the other commands."""
     if key == "trajectory_cmd":
-        return sim.plan_trajectory(*trajectory_points(msg, piston_joint))
+        return sim.plan_trajectory(*started_points(msg, piston_joint, now_ns))
     return None
 
 

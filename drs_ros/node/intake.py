@@ -94,7 +94,8 @@ class CommandIntake:
                 fx.refuse_malformed(topic, COMMANDS[key], data, exc, self._now_ns())
             return
         try:
-            prepared = commands.prepare(self._actuator(), key, msg, self.piston_joint)
+            prepared = commands.prepare(self._actuator(), key, msg, self.piston_joint,
+                                        self._now_ns())  # fmt: skip
             refusal = None
         except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
             prepared, refusal = None, exc
