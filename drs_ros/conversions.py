@@ -11,14 +11,14 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from drs_model.actuator import ActuatorState
-from drs_model.errors import InputError
 from drs_model.inverse import REACTION_NAMES
 
+from .errors import DRSRosError
 from .recording.diagnostic_cdr import Status
 from .timestamps import ns_of, seconds_from_ns, split_ns
 
 
-class PastTrajectoryError(InputError):
+class PastTrajectoryError(DRSRosError, ValueError):
     """A trajectory whose ``header.stamp`` puts its end before now."""
 
 
