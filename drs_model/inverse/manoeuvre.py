@@ -205,6 +205,17 @@ class PathPeak(NamedTuple):
     stroke: float
 
 
+def _quintic_forces(fused: FusedInverseDynamics, c: np.ndarray, tau: np.ndarray):
+    """Force [N] and stroke [m] of quintics ``c`` (shape ``(n, 6)``, local time) at ``tau``
+    (shape ``(n, m)`` [s])."""
+    poly = np.polynomial.polynomial
+    dc = c[:, 1:] * np.arange(1, 6)
+    s = poly.polyval(tau, c.T[:, :, None], tensor=False)
+    v = poly.polyval(tau, dc.T[:, :, None], tensor=False)
+    acc = poly.polyval(tau, (dc[:, 1:] * np.arange(1, 5)).T[:, :, None], tensor=False)
+    return fused.force_array(s, v, acc), s
+
+
 def path_peak_force(
     p: DRSParams, coeffs, durations, samples: int = PATH_FORCE_SAMPLES, chunk: int = 1024
 ) -> PathPeak:
@@ -228,15 +239,17 @@ def path_peak_force(
     u = np.linspace(0.0, 1.0, int(samples))
     best = PathPeak(0.0, 0, 0.0, math.nan)
     for a in range(0, d_all.size, chunk):
-        c, tau = c_all[a : a + chunk], d_all[a : a + chunk, None] * u
-        s = np.polynomial.polynomial.polyval(tau, c.T[:, :, None], tensor=False)
-        dc = c[:, 1:] * np.arange(1, 6)
-        v = np.polynomial.polynomial.polyval(tau, dc.T[:, :, None], tensor=False)
-        acc = np.polynomial.polynomial.polyval(tau, (dc[:, 1:] * np.arange(1, 5)).T[:, :, None],
-                                              tensor=False)
-        force = fused.force_array(s, v, acc)
-        k = int(np.argmax(np.abs(force)))
-        i, j = divmod(k, force.shape[1])
+        tau = d_all[a : a + chunk, None] * u
+        force, s = _quintic_forces(fused, c_all[a : a + chunk], tau)
+        i, j = divmod(int(np.argmax(np.abs(force))), force.shape[1])
         if abs(force[i, j]) > abs(best.force):
             best = PathPeak(float(force[i, j]), a + i, float(tau[i, j]), float(s[i, j]))
+    # the best sample's neighbourhood on a fine grid: a sampled peak lies below the true one
+    # by ~(spacing)^2, 0.7 % with 33 samples; 65 more between the neighbours leave ~1e-5
+    k, h = best.segment, d_all[best.segment] / (int(samples) - 1)
+    tau = np.linspace(max(best.time - h, 0.0), min(best.time + h, d_all[k]), 65)[None]
+    force, s = _quintic_forces(fused, c_all[k : k + 1], tau)
+    j = int(np.argmax(np.abs(force[0])))
+    if abs(force[0, j]) > abs(best.force):
+        best = PathPeak(float(force[0, j]), k, float(tau[0, j]), float(s[0, j]))
     return best
