@@ -8,7 +8,9 @@ where a line says otherwise:
 
 * **Validation** (JTC's ``validate_trajectory_msg``): the goal must name exactly the
   controller's joints (no partial goals, no unknown or passive joint, no multi-DOF joint), have
-  points, strictly increasing ``time_from_start``, positions (and velocities / accelerations,
+  points, ``time_from_start`` strictly increasing from the second point on (a first point at 0 s,
+  the state the sender saw as MoveIt sends it, is left out: the path starts from the actuator's
+  own state and blends any difference over its first segment), positions (and velocities / accelerations,
   if any) one per joint, no efforts, and end at rest; a non-zero ``header.stamp`` starts the
   trajectory then, and a trajectory that ends before now is refused. Then the actuator must
   accept it (the stroke range, a path that stays in it). *Difference:* JTC rejects an invalid
@@ -30,13 +32,14 @@ where a line says otherwise:
   goal's acceptance), ``actual`` (the actuator's state), ``error = desired - actual``.
 * **Preemption:** a new valid goal aborts the active one with ``INVALID_GOAL``, "Current goal
   preempted by new incoming action.", and takes over.
-* **Cancel:** accepted; the goal ends CANCELED and the piston holds the position where it was
-  (a quintic back to it, at rest, in ``T_opening``; if that path would leave the stroke range, a
-  stop straight ahead instead).
+* **Cancel and abort:** a cancel is accepted; the goal ends CANCELED (or ABORTED) and the piston
+  holds the position where it was (a quintic back to it, at rest, in ``T_opening``; if that path
+  would leave the stroke range, a stop straight ahead instead), while the goal's own path is the
+  one the actuator follows (the path object itself, not the rod's position: a hydraulic rod lags
+  its reference).
 * **Other commands** (the topics, the service, JointState commands) act on the actuator as they
   always do, latest wins; a goal whose trajectory they replaced is judged by its tolerances as
-  JTC judges it. An abort or a cancel holds the piston only while the goal's own trajectory is
-  what the actuator does: it never undoes a newer command.
+  JTC judges it. An abort or a cancel never undoes a newer command.
 * The simulated piston follows its trajectory exactly, so ``error`` stays 0 unless another
   command takes the actuator (as with ros2_control's mock hardware).
 
