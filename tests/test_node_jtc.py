@@ -5,6 +5,9 @@ where the piston is on cancel, on abort and on preemption, ``header.stamp`` on t
 from __future__ import annotations
 
 import itertools
+import json
+import subprocess
+import sys
 
 import pytest
 from node_support import spin_for, spin_until
@@ -134,8 +137,10 @@ def test_an_abort_holds_on_the_hydraulic_rung(ros_context, tmp_path):
 
 def test_trajectory_cmd_starts_at_its_header_stamp(ros_context, tmp_path):
     """A stamp 0.3 s ahead: the last point (0.05 s after it) is reached then, not 0.05 s after
-    the message arrived; a first point at 0 s is taken (MoveIt's shape)."""
-    st = Stack(ros_context, [])
+    the message arrived; a first point at 0 s is taken (MoveIt's shape). The bag re-runs it
+    exactly (its effect record holds the clock the stamp was read on)."""
+    bag = tmp_path / "bag"
+    st = Stack(ros_context, [Parameter("bag_path", value=str(bag))])
     try:
         st.ready()
         pub = st.client.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
@@ -159,5 +164,11 @@ def test_trajectory_cmd_starts_at_its_header_stamp(ros_context, tmp_path):
         # not before the stamped end (a tick late at most); a loaded machine may apply it later
         assert reached >= end_ns - 1_000_000, (reached - end_ns) / 1e6
         assert reached <= end_ns + 100_000_000, (reached - end_ns) / 1e6
+        spin_for(st.exec, 0.1)
     finally:
         st.close()
+    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag),
+                          "--json"], capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    rows = {r["signal"]: r for r in json.loads(res.stdout)["signals"]}
+    assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows
