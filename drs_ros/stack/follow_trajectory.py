@@ -8,16 +8,16 @@ where a line says otherwise:
 
 * **Validation** (JTC's ``validate_trajectory_msg``): the goal must name exactly the
   controller's joints (no partial goals, no unknown or passive joint, no multi-DOF joint), have
-  points, ``time_from_start`` strictly increasing from the second point on (a first point at 0 s,
-  the state the sender saw as MoveIt sends it, is left out: the path starts from the actuator's
-  own state and blends any difference over its first segment), positions (and velocities / accelerations,
-  if any) one per joint, no efforts, and end at rest; a non-zero ``header.stamp`` starts the
-  trajectory then, and a trajectory that ends before now is refused. Then the actuator must
-  accept it (the stroke range, a path that stays in it). *Difference:* JTC rejects an invalid
-  goal without a reason (a rejected ROS 2 goal carries no result); drs accepts it and aborts it
-  at once with the error code the action defines (``INVALID_JOINTS``, ``INVALID_GOAL``,
-  ``OLD_HEADER_TIMESTAMP``) and the reason in ``error_string``, so a client learns why. An
-  invalid goal, like JTC's rejected one, leaves the active goal running.
+  points, ``time_from_start`` strictly increasing from the second point on (a first point at 0
+  s, the state the sender saw as MoveIt sends it, is left out: the path starts from the
+  actuator's own state and blends any difference over its first segment), positions (and
+  velocities / accelerations, if any) one per joint, no efforts, and end at rest; a non-zero
+  ``header.stamp`` starts the trajectory then, and a trajectory that ends before now is refused.
+  Then the actuator must accept it (the stroke range, a path that stays in it). *Difference:*
+  JTC rejects an invalid goal without a reason (a rejected ROS 2 goal carries no result); drs
+  accepts it and aborts it at once with the error code the action defines (``INVALID_JOINTS``,
+  ``INVALID_GOAL``, ``OLD_HEADER_TIMESTAMP``) and the reason in ``error_string``, so a client
+  learns why. An invalid goal, like JTC's rejected one, leaves the active goal running.
 * **Tolerances** (``get_segment_tolerances``): the node's defaults (``path_tolerance``,
   ``goal_tolerance`` [m], ``stopped_velocity_tolerance`` [m/s], ``goal_time_tolerance`` [s],
   JTC's ``constraints.*``), overridden per goal: a value > 0 replaces the default, 0 keeps it,
