@@ -85,10 +85,7 @@ class CommandedActuator:
     #: Whether the state at each step follows from the time and the commands alone (nothing is
     #: integrated): :meth:`advance` then evaluates only the last of its steps, to the same bits.
     path_is_state = False
-    #: Whether a stroke or trajectory command whose inverse-dynamics peak force exceeds
-    #: ``force_limit`` is refused (:class:`ForceLimitError`). Off by default: the seed's own
-    #: 10 ms manoeuvre peaks at 25.4 kN, above the default 20 kN limit.
-    limit_moves = False
+    _limit_moves = False
 
     def __init__(
         self,
@@ -199,6 +196,18 @@ class CommandedActuator:
         return {k: float(np.asarray(v).ravel()[0]) for k, v in res.reactions.items()}
 
     # ---- commands ------------------------------------------------------------------------------
+    @property
+    def limit_moves(self) -> bool:
+        """Whether a stroke or trajectory command whose inverse-dynamics peak force exceeds
+        ``force_limit`` is refused (:class:`ForceLimitError`). Off by default: the seed's own
+        10 ms manoeuvre peaks at 25.4 kN, above the default 20 kN limit."""
+        return self._limit_moves
+
+    @limit_moves.setter
+    def limit_moves(self, value: bool) -> None:
+        self._limit_moves = bool(value)
+        self.motion.forget_checked_plans()  # plans checked under the other rule: check again
+
     def _check_path(self, coeffs, durations, first: int) -> None:
         """Refuse a commanded path (quintics ``coeffs`` [local time] of ``durations`` [s], the
         first being segment ``first``) with a segment shorter than the physics step (it would

@@ -119,6 +119,10 @@ class StrokeMotion:
         self._check_tail(plan)
         return plan
 
+    def forget_checked_plans(self) -> None:
+        """Check every plan again when commanded (the owner's rule changed)."""
+        self._checked_plans = weakref.WeakSet()
+
     def _check_tail(self, plan: TrajectoryPlan) -> None:
         if self.check_path is None or plan in self._checked_plans:
             return

@@ -100,3 +100,12 @@ def test_without_limit_moves_the_seed_manoeuvre_runs(params):
     sim.reset()
     with pytest.raises(ForceLimitError):
         sim.command_drs(True)
+
+
+def test_a_plan_made_before_the_limit_is_checked_when_commanded(params):
+    sim = RUNGS["rigid"](params)
+    plan = sim.plan_trajectory([0.1, 0.2, 0.202], [sim.s_max, sim.s_min, sim.s_max], [0.0] * 3)
+    sim.limit_moves = True
+    with pytest.raises(ForceLimitError, match="segment 2"):
+        sim.command_trajectory(plan)
+    assert sim.mode == "hold"
