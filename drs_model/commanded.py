@@ -17,7 +17,7 @@ import numpy as np
 
 from . import kernels
 from . import kinematics as kin
-from .errors import InputError, UnsupportedCommandError
+from .errors import ForceLimitError, InputError, UnsupportedCommandError
 from .motion import StrokeMotion
 from .params import DRSParams
 from .profile import QuinticPath, QuinticSegment, TrajectoryPlan
@@ -85,6 +85,7 @@ class CommandedActuator:
     #: Whether the state at each step follows from the time and the commands alone (nothing is
     #: integrated): :meth:`advance` then evaluates only the last of its steps, to the same bits.
     path_is_state = False
+    _limit_moves = False
 
     def __init__(
         self,
@@ -103,6 +104,7 @@ class CommandedActuator:
         self.dt = float(dt)
         self.force_limit = float(force_limit)
         self.motion = StrokeMotion(p, self.dt)
+        self.motion.check_path = self._check_path
         self.s_min, self.s_max = self.motion.s_min, self.motion.s_max
         self.s_dead = kin.dead_centre(p)
         self._force = math.nan
@@ -194,6 +196,42 @@ class CommandedActuator:
         return {k: float(np.asarray(v).ravel()[0]) for k, v in res.reactions.items()}
 
     # ---- commands ------------------------------------------------------------------------------
+    @property
+    def limit_moves(self) -> bool:
+        """Whether a stroke or trajectory command whose inverse-dynamics peak force exceeds
+        ``force_limit`` is refused (:class:`ForceLimitError`). Off by default: the seed's own
+        10 ms manoeuvre peaks at 25.4 kN, above the default 20 kN limit."""
+        return self._limit_moves
+
+    @limit_moves.setter
+    def limit_moves(self, value: bool) -> None:
+        self._limit_moves = bool(value)
+        self.motion.forget_checked_plans()  # plans checked under the other rule: check again
+
+    def _check_path(self, coeffs, durations, first: int) -> None:
+        """Refuse a commanded path (quintics ``coeffs`` [local time] of ``durations`` [s], the
+        first being segment ``first``) with a segment shorter than the physics step (it would
+        pass between two steps, its force never seen), or, with :attr:`limit_moves`, whose
+        inverse-dynamics peak |F| exceeds ``force_limit``."""
+        durations = np.asarray(durations, dtype=float)
+        short = np.flatnonzero(durations < self.dt * (1.0 - 1e-9))
+        if short.size:
+            k = int(short[0])
+            raise InputError(f"segment {first + k} of the move lasts {durations[k]:.6g} s, "
+                             f"shorter than the physics step dt = {self.dt:g} s")  # fmt: skip
+        if not self.limit_moves:
+            return
+        from .inverse import path_peak_force
+
+        peak = path_peak_force(self.p, coeffs, durations)
+        if abs(peak.force) > self.force_limit:
+            raise ForceLimitError(
+                f"the move needs a piston force of {peak.force:.6g} N (inverse dynamics, "
+                f"{peak.time:.6g} s into segment {first + peak.segment}, at stroke "
+                f"{peak.stroke:.6g} m), beyond force_limit {self.force_limit:g} N: give it "
+                "more time"
+            )
+
     def command_stroke(self, target: float, duration: float | None = None) -> QuinticSegment:
         """Move smoothly to ``target`` [m] from the current state; refuse a bad target.
 

@@ -24,6 +24,10 @@ class StrokeRangeError(InputError):
     """A stroke (or gap, or flap angle) lies outside the admissible range."""
 
 
+class ForceLimitError(InputError):
+    """A commanded move whose inverse-dynamics peak piston force exceeds the actuator's limit."""
+
+
 class AssemblyError(DRSError, ValueError):
     """The loop cannot be closed: no real position solution exists for this input."""
 

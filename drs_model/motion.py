@@ -9,6 +9,10 @@ the ``force`` mode is only a name here, set by the rung that models it.
 from __future__ import annotations
 
 import math
+import weakref
+from collections.abc import Callable
+
+import numpy as np
 
 from . import kinematics as kin
 from .errors import InputError, StrokeRangeError
@@ -31,6 +35,10 @@ class StrokeMotion:
         self.p = p
         self.dt = float(dt)
         self.s_min, self.s_max = kin.stroke_limits(p)
+        #: ``check_path(coeffs, durations, first)``: the owner's refusal of a path's segments
+        #: (local-time quintics, segment ``first`` on), called before a path is taken or planned
+        self.check_path: Callable[[np.ndarray, np.ndarray, int], None] | None = None
+        self._checked_plans: weakref.WeakSet = weakref.WeakSet()
         self.reset(0.0, self.s_min)
 
     def reset(self, t: float, s: float) -> None:
@@ -99,12 +107,30 @@ class StrokeMotion:
                 f"the move to {target!r} m from s = {s0:.6g} m at {v0:.3g} m/s would leave "
                 f"[s_min, s_max] = [{self.s_min:.9g}, {self.s_max:.9g}] m"
             )
+        if self.check_path is not None:
+            self.check_path(np.asarray(seg.coeffs)[None], np.array([seg.duration]), 0)
         self._follow(QuinticPath.of_segment(seg), target)
         return seg
 
     def plan_trajectory(self, times, strokes, rates=None) -> TrajectoryPlan:
-        """:func:`drs_model.profile.plan_trajectory` for these parameters (reads nothing else)."""
-        return plan_trajectory(self.p, times, strokes, rates)
+        """:func:`drs_model.profile.plan_trajectory` for these parameters (reads nothing else),
+        its state-independent segments refused by :attr:`check_path`."""
+        plan = plan_trajectory(self.p, times, strokes, rates)
+        self._check_tail(plan)
+        return plan
+
+    def forget_checked_plans(self) -> None:
+        """Check every plan again when commanded (the owner's rule changed)."""
+        self._checked_plans = weakref.WeakSet()
+
+    def _check_tail(self, plan: TrajectoryPlan) -> None:
+        if self.check_path is None or plan in self._checked_plans:
+            return
+        m = plan.n_head
+        if len(plan) > m:
+            coeffs = np.frombuffer(plan.coeffs, dtype=float).reshape(-1, 6)[m:]
+            self.check_path(coeffs, np.frombuffer(plan.durations, dtype=float)[m:], m)
+        self._checked_plans.add(plan)
 
     def command_trajectory(self, times, strokes=None, rates=None, start=None) -> QuinticPath:
         """Follow a trajectory (or a :class:`TrajectoryPlan`) from ``start`` (default the state):
@@ -126,7 +152,10 @@ class StrokeMotion:
             if strokes is None:
                 raise InputError("command_trajectory needs strokes with its times")
             plan = plan_trajectory(self.p, times, strokes, rates)
+        self._check_tail(plan)
         head = plan.head(*(self.start() if start is None else start))
+        if self.check_path is not None:
+            self.check_path(head, np.frombuffer(plan.durations, dtype=float)[: plan.n_head], 0)
         path = QuinticPath.of_plan(plan, self.t, head)
         self._follow(path, float(plan.strokes[-1]))
         return path

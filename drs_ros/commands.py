@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 from dataclasses import dataclass
 
-from .conversions import trajectory_points
+from .conversions import stamp_of, started_points
 from .stack import joint_commands
 
 #: key -> message type name of the command topics.
@@ -101,27 +101,37 @@ def describe(key: str, msg) -> object:
     return msg.data
 
 
-def prepare(sim, key: str, msg, piston_joint: str):
+def prepare(sim, key: str, msg, piston_joint: str, now_ns: int | None = None):
     """The part of applying ``msg`` that does not depend on the actuator's state, done before
     the physics step that applies it (in the node, outside its real-time tick): a trajectory's
     plan (:meth:`~drs_model.actuator.ActuatorSim.plan_trajectory`, bounded work, refusals
-    raised here). None for the other commands."""
+    raised here), its times from ``header.stamp`` when ``now_ns`` [ns] gives the clock it
+    is read on (:func:`drs_ros.conversions.started_points`; None: from the step that applies
+    it). None for the other commands."""
     if key == "trajectory_cmd":
-        return sim.plan_trajectory(*trajectory_points(msg, piston_joint))
+        return sim.plan_trajectory(*started_points(msg, piston_joint, now_ns))
     return None
 
 
-def apply(sim, key: str, msg, piston_joint: str, prepared=None):
+def reads_stamp(key: str, msg) -> bool:
+    """Whether the command's times start at its ``header.stamp`` (a stamped trajectory): its
+    effect record then holds the clock it was planned on (``planned_ns``)."""
+    return key == "trajectory_cmd" and stamp_of(msg) != 0
+
+
+def apply(sim, key: str, msg, piston_joint: str, prepared=None, planned_ns: int | None = None):
     """Apply command ``msg`` of kind ``key`` to ``sim`` (an ActuatorSim); returns what the
     actuator returns (the move's segments, or None for a force). ``prepared``: what
-    :func:`prepare` returned for it, if it was called (the result is the same to the bit)."""
+    :func:`prepare` returned for it, if it was called (the result is the same to the bit);
+    else ``planned_ns``: the node clock [ns] a stamped trajectory's times are read on (its
+    effect record's), None to ignore the stamp."""
     if key == "stroke_cmd":
         return sim.command_stroke(msg.data)
     if key == "force_cmd":
         return sim.command_force(msg.data)
     if key == "trajectory_cmd":
         if prepared is None:
-            prepared = prepare(sim, key, msg, piston_joint)
+            prepared = prepare(sim, key, msg, piston_joint, planned_ns)
         return sim.command_trajectory(prepared)
     if key == SERVICE_KEY:
         return sim.command_drs(bool(msg.data))
@@ -155,5 +165,6 @@ __all__ = [
     "describe",
     "move_from_record",
     "prepare",
+    "reads_stamp",
     "reset_at_rest",
 ]

@@ -13,8 +13,13 @@ from std_msgs.msg import Float64
 from drs_model.actuator import ActuatorState
 from drs_model.inverse import REACTION_NAMES
 
+from .errors import DRSRosError
 from .recording.diagnostic_cdr import Status
 from .timestamps import ns_of, seconds_from_ns, split_ns
+
+
+class PastTrajectoryError(DRSRosError, ValueError):
+    """A trajectory whose ``header.stamp`` puts its end before now."""
 
 
 def time_msg(ns: int) -> Time:
@@ -72,7 +77,9 @@ def trajectory_points(msg, joint: str) -> tuple[list[float], list[float], list[f
     trajectory_msgs/JointTrajectory, validated as ros2_control's joint_trajectory_controller
     validates one: unique joint names; in every point, ``positions`` as long as ``joint_names``
     and ``velocities`` / ``accelerations`` / ``effort`` empty or as long; ``time_from_start``
-    strictly increasing. Rates are used only when the points give them.
+    strictly increasing from the second point on. A first point at 0 s followed by others (the
+    sender's view of the present state, as MoveIt sends every goal) is left out: the actuator
+    starts from its own state. Rates are used only when the points give them.
 
     Raises :class:`drs_model.errors.InputError` with the reason (the point, the field, the
     lengths).
@@ -113,7 +120,37 @@ def trajectory_points(msg, joint: str) -> tuple[list[float], list[float], list[f
     use_rates = any(r is not None for r in rates)
     if use_rates and not all(r is not None for r in rates):
         raise InputError("trajectory velocities must be given in every point or in none")
+    if len(times) > 1 and times[0] == 0.0:
+        # a first point at 0 s is the state the sender saw (MoveIt's every goal): the path from
+        # the actuator's own state to the next point takes its place (JTC samples it at once and
+        # blends from there; a path cannot jump, so the difference is blended over segment 1)
+        del times[0], strokes[0], rates[0]
     return times, strokes, (rates if use_rates else None)
+
+
+def stamp_of(msg) -> int:
+    """``header.stamp`` [ns] of a JointTrajectory (a message, or the node's in-place view)."""
+    stamp = getattr(msg, "stamp", None)
+    return ns_of(stamp if stamp is not None else msg.header.stamp)
+
+
+def started_points(msg, joint: str, now_ns: int | None):
+    """:func:`trajectory_points` with joint_trajectory_controller's start time: a non-zero
+    ``header.stamp`` starts the trajectory then, a zero one now (``now_ns`` [ns], the node
+    clock; None: the stamp is not read); times are returned from now, the points at or before
+    now left out. Raises
+    :class:`PastTrajectoryError` when its last point lies in the past (JTC refuses it)."""
+    times, strokes, rates = trajectory_points(msg, joint)
+    start_ns = 0 if now_ns is None else stamp_of(msg)
+    if start_ns == 0:
+        return times, strokes, rates
+    shift = seconds_from_ns(start_ns - now_ns)
+    if times[-1] + shift < 0.0:
+        raise PastTrajectoryError(f"received a trajectory with non-zero start time that ends in "
+                                  f"the past ({-(times[-1] + shift):.6g} s ago)")  # fmt: skip
+    keep = [k for k, t in enumerate(times) if t + shift > 0.0]  # points still to come
+    return ([times[k] + shift for k in keep], [strokes[k] for k in keep],
+            None if rates is None else [rates[k] for k in keep])  # fmt: skip
 
 
 def float_msg(value: float) -> Float64:

@@ -126,8 +126,10 @@ class Rerun:
                     f"the effect record names {r.source} message {r.values['sequence']}, which "
                     "the bag does not hold"
                 )
+        planned = r.values.get("planned_ns")  # a stamped trajectory: the clock it was read on
         try:
-            commands.apply(self.sim, key, msg, self.piston)
+            commands.apply(self.sim, key, msg, self.piston, None,
+                           None if planned is None else int(planned))  # fmt: skip
         except DRSError as exc:
             self.notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
                               f"{r.values.get('value', '')}: {exc}")  # fmt: skip

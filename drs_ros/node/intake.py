@@ -93,8 +93,9 @@ class CommandIntake:
                 fx.received += 1
                 fx.refuse_malformed(topic, COMMANDS[key], data, exc, self._now_ns())
             return
+        planned_ns = self._now_ns()
         try:
-            prepared = commands.prepare(self._actuator(), key, msg, self.piston_joint)
+            prepared = commands.prepare(self._actuator(), key, msg, self.piston_joint, planned_ns)
             refusal = None
         except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
             prepared, refusal = None, exc
@@ -103,7 +104,8 @@ class CommandIntake:
             fx.received += 1
             # only bytes that decode go on the typed topic: the bag stays readable by all readers
             # recorded as its exact CDR: the bytes that arrived, any alignment padding zeroed
-            cmd = PendingCommand(key, topic, msg, self._record(topic, exact, now), now, prepared)
+            cmd = PendingCommand(key, topic, msg, self._record(topic, exact, now), now, prepared,
+                                 planned_ns)  # fmt: skip
             if refusal is not None:
                 fx.refuse_command(cmd, refusal, now)
                 return
@@ -134,10 +136,10 @@ class CommandIntake:
                 fx.refuse_command(cmd, exc, now_ns)
                 continue
             fx.accepted += 1
-            value = commands.describe(cmd.key, cmd.msg)
-            fx.event(
-                cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, {"value": repr(value)}, now_ns
-            )
+            values = {"value": repr(commands.describe(cmd.key, cmd.msg))}
+            if commands.reads_stamp(cmd.key, cmd.msg):  # a re-run starts it where the node did
+                values["planned_ns"] = str(cmd.planned_ns)
+            fx.event(cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, values, now_ns)
 
     def on_drs(self, request, response, now_ns: int):
         """A ``~/drs`` call (under the node's lock): it takes effect at once, the simulation

@@ -8,14 +8,16 @@ where a line says otherwise:
 
 * **Validation** (JTC's ``validate_trajectory_msg``): the goal must name exactly the
   controller's joints (no partial goals, no unknown or passive joint, no multi-DOF joint), have
-  points, strictly increasing ``time_from_start``, positions (and velocities / accelerations,
-  if any) one per joint, no efforts, and end at rest; a non-zero ``header.stamp`` starts the
-  trajectory then, and a trajectory that ends before now is refused. Then the actuator must
-  accept it (the stroke range, a path that stays in it). *Difference:* JTC rejects an invalid
-  goal without a reason (a rejected ROS 2 goal carries no result); drs accepts it and aborts it
-  at once with the error code the action defines (``INVALID_JOINTS``, ``INVALID_GOAL``,
-  ``OLD_HEADER_TIMESTAMP``) and the reason in ``error_string``, so a client learns why. An
-  invalid goal, like JTC's rejected one, leaves the active goal running.
+  points, ``time_from_start`` strictly increasing from the second point on (a first point at 0
+  s, the state the sender saw as MoveIt sends it, is left out: the path starts from the
+  actuator's own state and blends any difference over its first segment), positions (and
+  velocities / accelerations, if any) one per joint, no efforts, and end at rest; a non-zero
+  ``header.stamp`` starts the trajectory then, and a trajectory that ends before now is refused.
+  Then the actuator must accept it (the stroke range, a path that stays in it). *Difference:*
+  JTC rejects an invalid goal without a reason (a rejected ROS 2 goal carries no result); drs
+  accepts it and aborts it at once with the error code the action defines (``INVALID_JOINTS``,
+  ``INVALID_GOAL``, ``OLD_HEADER_TIMESTAMP``) and the reason in ``error_string``, so a client
+  learns why. An invalid goal, like JTC's rejected one, leaves the active goal running.
 * **Tolerances** (``get_segment_tolerances``): the node's defaults (``path_tolerance``,
   ``goal_tolerance`` [m], ``stopped_velocity_tolerance`` [m/s], ``goal_time_tolerance`` [s],
   JTC's ``constraints.*``), overridden per goal: a value > 0 replaces the default, 0 keeps it,
@@ -30,13 +32,14 @@ where a line says otherwise:
   goal's acceptance), ``actual`` (the actuator's state), ``error = desired - actual``.
 * **Preemption:** a new valid goal aborts the active one with ``INVALID_GOAL``, "Current goal
   preempted by new incoming action.", and takes over.
-* **Cancel:** accepted; the goal ends CANCELED and the piston holds the position where it was
-  (a quintic back to it, at rest, in ``T_opening``; if that path would leave the stroke range, a
-  stop straight ahead instead).
+* **Cancel and abort:** a cancel is accepted; the goal ends CANCELED (or ABORTED) and the piston
+  holds the position where it was (a quintic back to it, at rest, in ``T_opening``; if that path
+  would leave the stroke range, a stop straight ahead instead), while the goal's own path is the
+  one the actuator follows (the path object itself, not the rod's position: a hydraulic rod lags
+  its reference).
 * **Other commands** (the topics, the service, JointState commands) act on the actuator as they
   always do, latest wins; a goal whose trajectory they replaced is judged by its tolerances as
-  JTC judges it. An abort or a cancel holds the piston only while the goal's own trajectory is
-  what the actuator does: it never undoes a newer command.
+  JTC judges it. An abort or a cancel never undoes a newer command.
 * The simulated piston follows its trajectory exactly, so ``error`` stays 0 unless another
   command takes the actuator (as with ros2_control's mock hardware).
 
@@ -60,7 +63,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 from drs_model.errors import DRSError, InputError
 
 from ..commands import StrokeMove, TrajectoryMove
-from ..conversions import time_msg, trajectory_points
+from ..conversions import PastTrajectoryError, started_points, time_msg
 from ..errors import DRSRosError
 from ..names import ACCEPTED, REFUSED
 from ..rclpy_private import mark_executing, schedule_result
@@ -70,8 +73,6 @@ Result = FollowJointTrajectory.Result
 #: JTC's "-1 erases a tolerance" (compared within float epsilon, as JTC does).
 ERASE = -1.0
 FLOAT_EPS = 1.1920928955078125e-07
-#: A goal "drives" the actuator while the piston is this close to the goal's plan [m].
-FOLLOWING_TOL = 1e-9
 #: Effect-record outcome of a goal's end.
 RESULT = "result"
 
@@ -155,20 +156,11 @@ def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
         raise GoalError(Result.INVALID_GOAL, "trajectories with effort fields are only supported "
                         "for controllers using the 'effort' command interface")  # fmt: skip
     try:
-        times, strokes, rates = trajectory_points(traj, joint)
+        times, strokes, rates = started_points(traj, joint, now_ns)
+    except PastTrajectoryError as exc:
+        raise GoalError(Result.OLD_HEADER_TIMESTAMP, str(exc)) from exc
     except InputError as exc:
         raise GoalError(Result.INVALID_GOAL, str(exc)) from exc
-    start_ns = ns_of(traj.header.stamp)
-    if start_ns != 0:
-        shift = seconds_from_ns(start_ns - now_ns)
-        if times[-1] + shift < 0.0:
-            raise GoalError(Result.OLD_HEADER_TIMESTAMP, "received a trajectory with non-zero "
-                            f"start time that ends in the past ({-(times[-1] + shift):.6g} s "
-                            "ago)")  # fmt: skip
-        keep = [k for k, t in enumerate(times) if t + shift > 0.0]  # points still to come
-        times = [times[k] + shift for k in keep]
-        strokes = [strokes[k] for k in keep]
-        rates = None if rates is None else [rates[k] for k in keep]
     return TrajectoryMove(tuple(times), tuple(strokes), None if rates is None else tuple(rates))
 
 
@@ -324,9 +316,21 @@ class FollowJointTrajectoryServer:
             self._event(ACCEPTED, DiagnosticStatus.OK, "hold", move.record(), now_ns)
             return
 
-    def _following(self, goal: ActiveGoal) -> bool:
-        st = self.sim.state
-        return st.mode == "stroke" and abs(goal.desired(st.t)[0] - st.q[0]) <= FOLLOWING_TOL
+    def _owns(self, goal: ActiveGoal) -> bool:
+        """Whether the goal's trajectory is still the path the actuator follows (no newer command
+        replaced it): decided by the path itself, never by where the rod is (a hydraulic rod
+        lags its reference)."""
+        motion = self.sim.motion
+        return motion.mode == "stroke" and motion.path is goal.path
+
+    def _stop(self, goal: ActiveGoal, status: str, code: int, message: str, now_ns: int) -> None:
+        """End the active goal and, while its trajectory drives the piston, hold it where it is
+        (JTC holds on cancel and on every abort)."""
+        owned = self._owns(goal)
+        self.goal = None
+        self._end(goal.handle, status, code, message, now_ns)
+        if owned:
+            self._hold(now_ns)
 
     def _start(self, handle, move, plan, now_ns: int) -> None:
         goal_msg = handle.request
@@ -367,11 +371,7 @@ class FollowJointTrajectoryServer:
         if goal is None:
             return
         if goal.handle.is_cancel_requested:  # JTC: setCanceled, then hold the position
-            following = self._following(goal)
-            self.goal = None
-            self._end(goal.handle, "canceled", Result.SUCCESSFUL, "", now_ns)
-            if following:
-                self._hold(now_ns)
+            self._stop(goal, "canceled", Result.SUCCESSFUL, "", now_ns)
             return
         st = self.sim.state
         t = st.t
@@ -397,18 +397,16 @@ class FollowJointTrajectoryServer:
                                            _point(*err, since_ns))  # fmt: skip
         goal.handle.publish_feedback(fb)
         if path:
-            self.goal = None
-            self._end(goal.handle, "aborted", Result.PATH_TOLERANCE_VIOLATED,
-                      f"Aborted due to path tolerance violation: {path}", now_ns)  # fmt: skip
+            self._stop(goal, "aborted", Result.PATH_TOLERANCE_VIOLATED,
+                       f"Aborted due to path tolerance violation: {path}", now_ns)  # fmt: skip
         elif not before_last and not outside:
             self.goal = None
             self._end(goal.handle, "succeeded", Result.SUCCESSFUL, "Goal successfully reached!",
                       now_ns)  # fmt: skip
         elif not before_last and tol.goal_time != 0.0 and t - goal.t_end > tol.goal_time:
-            self.goal = None
-            self._end(goal.handle, "aborted", Result.GOAL_TOLERANCE_VIOLATED,
-                      f"Aborted due to goal_time_tolerance exceeding by {t - goal.t_end:.6g} "
-                      f"seconds: {outside}", now_ns)  # fmt: skip
+            self._stop(goal, "aborted", Result.GOAL_TOLERANCE_VIOLATED,
+                       f"Aborted due to goal_time_tolerance exceeding by {t - goal.t_end:.6g} "
+                       f"seconds: {outside}", now_ns)  # fmt: skip
 
     def deactivate(self, now_ns: int) -> None:
         """JTC's on_deactivate: the active goal (and any not yet started) is aborted."""
