@@ -113,7 +113,7 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
                                 "output", "", reason))  # fmt: skip
             continue
         i = kept.index(name)
-        value, std = float(fit.estimate[i]), math.sqrt(max(fit.covariance[i, i], 0.0))
+        value, std = float(fit.estimate[i]), math.sqrt(fit.covariance[i, i])
         lo, hi = iv.wald_interval(value, std, q)
         kind = "jacobian"
         ratios = iv.linearity_ratios(fit.chi2_of, fit.estimate, fit.covariance, i, q, fit.s2,

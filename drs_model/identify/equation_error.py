@@ -31,7 +31,7 @@ from ..params import DRSParams
 from . import continuity, friction
 from .identifiability import Identifiability, assess, too_wide, wide_reason
 from .intervals import profile_interval, quantile, wald_interval
-from .least_squares import errors_in_variables, weighted_least_squares
+from .least_squares import checked_covariance, errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
 from .regressor import rigid_regressor, rigid_values, rigid_weights
@@ -43,6 +43,8 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
     """One :class:`Estimate` per name; NaN value (with the reason) where undetermined or the
     interval is wider than the value's size."""
     q = quantile(level, dof)
+    if len(values):
+        checked_covariance(np.asarray(cov), f"{stage}-error")
     out = []
     for name in names:
         fp = fit_parameter(name, p, hp)
@@ -55,7 +57,7 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
                                 stage, "", reason))  # fmt: skip
             continue
         i = list(values).index(name)
-        value, std = float(values[name]), math.sqrt(max(cov[i, i], 0.0))
+        value, std = float(values[name]), math.sqrt(cov[i, i])
         lo, hi = wald_interval(value, std, q)
         kind = "jacobian"
         if kinds and name in kinds:

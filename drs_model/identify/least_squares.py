@@ -16,6 +16,18 @@ scores ``x_i w_i r_i`` up to a lag ``L = ceil(4 (n / 100)^{2/9})`` (Newey and We
 
 Columns are scaled to unit norm before solving (the parameters may differ by 15 orders of
 magnitude: a leak and a mass); the results are in the original units.
+
+**The arithmetic's own error.** A backward-stable solve in float64 gives the exact solution of a
+problem perturbed by ``dA`` with ``||dA|| <= u ||A||`` (``u`` the unit roundoff; Higham,
+"Accuracy and Stability of Numerical Algorithms", 2002, ch. 20), so each estimate carries an
+error of about ``u ||A||_F ||theta|| sqrt((A^T A)^{-1}_ii)`` that no residual shows: on exact data
+(a noise-free record) the residual scatter is rounding, and an interval from it alone would miss
+the truth by a few of its widths on one machine and not on another. That error is added to the
+covariance as ``(u ||A||_F ||theta||)^2 (A^T A)^{-1}`` (in the scaled units), so no interval has
+zero width and an exact record's interval holds its truth on any machine.
+
+A covariance whose diagonal is negative or not finite (a singular information matrix) is an
+error (:class:`~drs_model.errors.ConvergenceError`), never clipped to zero.
 """
 
 from __future__ import annotations
@@ -25,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 
 COVARIANCES = ("classic", "hac")
 
@@ -55,7 +67,36 @@ class LinearFit:
     @property
     def std(self) -> np.ndarray:
         """Standard errors of the estimates."""
-        return np.sqrt(np.maximum(np.diag(self.covariance), 0.0))
+        return np.sqrt(np.diag(self.covariance))
+
+
+#: Unit roundoff of float64.
+UNIT_ROUNDOFF = float(np.finfo(float).eps) / 2.0
+#: How many unit roundoffs the solve's backward error is counted as (a QR's columnwise bound
+#: grows with the problem's size; two covers the sizes of a run, checked against perturbed
+#: arithmetic in the tests).
+ROUNDOFF_FACTOR = 2.0
+
+
+def arithmetic_covariance(A: np.ndarray, estimate: np.ndarray, bread: np.ndarray) -> np.ndarray:
+    """The covariance of the rounding error of a least-squares solve of ``A x = b`` (``A``
+    whitened and column-scaled, ``estimate`` in the same units, ``bread = (A^T A)^{-1}``):
+    ``(k u ||A||_F ||x||)^2 bread`` (module docstring)."""
+    size = ROUNDOFF_FACTOR * UNIT_ROUNDOFF * np.linalg.norm(A) * np.linalg.norm(estimate)
+    return size * size * bread
+
+
+def checked_covariance(cov: np.ndarray, what: str) -> np.ndarray:
+    """``cov`` if its diagonal is finite and positive; else :class:`ConvergenceError` naming
+    the parameters (by column) whose variance is not."""
+    d = np.diag(cov)
+    bad = [i for i, v in enumerate(d) if not (np.isfinite(v) and v > 0.0)]
+    if bad:
+        raise ConvergenceError(
+            f"the {what} covariance has variances {[float(d[i]) for i in bad]} (columns {bad}): "
+            "the information matrix is singular or the fit failed; a variance must be > 0"
+        )
+    return cov
 
 
 def _check(X: np.ndarray, y: np.ndarray, w: np.ndarray) -> None:
@@ -116,7 +157,8 @@ def weighted_least_squares(X, y, weights=None, covariance: str = "classic") -> L
             gamma = scores[lag:].T @ scores[:-lag]
             meat += (1.0 - lag / (hac_lag(n) + 1.0)) * (gamma + gamma.T)
         cov_scaled = bread @ meat @ bread * (n / dof)
-    cov = cov_scaled / np.outer(norms, norms)
+    cov_scaled = cov_scaled + arithmetic_covariance(A, scaled, bread)
+    cov = checked_covariance(cov_scaled / np.outer(norms, norms), "least-squares")
     return LinearFit(estimate, cov, residuals, sigma2, dof)
 
 
@@ -154,9 +196,12 @@ def errors_in_variables(X, y, w, dX, dy, sigma2: float) -> LinearFit:
     residuals = y - X @ estimate
     dof = n - p
     s2 = float(np.sum(w * residuals**2) / dof)
-    cov = s2 * np.linalg.pinv(A) / np.outer(norms, norms)
+    bread = np.linalg.pinv(A)
+    cov_scaled = s2 * bread + arithmetic_covariance(Xn * sw[:, None], scaled, bread)
+    cov = checked_covariance(cov_scaled / np.outer(norms, norms), "errors-in-variables")
     return LinearFit(estimate, cov, residuals, s2, dof)
 
 
-__all__ = ["COVARIANCES", "LinearFit", "errors_in_variables", "hac_lag",
+__all__ = ["COVARIANCES", "ROUNDOFF_FACTOR", "UNIT_ROUNDOFF", "LinearFit",
+           "arithmetic_covariance", "checked_covariance", "errors_in_variables", "hac_lag",
            "weighted_least_squares"]

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import ConvergenceError, InputError
+from .least_squares import checked_covariance
 
 #: A sensor's resolution [unit]: the smallest noise a signal is credited with (stroke: a good
 #: LVDT's 1 um; pressures: 0.1 bar, 0.025 % of a 400 bar transducer; force: 1 N; spool 0.1 %).
@@ -170,7 +171,8 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     dof = fn.size - p
     s2 = max(1.0, chi2 / dof)
     # inverted in the scaled units (the parameters may differ by 15 orders of magnitude)
-    cov = s2 * np.linalg.pinv(res.jac.T @ res.jac) * np.outer(scale, scale)
+    cov = checked_covariance(s2 * np.linalg.pinv(res.jac.T @ res.jac) * np.outer(scale, scale),
+                             "output-error")
     estimate = res.x * scale
     simulated = fn.signals(estimate)
 
