@@ -34,7 +34,8 @@ from .intervals import profile_interval, quantile, wald_interval
 from .least_squares import checked_covariance, errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
-from .regressor import rigid_regressor, rigid_values, rigid_weights
+from .. import elementwise
+from .regressor import _model_constants, rigid_regressor, rigid_values, rigid_weights
 from .results import Estimate, FittedSignal, StageFit
 
 
@@ -94,30 +95,104 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     sd, sdd = record.rates()
     if rung == "quasi-static":  # the statics alone: no inertia in what was recorded
         sd, sdd = np.zeros_like(sd), np.zeros_like(sdd)
-    ok = np.isfinite(s) & np.isfinite(sd) & np.isfinite(sdd) & np.isfinite(record.piston_force)
-    if rung == "hydraulic":  # the compliant stops' force is in no signal: off the stops only
-        lo, hi = stroke_limits(p)
-        ok &= (s > lo + STOP_BAND) & (s < hi - STOP_BAND)
+    ok, left_out = described_samples(record, sd, sdd, p, rung)
     held = [n for n in RIGID_PARAMETERS if n not in names]
     Y = rigid_regressor(s[ok], sd[ok], sdd[ok], p)
     theta = rigid_values(p)
     cols = [RIGID_PARAMETERS.index(n) for n in names]
     held_cols = [RIGID_PARAMETERS.index(n) for n in held]
     y = record.piston_force[ok] - Y[:, held_cols] @ theta[held_cols]
-    w = rigid_weights(s[ok], sd[ok], sdd[ok], p)
+    w, derivative_force = _derivative_weights(record, ok, s, sd, sdd, p)
     scales = [fit_parameter(n, p).scale for n in names]
     ident, values, fit, fitted = _solve(Y[:, cols], y, w, list(names), scales, theta[cols],
                                         "classic")  # fmt: skip
     kept = [n for n in names if n in values]
-    fit, fitted = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p, kept,
+    fit, fitted, X = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p, kept,
                                    fit.sigma2, w)  # fmt: skip
+    fit = _with_derivative_error(fit, X, derivative_force, w)
     values = dict(zip(kept, map(float, fit.estimate), strict=True))
     ident = _structure(ident, names, p, scales, rung)
     est = _estimates(names, values, fit.covariance, fit.dof, level, p, HydraulicParams(), ident,
                      "equation")  # fmt: skip
     force = FittedSignal("piston_force", "N", record.t[ok], record.piston_force[ok], fitted)
     return StageFit("equation", "rigid force", tuple(est), ident, (force,), fit.sigma2,
-                    fit.dof, time.perf_counter() - started)  # fmt: skip
+                    fit.dof, time.perf_counter() - started,
+                    (_left_out_note(left_out, len(record)), *derivation_notes(record)))  # fmt: skip
+
+
+def _derivative_weights(record: Record, ok, s, sd, sdd, p: DRSParams) -> np.ndarray:
+    """The rigid weights (:func:`~.regressor.rigid_weights`: relative to the stroke noise's
+    variance) with a derived acceleration's error in them: at each sample the variance
+    ``(dF/ds)^2 sigma_s^2 + (dF/ds'' e)^2`` (``e`` :meth:`Record.derivative_error`,
+    ``sigma_s`` :meth:`Record.stroke_noise`), over ``sigma_s^2``."""
+    w = rigid_weights(s[ok], sd[ok], sdd[ok], p)
+    if record.stroke_acceleration is not None:
+        return w, np.zeros_like(w)
+    consts = tuple(_model_constants(p))
+    ones = np.ones(int(ok.sum()))
+    gain = (np.asarray(elementwise.fused_force(s[ok], sd[ok], ones, consts))
+            - np.asarray(elementwise.fused_force(s[ok], sd[ok], 0.0 * ones, consts)))  # fmt: skip
+    sigma_s = record.stroke_noise()
+    force = gain * record.derivative_error()[ok]
+    return 1.0 / (1.0 / w + (force / sigma_s) ** 2), force
+
+
+def _with_derivative_error(fit, X, derivative_force, w):
+    """``fit`` with a derived acceleration's error counted as what it is, one error through
+    the whole run (a smooth truncation error, not independent scatter): its effect on the
+    estimates, ``b = (X^T W X)^{-1} X^T W dF``, taken as a standard error along ``b``
+    (``cov + b b^T``), ``X`` the regressor's fitted columns, ``W`` the weights."""
+    if not np.any(derivative_force):
+        return fit
+    XtW = X.T * w
+    b = np.linalg.lstsq(XtW @ X, XtW @ derivative_force, rcond=None)[0]
+    return dataclasses.replace(fit, covariance=fit.covariance + np.outer(b, b))
+
+
+def described_samples(record: Record, sd, sdd, p: DRSParams, rung: str):
+    """Which samples the rigid regressor describes, and how many of the others were left out
+    for which reason: ``(mask, {reason: count})``.
+
+    * a lost sample (NaN in a signal the regression reads);
+    * contact with an end stop (within :data:`STOP_BAND`): the stop's force is in no recorded
+      signal, so a force command that pushes the rod onto a stop holds any force there. Left
+      out on the ``hydraulic`` rung (compliant stops), and on the others where the record says
+      a stop may have held the rod (:attr:`Record.stops_hold`: force commands, or commands
+      unknown);
+    * where the rates were differentiated from the stroke (:meth:`Record.rates`): the samples
+      whose derivative window reaches past the record's ends, a lost sample or a stop contact
+      (the impact's kink is no cubic)."""
+    s, force = record.stroke, record.piston_force
+    finite = np.isfinite(s) & np.isfinite(sd) & np.isfinite(sdd) & np.isfinite(force)
+    counts = {"lost": int(np.sum(~finite))}
+    ok = finite.copy()
+    if rung == "hydraulic" or record.stops_hold:
+        lo, hi = stroke_limits(p)
+        contact = finite & ((s <= lo + STOP_BAND) | (s >= hi - STOP_BAND))
+        counts["end-stop contact"] = int(np.sum(contact))
+        ok &= ~contact
+    reach = record.derivative_reach()
+    if reach and rung != "quasi-static":
+        bad = ~ok.copy()
+        near = np.convolve(bad.astype(float), np.ones(2 * reach + 1), mode="same") > 0.0
+        near[:reach], near[-reach:] = True, True
+        counts["derivative window"] = int(np.sum(near & ok))
+        ok &= ~near
+    if ok.sum() <= 1:
+        raise InputError(f"no sample of the run is one the rigid force regression describes "
+                         f"({_left_out_note(counts, len(record))})")  # fmt: skip
+    return ok, counts
+
+
+def _left_out_note(counts: dict, total: int) -> str:
+    parts = [f"{n} {why}" for why, n in counts.items() if n]
+    return (f"samples left out of the regression: {', '.join(parts)} (of {total})" if parts
+            else f"every one of the {total} samples regressed")  # fmt: skip
+
+
+def derivation_notes(record: Record) -> tuple[str, ...]:
+    """What the regression read that the run did not record (:meth:`Record.derived`)."""
+    return tuple(f"{name} not recorded: {how}" for name, how in record.derived().items())
 
 
 #: Samples measured within this distance [m] of a stop are left out of the hydraulic rung's
@@ -142,8 +217,9 @@ def _noise_corrected(force, s, sd, sdd, p, kept, sigma2, w):
     k = [RIGID_PARAMETERS.index(n) for n in kept]
     j = [i for i in range(len(RIGID_PARAMETERS)) if i not in k]
     rest = Y[:, j] @ theta[j]
-    fit = errors_in_variables(Y[:, k], force - rest, w, dY[:, k], -dY[:, j] @ theta[j], sigma2)
-    return fit, Y[:, k] @ fit.estimate + rest
+    fit = errors_in_variables(Y[:, k], force - rest, w, dY[:, k], -dY[:, j] @ theta[j], sigma2,
+                              np.abs(force) + np.abs(Y[:, j]) @ np.abs(theta[j]))  # fmt: skip
+    return fit, Y[:, k] @ fit.estimate + rest, Y[:, k]
 
 
 def _structure(ident: Identifiability, names, p: DRSParams, scales, rung: str):

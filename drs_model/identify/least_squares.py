@@ -78,12 +78,18 @@ UNIT_ROUNDOFF = float(np.finfo(float).eps) / 2.0
 ROUNDOFF_FACTOR = 2.0
 
 
-def arithmetic_covariance(A: np.ndarray, estimate: np.ndarray, bread: np.ndarray) -> np.ndarray:
+def arithmetic_covariance(A: np.ndarray, estimate: np.ndarray, bread: np.ndarray,
+                          b_size: np.ndarray) -> np.ndarray:  # fmt: skip
     """The covariance of the rounding error of a least-squares solve of ``A x = b`` (``A``
-    whitened and column-scaled, ``estimate`` in the same units, ``bread = (A^T A)^{-1}``):
-    ``(k u ||A||_F ||x||)^2 bread`` (module docstring)."""
-    size = ROUNDOFF_FACTOR * UNIT_ROUNDOFF * np.linalg.norm(A) * np.linalg.norm(estimate)
-    return size * size * bread
+    whitened and column-scaled, ``estimate`` in the same units, ``bread = (A^T A)^{-1}``,
+    ``b_size`` the per-row size of the terms ``b`` was summed from): the solve's
+    ``(k u ||A||_F ||x||)^2 bread`` and the data's own rounding, ``k u (b_size_i + sum_j |A_ij
+    x_j|)`` per row carried through ``bread A^T`` (module docstring)."""
+    ku = ROUNDOFF_FACTOR * UNIT_ROUNDOFF
+    size = ku * np.linalg.norm(A) * np.linalg.norm(estimate)
+    rows = ku * (np.abs(b_size) + np.abs(A) @ np.abs(estimate))
+    G = bread @ (A.T * rows)
+    return size * size * bread + G @ G.T
 
 
 def checked_covariance(cov: np.ndarray, what: str) -> np.ndarray:
@@ -118,7 +124,8 @@ def hac_lag(n: int) -> int:
     return max(1, math.ceil(4.0 * (n / 100.0) ** (2.0 / 9.0)))
 
 
-def weighted_least_squares(X, y, weights=None, covariance: str = "classic") -> LinearFit:
+def weighted_least_squares(X, y, weights=None, covariance: str = "classic",
+                           y_size=None) -> LinearFit:  # fmt: skip
     """Solve ``min sum w_i (y_i - X_i theta)^2`` and give the estimates' covariance (module
     docstring).
 
@@ -130,6 +137,9 @@ def weighted_least_squares(X, y, weights=None, covariance: str = "classic") -> L
         ``w_i`` (default 1): inverse relative variances of the errors.
     covariance : str
         ``"classic"`` or ``"hac"``.
+    y_size : array_like, shape (n,), optional
+        Per sample, the size of the terms ``y`` was computed from (default ``|y|``): what its
+        rounding is a fraction of (a force less a model's part of it rounds like the force).
     """
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -157,12 +167,13 @@ def weighted_least_squares(X, y, weights=None, covariance: str = "classic") -> L
             gamma = scores[lag:].T @ scores[:-lag]
             meat += (1.0 - lag / (hac_lag(n) + 1.0)) * (gamma + gamma.T)
         cov_scaled = bread @ meat @ bread * (n / dof)
-    cov_scaled = cov_scaled + arithmetic_covariance(A, scaled, bread)
+    y_size = np.abs(y) if y_size is None else np.asarray(y_size, dtype=float)
+    cov_scaled = cov_scaled + arithmetic_covariance(A, scaled, bread, y_size * sw)
     cov = checked_covariance(cov_scaled / np.outer(norms, norms), "least-squares")
     return LinearFit(estimate, cov, residuals, sigma2, dof)
 
 
-def errors_in_variables(X, y, w, dX, dy, sigma2: float) -> LinearFit:
+def errors_in_variables(X, y, w, dX, dy, sigma2: float, y_size=None) -> LinearFit:
     r"""Weighted least squares corrected for noise in one measured variable ``m = s + n`` that
     both ``X`` and ``y`` are evaluated at (``Var n = sigma2``), to first order in ``n``:
     ``X(m) = X(s) + dX n``, ``y(m) = y(s) + dy n``. The normal equations' expectations gain
@@ -174,7 +185,8 @@ def errors_in_variables(X, y, w, dX, dy, sigma2: float) -> LinearFit:
 
     Without it the estimate is biased towards the noise's own direction, by an amount the
     information's smallest eigenvalues magnify (an ill-conditioned fit's bias outgrows its
-    interval). The covariance is ``s^2`` times the corrected matrix's inverse.
+    interval). The covariance is ``s^2`` times the corrected matrix's inverse, with the
+    arithmetic's own error (``y_size`` as in :func:`weighted_least_squares`).
     """
     X, y, w = (np.asarray(a, dtype=float) for a in (X, y, w))
     dX, dy = np.asarray(dX, dtype=float), np.asarray(dy, dtype=float)
@@ -197,7 +209,8 @@ def errors_in_variables(X, y, w, dX, dy, sigma2: float) -> LinearFit:
     dof = n - p
     s2 = float(np.sum(w * residuals**2) / dof)
     bread = np.linalg.pinv(A)
-    cov_scaled = s2 * bread + arithmetic_covariance(Xn * sw[:, None], scaled, bread)
+    y_size = np.abs(y) if y_size is None else np.asarray(y_size, dtype=float)
+    cov_scaled = s2 * bread + arithmetic_covariance(Xn * sw[:, None], scaled, bread, y_size * sw)
     cov = checked_covariance(cov_scaled / np.outer(norms, norms), "errors-in-variables")
     return LinearFit(estimate, cov, residuals, s2, dof)
 

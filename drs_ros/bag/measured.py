@@ -271,7 +271,9 @@ def _assemble(joints, origins, got, node, records, topics) -> Measured:
     else:
         params, source = DRSParams(), "the seed's (the bag names no drs node)"
     rung = recorded_rung(node_parameters, records) if node_parameters is not None else None
-    record = Record(t=t, step=steps, **signals)
+    # a stop may have held the rod unless the node's own records show stroke commands only
+    forced = node is None or any(r.source.endswith("force_cmd") for r in records)
+    record = Record(t=t, step=steps, stops_hold=forced, **signals)
     return Measured(record, params, source, rung, node_parameters, records, dict(topics),
                     None, notes=notes, node=node)  # fmt: skip
 
