@@ -23,6 +23,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .. import elementwise
 from ..errors import InputError
 from ..fidelity.hydraulic import hydraulic_constants
 from ..fidelity.hydraulic_params import HydraulicParams
@@ -34,7 +35,6 @@ from .intervals import profile_interval, quantile, wald_interval
 from .least_squares import checked_covariance, errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
-from .. import elementwise
 from .regressor import _model_constants, rigid_regressor, rigid_values, rigid_weights
 from .results import Estimate, FittedSignal, StageFit
 
