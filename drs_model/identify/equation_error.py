@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .. import elementwise
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 from ..fidelity.hydraulic import hydraulic_constants
 from ..fidelity.hydraulic_params import HydraulicParams
 from ..kinematics import stroke_limits
@@ -107,10 +107,16 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     ident, values, fit, fitted = _solve(Y[:, cols], y, w, list(names), scales, theta[cols],
                                         "classic")  # fmt: skip
     kept = [n for n in names if n in values]
-    fit, fitted, X = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p, kept,
-                                   fit.sigma2, w)  # fmt: skip
-    fit = _with_derivative_error(fit, X, derivative_force, w)
-    values = dict(zip(kept, map(float, fit.estimate), strict=True))
+    try:
+        fit, fitted, X = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p,
+                                          kept, fit.sigma2, w)  # fmt: skip
+    except ConvergenceError as exc:  # the residual is no stroke noise: nothing to bet on
+        ident = dataclasses.replace(ident, determined=(), undetermined={
+            n: f"{MISFIT} ({exc})" for n in names})  # fmt: skip
+        kept, values = [], {}
+    else:
+        fit = _with_derivative_error(fit, X, derivative_force, w)
+        values = dict(zip(kept, map(float, fit.estimate), strict=True))
     ident = _structure(ident, names, p, scales, rung)
     est = _estimates(names, values, fit.covariance, fit.dof, level, p, HydraulicParams(), ident,
                      "equation")  # fmt: skip
@@ -201,6 +207,11 @@ def derivation_notes(record: Record) -> tuple[str, ...]:
 STOP_BAND = 1e-4
 #: Step [m] of the regressor's stroke derivative in the noise correction.
 _DERIVATIVE_STEP = 1e-8
+#: Why the rigid regression gives no value where its residual is more than the stroke noise
+#: the record shows can explain (the errors-in-variables correction exceeds the information).
+MISFIT = ("the rigid force regression's residual is more than the stroke's noise explains: some "
+          "samples are ones its model does not describe (a stop holding the rod, a saturation) "
+          "and the record does not say which")  # fmt: skip
 #: How a reason says that no motion determines a parameter.
 STRUCTURAL = "no motion of the mechanism separates it"
 

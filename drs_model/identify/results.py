@@ -106,13 +106,15 @@ class StageFit:
 @dataclass(frozen=True)
 class FitResult:
     """A whole fit: the final estimate of each parameter asked for (the output error's where it
-    ran, else the equation error's), and every stage."""
+    ran, else the equation error's), every stage, and the parameters on which the stages
+    disagree by more than their intervals allow (``inconsistent``)."""
 
     rung: str
     level: float
     estimates: tuple[Estimate, ...]
     stages: tuple[StageFit, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+    inconsistent: tuple[str, ...] = ()
 
     def estimate(self, name: str) -> Estimate:
         for e in self.estimates:
@@ -140,6 +142,7 @@ class FitResult:
                         "residuals": [sig.summary() for sig in s.signals],
                         "notes": list(s.notes)} for s in self.stages],  # fmt: skip
             "notes": list(self.notes),
+            "inconsistent": list(self.inconsistent),
         }
 
 
