@@ -170,8 +170,11 @@ def output_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     est = _output_estimates(sub, fit, names, p, hp, level, ident)
     fitted = tuple(FittedSignal(k, SIGNALS[k], record.t, measured[k], np.asarray(fit.simulated[k]))
                    for k in measured)  # fmt: skip
-    assumed = ", ".join(f"{k} {v:.3g} {SIGNALS[k]}" for k, v in fit.noise.items())
-    notes = (f"{fit.nfev} re-simulations; noise assumed: {assumed}; {fit.message}",)
+    given = noise or {}
+    used = ", ".join(f"{k} {v:.3g} {SIGNALS[k]} ({'given' if k in given else 'from the record'})"
+                     for k, v in fit.noise.items())  # fmt: skip
+    notes = (f"{fit.nfev} re-simulations; noise: {used} (from the record: the residual's "
+             f"scatter, or the recorded values' resolution where less); {fit.message}",)
     return StageFit("output", "output error", tuple(est), ident, fitted, fit.s2, fit.dof,
                     time.perf_counter() - started, notes)  # fmt: skip
 
