@@ -7,9 +7,10 @@ sensors' typical resolutions :data:`RESOLUTION` as weights, the second with each
 residual RMS from the first, ``sqrt(n / (n - p))``-corrected for what the fit took, never below
 the recorded values' own resolution: a float64's spacing over sqrt 12, what a noise-free record
 holds). A noise-free record so gets intervals as narrow as its re-simulation's agreement with
-it allows, and the stage's note says which noise each signal was given and from where. Parameters are fitted in units of their typical size (``x = theta /
-scale``), each within its physical bounds; the start is the equation error's estimate where it
-has one. Each evaluation is one re-simulation (the caller's ``simulate``, on the compiled rung);
+it allows, and the stage's note says which noise each signal was given and from where.
+
+Parameters are fitted in units of their typical size (``x = theta / scale``), each within its
+physical bounds; the start is the equation error's estimate where it has one. Each evaluation is one re-simulation (the caller's ``simulate``, on the compiled rung);
 the Jacobian is by forward differences, one re-simulation per parameter.
 
 The covariance is ``s^2 (J^T J)^{-1}`` (in the parameters' units) with ``s^2 = max(1, chi2 /
@@ -31,7 +32,8 @@ from ..errors import ConvergenceError, InputError
 from .least_squares import checked_covariance
 
 #: A sensor's typical resolution [unit]: the first pass's weights, before the record's own noise
-#: is known, and the identifiability's scale (stroke: a good LVDT's 1 um; pressures: 0.1 bar, 0.025 % of a 400 bar transducer; force: 1 N; spool 0.1 %).
+#: is known, and the identifiability's scale (stroke: a good LVDT's 1 um; pressures: 0.1 bar,
+#: 0.025 % of a 400 bar transducer; force: 1 N; spool 0.1 %).
 RESOLUTION = {
     "stroke": 1e-6, "stroke_rate": 1e-4, "piston_force": 1.0, "pressure_a": 1e4,
     "pressure_b": 1e4, "supply_pressure": 1e4, "spool": 1e-3,
