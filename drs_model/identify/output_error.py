@@ -11,7 +11,8 @@ it allows, and the stage's note says which noise each signal was given and from 
 
 Parameters are fitted in units of their typical size (``x = theta / scale``), each within its
 physical bounds; the start is the equation error's estimate where it has one. Each evaluation
-is one re-simulation (the caller's ``simulate``, on the compiled rung); the Jacobian is by forward differences, one re-simulation per parameter.
+is one re-simulation (the caller's ``simulate``, on the compiled rung); the Jacobian is by
+forward differences, one re-simulation per parameter.
 
 The covariance is ``s^2 (J^T J)^{-1}`` (in the parameters' units) with ``s^2 = max(1, chi2 /
 dof)``: the noise as estimated, inflated where the fit is worse than it (Birge's ratio), plus
