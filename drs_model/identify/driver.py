@@ -116,8 +116,7 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
             continue
         i = kept.index(name)
         value, std = float(fit.estimate[i]), math.sqrt(fit.covariance[i, i])
-        lo, hi = iv.wald_interval(value, std, q)
-        kind = "jacobian"
+        (lo, hi), kind = iv.bounded_interval(value, std, q, fp.lower)
         ratios = iv.linearity_ratios(fit.chi2_of, fit.estimate, fit.covariance, i, q, fit.s2,
                                      fit.chi2)  # fmt: skip
         if not iv.agrees(ratios):

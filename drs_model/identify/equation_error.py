@@ -31,7 +31,7 @@ from ..kinematics import stroke_limits
 from ..params import DRSParams
 from . import continuity, friction
 from .identifiability import Identifiability, assess, too_wide, wide_reason
-from .intervals import profile_interval, quantile, wald_interval
+from .intervals import bounded_interval, profile_interval, quantile, wald_interval
 from .least_squares import checked_covariance, errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
@@ -59,8 +59,7 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
             continue
         i = list(values).index(name)
         value, std = float(values[name]), math.sqrt(cov[i, i])
-        lo, hi = wald_interval(value, std, q)
-        kind = "jacobian"
+        (lo, hi), kind = bounded_interval(value, std, q, fp.lower)
         if kinds and name in kinds:
             (lo, hi), kind = kinds[name]
         if too_wide(value, 0.5 * (hi - lo), fp.scale) or not math.isfinite(hi - lo):

@@ -29,7 +29,8 @@ class Estimate:
     stage : str
         ``"equation"`` or ``"output"`` (error).
     interval : str
-        ``"jacobian"`` or ``"profile"`` (or ``""`` with no value).
+        ``"jacobian"``, ``"log"`` (the Jacobian's on a log scale, for a positive parameter
+        whose linear interval would cross its bound) or ``"profile"`` (``""`` with no value).
     reason : str
         Why no value: what the data cannot separate, and the motion that would determine it.
     guess : float
