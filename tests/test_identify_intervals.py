@@ -18,8 +18,9 @@ def test_a_positive_parameters_interval_never_crosses_its_bound(value, rel, boun
     (lo, hi), kind = bounded_interval(value, rel * value, 1.96, bound)
     assert bound <= lo <= value <= hi  # (== only where the float cannot hold bound + tiny)
     assert hi > lo
-    if kind == "log" and rel < 10.0:  # the delta method in log(theta - bound): symmetric in that log
-        up, down = math.log((hi - bound) / (value - bound)), math.log((value - bound) / (lo - bound))
+    if kind == "log" and rel < 10.0:  # the delta method in log(theta - bound): symmetric there
+        up = math.log((hi - bound) / (value - bound))
+        down = math.log((value - bound) / (lo - bound))
         assert up == pytest.approx(down, rel=1e-6)
 
 

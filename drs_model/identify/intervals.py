@@ -15,7 +15,8 @@ quantile of the level at ``dof``:
 leak, a bulk modulus: a lower bound >= 0) never gets an interval that crosses its bound: where
 the Wald interval would, it is taken on a log scale (:func:`bounded_interval`,
 ``b + (theta - b) exp(-+ q std / (theta - b))`` for the bound ``b``, the delta method in
-``log(theta - b)``: asymmetric, as the likelihood of a positive quantity is), and an estimate at or below the bound has none.
+``log(theta - b)``: asymmetric, as the likelihood of a positive quantity is), and an estimate
+at or below the bound has none.
 
 Which one to trust is measured, not assumed (:func:`linearity_ratios`): along the line on which
 the linearised profile runs, ``theta(d) = theta_hat + d C e_i / C_ii``, the linear model predicts
