@@ -124,6 +124,9 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
             lo, hi = iv.profile_interval(profile, value, q * std, q * q * fit.s2,
                                          (fp.lower, fp.upper), fit.chi2)  # fmt: skip
             kind = "profile"
+            if fit.floor_std is not None:  # a profile steeper than the optimiser's own stop
+                reach = q * float(fit.floor_std[i])
+                lo, hi = min(lo, max(value - reach, fp.lower)), max(hi, value + reach)
         if not (math.isfinite(lo) and math.isfinite(hi)) or too_wide(value, 0.5 * (hi - lo),
                                                                       fp.scale):  # fmt: skip
             reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)

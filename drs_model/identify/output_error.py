@@ -89,7 +89,9 @@ class OutputErrorProblem:
 class NonlinearFit:
     """An output-error fit: estimates, covariance (with ``s^2``), the Jacobian of the whitened
     residuals in the parameters' units, ``chi2``, degrees of freedom, the noise used, the
-    simulated signals at the estimate, evaluations and the optimiser's message."""
+    simulated signals at the estimate, evaluations, the optimiser's message, ``chi2`` as a
+    function of the parameters, and each parameter's standard error from the optimiser's
+    stopping alone (``floor_std``: no interval is narrower)."""
 
     estimate: np.ndarray
     covariance: np.ndarray
@@ -102,6 +104,7 @@ class NonlinearFit:
     nfev: int
     message: str
     chi2_of: Callable[[np.ndarray], float]
+    floor_std: np.ndarray | None = None
 
 
 class _Residuals:
@@ -199,7 +202,7 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
         return float(r @ r)
 
     return NonlinearFit(estimate, cov, J, chi2, dof, s2, noise, simulated, fn.nfev, res.message,
-                        chi2_of)  # fmt: skip
+                        chi2_of, stop * scale)  # fmt: skip
 
 
 def recorded_resolution(values: np.ndarray) -> float:
