@@ -114,7 +114,9 @@ def cell(scene, record, stage, runs, p) -> dict:
         out["coverage_se"] = math.sqrt(out["coverage"] * (1 - out["coverage"]) / ok.sum())
         scatter = float(np.std(values[ok, 0], ddof=1))
         out["std_over_scatter"] = float(np.mean(values[ok, 3]) / scatter) if scatter else math.inf
-        out["bias_over_scatter"] = float((np.mean(values[ok, 0]) - truth) / scatter)
+        bias = float(np.mean(values[ok, 0]) - truth)
+        out["bias"] = bias
+        out["scatter"] = scatter
     return out
 
 
