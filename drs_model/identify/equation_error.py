@@ -24,6 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .. import elementwise
+from ..bodies import model_constants
 from ..errors import ConvergenceError, InputError
 from ..fidelity.hydraulic import hydraulic_constants
 from ..fidelity.hydraulic_params import HydraulicParams
@@ -35,7 +36,7 @@ from .intervals import bounded_interval, profile_interval, quantile, wald_interv
 from .least_squares import checked_covariance, errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
-from .regressor import _model_constants, rigid_regressor, rigid_values, rigid_weights
+from .regressor import rigid_regressor, rigid_values, rigid_weights
 from .results import Estimate, FittedSignal, StageFit
 
 
@@ -133,7 +134,7 @@ def _derivative_weights(record: Record, ok, s, sd, sdd, p: DRSParams) -> np.ndar
     w = rigid_weights(s[ok], sd[ok], sdd[ok], p)
     if record.stroke_acceleration is not None:
         return w, np.zeros_like(w)
-    consts = tuple(_model_constants(p))
+    consts = tuple(model_constants(p))
     ones = np.ones(int(ok.sum()))
     gain = (np.asarray(elementwise.fused_force(s[ok], sd[ok], ones, consts))
             - np.asarray(elementwise.fused_force(s[ok], sd[ok], 0.0 * ones, consts)))  # fmt: skip
