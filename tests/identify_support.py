@@ -42,9 +42,12 @@ def run_rung(rung: str, p, moves=((0, True), (40, False)), steps: int = 80, dt: 
     return np.array(rows)
 
 
-def noisy_record(table: np.ndarray, noise: float = 0.0, seed: int = 0, **drop) -> Record:
+def noisy_record(table: np.ndarray, noise: float = 0.0, seed: int = 0, stops_hold: bool = False,
+                 **drop) -> Record:  # fmt: skip
     """The record of a :func:`run_rung` table, its stroke as a sensor of ``noise`` [m] (seed
-    ``seed``) reads it; ``drop`` names signals to leave out (``stroke_rate=True``)."""
+    ``seed``) reads it; ``drop`` names signals to leave out (``stroke_rate=True``);
+    ``stops_hold``: whether the run's commands may have held the rod on a stop (a force
+    command's run; :func:`run_rung`'s stroke commands do not)."""
     cols = dict(zip(COLUMNS, table.T, strict=True))
     if noise:
         sensor = StrokeSensor(SensorFaults(noise=noise, seed=seed))
@@ -56,4 +59,26 @@ def noisy_record(table: np.ndarray, noise: float = 0.0, seed: int = 0, **drop) -
     for name, gone in drop.items():
         if gone:
             cols[name] = None
-    return Record(**cols)
+    return Record(**cols, stops_hold=stops_hold)
+
+
+def force_run(p, forces=((0, 1500.0), (60, 0.0), (120, 2500.0), (180, 0.0)), steps: int = 240,
+              dt: float = 1e-3) -> np.ndarray:  # fmt: skip
+    """Rows of :data:`COLUMNS` of the ``rigid`` rung under piston force commands [N] at the
+    steps of ``forces``: 1500 N drives the flap onto its open stop, 0 N lets the air load close
+    it onto the closed one (inelastic stops: the rod rests on them, held by the stop)."""
+    sim = make_rung("rigid", p, dt)
+    rows = []
+
+    def keep():
+        st = sim.state
+        rows.append((st.t, st.q[0], st.qd[0], st.qdd[0], st.piston_force, *(np.nan,) * 4))
+
+    todo = dict(forces)
+    keep()
+    for k in range(steps):
+        if k in todo:
+            sim.command_force(todo[k])
+        sim.step()
+        keep()
+    return np.array(rows)

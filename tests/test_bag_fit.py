@@ -240,3 +240,25 @@ def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp
     assert leak["stage"] == "output" and leak["lower"] <= 2e-13 <= leak["upper"], leak
     residuals = {r["signal"]: r for r in doc["stages"][-1]["residuals"]}
     assert residuals["pressure_a"]["samples"] > 20  # the remapped pressure was read and fitted
+
+
+def test_a_node_bag_says_whether_a_stop_may_have_held_the_rod(bags, tmp_path):
+    """The service's opening and closing only move the rod to its stops: the record says no
+    stop held it; a run with a force command onto the open stop says one may have, and the
+    rigid regression leaves those samples out (its notes count them)."""
+    from run_support import Command, record_run
+
+    from drs_ros.bag.measured import read_measured
+    from drs_ros.bag.nodes import bag_nodes
+
+    def measured(bag):
+        (node,) = bag_nodes(bag)
+        return read_measured(bag, node).record
+
+    assert measured(bags["rigid"]).stops_hold is False
+    forced = record_run(tmp_path / "forced", 80, [Command(1, "force_cmd", 1500.0)],
+                        fidelity="rigid")  # fmt: skip
+    assert measured(forced).stops_hold is True
+    res = drs_bag("fit", forced, "--params", "m_wing", "--stage", "equation", "--json")
+    notes = " ".join(json.loads(res.stdout)["stages"][0]["notes"])
+    assert "end-stop contact" in notes, notes

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from identify_support import noisy_record, run_rung
+from identify_support import force_run, noisy_record, run_rung
 
 from drs_model.fidelity import HydraulicParams
 from drs_model.fidelity import hydraulic_kernels as hk
@@ -165,3 +165,40 @@ def test_the_stroke_noise_does_not_bias_an_ill_conditioned_fit(rigid_run, params
                 z[e.name].append((e.guess - float(getattr(params, e.name))) / e.std)
     for name, values in z.items():
         assert len(values) == 100 and abs(np.mean(values)) < 0.6, (name, np.mean(values))
+
+
+@pytest.fixture(scope="module")
+def forced_run(params):
+    return force_run(params)
+
+
+@pytest.mark.parametrize("derived", [False, True])
+@pytest.mark.parametrize("noise", [0.0, 1e-5])
+def test_force_commands_onto_the_stops_leave_the_contact_out(forced_run, params, noise, derived):
+    """Under force commands the rod rests on its stops, held there by a force no signal holds:
+    those samples are left out and counted (with the derivative windows that reach them where
+    the rates were differentiated), and the wing's mass is recovered within its interval,
+    noise-free or with 10 um of stroke noise, with its rates recorded or derived."""
+    record = noisy_record(forced_run, noise, 1, stops_hold=True, stroke_rate=derived,
+                          stroke_acceleration=derived)  # fmt: skip
+    stage = rigid_stage(record, ["m_wing"], "rigid", params, 0.95)
+    (e,) = stage.estimates
+    assert e.contains(params.m_wing), e
+    assert e.upper > e.lower
+    contact = int(np.sum((forced_run[:, 1] <= forced_run[:, 1].min() + 1e-4)
+                         | (forced_run[:, 1] >= forced_run[:, 1].max() - 1e-4)))  # fmt: skip
+    assert f"{contact} end-stop contact" in stage.notes[0]
+    assert ("derivative window" in stage.notes[0]) == derived
+    assert any("stroke_acceleration not recorded: Savitzky-Golay" in n
+               for n in stage.notes) == derived  # fmt: skip
+
+
+def test_a_derived_accelerations_error_is_estimated_not_assumed(forced_run, params):
+    """The error :meth:`Record.derivative_error` states for a differentiated acceleration of an
+    exact stroke is of the size of its true error (that of the rung's own acceleration)."""
+    record = noisy_record(forced_run, stroke_rate=True, stroke_acceleration=True)
+    _, sdd = record.rates()
+    inner = slice(10, -10)
+    true = (sdd - forced_run[:, 3])[inner]
+    stated = record.derivative_error()[inner]
+    assert 0.5 < np.sqrt(np.mean(stated**2) / np.mean(true**2)) < 2.0

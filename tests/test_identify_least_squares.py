@@ -107,3 +107,33 @@ def test_errors_in_variables_takes_the_attenuation_off():
     expected = np.sum(s * s) / (np.sum(s * s) + s.size * sigma**2)
     assert np.mean(plain) / 3.0 == pytest.approx(expected, abs=2e-3)
     assert np.mean(corrected) / 3.0 == pytest.approx(1.0, abs=2e-3)
+
+
+def test_exact_data_keep_the_arithmetics_own_error():
+    """An exactly linear, ill-conditioned problem (condition ~1e6): the residual is rounding, and
+    an interval from it alone may miss the truth; with the solve's backward error counted, every
+    interval has a width and holds the truth with a wide margin, also when each datum is moved
+    by a few ulps (what another machine's arithmetic gives)."""
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 1.0, 300)
+    X = np.column_stack([np.ones_like(t), t, t + 1e-6 * t**2]) * np.array([1.0, 1e3, 1e-3])
+    truth = np.array([2.0, -0.5, 7.0])
+    for trial in range(20):
+        y = X @ truth
+        if trial:
+            y = y + np.spacing(np.abs(y)) * rng.integers(-3, 4, y.size)
+        fit = weighted_least_squares(X, y)
+        assert np.all(fit.std > 0.0)
+        z = np.abs(fit.estimate - truth) / fit.std
+        assert np.all(z < 0.5), z  # and not only just inside: other machines round otherwise
+
+
+def test_a_singular_covariance_is_an_error_not_a_zero_width():
+    """A covariance with a variance that is not > 0 is refused, naming the column."""
+    from drs_model.errors import ConvergenceError
+    from drs_model.identify.least_squares import checked_covariance
+
+    with pytest.raises(ConvergenceError, match=r"columns \[1\]"):
+        checked_covariance(np.diag([1.0, -1e-30, 2.0]), "test")
+    with pytest.raises(ConvergenceError, match="singular"):
+        checked_covariance(np.diag([1.0, 0.0]), "test")

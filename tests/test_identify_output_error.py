@@ -147,3 +147,45 @@ def test_without_a_re_simulation_output_error_parameters_are_withheld(worn, para
     supply = result.estimate("supply_pressure")
     assert not supply.determined and "cannot be re-simulated" in supply.reason
     assert result.estimate("leak_to_outside").stage == "equation"
+
+
+def test_each_signals_noise_is_the_records_own(params):
+    """A force-commanded rigid run, its stroke read with 10 um of noise, fitted on its stroke:
+    the noise the fit used is the record's (within 10 % of 10 um, not a sensor's assumed
+    resolution), and the stage says it came from the record; on the same run read exactly the
+    noise is the re-simulation's agreement with the record, far below 10 um, and the interval
+    still holds the truth."""
+    from identify_support import force_run
+
+    table = force_run(params)
+
+    def simulate(values):
+        p, _ = with_values(values, params, HydraulicParams())
+        return {"stroke": force_run(p)[:, 1]}
+
+    widths = []
+    for noise in (1e-5, 0.0):
+        result = fit(noisy_record(table, noise, 1, stops_hold=True), ["m_wing"], "rigid",
+                     params, simulate=simulate, stage="output", signals=["stroke"])  # fmt: skip
+        (e,) = result.estimates
+        assert e.contains(params.m_wing) and e.upper > e.lower, e
+        note = result.stages[-1].notes[0]
+        used = float(note.split("noise: stroke ")[1].split(" m")[0])
+        assert "(from the record)" in note
+        if noise:
+            assert used == pytest.approx(noise, rel=0.1)
+        else:
+            assert 0.0 < used < 0.1 * 1e-5
+        widths.append(e.upper - e.lower)
+    assert widths[1] < 0.2 * widths[0]
+
+
+def test_a_records_resolution_is_its_floats_spacing():
+    from drs_model.identify.output_error import recorded_resolution, signal_noise
+
+    x = np.linspace(0.01, 0.04, 1000)
+    assert recorded_resolution(x) == pytest.approx(
+        np.sqrt(np.mean(np.spacing(x) ** 2) / 12.0), rel=1e-12)  # fmt: skip
+    assert signal_noise(x, x.copy(), 1) == recorded_resolution(x) > 0.0
+    rng = np.random.default_rng(0)
+    assert signal_noise(x + rng.normal(0.0, 1e-5, x.size), x, 1) == pytest.approx(1e-5, rel=0.1)

@@ -32,9 +32,13 @@ EXIT_INTERNAL = 4
 #: ``drs-bag resimulate``: the bag, which reads, holds no run to re-run (it names no drs node,
 #: as another tool's bag, or its node took no command and never stepped): no verdict to give.
 EXIT_NOTHING_TO_RERUN = 5
+#: ``drs-bag fit``: its two stages (equation error, output error) disagree on a parameter by
+#: more than their intervals allow: neither interval can be bet on (the report names them).
+EXIT_INCONSISTENT = 6
 
 __all__ = [
     "EXIT_FAILED",
+    "EXIT_INCONSISTENT",
     "EXIT_INTERNAL",
     "EXIT_NOTHING_TO_RERUN",
     "EXIT_OK",

@@ -9,6 +9,8 @@
    identifiability of every parameter from the sensitivities at the start (one re-simulation
    per parameter), the fit of those determined, each Jacobian interval checked along its
    linearised profile and replaced by the profile-likelihood interval where the two disagree.
+4. Where both stages determined a parameter and their values lie farther apart than their
+   intervals allow, the fit is inconsistent (:func:`disagreements`): it names them.
 
 The result holds each parameter's final estimate (the output error's where it ran), every
 stage, and the signals as measured and as fitted.
@@ -113,9 +115,8 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
                                 "output", "", reason))  # fmt: skip
             continue
         i = kept.index(name)
-        value, std = float(fit.estimate[i]), math.sqrt(max(fit.covariance[i, i], 0.0))
-        lo, hi = iv.wald_interval(value, std, q)
-        kind = "jacobian"
+        value, std = float(fit.estimate[i]), math.sqrt(fit.covariance[i, i])
+        (lo, hi), kind = iv.bounded_interval(value, std, q, fp.lower)
         ratios = iv.linearity_ratios(fit.chi2_of, fit.estimate, fit.covariance, i, q, fit.s2,
                                      fit.chi2)  # fmt: skip
         if not iv.agrees(ratios):
@@ -123,6 +124,9 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
             lo, hi = iv.profile_interval(profile, value, q * std, q * q * fit.s2,
                                          (fp.lower, fp.upper), fit.chi2)  # fmt: skip
             kind = "profile"
+            if fit.floor_std is not None:  # a profile steeper than the optimiser's own stop
+                reach = q * float(fit.floor_std[i])
+                lo, hi = min(lo, max(value - reach, fp.lower)), max(hi, value + reach)
         if not (math.isfinite(lo) and math.isfinite(hi)) or too_wide(value, 0.5 * (hi - lo),
                                                                       fp.scale):  # fmt: skip
             reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)
@@ -168,8 +172,11 @@ def output_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     est = _output_estimates(sub, fit, names, p, hp, level, ident)
     fitted = tuple(FittedSignal(k, SIGNALS[k], record.t, measured[k], np.asarray(fit.simulated[k]))
                    for k in measured)  # fmt: skip
-    assumed = ", ".join(f"{k} {v:.3g} {SIGNALS[k]}" for k, v in fit.noise.items())
-    notes = (f"{fit.nfev} re-simulations; noise assumed: {assumed}; {fit.message}",)
+    given = noise or {}
+    used = ", ".join(f"{k} {v:.3g} {SIGNALS[k]} ({'given' if k in given else 'from the record'})"
+                     for k, v in fit.noise.items())  # fmt: skip
+    notes = (f"{fit.nfev} re-simulations; noise: {used} (from the record: the residual's "
+             f"scatter, or the recorded values' resolution where less); {fit.message}",)
     return StageFit("output", "output error", tuple(est), ident, fitted, fit.s2, fit.dof,
                     time.perf_counter() - started, notes)  # fmt: skip
 
@@ -233,8 +240,40 @@ def fit(record: Record, names: Sequence[str], rung: str, p: DRSParams,
             final[n] = _withheld(n, p, hp, "only the output error determines it, and it did not "
                                  "run (" + ("--stage equation" if stage == "equation" else
                                  "the run cannot be re-simulated") + ")")  # fmt: skip
+    split = disagreements(stages)
+    notes += [f"INCONSISTENT: {d}" for d in split.values()]
     return FitResult(rung, level, tuple(final[n] for n in names), tuple(stages),
-                     tuple(n for n in notes if n))  # fmt: skip
+                     tuple(n for n in notes if n), tuple(split))  # fmt: skip
 
 
-__all__ = ["FIT_RUNGS", "OUTPUT_SIGNALS", "STAGES", "check_names", "fit", "output_stage"]
+def disagreements(stages: Sequence[StageFit]) -> dict[str, str]:
+    """``{name: why}`` for each parameter both the equation and the output error determined
+    whose two values lie farther apart than the two intervals allow: the distance is more than
+    ``sqrt(a^2 + b^2)``, ``a`` and ``b`` each interval's half on the side facing the other (at
+    the fit's level: each value within the other's reach, errors independent)."""
+    by_stage: dict[str, dict[str, Estimate]] = {"equation": {}, "output": {}}
+    for s in stages:
+        for e in s.estimates:
+            if e.determined and s.stage in by_stage:
+                by_stage[s.stage][e.name] = e
+    out = {}
+    for name, eq in by_stage["equation"].items():
+        oe = by_stage["output"].get(name)
+        if oe is None:
+            continue
+        up = oe.value > eq.value
+        a = (eq.upper - eq.value) if up else (eq.value - eq.lower)
+        b = (oe.value - oe.lower) if up else (oe.upper - oe.value)
+        allowed = math.hypot(a, b)
+        gap = abs(oe.value - eq.value)
+        if gap > allowed:
+            out[name] = (f"{name}: equation error {eq.value:.6g} [{eq.lower:.6g}, "
+                         f"{eq.upper:.6g}], output error {oe.value:.6g} [{oe.lower:.6g}, "
+                         f"{oe.upper:.6g}] {eq.unit}: {gap / allowed:.3g}x as far apart as "
+                         "their intervals allow; the model misses something in this run "
+                         "(a contact, a saturation, a signal's error): bet on neither")  # fmt: skip
+    return out
+
+
+__all__ = ["FIT_RUNGS", "OUTPUT_SIGNALS", "STAGES", "check_names", "disagreements", "fit",
+           "output_stage"]

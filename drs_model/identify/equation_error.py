@@ -23,15 +23,17 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..errors import InputError
+from .. import elementwise
+from ..bodies import model_constants
+from ..errors import ConvergenceError, InputError
 from ..fidelity.hydraulic import hydraulic_constants
 from ..fidelity.hydraulic_params import HydraulicParams
 from ..kinematics import stroke_limits
 from ..params import DRSParams
 from . import continuity, friction
 from .identifiability import Identifiability, assess, too_wide, wide_reason
-from .intervals import profile_interval, quantile, wald_interval
-from .least_squares import errors_in_variables, weighted_least_squares
+from .intervals import bounded_interval, profile_interval, quantile, wald_interval
+from .least_squares import checked_covariance, errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
 from .record import Record
 from .regressor import rigid_regressor, rigid_values, rigid_weights
@@ -43,6 +45,8 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
     """One :class:`Estimate` per name; NaN value (with the reason) where undetermined or the
     interval is wider than the value's size."""
     q = quantile(level, dof)
+    if len(values):
+        checked_covariance(np.asarray(cov), f"{stage}-error")
     out = []
     for name in names:
         fp = fit_parameter(name, p, hp)
@@ -55,9 +59,8 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
                                 stage, "", reason))  # fmt: skip
             continue
         i = list(values).index(name)
-        value, std = float(values[name]), math.sqrt(max(cov[i, i], 0.0))
-        lo, hi = wald_interval(value, std, q)
-        kind = "jacobian"
+        value, std = float(values[name]), math.sqrt(cov[i, i])
+        (lo, hi), kind = bounded_interval(value, std, q, fp.lower)
         if kinds and name in kinds:
             (lo, hi), kind = kinds[name]
         if too_wide(value, 0.5 * (hi - lo), fp.scale) or not math.isfinite(hi - lo):
@@ -92,30 +95,110 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     sd, sdd = record.rates()
     if rung == "quasi-static":  # the statics alone: no inertia in what was recorded
         sd, sdd = np.zeros_like(sd), np.zeros_like(sdd)
-    ok = np.isfinite(s) & np.isfinite(sd) & np.isfinite(sdd) & np.isfinite(record.piston_force)
-    if rung == "hydraulic":  # the compliant stops' force is in no signal: off the stops only
-        lo, hi = stroke_limits(p)
-        ok &= (s > lo + STOP_BAND) & (s < hi - STOP_BAND)
+    ok, left_out = described_samples(record, sd, sdd, p, rung)
     held = [n for n in RIGID_PARAMETERS if n not in names]
     Y = rigid_regressor(s[ok], sd[ok], sdd[ok], p)
     theta = rigid_values(p)
     cols = [RIGID_PARAMETERS.index(n) for n in names]
     held_cols = [RIGID_PARAMETERS.index(n) for n in held]
     y = record.piston_force[ok] - Y[:, held_cols] @ theta[held_cols]
-    w = rigid_weights(s[ok], sd[ok], sdd[ok], p)
+    w, derivative_force = _derivative_weights(record, ok, s, sd, sdd, p)
     scales = [fit_parameter(n, p).scale for n in names]
     ident, values, fit, fitted = _solve(Y[:, cols], y, w, list(names), scales, theta[cols],
                                         "classic")  # fmt: skip
     kept = [n for n in names if n in values]
-    fit, fitted = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p, kept,
-                                   fit.sigma2, w)  # fmt: skip
-    values = dict(zip(kept, map(float, fit.estimate), strict=True))
+    try:
+        fit, fitted, X = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p,
+                                          kept, fit.sigma2, w)  # fmt: skip
+    except ConvergenceError as exc:  # the residual is no stroke noise: nothing to bet on
+        ident = dataclasses.replace(ident, determined=(), undetermined={
+            n: f"{MISFIT} ({exc})" for n in names})  # fmt: skip
+        kept, values = [], {}
+    else:
+        fit = _with_derivative_error(fit, X, derivative_force, w)
+        values = dict(zip(kept, map(float, fit.estimate), strict=True))
     ident = _structure(ident, names, p, scales, rung)
     est = _estimates(names, values, fit.covariance, fit.dof, level, p, HydraulicParams(), ident,
                      "equation")  # fmt: skip
     force = FittedSignal("piston_force", "N", record.t[ok], record.piston_force[ok], fitted)
     return StageFit("equation", "rigid force", tuple(est), ident, (force,), fit.sigma2,
-                    fit.dof, time.perf_counter() - started)  # fmt: skip
+                    fit.dof, time.perf_counter() - started,
+                    (_left_out_note(left_out, len(record)), *derivation_notes(record)))  # fmt: skip
+
+
+def _derivative_weights(record: Record, ok, s, sd, sdd, p: DRSParams) -> np.ndarray:
+    """The rigid weights (:func:`~.regressor.rigid_weights`: relative to the stroke noise's
+    variance) with a derived acceleration's error in them: at each sample the variance
+    ``(dF/ds)^2 sigma_s^2 + (dF/ds'' e)^2`` (``e`` :meth:`Record.derivative_error`,
+    ``sigma_s`` :meth:`Record.stroke_noise`), over ``sigma_s^2``."""
+    w = rigid_weights(s[ok], sd[ok], sdd[ok], p)
+    if record.stroke_acceleration is not None:
+        return w, np.zeros_like(w)
+    consts = tuple(model_constants(p))
+    ones = np.ones(int(ok.sum()))
+    gain = (np.asarray(elementwise.fused_force(s[ok], sd[ok], ones, consts))
+            - np.asarray(elementwise.fused_force(s[ok], sd[ok], 0.0 * ones, consts)))  # fmt: skip
+    sigma_s = record.stroke_noise()
+    force = gain * record.derivative_error()[ok]
+    return 1.0 / (1.0 / w + (force / sigma_s) ** 2), force
+
+
+def _with_derivative_error(fit, X, derivative_force, w):
+    """``fit`` with a derived acceleration's error counted as what it is, one error through
+    the whole run (a smooth truncation error, not independent scatter): its effect on the
+    estimates, ``b = (X^T W X)^{-1} X^T W dF``, taken as a standard error along ``b``
+    (``cov + b b^T``), ``X`` the regressor's fitted columns, ``W`` the weights."""
+    if not np.any(derivative_force):
+        return fit
+    XtW = X.T * w
+    b = np.linalg.lstsq(XtW @ X, XtW @ derivative_force, rcond=None)[0]
+    return dataclasses.replace(fit, covariance=fit.covariance + np.outer(b, b))
+
+
+def described_samples(record: Record, sd, sdd, p: DRSParams, rung: str):
+    """Which samples the rigid regressor describes, and how many of the others were left out
+    for which reason: ``(mask, {reason: count})``.
+
+    * a lost sample (NaN in a signal the regression reads);
+    * contact with an end stop (within :data:`STOP_BAND`): the stop's force is in no recorded
+      signal, so a force command that pushes the rod onto a stop holds any force there. Left
+      out on the ``hydraulic`` rung (compliant stops), and on the others where the record says
+      a stop may have held the rod (:attr:`Record.stops_hold`: force commands, or commands
+      unknown);
+    * where the rates were differentiated from the stroke (:meth:`Record.rates`): the samples
+      whose derivative window reaches past the record's ends, a lost sample or a stop contact
+      (the impact's kink is no cubic)."""
+    s, force = record.stroke, record.piston_force
+    finite = np.isfinite(s) & np.isfinite(sd) & np.isfinite(sdd) & np.isfinite(force)
+    counts = {"lost": int(np.sum(~finite))}
+    ok = finite.copy()
+    if rung == "hydraulic" or record.stops_hold:
+        lo, hi = stroke_limits(p)
+        contact = finite & ((s <= lo + STOP_BAND) | (s >= hi - STOP_BAND))
+        counts["end-stop contact"] = int(np.sum(contact))
+        ok &= ~contact
+    reach = record.derivative_reach()
+    if reach and rung != "quasi-static":
+        bad = ~ok.copy()
+        near = np.convolve(bad.astype(float), np.ones(2 * reach + 1), mode="same") > 0.0
+        near[:reach], near[-reach:] = True, True
+        counts["derivative window"] = int(np.sum(near & ok))
+        ok &= ~near
+    if ok.sum() <= 1:
+        raise InputError(f"no sample of the run is one the rigid force regression describes "
+                         f"({_left_out_note(counts, len(record))})")  # fmt: skip
+    return ok, counts
+
+
+def _left_out_note(counts: dict, total: int) -> str:
+    parts = [f"{n} {why}" for why, n in counts.items() if n]
+    return (f"samples left out of the regression: {', '.join(parts)} (of {total})" if parts
+            else f"every one of the {total} samples regressed")  # fmt: skip
+
+
+def derivation_notes(record: Record) -> tuple[str, ...]:
+    """What the regression read that the run did not record (:meth:`Record.derived`)."""
+    return tuple(f"{name} not recorded: {how}" for name, how in record.derived().items())
 
 
 #: Samples measured within this distance [m] of a stop are left out of the hydraulic rung's
@@ -124,6 +207,11 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
 STOP_BAND = 1e-4
 #: Step [m] of the regressor's stroke derivative in the noise correction.
 _DERIVATIVE_STEP = 1e-8
+#: Why the rigid regression gives no value where its residual is more than the stroke noise
+#: the record shows can explain (the errors-in-variables correction exceeds the information).
+MISFIT = ("the rigid force regression's residual is more than the stroke's noise explains: some "
+          "samples are ones its model does not describe (a stop holding the rod, a saturation) "
+          "and the record does not say which")  # fmt: skip
 #: How a reason says that no motion determines a parameter.
 STRUCTURAL = "no motion of the mechanism separates it"
 
@@ -140,8 +228,9 @@ def _noise_corrected(force, s, sd, sdd, p, kept, sigma2, w):
     k = [RIGID_PARAMETERS.index(n) for n in kept]
     j = [i for i in range(len(RIGID_PARAMETERS)) if i not in k]
     rest = Y[:, j] @ theta[j]
-    fit = errors_in_variables(Y[:, k], force - rest, w, dY[:, k], -dY[:, j] @ theta[j], sigma2)
-    return fit, Y[:, k] @ fit.estimate + rest
+    fit = errors_in_variables(Y[:, k], force - rest, w, dY[:, k], -dY[:, j] @ theta[j], sigma2,
+                              np.abs(force) + np.abs(Y[:, j]) @ np.abs(theta[j]))  # fmt: skip
+    return fit, Y[:, k] @ fit.estimate + rest, Y[:, k]
 
 
 def _structure(ident: Identifiability, names, p: DRSParams, scales, rung: str):

@@ -11,6 +11,13 @@ quantile of the level at ``dof``:
   parameter re-fitted at every trial value (Venzon and Moolgavkar 1988; lmfit's
   ``conf_interval``).
 
+**Physical bounds.** A parameter that is positive by nature (a mass, an inertia, a friction, a
+leak, a bulk modulus: a lower bound >= 0) never gets an interval that crosses its bound: where
+the Wald interval would, it is taken on a log scale (:func:`bounded_interval`,
+``b + (theta - b) exp(-+ q std / (theta - b))`` for the bound ``b``, the delta method in
+``log(theta - b)``: asymmetric, as the likelihood of a positive quantity is), and an estimate
+at or below the bound has none.
+
 Which one to trust is measured, not assumed (:func:`linearity_ratios`): along the line on which
 the linearised profile runs, ``theta(d) = theta_hat + d C e_i / C_ii``, the linear model predicts
 ``chi2`` to rise by ``q^2 s^2`` at the Wald interval's ends; the actual rise, from two
@@ -42,6 +49,22 @@ def quantile(level: float, dof: int) -> float:
 def wald_interval(estimate: float, std: float, q: float) -> tuple[float, float]:
     """``estimate -+ q std``."""
     return estimate - q * std, estimate + q * std
+
+
+def bounded_interval(estimate: float, std: float, q: float,
+                     lower_bound: float) -> tuple[tuple[float, float], str]:  # fmt: skip
+    """The Wald interval, or where it would cross ``lower_bound`` of a positive parameter
+    (``lower_bound >= 0``), the log-scale one (module docstring): ``((lo, hi), kind)`` with
+    ``kind`` ``"jacobian"`` or ``"log"``; ``(nan, nan)`` for an estimate at or below the
+    bound."""
+    lo, hi = wald_interval(estimate, std, q)
+    if not (math.isfinite(lower_bound) and lower_bound >= 0.0) or lo > lower_bound:
+        return (lo, hi), "jacobian"
+    if not estimate > lower_bound:
+        return (math.nan, math.nan), "log"
+    room = estimate - lower_bound  # the log of the distance to the bound
+    spread = q * std / room
+    return (lower_bound + room * math.exp(-spread), lower_bound + room * math.exp(spread)), "log"
 
 
 def linearity_ratios(chi2: Callable[[np.ndarray], float], estimate: np.ndarray,
@@ -111,6 +134,7 @@ def profile_interval(profile_chi2: Callable[[float], float], estimate: float,
 __all__ = [
     "AGREEMENT",
     "agrees",
+    "bounded_interval",
     "linearity_ratios",
     "profile_interval",
     "quantile",

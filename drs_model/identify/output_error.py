@@ -2,16 +2,23 @@ r"""Stage 2, output error: re-simulate the recorded commands with trial paramete
 recorded signals (``scipy.optimize.least_squares``, trust-region reflective, with bounds).
 
 The residual of signal ``j`` at its samples is ``(simulated - measured) / sigma_j``; ``sigma_j``
-is the signal's noise: given, or estimated in two passes (the first with the sensors'
-resolutions :data:`RESOLUTION`, the second with each signal's residual RMS from the first, never
-below its resolution). Parameters are fitted in units of their typical size (``x = theta /
-scale``), each within its physical bounds; the start is the equation error's estimate where it
-has one. Each evaluation is one re-simulation (the caller's ``simulate``, on the compiled rung);
-the Jacobian is by forward differences, one re-simulation per parameter.
+is the signal's noise: given, or estimated from the record in two passes (the first with the
+sensors' typical resolutions :data:`RESOLUTION` as weights, the second with each signal's
+residual RMS from the first, ``sqrt(n / (n - p))``-corrected for what the fit took, never below
+the recorded values' own resolution: a float64's spacing over sqrt 12, what a noise-free record
+holds). A noise-free record so gets intervals as narrow as its re-simulation's agreement with
+it allows, and the stage's note says which noise each signal was given and from where.
+
+Parameters are fitted in units of their typical size (``x = theta / scale``), each within its
+physical bounds; the start is the equation error's estimate where it has one. Each evaluation
+is one re-simulation (the caller's ``simulate``, on the compiled rung); the Jacobian is by
+forward differences, one re-simulation per parameter.
 
 The covariance is ``s^2 (J^T J)^{-1}`` (in the parameters' units) with ``s^2 = max(1, chi2 /
-dof)``: the noise as estimated, inflated where the fit is worse than it (Birge's ratio); its
-intervals are checked against the profile likelihood (:mod:`.intervals`).
+dof)``: the noise as estimated, inflated where the fit is worse than it (Birge's ratio), plus
+the optimiser's own stopping error (:data:`STOP_TOLERANCE` of the scaled parameters' norm,
+which a noise-free record's interval would otherwise be narrower than); its intervals are
+checked against the profile likelihood (:mod:`.intervals`).
 """
 
 from __future__ import annotations
@@ -23,14 +30,23 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import ConvergenceError, InputError
+from .least_squares import checked_covariance
 
-#: A sensor's resolution [unit]: the smallest noise a signal is credited with (stroke: a good
-#: LVDT's 1 um; pressures: 0.1 bar, 0.025 % of a 400 bar transducer; force: 1 N; spool 0.1 %).
+#: A sensor's typical resolution [unit]: the first pass's weights, before the record's own noise
+#: is known, and the identifiability's scale (stroke: a good LVDT's 1 um; pressures: 0.1 bar,
+#: 0.025 % of a 400 bar transducer; force: 1 N; spool 0.1 %).
 RESOLUTION = {
     "stroke": 1e-6, "stroke_rate": 1e-4, "piston_force": 1.0, "pressure_a": 1e4,
     "pressure_b": 1e4, "supply_pressure": 1e4, "spool": 1e-3,
 }  # fmt: skip
 
+#: The optimiser's stopping tolerance on the scaled parameters (``xtol``: a step below
+#: ``xtol * ||x||`` ends it), counted in each interval as a standard error of 3x it.
+STOP_TOLERANCE = 1e-10
+#: Passes at most of the noise's estimate: a pass whose noise is within 2x of the one before
+#: ends them (a first fit weighted by a sensor's resolution may stop short of the minimum that
+#: a noise-free record's own weights find).
+NOISE_PASSES = 4
 #: Relative step of the forward-difference Jacobian (in ``x = theta / scale``).
 DIFF_STEP = 1e-4
 #: Distance [typical sizes] a start keeps from a bound.
@@ -73,7 +89,9 @@ class OutputErrorProblem:
 class NonlinearFit:
     """An output-error fit: estimates, covariance (with ``s^2``), the Jacobian of the whitened
     residuals in the parameters' units, ``chi2``, degrees of freedom, the noise used, the
-    simulated signals at the estimate, evaluations and the optimiser's message."""
+    simulated signals at the estimate, evaluations, the optimiser's message, ``chi2`` as a
+    function of the parameters, and each parameter's standard error from the optimiser's
+    stopping alone (``floor_std``: no interval is narrower)."""
 
     estimate: np.ndarray
     covariance: np.ndarray
@@ -86,6 +104,7 @@ class NonlinearFit:
     nfev: int
     message: str
     chi2_of: Callable[[np.ndarray], float]
+    floor_std: np.ndarray | None = None
 
 
 class _Residuals:
@@ -127,7 +146,7 @@ def _solve(problem, noise, x0, max_nfev):
     # bound there (a leak started at 0 never moved)
     x0 = np.clip(x0, lb + START_MARGIN, ub - START_MARGIN)
     res = least_squares(res_fn, x0, bounds=(lb, ub), method="trf", diff_step=DIFF_STEP,
-                        x_scale=1.0, max_nfev=max_nfev)  # fmt: skip
+                        x_scale=1.0, max_nfev=max_nfev, xtol=STOP_TOLERANCE)  # fmt: skip
     return res, res_fn
 
 
@@ -149,18 +168,19 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     given = dict(problem.noise or {})
     noise = {k: given.get(k, RESOLUTION.get(k, 1.0)) for k in problem.measured}
     res, fn = _solve(problem, noise, problem.start / scale, max_nfev)
-    if not given.keys() >= problem.measured.keys():  # solved again, the noise estimated
-        sim = fn.last
+    nfev = fn.nfev
+    for _ in range(NOISE_PASSES):  # the noise from the residual, until it settles
+        if given.keys() >= problem.measured.keys():
+            break
+        before = dict(noise)
         for k, measured in problem.measured.items():
-            if k in given or k not in sim:
-                continue
-            r = np.asarray(sim[k]) - measured
-            r = r[np.isfinite(r)]
-            noise[k] = max(float(np.sqrt(np.mean(r * r))) if r.size else 0.0,
-                           RESOLUTION.get(k, 0.0))  # fmt: skip
-        nfev = fn.nfev
+            if k not in given and k in fn.last:
+                noise[k] = signal_noise(np.asarray(fn.last[k]), measured, p)
         res, fn = _solve(problem, noise, res.x, max_nfev)
-        fn.nfev += nfev
+        nfev += fn.nfev
+        if all(0.5 < noise[k] / before[k] < 2.0 for k in noise):
+            break
+    fn.nfev = nfev
     if fn.size <= p:
         raise InputError(f"{fn.size} measured samples cannot determine {p} parameters")
     J = res.jac / scale[None, :]  # d r / d theta
@@ -170,7 +190,10 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     dof = fn.size - p
     s2 = max(1.0, chi2 / dof)
     # inverted in the scaled units (the parameters may differ by 15 orders of magnitude)
-    cov = s2 * np.linalg.pinv(res.jac.T @ res.jac) * np.outer(scale, scale)
+    stop = 3.0 * STOP_TOLERANCE * max(float(np.linalg.norm(res.x)), 1.0)
+    information = np.linalg.pinv(res.jac.T @ res.jac)
+    cov = checked_covariance((s2 * information + stop * stop * np.eye(p))
+                             * np.outer(scale, scale), "output-error")  # fmt: skip
     estimate = res.x * scale
     simulated = fn.signals(estimate)
 
@@ -179,7 +202,26 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
         return float(r @ r)
 
     return NonlinearFit(estimate, cov, J, chi2, dof, s2, noise, simulated, fn.nfev, res.message,
-                        chi2_of)  # fmt: skip
+                        chi2_of, stop * scale)  # fmt: skip
+
+
+def recorded_resolution(values: np.ndarray) -> float:
+    """The resolution of recorded float64 values [their unit]: the RMS of their spacing over
+    sqrt 12 (a rounding's standard deviation)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(np.sqrt(np.mean(np.spacing(np.abs(v)) ** 2) / 12.0)) if v.size else 0.0
+
+
+def signal_noise(simulated: np.ndarray, measured: np.ndarray, p: int) -> float:
+    """A signal's noise [its unit] from a first fit: the residual RMS, corrected for the ``p``
+    parameters fitted, never below the record's resolution (:func:`recorded_resolution`)."""
+    r = simulated - measured
+    r = r[np.isfinite(r)]
+    floor = recorded_resolution(measured)
+    if r.size <= p:
+        return max(floor, float(np.sqrt(np.mean(r * r))) if r.size else floor)
+    return max(float(np.sqrt(np.sum(r * r) / (r.size - p))), floor)
 
 
 def profile_chi2(problem: OutputErrorProblem, fit: NonlinearFit, i: int,
@@ -219,4 +261,6 @@ __all__ = [
     "OutputErrorProblem",
     "fit_output_error",
     "profile_chi2",
+    "recorded_resolution",
+    "signal_noise",
 ]

@@ -19,6 +19,10 @@ Signals (SI units):
 ``spool`` [1]
     the valve spool, normalised to -1..1.
 
+``stops_hold`` says whether an end stop may have held the rod against the piston's force (a
+force command, or a run whose commands are unknown: the default); a run under stroke commands
+only is moved by its piston to and from the stops, so its force there is the model's.
+
 ``step`` is each sample's physics step in the recorded run (for a re-simulation to compare the
 same instants); ``None`` where the run says nothing of its steps.
 """
@@ -29,7 +33,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
+from scipy.signal import savgol_coeffs, savgol_filter
 
 from ..errors import InputError
 
@@ -57,6 +61,7 @@ class Record:
     supply_pressure: np.ndarray | None = None
     spool: np.ndarray | None = None
     step: np.ndarray | None = None
+    stops_hold: bool = True
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t, dtype=float)
@@ -104,13 +109,62 @@ class Record:
             sdd = savgol_filter(sd, window, 3, deriv=1, delta=dt)
         return sd, sdd
 
+    def derived(self) -> dict[str, str]:
+        """``{signal: how}`` for each rate :meth:`rates` derives instead of reading."""
+        how = (f"Savitzky-Golay derivative (cubic, {DERIVATIVE_WINDOW} samples) of the "
+               "stroke")  # fmt: skip
+        out = {}
+        if self.stroke_rate is None:
+            out["stroke_rate"] = how
+        if self.stroke_acceleration is None:
+            out["stroke_acceleration"] = how.replace("of the stroke", "of the stroke rate")
+        return out
+
+    def derivative_reach(self) -> int:
+        """Samples on each side whose stroke a derived rate at a sample depends on (0 where
+        both rates were recorded): half a window per differentiation."""
+        if self.stroke_acceleration is not None:
+            return 0 if self.stroke_rate is not None else DERIVATIVE_WINDOW // 2
+        return DERIVATIVE_WINDOW // 2 * (2 if self.stroke_rate is None else 1)
+
+    def stroke_noise(self) -> float:
+        """The stroke sensor's noise [m] as the record shows it: the robust scatter (1.4826
+        MAD) of the stroke about its local cubic (Savitzky-Golay, :data:`DERIVATIVE_WINDOW`
+        samples), corrected for the smoother's own share of it, and never below the recorded
+        values' resolution (a float64's spacing over sqrt 12: what a noise-free record has)."""
+        s = self.stroke[np.isfinite(self.stroke)]
+        resolution = float(np.sqrt(np.mean(np.spacing(np.abs(s)) ** 2) / 12.0))
+        if s.size <= DERIVATIVE_WINDOW:
+            return resolution
+        scatter = s - savgol_filter(s, DERIVATIVE_WINDOW, 3)
+        centre = float(savgol_coeffs(DERIVATIVE_WINDOW, 3)[DERIVATIVE_WINDOW // 2])
+        mad = float(np.median(np.abs(scatter - np.median(scatter))))
+        return max(1.4826 * mad / np.sqrt(1.0 - centre), resolution)
+
+    def derivative_error(self) -> np.ndarray:
+        """Per sample, a derived acceleration's error [m/s^2], signed: its difference from the
+        same derivatives over the same window by a quintic (one that reaches no farther, so a
+        stop's kink outside it shows in neither; truncation and noise both show in it); zeros
+        where the acceleration was recorded."""
+        if self.stroke_acceleration is not None:
+            return np.zeros_like(self.t)
+        _, sdd = self.rates()
+        dt = float(np.median(np.diff(self.t)))
+        window = min(DERIVATIVE_WINDOW, len(self) - (1 - len(self) % 2))
+        order = min(5, window - 1)
+        sd = self.stroke_rate
+        if sd is None:
+            sd = savgol_filter(self.stroke, window, order, deriv=1, delta=dt)
+        return sdd - savgol_filter(sd, window, order, deriv=1, delta=dt)
+
     def select(self, mask: np.ndarray) -> Record:
         """The samples where ``mask`` is true."""
         mask = np.asarray(mask, dtype=bool)
-        out = {}
+        out = {"stops_hold": self.stops_hold}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            out[f.name] = None if value is None else value[mask]
+            if f.name != "stops_hold":
+                out[f.name] = None if value is None else value[mask]
         return Record(**out)
 
 

@@ -29,7 +29,8 @@ class Estimate:
     stage : str
         ``"equation"`` or ``"output"`` (error).
     interval : str
-        ``"jacobian"`` or ``"profile"`` (or ``""`` with no value).
+        ``"jacobian"``, ``"log"`` (the Jacobian's on a log scale, for a positive parameter
+        whose linear interval would cross its bound) or ``"profile"`` (``""`` with no value).
     reason : str
         Why no value: what the data cannot separate, and the motion that would determine it.
     guess : float
@@ -106,13 +107,15 @@ class StageFit:
 @dataclass(frozen=True)
 class FitResult:
     """A whole fit: the final estimate of each parameter asked for (the output error's where it
-    ran, else the equation error's), and every stage."""
+    ran, else the equation error's), every stage, and the parameters on which the stages
+    disagree by more than their intervals allow (``inconsistent``)."""
 
     rung: str
     level: float
     estimates: tuple[Estimate, ...]
     stages: tuple[StageFit, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+    inconsistent: tuple[str, ...] = ()
 
     def estimate(self, name: str) -> Estimate:
         for e in self.estimates:
@@ -140,6 +143,7 @@ class FitResult:
                         "residuals": [sig.summary() for sig in s.signals],
                         "notes": list(s.notes)} for s in self.stages],  # fmt: skip
             "notes": list(self.notes),
+            "inconsistent": list(self.inconsistent),
         }
 
 

@@ -23,7 +23,9 @@ a ``--set`` or ``--noise`` of no parameter or signal, a malformed ``--topic-map`
 Exit status (docs/cli.md): 0 every parameter determined; 1 one or more not determined (each
 with its reason); 2 a bad option (``--node`` naming no drs node of the bag, or none of its
 several, is one), the bag cannot be read or holds no measurement, or the model refuses the fit
-(a parameter its rung does not hold, a ``--set`` value); 4 an internal error (no verdict).
+(a parameter its rung does not hold, a ``--set`` value); 4 an internal error (no verdict); 6
+the equation and the output error disagree on a parameter by more than their intervals allow
+(verdict INCONSISTENT, the parameters named).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from dataclasses import dataclass, field
 from drs_model.cli._common import parameter_names_argument
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
+    EXIT_INCONSISTENT,
     EXIT_INTERNAL,
     EXIT_OK,
     EXIT_REFUSED,
@@ -64,7 +67,8 @@ from .nodes import BagNode, NodeSelectionError, add_node_arguments, bag_nodes, s
 from .recorded import MessageCallbackError
 
 #: The verdict of each exit status of ``drs-bag fit``.
-FIT_VERDICTS = fleet.verdicts(passed="FITTED", failed="NOT DETERMINED")
+FIT_VERDICTS = {**fleet.verdicts(passed="FITTED", failed="NOT DETERMINED"),
+                EXIT_INCONSISTENT: "INCONSISTENT"}
 #: The verdict of a fit the model refuses (exit status 2, as an unreadable bag).
 REFUSED = "REFUSED"
 
@@ -246,6 +250,8 @@ def fit_one(bag, args: argparse.Namespace, node: BagNode | None = None) -> FitOu
         return FitOutcome(EXIT_REFUSED, error=f"error: the model refuses the fit: {exc}",
                           measured=measured, verdict=REFUSED)  # fmt: skip
     status = EXIT_OK if all(e.determined for e in result.estimates) else EXIT_FAILED
+    if result.inconsistent:  # a value neither stage's interval can be bet on, first
+        status = EXIT_INCONSISTENT
     return FitOutcome(status, result, measured)
 
 

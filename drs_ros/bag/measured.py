@@ -36,7 +36,7 @@ from drs_model.identify.record import Record
 from drs_model.params import DRSParams
 
 from ..errors import DRSRosError
-from ..names import CLOCK
+from ..names import CLOCK, TOPICS
 from ..timestamps import ns_of, seconds_from_ns
 from .decoded import decoder
 from .effects import effect_records, model_params_from, recorded_rung
@@ -234,6 +234,17 @@ def read_measured(bag: str | Path, node: BagNode | None,
     return out
 
 
+def _stops_may_hold(node, records) -> bool:
+    """Whether a stop may have held the rod against the piston in the run: unless the node's
+    own effect record shows no force command (its force topic as resolved, remapping
+    included, in the record of its topics), it may have (another tool's bag: unknown)."""
+    if node is None:
+        return True
+    names = {r.values.get("force_cmd") for r in records if r.source == TOPICS}
+    names = {n for n in names if n} or {"force_cmd"}
+    return any(r.source in names or r.source.endswith("/force_cmd") for r in records)
+
+
 def _assemble(joints, origins, got, node, records, topics) -> Measured:
     """The record from the collected samples (sorted by stamp, repeated stamps dropped)."""
     node_parameters = None if node is None else node.parameters
@@ -271,7 +282,7 @@ def _assemble(joints, origins, got, node, records, topics) -> Measured:
     else:
         params, source = DRSParams(), "the seed's (the bag names no drs node)"
     rung = recorded_rung(node_parameters, records) if node_parameters is not None else None
-    record = Record(t=t, step=steps, **signals)
+    record = Record(t=t, step=steps, stops_hold=_stops_may_hold(node, records), **signals)
     return Measured(record, params, source, rung, node_parameters, records, dict(topics),
                     None, notes=notes, node=node)  # fmt: skip
 

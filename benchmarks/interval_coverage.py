@@ -1,0 +1,168 @@
+"""Coverage of the fit's 95 % intervals: over seeded runs with a known truth, how often each
+stage's interval holds it, and how the stated standard error compares with the estimates' own
+scatter.
+
+Cells: scene x record x stage.
+
+* scenes (the ``rigid`` rung at 1 kHz, the truth the seed's parameters, ``m_wing`` = 2 kg):
+  ``stroke`` (opened and closed by stroke commands), ``force`` (force commands 1500, 0, 2500,
+  0 N: onto the stops and back), ``trajectory`` (a trajectory through mid-stroke points);
+* records: ``node`` (what a node bag holds: stroke, its rate and the piston force; the
+  acceleration differentiated; the stops declared held only under force commands),
+  ``node+noise`` (the same with 10 um of seeded stroke-sensor noise), ``foreign`` (a
+  JointState-only bag another tool wrote: the same signals, with 10 um of noise, nothing known
+  of its commands, so a stop may have held the rod);
+* stages: ``equation``, ``output`` (re-simulating the commands; not for ``foreign``, which holds
+  none), ``both`` (the final estimate of a fit of both stages, and whether it was INCONSISTENT).
+
+A noise-free cell is one deterministic run (its seeds are all the same run): it reports whether
+its interval holds the truth and its width. A noisy cell runs ``--runs`` seeds and reports the
+coverage, its binomial standard error, the mean stated standard error over the estimates'
+empirical scatter (target 1/1.5 .. 1.5) and the runs that gave no value or an INCONSISTENT
+verdict. The target: 90-98 % coverage.
+
+Usage: ``python benchmarks/interval_coverage.py [--runs 100] [--output-runs 30]
+[--cells stroke:node+noise:equation,...] [--json benchmarks/results/interval_coverage.json]``
+(the hydraulic scenes, supply steps and faults, are not in it: see docs/identify.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+from identify_support import force_run, noisy_record, run_rung  # noqa: E402
+
+from drs_model.fidelity import HydraulicParams  # noqa: E402
+from drs_model.identify.driver import fit  # noqa: E402
+from drs_model.identify.parameters import with_values  # noqa: E402
+from drs_model.params import DRSParams  # noqa: E402
+
+SCENES = ("stroke", "force", "trajectory")
+RECORDS = ("node", "node+noise", "foreign")
+STAGES = ("equation", "output", "both")
+NAME = "m_wing"
+NOISE = 1e-5
+
+
+def scene_table(scene: str, p: DRSParams) -> np.ndarray:
+    """The rung's run of ``scene`` with the parameters ``p`` (rows of identify_support's
+    COLUMNS)."""
+    if scene == "stroke":
+        return run_rung("rigid", p, moves=((0, True), (60, False)), steps=120)
+    if scene == "force":
+        return force_run(p)
+    times = np.array([0.02, 0.04, 0.07, 0.1])
+    strokes = np.array([0.03, 0.012, 0.04, 0.02])
+    return run_rung("rigid", p, steps=120, trajectory=(times, strokes, None))
+
+
+def record_of(table, scene: str, record: str, seed: int):
+    noise = 0.0 if record == "node" else NOISE
+    held = scene == "force" or record == "foreign"
+    return noisy_record(table, noise, seed, stops_hold=held, stroke_acceleration=True)
+
+
+def simulator(scene: str, p: DRSParams):
+    def simulate(values):
+        q, _ = with_values(values, p, HydraulicParams())
+        table = scene_table(scene, q)
+        return {"stroke": table[:, 1], "piston_force": table[:, 4]}
+
+    return simulate
+
+
+def one_run(table, scene, record, stage, seed, p):
+    """``(value, lower, upper, std, inconsistent)`` of one seeded run (NaN: no value)."""
+    rec = record_of(table, scene, record, seed)
+    simulate = None if stage == "equation" else simulator(scene, p)
+    try:
+        result = fit(rec, [NAME], "rigid", p, simulate=simulate, stage=stage)
+    except Exception as exc:  # noqa: BLE001 - a refusal is a run with no value, counted
+        return math.nan, math.nan, math.nan, math.nan, False, f"{type(exc).__name__}: {exc}"
+    e = result.estimate(NAME)
+    return e.value, e.lower, e.upper, e.std, bool(result.inconsistent), ""
+
+
+def cell(scene, record, stage, runs, p) -> dict:
+    table = scene_table(scene, p)
+    truth = float(getattr(p, NAME))
+    n = 1 if record == "node" else runs
+    started = time.perf_counter()
+    rows = [one_run(table, scene, record, stage, seed, p) for seed in range(n)]
+    values = np.array([r[:4] for r in rows], dtype=float)
+    ok = np.isfinite(values[:, 0])
+    hit = ok & (values[:, 1] <= truth) & (truth <= values[:, 2])
+    out = {"scene": scene, "record": record, "stage": stage, "runs": n,
+           "valued": int(ok.sum()), "covered": int(hit.sum()),
+           "inconsistent": int(sum(r[4] for r in rows)),
+           "min_width": float(np.min(values[ok, 2] - values[ok, 1])) if ok.any() else math.nan,
+           "seconds": time.perf_counter() - started,
+           "errors": sorted({r[5] for r in rows if r[5]})[:3]}  # fmt: skip
+    if ok.sum() >= 2:
+        out["coverage"] = float(hit.sum() / ok.sum())
+        out["coverage_se"] = math.sqrt(out["coverage"] * (1 - out["coverage"]) / ok.sum())
+        scatter = float(np.std(values[ok, 0], ddof=1))
+        out["std_over_scatter"] = float(np.mean(values[ok, 3]) / scatter) if scatter else math.inf
+        bias = float(np.mean(values[ok, 0]) - truth)
+        out["bias"] = bias
+        out["scatter"] = scatter
+    return out
+
+
+def table_md(cells) -> str:
+    lines = ["| scene | record | stage | runs | valued | coverage | stated std / scatter | "
+             "INCONSISTENT | min width |", "|---|---|---|---|---|---|---|---|---|"]
+    for c in cells:
+        if "coverage" in c:
+            cov = f"{100 * c['coverage']:.1f} % +- {100 * c['coverage_se']:.1f}"
+            ratio = f"{c['std_over_scatter']:.2f}"
+        else:
+            cov = "holds" if c["covered"] else ("no value" if not c["valued"] else "misses")
+            ratio = "-"
+        lines.append(f"| {c['scene']} | {c['record']} | {c['stage']} | {c['runs']} | "
+                     f"{c['valued']} | {cov} | {ratio} | {c['inconsistent']} | "
+                     f"{c['min_width']:.3g} |")  # fmt: skip
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=100, help="seeds per noisy equation cell")
+    ap.add_argument("--output-runs", type=int, default=100,
+                    help="seeds per noisy cell with an output-error stage")
+    ap.add_argument("--cells", default="", help="scene:record:stage,... (default: all)")
+    ap.add_argument("--json", type=Path, default=None)
+    args = ap.parse_args(argv)
+    wanted = [tuple(c.split(":")) for c in args.cells.split(",") if c]
+    if not wanted:
+        wanted = [(s, r, g) for s in SCENES for r in RECORDS for g in STAGES
+                  if not (r == "foreign" and g != "equation")]  # fmt: skip
+    p = DRSParams()
+    load = os.getloadavg()[0]
+    cells = []
+    for scene, record, stage in wanted:
+        runs = args.runs if stage == "equation" else args.output_runs
+        cells.append(cell(scene, record, stage, runs, p))
+        print(table_md(cells[-1:]).splitlines()[-1], flush=True)
+    print(table_md(cells))
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        doc = {"parameter": NAME, "truth": float(getattr(p, NAME)), "noise_m": NOISE,
+               "load_before": load, "load_after": os.getloadavg()[0], "cells": cells}
+        args.json.write_text(json.dumps(doc, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
