@@ -32,7 +32,7 @@ from scipy.optimize import least_squares
 from ..errors import ConvergenceError, InputError
 from .least_squares import checked_covariance
 
-#: A sensor's typical resolution [unit]: the first pass's weights, before the record's own noise
+#: A sensor's typical resolution [unit]: the first solve's weights, before the record's own noise
 #: is known, and the identifiability's scale (stroke: a good LVDT's 1 um; pressures: 0.1 bar,
 #: 0.025 % of a 400 bar transducer; force: 1 N; spool 0.1 %).
 RESOLUTION = {
