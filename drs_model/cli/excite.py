@@ -83,7 +83,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force-limit", type=positive_number, default=2.0e4,
                    help="the node's force limit [N]; the supply's force applies too (2e4)")
     p.add_argument("--seed", type=int, default=0, help="of the optimiser's starts (0)")
-    p.add_argument("--starts", type=positive_integer, default=6, help="optimiser starts (6)")
+    p.add_argument("--starts", type=positive_integer, default=12, help="optimiser starts (12)")
     p.add_argument("-o", "--output", metavar="GOAL.yaml", help="write the goal file (for "
                    "ros2 action send_goal, or drs-bag from-goal to make a bag of it)")
     p.add_argument("--joint", default="drs_piston", help="the piston joint (drs_piston)")

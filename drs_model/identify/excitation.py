@@ -253,7 +253,7 @@ def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | 
                       *, rung: str = "rigid", duration: float = 0.3, harmonics: int = 10,
                       sample_period: float = 1e-3, point_spacing: float = 2e-3,
                       limits: Limits | None = None, stroke_noise: float = 1e-5, seed: int = 0,
-                      starts: int = 6, maxiter: int = 600,
+                      starts: int = 12, maxiter: int = 600,
                       criterion: str = "worst-ratio") -> Excitation:  # fmt: skip
     """The excitation of ``names`` on ``rung`` optimal by ``criterion`` (module docstring)."""
     hp = HydraulicParams() if hp is None else hp
