@@ -118,3 +118,35 @@ def test_each_actuator_of_a_season_is_trended_on_its_own(tmp_path):
     assert status == 0, out + err
     assert out.startswith("leak_to_outside of /car7/rear/drs_rear: 40 runs")
     assert "drift: none" in out
+
+
+def test_a_drift_from_run_28_is_reported_with_its_onset_and_its_flag(tmp_path):
+    """A table of forty runs whose value steps 2 standard deviations a run from run 28: the
+    text and the JSON name the bag the drift began with and the bag it was flagged at (by run
+    31), and the exit status says a drift."""
+    require_rclpy()
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    rng = np.random.default_rng(28)
+    values = 2.0 + 0.01 * rng.standard_normal(RUNS)
+    values[27:] += 0.02 * np.arange(1, RUNS - 26)
+    rows = [{"bag": f"runs/run_{k + 1:02d}", "node": "/drs", "start_ns": k * DAY_NS,
+             "m_wing": values[k], "m_wing_std": 0.01, "m_wing_determined": True}
+            for k in range(RUNS)]  # fmt: skip
+    table = tmp_path / "season.parquet"
+    pq.write_table(pa.Table.from_pylist(rows), table)
+    status, out, err = drs_bag("trend", table, "--json")
+    assert status == 1, out + err
+    (row,) = json.loads(out)
+    assert row["drift"] == "rising" and 27 <= row["onset_run"] <= 29
+    assert 28 <= row["detected_run"] <= 31
+    assert row["onset_bag"] == f"runs/run_{row['onset_run']:02d}"
+    assert row["detected_bag"] == f"runs/run_{row['detected_run']:02d}"
+    status, out, err = drs_bag("trend", table)
+    assert status == 1, out + err
+    assert (f"drift: rising, from run {row['onset_run']} ({row['onset_bag']}), significant at "
+            f"run {row['detected_run']} ({row['detected_bag']})") in out  # fmt: skip
+    status, out, err = drs_bag("trend", table, "--decision", "1000")
+    assert status == 0 and "drift: none" in out, out + err

@@ -1,4 +1,6 @@
-"""``drs excite NAME,...``: a D-optimal excitation for the parameters named
+"""``drs excite NAME,...``: an excitation for the parameters named, by default one that leaves
+none of them looser than the seed's manoeuvre of the same length (the worst ratio; ``--criterion
+D`` for D-optimal)
 (:mod:`drs_model.identify.excitation`, docs/identify.md): the trajectory as a
 FollowJointTrajectory goal file (``-o goal.yaml``) and a plot, with the standard errors it
 predicts beside those of the seed's manoeuvre over the same time.
@@ -50,10 +52,11 @@ def design_names_argument(text: str) -> list[str]:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "excite",
-        help="design a D-optimal excitation for parameters to identify (docs/identify.md)",
+        help="design an excitation for parameters to identify (docs/identify.md)",
         description="A multisine stroke within the stroke, rate, force and flow limits that "
-        "maximises the information on the parameters named; written as a FollowJointTrajectory "
-        "goal (-o) for ros2 action send_goal.",
+        "makes the parameters named as well determined as it can, each against the seed's "
+        "manoeuvre of the same length; written as a FollowJointTrajectory goal (-o) for ros2 "
+        "action send_goal.",
         epilog=f"As a bag for drs-bag play: {BAG_RECIPE}.",
     )
     add_common(p)
@@ -64,7 +67,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    default="hydraulic", help="the rung the fit will run on (default hydraulic)")
     p.add_argument("--duration", type=positive_number, default=0.3,
                    help="the run's length [s] (0.3)")
-    p.add_argument("--harmonics", type=positive_integer, default=5, help="of the multisine (5)")
+    p.add_argument("--harmonics", type=positive_integer, default=10,
+                   help="of the multisine (10)")
+    p.add_argument("--criterion", choices=("worst-ratio", "D"), default="worst-ratio",
+                   help="worst-ratio: the largest ratio of a parameter's standard error to the "
+                   "seed manoeuvre's, least; D: log det of the information, largest (a trade "
+                   "of one parameter for another scores well) (default worst-ratio)")
     p.add_argument("--point-spacing", type=positive_number, default=4e-3,
                    help="between the trajectory's points [s] (0.004)")  # fmt: skip
     p.add_argument("--sample-period", type=positive_number, default=1e-3,
@@ -74,7 +82,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force-limit", type=positive_number, default=2.0e4,
                    help="the node's force limit [N]; the supply's force applies too (2e4)")
     p.add_argument("--seed", type=int, default=0, help="of the optimiser's starts (0)")
-    p.add_argument("--starts", type=positive_integer, default=6, help="optimiser starts (6)")
+    p.add_argument("--starts", type=positive_integer, default=12, help="optimiser starts (12)")
     p.add_argument("-o", "--output", metavar="GOAL.yaml", help="write the goal file (for "
                    "ros2 action send_goal, or drs-bag from-goal to make a bag of it)")
     p.add_argument("--joint", default="drs_piston", help="the piston joint (drs_piston)")
@@ -134,7 +142,8 @@ def run_excite(args: argparse.Namespace) -> Output:
     ex = design_excitation(names, p, hp, rung=args.fidelity, duration=args.duration,
                            harmonics=args.harmonics, sample_period=args.sample_period,
                            point_spacing=args.point_spacing, limits=limits,
-                           stroke_noise=args.noise, seed=args.seed, starts=args.starts)  # fmt: skip
+                           stroke_noise=args.noise, seed=args.seed, starts=args.starts,
+                           criterion=args.criterion)  # fmt: skip
     # both as the rung runs them (the hydraulic rung's servo and valve slow both down)
     length = float(ex.t[-1])
     ran = rung_motion(p, hp, args.fidelity, length, args.sample_period,
@@ -159,7 +168,8 @@ def run_excite(args: argparse.Namespace) -> Output:
         "parameters": [{"name": n, "unit": fit_parameter(n, p, hp).unit,
                         "std_excitation": float(a), "std_seed_manoeuvre": float(b)}
                        for n, a, b in zip(names, std, seed_std, strict=True)],  # fmt: skip
-        "rung": args.fidelity, "duration_s": length, "points": len(ex.times),
+        "rung": args.fidelity, "criterion": args.criterion, "duration_s": length,
+        "points": len(ex.times),
         "log_det_information": ex.log_det,
         "limits": {"margin_m": limits.margin, "rate_m_per_s": limits.rate,
                    "force_n": limits.force},
@@ -177,7 +187,8 @@ def render(data: dict) -> str:
     lim, peak = data["limits"], data["peaks"]
     lines = [
         f"drs excite: {data['points']} points over {data['duration_s']:g} s on the "
-        f"{data['rung']} rung (log det of the information {data['log_det_information']:.4g})",
+        f"{data['rung']} rung, criterion {data['criterion']} (log det of the information "
+        f"{data['log_det_information']:.4g})",
         "standard errors the fit would give (equation error; both run on the rung, the same "
         "noise and length):",
         table(["parameter", "unit", "excitation", "seed manoeuvre", "ratio"], rows, "{:.4g}"),

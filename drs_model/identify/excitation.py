@@ -1,5 +1,5 @@
 r"""Excitation design (``drs excite``): a stroke trajectory, within the actuator's limits, that
-makes the parameters asked for as well determined as a run of its length can (D-optimal).
+makes the parameters asked for as well determined as a run of its length can.
 
 The stroke is a windowed Fourier series about mid-stroke (Swevers et al. 1997):
 
@@ -12,15 +12,21 @@ with ``W`` a quintic smoothstep up over the first ``R`` and down over the last (
 and ends at rest at the closed stop, as the node does), ``T`` the time between, ``lambda`` the
 largest amplitude within the limits: the stroke range (a margin from each stop), the rate (the
 rated flow over the piston area: the valve's flow limit), and the piston force (the force limit,
-and the supply's over the piston area). The coefficients maximise ``log det`` of the Fisher
-information of the equation-error regressions the fit runs (the rigid regressor weighted for the
-stroke noise, :mod:`.regressor`; the friction law's columns, :mod:`.friction`), the parameters
-measured in their typical sizes; Nelder-Mead from several seeded starts.
+and the supply's over the piston area). The Fisher information is that of the equation-error
+regressions the fit runs (the rigid regressor weighted for the stroke noise, :mod:`.regressor`;
+the friction law's columns, :mod:`.friction`). The coefficients minimise, by default
+(``criterion="worst-ratio"``), the largest ratio of a parameter's predicted standard error to
+the one the seed's manoeuvre of the same length gives (each parameter on its own scale, plus a
+tenth of their mean log ratio to break ties): ``log det`` (``criterion="D"``, the parameters
+in their typical sizes) rewards a trade, one parameter far tighter for another looser than the
+seed's manoeuvre leaves it. Nelder-Mead from several seeded starts.
 
 The node follows a trajectory as quintic segments between points, each reached at rest in
 acceleration (:func:`drs_model.profile.plan_trajectory`): the design is written as points every
-``point_spacing``, and its information, forces and limits are evaluated again on that path, the
-one the actuator runs, sampled as the bag will be.
+``point_spacing``, and the optimiser scores the information of that path, the one the actuator
+runs, sampled as the bag will be, at the largest amplitude at which it keeps the limits (the
+path is linear in the amplitude). The series between the points accelerates otherwise: scored on
+it, a design's information was orders of magnitude above what the followed path gave.
 
 Parameters whose information the motion alone does not give (a leak, the bulk modulus: they
 need the pressures the motion will produce) are refused, with the reason.
@@ -52,6 +58,12 @@ from .regressor import rigid_regressor, rigid_weights
 LEAD_IN = 0.015
 #: The parameters an excitation can be designed for: their information follows from the motion.
 DESIGNABLE = (*RIGID_PARAMETERS, *(n for n in FRICTION_PARAMETERS if n != "stribeck_velocity"))
+#: What a design optimises (module docstring).
+CRITERIA = ("worst-ratio", "D")
+#: Weight of the mean log ratio beside the worst in the ``worst-ratio`` criterion.
+TIE_BREAK = 0.1
+#: ``k`` of the smooth worst ratio ``log sum exp(k r) / k`` the starts minimise.
+SHARPNESS = 4.0
 
 
 @dataclass(frozen=True)
@@ -238,14 +250,17 @@ def _amplitude(wave: Waveform, coeffs, t, limits: Limits, force_of, s_range) -> 
 
 
 def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | None = None,
-                      *, rung: str = "rigid", duration: float = 0.3, harmonics: int = 5,
+                      *, rung: str = "rigid", duration: float = 0.3, harmonics: int = 10,
                       sample_period: float = 1e-3, point_spacing: float = 2e-3,
                       limits: Limits | None = None, stroke_noise: float = 1e-5, seed: int = 0,
-                      starts: int = 6, maxiter: int = 250) -> Excitation:  # fmt: skip
-    """The D-optimal excitation of ``names`` on ``rung`` (module docstring)."""
+                      starts: int = 12, maxiter: int = 600,
+                      criterion: str = "worst-ratio") -> Excitation:  # fmt: skip
+    """The excitation of ``names`` on ``rung`` optimal by ``criterion`` (module docstring)."""
     hp = HydraulicParams() if hp is None else hp
     names = tuple(names)
     check_designable(names, rung)
+    if criterion not in CRITERIA:
+        raise InputError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
     if not (duration >= 0.02 and 0 < sample_period <= point_spacing < duration / 8):
         raise InputError(f"duration must be >= 0.02 s and 0 < sample_period <= point_spacing < "
                          f"duration / 8, got {duration!r}, {sample_period!r}, "
@@ -258,22 +273,110 @@ def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | 
     t = np.arange(0.0, duration + 0.5 * sample_period, sample_period)
     fused = FusedInverseDynamics.from_params(p)
 
-    def cost(c):
-        lam = _amplitude(wave, c, t, limits, fused.force_array, (s_min, s_max))
-        return -log_det(information(names, *wave.evaluate(t, c, lam), p, hp, rung,
-                                    stroke_noise))  # fmt: skip
+    smooth, exact = _criterion(criterion, names, p, hp, rung, LEAD_IN + duration,
+                               sample_period, stroke_noise)  # fmt: skip
+
+    local = np.arange(0.0, duration + 0.5 * point_spacing, point_spacing)
+    path_t = np.arange(0.0, LEAD_IN + duration + 0.5 * sample_period, sample_period)
+    followed = _FollowedPath(p, wave, local, path_t, limits, fused.force_array)
+
+    def amplitude(c):
+        return _amplitude(wave, c, t, limits, fused.force_array, (s_min, s_max))
+
+    def cost(c, score=smooth):
+        # the information of the path the actuator follows through the points (at rest in
+        # acceleration at each), at the largest amplitude that path keeps the limits at: the
+        # series between the points has other accelerations, and information orders apart
+        lam, path = followed.at_limits(c, amplitude(c))
+        return math.inf if path is None else score(information(names, *path, p, hp, rung,
+                                                               stroke_noise))  # fmt: skip
 
     rng = np.random.default_rng(seed)
-    best = None
-    for _ in range(starts):
-        c0 = rng.normal(size=2 * harmonics)
-        res = minimize(cost, c0, method="Nelder-Mead", options={"maxiter": maxiter,
-                                                                 "xatol": 1e-3, "fatol": 1e-4})
-        if best is None or res.fun < best.fun:
-            best = res
-    lam = _amplitude(wave, best.x, t, limits, fused.force_array, (s_min, s_max))
-    return _realised(names, rung, wave, best.x, lam, t, point_spacing, p, hp, limits,
+    options = {"maxiter": maxiter, "xatol": 1e-3, "fatol": 1e-4}
+    ends = [minimize(cost, rng.normal(size=2 * harmonics), method="Nelder-Mead",
+                     options=options).x for _ in range(starts)]  # fmt: skip
+    best = min(ends, key=lambda c: cost(c, exact))
+    # Nelder-Mead's simplex collapses in many dimensions: a fresh one about the best point, on
+    # the exact criterion
+    polished = minimize(cost, best, args=(exact,), method="Nelder-Mead", options=options).x
+    best = polished if cost(polished, exact) < cost(best, exact) else best
+    lam = followed.at_limits(best, amplitude(best))[0]
+    return _realised(names, rung, wave, best, lam, t, point_spacing, p, hp, limits,
                      stroke_noise, fused)  # fmt: skip
+
+
+class _FollowedPath:
+    """The path the actuator follows through a series' points: linear in the amplitude (the
+    quintics are linear in their ends), ``base + lambda * unit``, from two plans."""
+
+    def __init__(self, p, wave, local, t, limits, force_of):
+        self.p, self.wave, self.local, self.t = p, wave, local, t
+        self.limits, self.force_of = limits, force_of
+        self.range = stroke_limits(p)
+        self.base = self._samples(np.zeros(2 * wave.harmonics), 0.0)
+
+    def _samples(self, c, lam):
+        strokes, rates, _ = self.wave.evaluate(self.local, c, lam)
+        rates[-1] = 0.0
+        return np.array(path_samples(self.p, LEAD_IN + self.local, strokes, rates, self.t))
+
+    def at_limits(self, c, guess):
+        """``(lambda, (s, s', s''))``: the largest amplitude whose path keeps the stroke, rate
+        and force limits, and the path; ``(0, None)`` where the plan refuses the points."""
+        try:
+            unit = (self._samples(c, guess) - self.base) / guess if guess > 0 else None
+        except StrokeRangeError:
+            unit = None
+        if unit is None:
+            return 0.0, None
+        base, lim = self.base, self.limits
+        low, high = self.range[0] + 0.5 * lim.margin, self.range[1] - lim.margin
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bounds = [np.where(unit[0] > 0, (high - base[0]) / unit[0], np.inf),
+                      np.where(unit[0] < 0, (low - base[0]) / unit[0], np.inf),
+                      np.where(unit[1] != 0, (lim.rate - np.sign(unit[1]) * base[1])
+                               / np.abs(unit[1]), np.inf)]  # fmt: skip
+        lam = max(0.0, 0.999 * min(float(np.min(b)) for b in bounds))
+
+        def over(a):
+            return float(np.max(np.abs(self.force_of(*(base + a * unit))))) > lim.force
+
+        if over(lam):
+            lo, hi = 0.0, lam
+            for _ in range(14):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (lo, mid) if over(mid) else (mid, hi)
+            lam = lo
+        return lam, tuple(base + lam * unit)
+
+
+def _criterion(criterion, names, p, hp, rung, duration, sample_period, noise):
+    """``(smooth, exact)`` costs of an information matrix: ``-log det`` for both, or for
+    ``worst-ratio`` the log ratios ``r`` of the standard errors to the seed's manoeuvre's (run on
+    the rung for ``duration``): ``log sum exp(k r) / k`` (k = :data:`SHARPNESS`, a worst ratio
+    smooth enough for the simplex) and ``max r + TIE_BREAK mean r``."""
+    if criterion == "D":
+        return (lambda info: -log_det(info),) * 2
+    seed_std = standard_errors(seed_manoeuvre_information(names, p, hp, rung, duration,
+                                                          sample_period, noise), names, p, hp)
+    if not np.all(np.isfinite(seed_std) & (seed_std > 0.0)):  # nothing to weigh against: D
+        return (lambda info: -log_det(info),) * 2
+
+    def ratios(info):
+        std = standard_errors(info, names, p, hp)
+        if not np.all(np.isfinite(std) & (std > 0.0)):
+            return None
+        return np.log(std / seed_std)
+
+    def smooth(info):
+        r = ratios(info)
+        return math.inf if r is None else float(np.log(np.sum(np.exp(SHARPNESS * r))) / SHARPNESS)
+
+    def exact(info):
+        r = ratios(info)
+        return math.inf if r is None else float(r.max() + TIE_BREAK * r.mean())
+
+    return smooth, exact
 
 
 def _realised(names, rung, wave, coeffs, lam, t, spacing, p, hp, limits, noise, fused):
@@ -348,6 +451,7 @@ def reference_motion(p: DRSParams, duration: float = 0.2, seed: int = 1):
 
 
 __all__ = [
+    "CRITERIA",
     "DESIGNABLE",
     "Excitation",
     "Limits",

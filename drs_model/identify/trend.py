@@ -14,10 +14,11 @@ leak that grows by a fixed fraction per run),
 scatter gives. With the reference prior ``p(a, b, s^2) ~ 1/s^2`` the posterior of ``b`` is
 Student-t with ``n - 2`` degrees of freedom about the weighted least-squares slope.
 
-Detection is sequential: after each run ``n`` (from :data:`MIN_RUNS` on), the probability of
-a drift either way, ``P(b > 0)`` or ``P(b < 0)`` given the runs so far, is compared with
-``1 - alpha``; the first run at which it exceeds it is the detection run. ``alpha`` sets the
-false-alarm rate of a healthy season (the tests measure it over seeded seasons).
+Detection is sequential and separate from the line: a two-sided CUSUM of each run's standardised
+residual against the runs before it (:mod:`.change_point`), its scale from the run-to-run
+differences before the drift, so a drift does not widen the scale it is judged by (the line's
+residual scatter does: a drift over the last runs of a season would hide in it). It names the run
+the drift began and the run it became significant. ``P(b > 0)`` after each run is still reported.
 
 The threshold's crossing: ``tau* = (g(threshold) - a) / b`` over draws of ``(a, b)`` from the
 posterior at the last run; its 2.5, 50 and 97.5 % quantiles (``inf`` where more of the draws
@@ -34,11 +35,8 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from ..errors import InputError
+from .change_point import DECISION, MIN_RUNS, cusum
 
-#: Runs before the first test of a drift.
-MIN_RUNS = 8
-#: Probability of a drift either way above which it is called significant: ``1 - ALPHA``.
-ALPHA = 2.5e-4
 MODELS = ("linear", "exponential", "auto")
 #: Posterior draws of the crossing time.
 DRAWS = 4000
@@ -62,9 +60,11 @@ class Trend:
         ``b`` and its posterior standard deviation [g-units per s] at the last run.
     intercept : float
     probability : ndarray
-        ``max(P(b > 0), P(b < 0))`` after each run (NaN before :data:`MIN_RUNS`).
+        ``max(P(b > 0), P(b < 0))`` of the line after each run (NaN before :data:`MIN_RUNS`).
     detected : int or None
-        Index (among the runs used) of the first run with a significant drift.
+        Index (among the runs used) of the run at which the CUSUM flagged a drift.
+    onset : int or None
+        Index of the run at which that drift began (the CUSUM's estimate).
     direction : int
         +1 rising, -1 falling, 0 no drift.
     crossing : tuple or None
@@ -87,6 +87,7 @@ class Trend:
     probability: np.ndarray
     detected: int | None
     direction: int
+    onset: int | None = None
     crossing: tuple[float, float, float] | None = None
     threshold: float | None = None
 
@@ -164,15 +165,19 @@ def _crossing(g_threshold, coef, cov, dof, seed) -> tuple[float, float, float]:
 
 
 def trend(name: str, tau: Sequence[float], values: Sequence[float], std: Sequence[float],
-          model: str = "auto", threshold: float | None = None, alpha: float = ALPHA,
+          model: str = "auto", threshold: float | None = None, decision: float = DECISION,
           min_runs: int = MIN_RUNS, seed: int = 0) -> Trend:  # fmt: skip
     """The trend of one parameter (module docstring) over the runs at times ``tau`` [s] with
     fitted ``values`` and standard errors ``std``; runs without a value (NaN) are left out.
 
+    ``decision`` is the CUSUM's decision interval [standard deviations]; the first drift test
+    is at run ``min_runs + 1``.
+
     Raises
     ------
     InputError
-        Fewer than three runs with a value, a bad model, an exponential model on a value <= 0.
+        Fewer than three runs with a value, ``min_runs < 3``, a bad model, an exponential
+        model on a value <= 0.
     """
     tau, values, std = (np.asarray(x, dtype=float) for x in (tau, values, std))
     ok = np.isfinite(tau) & np.isfinite(values) & np.isfinite(std) & (std > 0)
@@ -192,18 +197,16 @@ def trend(name: str, tau: Sequence[float], values: Sequence[float], std: Sequenc
     up = sequential_rise_probability(tau, y, sy)
     prob = np.maximum(up, 1.0 - up)
     prob[: max(min_runs, 3) - 1] = math.nan
-    hits = np.flatnonzero(prob > 1.0 - alpha)
-    detected = int(hits[0]) if hits.size else None
-    direction = 0 if detected is None else (1 if up[detected] > 0.5 else -1)
+    change = cusum(y, sy, decision=decision, min_runs=min_runs)
     coef, cov, dof, s2 = _fit(tau, y, sy)
     crossing = None
     if threshold is not None:
         g_thr = _g(model, np.array([threshold]), np.array([1.0]))[0][0]
         crossing = _crossing(g_thr, coef, cov, dof, seed)
     return Trend(name, model, origin, tau, values, std, float(coef[1]), math.sqrt(cov[1, 1]),
-                 float(coef[0]), dof, s2, cov, prob, detected, direction, crossing,
-                 threshold)  # fmt: skip
+                 float(coef[0]), dof, s2, cov, prob, change.detected, change.direction,
+                 change.onset, crossing, threshold)  # fmt: skip
 
 
-__all__ = ["ALPHA", "DRAWS", "MIN_RUNS", "MODELS", "Trend", "drift_probability",
+__all__ = ["DECISION", "DRAWS", "MIN_RUNS", "MODELS", "Trend", "drift_probability",
            "sequential_rise_probability", "trend"]

@@ -6,7 +6,8 @@ the run's first log time ``start_ns``, each parameter's value, interval and stan
 whether determined), orders the runs by time, and for each parameter of each actuator (each
 ``node`` of the table: the runs of two actuators are two seasons; ``--node`` keeps one) prints
 the runs used, the trend (per day: a rate for a linear trend, a percentage for an exponential
-one), the run at which a drift became significant, and with ``--threshold NAME=VALUE`` the date
+one), the run at which a drift began and the run at which it became significant (a CUSUM whose
+scale comes from the runs before the drift), and with ``--threshold NAME=VALUE`` the date
 the trend reaches it, with its interval. ``--plot FILE.png`` draws each parameter with its
 intervals, the trend and its band, the threshold and the predicted crossing.
 
@@ -35,7 +36,7 @@ from drs_model.cli.exit_status import (
     EXIT_USAGE,
 )
 from drs_model.errors import DRSError, ParameterError
-from drs_model.identify.trend import ALPHA, MIN_RUNS, MODELS, trend
+from drs_model.identify.trend import DECISION, MIN_RUNS, MODELS, trend
 from drs_model.overrides import assignment_overrides
 
 from ..errors import DRSRosError, UsageError
@@ -61,15 +62,15 @@ def threshold_argument(item: str) -> str:
     return item
 
 
-def alpha_argument(text: str) -> float:
-    """``--alpha``: a probability in (0, 0.5)."""
+def decision_argument(text: str) -> float:
+    """``--decision``: the CUSUM's decision interval, a finite number > 0 [standard deviations]."""
     try:
-        alpha = float(text)
+        decision = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 < alpha < 0.5:
-        raise argparse.ArgumentTypeError(f"must be in (0, 0.5), got {alpha!r}")
-    return alpha
+    if not (math.isfinite(decision) and decision > 0.0):
+        raise argparse.ArgumentTypeError(f"must be finite and > 0, got {decision!r}")
+    return decision
 
 
 def min_runs_argument(text: str) -> int:
@@ -94,8 +95,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="predict when NAME reaches VALUE (repeatable)")  # fmt: skip
     ap.add_argument("--model", choices=MODELS, default="auto", help="linear, exponential, or "
                     "auto: exponential when every value is > 0 (default)")  # fmt: skip
-    ap.add_argument("--alpha", type=alpha_argument, default=ALPHA, help="false-alarm "
-                    f"probability of each run's drift test, in (0, 0.5) (default {ALPHA:g})")
+    ap.add_argument("--decision", type=decision_argument, default=DECISION, help="the drift "
+                    "CUSUM's decision interval [standard deviations], > 0; higher: fewer false "
+                    f"alarms, later flags (default {DECISION:g})")  # fmt: skip
     ap.add_argument("--min-runs", type=min_runs_argument, default=MIN_RUNS,
                     help=f"runs before the first drift test, >= 3 (default {MIN_RUNS})")
     ap.add_argument("--plot", metavar="FILE.png", help="draw each parameter over the season")
@@ -167,19 +169,22 @@ def analyse(cols: dict, names, thresholds: dict, args, node: str | None = None) 
     out = []
     for name in names:
         tau, value, std = _series(cols, name)
-        tr = trend(name, tau, value, std, args.model, thresholds.get(name), args.alpha,
+        tr = trend(name, tau, value, std, args.model, thresholds.get(name), args.decision,
                    args.min_runs)  # fmt: skip
         used = np.flatnonzero(np.isfinite(tau) & np.isfinite(value) & np.isfinite(std))
         used = used[np.argsort(tau[used], kind="stable")]
         row = {"parameter": name, "node": node, "model": tr.model, "runs": int(tr.tau.size),
                "slope_per_day": tr.slope * DAY_S, "slope_std_per_day": tr.slope_std * DAY_S,
                "drift": {1: "rising", -1: "falling", 0: "none"}[tr.direction],
-               "detected_run": None, "detected_bag": None, "probability": None,
+               "onset_run": None, "onset_bag": None, "detected_run": None,
+               "detected_bag": None, "probability": None,
                "threshold": tr.threshold, "crossing": None, "trend": tr}  # fmt: skip
         if tr.detected is not None:
             row["detected_run"] = int(tr.detected) + 1
             row["detected_bag"] = bags[used[tr.detected]] if bags else None
             row["probability"] = float(tr.probability[tr.detected])
+            row["onset_run"] = int(tr.onset) + 1
+            row["onset_bag"] = bags[used[tr.onset]] if bags else None
         if tr.crossing is not None:
             lo, mid, hi = (tr.origin + c for c in tr.crossing)
             row["crossing"] = {"low": _date(lo), "median": _date(mid), "high": _date(hi),
@@ -200,8 +205,9 @@ def format_text(rows: list[dict]) -> str:
         if r["detected_run"] is None:
             lines.append("  drift: none")
         else:
-            lines.append(f"  drift: {r['drift']}, significant from run {r['detected_run']} "
-                         f"({r['detected_bag']}), P = {r['probability']:.6f}")  # fmt: skip
+            lines.append(f"  drift: {r['drift']}, from run {r['onset_run']} ({r['onset_bag']}), "
+                         f"significant at run {r['detected_run']} ({r['detected_bag']}); the "
+                         f"line's P = {r['probability']:.6f}")  # fmt: skip
         if r["crossing"] is not None:
             c = r["crossing"]
             days = ", ".join("never" if not math.isfinite(d) else f"{d:+.1f}"
