@@ -40,8 +40,11 @@ venv: $(STAMP) $(NUMBA_STAMP)
 demo: $(STAMP) $(NUMBA_STAMP)
 	$(BIN)/drs-demo
 
+# two workers, a test file each at a time (a file's module fixtures start its nodes once); the
+# 25 slowest tests at the end (docs/layout.md's table says where the time goes)
+TEST_WORKERS ?= 2
 test: $(STAMP) $(NUMBA_STAMP)
-	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest
+	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --durations=25
 
 lint: $(STAMP)
 	$(BIN)/ruff check drs_model drs_ros tests benchmarks interfaces
