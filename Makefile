@@ -28,11 +28,13 @@ $(STAMP): pyproject.toml $(INTERFACES) | $(BIN)/python
 # numba's on-disk cache, filled here so that no test, demo or node start compiles on a cold cache,
 # and emptied first whenever a model source changed since: numba checks only the file of the
 # function it compiled, so a kernel edited in drs_model/kernels.py would leave the builds that
-# inline it from other files (the gufuncs, the study's loops, the tests' own) stale
+# inline it from other files (the gufuncs, the study's loops, the tests' own) stale; two processes
+# compile a share each (the two cores)
 NUMBA_STAMP := $(VENV)/.numba-cache
 $(NUMBA_STAMP): $(STAMP) $(shell find drs_model -name '*.py')
 	$(MAKE) --no-print-directory clean-cache
-	$(BIN)/python -m drs_model.compiled
+	$(BIN)/python -m drs_model.compiled --part 1/2 & first=$$!; \
+	$(BIN)/python -m drs_model.compiled --part 2/2; second=$$?; wait $$first && exit $$second
 	touch $(NUMBA_STAMP)
 
 venv: $(STAMP) $(NUMBA_STAMP)
