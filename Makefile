@@ -28,11 +28,13 @@ $(STAMP): pyproject.toml $(INTERFACES) | $(BIN)/python
 # numba's on-disk cache, filled here so that no test, demo or node start compiles on a cold cache,
 # and emptied first whenever a model source changed since: numba checks only the file of the
 # function it compiled, so a kernel edited in drs_model/kernels.py would leave the builds that
-# inline it from other files (the gufuncs, the study's loops, the tests' own) stale
+# inline it from other files (the gufuncs, the study's loops, the tests' own) stale; two processes
+# compile a share each (the two cores)
 NUMBA_STAMP := $(VENV)/.numba-cache
 $(NUMBA_STAMP): $(STAMP) $(shell find drs_model -name '*.py')
 	$(MAKE) --no-print-directory clean-cache
-	$(BIN)/python -m drs_model.compiled
+	$(BIN)/python -m drs_model.compiled --part 1/2 & first=$$!; \
+	$(BIN)/python -m drs_model.compiled --part 2/2; second=$$?; wait $$first && exit $$second
 	touch $(NUMBA_STAMP)
 
 venv: $(STAMP) $(NUMBA_STAMP)
@@ -40,8 +42,11 @@ venv: $(STAMP) $(NUMBA_STAMP)
 demo: $(STAMP) $(NUMBA_STAMP)
 	$(BIN)/drs-demo
 
+# two workers, a test file each at a time (a file's module fixtures start its nodes once); the
+# 25 slowest tests at the end (docs/layout.md's table says where the time goes)
+TEST_WORKERS ?= 2
 test: $(STAMP) $(NUMBA_STAMP)
-	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest
+	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile --durations=25
 
 lint: $(STAMP)
 	$(BIN)/ruff check drs_model drs_ros tests benchmarks interfaces

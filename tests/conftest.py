@@ -12,6 +12,11 @@ os.environ.setdefault("ROS_PYTHON_CHECK_FIELDS", "1")
 
 from node_support import ros_context  # noqa: E402, F401 - fixture for the node tests
 
+# Under pytest-xdist each worker keeps the ROS logs of what it starts in a directory of its own.
+_WORKER = os.environ.get("PYTEST_XDIST_WORKER")
+if _WORKER and os.environ.get("ROS_LOG_DIR"):
+    os.environ["ROS_LOG_DIR"] = os.path.join(os.environ["ROS_LOG_DIR"], _WORKER)
+
 from drs_model.errors import NumbaUnavailableError  # noqa: E402
 from drs_model.params import DRSParams  # noqa: E402
 
@@ -36,7 +41,23 @@ def _numba_cache():
 @pytest.fixture(scope="session")
 def node_bag(tmp_path_factory):
     """A bag the node records now, through the demo's whole scenario (every message type): the
-    demo as a process, its node as another, over loopback DDS."""
+    demo as a process, its node as another, over loopback DDS. Recorded once per run: pytest-xdist
+    workers share the first worker's recording (the tests only read it)."""
+    import fcntl
+
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return _record_node_bag(tmp_path_factory.mktemp("demo"))
+    shared = tmp_path_factory.getbasetemp().parent / "node_bag"  # the run's, not the worker's
+    shared.mkdir(exist_ok=True)
+    with open(shared / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # the others wait for the one recording
+        if not (shared / "recorded").exists():
+            _record_node_bag(shared / "out")
+            (shared / "recorded").touch()
+    return shared / "out" / "demo"
+
+
+def _record_node_bag(out):
     import subprocess
     import sys
 
@@ -44,7 +65,7 @@ def node_bag(tmp_path_factory):
     from ros_support import require_rclpy
 
     require_rclpy()
-    out = tmp_path_factory.mktemp("demo")
+    out.mkdir(parents=True, exist_ok=True)
     env = node_env(out, domain_for("conftest::node_bag"))
     res = subprocess.run([sys.executable, "-m", "drs_ros.demo", "--out", str(out), "--domain",
                           env["ROS_DOMAIN_ID"]], capture_output=True, text=True, timeout=180,

@@ -18,10 +18,22 @@ def domain_for(nodeid: str) -> int:
     """A domain id derived from the test id (tests never hear each other).
 
     ``DRS_TEST_DOMAIN_BASE`` (default 1) and ``DRS_TEST_DOMAIN_SPAN`` (default 100) choose the
-    range ``base .. base + span - 1``, so that two checkouts testing at once stay apart."""
+    range ``base .. base + span - 1``, so that two checkouts testing at once stay apart. Under
+    pytest-xdist each worker takes its own equal share of that range, so that the tests two
+    workers run at the same moment stay apart too."""
     base = int(os.environ.get("DRS_TEST_DOMAIN_BASE", "1"))
     span = int(os.environ.get("DRS_TEST_DOMAIN_SPAN", "100"))
-    return base + zlib.crc32(nodeid.encode()) % span
+    worker, workers = xdist_worker()
+    share = max(span // workers, 1)
+    return base + (worker * share) % span + zlib.crc32(nodeid.encode()) % share
+
+
+def xdist_worker() -> tuple[int, int]:
+    """``(index, count)`` of this pytest-xdist worker (``gw0`` is 0), ``(0, 1)`` outside xdist."""
+    name = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if not name.startswith("gw"):
+        return 0, 1
+    return int(name[2:]), max(int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")), 1)
 
 
 @pytest.fixture
