@@ -342,7 +342,9 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
-    proc = start_node(tmp_path, domain, f"bag_path:={bag}")
+    # 2 kHz physics: the points are 0.5 ms apart, and no segment may be shorter than a step
+    dt = 1.0 / 2000.0  # physics step [s]
+    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"physics_rate_hz:={1.0 / dt}")
     client = DRSClient(domain, keep=True, listen=("joint_states",))
     lo, hi = stroke_limits(params)
     mid, amp, n, span = 0.5 * (lo + hi), 0.3 * (hi - lo), 10_000, 5.0
@@ -373,7 +375,7 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
     records = [r for r in effect_records(data.messages["/drs/command_events"])
                if r.source == "/drs/trajectory_cmd"]  # fmt: skip
     assert [r.outcome for r in records] == ["accepted"], records
-    start = int(records[0].values["step"]) * 1e-3  # sim time the trajectory started [s]
+    start = int(records[0].values["step"]) * dt  # sim time the trajectory started [s]
     # a state's sim time is its stamp less the clock origin in force when it was logged (a
     # loaded machine drops steps, which moves the origin)
     origins = [(r.log_time, int(r.values["t0_ns"]))
