@@ -37,8 +37,24 @@ class StopRequest:
         self.requested = True
 
     def install(self) -> dict:
-        """Take SIGINT and SIGTERM; returns the handlers they had (for :meth:`restore`)."""
-        return {sig: signal.signal(sig, self) for sig in STOP_SIGNALS}
+        """Take SIGINT and SIGTERM; returns the handlers they had (for :meth:`restore`). A stop
+        the replaced handler already took (one installed first thing, while the program was
+        still importing) is this one's too."""
+        previous = {sig: signal.signal(sig, self) for sig in STOP_SIGNALS}
+        for handler in previous.values():
+            if isinstance(handler, StopRequest) and handler.requested:
+                self.requested = True
+                self.signal_name = self.signal_name or handler.signal_name
+        return previous
+
+    @classmethod
+    def early(cls) -> StopRequest:
+        """A stop installed first thing in a console script, before its imports (rclpy's,
+        scipy's: a second or more): a signal meanwhile is a stop, not a ``KeyboardInterrupt``
+        traceback. The program's own stop, installed later, takes it over."""
+        stop = cls()
+        stop.install()
+        return stop
 
     @staticmethod
     def restore(previous: dict) -> None:

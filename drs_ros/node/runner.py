@@ -22,6 +22,7 @@ from rclpy.executors import (
     SingleThreadedExecutor,
     TimeoutException,
 )
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
@@ -30,12 +31,15 @@ from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_
 from drs_model.errors import DRSError
 
 from ..errors import DRSRosError
+from ..recording.cdr import without_source_location
 from ..stop_request import StopRequest
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
 from .parameters import usage_text
 from .tick_schedule import TickPolicy, apply_tick_policy, leave_tick_policy
+
+RCLError = _rclpy.RCLError
 
 #: How often [s] a thread holding the GIL offers it to the others (see main). The tick waits
 #: up to this long for the GIL when it wakes while the executor, the bag's flush thread or the
@@ -189,6 +193,13 @@ def run() -> None:
     os._exit(status)
 
 
+def stopped_before_start(stop: StopRequest) -> int:
+    """A SIGINT or SIGTERM before the node was made: one line, status 0, nothing created."""
+    print(f"drs-node: stopped by {stop.signal_name or 'a stop request'} while starting, "
+          "nothing created", file=sys.stderr)  # fmt: skip
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console script ``drs-node [--managed] [--help]`` (``--ros-args -p name:=value`` or
     ``--params-file FILE`` as usual). ``--help`` prints :func:`~.parameters.usage_text` and
@@ -211,13 +222,28 @@ def main(argv: list[str] | None = None) -> int:
     if "-h" in own or "--help" in own:  # before rclpy: nothing is started
         print(usage_text())
         return EXIT_OK
+    unknown = [a for a in own if a.startswith("-")]
+    if unknown:  # a typo (--managd) must not start another kind of node
+        print(f"drs-node: error: unrecognized arguments: {' '.join(unknown)} (drs-node takes "
+              "--managed, --help and ROS arguments after --ros-args)", file=sys.stderr)  # fmt: skip
+        return EXIT_REFUSED
     stop = StopRequest()
     stop.install()  # before rclpy starts: a signal during start-up is a stop too
     # the other threads' Python work (reading a large trajectory, a chunk's index, a rerun
     # batch) hands the GIL to the real-time tick within this [s] when the tick wakes up
     # (CPython's default: 5 ms, more than a publish period at 250 Hz)
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    if stop.requested:
+        return stopped_before_start(stop)
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except RCLError as exc:  # a --params-file missing or malformed, a bad --ros-args rule
+        print(f"drs-node: refused to start: the ROS arguments: "
+              f"{without_source_location(str(exc))}", file=sys.stderr)  # fmt: skip
+        return EXIT_REFUSED
+    if stop.requested:
+        rclpy.try_shutdown()
+        return stopped_before_start(stop)
     node = None
     rc = EXIT_OK
     try:
