@@ -30,11 +30,12 @@ import importlib
 import os
 import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from drs_model.cli.exit_status import EXIT_OK
 
-from ..stop_request import STOP_SIGNALS, StopRequest
+from ..stop_request import STOP_SIGNALS, StopRequest, exit_at_once_on_signal
 
 #: verb -> (module, one-line help)
 VERBS = {
@@ -71,18 +72,25 @@ def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``drs-bag``; returns the verb's exit status. SIGINT and SIGTERM are taken
-    first thing: one during the imports ends the tool with status 0 and one line."""
-    early = StopRequest.early()
-    argv = list(sys.argv[1:] if argv is None else argv)
+    first thing: one during the imports ends the process at once, status 0 and one line."""
+    # signals are the main thread's only (a verb run from another thread takes none)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = exit_at_once_on_signal("drs-bag") if main_thread else {}
+    try:
+        return _run_verb(list(sys.argv[1:] if argv is None else argv), bool(previous))
+    finally:  # a caller in the same process (a test, a benchmark) gets its handlers back
+        StopRequest.restore(previous)
+
+
+def _run_verb(argv: list[str], signals: bool) -> int:
+    """Parse ``argv``, import its verb and run it. A signal ends the process at once until the
+    verb starts; then the verb takes it (``play``: a stop), or, with ``signals`` (the main
+    thread's), it is a :class:`KeyboardInterrupt`, one line and status 0."""
     verb = next((a for a in argv if not a.startswith("-")), None)  # argparse judges it
     try:
         args = build_parser(verb).parse_args(argv)
         module = importlib.import_module(VERBS[args.verb][0])
-        if early.requested:
-            print(f"drs-bag {args.verb}: stopped by {early.signal_name} while starting",
-                  file=sys.stderr)  # fmt: skip
-            return EXIT_OK
-        if args.verb not in STOPPABLE_VERBS:  # a signal interrupts, as it always did
+        if signals and args.verb not in STOPPABLE_VERBS:  # a signal interrupts, as it did
             for sig in STOP_SIGNALS:
                 signal.signal(sig, signal.default_int_handler)
         return module.run(args, prog=f"drs-bag {args.verb}")
