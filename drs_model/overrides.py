@@ -99,9 +99,12 @@ def file_overrides(path: str | Path) -> dict[str, Any]:
     ``[drs]`` table), not yet checked (:func:`from_dict` checks them)."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ParameterError(f"cannot read parameter file {str(path)!r}: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ParameterError(f"cannot read parameter file {str(path)!r}: not UTF-8 text "
+                             f"(byte 0x{exc.object[exc.start]:02x} at {exc.start})") from None
     suffix = path.suffix.lower()
     try:
         if suffix == ".toml":

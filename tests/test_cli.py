@@ -79,3 +79,29 @@ def test_console_script_runs():
         check=True,
     )
     assert json.loads(out.stdout)["gap_open"] == 0.05
+
+
+@pytest.mark.parametrize("out", ["x.txt", "no/such/dir/x.png"])
+def test_draw_to_a_bad_path_exits_2_and_creates_nothing(tmp_path, out):
+    res = subprocess.run([sys.executable, "-m", "drs_model.cli", "draw", "--out", out],
+                         capture_output=True, text=True, cwd=tmp_path)  # fmt: skip
+    assert res.returncode == 2, res.stderr
+    assert "Traceback" not in res.stderr
+    assert "drs draw: error: argument --out" in res.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_reader_gone_is_no_error():
+    """``drs limits | head -1``: the reader went away before the output was written (the read
+    end of the pipe closed first, so every write meets EPIPE): exit 0, nothing on stderr."""
+    import os
+
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        res = subprocess.run([sys.executable, "-m", "drs_model.cli", "limits"],
+                             stdout=write_end, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    finally:
+        os.close(write_end)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ""

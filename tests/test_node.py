@@ -259,6 +259,37 @@ def test_use_sim_time_follows_clock(ros_context):
         node.destroy_node()
 
 
+def test_a_40_hz_clock_gives_no_missed_deadline(ros_context):
+    """``ros2 bag play --clock`` publishes /clock at 40 Hz: the node ticks once per message, 25 ms
+    of node time apart against a 4 ms publish period. A coarse clock is no missed deadline, and
+    the simulation still follows it step for step (no step dropped)."""
+    from builtin_interfaces.msg import Time
+    from rclpy.node import Node
+    from rosgraph_msgs.msg import Clock
+
+    node = DRSNode(context=ros_context, parameter_overrides=[Parameter("use_sim_time", value=True)])
+    client = Node("clock_pub", context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    ex.add_node(client)
+    clock_pub = client.create_publisher(Clock, "/clock", 10)
+    try:
+        t_ns = 100 * 10**9
+        for _ in range(40):
+            t_ns += 25_000_000
+            clock_pub.publish(Clock(clock=Time(sec=t_ns // 10**9, nanosec=t_ns % 10**9)))
+            spin_for(ex, 0.025)
+        assert node.effects.ticks > 20  # the node followed the clock
+        assert node.sim.t > 0.5
+        assert node.effects.missed_deadlines == 0
+        assert node.effects.dropped_steps == 0
+        assert "missed_deadline" not in node.effects.troubles.recent(t_ns)
+    finally:
+        ex.shutdown()
+        client.destroy_node()
+        node.destroy_node()
+
+
 def test_an_existing_recording_is_never_overwritten(ros_context, tmp_path):
     from drs_ros.recording.errors import RecordingError
 

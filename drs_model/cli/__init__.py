@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from ..errors import DRSError
@@ -39,7 +40,10 @@ def main(argv: list[str] | None = None) -> int:
     except DRSError as exc:
         print(f"drs {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED
-    print(dumps(out.data) if getattr(args, "json", False) else out.text)
+    try:
+        print(dumps(out.data) if getattr(args, "json", False) else out.text, flush=True)
+    except BrokenPipeError:  # the reader went away (drs kinematics ... | head -1): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return EXIT_OK
 
 

@@ -7,6 +7,7 @@ import json
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -112,6 +113,18 @@ def positive_number(text: str) -> float:
     if not (math.isfinite(value) and value > 0.0):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
     return value
+
+
+def png_output_path(text: str) -> str:
+    """argparse ``type=`` of a PNG to write: the name ends in ``.png`` and its directory exists
+    (a mistyped directory is a usage error, not a tree created behind the user's back)."""
+    path = Path(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"{text!r}: the output is a PNG, its name ends in .png")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r}: no directory {str(parent)!r}")
+    return text
 
 
 def positive_integer(text: str) -> int:

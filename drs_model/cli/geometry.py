@@ -11,7 +11,15 @@ from .. import kinematics as kin
 from ..constraints import singularity_measure
 from ..errors import InputError
 from ..profile import drs_manoeuvre
-from ._common import Output, add_common, float_list, key_values, load_params, table
+from ._common import (
+    Output,
+    add_common,
+    float_list,
+    key_values,
+    load_params,
+    png_output_path,
+    table,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,7 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="S[,S...]",
         help="strokes [m] (default: closed, half-way, open)",
     )
-    p.add_argument("--out", default="mechanism.png", help="PNG path")
+    p.add_argument("--out", default="mechanism.png", type=png_output_path,
+                   help="PNG path (its directory must exist)")  # fmt: skip
     p.set_defaults(func=run_draw)
 
     p = sub.add_parser("demo", help="the manoeuvre end to end, model only (limits + table)")

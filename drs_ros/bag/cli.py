@@ -29,10 +29,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from drs_model.cli.exit_status import EXIT_OK
+
+from ..stop_request import STOP_SIGNALS, StopRequest, exit_at_once_on_signal
 
 #: verb -> (module, one-line help)
 VERBS = {
@@ -50,23 +54,53 @@ VERBS = {
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: The verbs that take SIGINT and SIGTERM as a stop of their own (a flag read between two
+#: messages); the others end on a :class:`KeyboardInterrupt`, which :func:`main` turns into one
+#: line.
+STOPPABLE_VERBS = ("play",)
+
+
+def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every verb's name and help; only ``verb``'s options (its module imported):
+    a verb imports what it needs, not every other verb's libraries (scipy's, dask's)."""
     ap = argparse.ArgumentParser(prog="drs-bag", description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="verb", required=True, metavar="VERB")
-    for verb, (module, text) in VERBS.items():
-        p = sub.add_parser(verb, help=text, description=text)
-        importlib.import_module(module).add_arguments(p)
+    for name, (module, text) in VERBS.items():
+        p = sub.add_parser(name, help=text, description=text)
+        if name == verb:
+            importlib.import_module(module).add_arguments(p)
     return ap
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``drs-bag``; returns the verb's exit status."""
-    args = build_parser().parse_args(argv)
-    module = importlib.import_module(VERBS[args.verb][0])
+    """Entry point of ``drs-bag``; returns the verb's exit status. SIGINT and SIGTERM are taken
+    first thing: one during the imports ends the process at once, status 0 and one line."""
+    # signals are the main thread's only (a verb run from another thread takes none)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = exit_at_once_on_signal("drs-bag") if main_thread else {}
     try:
+        return _run_verb(list(sys.argv[1:] if argv is None else argv), bool(previous))
+    finally:  # a caller in the same process (a test, a benchmark) gets its handlers back
+        StopRequest.restore(previous)
+
+
+def _run_verb(argv: list[str], signals: bool) -> int:
+    """Parse ``argv``, import its verb and run it. A signal ends the process at once until the
+    verb starts; then the verb takes it (``play``: a stop), or, with ``signals`` (the main
+    thread's), it is a :class:`KeyboardInterrupt`, one line and status 0."""
+    verb = next((a for a in argv if not a.startswith("-")), None)  # argparse judges it
+    try:
+        args = build_parser(verb).parse_args(argv)
+        module = importlib.import_module(VERBS[args.verb][0])
+        if signals and args.verb not in STOPPABLE_VERBS:  # a signal interrupts, as it did
+            for sig in STOP_SIGNALS:
+                signal.signal(sig, signal.default_int_handler)
         return module.run(args, prog=f"drs-bag {args.verb}")
     except BrokenPipeError:  # the reader of our output went away (drs-bag info | head)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
+    except KeyboardInterrupt:
+        print(f"drs-bag {verb}: stopped by a signal", file=sys.stderr)
         return EXIT_OK
 
 

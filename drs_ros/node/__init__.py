@@ -10,10 +10,30 @@ declaration), ``trajectory_cdr`` (a trajectory command read in place from its by
 signal asks for and the deadline loop). This module re-exports their public names.
 """
 
-from .adapter import COMMANDS, DRSNode
-from .managed import ManagedDRSNode
-from .parameters import NODE_PARAMETERS, StartupError
-from .runner import StopRequest, main, run, run_deadline_loop, spin_until_stopped
+import importlib
+
+from .entry import run
+
+#: name -> the module that defines it, imported when the name is first asked for: ``drs-node``
+#: (``run``) starts by taking SIGINT and SIGTERM, before rclpy, numba and the model are imported.
+_LAZY = {
+    "COMMANDS": ".adapter",
+    "DRSNode": ".adapter",
+    "ManagedDRSNode": ".managed",
+    "NODE_PARAMETERS": ".parameters",
+    "StartupError": ".parameters",
+    "StopRequest": ".runner",
+    "main": ".runner",
+    "run_deadline_loop": ".runner",
+    "spin_until_stopped": ".runner",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "COMMANDS",

@@ -22,6 +22,7 @@ from rclpy.executors import (
     SingleThreadedExecutor,
     TimeoutException,
 )
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
@@ -30,12 +31,15 @@ from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_
 from drs_model.errors import DRSError
 
 from ..errors import DRSRosError
+from ..recording.cdr import without_source_location
 from ..stop_request import StopRequest
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
 from .parameters import usage_text
 from .tick_schedule import TickPolicy, apply_tick_policy, leave_tick_policy
+
+RCLError = _rclpy.RCLError
 
 #: How often [s] a thread holding the GIL offers it to the others (see main). The tick waits
 #: up to this long for the GIL when it wakes while the executor, the bag's flush thread or the
@@ -190,35 +194,71 @@ def run() -> None:
     os._exit(status)
 
 
+def refuse_unknown_options(own: list[str]) -> bool:
+    """Say so and return True when ``own`` (drs-node's options before ``--ros-args``) holds an
+    option drs-node does not take: a typo (``--managd``) must not start another kind of node."""
+    unknown = [a for a in own if a.startswith("-")]
+    if unknown:
+        print(f"drs-node: error: unrecognized arguments: {' '.join(unknown)} (drs-node takes "
+              "--managed, --help and ROS arguments after --ros-args)", file=sys.stderr)  # fmt: skip
+    return bool(unknown)
+
+
+def start_rclpy(args: list[str], stop: StopRequest) -> int | None:
+    """``rclpy.init`` with ``args``; None when started, else the exit status: a refusal (2, one
+    line) for ROS arguments rcl refuses (a ``--params-file`` missing or malformed), 0 for a
+    stop asked for meanwhile."""
+    if stop.requested:
+        return stopped_before_start(stop)
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except RCLError as exc:
+        print(f"drs-node: refused to start: the ROS arguments: "
+              f"{without_source_location(str(exc))}", file=sys.stderr)  # fmt: skip
+        return EXIT_REFUSED
+    if stop.requested:
+        rclpy.try_shutdown()
+        return stopped_before_start(stop)
+    return None
+
+
+def stopped_before_start(stop: StopRequest) -> int:
+    """A SIGINT or SIGTERM before the node was made: one line, status 0, nothing created."""
+    print(f"drs-node: stopped by {stop.signal_name or 'a stop request'} while starting, "
+          "nothing created", file=sys.stderr)  # fmt: skip
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console script ``drs-node [--managed] [--help]`` (``--ros-args -p name:=value`` or
     ``--params-file FILE`` as usual). ``--help`` prints :func:`~.parameters.usage_text` and
-    returns 0, starting nothing. Returns 0 on SIGINT/SIGTERM, with both recordings
-    finished; 1 when a recording is incomplete (one line on stderr for each, naming what it
-    lacks: a bag cut by a full disk or removed, its summary or metadata.yaml, the end of the
-    .rrd, items lost to errors); 2 when the parameters or the recording paths are refused (one
-    line on stderr, ``refused to start``, nothing created); 4 when an error of its own ends it
-    while it runs (one line, not a refusal; the recordings are finished). docs/cli.md."""
+    returns 0, starting nothing. Returns 0 on SIGINT/SIGTERM, with both recordings finished;
+    1 when a recording is incomplete (one line on stderr for each, naming what it lacks: a bag
+    cut by a full disk or removed, its summary or metadata.yaml, the end of the .rrd, items
+    lost to errors); 2 when an option, the ROS arguments, the parameters or the recording
+    paths are refused (one line, nothing created); 4 when an error of its own ends it while
+    it runs (one line; the recordings are finished). docs/cli.md."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     args = list(sys.argv if argv is None else argv)
-    managed = (
-        "--managed" in args[: args.index("--ros-args")]
-        if "--ros-args" in args
-        else "--managed" in args
-    )
+    own_end = args.index("--ros-args") if "--ros-args" in args else len(args)
+    managed = "--managed" in args[:own_end]
     if managed:
         args.remove("--managed")
     own = args[1 : args.index("--ros-args")] if "--ros-args" in args else args[1:]
     if "-h" in own or "--help" in own:  # before rclpy: nothing is started
         print(usage_text())
         return EXIT_OK
+    if refuse_unknown_options(own):
+        return EXIT_REFUSED
     stop = StopRequest()
     stop.install()  # before rclpy starts: a signal during start-up is a stop too
     # the other threads' Python work (reading a large trajectory, a chunk's index, a rerun
     # batch) hands the GIL to the real-time tick within this [s] when the tick wakes up
     # (CPython's default: 5 ms, more than a publish period at 250 Hz)
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    refused = start_rclpy(args, stop)
+    if refused is not None:
+        return refused
     node = None
     rc = EXIT_OK
     try:

@@ -33,8 +33,10 @@ CLOCK_JUMP_THRESHOLD_S = 0.01
 class SimulationClock:
     """Simulated time against the node clock [ns]. ``wall_clock``: the node clock is the system
     clock (a jump is any difference with the steady clock); otherwise it is ``/clock``, which
-    may run at any rate (only a step back is a jump). ``publish_period_ns``: a tick more than
-    1.5 periods after the last one missed its deadline."""
+    may run at any rate (only a step back is a jump). ``publish_period_ns``: under the wall clock,
+    a tick more than 1.5 periods after the last one on the steady clock missed its deadline.
+    Under ``/clock`` no tick is late: the ticks follow ``/clock``'s messages (``ros2 bag play
+    --clock`` publishes 40 a second), so a coarse or paused clock is no missed deadline."""
 
     def __init__(self, wall_clock: bool, publish_period_ns: int) -> None:
         self.wall_clock = wall_clock
@@ -70,11 +72,14 @@ class SimulationClock:
         self._last_ns = now_ns  # no missed deadline for the jump itself
         return jump
 
-    def since_last_if_late(self, now_ns: int) -> int | None:
-        """The time [ns] since the last tick when it is more than 1.5 periods (a missed
-        deadline), else None."""
-        if self._last_ns is not None and now_ns - self._last_ns > self.late_ns:
-            return now_ns - self._last_ns
+    def since_last_if_late(self, mono_ns: int) -> int | None:
+        """The steady time [ns] since the last tick when it is more than 1.5 periods (a missed
+        deadline), else None; always None under ``/clock``. The steady clock, not the node's:
+        a wall clock stepped by NTP moves no deadline."""
+        if not self.wall_clock or self._last_ns is None or self._last_mono is None:
+            return None
+        if mono_ns - self._last_mono > self.late_ns:
+            return mono_ns - self._last_mono
         return None
 
     def ticked(self, now_ns: int, mono_ns: int) -> None:
@@ -141,7 +146,7 @@ class Tick:
             effects.clock_origin(now)
         else:
             self._note_jump(clock.jump(now, mono), now)
-        late = clock.since_last_if_late(now)
+        late = clock.since_last_if_late(mono)
         if late is not None:
             effects.missed_deadlines += 1
             effects.troubles.add(now, "missed_deadline",
