@@ -1,5 +1,6 @@
 """Shutdown stress: stop the node at random moments under load, many times; every stop must be
-clean (the test ``tests/test_node_robustness.py`` runs 30 stops, this runs more).
+clean (the test ``tests/test_node_robustness.py`` runs 12 stops, this runs more; its result of
+60 stops is ``benchmarks/results/shutdown_stress.txt``).
 
 Each round starts ``--parallel`` nodes (loopback-only DDS, 500 Hz publish, MCAP bag and rerun
 recording), streams stroke commands at them and sends each SIGINT or SIGTERM at a random moment
