@@ -25,21 +25,26 @@ $(STAMP): pyproject.toml $(INTERFACES) | $(BIN)/python
 	$(BIN)/python interfaces/build.py --quiet
 	touch $(STAMP)
 
-# numba's on-disk cache, filled here so that no test, demo or node start compiles on a cold cache,
-# and emptied first whenever a model source changed since: numba checks only the file of the
-# function it compiled, so a kernel edited in drs_model/kernels.py would leave the builds that
-# inline it from other files (the gufuncs, the study's loops, the tests' own) stale; two processes
-# compile a share each (the two cores)
-NUMBA_STAMP := $(VENV)/.numba-cache
-$(NUMBA_STAMP): $(STAMP) $(shell find drs_model -name '*.py')
+# numba's on-disk cache is emptied whenever a model source changed since it was last emptied:
+# numba checks only the file of the function it compiled, so a kernel edited in
+# drs_model/kernels.py would leave the builds that inline it from other files (the gufuncs, the
+# study's loops, the tests' own) stale. The demo compiles the little it uses on demand (~9 s in
+# all); the tests need it all, filled first by two processes, a share each (the two cores), so
+# that no test's node process compiles on a cold cache.
+NUMBA_FRESH := $(VENV)/.numba-fresh
+$(NUMBA_FRESH): $(STAMP) $(shell find drs_model -name '*.py')
 	$(MAKE) --no-print-directory clean-cache
+	touch $(NUMBA_FRESH)
+
+NUMBA_STAMP := $(VENV)/.numba-cache
+$(NUMBA_STAMP): $(NUMBA_FRESH)
 	$(BIN)/python -m drs_model.compiled --part 1/2 & first=$$!; \
 	$(BIN)/python -m drs_model.compiled --part 2/2; second=$$?; wait $$first && exit $$second
 	touch $(NUMBA_STAMP)
 
 venv: $(STAMP) $(NUMBA_STAMP)
 
-demo: $(STAMP) $(NUMBA_STAMP)
+demo: $(STAMP) $(NUMBA_FRESH)
 	$(BIN)/drs-demo
 
 # two workers, a test file each at a time (a file's module fixtures start its nodes once); the
