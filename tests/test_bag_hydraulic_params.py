@@ -56,7 +56,7 @@ def test_a_fit_re_runs_the_bag_closer_than_the_defaults(bag):
     """Fit from HydraulicParams' defaults (``--set``), re-run with the fitted values (``--set``):
     the stroke's deviation falls well below the defaults'."""
     defaults = HydraulicParams()
-    start = [f"{k}={getattr(defaults, k)!r}" for k in TRUTH]
+    start = [f"hydraulic.{k}={getattr(defaults, k)!r}" for k in TRUTH]  # as the node names them
     args = ["fit", str(bag), "--params", ",".join(TRUTH), "--json"]
     for item in start:
         args += ["--set", item]
