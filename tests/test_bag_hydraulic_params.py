@@ -68,3 +68,38 @@ def test_a_fit_re_runs_the_bag_closer_than_the_defaults(bag):
     _, with_defaults = _stroke_deviation(bag, *start)
     _, with_fitted = _stroke_deviation(bag, *(f"{k}={v!r}" for k, v in fitted.items()))
     assert with_fitted < 0.2 * with_defaults, (with_fitted, with_defaults, fitted)
+
+
+def _season_row(verb: str, bag, *args: str) -> dict:
+    """The season-table row of one bag (what ``drs-bag VERB BAGS -o t.parquet`` writes per bag)."""
+    import importlib
+
+    from drs_ros.bag.cli import build_parser
+
+    parsed = build_parser().parse_args([verb, str(bag), *args])
+    (row,) = importlib.import_module(f"drs_ros.bag.{verb}").fleet_row(str(bag), parsed)
+    return row
+
+
+def test_season_rows_carry_the_hydraulic_parameters_used(bag):
+    """resimulate's row: the recorded values, a ``--set`` one as set; fit's row: its start."""
+    row = _season_row("resimulate", bag, "--set", "hydraulic.coulomb_friction=75")
+    assert row["param_hydraulic.leak_to_outside"] == TRUTH["leak_to_outside"]
+    assert row["param_hydraulic.coulomb_friction"] == 75.0
+    assert row["param_hydraulic.flow_law"] == HydraulicParams().flow_law
+    row = _season_row("fit", bag, "--params", "leak_to_outside", "--stage", "equation",
+                      "--set", "flow_law=linear")  # fmt: skip
+    assert row["param_hydraulic.breakaway_friction"] == TRUTH["breakaway_friction"]
+    assert row["param_hydraulic.flow_law"] == "linear"
+
+
+def test_a_bag_without_hydraulic_parameters_has_no_such_columns(tmp_path):
+    from ros_support import write_drs_bag
+
+    from drs_model.params import DRSParams
+
+    write_drs_bag(tmp_path / "other", DRSParams(), n=50)
+    for verb, args in (("resimulate", ()), ("fit", ("--params", "m_pist"))):
+        row = _season_row(verb, tmp_path / "other", *args)
+        assert not [c for c in row if c.startswith("param_hydraulic.")], (verb, row)
+        assert "param_m_pist" in row

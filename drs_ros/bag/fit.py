@@ -293,7 +293,18 @@ def _row(bag: str, args: argparse.Namespace, outcome: FitOutcome, node) -> dict:
     if outcome.result is not None:
         row.update(row_columns(outcome.result))
     row.update(fleet.param_columns(None if m is None else m.params))
+    if m is not None:
+        row.update(fleet.hydraulic_columns(m.node_parameters, _start_hydraulic(m, args.set)))
     return row
+
+
+def _start_hydraulic(measured, sets):
+    """The HydraulicParams the fit started from (recorded, then ``--set``), or None where the
+    model refused them (the row's error says why)."""
+    try:
+        return _models(measured, sets)[1]
+    except DRSError:
+        return None
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
