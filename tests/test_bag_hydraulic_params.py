@@ -103,3 +103,34 @@ def test_a_bag_without_hydraulic_parameters_has_no_such_columns(tmp_path):
         row = _season_row(verb, tmp_path / "other", *args)
         assert not [c for c in row if c.startswith("param_hydraulic.")], (verb, row)
         assert "param_m_pist" in row
+
+
+def _check(bag, tmp_path, values: dict | None = None):
+    args = ["check", str(bag), "--json"]
+    if values is not None:
+        (tmp_path / "p.toml").write_text("".join(f"{k} = {v!r}\n" for k, v in values.items()))
+        args += ["--params", tmp_path / "p.toml"]
+    return drs_bag(*args)
+
+
+def test_check_judges_the_hydraulic_rung_with_the_recorded_values_or_the_files(bag, tmp_path):
+    """The recorded values pass; a ``--params`` file's hydraulic values are used over them
+    (the defaults' friction and leak are not what ran: the rod force check fails)."""
+    assert _check(bag, tmp_path).returncode == 0, _check(bag, tmp_path).stdout
+    defaults = HydraulicParams()
+    res = _check(bag, tmp_path, {k: getattr(defaults, k) for k in TRUTH})
+    assert res.returncode == 1, res.stdout + res.stderr
+    res = _check(bag, tmp_path, dict(TRUTH))
+    assert res.returncode == 0, res.stdout + res.stderr
+
+
+def test_check_refuses_hydraulic_values_for_a_run_of_another_rung(tmp_path):
+    from ros_support import write_drs_bag
+
+    from drs_model.params import DRSParams
+
+    write_drs_bag(tmp_path / "rigid", DRSParams(), n=50)
+    res = _check(tmp_path / "rigid", tmp_path, {"leak_to_outside": 1e-13})
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "leak_to_outside are hydraulic parameters" in res.stderr + res.stdout
+    assert "no hydraulic model" in res.stderr + res.stdout
