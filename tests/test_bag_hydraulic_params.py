@@ -56,7 +56,7 @@ def test_a_fit_re_runs_the_bag_closer_than_the_defaults(bag):
     """Fit from HydraulicParams' defaults (``--set``), re-run with the fitted values (``--set``):
     the stroke's deviation falls well below the defaults'."""
     defaults = HydraulicParams()
-    start = [f"{k}={getattr(defaults, k)!r}" for k in TRUTH]
+    start = [f"hydraulic.{k}={getattr(defaults, k)!r}" for k in TRUTH]  # as the node names them
     args = ["fit", str(bag), "--params", ",".join(TRUTH), "--json"]
     for item in start:
         args += ["--set", item]
@@ -68,3 +68,69 @@ def test_a_fit_re_runs_the_bag_closer_than_the_defaults(bag):
     _, with_defaults = _stroke_deviation(bag, *start)
     _, with_fitted = _stroke_deviation(bag, *(f"{k}={v!r}" for k, v in fitted.items()))
     assert with_fitted < 0.2 * with_defaults, (with_fitted, with_defaults, fitted)
+
+
+def _season_row(verb: str, bag, *args: str) -> dict:
+    """The season-table row of one bag (what ``drs-bag VERB BAGS -o t.parquet`` writes per bag)."""
+    import importlib
+
+    from drs_ros.bag.cli import build_parser
+
+    parsed = build_parser().parse_args([verb, str(bag), *args])
+    (row,) = importlib.import_module(f"drs_ros.bag.{verb}").fleet_row(str(bag), parsed)
+    return row
+
+
+def test_season_rows_carry_the_hydraulic_parameters_used(bag):
+    """resimulate's row: the recorded values, a ``--set`` one as set; fit's row: its start."""
+    row = _season_row("resimulate", bag, "--set", "hydraulic.coulomb_friction=75")
+    assert row["param_hydraulic.leak_to_outside"] == TRUTH["leak_to_outside"]
+    assert row["param_hydraulic.coulomb_friction"] == 75.0
+    assert row["param_hydraulic.flow_law"] == HydraulicParams().flow_law
+    row = _season_row("fit", bag, "--params", "leak_to_outside", "--stage", "equation",
+                      "--set", "flow_law=linear")  # fmt: skip
+    assert row["param_hydraulic.breakaway_friction"] == TRUTH["breakaway_friction"]
+    assert row["param_hydraulic.flow_law"] == "linear"
+
+
+def test_a_bag_without_hydraulic_parameters_has_no_such_columns(tmp_path):
+    from ros_support import write_drs_bag
+
+    from drs_model.params import DRSParams
+
+    write_drs_bag(tmp_path / "other", DRSParams(), n=50)
+    for verb, args in (("resimulate", ()), ("fit", ("--params", "m_pist"))):
+        row = _season_row(verb, tmp_path / "other", *args)
+        assert not [c for c in row if c.startswith("param_hydraulic.")], (verb, row)
+        assert "param_m_pist" in row
+
+
+def _check(bag, tmp_path, values: dict | None = None):
+    args = ["check", str(bag), "--json"]
+    if values is not None:
+        (tmp_path / "p.toml").write_text("".join(f"{k} = {v!r}\n" for k, v in values.items()))
+        args += ["--params", tmp_path / "p.toml"]
+    return drs_bag(*args)
+
+
+def test_check_judges_the_hydraulic_rung_with_the_recorded_values_or_the_files(bag, tmp_path):
+    """The recorded values pass; a ``--params`` file's hydraulic values are used over them
+    (the defaults' friction and leak are not what ran: the rod force check fails)."""
+    assert _check(bag, tmp_path).returncode == 0, _check(bag, tmp_path).stdout
+    defaults = HydraulicParams()
+    res = _check(bag, tmp_path, {k: getattr(defaults, k) for k in TRUTH})
+    assert res.returncode == 1, res.stdout + res.stderr
+    res = _check(bag, tmp_path, dict(TRUTH))
+    assert res.returncode == 0, res.stdout + res.stderr
+
+
+def test_check_refuses_hydraulic_values_for_a_run_of_another_rung(tmp_path):
+    from ros_support import write_drs_bag
+
+    from drs_model.params import DRSParams
+
+    write_drs_bag(tmp_path / "rigid", DRSParams(), n=50)
+    res = _check(tmp_path / "rigid", tmp_path, {"leak_to_outside": 1e-13})
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "leak_to_outside are hydraulic parameters" in res.stderr + res.stdout
+    assert "no hydraulic model" in res.stderr + res.stdout

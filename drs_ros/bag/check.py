@@ -46,8 +46,8 @@ from drs_model.cli.exit_status import (
     EXIT_USAGE,
 )
 from drs_model.errors import DRSError
-from drs_model.overrides import from_file, parameter_file_argument
-from drs_model.params import DRSParams
+from drs_model.overrides import file_overrides, parameter_file_argument, split_overrides
+from drs_model.params import DRSParams, from_dict
 
 from ..names import DEFAULT_JOINT_NAMES, DEFAULT_NODE
 from ..timestamps import seconds_from_ns
@@ -294,10 +294,11 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
         figures = RunStats(topics={r: named.topics[r] for r in STATS_ROLES},
                            diagnostics_name=None if node is None else node.diagnostics_name,
                            joint_names=names)  # fmt: skip
-    params = None
+    params, hydraulic = None, {}
     try:
         if args.params:
-            params, origin = from_file(args.params), f"from {args.params} (--params)"
+            params, hydraulic = _file_params(args.params)
+            origin = f"from {args.params} (--params)"
         else:
             params, origin = recorded_params(node)
         model = ModelChecker(
@@ -312,7 +313,8 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
             force_model_tol=args.force_model_tol,
         )
         checker = RunChecker(model, pressure_tol=getattr(args, "pressure_tol", 1.0),
-                             node=DEFAULT_NODE if node is None else node.name)  # fmt: skip
+                             node=DEFAULT_NODE if node is None else node.name,
+                             hydraulic_overrides=hydraulic)  # fmt: skip
         wanted = checker.topics
 
         def take(topic: str, log_ns: int, msg) -> None:
@@ -337,12 +339,27 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
         whose = f"--params {args.params!r}" if args.params else "the bag's recorded parameters"
         return CheckOutcome(EXIT_UNREADABLE, error=f"error: the model refuses {whose}: {exc}",
                             params=params)  # fmt: skip
+    if hydraulic and checker.rung != "hydraulic":
+        return CheckOutcome(EXIT_USAGE, error=f"error: --params {args.params!r}: "
+                            f"{', '.join(hydraulic)} are hydraulic parameters, and the run is "
+                            f"judged on the {checker.rung} rung, which has no hydraulic model: "
+                            "leave them out", params=params)  # fmt: skip
     if any(r.status == "FAIL" for r in results):
         status = EXIT_FAILED
     else:
         status = EXIT_RECOVERED if data.recovered else EXIT_OK
     faults = fault_report(checker.run)
     return CheckOutcome(status, data, results, "", params, figures, faults, checker.rung, node)
+
+
+def _file_params(path) -> tuple[DRSParams, dict]:
+    """The model parameters of a ``--params`` file and its hydraulic values (checked against
+    HydraulicParams' defaults here; set over the recorded ones on the hydraulic rung)."""
+    from drs_model.fidelity.hydraulic_params import hydraulic_from_dict
+
+    model, hydraulic = split_overrides(file_overrides(path))
+    hydraulic_from_dict(hydraulic)
+    return from_dict(model), hydraulic
 
 
 def run_notes(checker: RunChecker) -> list[str]:

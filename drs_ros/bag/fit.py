@@ -54,7 +54,7 @@ from drs_model.identify.parameters import (
     hydraulic_field_names,
     with_values,
 )
-from drs_model.overrides import assignment_overrides
+from drs_model.overrides import assignment_overrides, split_overrides
 from drs_model.params import NUMERIC_FIELDS
 
 from ..errors import DRSRosError, UsageError
@@ -97,9 +97,20 @@ def _assignment(item: str, known, what: str) -> tuple[str, float]:
 
 
 def set_argument(item: str) -> str:
-    """``--set NAME=VALUE``: a number for a model or hydraulic parameter (its value is the
-    model's to accept, with the others)."""
-    _assignment(item, (*NUMERIC_FIELDS, *hydraulic_field_names()), "model or hydraulic parameter")
+    """``--set NAME=VALUE``: a number for a model or hydraulic parameter, bare or as the node
+    names it (``model.m_wing``, ``hydraulic.leak_to_outside``), or ``flow_law=WORD`` (the
+    values are the model's to accept, with the others)."""
+    try:
+        model, hydraulic = split_overrides(assignment_overrides([item]))
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    known = {"model": NUMERIC_FIELDS, "hydraulic": (*hydraulic_field_names(), "flow_law")}
+    for what, names in (("model", model), ("hydraulic", hydraulic)):
+        for name in names:
+            if name not in known[what]:
+                what = "hydraulic" if name.startswith("hydraulic.") else what
+                raise argparse.ArgumentTypeError(
+                    f"{name!r} is no {what} parameter; valid: {', '.join(known[what])}")
     return item
 
 
@@ -196,12 +207,15 @@ def _models(measured, sets):
     """The starting DRSParams and HydraulicParams: as recorded (the defaults where the bag
     recorded none), then ``--set`` (a geometry value through :meth:`DRSParams.replace`, which
     keeps the parameters consistent)."""
-    values = assignment_overrides(sets)
-    geometry = {k: v for k, v in values.items() if k in NUMERIC_FIELDS and k not in
+    model, hydraulic = split_overrides(assignment_overrides(sets))
+    geometry = {k: v for k, v in model.items() if k in NUMERIC_FIELDS and k not in
                 RIGID_PARAMETERS}  # fmt: skip
     p = measured.params.replace(**geometry) if geometry else measured.params
-    rest = {k: v for k, v in values.items() if k not in geometry}
-    return with_values(rest, p, hydraulic_params_from(measured.node_parameters))
+    hp = hydraulic_params_from(measured.node_parameters)
+    if "flow_law" in hydraulic:  # a word, not a number: with_values sets numbers
+        hp = hp.replace(flow_law=hydraulic.pop("flow_law"))
+    rest = {k: v for k, v in model.items() if k not in geometry} | hydraulic
+    return with_values(rest, p, hp)
 
 
 def _simulation(measured, rung, p, hp):
@@ -279,7 +293,18 @@ def _row(bag: str, args: argparse.Namespace, outcome: FitOutcome, node) -> dict:
     if outcome.result is not None:
         row.update(row_columns(outcome.result))
     row.update(fleet.param_columns(None if m is None else m.params))
+    if m is not None:
+        row.update(fleet.hydraulic_columns(m.node_parameters, _start_hydraulic(m, args.set)))
     return row
+
+
+def _start_hydraulic(measured, sets):
+    """The HydraulicParams the fit started from (recorded, then ``--set``), or None where the
+    model refused them (the row's error says why)."""
+    try:
+        return _models(measured, sets)[1]
+    except DRSError:
+        return None
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:

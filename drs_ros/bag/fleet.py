@@ -30,6 +30,7 @@ which and why), 2 no bag was found, an option is invalid, or the table cannot be
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 import time
@@ -229,6 +230,16 @@ def param_columns(params) -> dict[str, float]:
             for k in NUMERIC_FIELDS}  # fmt: skip
 
 
+def hydraulic_columns(node_parameters, hydraulic) -> dict[str, object]:
+    """``param_hydraulic.<name>`` of every HydraulicParams field of ``hydraulic`` (the values
+    used), only where the bag recorded its node's ``hydraulic.*`` parameters (none otherwise:
+    a bag that never ran the hydraulic rung has no such columns)."""
+    if hydraulic is None or not any(k.startswith("hydraulic.") for k in node_parameters or {}):
+        return {}
+    return {f"param_hydraulic.{f.name}": getattr(hydraulic, f.name)
+            for f in dataclasses.fields(hydraulic)}  # fmt: skip
+
+
 def timed_row(bag: str, row_function: Callable, args: argparse.Namespace) -> list[dict]:
     """``row_function(bag, args)`` (a bag's rows) with its wall time as each row's ``task_s``
     (what a worker runs)."""
@@ -359,6 +370,7 @@ __all__ = [
     "format_summary",
     "is_fleet",
     "no_node_row",
+    "hydraulic_columns",
     "param_columns",
     "row_nodes",
     "run_fleet",

@@ -145,6 +145,7 @@ class ResimulationOutcome:
     error: str = ""
     run: RecordedRun | None = None
     model: DRSParams | None = None
+    hydraulic: object = None  # the HydraulicParams of the re-run
 
 
 def resimulate_one(bag, args: argparse.Namespace, output: str | None = None,
@@ -194,7 +195,8 @@ def resimulate_one(bag, args: argparse.Namespace, output: str | None = None,
     if output:
         result["notes"].append(f"wrote the re-simulated run to {output}")
     notes = named.notes + result["notes"]
-    return ResimulationOutcome(EXIT_OK if ok else EXIT_FAILED, rows, notes, "", recorded, model)
+    return ResimulationOutcome(EXIT_OK if ok else EXIT_FAILED, rows, notes, "", recorded, model,
+                               hydraulic)  # fmt: skip
 
 
 #: The verdict of each exit status of ``drs-bag resimulate``.
@@ -229,6 +231,8 @@ def _row(bag: str, args: argparse.Namespace, outcome: ResimulationOutcome,
     rung = None if recorded is None else recorded.rung()
     row["fidelity"] = getattr(args, "fidelity", None) or rung
     row.update(fleet.param_columns(outcome.model))
+    row.update(fleet.hydraulic_columns(None if recorded is None else recorded.node_parameters,
+                                       outcome.hydraulic))  # fmt: skip
     return row
 
 

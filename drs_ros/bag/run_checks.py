@@ -31,12 +31,13 @@ from dataclasses import replace
 import numpy as np
 
 from drs_model.errors import DRSError
+from drs_model.fidelity.hydraulic_params import hydraulic_from_dict
 from drs_model.fidelity.recorded import HydraulicRecord, SensorReplay, StaticForce, TrueStroke
 from drs_model.kinematics import stroke_limits
 
 from ..names import ACCEPTED, RESET
 from ..timestamps import ns_of
-from .effects import EffectRecord, fault_of, is_fault_record
+from .effects import EffectRecord, fault_of, hydraulic_params_from, is_fault_record
 from .model_checks import FORCE_CHECK, CheckResult, ModelChecker, _Worst, joint_row
 from .recorded_run import RecordedRun
 
@@ -70,8 +71,11 @@ class RunChecker:
     ``pressure_tol`` [Pa] is the tolerance of the hydraulic pressure checks; ``node`` the fully
     qualified name whose parameters and records are read."""
 
-    def __init__(self, model: ModelChecker, *, pressure_tol: float = 1.0, node: str = "/drs"):
+    def __init__(self, model: ModelChecker, *, pressure_tol: float = 1.0, node: str = "/drs",
+                 hydraulic_overrides: dict | None = None):  # fmt: skip
         self.model, self.p = model, model.p
+        # HydraulicParams values set over the recorded ones (a --params file's hydraulic names)
+        self.hydraulic_overrides = dict(hydraulic_overrides or {})
         self.run = RecordedRun(node)
         self.tp = model.tp
         self.pressure_tol = pressure_tol
@@ -120,6 +124,12 @@ class RunChecker:
         else:
             self.model.add(topic, log_ns, msg)
 
+    def _hydraulic_params(self):
+        """The HydraulicParams the node recorded (``hydraulic.*``; the defaults where none),
+        with :attr:`hydraulic_overrides` set over them."""
+        base = hydraulic_params_from(self.run.node_parameters)
+        return hydraulic_from_dict(self.hydraulic_overrides, base=base)
+
     def _resolve(self) -> None:
         """The rung, once (its records precede the first state and the first fault)."""
         if self._resolved:
@@ -132,7 +142,7 @@ class RunChecker:
         dt, rung = self.run.dt, self.rung
         self._sensor = SensorReplay(rung or "rigid", dt)
         if rung == "hydraulic":
-            self._hydraulic = HydraulicRecord(self.p, dt)
+            self._hydraulic = HydraulicRecord(self.p, dt, self._hydraulic_params())
         elif rung == "quasi-static":
             self._static = StaticForce(self.p, dt)
         force_model, note = self._forces
