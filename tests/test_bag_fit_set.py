@@ -23,7 +23,7 @@ def test_set_takes_the_names_resimulate_takes(item):
 @pytest.mark.parametrize(("item", "reason"), [
     ("hydraulic.m_wing=2", "'hydraulic.m_wing' is no hydraulic parameter"),
     ("model.leak_to_outside=1", "'leak_to_outside' is no model parameter"),
-    ("bogus=1", "'bogus' is no model parameter"),
+    ("bogus=1", "'bogus' is no model or hydraulic parameter"),
     ("hydraulic.leak_to_outside=wet", "is not a number"),
 ])
 def test_set_refuses_a_name_of_no_parameter_with_the_reason(item, reason):

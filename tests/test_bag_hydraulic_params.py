@@ -76,7 +76,7 @@ def _season_row(verb: str, bag, *args: str) -> dict:
 
     from drs_ros.bag.cli import build_parser
 
-    parsed = build_parser().parse_args([verb, str(bag), *args])
+    parsed = build_parser(verb).parse_args([verb, str(bag), *args])
     (row,) = importlib.import_module(f"drs_ros.bag.{verb}").fleet_row(str(bag), parsed)
     return row
 

@@ -108,9 +108,14 @@ def set_argument(item: str) -> str:
     for what, names in (("model", model), ("hydraulic", hydraulic)):
         for name in names:
             if name not in known[what]:
-                what = "hydraulic" if name.startswith("hydraulic.") else what
+                given = item.partition("=")[0].strip()
+                if given.startswith(("model.", "hydraulic.")):  # the prefix given says which
+                    kind = given.partition(".")[0]
+                    valid = known[kind]
+                else:  # a bare name of neither
+                    kind, valid = "model or hydraulic", (*known["model"], *known["hydraulic"])
                 raise argparse.ArgumentTypeError(
-                    f"{name!r} is no {what} parameter; valid: {', '.join(known[what])}")
+                    f"{name!r} is no {kind} parameter; valid: {', '.join(valid)}")
     return item
 
 
