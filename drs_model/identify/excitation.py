@@ -222,6 +222,18 @@ def standard_errors(info: np.ndarray, names, p, hp) -> np.ndarray:
     return np.sqrt(np.maximum(np.diag(cov), 0.0)) * scales
 
 
+
+def largest_within_force(over, lam: float) -> float:
+    """``lam`` if ``over(lam)`` (the force limit exceeded at that amplitude) is false, else the
+    largest amplitude in ``[0, lam]`` within it, by 14 bisections (to ``lam / 16384``)."""
+    if not over(lam):
+        return lam
+    lo, hi = 0.0, lam
+    for _ in range(14):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if over(mid) else (mid, hi)
+    return lo
+
 def _amplitude(wave: Waveform, coeffs, t, limits: Limits, force_of, s_range) -> float:
     """The largest amplitude within the stroke, rate and force limits (stroke and rate are
     linear in it; the force by bisection)."""
@@ -240,13 +252,7 @@ def _amplitude(wave: Waveform, coeffs, t, limits: Limits, force_of, s_range) -> 
         s, sd, sdd = wave.evaluate(t, coeffs, a)
         return float(np.max(np.abs(force_of(s, sd, sdd)))) > limits.force
 
-    if over(lam):
-        lo, hi = 0.0, lam
-        for _ in range(14):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if over(mid) else (mid, hi)
-        lam = lo
-    return lam
+    return largest_within_force(over, lam)
 
 
 def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | None = None,
@@ -341,12 +347,7 @@ class _FollowedPath:
         def over(a):
             return float(np.max(np.abs(self.force_of(*(base + a * unit))))) > lim.force
 
-        if over(lam):
-            lo, hi = 0.0, lam
-            for _ in range(14):
-                mid = 0.5 * (lo + hi)
-                lo, hi = (lo, mid) if over(mid) else (mid, hi)
-            lam = lo
+        lam = largest_within_force(over, lam)
         return lam, tuple(base + lam * unit)
 
 
