@@ -1,5 +1,5 @@
 """The package structure: nothing in drs_model or drs_ros imports in a circle, and each module
-imports alone.
+imports alone (first, in a process where no module of drs was imported: tests/import_alone.py).
 
 The graph is read from the source with ``ast`` (every ``import`` and ``from ... import``, at module
 level or inside a function: an import inside a function is how a cycle hides), so the test sees
@@ -46,14 +46,48 @@ def test_no_import_cycle():
 NEEDS_NUMBA = ("drs_model.compiled.",)
 
 
+@pytest.fixture(scope="module")
+def import_alone():
+    """A process (tests/import_alone.py) that imports each module it is sent in a fork of its own,
+    taken before any module of drs was imported; one per test module and worker."""
+    import json
+
+    server = subprocess.Popen(
+        [sys.executable, str(Path(__file__).with_name("import_alone.py"))],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    # the children fork from a process where no module of drs was imported
+    assert json.loads(server.stdout.readline()) == {"ready": True, "drs_modules_loaded": []}
+
+    def import_alone(name: str) -> dict:
+        server.stdin.write(name + "\n")
+        server.stdin.flush()
+        return json.loads(server.stdout.readline())
+
+    yield import_alone
+    server.stdin.close()
+    assert server.wait(timeout=60) == 0
+
+
 @pytest.mark.parametrize("name", sorted(n for n in MODULES if not n.endswith("__main__")))
-def test_each_module_imports_in_a_fresh_interpreter(name):
+def test_each_module_imports_alone(name, import_alone):
     if name.startswith(NEEDS_NUMBA) and importlib.util.find_spec("numba") is None:
         if not os.environ.get("CI"):
             pytest.skip("numba is not installed (pip install drs[fast])")
     if name.startswith("drs_ros"):
         require_rclpy()
-    subprocess.run([sys.executable, "-c", f"import {name}"], check=True, timeout=120)
+    result = import_alone(name)
+    assert (result["name"], result["status"]) == (name, 0), result["error"]
+
+
+def test_a_module_that_cannot_import_alone_is_reported(import_alone):
+    """A module of drs whose import fails gives its status and traceback (so a pass means
+    something): ``drs_model`` cannot be imported under a name it does not have."""
+    result = import_alone("drs_model.no_such_module")
+    assert result["status"] == 1
+    assert "ModuleNotFoundError: No module named 'drs_model.no_such_module'" in result["error"]
 
 
 def test_a_cycle_would_be_found(monkeypatch):
