@@ -311,10 +311,11 @@ def test_without_the_privilege_of_fifo_the_node_starts_says_why_and_runs(tmp_pat
 
 @pytest.mark.ros
 @pytest.mark.slow
-def test_at_1_khz_for_10_s_every_recorded_message_is_exact_and_every_tick_is_counted(
+def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(
     tmp_path, request
 ):
-    """A node at 1 kHz physics and publish for 10 s with both recordings. Read back by the
+    """A node at 1 kHz physics and publish for 6.5 s (diagnostics come at 1 Hz: five of them after
+    the first state) with both recordings. Read back by the
     ``mcap`` library and decoded by ``rosbags`` (neither ours): every recorded message is the
     bytes rosbags serialises it to (exact CDR: zero padding, no transport padding; rclpy's own
     ``serialize_message`` is no reference here, it leaves heap bytes in the padding of a
@@ -331,7 +332,7 @@ def test_at_1_khz_for_10_s_every_recorded_message_is_exact_and_every_tick_is_cou
                       "physics_rate_hz:=1000.0", "fidelity:=rigid")  # fmt: skip
     try:
         _wait_past_start_up(bag, 1024)
-        time.sleep(10.0)
+        time.sleep(6.5)
     finally:
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=60)
@@ -350,7 +351,7 @@ def test_at_1_khz_for_10_s_every_recorded_message_is_exact_and_every_tick_is_cou
                 states.append(message.log_time)
             elif channel.topic == "/diagnostics":
                 diagnostics.append((message.log_time, decoded))
-    assert len(states) > 5000 and checked > 5 * len(states)
+    assert len(states) > 3000 and checked > 5 * len(states)
     period_ns = 1_000_000
     after_start = [(log_ns, msg) for log_ns, msg in diagnostics if log_ns > states[0]]
     assert len(after_start) >= 5
