@@ -50,10 +50,12 @@ demo: $(STAMP) $(NUMBA_FRESH)
 	$(BIN)/drs-demo
 
 # two workers, each stealing tests from the other when it runs out (8:02 on a fresh clone against
-# 8:35 with a whole file per worker); the 25 slowest tests at the end (docs/layout.md)
+# 8:35 with a whole file per worker); the 25 slowest tests at the end (DURATIONS=0: every test,
+# for benchmarks/suite_files.py's table in docs/layout.md)
 TEST_WORKERS ?= 2
+DURATIONS ?= 25
 test: $(STAMP) $(NUMBA_STAMP)
-	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist worksteal --durations=25
+	ROS_PYTHON_CHECK_FIELDS=1 $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist worksteal --durations=$(DURATIONS)
 
 lint: $(STAMP)
 	$(BIN)/ruff check drs_model drs_ros tests benchmarks interfaces
