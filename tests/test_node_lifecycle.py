@@ -55,9 +55,20 @@ class LifecycleManager:
 
 def run_cycle(manager: LifecycleManager, client: DRSClient, target: float,
               during=None) -> None:  # fmt: skip
+    """configure, activate, move to ``target`` [m] (:func:`start_cycle`), ``during()``,
+    deactivate, cleanup."""
+    start_cycle(manager, client, target)
+    if during is not None:
+        during()
+    assert manager.transition(Transition.TRANSITION_DEACTIVATE)
+    assert manager.transition(Transition.TRANSITION_CLEANUP)
+    assert manager.state() == State.PRIMARY_STATE_UNCONFIGURED
+
+
+def start_cycle(manager: LifecycleManager, client: DRSClient, target: float) -> None:
     """configure, activate, move to ``target`` [m] (the command sent again until the joint
-    states reach it: a command sent before the new subscription is matched is lost),
-    ``during()``, deactivate, cleanup."""
+    states reach it: a command sent before the new subscription is matched is lost) and hold
+    there for a while."""
     assert manager.transition(Transition.TRANSITION_CONFIGURE)
     assert manager.transition(Transition.TRANSITION_ACTIVATE)
     assert manager.state() == State.PRIMARY_STATE_ACTIVE
@@ -72,11 +83,6 @@ def run_cycle(manager: LifecycleManager, client: DRSClient, target: float,
             break
     assert reached(), f"the node did not reach {target} m (last {client.stroke_now()} m)"
     client.spin(0.5)  # held there: a run of some hundred states (the motion takes 10 ms)
-    if during is not None:
-        during()
-    assert manager.transition(Transition.TRANSITION_DEACTIVATE)
-    assert manager.transition(Transition.TRANSITION_CLEANUP)
-    assert manager.state() == State.PRIMARY_STATE_UNCONFIGURED
 
 
 def bag_strokes(bag: Path) -> tuple[list[float], list[float]]:
@@ -164,6 +170,29 @@ def test_five_cycles_record_five_complete_bags_and_recordings(tmp_path, request,
         sorted(p.name for p in bags + rrds)  # fmt: skip
     for b, r, target in zip(bags, rrds, strokes, strict=True):
         assert_cycle_recorded(b, r, target, stroke_limits(params)[0])
+
+
+def test_a_stop_in_a_later_cycle_finishes_its_recordings(tmp_path, request, params):
+    """SIGINT while the second cycle is active: ``drs-node`` finishes that cycle's bag and
+    .rrd as a stop of the unmanaged node does, exits 0, and both cycles' recordings are
+    complete, each its own run."""
+    domain = domain_for(request.node.nodeid)
+    bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
+    strokes = targets(params, 2)
+    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}", argv=MANAGED)
+    client = DRSClient(domain, keep=True, listen=("joint_states",), timeout=60.0)
+    try:
+        manager = LifecycleManager(client)
+        run_cycle(manager, client, strokes[0])
+        start_cycle(manager, client, strokes[1])
+    finally:
+        client.close()
+        out = stop_node(proc)
+    assert proc.returncode == 0, out[-3000:]
+    assert "drs-node: stopped by SIGINT, recordings finished" in out, out[-3000:]
+    assert_cycle_recorded(bag, rrd, strokes[0], stroke_limits(params)[0])
+    assert_cycle_recorded(tmp_path / "bag_1", tmp_path / "run_1.rrd", strokes[1],
+                          stroke_limits(params)[0])  # fmt: skip
 
 
 def test_a_bag_lost_in_one_cycle_reaches_the_exit_status(tmp_path, request, params):
