@@ -307,9 +307,10 @@ class NodeRecordings:
         except DRSRosError as exc:
             if self.cycles == 0:
                 raise
-            raise type(exc)(f"{exc}; configure {self.cycles + 1} of this node records to "
-                            f"bag_path and rrd_path with _{self.cycles} appended to the name: "
-                            "move that one away, or start a new node") from None  # fmt: skip
+            n = self.cycles
+            raise type(exc)(f"{exc}; configure {n + 1} of this node records to bag_path and "
+                            f"rrd_path with _{n} appended to the name (before .rrd): move that "
+                            "one away, or start a new node") from None  # fmt: skip
 
     def discard(self) -> None:
         """Close and delete the recordings of a node that fails to start: nothing is left."""
