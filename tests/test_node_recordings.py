@@ -268,3 +268,22 @@ def test_a_batch_the_rerun_sender_fails_reaches_the_health_not_the_tick(tmp_path
         name = part.health.name
         assert part.finish() == [f"{name} lacks 10 items that could not be recorded (last: "
                                  "RuntimeError: rerun refused a batch on purpose)"]  # fmt: skip
+
+
+@pytest.mark.parametrize(("path", "cycle", "keep_suffix", "expected"), [
+    ("runs/a", 0, False, "runs/a"),
+    ("runs/a", 1, False, "runs/a_1"),
+    ("runs/a.v2", 12, False, "runs/a.v2_12"),  # a bag directory: its whole name
+    ("runs/a/", 2, False, "runs/a_2"),
+    ("runs/run.rrd", 0, True, "runs/run.rrd"),
+    ("runs/run.rrd", 3, True, "runs/run_3.rrd"),
+    ("run", 1, True, "run_1"),
+    ("", 4, False, ""),  # nothing recorded stays nothing
+])  # fmt: skip
+def test_each_configure_of_a_managed_node_records_to_its_own_name(path, cycle, keep_suffix,
+                                                                  expected):  # fmt: skip
+    """The first cycle records to the parameter's path, the n-th later one to that name with
+    ``_n`` appended (before an .rrd's suffix), as docs/ros.md says."""
+    from drs_ros.node.recordings import cycle_path
+
+    assert cycle_path(path, cycle, keep_suffix) == expected

@@ -169,8 +169,9 @@ class DRSNode(Node):
         self._clock_warned = False
 
         # all paths are checked before any file is created; a failure removes what was made
+        # the recordings of every cycle are one part: a managed node configured again records to
+        # the next cycle's names, and the stop names what any cycle's recordings lack
         gp = self.get_parameter
-        self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
         self.recordings.open(gp("bag_path").value, gp("rrd_path").value,
                              gp("rerun_connect").value, gp("flush_period").value, self.params,
                              self.markers_rate_hz, settings.publish_hz)  # fmt: skip

@@ -18,10 +18,16 @@ class ManagedDRSNode(LifecycleNodeMixin, DRSNode):
     and ``~/get_state`` services: configure (validate the parameters, open the recorders),
     activate (subscriptions, service, timers), deactivate (hold, publish nothing), cleanup
     (finish the recordings), shutdown. A transition that fails logs the reason and returns
-    FAILURE, as the lifecycle design says.
+    FAILURE, as the lifecycle design says; the node stays in the state it was in, and the reason
+    is kept in ``refused`` (``drs-node`` names each at the stop, docs/cli.md).
+
+    Each configure records anew (:func:`~drs_ros.node.recordings.cycle_path`): the first to
+    ``bag_path`` and ``rrd_path``, the n-th later one to those names with ``_n`` appended.
     """
 
     def __init__(self, **kwargs) -> None:
+        #: The transitions that failed, each ``'NAME refused: reason'``, in order.
+        self.refused: list[str] = []
         DRSNode.__init__(self, managed=True, **kwargs)
         LifecycleNodeMixin.__init__(self, enable_communication_interface=True)
 
@@ -30,6 +36,7 @@ class ManagedDRSNode(LifecycleNodeMixin, DRSNode):
             action()
         except (DRSError, DRSRosError, ParameterException) as exc:
             self.get_logger().error(f"{name} failed: {exc}")
+            self.refused.append(f"{name} refused: {exc}")
             if name == "configure":
                 self.recordings.discard()
             return TransitionCallbackReturn.FAILURE

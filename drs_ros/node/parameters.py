@@ -81,8 +81,10 @@ NODE_PARAMETERS = (
     ("tick_scheduling", "fifo", "the deadline loop's tick thread under SCHED_FIFO when the "
      "process may have it (else SCHED_OTHER, saying why) or other (SCHED_OTHER)", TICK_SCHEDULING),
     ("tick_fifo_priority", 10, "SCHED_FIFO priority of the tick thread", FIFO_PRIORITY_RANGE),
-    ("bag_path", "", "MCAP bag directory ('' = no bag)", None),
-    ("rrd_path", "", "rerun .rrd file ('' = none)", None),
+    ("bag_path", "", "MCAP bag directory ('' = no bag; --managed: the n-th later "
+     "configure's is this name with _n appended)", None),
+    ("rrd_path", "", "rerun .rrd file ('' = none; --managed: the n-th later configure's "
+     "is NAME_n.rrd)", None),
     ("rerun_connect", "", "stream to a running rerun viewer on loopback, e.g. "
      "rerun+http://127.0.0.1:9876/proxy ('' = none)", None),
     ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),

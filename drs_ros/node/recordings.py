@@ -16,6 +16,11 @@ behind; both are finished when the node stops. What a failure does (docs/ros.md,
   for ``drs-bag recover``), and :meth:`NodeRecordings.close` returns one line per
   recording that is incomplete, naming what it lacks; ``drs-node`` prints them and exits 1.
 
+A managed node records anew at each configure: the first recordings go to ``bag_path`` and
+``rrd_path``, the n-th later ones to ``<bag_path>_n`` and ``<rrd stem>_n.rrd``
+(:func:`cycle_path`); a name that exists is refused as at start, never overwritten. The lines of
+every cycle's recordings are kept for the stop.
+
 :class:`NodeRecordings` is a part of :class:`drs_ros.node.adapter.DRSNode`, constructed with the
 node's logger; it holds the recordings.
 """
@@ -38,6 +43,20 @@ from .effect_record import error_text
 #: is sent by the recorder's sender thread, never in the tick (a burst of milliseconds there was
 #: a missed deadline every second at 1 kHz).
 RERUN_BATCH_MIN = 250
+
+
+def cycle_path(path: str, cycle: int, keep_suffix: bool = False) -> str:
+    """Where the recording of a managed node's ``cycle``-th configure goes (0: the first):
+    ``path`` itself at 0, else ``path`` with ``_<cycle>`` appended to its name, before its
+    suffix when ``keep_suffix`` (``runs/a`` -> ``runs/a_2``, ``a.rrd`` -> ``a_2.rrd``). '' stays
+    '' (nothing recorded). rosbag2's recorder, asked to record again to a bag that exists,
+    appends ``(n)`` (docs/ros.md, "Lifecycle")."""
+    if not path or cycle == 0:
+        return path
+    p = Path(path)
+    if keep_suffix and p.suffix:
+        return str(p.with_name(f"{p.stem}_{cycle}{p.suffix}"))
+    return str(p.with_name(f"{p.name}_{cycle}"))
 
 
 class RecordingHealth:
@@ -224,7 +243,8 @@ class NodeRecordings:
     """The bag and the rerun recording of one node: a part of
     :class:`drs_ros.node.adapter.DRSNode`, constructed with what it needs; it holds the
     recordings (``bag`` and ``rrd``: None when not recorded), their recorders (``recorder``,
-    ``rerun``) and the lines of the recordings found incomplete (``problems``).
+    ``rerun``), how many recordings were finished (``cycles``: a discarded one is not) and the
+    lines of the recordings found incomplete (``problems``, of every cycle).
 
     :meth:`open` checks both paths, then creates both recorders; on any failure it removes what
     was made. ``lost(reason)`` is called for each item a recording loses (a trouble of the
@@ -235,6 +255,7 @@ class NodeRecordings:
         self.recorder = self.rerun = None
         self.bag = self.rrd = None
         self.problems: list[str] = []
+        self.cycles = 0
         self._made_bag_dir = False
 
     def open(self, bag: str, rrd: str, live: str, flush_period: float, params,
@@ -243,19 +264,13 @@ class NodeRecordings:
         URL ('' = none of each); ``flush_period`` [s]: the bag's; ``params``: the mechanism the
         rerun recording draws, at most ``max_draw_hz`` [Hz]; ``states_hz``: the states logged
         per second [Hz], sent to rerun once a second of them (at least
-        :data:`RERUN_BATCH_MIN` at a time)."""
+        :data:`RERUN_BATCH_MIN` at a time). Opened again after :meth:`close`, the paths are
+        those of the next cycle (:func:`cycle_path`)."""
         from ..recording.errors import RecordingError
-        from ..recording.mcap_recorder import McapRecorder, check_new_bag
+        from ..recording.mcap_recorder import McapRecorder
 
-        if bag:
-            check_new_bag(bag)
-        if rrd or live:
-            from ..recording.rerun_recorder import check_connect_url, check_new_rrd
-
-            if rrd:
-                check_new_rrd(rrd)
-            if live:
-                check_connect_url(live)
+        bag, rrd = cycle_path(bag, self.cycles), cycle_path(rrd, self.cycles, keep_suffix=True)
+        self._check(bag, rrd, live)
         made_dir = bool(bag) and not Path(bag).exists()
         try:
             if bag:
@@ -276,6 +291,26 @@ class NodeRecordings:
                 raise
             raise RecordingError(f"cannot start the recordings: {exc}") from exc
         self._made_bag_dir = made_dir
+
+    def _check(self, bag: str, rrd: str, live: str) -> None:
+        """Refuse a path that exists or cannot be created, and a live URL off loopback, creating
+        nothing; a later cycle's refusal says where its names come from."""
+        from ..recording.destinations import check_connect_url, check_new_bag, check_new_rrd
+
+        try:
+            if bag:
+                check_new_bag(bag)
+            if rrd:
+                check_new_rrd(rrd)
+            if live:
+                check_connect_url(live)
+        except DRSRosError as exc:
+            if self.cycles == 0:
+                raise
+            n = self.cycles
+            raise type(exc)(f"{exc}; configure {n + 1} of this node records to bag_path and "
+                            f"rrd_path with _{n} appended to the name (before .rrd): move that "
+                            "one away, or start a new node") from None  # fmt: skip
 
     def discard(self) -> None:
         """Close and delete the recordings of a node that fails to start: nothing is left."""
@@ -321,7 +356,10 @@ class NodeRecordings:
 
     def close(self) -> list[str]:
         """Finish the MCAP bag and the rerun file (idempotent); one line per recording that is
-        incomplete, naming what it lacks (empty: both complete), kept for later calls."""
+        incomplete, naming what it lacks (empty: both complete), kept for later calls and
+        later cycles: the lines of every cycle."""
+        if self.bag is not None or self.rrd is not None:
+            self.cycles += 1  # the next open records to the next cycle's names
         for part in (self.rrd, self.bag):
             if part is not None:
                 lines = part.finish()

@@ -237,7 +237,8 @@ def main(argv: list[str] | None = None) -> int:
     cut by a full disk or removed, its summary or metadata.yaml, the end of the .rrd, items
     lost to errors); 2 when an option, the ROS arguments, the parameters or the recording
     paths are refused (one line, nothing created); 4 when an error of its own ends it while
-    it runs (one line; the recordings are finished). docs/cli.md."""
+    it runs (one line; the recordings are finished). A managed node's refused transitions are
+    named at the stop too, and status 2 when nothing worse happened. docs/cli.md."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     args = list(sys.argv if argv is None else argv)
     own_end = args.index("--ros-args") if "--ros-args" in args else len(args)
@@ -290,19 +291,31 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)  # fmt: skip
         rc = EXIT_INTERNAL
     finally:
-        incomplete = []
+        incomplete, refused = [], []
         if node is not None:
-            # a managed node's cleanup may have finished them already: its lines are kept
+            # a managed node's cleanups may have finished them already: the lines of every
+            # cycle are kept
             incomplete = node.close_recordings()
+            refused = list(node.refused) if managed else []
             node.destroy_node()
         rclpy.try_shutdown()
     # the recordings are finished: a further SIGINT/SIGTERM (a second Ctrl-C) is ignored, not
     # left to interpreter shutdown, which restores the default action (killed: exit -2)
     stop.ignore_further()
-    for line in incomplete:
+    return report_stop(rc, incomplete, refused, stop)
+
+
+def report_stop(rc: int, incomplete: list[str], refused: list[str], stop: StopRequest) -> int:
+    """Name on stderr each lifecycle transition ``refused`` and each recording ``incomplete``
+    (of every cycle of a managed node), and the stop; the exit status (docs/cli.md): ``rc``
+    when an error ended the run, else 1 when a recording is incomplete, else 2 when a
+    transition was refused (a configure: a path, a parameter), else 0."""
+    for line in refused + incomplete:
         print(f"drs-node: {line}", file=sys.stderr)
-    if incomplete and rc == EXIT_OK:
+    if rc == EXIT_OK and incomplete:
         rc = EXIT_FAILED
+    elif rc == EXIT_OK and refused:
+        rc = EXIT_REFUSED
     if stop.signal_name:
         done = "recordings incomplete (above)" if incomplete else "recordings finished"
         print(f"drs-node: stopped by {stop.signal_name}, {done}", file=sys.stderr)
@@ -310,5 +323,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 __all__ = [
-    "StopRequest", "main", "report_tick_policy", "run", "run_deadline_loop", "spin_until_stopped"
+    "StopRequest", "main", "report_stop", "report_tick_policy", "run", "run_deadline_loop",
+    "spin_until_stopped",
 ]
