@@ -95,23 +95,27 @@ class Record:
         """The signals recorded."""
         return tuple(n for n in SIGNALS if getattr(self, n) is not None)
 
-    def rates(self) -> tuple[np.ndarray, np.ndarray]:
+    def rates(self, order: int = 3) -> tuple[np.ndarray, np.ndarray]:
         """``(s', s'')`` [m/s, m/s^2]: as recorded, else Savitzky-Golay derivatives of the
-        stroke (cubic, :data:`DERIVATIVE_WINDOW` samples; uniform sampling assumed)."""
+        stroke of the polynomial ``order`` (cubic by default; at most the window's less one)
+        over :data:`DERIVATIVE_WINDOW` samples (uniform sampling assumed)."""
         sd, sdd = self.stroke_rate, self.stroke_acceleration
         if sd is not None and sdd is not None:
             return sd, sdd
         dt = float(np.median(np.diff(self.t)))
         window = min(DERIVATIVE_WINDOW, len(self) - (1 - len(self) % 2))
+        order = min(order, window - 1)
         if sd is None:
-            sd = savgol_filter(self.stroke, window, 3, deriv=1, delta=dt)
+            sd = savgol_filter(self.stroke, window, order, deriv=1, delta=dt)
         if sdd is None:
-            sdd = savgol_filter(sd, window, 3, deriv=1, delta=dt)
+            sdd = savgol_filter(sd, window, order, deriv=1, delta=dt)
         return sd, sdd
 
-    def derived(self) -> dict[str, str]:
-        """``{signal: how}`` for each rate :meth:`rates` derives instead of reading."""
-        how = (f"Savitzky-Golay derivative (cubic, {DERIVATIVE_WINDOW} samples) of the "
+    def derived(self, order: int = 3) -> dict[str, str]:
+        """``{signal: how}`` for each rate :meth:`rates` (of that ``order``) derives instead of
+        reading."""
+        degree = {3: "cubic", 5: "quintic"}.get(order, f"degree {order}")
+        how = (f"Savitzky-Golay derivative ({degree}, {DERIVATIVE_WINDOW} samples) of the "
                "stroke")  # fmt: skip
         out = {}
         if self.stroke_rate is None:
@@ -148,14 +152,7 @@ class Record:
         where the acceleration was recorded."""
         if self.stroke_acceleration is not None:
             return np.zeros_like(self.t)
-        _, sdd = self.rates()
-        dt = float(np.median(np.diff(self.t)))
-        window = min(DERIVATIVE_WINDOW, len(self) - (1 - len(self) % 2))
-        order = min(5, window - 1)
-        sd = self.stroke_rate
-        if sd is None:
-            sd = savgol_filter(self.stroke, window, order, deriv=1, delta=dt)
-        return sdd - savgol_filter(sd, window, order, deriv=1, delta=dt)
+        return self.rates()[1] - self.rates(5)[1]
 
     def select(self, mask: np.ndarray) -> Record:
         """The samples where ``mask`` is true."""
