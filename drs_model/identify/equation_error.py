@@ -184,37 +184,16 @@ def described_samples(record: Record, sd, sdd, p: DRSParams, rung: str):
         contact = finite & ((s <= lo + STOP_BAND) | (s >= hi - STOP_BAND))
         counts["end-stop contact"] = int(np.sum(contact))
         ok &= ~contact
-    reach = record.derivative_reach()
-    if reach and rung != "quasi-static":
-        bad = ~ok.copy()
-        near = np.convolve(bad.astype(float), np.ones(2 * reach + 1), mode="same") > 0.0
-        near[:reach], near[-reach:] = True, True
-        counts["derivative window"] = int(np.sum(near & ok))
-        ok &= ~near
-        kink = _derivative_kinks(record, ok, sdd, reach)
-        counts["acceleration kink"] = int(np.sum(kink & ok))
-        ok &= ~kink
+    if rung != "quasi-static":
+        window, kink = record.derivative_exclusions(ok)
+        if record.derivative_reach():
+            counts["derivative window"] = int(np.sum(window))
+        counts["acceleration kink"] = int(np.sum(kink))
+        ok &= ~(window | kink)
     if ok.sum() <= 1:
         raise InputError(f"no sample of the run is one the rigid force regression describes "
                          f"({_left_out_note(counts, len(record))})")  # fmt: skip
     return ok, counts
-
-
-def _derivative_kinks(record: Record, ok, sdd, reach: int) -> np.ndarray:
-    """The samples whose derivative window holds a kink of the motion no local polynomial
-    follows (a stop's impact, a trajectory's segment switch): where the derived acceleration's
-    stated error (:meth:`Record.derivative_error`) stands out of its own robust scale over the
-    run (more than :data:`KINK_SCALES` times it, and more than the arithmetic's share of the
-    acceleration), with every sample within the derivative's reach of one. There the stated
-    error is a fraction of the true one (0.4 to 0.5 of it, on the rigid rung's trajectory and
-    stroke runs), so a weight cannot pay for it: the sample is left out."""
-    error = np.abs(record.derivative_error())
-    if not np.any(error[ok]):
-        return np.zeros_like(ok)
-    scale = 1.4826 * float(np.median(error[ok]))
-    floor = 1e-9 * float(np.sqrt(np.mean(sdd[ok] ** 2)))
-    flagged = (error > max(KINK_SCALES * scale, floor)) & ok
-    return np.convolve(flagged.astype(float), np.ones(2 * reach + 1), mode="same") > 0.0
 
 
 def _left_out_note(counts: dict, total: int) -> str:
@@ -232,8 +211,6 @@ def derivation_notes(record: Record) -> tuple[str, ...]:
 #: rigid regression: a rod on a compliant stop sits micrometres past it, and the stroke sensor's
 #: noise moves it about (the stop's force is in no recorded signal).
 STOP_BAND = 1e-4
-#: How many robust scales of a derived acceleration's stated error mark a kink in its window.
-KINK_SCALES = 5.0
 #: Step [m] of the regressor's stroke derivative in the noise correction.
 _DERIVATIVE_STEP = 1e-8
 #: Why the rigid regression gives no value where its residual is more than the stroke noise

@@ -45,6 +45,8 @@ SIGNALS = {
 
 #: Savitzky-Golay window [samples] of the derivatives of a stroke with no recorded rates.
 DERIVATIVE_WINDOW = 7
+#: How many robust scales of a derived acceleration's stated error mark a kink in its window.
+KINK_SCALES = 5.0
 
 
 @dataclass(frozen=True)
@@ -154,6 +156,35 @@ class Record:
             return np.zeros_like(self.t)
         return self.rates()[1] - self.rates(5)[1]
 
+    def derivative_exclusions(self, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(window, kink)``, boolean per sample, for a regression of the samples ``ok`` on
+        derived rates (none where both rates were recorded):
+
+        * ``window``: the samples whose derivative window (:meth:`derivative_reach`) reaches a
+          sample outside ``ok`` or the record's ends;
+        * ``kink``: of the rest, those whose window holds a kink of the motion no local
+          polynomial follows (a stop's impact, a trajectory's segment switch): within the reach
+          of a sample whose :meth:`derivative_error` stands out of its own robust scale over
+          those samples by more than :data:`KINK_SCALES` (and out of the arithmetic's share of
+          the acceleration). There the stated error is 0.4 to 0.5 of the true one (the rigid
+          rung's trajectory and stroke runs), so no weight pays for it."""
+        reach = self.derivative_reach()
+        none = np.zeros(len(self), dtype=bool)
+        if not reach:
+            return none, none
+        kernel = np.ones(2 * reach + 1)
+        window = np.convolve((~ok).astype(float), kernel, mode="same") > 0.0
+        window[:reach], window[-reach:] = True, True
+        rest = ok & ~window
+        error = np.abs(self.derivative_error())
+        if not np.any(error[rest]):
+            return window & ok, none
+        scale = 1.4826 * float(np.median(error[rest]))
+        floor = 1e-9 * float(np.sqrt(np.mean(self.rates(5)[1][rest] ** 2)))
+        flagged = (error > max(KINK_SCALES * scale, floor)) & rest
+        kink = np.convolve(flagged.astype(float), kernel, mode="same") > 0.0
+        return window & ok, kink & rest
+
     def select(self, mask: np.ndarray) -> Record:
         """The samples where ``mask`` is true."""
         mask = np.asarray(mask, dtype=bool)
@@ -165,4 +196,4 @@ class Record:
         return Record(**out)
 
 
-__all__ = ["DERIVATIVE_WINDOW", "SIGNALS", "Record"]
+__all__ = ["DERIVATIVE_WINDOW", "KINK_SCALES", "SIGNALS", "Record"]
