@@ -44,10 +44,12 @@ def test_equation_error_covers_over_seeded_noise(scene, record, params):
     assert c["covered"] >= 34, c
 
 
-@pytest.mark.parametrize("scene", ["stroke"])
+@pytest.mark.parametrize("scene", ["stroke", "trajectory"])
 def test_the_stated_error_is_the_scatter_where_the_noise_drives_it(scene, params):
-    """Stroke commands, 10 um of noise, the acceleration differentiated: the stated standard
-    error within 1.5x of the estimates' scatter over the seeds."""
+    """Stroke commands or a trajectory through mid-stroke points, 10 um of noise, the
+    acceleration differentiated (the samples whose window holds a stop's impact or a segment's
+    switch left out): the stated standard error within 1.5x of the estimates' scatter over the
+    seeds."""
     c = coverage.cell(scene, "node+noise", "equation", RUNS, params)
     assert 1 / 1.5 < c["std_over_scatter"] < 1.5, c
 
@@ -77,8 +79,11 @@ def test_hydraulic_leak_and_friction_hold_the_truth_from_a_node_bag(hydraulic_ce
 
 def test_a_foreign_bag_gives_no_leak_and_says_why(hydraulic_cells):
     """JointState and FluidPressure only: the continuity equations lack the spool and supply;
-    the Coulomb friction still comes from the rod balance and holds the truth."""
+    the Coulomb friction still comes from the rod balance (its derived acceleration's windows
+    that reach a stop or a kink left out) and holds the truth, its stated error within 1.5x of
+    its scatter."""
     leak = hydraulic_cells["leak_to_outside", "foreign"]
     assert leak["valued"] == 0 and "spool" in leak["errors"][0], leak
     coulomb = hydraulic_cells["coulomb_friction", "foreign"]
     assert coulomb["valued"] == 20 and coulomb["covered"] >= 17, coulomb
+    assert 1 / 1.5 < coulomb["std_over_scatter"] < 1.5, coulomb

@@ -65,14 +65,17 @@ def rod_balance(record: Record, p: DRSParams, hp: HydraulicParams) -> tuple[np.n
         raise InputError("the rod balance needs the chamber pressures, which the run did not "
                          "record")  # fmt: skip
     h = hydraulic_constants(hp, p)
-    sd, sdd = record.rates()
+    sd, sdd = record.rates(5)  # the quintic, as the rigid regression's (equation_error)
     push = record.pressure_a * h[hk.AREA_A] - record.pressure_b * h[hk.AREA_B]
     if record.piston_force is not None:
         force = record.piston_force
         mask = np.ones(len(record), dtype=bool)
-    else:  # the mechanism's need, off the stops
+    else:  # the mechanism's need, off the stops and where its derived acceleration holds
         force = rigid_regressor(record.stroke, sd, sdd, p) @ rigid_values(p)
         mask = (record.stroke > h[hk.S_MIN]) & (record.stroke < h[hk.S_MAX])
+        mask &= np.isfinite(force)
+        window, kink = record.derivative_exclusions(mask)
+        mask &= ~(window | kink)
     friction = push - force
     mask &= np.isfinite(friction) & np.isfinite(sd)
     return mask, sd[mask], friction[mask]

@@ -45,6 +45,8 @@ SIGNALS = {
 
 #: Savitzky-Golay window [samples] of the derivatives of a stroke with no recorded rates.
 DERIVATIVE_WINDOW = 7
+#: How many robust scales of a derived acceleration's stated error mark a kink in its window.
+KINK_SCALES = 5.0
 
 
 @dataclass(frozen=True)
@@ -95,23 +97,27 @@ class Record:
         """The signals recorded."""
         return tuple(n for n in SIGNALS if getattr(self, n) is not None)
 
-    def rates(self) -> tuple[np.ndarray, np.ndarray]:
+    def rates(self, order: int = 3) -> tuple[np.ndarray, np.ndarray]:
         """``(s', s'')`` [m/s, m/s^2]: as recorded, else Savitzky-Golay derivatives of the
-        stroke (cubic, :data:`DERIVATIVE_WINDOW` samples; uniform sampling assumed)."""
+        stroke of the polynomial ``order`` (cubic by default; at most the window's less one)
+        over :data:`DERIVATIVE_WINDOW` samples (uniform sampling assumed)."""
         sd, sdd = self.stroke_rate, self.stroke_acceleration
         if sd is not None and sdd is not None:
             return sd, sdd
         dt = float(np.median(np.diff(self.t)))
         window = min(DERIVATIVE_WINDOW, len(self) - (1 - len(self) % 2))
+        order = min(order, window - 1)
         if sd is None:
-            sd = savgol_filter(self.stroke, window, 3, deriv=1, delta=dt)
+            sd = savgol_filter(self.stroke, window, order, deriv=1, delta=dt)
         if sdd is None:
-            sdd = savgol_filter(sd, window, 3, deriv=1, delta=dt)
+            sdd = savgol_filter(sd, window, order, deriv=1, delta=dt)
         return sd, sdd
 
-    def derived(self) -> dict[str, str]:
-        """``{signal: how}`` for each rate :meth:`rates` derives instead of reading."""
-        how = (f"Savitzky-Golay derivative (cubic, {DERIVATIVE_WINDOW} samples) of the "
+    def derived(self, order: int = 3) -> dict[str, str]:
+        """``{signal: how}`` for each rate :meth:`rates` (of that ``order``) derives instead of
+        reading."""
+        degree = {3: "cubic", 5: "quintic"}.get(order, f"degree {order}")
+        how = (f"Savitzky-Golay derivative ({degree}, {DERIVATIVE_WINDOW} samples) of the "
                "stroke")  # fmt: skip
         out = {}
         if self.stroke_rate is None:
@@ -148,14 +154,36 @@ class Record:
         where the acceleration was recorded."""
         if self.stroke_acceleration is not None:
             return np.zeros_like(self.t)
-        _, sdd = self.rates()
-        dt = float(np.median(np.diff(self.t)))
-        window = min(DERIVATIVE_WINDOW, len(self) - (1 - len(self) % 2))
-        order = min(5, window - 1)
-        sd = self.stroke_rate
-        if sd is None:
-            sd = savgol_filter(self.stroke, window, order, deriv=1, delta=dt)
-        return sdd - savgol_filter(sd, window, order, deriv=1, delta=dt)
+        return self.rates()[1] - self.rates(5)[1]
+
+    def derivative_exclusions(self, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(window, kink)``, boolean per sample, for a regression of the samples ``ok`` on
+        derived rates (none where both rates were recorded):
+
+        * ``window``: the samples whose derivative window (:meth:`derivative_reach`) reaches a
+          sample outside ``ok`` or the record's ends;
+        * ``kink``: of the rest, those whose window holds a kink of the motion no local
+          polynomial follows (a stop's impact, a trajectory's segment switch): within the reach
+          of a sample whose :meth:`derivative_error` stands out of its own robust scale over
+          those samples by more than :data:`KINK_SCALES` (and out of the arithmetic's share of
+          the acceleration). There the stated error is 0.4 to 0.5 of the true one (the rigid
+          rung's trajectory and stroke runs), so no weight pays for it."""
+        reach = self.derivative_reach()
+        none = np.zeros(len(self), dtype=bool)
+        if not reach:
+            return none, none
+        kernel = np.ones(2 * reach + 1)
+        window = np.convolve((~ok).astype(float), kernel, mode="same") > 0.0
+        window[:reach], window[-reach:] = True, True
+        rest = ok & ~window
+        error = np.abs(self.derivative_error())
+        if not np.any(error[rest]):
+            return window & ok, none
+        scale = 1.4826 * float(np.median(error[rest]))
+        floor = 1e-9 * float(np.sqrt(np.mean(self.rates(5)[1][rest] ** 2)))
+        flagged = (error > max(KINK_SCALES * scale, floor)) & rest
+        kink = np.convolve(flagged.astype(float), kernel, mode="same") > 0.0
+        return window & ok, kink & rest
 
     def select(self, mask: np.ndarray) -> Record:
         """The samples where ``mask`` is true."""
@@ -168,4 +196,4 @@ class Record:
         return Record(**out)
 
 
-__all__ = ["DERIVATIVE_WINDOW", "SIGNALS", "Record"]
+__all__ = ["DERIVATIVE_WINDOW", "KINK_SCALES", "SIGNALS", "Record"]
