@@ -19,7 +19,7 @@ from . import kernels
 from . import kinematics as kin
 from .errors import ForceLimitError, InputError, UnsupportedCommandError
 from .motion import StrokeMotion
-from .params import DRSParams
+from .params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from .profile import QuinticPath, QuinticSegment, TrajectoryPlan
 
 #: Why a rung without forces refuses what needs them.
@@ -72,10 +72,14 @@ class CommandedActuator:
     dt : float
         Physics step [s], in (0, 0.01].
     force_limit : float
-        Largest accepted |piston force| command [N].
+        Largest accepted |piston force| [N], of a force command and (``limit_moves``) of a
+        move's inverse-dynamics peak (default :data:`~drs_model.params.FORCE_LIMIT_DEFAULT_N`).
     integrator, force_method : str
         The force-mode integrator and the inverse-dynamics method: checked here (every rung
         takes the node's names), used by the rungs that have them (:class:`ActuatorSim`).
+    limit_moves : bool
+        Refuse a stroke or trajectory command whose inverse-dynamics peak exceeds
+        ``force_limit`` (default; :attr:`limit_moves`).
     """
 
     #: The rung's name in :data:`drs_model.fidelity.RUNGS`.
@@ -85,15 +89,15 @@ class CommandedActuator:
     #: Whether the state at each step follows from the time and the commands alone (nothing is
     #: integrated): :meth:`advance` then evaluates only the last of its steps, to the same bits.
     path_is_state = False
-    _limit_moves = False
 
     def __init__(
         self,
         p: DRSParams,
         dt: float = 1e-3,
-        force_limit: float = 2.0e4,
+        force_limit: float = FORCE_LIMIT_DEFAULT_N,
         integrator: str = "rk4",
         force_method: str = "fused",
+        limit_moves: bool = True,
     ) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.01):
             raise InputError(f"dt must be a finite number in (0, 0.01] s, got {dt!r}")
@@ -105,6 +109,7 @@ class CommandedActuator:
         self.force_limit = float(force_limit)
         self.motion = StrokeMotion(p, self.dt)
         self.motion.check_path = self._check_path
+        self._limit_moves = bool(limit_moves)
         self.s_min, self.s_max = self.motion.s_min, self.motion.s_max
         self.s_dead = kin.dead_centre(p)
         self._force = math.nan
@@ -199,8 +204,9 @@ class CommandedActuator:
     @property
     def limit_moves(self) -> bool:
         """Whether a stroke or trajectory command whose inverse-dynamics peak force exceeds
-        ``force_limit`` is refused (:class:`ForceLimitError`). Off by default: the seed's own
-        10 ms manoeuvre peaks at 25.4 kN, above the default 20 kN limit."""
+        ``force_limit`` is refused (:class:`ForceLimitError`), naming the peak and the limit.
+        On by default (the seed's own 10 ms opening, 25.4 kN, fits the default 30 kN); off, a
+        move is carried out whatever force it needs (bags recorded before the option)."""
         return self._limit_moves
 
     @limit_moves.setter

@@ -128,7 +128,8 @@ class DRSNode(Node):
         self.joint_names = list(settings.joint_names)
         gp = self.get_parameter
         self.rungs = RungChoice(self.fidelity, (self.params, self.hydraulic), self.physics_dt, {
-            name: gp(name).value for name in ("force_limit", "integrator", "force_method")
+            name: gp(name).value
+            for name in ("force_limit", "integrator", "force_method", "limit_moves")
         }, gp("fidelity_tolerance").value, gp("fidelity_force_tolerance").value)  # fmt: skip
         self.sim = self.rungs.first()
         self.outputs = StatePublishers(
