@@ -365,13 +365,13 @@ class HydraulicRung(CommandedActuator):
     def command_stroke(self, target: float, duration: float | None = None):
         """A move of the servo's reference to ``target`` [m], planned from the reference (not
         from the rod, which lags it and may sit a micrometre inside a compliant stop)."""
-        return self.motion.command_stroke(target, duration, start=self._reference_start())
+        return self.motion.command_stroke(target, duration, start=self._command_start())
 
     def command_trajectory(self, times, strokes=None, rates=None):
         """A trajectory of the servo's reference, planned from the reference."""
-        return self.motion.command_trajectory(times, strokes, rates, start=self._reference_start())
+        return self.motion.command_trajectory(times, strokes, rates, start=self._command_start())
 
-    def _reference_start(self) -> tuple[float, float, float]:
+    def _command_start(self) -> tuple[float, float, float]:
         """``(s, s', s'')`` a new command starts from: the path in force, else the reference
         at rest inside the stroke range."""
         m = self.motion

@@ -62,7 +62,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drs_model.errors import DRSError, InputError
 
-from ..commands import StrokeMove, TrajectoryMove
+from ..commands import PointNow, StrokeMove, TrajectoryMove, trajectory_move
 from ..conversions import PastTrajectoryError, started_points, time_msg
 from ..errors import DRSRosError
 from ..names import ACCEPTED, REFUSED
@@ -129,8 +129,9 @@ def goal_tolerances(goal, defaults: Tolerances, joint: str) -> tuple[Tolerances,
     return Tolerances(**values), ""
 
 
-def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
-    """The piston's move of a FollowJointTrajectory goal, times from now [s]; raises
+def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove | PointNow:
+    """The piston's move of a FollowJointTrajectory goal, times from now [s] (a single point
+    at 0 s: :class:`~drs_ros.commands.PointNow`, timed when it starts); raises
     :class:`GoalError` with JTC's check and the code of the action's result."""
     traj = goal.trajectory
     names = list(traj.joint_names)
@@ -161,7 +162,7 @@ def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
         raise GoalError(Result.OLD_HEADER_TIMESTAMP, str(exc)) from exc
     except InputError as exc:
         raise GoalError(Result.INVALID_GOAL, str(exc)) from exc
-    return TrajectoryMove(tuple(times), tuple(strokes), None if rates is None else tuple(rates))
+    return trajectory_move(times, strokes, rates)
 
 
 def _point(s: float, v: float, a: float, since_ns: int) -> JointTrajectoryPoint:
@@ -337,6 +338,8 @@ class FollowJointTrajectoryServer:
         try:
             if isinstance(move, GoalError):
                 raise move
+            if isinstance(move, PointNow):  # timed from the state it starts from, and recorded so
+                move = move.now(self.sim)
             path = move.apply(self.sim, plan)  # the state-dependent first segments: checked now
         except GoalError as exc:
             code, why = exc.code, str(exc)
