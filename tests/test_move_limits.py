@@ -163,3 +163,42 @@ def test_a_move_is_refused_exactly_when_its_peak_exceeds_the_limit(
     assert abs(named) == pytest.approx(peak, rel=1e-3)
     assert f"beyond force_limit {limit:g} N" in str(refused.value)
     assert sim.mode == "hold"
+
+
+@settings(max_examples=30, deadline=None)
+@given(start=st.floats(0.0, 1.0), end=st.floats(0.0, 1.0), rung=st.sampled_from(sorted(RUNGS)))
+def test_a_stroke_command_given_no_duration_takes_one_within_the_limit(
+    params, start, end, rung
+):
+    """``~/stroke_cmd`` gives no duration: the move takes the seed's (T_opening scaled by the
+    distance) where that fits force_limit, else the shortest that fits, within 2 %: its
+    independent peak lies in [0.98, 1.001] x force_limit."""
+    sim = RUNGS[rung](params)
+    s_min, s_max = sim.s_min, sim.s_max
+    s0, s1 = s_min + start * (s_max - s_min), s_min + end * (s_max - s_min)
+    assume(abs(s1 - s0) > 1e-6)
+    sim.reset(s=s0)
+    seed = max(params.T_opening * abs(s1 - s0) / (s_max - s_min), 2 * sim.dt)
+    told = sim.stroke_duration(s1)
+    seg = sim.command_stroke(s1)
+    assert seg.duration == told
+    assert seg.duration == pytest.approx(max(seg.duration, seed), rel=1e-12)  # never shorter
+    peak = _finite_difference_peak(params, s0, s1, seg.duration)
+    assert peak <= 1.001 * sim.force_limit
+    if seg.duration > seed * (1.0 + 1e-9):  # stretched
+        assert peak >= 0.98 * sim.force_limit
+    else:
+        assert _finite_difference_peak(params, s0, s1, seed) <= 1.001 * sim.force_limit
+
+
+def test_a_short_move_off_the_closed_stop_is_stretched_not_refused(params):
+    """20 mm off the closed stop in the seed's 4.4 ms needs 68 kN; given no duration it takes
+    longer, given that duration it is refused, and without limit_moves it runs as the seed's."""
+    sim = RUNGS["rigid"](params)
+    seed = params.T_opening * 0.02 / (sim.s_max - sim.s_min)
+    with pytest.raises(ForceLimitError, match="beyond force_limit 30000 N"):
+        sim.command_stroke(sim.s_min + 0.02, seed)
+    seg = sim.command_stroke(sim.s_min + 0.02)
+    assert seg.duration > 1.3 * seed
+    free = RUNGS["rigid"](params, limit_moves=False).command_stroke(sim.s_min + 0.02)
+    assert free.duration == pytest.approx(seed, rel=1e-12)
