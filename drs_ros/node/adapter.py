@@ -80,7 +80,9 @@ class DRSNode(Node):
     * :meth:`configure`: validate the parameters, build the actuator, create the publishers and
       open the recorders (a bad value or path raises, with the reason, leaving nothing behind);
     * :meth:`activate`: create the command subscriptions, the service and the timers;
-    * :meth:`deactivate`: remove them again: the actuator holds its state, nothing is published;
+    * :meth:`deactivate`: remove them again: goals end, a moving piston is held where it is
+      (joint_trajectory_controller's hold, once active again: no time passes inactive),
+      nothing is published;
     * :meth:`cleanup`: finish the recordings and drop the publishers and the actuator.
 
     Its parts: ``recordings`` and ``fault_parameters`` (built with the node), then, built by
@@ -229,9 +231,11 @@ class DRSNode(Node):
         self.active = True
 
     def deactivate(self) -> None:
-        """Stop taking commands and publishing; the actuator holds its state (no time passes)."""
+        """Stop taking commands and publishing; a moving piston is held where it is (the
+        action's hold, which runs once active again: no time passes while inactive)."""
         self.active = False
-        self.stack.deactivate()  # goals aborted, no JointState commands
+        with self._lock:  # the hold is a command: never within a tick
+            self.stack.deactivate()  # goals aborted, the piston held, no JointState commands
         for timer in (self.timer, self.diag_timer, self.clock_watch):
             if timer is not None:
                 self.destroy_timer(timer)

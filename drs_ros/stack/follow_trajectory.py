@@ -30,6 +30,9 @@ where a line says otherwise:
   which quantity, by how much.
 * **Feedback** at the publish rate: ``desired`` (the trajectory as the actuator plans it, from the
   goal's acceptance), ``actual`` (the actuator's state), ``error = desired - actual``.
+* **Deactivation** (JTC's ``on_deactivate``): the goals are aborted with ``INVALID_GOAL``,
+  "Current goal cancelled during deactivate transition.", and a piston still moving (or under
+  a force) is held where it is, as after a cancel.
 * **Preemption:** a new valid goal aborts the active one with ``INVALID_GOAL``, "Current goal
   preempted by new incoming action.", and takes over.
 * **Cancel and abort:** a cancel is accepted; the goal ends CANCELED (or ABORTED) and the piston
@@ -412,7 +415,11 @@ class FollowJointTrajectoryServer:
                        f"seconds: {outside}", now_ns)  # fmt: skip
 
     def deactivate(self, now_ns: int) -> None:
-        """JTC's on_deactivate: the active goal (and any not yet started) is aborted."""
+        """JTC's on_deactivate: the active goal (and any not yet started) is aborted and the
+        piston held where it is (JTC writes the position command back, so the joint stays): a
+        move still under way, whichever command made it, or a force, ends in the hold that
+        ends a cancelled goal; it runs once the node is active again (no time passes while
+        inactive)."""
         self.active_flag = False
         with self._lock:
             incoming, self._incoming = self._incoming, []
@@ -422,6 +429,9 @@ class FollowJointTrajectoryServer:
         for handle in ends:
             self._end(handle, "aborted", Result.INVALID_GOAL,
                       "Current goal cancelled during deactivate transition.", now_ns)  # fmt: skip
+        motion = self.sim.motion
+        if motion.mode == "force" or (motion.mode == "stroke" and motion.t < motion.path.t_end):
+            self._hold(now_ns)
 
     def destroy(self) -> None:
         self.server.destroy()
