@@ -324,8 +324,12 @@ class CommandedActuator:
         return self.motion.command_trajectory(times, strokes, rates)
 
     def command_drs(self, open_flap: bool) -> QuinticSegment:
-        """Open (True) or close (False) with the seed's manoeuvre times."""
-        return self.command_stroke(*self.motion.drs_move(open_flap))
+        """Open (True) or close (False) with the seed's manoeuvre times or, with
+        :attr:`limit_moves`, longer where the move needs more than ``force_limit`` in them (a
+        heavier flap): the times are the seed's, not the caller's, as a stroke command's."""
+        target, duration = self.motion.drs_move(open_flap)
+        return self.command_stroke(target, self._fit_duration(target, duration,
+                                                              self._command_start()))  # fmt: skip
 
     def _checked_force(self, force: float) -> float:
         """``force`` [N] as a float; refuse NaN or |F| > force_limit."""
