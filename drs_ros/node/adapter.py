@@ -8,8 +8,9 @@ Topics (``~`` is the node namespace, ``/drs/...`` by default):
 * ``~/stroke_cmd`` (in, std_msgs/Float64): move smoothly to this stroke [m];
 * ``~/force_cmd`` (in, std_msgs/Float64): apply this piston force [N] from now on;
 * ``~/trajectory_cmd`` (in, trajectory_msgs/JointTrajectory): follow the piston joint's points;
-* ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times); its calls
-  are published as introspection events on ``~/drs/_service_event``;
+* ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times, longer
+  where they need more than ``force_limit``); its calls are published as introspection events
+  on ``~/drs/_service_event``;
 * ``/joint_states`` (sensor_msgs/JointState): piston [m, m/s, N], link and flap [rad, rad/s];
 * ``~/piston_force``, ``~/flap_gap``, ``~/piston_acceleration`` (std_msgs/Float64): [N], [m],
   [m/s^2];

@@ -70,8 +70,8 @@ NODE_PARAMETERS = (
     ("force_limit", FORCE_LIMIT_DEFAULT_N,
      "largest accepted |piston force| [N]: of a force command and, with limit_moves, of a "
      "move's inverse-dynamics peak", (1.0, 1.0e6)),
-    ("limit_moves", True, "refuse a stroke, trajectory or DRS command whose inverse-dynamics "
-     "peak force exceeds force_limit, naming both", None),
+    ("limit_moves", True, "refuse a trajectory or goal whose inverse-dynamics peak force "
+     "exceeds force_limit, naming both; a stroke or DRS command takes longer instead", None),
     ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
      (1, 100000)),
     ("frame_id", "drs_base", "frame of ~/markers: the seed's ground frame (x rearwards, y up)",
