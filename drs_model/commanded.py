@@ -80,8 +80,7 @@ class CommandedActuator:
         The force-mode integrator and the inverse-dynamics method: checked here (every rung
         takes the node's names), used by the rungs that have them (:class:`ActuatorSim`).
     limit_moves : bool
-        Refuse a stroke or trajectory command whose inverse-dynamics peak exceeds
-        ``force_limit`` (default; :attr:`limit_moves`).
+        Keep moves within ``force_limit`` (default; :attr:`limit_moves`).
     """
 
     #: The rung's name in :data:`drs_model.fidelity.RUNGS`.
@@ -207,9 +206,11 @@ class CommandedActuator:
     # ---- commands ------------------------------------------------------------------------------
     @property
     def limit_moves(self) -> bool:
-        """Whether a stroke or trajectory command whose inverse-dynamics peak force exceeds
-        ``force_limit`` is refused (:class:`ForceLimitError`), naming the peak and the limit.
-        On by default (the seed's own 10 ms opening, 25.4 kN, fits the default 30 kN); off, a
+        """Whether a timed move (a trajectory, a stroke command given its duration) whose
+        inverse-dynamics peak force exceeds ``force_limit`` is refused
+        (:class:`ForceLimitError`), naming the peak and the limit, and a move whose time is the
+        seed's (a stroke command given none, the DRS manoeuvre) takes longer instead. On by
+        default (the seed's own 10 ms opening, 25.4 kN, fits the default 30 kN); off, a
         move is carried out whatever force it needs (bags recorded before the option)."""
         return self._limit_moves
 
