@@ -126,8 +126,9 @@ def test_the_force_published_along_a_fast_move_is_the_force_of_that_motion(
 
 def test_a_goal_of_one_point_at_0_s_moves_there_now(ros_context, params, tmp_path):
     """joint_trajectory_controller takes a single point at 0 s as the position to hold now
-    (sampled at once); drs moves there in a stroke command's own time and the goal succeeds;
-    its record is the one-point trajectory taken, so the bag re-runs it exactly."""
+    (sampled at once); drs moves there in a stroke command's own time and the goal succeeds,
+    on the action and on ``~/trajectory_cmd``; the bag re-runs both exactly (the action's
+    record is the one-point trajectory taken; the topic's is timed again from the state)."""
     bag = tmp_path / "bag"
     st = Stack(ros_context, [Parameter("bag_path", value=str(bag))])
     try:
@@ -141,6 +142,13 @@ def test_a_goal_of_one_point_at_0_s_moves_there_now(ros_context, params, tmp_pat
         # at the present state: nothing to move, it succeeds as it is
         res = st.result(st.send(goal_of([(0.0, 0.03)])))
         assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.error_string
+        # the topic alike
+        pub = st.client.create_publisher(JointTrajectory, "/drs/trajectory_cmd", 10)
+        assert spin_until(st.exec, lambda: pub.get_subscription_count() > 0, 5.0)
+        msg = JointTrajectory(joint_names=["drs_piston"])
+        msg.points.append(JointTrajectoryPoint(positions=[0.01]))
+        pub.publish(msg)
+        assert spin_until(st.exec, lambda: st.joints[-1].position[0] == 0.01, 3.0)
         spin_for(st.exec, 0.1)
     finally:
         st.close()
