@@ -38,7 +38,7 @@ import numpy as np
 from . import kinematics as kin
 from .commanded import ActuatorState, CommandedActuator
 from .errors import IntegrationError, SingularConfigurationError, StrokeRangeError
-from .params import DRSParams
+from .params import FORCE_LIMIT_DEFAULT_N, DRSParams
 
 #: Longest integrator step [s] of force mode: a longer physics step (a rate below 1 kHz) is taken
 #: in equal sub-steps no longer than this (a 10 ms RK4 step can carry the flap, which crosses its
@@ -66,7 +66,8 @@ class ActuatorSim(CommandedActuator):
     dt : float
         Physics step [s] (> 0).
     force_limit : float
-        Largest accepted |piston force| command [N].
+        Largest accepted |piston force| [N] (a force command; a move's peak with
+        ``limit_moves``).
     integrator : str
         Fixed-step method for force mode (see :class:`drs_model.forward.FixedStepIntegrator`).
     force_method : str
@@ -74,17 +75,20 @@ class ActuatorSim(CommandedActuator):
         :data:`drs_model.inverse.INVERSE_METHODS`; ``"fused"`` (the default) is the one-sample
         fused kernel, every other name runs that formulation (``"virtual-work"`` the virtual
         work along ``dq/dpsi3``) through :func:`drs_model.inverse.inverse_dynamics`.
+    limit_moves : bool
+        Refuse a move whose inverse-dynamics peak exceeds ``force_limit`` (default).
     """
 
     def __init__(
         self,
         p: DRSParams,
         dt: float = 1e-3,
-        force_limit: float = 2.0e4,
+        force_limit: float = FORCE_LIMIT_DEFAULT_N,
         integrator: str = "rk4",
         force_method: str = "fused",
+        limit_moves: bool = True,
     ) -> None:
-        super().__init__(p, dt, force_limit, integrator, force_method)
+        super().__init__(p, dt, force_limit, integrator, force_method, limit_moves)
         self.force_method = force_method
         self.integrator_name = integrator
         self.psi3_closed, self.psi3_open = kin.flap_angle_limits(p)

@@ -17,15 +17,17 @@ import numpy as np
 
 from . import kernels
 from . import kinematics as kin
-from .errors import ForceLimitError, InputError, UnsupportedCommandError
+from .errors import DRSError, ForceLimitError, InputError, UnsupportedCommandError
 from .motion import StrokeMotion
-from .params import DRSParams
-from .profile import QuinticPath, QuinticSegment, TrajectoryPlan
+from .params import FORCE_LIMIT_DEFAULT_N, DRSParams
+from .profile import QuinticPath, QuinticSegment, TrajectoryPlan, quintic_move
 
 #: Why a rung without forces refuses what needs them.
 NO_FORCES = "it models no forces; use 'quasi-static', 'rigid' or 'hydraulic'"
 #: Why a rung without hydraulics refuses a hydraulic fault.
 NO_HYDRAULICS = "it has no valve, oil or friction; run fidelity 'hydraulic'"
+#: Most moves a stroke command without a duration tries before its refusal (two or three fit).
+FIT_DURATION_TRIES = 8
 #: The faults of the oil circuit (:data:`drs_model.fidelity.faults.FAULTS`).
 HYDRAULIC_FAULTS = ("stuck_valve", "leak_m3_per_s_per_pa", "jam_friction_n")
 
@@ -72,10 +74,13 @@ class CommandedActuator:
     dt : float
         Physics step [s], in (0, 0.01].
     force_limit : float
-        Largest accepted |piston force| command [N].
+        Largest accepted |piston force| [N], of a force command and (``limit_moves``) of a
+        move's inverse-dynamics peak (default :data:`~drs_model.params.FORCE_LIMIT_DEFAULT_N`).
     integrator, force_method : str
         The force-mode integrator and the inverse-dynamics method: checked here (every rung
         takes the node's names), used by the rungs that have them (:class:`ActuatorSim`).
+    limit_moves : bool
+        Keep moves within ``force_limit`` (default; :attr:`limit_moves`).
     """
 
     #: The rung's name in :data:`drs_model.fidelity.RUNGS`.
@@ -85,15 +90,15 @@ class CommandedActuator:
     #: Whether the state at each step follows from the time and the commands alone (nothing is
     #: integrated): :meth:`advance` then evaluates only the last of its steps, to the same bits.
     path_is_state = False
-    _limit_moves = False
 
     def __init__(
         self,
         p: DRSParams,
         dt: float = 1e-3,
-        force_limit: float = 2.0e4,
+        force_limit: float = FORCE_LIMIT_DEFAULT_N,
         integrator: str = "rk4",
         force_method: str = "fused",
+        limit_moves: bool = True,
     ) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.01):
             raise InputError(f"dt must be a finite number in (0, 0.01] s, got {dt!r}")
@@ -105,8 +110,11 @@ class CommandedActuator:
         self.force_limit = float(force_limit)
         self.motion = StrokeMotion(p, self.dt)
         self.motion.check_path = self._check_path
+        self.motion.fit_duration = self._fit_duration
+        self._limit_moves = bool(limit_moves)
         self.s_min, self.s_max = self.motion.s_min, self.motion.s_max
         self.s_dead = kin.dead_centre(p)
+        self._statics = None  # FusedInverseDynamics, built for the first stretched move
         self._force = math.nan
 
     # ---- what a rung supplies ------------------------------------------------------------------
@@ -198,9 +206,12 @@ class CommandedActuator:
     # ---- commands ------------------------------------------------------------------------------
     @property
     def limit_moves(self) -> bool:
-        """Whether a stroke or trajectory command whose inverse-dynamics peak force exceeds
-        ``force_limit`` is refused (:class:`ForceLimitError`). Off by default: the seed's own
-        10 ms manoeuvre peaks at 25.4 kN, above the default 20 kN limit."""
+        """Whether a timed move (a trajectory, a stroke command given its duration) whose
+        inverse-dynamics peak force exceeds ``force_limit`` is refused
+        (:class:`ForceLimitError`), naming the peak and the limit, and a move whose time is the
+        seed's (a stroke command given none, the DRS manoeuvre) takes longer instead. On by
+        default (the seed's own 10 ms opening, 25.4 kN, fits the default 30 kN); off, a
+        move is carried out whatever force it needs (bags recorded before the option)."""
         return self._limit_moves
 
     @limit_moves.setter
@@ -232,12 +243,51 @@ class CommandedActuator:
                 "more time"
             )
 
+    def _fit_duration(self, target: float, duration: float, start: tuple) -> float:
+        """A stroke command's own duration [s]: ``duration`` (the seed's, scaled by the
+        distance) or, with :attr:`limit_moves`, longer until the move's inverse-dynamics peak
+        fits ``force_limit``. Along a move from rest the force is ``g(s) + h(u) / T^2`` (statics,
+        and inertia with the velocity terms, at the same fraction ``u`` of the path), so each
+        stretch aims at 0.1 % under the limit from the peak's own split; a move no duration
+        fits (statics beyond the limit, a fast start) is left to the refusal, which names its
+        peak."""
+        if not self.limit_moves or not math.isfinite(target):
+            return duration
+        from .inverse import FusedInverseDynamics, path_peak_force
+
+        if self._statics is None:
+            self._statics = FusedInverseDynamics.from_params(self.p)
+        limits = (self.s_min, self.s_max)
+        for _ in range(FIT_DURATION_TRIES):
+            try:
+                seg = quintic_move(self.p, target, duration, *start, limits=limits)
+            except DRSError:
+                return duration  # the command refuses it, with the reason
+            peak = path_peak_force(self.p, [seg.coeffs], [seg.duration])
+            static = abs(self._statics.force(peak.stroke, 0.0, 0.0))
+            aim = (1.0 - 1e-3) * self.force_limit
+            if abs(peak.force) <= self.force_limit or static >= aim:
+                return duration
+            duration *= max(math.sqrt((abs(peak.force) - static) / (aim - static)), 1.01)
+        return duration
+
+    def _command_start(self) -> tuple[float, float, float]:
+        """``(s, s', s'')`` a new command starts from: the present state."""
+        return self.motion.start()
+
+    def stroke_duration(self, target: float) -> float:
+        """The duration [s] :meth:`command_stroke` takes now to ``target`` [m] given none (a
+        finite ``target``; the move itself is checked by the command)."""
+        return self.motion.stroke_duration(float(target), self._command_start())
+
     def command_stroke(self, target: float, duration: float | None = None) -> QuinticSegment:
         """Move smoothly to ``target`` [m] from the current state; refuse a bad target.
 
         ``duration`` [s] defaults to the seed's opening time scaled by the distance (full stroke in
-        ``T_opening``), at least 2 steps. A move whose path would leave ``[s_min, s_max]`` (large
-        current velocity) is refused.
+        ``T_opening``), at least 2 steps, and with :attr:`limit_moves` longer where the move
+        needs more than ``force_limit`` in that time (a short move off the closed stop). A move
+        whose path would leave ``[s_min, s_max]`` (large current velocity) is refused, and with
+        :attr:`limit_moves` one whose given ``duration`` needs more than ``force_limit``.
         """
         return self.motion.command_stroke(target, duration)
 
@@ -275,8 +325,12 @@ class CommandedActuator:
         return self.motion.command_trajectory(times, strokes, rates)
 
     def command_drs(self, open_flap: bool) -> QuinticSegment:
-        """Open (True) or close (False) with the seed's manoeuvre times."""
-        return self.command_stroke(*self.motion.drs_move(open_flap))
+        """Open (True) or close (False) with the seed's manoeuvre times or, with
+        :attr:`limit_moves`, longer where the move needs more than ``force_limit`` in them (a
+        heavier flap): the times are the seed's, not the caller's, as a stroke command's."""
+        target, duration = self.motion.drs_move(open_flap)
+        return self.command_stroke(target, self._fit_duration(target, duration,
+                                                              self._command_start()))  # fmt: skip
 
     def _checked_force(self, force: float) -> float:
         """``force`` [N] as a float; refuse NaN or |F| > force_limit."""

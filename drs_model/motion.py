@@ -38,6 +38,9 @@ class StrokeMotion:
         #: ``check_path(coeffs, durations, first)``: the owner's refusal of a path's segments
         #: (local-time quintics, segment ``first`` on), called before a path is taken or planned
         self.check_path: Callable[[np.ndarray, np.ndarray, int], None] | None = None
+        #: ``fit_duration(target, duration, start)``: the owner's duration [s] for a stroke
+        #: command given none (``duration`` the seed's, ``start`` ``(s, s', s'')``)
+        self.fit_duration: Callable[[float, float, tuple], float] | None = None
         self._checked_plans: weakref.WeakSet = weakref.WeakSet()
         self.reset(0.0, self.s_min)
 
@@ -89,6 +92,16 @@ class StrokeMotion:
         return float(self.q[0]), float(self.qd[0]), float(self.qdd[0])
 
     # ---- commands ------------------------------------------------------------------------------
+    def stroke_duration(self, target: float, start) -> float:
+        """The duration [s] of a stroke command to ``target`` [m] given none, from ``start``
+        (``(s, s', s'')``): the seed's opening time scaled by the distance (a full stroke in
+        ``T_opening``), at least 2 steps, or the owner's :attr:`fit_duration` of it."""
+        frac = abs(target - start[0]) / (self.s_max - self.s_min)
+        duration = max(self.p.T_opening * frac, 2 * self.dt)
+        if self.fit_duration is not None:
+            duration = self.fit_duration(target, duration, tuple(start))
+        return duration
+
     def command_stroke(self, target: float, duration: float | None = None, start=None):
         """Move smoothly to ``target`` [m] from ``start`` (``(s, s', s'')``, default the state);
         refuse a bad target (:meth:`drs_model.actuator.ActuatorSim.command_stroke`)."""
@@ -97,8 +110,7 @@ class StrokeMotion:
             raise InputError(f"stroke command must be finite, got {target!r}")
         s0, v0, a0 = self.start() if start is None else start
         if duration is None:
-            frac = abs(target - s0) / (self.s_max - self.s_min)
-            duration = max(self.p.T_opening * frac, 2 * self.dt)
+            duration = self.stroke_duration(target, (s0, v0, a0))
         limits = (self.s_min, self.s_max)
         seg = quintic_move(self.p, target, duration, s0, v0, a0, t0=self.t, limits=limits)
         # the trajectories' check of a segment (its samples in local time), on this one segment

@@ -389,6 +389,12 @@ def check_geometry(p: DRSParams) -> None:
             )
 
 
+#: The default ``force_limit`` [N]: the largest |piston force| the actuator accepts, as a force
+#: command and (``limit_moves``) as a move's inverse-dynamics peak; the URDF's piston effort
+#: limit. 30 kN: the seed's own opening (``T_opening``, 10 ms) peaks at 25.4 kN, which must fit
+#: with a margin (18 %); a full stroke in 2 ms needs 0.61 MN, in 9 ms 31 kN.
+FORCE_LIMIT_DEFAULT_N = 3.0e4
+
 #: The inertias that follow their body's mass and length unless set: name -> (mass, length,
 #: divisor), ``I = mass length^2 / divisor`` [kg m^2] (see :class:`DRSParams`).
 DERIVED_INERTIAS = {"Iz_link": ("m_link", "L2", 12.0), "Iz_wing": ("m_wing", "L_wing", 3.0)}

@@ -58,6 +58,37 @@ class TrajectoryMove:
 
 
 @dataclass(frozen=True)
+class PointNow:
+    """A trajectory whose only point is at 0 s: joint_trajectory_controller takes that
+    position at once (it samples the point at the trajectory's start: a jump the piston cannot
+    make). The piston moves there in the time a stroke command given none takes from the state
+    it is in when the command acts (:meth:`~drs_model.commanded.CommandedActuator.stroke_duration`:
+    the seed's opening time scaled by the distance, longer where the move needs more than
+    ``force_limit``), as a one-point trajectory (:meth:`now`), which its record holds."""
+
+    stroke: float
+
+    def plan(self, sim) -> None:
+        """Nothing to plan before the state is known."""
+        return None
+
+    def now(self, sim) -> TrajectoryMove:
+        """The one-point trajectory it is from the actuator's present state."""
+        return TrajectoryMove((sim.stroke_duration(self.stroke),), (self.stroke,), None)
+
+    def apply(self, sim, plan=None):
+        return self.now(sim).apply(sim)
+
+
+def trajectory_move(times, strokes, rates) -> TrajectoryMove | PointNow:
+    """The move of a validated trajectory's points (times [s from now]): a single point at 0 s
+    is a :class:`PointNow`, any other a :class:`TrajectoryMove` (the actuator checks its times)."""
+    if len(times) == 1 and times[0] == 0.0:
+        return PointNow(float(strokes[0]))
+    return TrajectoryMove(tuple(times), tuple(strokes), None if rates is None else tuple(rates))
+
+
+@dataclass(frozen=True)
 class StrokeMove:
     """Move to ``target`` [m] in ``duration`` [s] from the current state: the action's ``hold``
     (joint_trajectory_controller's: a planned stop where the piston is, recorded as ``hold``)."""
@@ -107,9 +138,10 @@ def prepare(sim, key: str, msg, piston_joint: str, now_ns: int | None = None):
     plan (:meth:`~drs_model.actuator.ActuatorSim.plan_trajectory`, bounded work, refusals
     raised here), its times from ``header.stamp`` when ``now_ns`` [ns] gives the clock it
     is read on (:func:`drs_ros.conversions.started_points`; None: from the step that applies
-    it). None for the other commands."""
+    it); a :class:`PointNow` for a single point at 0 s. None for the other commands."""
     if key == "trajectory_cmd":
-        return sim.plan_trajectory(*started_points(msg, piston_joint, now_ns))
+        move = trajectory_move(*started_points(msg, piston_joint, now_ns))
+        return move if isinstance(move, PointNow) else move.plan(sim)
     return None
 
 
@@ -132,6 +164,8 @@ def apply(sim, key: str, msg, piston_joint: str, prepared=None, planned_ns: int 
     if key == "trajectory_cmd":
         if prepared is None:
             prepared = prepare(sim, key, msg, piston_joint, planned_ns)
+        if isinstance(prepared, PointNow):
+            return prepared.apply(sim)
         return sim.command_trajectory(prepared)
     if key == SERVICE_KEY:
         return sim.command_drs(bool(msg.data))
@@ -159,6 +193,7 @@ __all__ = [
     "COMMAND_QOS_DEPTH",
     "COMMAND_TYPES",
     "SERVICE_KEY",
+    "PointNow",
     "StrokeMove",
     "TrajectoryMove",
     "apply",
@@ -167,4 +202,5 @@ __all__ = [
     "prepare",
     "reads_stamp",
     "reset_at_rest",
+    "trajectory_move",
 ]

@@ -69,7 +69,7 @@ def test_force_commands_and_end_stops(params):
     with pytest.raises(InputError, match=r"force command must be finite, got nan"):
         a.command_force(math.nan)
     with pytest.raises(
-        InputError, match=r"force command 50000\.0 N is outside \[-20000, 20000\] N"
+        InputError, match=r"force command 50000\.0 N is outside \[-30000, 30000\] N"
     ):
         a.command_force(5e4)
     # below the static holding force the flap stays on the closed stop
@@ -423,7 +423,8 @@ def test_a_planned_trajectory_is_the_same_to_the_bit(params, with_rates):
         rates[-1] = 0.0
     runs = []
     for planned in (False, True):
-        a = ActuatorSim(params, dt=1e-3)
+        # the first point 1 ms after a 3 m/s start: far beyond force_limit, a path all the same
+        a = ActuatorSim(params, dt=1e-3, limit_moves=False)
         a.command_drs(True)
         a.advance(4)  # moving at ~3 m/s
         plan = a.plan_trajectory(times, strokes, rates) if planned else None
@@ -468,7 +469,7 @@ def test_trajectory_refusals_and_motion_match_the_segment_by_segment_build(
         rates = rng.uniform(-3.0, 3.0, n)
         rates[-1] = 0.0
     s0 = s_min + frac * (s_max - s_min)
-    a = ActuatorSim(params, dt=1e-3)
+    a = ActuatorSim(params, dt=1e-3, limit_moves=False)  # the paths, whatever force they need
     a.reset(0.0, s0)
     refuses = _reference_refuses(params, times, strokes, rates, s0)
     if refuses:
@@ -522,7 +523,7 @@ def test_a_10000_point_trajectory_costs_the_loop_little(params):
     import time
 
     times, strokes = _wave(params, 10_000)
-    a = ActuatorSim(params, dt=1e-3)
+    a = ActuatorSim(params, dt=1e-3, limit_moves=False)  # its first point, 4 mm in 1 ms: 0.1 MN
 
     def best(fn):
         out = []

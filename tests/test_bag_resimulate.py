@@ -160,7 +160,9 @@ def write_bag_with_a_reset(bag_dir, params, force_method: str = "fused") -> dict
     node_params = {"physics_rate_hz": hz, "publish_rate_hz": hz, "force_limit": 2.0e4,
                    "integrator": "rk4", "force_method": force_method, "joint_names": names,
                    **{f"model.{k}": float(getattr(params, k)) for k in NUMERIC_FIELDS}}  # fmt: skip
-    sim = ActuatorSim(params, dt=1.0 / hz, force_method="fused")
+    # as that node ran: its force_limit, and every move carried out (no limit_moves then)
+    sim = ActuatorSim(params, dt=1.0 / hz, force_limit=2.0e4, force_method="fused",
+                      limit_moves=False)  # fmt: skip
     schedule = {1: ("stroke_cmd", 0.046), 30: ("force_cmd", -5000.0), 50: ("stroke_cmd", 0.02),
                 80: ("force_cmd", 600.0), 120: ("force_cmd", -20000.0)}  # fmt: skip
     reset_tick, written = 30, {"resets": [], "states": {}}
@@ -315,3 +317,19 @@ def test_a_window_of_a_few_steps_re_runs_as_the_whole_run(monkeypatch):
             for x, y in zip(a, b, strict=True):
                 np.testing.assert_array_equal(x, y)
     assert held_w <= 5 < held  # what the window holds at the end
+
+
+@pytest.mark.parametrize(("recorded", "taken"), [(None, False), (True, True), (False, False)])
+def test_the_re_run_takes_the_recorded_limit_moves(params, recorded, taken):
+    """The node's limit_moves as recorded; a bag from before the parameter ran every move."""
+    require_rclpy()
+    from drs_ros.bag.recorded_run import RecordedRun
+    from drs_ros.bag.rerun import resimulate as rerun
+    from drs_ros.names import DEFAULT_JOINT_NAMES
+
+    values = {"physics_rate_hz": 1000.0, "force_limit": 2.5e4, "integrator": "rk4",
+              "force_method": "fused", "joint_names": list(DEFAULT_JOINT_NAMES)}  # fmt: skip
+    if recorded is not None:
+        values["limit_moves"] = recorded
+    sim = rerun(RecordedRun(keep_records=True, node_parameters=values), params)["sim"]
+    assert (sim.limit_moves, sim.force_limit) == (taken, 2.5e4)

@@ -56,7 +56,8 @@ def test_kinematic_samples_are_the_stepped_strokes_into_a_new_array_or_in_place(
     """``KinematicRung.samples`` at the times of the next steps (a trajectory of three points
     in force) gives the strokes stepping gives, into a new array or into ``out``; a view into a
     larger array is written in place and nothing around it changes."""
-    rung, stepped = make_rung("kinematic", P, 1e-3), make_rung("kinematic", P, 1e-3)
+    # the steps' times, whatever force the points need (limit_moves off)
+    rung, stepped = (make_rung("kinematic", P, 1e-3, limit_moves=False) for _ in range(2))
     for r in (rung, stepped):
         r.command_trajectory([0.005, 0.012, 0.02], [0.03, 0.01, 0.025])
     times = rung.t + 1e-3 * np.arange(1, 31)
@@ -348,7 +349,8 @@ def test_advance_many_steps_equals_one_at_a_time(name):
     """The rungs whose state is the commanded path's evaluate only the last of ``advance(n)``'s
     steps: the state equals, to the bit, that of the same steps taken one at a time, through a
     move (its middle and its end) and a trajectory; a rung that integrates would differ."""
-    jumped, stepped = make_rung(name, P, 1e-3), make_rung(name, P, 1e-3)
+    # the steps' states, whatever force the trajectory needs (limit_moves off)
+    jumped, stepped = (make_rung(name, P, 1e-3, limit_moves=False) for _ in range(2))
     for rung in (jumped, stepped):
         rung.command_drs(True)
     for n in (3, 4, 7, 1, 20):  # ends mid-move, then past the move's end

@@ -165,7 +165,7 @@ def test_bad_commands_are_refused_and_the_node_keeps_running(harness, params):
     reasons = harness.node.effects.refusals
     assert any("stroke command must be finite, got nan" in r for r in reasons)
     assert any("target stroke 0.1 m is outside [s_min, s_max]" in r for r in reasons)
-    assert any("force command 1000000000.0 N is outside [-20000, 20000] N" in r for r in reasons)
+    assert any("force command 1000000000.0 N is outside [-30000, 30000] N" in r for r in reasons)
     assert harness.node.effects.superseded == 0
     values = harness.node.diagnostics_values()
     assert int(values["refused_commands"]) >= 6

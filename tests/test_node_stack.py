@@ -347,7 +347,7 @@ def test_joint_state_commands_move_and_push_the_piston(stack, params):
     [
         (joint_command(["drs_piston"], position=[0.5]), "outside [s_min, s_max]"),
         (joint_command(["drs_piston"], position=[math.nan]), "exactly one finite value"),
-        (joint_command(["drs_piston"], effort=[3.0e4]), "outside [-20000, 20000] N"),
+        (joint_command(["drs_piston"], effort=[4.0e4]), "outside [-30000, 30000] N"),
         (joint_command(["drs_piston", "drs_flap"], position=[0.02, 0.7]), "passive"),
         (joint_command(["drs_piston"], velocity=[0.1]), "no velocity"),
         (joint_command(["drs_flap"], position=[0.7]), "must name 'drs_piston'"),

@@ -20,6 +20,7 @@ import json
 import numpy as np
 
 from ..errors import InputError, ParameterError
+from ..params import FORCE_LIMIT_DEFAULT_N
 from ._common import (
     Output,
     add_common,
@@ -79,8 +80,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="of the recorded states the fit will read [s] (0.001)")  # fmt: skip
     p.add_argument("--noise", type=positive_number, default=1e-5,
                    help="stroke sensor noise [m] (1e-5)")
-    p.add_argument("--force-limit", type=positive_number, default=2.0e4,
-                   help="the node's force limit [N]; the supply's force applies too (2e4)")
+    p.add_argument("--force-limit", type=positive_number, default=FORCE_LIMIT_DEFAULT_N,
+                   help="the node's force limit [N]; the supply's force applies too "
+                   f"({FORCE_LIMIT_DEFAULT_N:g})")
     p.add_argument("--seed", type=int, default=0, help="of the optimiser's starts (0)")
     p.add_argument("--starts", type=positive_integer, default=12, help="optimiser starts (12)")
     p.add_argument("-o", "--output", metavar="GOAL.yaml", help="write the goal file (for "

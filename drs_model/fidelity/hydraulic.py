@@ -27,7 +27,7 @@ from ..commanded import CommandedActuator
 from ..compiled.scalar import compiled_or_plain
 from ..errors import InputError, StiffStepError, TooStiffError
 from ..inverse import FusedInverseDynamics
-from ..params import DRSParams
+from ..params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from . import hydraulic_kernels as hk
 from . import hydraulic_steps as hs
 from .base import RungState
@@ -59,8 +59,8 @@ class HydraulicRung(CommandedActuator):
     p : DRSParams
     dt : float
         Physics step [s].
-    force_limit : float
-        Largest accepted |force command| [N].
+    force_limit, limit_moves : float, bool
+        As :class:`~drs_model.commanded.CommandedActuator`'s.
     hydraulic : HydraulicParams, optional
         Default: the documented defaults.
     method : str
@@ -99,7 +99,7 @@ class HydraulicRung(CommandedActuator):
         self,
         p: DRSParams,
         dt: float = 1e-3,
-        force_limit: float = 2.0e4,
+        force_limit: float = FORCE_LIMIT_DEFAULT_N,
         integrator: str = "rk4",
         force_method: str = "fused",
         hydraulic: HydraulicParams | None = None,
@@ -110,6 +110,7 @@ class HydraulicRung(CommandedActuator):
         locate_events: bool = False,
         max_substeps: int | None = None,
         recheck: bool = True,
+        limit_moves: bool = True,
     ) -> None:
         if method not in STEP_METHODS:
             raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
@@ -132,7 +133,7 @@ class HydraulicRung(CommandedActuator):
         self._explicit = STEP_METHODS[method][1]
         self._c = model_constants(p)
         self._h = hydraulic_constants(self.hydraulic, p)
-        super().__init__(p, dt, force_limit, integrator, force_method)
+        super().__init__(p, dt, force_limit, integrator, force_method, limit_moves)
         self.reset()
 
     @property
@@ -364,13 +365,13 @@ class HydraulicRung(CommandedActuator):
     def command_stroke(self, target: float, duration: float | None = None):
         """A move of the servo's reference to ``target`` [m], planned from the reference (not
         from the rod, which lags it and may sit a micrometre inside a compliant stop)."""
-        return self.motion.command_stroke(target, duration, start=self._reference_start())
+        return self.motion.command_stroke(target, duration, start=self._command_start())
 
     def command_trajectory(self, times, strokes=None, rates=None):
         """A trajectory of the servo's reference, planned from the reference."""
-        return self.motion.command_trajectory(times, strokes, rates, start=self._reference_start())
+        return self.motion.command_trajectory(times, strokes, rates, start=self._command_start())
 
-    def _reference_start(self) -> tuple[float, float, float]:
+    def _command_start(self) -> tuple[float, float, float]:
         """``(s, s', s'')`` a new command starts from: the path in force, else the reference
         at rest inside the stroke range."""
         m = self.motion

@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from ..commanded import HYDRAULIC_FAULTS, CommandedActuator
+from ..params import FORCE_LIMIT_DEFAULT_N
 from .base import RungState, refuse
 
 
@@ -24,9 +25,12 @@ class KinematicRung(CommandedActuator):
     state_type = RungState
     path_is_state = True
 
-    def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
+    def __init__(
+        self, p, dt: float = 1e-3, force_limit: float = FORCE_LIMIT_DEFAULT_N, **methods
+    ) -> None:
         """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are
-        checked and unused: no forward dynamics here, one force formula)."""
+        checked and unused: no forward dynamics here, one force formula; ``limit_moves`` as
+        there)."""
         super().__init__(p, dt, force_limit, **methods)
         self.reset()
 

@@ -16,6 +16,7 @@ from scipy.optimize import brentq
 
 from ..commanded import CommandedActuator
 from ..inverse import FusedInverseDynamics
+from ..params import FORCE_LIMIT_DEFAULT_N
 from .base import RungState
 
 #: Strokes sampled to find where a force balances the statics (the static force is smooth).
@@ -29,9 +30,12 @@ class QuasiStaticRung(CommandedActuator):
     state_type = RungState
     path_is_state = True
 
-    def __init__(self, p, dt: float = 1e-3, force_limit: float = 2.0e4, **methods) -> None:
+    def __init__(
+        self, p, dt: float = 1e-3, force_limit: float = FORCE_LIMIT_DEFAULT_N, **methods
+    ) -> None:
         """As :class:`~drs_model.actuator.ActuatorSim` (``integrator`` and ``force_method`` are
-        checked and unused: no forward dynamics here, one force formula)."""
+        checked and unused: no forward dynamics here, one force formula; ``limit_moves`` as
+        there)."""
         super().__init__(p, dt, force_limit, **methods)
         self._static = FusedInverseDynamics.from_params(p)
         self.reset()

@@ -46,7 +46,7 @@ from ..fidelity.hydraulic import hydraulic_constants
 from ..fidelity.hydraulic_params import HydraulicParams
 from ..inverse import FusedInverseDynamics
 from ..kinematics import stroke_limits
-from ..params import DRSParams
+from ..params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from ..profile import QuinticPath, plan_trajectory
 from .friction import FRICTION_PARAMETERS, friction_columns
 from .output_error import RESOLUTION
@@ -77,7 +77,7 @@ class Limits:
 
 
 def default_limits(p: DRSParams, hp: HydraulicParams | None = None,
-                   force_limit: float = 2.0e4) -> Limits:  # fmt: skip
+                   force_limit: float = FORCE_LIMIT_DEFAULT_N) -> Limits:  # fmt: skip
     """0.5 mm from each stop; 80 % of the valve's no-load speed (its rated flow over the piston
     area); 80 % of the smaller of the node's force limit and the supply's force (supply less
     return pressure, times the piston area)."""

@@ -36,7 +36,8 @@ class RunResimulation:
 
     def __call__(self, values: dict[str, float]) -> dict[str, np.ndarray]:
         p, hp = with_values(values, self.model, self.hydraulic)
-        options = {"hydraulic": hp} if self.rung == "hydraulic" else None
+        # the moves the node carried out, whatever force the candidate's model needs for them
+        options = {"limit_moves": False, **({"hydraulic": hp} if self.rung == "hydraulic" else {})}
         result = resimulate(self.run, p, self.rung, rung_options=options,
                             replay_faults=False)
         n = self.steps.size

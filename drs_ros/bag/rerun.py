@@ -163,23 +163,26 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None, 
     """The re-run of the recorded commands on the recorded rung (``rigid`` for a bag recorded
     before the ``fidelity`` parameter), or on ``fidelity``, step by step as
     :func:`.deviations.compare` asks for its states (``state_at(step)``), and its notes:
-    memory holds the last :data:`STATE_WINDOW` steps (a :class:`Rerun`). ``rung_options`` go
-    to the rung (``hydraulic=`` its HydraulicParams); without ``faults`` the recorded fault
+    memory holds the last :data:`STATE_WINDOW` steps (a :class:`Rerun`). The rung takes the
+    recorded ``force_limit``, ``integrator``, ``force_method`` and ``limit_moves`` (off for a
+    bag without it); ``rung_options`` go to the rung over them (``hydraulic=`` its
+    HydraulicParams); without ``faults`` the recorded fault
     records are not applied (a fit treats the actuator's faults as what it estimates).
 
     Returns a dict: ``sim`` (the rung), ``states`` (step -> state kept), ``dt`` [s],
     ``notes``, and the :class:`Rerun`'s ``advance_to``, ``state_at`` and ``finish``."""
     np_ = run.node_parameters
     dt = 1.0 / float(np_["physics_rate_hz"])
-    sim = make_rung(
-        fidelity or run.rung(),
-        model,
-        dt,
-        force_limit=float(np_["force_limit"]),
-        integrator=str(np_["integrator"]),
-        force_method=str(np_["force_method"]),
+    options = {
+        "force_limit": float(np_["force_limit"]),
+        "integrator": str(np_["integrator"]),
+        "force_method": str(np_["force_method"]),
+        # the node's rule for moves beyond force_limit; a bag from before the rule carried out
+        # every move
+        "limit_moves": bool(np_.get("limit_moves", False)),
         **(rung_options or {}),
-    )
+    }
+    sim = make_rung(fidelity or run.rung(), model, dt, **options)
     rerun = Rerun(run, sim, dt, replay_faults)
     if np_["force_method"] == "virtual-work":
         rerun.notes.append(VIRTUAL_WORK_NOTE)

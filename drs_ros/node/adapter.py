@@ -8,8 +8,9 @@ Topics (``~`` is the node namespace, ``/drs/...`` by default):
 * ``~/stroke_cmd`` (in, std_msgs/Float64): move smoothly to this stroke [m];
 * ``~/force_cmd`` (in, std_msgs/Float64): apply this piston force [N] from now on;
 * ``~/trajectory_cmd`` (in, trajectory_msgs/JointTrajectory): follow the piston joint's points;
-* ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times); its calls
-  are published as introspection events on ``~/drs/_service_event``;
+* ``~/drs`` (service, std_srvs/SetBool): true opens, false closes (the seed's times, longer
+  where they need more than ``force_limit``); its calls are published as introspection events
+  on ``~/drs/_service_event``;
 * ``/joint_states`` (sensor_msgs/JointState): piston [m, m/s, N], link and flap [rad, rad/s];
 * ``~/piston_force``, ``~/flap_gap``, ``~/piston_acceleration`` (std_msgs/Float64): [N], [m],
   [m/s^2];
@@ -80,7 +81,9 @@ class DRSNode(Node):
     * :meth:`configure`: validate the parameters, build the actuator, create the publishers and
       open the recorders (a bad value or path raises, with the reason, leaving nothing behind);
     * :meth:`activate`: create the command subscriptions, the service and the timers;
-    * :meth:`deactivate`: remove them again: the actuator holds its state, nothing is published;
+    * :meth:`deactivate`: remove them again: goals end, a moving piston is held where it is
+      (joint_trajectory_controller's hold, once active again: no time passes inactive),
+      nothing is published;
     * :meth:`cleanup`: finish the recordings and drop the publishers and the actuator.
 
     Its parts: ``recordings`` and ``fault_parameters`` (built with the node), then, built by
@@ -128,7 +131,8 @@ class DRSNode(Node):
         self.joint_names = list(settings.joint_names)
         gp = self.get_parameter
         self.rungs = RungChoice(self.fidelity, (self.params, self.hydraulic), self.physics_dt, {
-            name: gp(name).value for name in ("force_limit", "integrator", "force_method")
+            name: gp(name).value
+            for name in ("force_limit", "integrator", "force_method", "limit_moves")
         }, gp("fidelity_tolerance").value, gp("fidelity_force_tolerance").value)  # fmt: skip
         self.sim = self.rungs.first()
         self.outputs = StatePublishers(
@@ -229,9 +233,11 @@ class DRSNode(Node):
         self.active = True
 
     def deactivate(self) -> None:
-        """Stop taking commands and publishing; the actuator holds its state (no time passes)."""
+        """Stop taking commands and publishing; a moving piston is held where it is (the
+        action's hold, which runs once active again: no time passes while inactive)."""
         self.active = False
-        self.stack.deactivate()  # goals aborted, no JointState commands
+        with self._lock:  # the hold is a command: never within a tick
+            self.stack.deactivate()  # goals aborted, the piston held, no JointState commands
         for timer in (self.timer, self.diag_timer, self.clock_watch):
             if timer is not None:
                 self.destroy_timer(timer)

@@ -25,7 +25,7 @@ from drs_model.fidelity import RUNGS
 from drs_model.fidelity.faults import FAULT_RANGES, FAULTS, describe_range
 from drs_model.fidelity.hydraulic_params import HYDRAULIC_FIELDS, HydraulicParams, field_range
 from drs_model.overrides import apply_overrides, file_overrides, split_overrides
-from drs_model.params import NUMERIC_FIELDS, DRSParams
+from drs_model.params import FORCE_LIMIT_DEFAULT_N, NUMERIC_FIELDS, DRSParams
 
 from ..errors import DRSRosError
 from ..model_parameters import MODEL_PARAMETERS, served_value
@@ -67,7 +67,11 @@ NODE_PARAMETERS = (
     ("fidelity_auto_discovery_s", 1.0,
      "auto: time [s] after activation the node waits for subscribers before it chooses",
      (0.0, 60.0)),
-    ("force_limit", 2.0e4, "largest accepted |force command| [N]", (1.0, 1.0e6)),
+    ("force_limit", FORCE_LIMIT_DEFAULT_N,
+     "largest accepted |piston force| [N]: of a force command and, with limit_moves, of a "
+     "move's inverse-dynamics peak", (1.0, 1.0e6)),
+    ("limit_moves", True, "refuse a trajectory or goal whose inverse-dynamics peak force "
+     "exceeds force_limit, naming both; a stroke or DRS command takes longer instead", None),
     ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
      (1, 100000)),
     ("frame_id", "drs_base", "frame of ~/markers: the seed's ground frame (x rearwards, y up)",

@@ -19,7 +19,7 @@ class RungChoice:
     construction, for ``params`` (a few seconds, once per parameters). ``params``: the
     DRSParams and HydraulicParams the node runs (the latter given to the hydraulic rung, and to
     the reference ``auto`` measures the others against). ``options``: the node's
-    ``force_limit``, ``integrator`` and ``force_method``; ``tolerance`` [m] and
+    ``force_limit``, ``integrator``, ``force_method`` and ``limit_moves``; ``tolerance`` [m] and
     ``force_tolerance`` [N]: the node's ``fidelity_tolerance`` and
     ``fidelity_force_tolerance``."""
 

@@ -38,7 +38,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from drs_model import kinematics
-from drs_model.params import DRSParams
+from drs_model.params import FORCE_LIMIT_DEFAULT_N, DRSParams
 
 from ..conversions import MARKER_COLORS
 from ..drawing import still_drawings
@@ -265,7 +265,7 @@ def robot_description(
     p: DRSParams,
     joint_names=("drs_piston", "drs_link", "drs_flap"),
     base_frame: str = "drs_base",
-    force_limit: float = 2.0e4,
+    force_limit: float = FORCE_LIMIT_DEFAULT_N,
     ros2_control: str = "",
     robot_name: str = "drs",
 ) -> str:

@@ -30,6 +30,9 @@ where a line says otherwise:
   which quantity, by how much.
 * **Feedback** at the publish rate: ``desired`` (the trajectory as the actuator plans it, from the
   goal's acceptance), ``actual`` (the actuator's state), ``error = desired - actual``.
+* **Deactivation** (JTC's ``on_deactivate``): the goals are aborted with ``INVALID_GOAL``,
+  "Current goal cancelled during deactivate transition.", and a piston still moving (or under
+  a force) is held where it is, as after a cancel.
 * **Preemption:** a new valid goal aborts the active one with ``INVALID_GOAL``, "Current goal
   preempted by new incoming action.", and takes over.
 * **Cancel and abort:** a cancel is accepted; the goal ends CANCELED (or ABORTED) and the piston
@@ -62,7 +65,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from drs_model.errors import DRSError, InputError
 
-from ..commands import StrokeMove, TrajectoryMove
+from ..commands import PointNow, StrokeMove, TrajectoryMove, trajectory_move
 from ..conversions import PastTrajectoryError, started_points, time_msg
 from ..errors import DRSRosError
 from ..names import ACCEPTED, REFUSED
@@ -129,8 +132,9 @@ def goal_tolerances(goal, defaults: Tolerances, joint: str) -> tuple[Tolerances,
     return Tolerances(**values), ""
 
 
-def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
-    """The piston's move of a FollowJointTrajectory goal, times from now [s]; raises
+def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove | PointNow:
+    """The piston's move of a FollowJointTrajectory goal, times from now [s] (a single point
+    at 0 s: :class:`~drs_ros.commands.PointNow`, timed when it starts); raises
     :class:`GoalError` with JTC's check and the code of the action's result."""
     traj = goal.trajectory
     names = list(traj.joint_names)
@@ -161,7 +165,7 @@ def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove:
         raise GoalError(Result.OLD_HEADER_TIMESTAMP, str(exc)) from exc
     except InputError as exc:
         raise GoalError(Result.INVALID_GOAL, str(exc)) from exc
-    return TrajectoryMove(tuple(times), tuple(strokes), None if rates is None else tuple(rates))
+    return trajectory_move(times, strokes, rates)
 
 
 def _point(s: float, v: float, a: float, since_ns: int) -> JointTrajectoryPoint:
@@ -337,6 +341,8 @@ class FollowJointTrajectoryServer:
         try:
             if isinstance(move, GoalError):
                 raise move
+            if isinstance(move, PointNow):  # timed from the state it starts from, and recorded so
+                move = move.now(self.sim)
             path = move.apply(self.sim, plan)  # the state-dependent first segments: checked now
         except GoalError as exc:
             code, why = exc.code, str(exc)
@@ -409,7 +415,11 @@ class FollowJointTrajectoryServer:
                        f"seconds: {outside}", now_ns)  # fmt: skip
 
     def deactivate(self, now_ns: int) -> None:
-        """JTC's on_deactivate: the active goal (and any not yet started) is aborted."""
+        """JTC's on_deactivate: the active goal (and any not yet started) is aborted and the
+        piston held where it is (JTC writes the position command back, so the joint stays): a
+        move still under way, whichever command made it, or a force, ends in the hold that
+        ends a cancelled goal; it runs once the node is active again (no time passes while
+        inactive)."""
         self.active_flag = False
         with self._lock:
             incoming, self._incoming = self._incoming, []
@@ -419,6 +429,9 @@ class FollowJointTrajectoryServer:
         for handle in ends:
             self._end(handle, "aborted", Result.INVALID_GOAL,
                       "Current goal cancelled during deactivate transition.", now_ns)  # fmt: skip
+        motion = self.sim.motion
+        if motion.mode == "force" or (motion.mode == "stroke" and motion.t < motion.path.t_end):
+            self._hold(now_ns)
 
     def destroy(self) -> None:
         self.server.destroy()
