@@ -515,29 +515,20 @@ def test_a_plan_is_checked_against_the_state_it_is_commanded_in(params):
         a.command_trajectory(plan, [0.02])
 
 
-def test_a_10000_point_trajectory_costs_the_loop_little(params):
-    """The largest trajectory: commanded from arrays in under 0.3 s (measured ~18 ms; the old
-    build took ~0.96 s in the call), a step near its end in under 0.1 ms (measured ~15 us; the
-    old linear scan of the segments ~1 ms), planned in under 0.3 s and commanded from its plan
-    in under 20 ms (measured ~0.3 ms). Loose bounds, best of 3, for a shared machine."""
-    import time
-
+def test_a_10000_point_trajectory_is_followed_to_its_end_from_arrays_and_from_its_plan(params):
+    """The largest trajectory, commanded from arrays and from its plan, ends on its last point
+    at rest, and both paths are the same step for step (what it costs the loop is measured by
+    benchmarks/trajectory_cost.py, not asserted here)."""
     times, strokes = _wave(params, 10_000)
     a = ActuatorSim(params, dt=1e-3, limit_moves=False)  # its first point, 4 mm in 1 ms: 0.1 MN
-
-    def best(fn):
-        out = []
-        for _ in range(3):
-            t0 = time.perf_counter()
-            fn()
-            out.append(time.perf_counter() - t0)
-        return min(out)
-
-    assert best(lambda: (a.reset(), a.command_trajectory(times, strokes))) < 0.3
-    a.advance(9_800)
-    assert best(lambda: a.advance(50)) / 50 < 1e-4
-    a.advance(200)
+    a.command_trajectory(times, strokes)
+    a.advance(10_000)
     assert a.state.q[0] == pytest.approx(strokes[-1], abs=1e-15) and a.state.qd[0] == 0.0
-    plan = a.plan_trajectory(times, strokes)
-    assert best(lambda: a.plan_trajectory(times, strokes)) < 0.3
-    assert best(lambda: (a.reset(), a.command_trajectory(plan))) < 0.02
+    b = ActuatorSim(params, dt=1e-3, limit_moves=False)
+    b.command_trajectory(b.plan_trajectory(times, strokes))
+    a.reset()
+    a.command_trajectory(times, strokes)
+    for _ in range(100):
+        a.advance(100)
+        b.advance(100)
+        assert b.state.q[0] == a.state.q[0] and b.state.qd[0] == a.state.qd[0]
