@@ -39,14 +39,33 @@ def test_the_installed_mcap_is_the_pinned_one():
 def test_the_writer_state_is_the_writers_own():
     """Each field is the object the writer itself updates and uses, with the options given."""
     out = io.BytesIO()
-    writer = started_writer(out, chunk_size=200, compression=CompressionType.NONE,
-                            enable_crcs=False, index_types=IndexType.CHUNK)  # fmt: skip
+    writer = started_writer(
+        out,
+        chunk_size=200,
+        compression=CompressionType.NONE,
+        enable_crcs=False,
+        index_types=IndexType.CHUNK,
+    )
     state = mcap_private.writer_state(writer)
     assert set(mcap_private.WRITER_PRIVATE_NAMES) == {
-        "statistics", "chunk_builder", "chunk_size", "maybe_finalize_chunk", "record_builder",
-        "flush", "stream", "chunk_indices", "compression", "enable_crcs", "index_types"}  # fmt: skip
+        "statistics",
+        "chunk_builder",
+        "chunk_size",
+        "maybe_finalize_chunk",
+        "record_builder",
+        "flush",
+        "stream",
+        "chunk_indices",
+        "compression",
+        "enable_crcs",
+        "index_types",
+    }
     assert (state.chunk_size, state.compression, state.enable_crcs, state.index_types) == (
-        200, CompressionType.NONE, False, IndexType.CHUNK)  # fmt: skip
+        200,
+        CompressionType.NONE,
+        False,
+        IndexType.CHUNK,
+    )
     chunk = state.chunk_builder
     writer.add_message(1, 5, b"abc", 5)
     assert state.statistics.message_count == 1
@@ -103,8 +122,11 @@ def test_a_writer_missing_a_private_name_is_an_error_naming_it(name):
     values = {n: getattr(writer, f"_Writer__{n}") for n in mcap_private.WRITER_PRIVATE_NAMES}
     values.pop(name)
     other = SimpleNamespace(**{f"_Writer__{n}": v for n, v in values.items()})
-    for make in (mcap_private.writer_state, MessageAppender,
-                 lambda w: handoff_for(w, threading.Lock(), lambda n: None)):  # fmt: skip
+    for make in (
+        mcap_private.writer_state,
+        MessageAppender,
+        lambda w: handoff_for(w, threading.Lock(), lambda n: None),
+    ):
         with pytest.raises(mcap_private.McapPrivateMissing, match=f"_Writer__{name}"):
             make(other)
 
@@ -113,8 +135,9 @@ def test_a_writer_missing_a_private_name_is_an_error_naming_it(name):
 def test_a_chunk_builder_missing_a_name_is_an_error_naming_it(name):
     writer = started_writer(io.BytesIO())
     chunk = writer._Writer__chunk_builder
-    fake = SimpleNamespace(**{n: getattr(chunk, n) for n in mcap_private.CHUNK_BUILDER_NAMES
-                              if n != name})  # fmt: skip
+    fake = SimpleNamespace(
+        **{n: getattr(chunk, n) for n in mcap_private.CHUNK_BUILDER_NAMES if n != name}
+    )
     writer._Writer__chunk_builder = fake
     with pytest.raises(mcap_private.McapPrivateMissing, match=f"ChunkBuilder has no '{name}'"):
         MessageAppender(writer)
