@@ -144,8 +144,17 @@ def test_a_chunk_builder_missing_a_name_is_an_error_naming_it(name):
 
 
 def test_a_record_builder_without_its_buffer_is_an_error_naming_it():
-    chunk = SimpleNamespace(record_writer=SimpleNamespace())
-    with pytest.raises(mcap_private.McapPrivateMissing, match="RecordBuilder has no '_buffer'"):
-        mcap_private.chunk_buffer(chunk)
+    writer = started_writer(io.BytesIO())
+    writer._Writer__chunk_builder.record_writer = SimpleNamespace()
+    for make in (
+        mcap_private.writer_state,
+        MessageAppender,
+        lambda w: handoff_for(w, threading.Lock(), lambda n: None),
+    ):
+        with pytest.raises(mcap_private.McapPrivateMissing, match="RecordBuilder has no '_buffer'"):
+            make(writer)
+
+
+def test_a_stream_reader_without_its_stream_is_an_error_naming_it():
     with pytest.raises(mcap_private.McapPrivateMissing, match="StreamReader has no '_stream'"):
         mcap_private.record_stream(SimpleNamespace())

@@ -11,7 +11,7 @@ and ``tests/test_mcap_private.py`` says which:
   :mod:`drs_ros.recording.mcap_append` adds message records to the open chunk without building a
   ``Message`` each; :mod:`drs_ros.recording.mcap_chunks` closes chunks in one thread and writes
   them from another. ``Writer`` offers neither.
-* :func:`chunk_buffer`: the ``BytesIO`` of the open chunk's ``RecordBuilder``, where a message
+* :data:`chunk_buffer`: the ``BytesIO`` of the open chunk's ``RecordBuilder``, where a message
   record goes.
 * :func:`record_stream`: the data stream of an ``mcap.stream_reader.StreamReader``, whose byte
   count is the file offset of the next record (what a reader of a damaged file reports).
@@ -19,13 +19,16 @@ and ``tests/test_mcap_private.py`` says which:
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
+
+from ..errors import DRSRosError
 
 #: The mcap-python version whose private state this module reads (pyproject.toml pins it).
 MCAP_VERSION = "1.6.0"
 
 
-class McapPrivateMissing(RuntimeError):
+class McapPrivateMissing(DRSRosError):
     """The installed mcap-python lacks a private name drs uses: an mcap other than
     :data:`MCAP_VERSION`."""
 
@@ -94,17 +97,15 @@ def writer_state(writer) -> WriterState:
     if chunk is not None:
         for name in CHUNK_BUILDER_NAMES:
             _private(chunk, name, "mcap._chunk_builder.ChunkBuilder")
-        chunk_buffer(chunk)
+        _private(chunk.record_writer, "_buffer", "mcap.data_stream.RecordBuilder")
     return WriterState(**values)
 
 
-def chunk_buffer(chunk_builder):
-    """The ``BytesIO`` the open chunk's records are written into (its ``RecordBuilder``'s; a new
-    one after each chunk closes: look it up again after a close)."""
-    try:
-        return chunk_builder.record_writer._buffer
-    except AttributeError:  # the error that names it (a message's path stays a plain lookup)
-        return _private(chunk_builder.record_writer, "_buffer", "mcap.data_stream.RecordBuilder")
+#: ``chunk_buffer(chunk_builder)``: the ``BytesIO`` the open chunk's records are written into
+#: (its ``RecordBuilder``'s; a new one after each chunk closes: looked up again for each
+#: message). A C getter: it runs once per message, ~50 ns less than a Python function, and
+#: :func:`writer_state` has already checked that the name exists.
+chunk_buffer = operator.attrgetter("record_writer._buffer")
 
 
 def record_stream(reader):
