@@ -21,8 +21,9 @@ import functools
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
+from ..recording.mcap_records import MAGIC, RECORD_HEAD, Opcode
 from .files import BagFiles, BagReadError, resolve
-from .mcap_file import MCAP_MAGIC, chunk_records, mcap_read_errors
+from .mcap_file import chunk_records, mcap_read_errors
 from .recorded import RecordedMessage
 
 
@@ -100,7 +101,7 @@ def _streamed_records(file: Path):
 
     try:
         with open(file, "rb") as f:
-            if f.read(8) != MCAP_MAGIC:
+            if f.read(len(MAGIC)) != MAGIC:
                 return
             f.seek(0)
             for record in StreamReader(f, validate_crcs=True, emit_chunks=True).records:
@@ -129,7 +130,7 @@ def _read_summary(file: Path, _size: int, _mtime_ns: int):
 
     try:
         with open(file, "rb") as f:
-            if f.read(8) != MCAP_MAGIC:
+            if f.read(len(MAGIC)) != MAGIC:
                 return None
             f.seek(0)
             summary = make_reader(f).get_summary()
@@ -171,20 +172,19 @@ def _chunk_messages(f, index, ids: list[int], first_only: set[str], by_id: dict)
     (of each channel in ``first_only`` its first only), read at the offsets its message indexes
     give: the other records are not parsed. A chunk without message indexes: every message."""
     from mcap.data_stream import ReadDataStream
-    from mcap.opcode import Opcode
     from mcap.records import Chunk, Message, MessageIndex
     from mcap.stream_reader import get_chunk_data_stream
 
-    f.seek(index.chunk_start_offset + 1 + 8)  # past the opcode and the length
+    f.seek(index.chunk_start_offset + RECORD_HEAD.size)  # past the opcode and the length
     chunk = Chunk.read(ReadDataStream(f))
     if not index.message_index_offsets:
         return [r for r in chunk_records(chunk) if isinstance(r, Message)]
     offsets = []
     for cid in ids:
         f.seek(index.message_index_offsets[cid])
-        if f.read(1)[0] != Opcode.MESSAGE_INDEX:
+        opcode, _length = RECORD_HEAD.unpack(f.read(RECORD_HEAD.size))
+        if opcode != Opcode.MESSAGE_INDEX:
             raise ValueError(f"no message index at offset {index.message_index_offsets[cid]}")
-        f.read(8)  # its length
         entries = sorted(offset for _t, offset in MessageIndex.read(ReadDataStream(f)).records)
         offsets += entries[:1] if by_id[cid].topic in first_only else entries
     stream, _length = get_chunk_data_stream(chunk, validate_crc=True)

@@ -11,14 +11,17 @@ import zlib
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+from ..recording.mcap_private import record_stream
+from ..recording.mcap_records import (
+    FOOTER,
+    FOOTER_CRC_COVERED,
+    MAGIC,
+    MESSAGE_FIELDS,
+    RECORD_HEAD,
+    Opcode,
+)
 from .files import BagReadError
 from .recorded import BagScan, ChannelInfo
-
-#: The MCAP magic (8 bytes at both ends of a file).
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-_FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
-_MESSAGE_HEAD_LEN = 2 + 4 + 8 + 8  # channel id, sequence, log time, publish time
-_U64 = struct.Struct("<Q")
 
 
 def scan_file(
@@ -68,7 +71,7 @@ class _McapFileScan:
         self.stats = None
         self.chunk_indexes: list = []
         self.footer = None
-        self.offset = 8
+        self.offset = len(MAGIC)
         self.where = "the header"
 
     def fail(self, msg: str) -> None:
@@ -90,12 +93,12 @@ class _McapFileScan:
         from mcap.stream_reader import StreamReader
 
         with open(self.path, "rb") as f:
-            head = f.read(8)
-            if head != MCAP_MAGIC:
+            head = f.read(len(MAGIC))
+            if head != MAGIC:
                 self.fail("not an MCAP file (no MCAP magic at the start)" if head else "empty file")
             f.seek(0)
             reader = StreamReader(f, validate_crcs=True, emit_chunks=True)
-            stream = reader._stream  # its byte count is the offset of the next record
+            stream = record_stream(reader)  # its byte count is the offset of the next record
             for record in reader.records:
                 end, offset = stream.count, self.offset
                 if isinstance(record, Chunk):
@@ -210,22 +213,21 @@ def chunk_records(chunk) -> Iterator[object]:
     (opcode, length, within the chunk) are checked before the first is made, so a damaged chunk
     gives none."""
     from mcap.data_stream import ReadDataStream
-    from mcap.opcode import Opcode
     from mcap.records import Channel, Message, Schema
     from mcap.stream_reader import get_chunk_data_stream
 
     stream, length = get_chunk_data_stream(chunk, validate_crc=True)
     # the whole of the BytesIO it wraps: CPython hands back the same bytes object, no copy
     data = stream.read(length)
-    at = 0
+    at, head, fixed = 0, RECORD_HEAD.size, MESSAGE_FIELDS.size
     while at < length:
-        if at + 9 > length:
+        if at + head > length:
             raise EOFError(f"a record header cut at byte {at} of a {length}-byte chunk")
-        opcode, record_len = data[at], _U64.unpack_from(data, at + 1)[0]
-        if opcode == Opcode.MESSAGE and record_len < _MESSAGE_HEAD_LEN:
+        opcode, record_len = RECORD_HEAD.unpack_from(data, at)
+        if opcode == Opcode.MESSAGE and record_len < fixed:
             raise EOFError(f"a message record of {record_len} bytes at byte {at} of its chunk "
-                           f"(its fixed fields alone take {_MESSAGE_HEAD_LEN})")  # fmt: skip
-        at += 9 + record_len
+                           f"(its fixed fields alone take {fixed})")  # fmt: skip
+        at += head + record_len
         if at > length:
             raise EOFError(f"a record of {record_len} bytes overruns its {length}-byte chunk")
     stream = ReadDataStream(io.BytesIO(data))
@@ -244,9 +246,9 @@ def _check_summary(f, footer, size: int, fail) -> None:
     """The footer's summary CRC: bytes from the summary start through summary_offset_start."""
     if footer.summary_start == 0 or footer.summary_crc == 0:
         return
-    footer_at = size - 8 - _FOOTER_LEN
+    footer_at = size - len(MAGIC) - FOOTER.size
     f.seek(footer.summary_start)
-    data = f.read(footer_at + 1 + 8 + 8 + 8 - footer.summary_start)
+    data = f.read(footer_at + FOOTER_CRC_COVERED - footer.summary_start)
     crc = zlib.crc32(data)
     if crc != footer.summary_crc:
         fail(f"summary CRC mismatch (footer says {footer.summary_crc:#010x}, the bytes from "
@@ -271,4 +273,4 @@ def _recovered_note(out: BagScan) -> None:
     )
 
 
-__all__ = ["MCAP_MAGIC", "chunk_records", "mcap_read_errors", "scan_file"]
+__all__ = ["chunk_records", "mcap_read_errors", "scan_file"]

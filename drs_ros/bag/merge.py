@@ -64,14 +64,16 @@ def _mcap_messages(file: Path) -> Iterator[RecordedMessage]:
     from mcap.records import Channel, Chunk, Message, Schema
     from mcap.stream_reader import StreamReader
 
+    from ..recording.mcap_private import record_stream
+    from ..recording.mcap_records import MAGIC
     from .mcap_file import chunk_records
 
     schemas: dict[int, Schema] = {}
     channels: dict[int, ChannelInfo] = {}
     with open(file, "rb") as f:
         reader = StreamReader(f, emit_chunks=True)
-        stream = reader._stream  # its byte count is the offset of the next record
-        at = 8
+        stream = record_stream(reader)  # its byte count is the offset of the next record
+        at = len(MAGIC)
         for record in reader.records:
             for rec in chunk_records(record) if isinstance(record, Chunk) else (record,):
                 if isinstance(rec, Schema):

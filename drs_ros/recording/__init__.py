@@ -6,6 +6,8 @@
 * ``qos``: QoS profiles as the ``offered_qos_profiles`` channel metadata holds them;
 * ``mcap_recorder``: the rosbag2-compatible MCAP recorder (``flush_schedule``: when it flushes;
   ``bag_metadata``: the topics and the ``metadata.yaml`` document it writes);
+* ``mcap_records``: the MCAP record layout, packed and unpacked by every writer and reader of
+  drs; ``mcap_private``: mcap-python's private names, in one place;
 * ``rerun_recorder``: the rerun recording of the mechanism and its time series (``rerun_sink``:
   its file sink watched while recording);
 * ``destinations``: a new bag directory, ``.rrd`` file or live rerun URL, checked before

@@ -8,25 +8,21 @@ record (its 31-byte head packed by one ``struct.pack``, then the data) into the 
 and updates the same index and statistics, so that the file holds exactly the bytes
 ``add_message`` would have written (tests/test_mcap_append.py compares them).
 
-It works on the writer's private state (mcap-python 1.x: ``Writer.__statistics``,
-``Writer.__chunk_builder``, ``Writer.__chunk_size``, the chunk's ``RecordBuilder`` buffer). A
-writer without that state (another version of the library, or no chunks) is given its own
-``add_message``.
+It works on the writer's private state (:mod:`drs_ros.recording.mcap_private`: the statistics,
+the open chunk, the chunk size, the chunk's ``RecordBuilder`` buffer); an mcap without it is an
+error that names what is missing. A writer without chunks is given its own ``add_message``. The
+record's layout is :mod:`drs_ros.recording.mcap_records`'.
 """
 
 from __future__ import annotations
 
-import struct
-
-from mcap.opcode import Opcode
 from mcap.records import MessageIndex
 
-#: A message record's head: opcode, record length [bytes], channel id, sequence, log time and
-#: publish time [ns] (the MCAP specification's Message record, little-endian, no padding).
-MESSAGE_HEAD = struct.Struct("<BQHIQQ")
-#: The record length counts the fields after the length: channel, sequence, two times.
-_FIELDS_BYTES = 2 + 4 + 8 + 8
-_MESSAGE = int(Opcode.MESSAGE)
+from .mcap_private import chunk_buffer, writer_state
+from .mcap_records import MESSAGE_FIELDS, MESSAGE_HEAD, MESSAGE_OPCODE
+
+#: The record length counts the fixed fields after the length, then the data [bytes].
+_FIELDS_BYTES = MESSAGE_FIELDS.size
 
 
 class MessageAppender:
@@ -38,16 +34,11 @@ class MessageAppender:
 
     def __init__(self, writer, on_full=None) -> None:
         self._writer = writer
-        try:
-            self._stats = writer._Writer__statistics
-            self._chunk = writer._Writer__chunk_builder  # None: the writer writes no chunks
-            self._chunk_size = writer._Writer__chunk_size
-            self._on_full = on_full or writer._Writer__maybe_finalize_chunk
-            if self._chunk is not None:
-                self._chunk.record_writer._buffer.tell()
-                self._chunk.message_indices.get(0)
-        except AttributeError:
-            self._chunk = None
+        state = writer_state(writer)
+        self._stats = state.statistics
+        self._chunk = state.chunk_builder  # None: the writer writes no chunks
+        self._chunk_size = state.chunk_size
+        self._on_full = on_full or state.maybe_finalize_chunk
         #: Whether records go straight into the chunk (False: through ``add_message``).
         self.direct = self._chunk is not None
         if not self.direct:
@@ -95,17 +86,17 @@ class MessageAppender:
             chunk.message_start_time = log_time
         if log_time > chunk.message_end_time:
             chunk.message_end_time = log_time
-        buffer = chunk.record_writer._buffer  # a new one after each chunk: looked up each time
+        buffer = chunk_buffer(chunk)  # a new one after each chunk: looked up each time
         index = chunk.message_indices.get(channel_id)
         if index is None:
             index = chunk.message_indices[channel_id] = MessageIndex(channel_id, [])
         index.records.append((log_time, buffer.tell()))
         chunk.num_messages += 1
-        buffer.write(MESSAGE_HEAD.pack(_MESSAGE, _FIELDS_BYTES + len(data), channel_id,
+        buffer.write(MESSAGE_HEAD.pack(MESSAGE_OPCODE, _FIELDS_BYTES + len(data), channel_id,
                                        sequence, log_time, publish_time))  # fmt: skip
         buffer.write(data)
         if buffer.tell() > self._chunk_size:
             self._on_full()
 
 
-__all__ = ["MESSAGE_HEAD", "MessageAppender"]
+__all__ = ["MessageAppender"]

@@ -14,46 +14,31 @@ writes it under the lock as ``Writer`` would have written it, where it would hav
 The file is byte for byte what ``Writer.flush`` gives at the same closings
 (tests/test_mcap_chunks.py).
 
-Like :mod:`drs_ros.recording.mcap_append`, it works on the writer's private state (mcap-python
-1.x: the chunk builder, the record builder and ``__flush``, the statistics and the chunk
-indices); :func:`handoff_for` gives None for a writer without it, and the recorder then closes
-its chunks through ``Writer.flush``.
+Like :mod:`drs_ros.recording.mcap_append`, it works on the writer's private state
+(:mod:`drs_ros.recording.mcap_private`: the chunk builder, the record builder and ``__flush``,
+the statistics and the chunk indices); an mcap without it is an error that names what is
+missing. :func:`handoff_for` gives None for a writer without chunks, and the recorder then
+closes its chunks through ``Writer.flush``. The records' layout is
+:mod:`drs_ros.recording.mcap_records`'.
 """
 
 from __future__ import annotations
 
 import collections
-import itertools
-import struct
 import threading
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from mcap.opcode import Opcode
 from mcap.records import ChunkIndex
 from mcap.writer import CompressionType, IndexType
 
-#: A record's head: opcode and length of what follows [bytes].
-_RECORD_HEAD = struct.Struct("<BQ")
-#: A chunk record's fields before its compression name: start and end time [ns], uncompressed
-#: size [bytes], uncompressed CRC-32.
-_CHUNK_FIELDS = struct.Struct("<QQQI")
-#: A message index record's head: opcode, record length, channel id, byte length of the entries.
-_INDEX_HEAD = struct.Struct("<BQHI")
-#: Message index entries packed per call. A call holds the GIL throughout (~10 us for this
-#: many): between calls the node's tick, which wakes every millisecond, can take it. One
-#: conversion of a chunk's ~2,500 entries held it ~2 ms, a missed deadline.
-ENTRIES_PER_PACK = 128
-
-
-def packed_entries(entries) -> bytes:
-    """``[(log time, offset), ...]`` as a message index's entries: uint64 pairs, little-endian."""
-    parts = []
-    for start in range(0, len(entries), ENTRIES_PER_PACK):
-        piece = entries[start : start + ENTRIES_PER_PACK]
-        parts.append(struct.pack(f"<{2 * len(piece)}Q", *itertools.chain.from_iterable(piece)))
-    return b"".join(parts)
+from .mcap_private import writer_state
+from .mcap_records import (
+    chunk_record,
+    message_index_record,
+    packed_entries,  # offered here too: the entries a chunk indexes
+)
 
 
 @dataclass(frozen=True)
@@ -89,15 +74,16 @@ class ChunkHandoff:
 
     def __init__(self, writer, lock: threading.Lock, written: Callable) -> None:
         self._writer, self._lock, self._written = writer, lock, written
-        self._builder = writer._Writer__chunk_builder
-        self._records = writer._Writer__record_builder
-        self._flush_records = writer._Writer__flush
-        self._stream = writer._Writer__stream
-        self._stats = writer._Writer__statistics
-        self._chunk_indices = writer._Writer__chunk_indices
-        self._compression = writer._Writer__compression
-        self._crcs = writer._Writer__enable_crcs
-        self._indexed = bool(writer._Writer__index_types & IndexType.MESSAGE)
+        state = writer_state(writer)
+        self._builder = state.chunk_builder
+        self._records = state.record_builder
+        self._flush_records = state.flush
+        self._stream = state.stream
+        self._stats = state.statistics
+        self._chunk_indices = state.chunk_indices
+        self._compression = state.compression
+        self._crcs = state.enable_crcs
+        self._indexed = bool(state.index_types & IndexType.MESSAGE)
         self._pending: collections.deque[ClosedChunk] = collections.deque()
         self._drain_lock = threading.Lock()  # one writer of chunks at a time: the file's order
 
@@ -149,20 +135,14 @@ class ChunkHandoff:
             compression, body = "zstd", zstandard.compress(data)
         else:
             compression, body = "", data
-        name = compression.encode()
-        fields = b"".join((
-            _CHUNK_FIELDS.pack(closed.message_start_time, closed.message_end_time, len(data),
-                               zlib.crc32(data) if self._crcs else 0),
-            struct.pack("<I", len(name)), name, struct.pack("<Q", len(body)),
-        ))  # fmt: skip
-        record = _RECORD_HEAD.pack(Opcode.CHUNK, len(fields) + len(body)) + fields + body
+        crc = zlib.crc32(data) if self._crcs else 0
+        record = chunk_record(
+            closed.message_start_time, closed.message_end_time, data, crc, compression, body
+        )
         index_records = []
         if self._indexed:
             for channel_id, entries in closed.indices.items():
-                packed = packed_entries(entries)
-                head = _INDEX_HEAD.pack(Opcode.MESSAGE_INDEX, 6 + len(packed), channel_id,
-                                        len(packed))  # fmt: skip
-                index_records.append((channel_id, head + packed))
+                index_records.append((channel_id, message_index_record(channel_id, entries)))
         return EncodedChunk(closed, compression, len(body), record, tuple(index_records))
 
     def _write(self, encoded: EncodedChunk) -> None:
@@ -192,14 +172,11 @@ class ChunkHandoff:
 
 def handoff_for(writer, lock: threading.Lock, written: Callable) -> ChunkHandoff | None:
     """A :class:`ChunkHandoff` of ``writer`` (a started ``mcap.writer.Writer`` with chunks), or
-    None when the writer writes no chunks or lacks the private state it uses."""
-    try:
-        if writer._Writer__chunk_builder is None:
-            return None
-        return ChunkHandoff(writer, lock, written)
-    except AttributeError:
+    None when the writer writes no chunks. An mcap without the private state it uses:
+    :class:`~drs_ros.recording.mcap_private.McapPrivateMissing`."""
+    if writer_state(writer).chunk_builder is None:
         return None
+    return ChunkHandoff(writer, lock, written)
 
 
-__all__ = ["ENTRIES_PER_PACK", "ChunkHandoff", "ClosedChunk", "EncodedChunk", "handoff_for",
-           "packed_entries"]
+__all__ = ["ChunkHandoff", "ClosedChunk", "EncodedChunk", "handoff_for", "packed_entries"]

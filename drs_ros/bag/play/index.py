@@ -10,8 +10,8 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...recording.mcap_records import MAGIC
 from ..files import BagReadError, resolve
-from ..mcap_file import MCAP_MAGIC
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ def _summary(f, path: Path):
     """The summary of an open MCAP file (a seeking reader validating chunk CRCs)."""
     from mcap.reader import make_reader
 
-    if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+    if f.read(len(MAGIC)) != MAGIC:
         raise BagReadError(f"{str(path)!r}: not an MCAP file (no MCAP magic at its start)")
     f.seek(0)
     try:
