@@ -16,11 +16,19 @@ jump). The approach to the event is taken in three shrinking steps (ending ``APP
 ``NUDGE`` of the sub-step before it, then at it), so that the last stage of the long one, which
 evaluates a little past its end, stays on the old side. What remains of a jump's error is of
 the order of ``NUDGE`` times the sub-step.
+
+:class:`ContactLocator` is the default rung's: it locates only the stops' contact (its start, a
+jump of the damping force, and its end, where the force falls to zero), with the same
+:class:`EventLocator` on those switching functions alone
+(:data:`~drs_model.fidelity.hydraulic_kernels.STOP_SWITCHES`), and evaluates them only where the
+rod is past a stop at either end of a sub-step (elsewhere no contact can begin or end in it).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from .hydraulic_kernels import STOP_SWITCHES
 
 #: Halvings of the sub-step in the search for an event (2^-52: the double's resolution).
 BISECTIONS = 52
@@ -30,6 +38,9 @@ APPROACH = 1e-3
 NUDGE = 1e-9
 #: At most this many events in one sub-step (beyond them the sub-step is taken whole).
 MAX_EVENTS = 16
+#: A flap angle [rad] this close to a stop's counts as past it (~1e-11 m of stroke: the stroke
+#: computed from the angle and the angle solved from the stop's stroke each round).
+CONTACT_SLACK = 1e-9
 
 
 def _crossed(g0, g1) -> bool:
@@ -46,22 +57,28 @@ class EventLocator:
     ``step_to(y, t, h, mode, f_ref, held)``: the method's step of ``h`` [s] from ``t``;
     ``switches(y, t, mode, f_ref, held)``: the switching functions at ``t``;
     ``rate(y, t, mode, f_ref, held)``: the right-hand side at ``t`` (a float64 array).
+
+    ``which`` (a slice) selects the switching functions watched (default: all).
     """
 
-    def __init__(self, step_to, switches, rate) -> None:
-        self._step_to, self._switches, self._rate = step_to, switches, rate
+    def __init__(self, step_to, switches, rate, which: slice = slice(None)) -> None:
+        self._step_to, self._rate = step_to, rate
+        self._switches = lambda y, t, *args: switches(y, t, *args)[which]
         #: Events located so far (a count, for tests and benchmarks).
         self.events = 0
 
-    def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
-        """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split at each event."""
+    def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float,
+                whole=None):  # fmt: skip
+        """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split at each event; ``whole``:
+        the method's step over the whole sub-step where the caller has taken it already."""
         args = (mode, f_ref, held)
         t, t_end = ta, ta + hsub
         for _ in range(MAX_EVENTS):
             rest = t_end - t
             if rest <= 0.0:
                 return y
-            y1 = self._step_to(y, t, rest, *args)
+            y1 = self._step_to(y, t, rest, *args) if whole is None else whole
+            whole = None
             g0 = self._switches(y, t, *args)
             if not _crossed(g0, self._switches(y1, t_end, *args)):
                 return y1
@@ -82,3 +99,29 @@ class EventLocator:
             t += NUDGE * hsub
             self.events += 1
         return self._step_to(y, t, t_end - t, *args) if t_end > t else y
+
+
+class ContactLocator:
+    """The stops' contact located within a sub-step, nothing else (module docstring): the
+    rung's ``step_to``, ``switches`` and ``rate`` as for :class:`EventLocator`, and the flap
+    angle ``psi3`` [rad] at the closed and the open stop (the stroke is monotonic in it).
+
+    A sub-step whose ends both have the rod inside the stops (by more than
+    :data:`CONTACT_SLACK`) is the method's step, unchanged; only one that starts or ends past a
+    stop evaluates the stops' switching functions and, where one changed sign, is split there.
+    """
+
+    def __init__(self, step_to, switches, rate, psi3_closed: float, psi3_open: float) -> None:
+        self._step_to = step_to
+        self.locator = EventLocator(step_to, switches, rate, STOP_SWITCHES)
+        low, high = sorted((psi3_closed, psi3_open))
+        self._inside = (low + CONTACT_SLACK, high - CONTACT_SLACK)
+
+    def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
+        """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split where a contact begins or
+        ends."""
+        y1 = self._step_to(y, ta, hsub, mode, f_ref, held)
+        low, high = self._inside
+        if low < y[0] < high and low < y1[0] < high:
+            return y1
+        return self.locator.advance(y, ta, hsub, mode, f_ref, held, y1)

@@ -58,8 +58,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .. import kernels
 from .. import kinematics as kin
+from ..inverse import FusedInverseDynamics
 
 # indices of the hydraulic constants vector (:func:`drs_model.fidelity.hydraulic.constants`)
 AREA_A, AREA_B, VOL_A0, VOL_B0, BETA = 0, 1, 2, 3, 4
@@ -401,6 +404,11 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
     )  # fmt: skip
 
 
+#: The stops' entries of :func:`switching_functions` (the rod at each stop, each stop's damping
+#: reaching zero): where a contact begins (its damping force jumps) and ends.
+STOP_SWITCHES = slice(11, 15)
+
+
 def hydraulic_constants(hp, p) -> tuple[float, ...]:
     """The constants vector of these kernels for ``hp`` (a
     :class:`~drs_model.fidelity.hydraulic_params.HydraulicParams`) and the stroke limits of ``p``
@@ -431,6 +439,21 @@ def hydraulic_constants(hp, p) -> tuple[float, ...]:
     out[AIR_INDEX] = hp.air_polytropic_index
     out[P_VAPOUR] = hp.vapour_pressure
     return tuple(float(x) for x in out)
+
+
+def equilibrium_state(s: float, p, hp, ps: float | None = None):
+    """``y = (psi3, 0, p_A, p_B, 0)`` at rest at stroke ``s`` [m] for the parameters ``p``
+    (:class:`~drs_model.params.DRSParams`) and ``hp`` (``HydraulicParams``), supply ``ps`` [Pa]
+    (default ``hp``'s): the chamber pressures give the static piston force
+    (:class:`~drs_model.inverse.FusedInverseDynamics` at rest) and sit symmetrically about the
+    valve's null, ``p_A + p_B = p_s + p_r``. Not a kernel: the rung's start and probes."""
+    ps = hp.supply_pressure if ps is None else ps
+    force = FusedInverseDynamics.from_params(p).force(s, 0.0, 0.0)
+    area_a, area_b = hp.piston_area, hp.rod_side_area
+    pa = (force + (ps + hp.return_pressure) * area_b) / (area_a + area_b)
+    pb = ps + hp.return_pressure - pa
+    psi3 = float(kin.solve_position(s, p)[..., 2])
+    return np.array([psi3, 0.0, pa, pb, 0.0])
 
 
 #: Every kernel of this module (registered with numba where a compiled kernel calls it).
