@@ -479,6 +479,10 @@ class HydraulicRung(CommandedActuator):
         return compiled_or_plain(hk.switching_functions, CALLEES)
 
     @cached_property
+    def _stop_fn(self):
+        return compiled_or_plain(hk.stop_switches, CALLEES)
+
+    @cached_property
     def _rhs_fn(self):
         return compiled_or_plain(state_rate, CALLEES)
 
@@ -489,4 +493,7 @@ class HydraulicRung(CommandedActuator):
     @cached_property
     def _contacts(self) -> ContactLocator:
         closed, open_ = (float(y[0]) for y in self._rest_at_stops)  # psi3 at each stop
-        return ContactLocator(self._step_to, self._switches, self._rate, closed, open_)
+        return ContactLocator(self._step_to, self._stop_switches, self._rate, closed, open_)
+
+    def _stop_switches(self, y, t: float, mode: float, f_ref: float, held: float):
+        return self._stop_fn(float(y[0]), float(y[1]), *self._consts)

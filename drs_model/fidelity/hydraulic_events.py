@@ -20,15 +20,14 @@ the order of ``NUDGE`` times the sub-step.
 :class:`ContactLocator` is the default rung's: it locates only the stops' contact (its start, a
 jump of the damping force, and its end, where the force falls to zero), with the same
 :class:`EventLocator` on those switching functions alone
-(:data:`~drs_model.fidelity.hydraulic_kernels.STOP_SWITCHES`), and evaluates them only where the
-rod is past a stop at either end of a sub-step (elsewhere no contact can begin or end in it).
+(:func:`~drs_model.fidelity.hydraulic_kernels.stop_switches`, functions of the rod's angle and
+rate only), and evaluates them only where the rod is past a stop at either end of a sub-step
+(elsewhere no contact can begin or end in it).
 """
 
 from __future__ import annotations
 
 import numpy as np
-
-from .hydraulic_kernels import STOP_SWITCHES
 
 #: Halvings of the sub-step in the search for an event (2^-52: the double's resolution).
 BISECTIONS = 52
@@ -58,12 +57,10 @@ class EventLocator:
     ``switches(y, t, mode, f_ref, held)``: the switching functions at ``t``;
     ``rate(y, t, mode, f_ref, held)``: the right-hand side at ``t`` (a float64 array).
 
-    ``which`` (a slice) selects the switching functions watched (default: all).
     """
 
-    def __init__(self, step_to, switches, rate, which: slice = slice(None)) -> None:
-        self._step_to, self._rate = step_to, rate
-        self._switches = lambda y, t, *args: switches(y, t, *args)[which]
+    def __init__(self, step_to, switches, rate) -> None:
+        self._step_to, self._switches, self._rate = step_to, switches, rate
         #: Events located so far (a count, for tests and benchmarks).
         self.events = 0
 
@@ -103,8 +100,10 @@ class EventLocator:
 
 class ContactLocator:
     """The stops' contact located within a sub-step, nothing else (module docstring): the
-    rung's ``step_to``, ``switches`` and ``rate`` as for :class:`EventLocator`, and the flap
-    angle ``psi3`` [rad] at the closed and the open stop (the stroke is monotonic in it).
+    rung's ``step_to`` and ``rate`` as for :class:`EventLocator`, ``switches`` its stops'
+    (:func:`~drs_model.fidelity.hydraulic_kernels.stop_switches`, called as for
+    :class:`EventLocator`), and the flap angle ``psi3`` [rad] at the closed and the open stop (the
+    stroke is monotonic in it).
 
     A sub-step whose ends both have the rod inside the stops (by more than
     :data:`CONTACT_SLACK`) is the method's step, unchanged; only one that starts or ends past a
@@ -113,7 +112,7 @@ class ContactLocator:
 
     def __init__(self, step_to, switches, rate, psi3_closed: float, psi3_open: float) -> None:
         self._step_to = step_to
-        self.locator = EventLocator(step_to, switches, rate, STOP_SWITCHES)
+        self.locator = EventLocator(step_to, switches, rate)
         low, high = sorted((psi3_closed, psi3_open))
         self._inside = (low + CONTACT_SLACK, high - CONTACT_SLACK)
 

@@ -378,8 +378,7 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
     chamber at its relief pressure and at the vapour pressure, the rod at each stop, and the
     stop's damping reaching zero (a stop never pulls). A function that cannot change sign at
     this state (the damping away from the stop) is 1."""
-    s, _, us, _ = kernels.psi3_configuration(psi3, c)
-    sd = us * psi3d
+    s, _, _, _ = kernels.psi3_configuration(psi3, c)
     p_a, p_b = chamber_pressure(pa, h), chamber_pressure(pb, h)
     f_hyd = pressure_force(p_a, p_b, h)
     if mode > 0.5:
@@ -393,9 +392,7 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
     if spool_held > 0.5:
         u = 0.0  # the command does not act on a stuck spool
     pr = h[P_RETURN]
-    below, above = h[S_MIN] - s, s - h[S_MAX]
-    damp_closed = h[K_STOP] * below - h[C_STOP] * sd if below > 0.0 else 1.0
-    damp_open = h[K_STOP] * above + h[C_STOP] * sd if above > 0.0 else 1.0
+    below, above, damp_closed, damp_open = stop_switches(psi3, psi3d, c, h)
     return (
         x, u - 1.0, u + 1.0,
         ps - p_a, p_a - pr, ps - p_b, p_b - pr,
@@ -404,9 +401,17 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
     )  # fmt: skip
 
 
-#: The stops' entries of :func:`switching_functions` (the rod at each stop, each stop's damping
-#: reaching zero): where a contact begins (its damping force jumps) and ends.
-STOP_SWITCHES = slice(11, 15)
+def stop_switches(psi3, psi3d, c, h):
+    """Where a stop's contact begins (its damping force jumps) or ends, as the last four of
+    :func:`switching_functions`: the rod past the closed and the open stop [m] (positive past
+    it), and each stop's spring-damper force before its clip at zero [N] (a stop never pulls;
+    1 away from the stop)."""
+    s, _, us, _ = kernels.psi3_configuration(psi3, c)
+    sd = us * psi3d
+    below, above = h[S_MIN] - s, s - h[S_MAX]
+    damp_closed = h[K_STOP] * below - h[C_STOP] * sd if below > 0.0 else 1.0
+    damp_open = h[K_STOP] * above + h[C_STOP] * sd if above > 0.0 else 1.0
+    return below, above, damp_closed, damp_open
 
 
 def hydraulic_constants(hp, p) -> tuple[float, ...]:
@@ -478,4 +483,5 @@ KERNELS = (
     air_stiffening_rate,
     power_balance,
     switching_functions,
+    stop_switches,
 )
