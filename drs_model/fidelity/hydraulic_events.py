@@ -111,16 +111,25 @@ class ContactLocator:
     """
 
     def __init__(self, step_to, switches, rate, psi3_closed: float, psi3_open: float) -> None:
-        self._step_to = step_to
+        self._step_to, self._switches = step_to, switches
         self.locator = EventLocator(step_to, switches, rate)
         low, high = sorted((psi3_closed, psi3_open))
         self._inside = (low + CONTACT_SLACK, high - CONTACT_SLACK)
+        self._last = (None, None)  # the last sub-step's end and its switching functions
 
     def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
         """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split where a contact begins or
         ends."""
-        y1 = self._step_to(y, ta, hsub, mode, f_ref, held)
+        args = (mode, f_ref, held)
+        y1 = self._step_to(y, ta, hsub, *args)
         low, high = self._inside
         if low < y[0] < high and low < y1[0] < high:
             return y1
-        return self.locator.advance(y, ta, hsub, mode, f_ref, held, y1)
+        # on a stop for many sub-steps: each start's functions are the previous end's
+        g0 = self._last[1] if self._last[0] is y else self._switches(y, ta, *args)
+        g1 = self._switches(y1, ta + hsub, *args)
+        if _crossed(g0, g1):
+            y1 = self.locator.advance(y, ta, hsub, *args, y1)
+            g1 = self._switches(y1, ta + hsub, *args)
+        self._last = (y1, g1)
+        return y1
