@@ -143,8 +143,7 @@ def test_only_the_supply_loss_cavitates_among_the_standard_scenes():
     """The chart's reference (events located, a sixteenth of the stable sub-step) of every
     standard scene but the lap (whose moves are the 100 ms scene's): the lowest pressures are at
     or above the vapour pressure, and only the supply loss (and its return) reaches it, on the
-    rod side, for more than 100 ms (the default rung also touches it for a step at the relief
-    scene's impact on the open stop: a crossing it does not resolve)."""
+    rod side, for more than 100 ms."""
     for scene in SCENES.values():
         if scene.repeat > 1:
             continue
@@ -221,9 +220,9 @@ def test_without_air_the_charts_figures_are_reproduced():
         r = new[(o["scene"], o["run"])]
         assert same(r.opening, o["opening_time"], 1e-12)
         assert same(r.closing, o["closing_time"], 1e-12)
-        # force: the stop's contact, a jump of its damping force, is crossed inside a sub-step,
-        # and where it falls in it moves the force step's impact by 2-30 N (RK4 at 1.0, 0.9,
-        # 0.8 of the stable sub-step: 5, 30, 2 N); the reference locates it
+        # force: the previous chart's rung crossed the stop's contact, a jump of its damping
+        # force, inside a sub-step (29 N off at the force step's impact); the rung locates it
+        # now (3 N), the reference did then and does
         for q, tol in (("gap", 3e-6), ("stroke", 3e-6), ("force", 30.0), ("opening", 1e-12),
                        ("closing", 1e-12)):  # fmt: skip
             assert same(r.errors[q], o["errors"][q], tol), (o["scene"], o["run"], q)
