@@ -279,18 +279,20 @@ def test_a_fault_too_stiff_for_the_step_is_refused_with_the_rung_s_reason():
 
 
 def test_no_step_takes_more_sub_steps_than_the_cap():
-    """Every step of a run with the stiffest faults in range counts its sub-steps (the compiled
-    step calls); none exceeds ``max_substeps``; a state too stiff for the cap (oil 1e10 times
+    """Every step of a run with the stiffest faults in range counts its sub-steps (the rung's
+    sub-step calls; where a stop's contact is located within one, the bisection's trial steps
+    are not sub-steps: at most ``hydraulic_events.MAX_EVENTS`` per sub-step, each a bounded
+    search); none exceeds ``max_substeps``; a state too stiff for the cap (oil 1e10 times
     stiffer) raises TooStiffError before any sub-step, leaving the state as it was."""
     sim = make_rung("hydraulic", P, 1e-3)
     calls = [0]
-    step = sim._step_fn
+    substep = sim._substep
 
     def counted(*args):
         calls[0] += 1
-        return step(*args)
+        return substep(*args)
 
-    sim.__dict__["_step_fn"] = counted
+    sim._substep = counted
     run = RunFaults(sim)
     sim.command_drs(True)
     worst = 0
@@ -317,13 +319,13 @@ def test_the_sub_step_cap_counts_whole_sub_steps():
     compares counts, not lengths; 0.9 us sub-steps are refused (11 needed)."""
     sim = make_rung("hydraulic", P, 1e-5, substep=1e-6)
     calls = [0]
-    step = sim._step_fn
+    substep = sim._substep
 
     def counted(*args):
         calls[0] += 1
-        return step(*args)
+        return substep(*args)
 
-    sim.__dict__["_step_fn"] = counted
+    sim._substep = counted
     sim.command_drs(True)
     lengths = []
     for _ in range(8000):

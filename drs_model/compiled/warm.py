@@ -63,7 +63,8 @@ def _one_sample_and_arrays(p: DRSParams) -> None:
     from ..fidelity.hydraulic import HydraulicRung
     from ..fidelity.hydraulic_steps import STEP_METHODS
 
-    for method in STEP_METHODS:  # the hydraulic rung's compiled steps
+    for method in STEP_METHODS:  # the hydraulic rung's compiled steps (at rest on the closed
+        # stop: rk4 compiles the stops' switching kernel of the contact's location too)
         HydraulicRung(p, 1e-3, method=method).step()
     HydraulicRung(p, 1e-3, locate_events=True).step()  # the chart reference's switching kernel
 

@@ -26,29 +26,15 @@ from ..bodies import model_constants
 from ..commanded import CommandedActuator
 from ..compiled.scalar import compiled_or_plain
 from ..errors import InputError, StiffStepError, TooStiffError
-from ..inverse import FusedInverseDynamics
 from ..params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from . import hydraulic_kernels as hk
 from . import hydraulic_steps as hs
 from .base import RungState
-from .hydraulic_events import EventLocator
-from .hydraulic_kernels import hydraulic_constants
+from .hydraulic_events import ContactLocator, EventLocator
+from .hydraulic_kernels import equilibrium_state, hydraulic_constants
 from .hydraulic_params import HydraulicParams
 from .hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, state_rate
 from .supply import SupplyPressure
-
-
-def equilibrium_state(s: float, p: DRSParams, hp: HydraulicParams, ps: float | None = None):
-    """``y = (psi3, 0, p_A, p_B, 0)`` at rest at stroke ``s`` [m]: the chamber pressures give the
-    static piston force (:class:`~drs_model.inverse.FusedInverseDynamics` at rest) and sit
-    symmetrically about the valve's null, ``p_A + p_B = p_s + p_r``."""
-    ps = hp.supply_pressure if ps is None else ps
-    force = FusedInverseDynamics.from_params(p).force(s, 0.0, 0.0)
-    area_a, area_b = hp.piston_area, hp.rod_side_area
-    pa = (force + (ps + hp.return_pressure) * area_b) / (area_a + area_b)
-    pb = ps + hp.return_pressure - pa
-    psi3 = float(kin.solve_position(s, p)[..., 2])
-    return np.array([psi3, 0.0, pa, pb, 0.0])
 
 
 class HydraulicRung(CommandedActuator):
@@ -66,8 +52,7 @@ class HydraulicRung(CommandedActuator):
     method : str
         A key of :data:`~drs_model.fidelity.hydraulic_steps.STEP_METHODS`; ``"rk4"`` (default)
         at its largest stable sub-step is both the most accurate and the cheapest on the
-        standard scenes (docs/fidelity.md gives each method's error against the tight
-        reference and its cost per step; ``ros2`` needs 20 us sub-steps for the same accuracy).
+        standard scenes (docs/fidelity.md; ``ros2`` needs 20 us sub-steps for the same accuracy).
     substep : float, optional
         Longest sub-step [s]. Default: for ``"rk4"`` ``stability_fraction`` times the largest
         stable one at each step's start (``RK4_LIMIT / stiffest_rate``); for the implicit
@@ -78,11 +63,12 @@ class HydraulicRung(CommandedActuator):
     guard : bool
         Refuse an RK4 sub-step above the stability limit (default). Off only for
         ``benchmarks/hydraulic_stability.py``, which measures where RK4 really blows up.
-    locate_events : bool
+    locate_events : bool or "contacts"
         Split the sub-steps where the right-hand side is not smooth (a stop's contact, the
         vapour pressure, the relief, the spool's null...: :class:`~.hydraulic_events.EventLocator`),
-        so that the method keeps its order across them: the chart's reference. Off by default
-        (the node's rung: cheaper, and within its tolerance).
+        so that the method keeps its order across them: ``True``, the chart's reference.
+        ``"contacts"`` (default, the node's rung): only where a stop's contact begins or ends (its
+        damping force jumps there: :class:`~.hydraulic_events.ContactLocator`). ``False``: none.
     max_substeps : int, optional
         Most sub-steps of one physics step; a step that needs more raises
         :class:`~drs_model.errors.TooStiffError` before it is taken (the state is kept). Default:
@@ -107,7 +93,7 @@ class HydraulicRung(CommandedActuator):
         substep: float | None = None,
         stability_fraction: float = 1.0,
         guard: bool = True,
-        locate_events: bool = False,
+        locate_events: bool | str = "contacts",
         max_substeps: int | None = None,
         recheck: bool = True,
         limit_moves: bool = True,
@@ -125,7 +111,11 @@ class HydraulicRung(CommandedActuator):
         self._max_substeps = max_substeps
         self.stability_fraction = float(stability_fraction)
         self.guard = bool(guard)
-        self.locate_events = bool(locate_events)
+        if locate_events not in (True, False, "contacts"):
+            raise InputError(
+                f"locate_events must be True, False or 'contacts', got {locate_events!r}"
+            )
+        self.locate_events = "contacts" if locate_events == "contacts" else bool(locate_events)
         self.recheck = bool(recheck)
         self.hydraulic = HydraulicParams() if hydraulic is None else hydraulic
         self.method = method
@@ -455,10 +445,12 @@ class HydraulicRung(CommandedActuator):
         )
 
     def _substep(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
-        """One sub-step of ``hsub`` [s] from ``ta`` [s]; with ``locate_events``, split where the
+        """One sub-step of ``hsub`` [s] from ``ta`` [s], split as ``locate_events`` says where the
         right-hand side is not smooth (:func:`~.hydraulic_kernels.switching_functions`)."""
-        if self.locate_events:
+        if self.locate_events is True:
             return self._events.advance(y, ta, hsub, mode, f_ref, held)
+        if self.locate_events == "contacts":
+            return self._contacts.advance(y, ta, hsub, mode, f_ref, held)
         return self._step_to(y, ta, hsub, mode, f_ref, held)
 
     def _step_to(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
@@ -488,9 +480,21 @@ class HydraulicRung(CommandedActuator):
         return compiled_or_plain(hk.switching_functions, CALLEES)
 
     @cached_property
+    def _stop_fn(self):
+        return compiled_or_plain(hk.stop_switches, CALLEES)
+
+    @cached_property
     def _rhs_fn(self):
         return compiled_or_plain(state_rate, CALLEES)
 
     @cached_property
     def _events(self) -> EventLocator:
         return EventLocator(self._step_to, self._switches, self._rate)
+
+    @cached_property
+    def _contacts(self) -> ContactLocator:
+        closed, open_ = (float(y[0]) for y in self._rest_at_stops)  # psi3 at each stop
+        return ContactLocator(self._step_to, self._stop_switches, self._rate, closed, open_)
+
+    def _stop_switches(self, y, t: float, mode: float, f_ref: float, held: float):
+        return self._stop_fn(float(y[0]), float(y[1]), *self._consts)

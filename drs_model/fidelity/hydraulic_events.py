@@ -16,6 +16,13 @@ jump). The approach to the event is taken in three shrinking steps (ending ``APP
 ``NUDGE`` of the sub-step before it, then at it), so that the last stage of the long one, which
 evaluates a little past its end, stays on the old side. What remains of a jump's error is of
 the order of ``NUDGE`` times the sub-step.
+
+:class:`ContactLocator` is the default rung's: it locates only the stops' contact (its start, a
+jump of the damping force, and its end, where the force falls to zero), with the same
+:class:`EventLocator` on those switching functions alone
+(:func:`~drs_model.fidelity.hydraulic_kernels.stop_switches`, functions of the rod's angle and
+rate only), and evaluates them only where the rod is past a stop at either end of a sub-step
+(elsewhere no contact can begin or end in it).
 """
 
 from __future__ import annotations
@@ -30,6 +37,9 @@ APPROACH = 1e-3
 NUDGE = 1e-9
 #: At most this many events in one sub-step (beyond them the sub-step is taken whole).
 MAX_EVENTS = 16
+#: A flap angle [rad] this close to a stop's counts as past it (~1e-11 m of stroke: the stroke
+#: computed from the angle and the angle solved from the stop's stroke each round).
+CONTACT_SLACK = 1e-9
 
 
 def _crossed(g0, g1) -> bool:
@@ -46,6 +56,7 @@ class EventLocator:
     ``step_to(y, t, h, mode, f_ref, held)``: the method's step of ``h`` [s] from ``t``;
     ``switches(y, t, mode, f_ref, held)``: the switching functions at ``t``;
     ``rate(y, t, mode, f_ref, held)``: the right-hand side at ``t`` (a float64 array).
+
     """
 
     def __init__(self, step_to, switches, rate) -> None:
@@ -53,15 +64,18 @@ class EventLocator:
         #: Events located so far (a count, for tests and benchmarks).
         self.events = 0
 
-    def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
-        """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split at each event."""
+    def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float,
+                whole=None):  # fmt: skip
+        """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split at each event; ``whole``:
+        the method's step over the whole sub-step where the caller has taken it already."""
         args = (mode, f_ref, held)
         t, t_end = ta, ta + hsub
         for _ in range(MAX_EVENTS):
             rest = t_end - t
             if rest <= 0.0:
                 return y
-            y1 = self._step_to(y, t, rest, *args)
+            y1 = self._step_to(y, t, rest, *args) if whole is None else whole
+            whole = None
             g0 = self._switches(y, t, *args)
             if not _crossed(g0, self._switches(y1, t_end, *args)):
                 return y1
@@ -82,3 +96,40 @@ class EventLocator:
             t += NUDGE * hsub
             self.events += 1
         return self._step_to(y, t, t_end - t, *args) if t_end > t else y
+
+
+class ContactLocator:
+    """The stops' contact located within a sub-step, nothing else (module docstring): the
+    rung's ``step_to`` and ``rate`` as for :class:`EventLocator`, ``switches`` its stops'
+    (:func:`~drs_model.fidelity.hydraulic_kernels.stop_switches`, called as for
+    :class:`EventLocator`), and the flap angle ``psi3`` [rad] at the closed and the open stop (the
+    stroke is monotonic in it).
+
+    A sub-step whose ends both have the rod inside the stops (by more than
+    :data:`CONTACT_SLACK`) is the method's step, unchanged; only one that starts or ends past a
+    stop evaluates the stops' switching functions and, where one changed sign, is split there.
+    """
+
+    def __init__(self, step_to, switches, rate, psi3_closed: float, psi3_open: float) -> None:
+        self._step_to, self._switches = step_to, switches
+        self.locator = EventLocator(step_to, switches, rate)
+        low, high = sorted((psi3_closed, psi3_open))
+        self._inside = (low + CONTACT_SLACK, high - CONTACT_SLACK)
+        self._last = (None, None)  # the last sub-step's end and its switching functions
+
+    def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float):
+        """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split where a contact begins or
+        ends."""
+        args = (mode, f_ref, held)
+        y1 = self._step_to(y, ta, hsub, *args)
+        low, high = self._inside
+        if low < y[0] < high and low < y1[0] < high:
+            return y1
+        # on a stop for many sub-steps: each start's functions are the previous end's
+        g0 = self._last[1] if self._last[0] is y else self._switches(y, ta, *args)
+        g1 = self._switches(y1, ta + hsub, *args)
+        if _crossed(g0, g1):
+            y1 = self.locator.advance(y, ta, hsub, *args, y1)
+            g1 = self._switches(y1, ta + hsub, *args)
+        self._last = (y1, g1)
+        return y1

@@ -58,8 +58,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .. import kernels
 from .. import kinematics as kin
+from ..inverse import FusedInverseDynamics
 
 # indices of the hydraulic constants vector (:func:`drs_model.fidelity.hydraulic.constants`)
 AREA_A, AREA_B, VOL_A0, VOL_B0, BETA = 0, 1, 2, 3, 4
@@ -375,8 +378,7 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
     chamber at its relief pressure and at the vapour pressure, the rod at each stop, and the
     stop's damping reaching zero (a stop never pulls). A function that cannot change sign at
     this state (the damping away from the stop) is 1."""
-    s, _, us, _ = kernels.psi3_configuration(psi3, c)
-    sd = us * psi3d
+    s, _, _, _ = kernels.psi3_configuration(psi3, c)
     p_a, p_b = chamber_pressure(pa, h), chamber_pressure(pb, h)
     f_hyd = pressure_force(p_a, p_b, h)
     if mode > 0.5:
@@ -390,15 +392,26 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
     if spool_held > 0.5:
         u = 0.0  # the command does not act on a stuck spool
     pr = h[P_RETURN]
-    below, above = h[S_MIN] - s, s - h[S_MAX]
-    damp_closed = h[K_STOP] * below - h[C_STOP] * sd if below > 0.0 else 1.0
-    damp_open = h[K_STOP] * above + h[C_STOP] * sd if above > 0.0 else 1.0
+    below, above, damp_closed, damp_open = stop_switches(psi3, psi3d, c, h)
     return (
         x, u - 1.0, u + 1.0,
         ps - p_a, p_a - pr, ps - p_b, p_b - pr,
         p_a - h[P_RELIEF], p_b - h[P_RELIEF], pa - h[P_VAPOUR], pb - h[P_VAPOUR],
         below, above, damp_closed, damp_open,
     )  # fmt: skip
+
+
+def stop_switches(psi3, psi3d, c, h):
+    """Where a stop's contact begins (its damping force jumps) or ends, as the last four of
+    :func:`switching_functions`: the rod past the closed and the open stop [m] (positive past
+    it), and each stop's spring-damper force before its clip at zero [N] (a stop never pulls;
+    1 away from the stop)."""
+    s, _, us, _ = kernels.psi3_configuration(psi3, c)
+    sd = us * psi3d
+    below, above = h[S_MIN] - s, s - h[S_MAX]
+    damp_closed = h[K_STOP] * below - h[C_STOP] * sd if below > 0.0 else 1.0
+    damp_open = h[K_STOP] * above + h[C_STOP] * sd if above > 0.0 else 1.0
+    return below, above, damp_closed, damp_open
 
 
 def hydraulic_constants(hp, p) -> tuple[float, ...]:
@@ -433,6 +446,21 @@ def hydraulic_constants(hp, p) -> tuple[float, ...]:
     return tuple(float(x) for x in out)
 
 
+def equilibrium_state(s: float, p, hp, ps: float | None = None):
+    """``y = (psi3, 0, p_A, p_B, 0)`` at rest at stroke ``s`` [m] for the parameters ``p``
+    (:class:`~drs_model.params.DRSParams`) and ``hp`` (``HydraulicParams``), supply ``ps`` [Pa]
+    (default ``hp``'s): the chamber pressures give the static piston force
+    (:class:`~drs_model.inverse.FusedInverseDynamics` at rest) and sit symmetrically about the
+    valve's null, ``p_A + p_B = p_s + p_r``. Not a kernel: the rung's start and probes."""
+    ps = hp.supply_pressure if ps is None else ps
+    force = FusedInverseDynamics.from_params(p).force(s, 0.0, 0.0)
+    area_a, area_b = hp.piston_area, hp.rod_side_area
+    pa = (force + (ps + hp.return_pressure) * area_b) / (area_a + area_b)
+    pb = ps + hp.return_pressure - pa
+    psi3 = float(kin.solve_position(s, p)[..., 2])
+    return np.array([psi3, 0.0, pa, pb, 0.0])
+
+
 #: Every kernel of this module (registered with numba where a compiled kernel calls it).
 KERNELS = (
     effective_bulk_modulus,
@@ -455,4 +483,5 @@ KERNELS = (
     air_stiffening_rate,
     power_balance,
     switching_functions,
+    stop_switches,
 )
