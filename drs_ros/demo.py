@@ -24,6 +24,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from drs_ros.errors import DRSRosError
 
@@ -163,7 +164,8 @@ def _rrd_verify(path: Path) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="drs-demo", description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="bags", help="output folder (default bags/)")
+    ap.add_argument("--out", default="bags", type=output_path,
+                    help="output folder (default bags/; its parent must exist)")
     ap.add_argument("--domain", type=int, default=int(os.environ.get("DRS_DEMO_DOMAIN", "73")))
     ap.add_argument("--publish-rate", type=float, default=500.0, help="node publish rate [Hz]")
     ap.add_argument("--name", default="demo", help="bag name: OUT/NAME/ and OUT/NAME.rrd")

@@ -29,14 +29,17 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import signal
 import sys
 import threading
 from collections.abc import Sequence
 
 from drs_model.cli.exit_status import EXIT_OK
-
-from ..stop_request import STOP_SIGNALS, StopRequest, exit_at_once_on_signal
+from drs_model.cli.start_signals import (
+    end_signals,
+    exit_at_once_on_signal,
+    interrupt_on_signal,
+    signal_received,
+)
 
 #: verb -> (module, one-line help)
 VERBS = {
@@ -56,7 +59,7 @@ VERBS = {
 
 #: The verbs that take SIGINT and SIGTERM as a stop of their own (a flag read between two
 #: messages); the others end on a :class:`KeyboardInterrupt`, which :func:`main` turns into one
-#: line.
+#: line and status 0.
 STOPPABLE_VERBS = ("play",)
 
 
@@ -80,28 +83,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     previous = exit_at_once_on_signal("drs-bag") if main_thread else {}
     try:
         return _run_verb(list(sys.argv[1:] if argv is None else argv), bool(previous))
-    finally:  # a caller in the same process (a test, a benchmark) gets its handlers back
-        StopRequest.restore(previous)
+    finally:
+        end_signals(previous, console_script=argv is None)
 
 
 def _run_verb(argv: list[str], signals: bool) -> int:
     """Parse ``argv``, import its verb and run it. A signal ends the process at once until the
     verb starts; then the verb takes it (``play``: a stop), or, with ``signals`` (the main
-    thread's), it is a :class:`KeyboardInterrupt`, one line and status 0."""
+    thread's), it is a :class:`KeyboardInterrupt` (whatever error a library made of it, and
+    whatever status the verb made of that error): one line and status 0."""
     verb = next((a for a in argv if not a.startswith("-")), None)  # argparse judges it
+    interruptible = False
     try:
         args = build_parser(verb).parse_args(argv)
         module = importlib.import_module(VERBS[args.verb][0])
         if signals and args.verb not in STOPPABLE_VERBS:  # a signal interrupts, as it did
-            for sig in STOP_SIGNALS:
-                signal.signal(sig, signal.default_int_handler)
-        return module.run(args, prog=f"drs-bag {args.verb}")
+            interrupt_on_signal()
+            interruptible = True
+        status = module.run(args, prog=f"drs-bag {args.verb}")
     except BrokenPipeError:  # the reader of our output went away (drs-bag info | head)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
+        status = EXIT_OK
     except KeyboardInterrupt:
-        print(f"drs-bag {verb}: stopped by a signal", file=sys.stderr)
+        if not signal_received():
+            print(f"drs-bag {verb}: stopped by a signal", file=sys.stderr)
+        status = EXIT_OK
+    except Exception:
+        if not (interruptible and signal_received()):
+            raise
+    if interruptible and signal_received():
+        print(f"drs-bag {verb}: stopped by {signal_received()}", file=sys.stderr)
         return EXIT_OK
+    return status
 
 
 def check_alias(argv: Sequence[str] | None = None) -> int:

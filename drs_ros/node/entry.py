@@ -5,7 +5,7 @@ nothing; from :func:`.runner.main`'s start on, a signal is the node's stop."""
 
 from __future__ import annotations
 
-from ..stop_request import exit_at_once_on_signal
+from drs_model.cli.start_signals import exit_at_once_on_signal
 
 
 def run() -> None:
