@@ -90,38 +90,59 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _run_verb(argv: list[str], signals: bool) -> int:
     """Parse ``argv``, import its verb and run it. A signal ends the process at once until the
     verb starts; then the verb takes it (``play``: a stop), or, with ``signals`` (the main
-    thread's), it is a :class:`KeyboardInterrupt` (whatever error a library made of it, and
-    whatever status the verb made of that error): one line and status 0."""
+    thread's), it interrupts the verb (:func:`_interruptible`)."""
     verb = next((a for a in argv if not a.startswith("-")), None)  # argparse judges it
-    interruptible = False
     try:
         args = build_parser(verb).parse_args(argv)
-        module = importlib.import_module(VERBS[args.verb][0])
-        if signals and args.verb not in STOPPABLE_VERBS:  # a signal interrupts, as it did
-            interrupt_on_signal()
-            interruptible = True
-        status = module.run(args, prog=f"drs-bag {args.verb}")
-    except BrokenPipeError:  # the reader of our output went away (drs-bag info | head)
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        status = EXIT_OK
+    except BrokenPipeError:  # --help into a closed pipe
+        return _reader_gone()
+    module = importlib.import_module(VERBS[args.verb][0])
+    prog = f"drs-bag {args.verb}"
+    interrupt = signals and args.verb not in STOPPABLE_VERBS
+    return _interruptible(lambda: module.run(args, prog=prog), prog, interrupt)
+
+
+def _interruptible(run, prog: str, signals: bool) -> int:
+    """``run()``'s status. With ``signals``, SIGINT and SIGTERM interrupt it (whatever error a
+    library made of the interrupt, and whatever status the verb made of that error): the line
+    ``PROG: stopped by SIGNAL`` and status 0. A reader of the output that went away
+    (``drs-bag info | head``) is status 0 too."""
+    if signals:
+        interrupt_on_signal()
+    status = EXIT_OK
+    try:
+        status = run()
+    except BrokenPipeError:
+        status = _reader_gone()
     except KeyboardInterrupt:
         if not signal_received():
-            print(f"drs-bag {verb}: stopped by a signal", file=sys.stderr)
-        status = EXIT_OK
+            print(f"{prog}: stopped by a signal", file=sys.stderr)
     except Exception:
-        if not (interruptible and signal_received()):
+        if not (signals and signal_received()):
             raise
-    if interruptible and signal_received():
-        print(f"drs-bag {verb}: stopped by {signal_received()}", file=sys.stderr)
+    if signals and signal_received():
+        print(f"{prog}: stopped by {signal_received()}", file=sys.stderr)
         return EXIT_OK
     return status
 
 
-def check_alias(argv: Sequence[str] | None = None) -> int:
-    """``drs-check``: the old name of ``drs-bag check``."""
-    from .check import main as check_main
+def _reader_gone() -> int:
+    """Standard output's reader went away: further writes (and the flush at exit) go nowhere."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return EXIT_OK
 
-    return check_main(argv, prog="drs-check")
+
+def check_alias(argv: Sequence[str] | None = None) -> int:
+    """``drs-check``: the old name of ``drs-bag check``, with the same signals."""
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = exit_at_once_on_signal("drs-check") if main_thread else {}
+    try:
+        from .check import main as check_main
+
+        return _interruptible(lambda: check_main(argv, prog="drs-check"), "drs-check",
+                              bool(previous))  # fmt: skip
+    finally:
+        end_signals(previous, console_script=argv is None)
 
 
 if __name__ == "__main__":  # pragma: no cover
