@@ -13,7 +13,7 @@ and exits 1 if any.
 ``drs-bag play`` of the example bag, ``drs excite`` and ``drs-bag resimulate -o`` (the
 long-running ones), two at a time, each sent SIGINT or SIGTERM at a random moment 0..3.5 s after
 it was started (its imports, its start, its run). A stop is good when the tool exits 0 within
-1 s of the signal without a traceback, and leaves no bag or a bag that passes ``drs-bag check``
+1 s of the signal without a traceback, and leaves no bag or one ``drs-bag check`` accepts
 (and no ``.rrd`` or one that ``rerun rrd verify`` passes). Its result of 50 signals is
 ``benchmarks/results/shutdown_stress_startup.txt``.
 
