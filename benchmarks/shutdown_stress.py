@@ -10,12 +10,12 @@ the file holds) and its recording passes ``rerun rrd verify``. Prints the counts
 and exits 1 if any.
 
 ``--mode start-up`` signals the command lines at any moment of their life instead: drs-node,
-``drs-bag play`` of the example bag, ``drs excite`` and ``drs-bag resimulate -o`` (the
-long-running ones), two at a time, each sent SIGINT or SIGTERM at a random moment 0..3.5 s after
-it was started (its imports, its start, its run). A stop is good when the tool exits 0 within
-1 s of the signal without a traceback, and leaves no bag or one ``drs-bag check`` accepts
-(and no ``.rrd`` or one that ``rerun rrd verify`` passes). Its result of 50 signals is
-``benchmarks/results/shutdown_stress_startup.txt``.
+``drs-bag play`` of the example bag, ``drs excite``, ``drs-bag resimulate -o``, ``drs-check``
+and ``drs-demo`` (the long-running ones), two at a time, each sent SIGINT or SIGTERM at a random
+moment 0..3.5 s after it was started (its imports, its start, its run). A stop is good when the
+tool exits 0 within 1 s of the signal without a traceback, and leaves no bag or one
+``drs-bag check`` accepts (and no ``.rrd`` or one that ``rerun rrd verify`` passes). Its
+result of 50 signals is ``benchmarks/results/shutdown_stress_startup.txt``.
 
 Usage: ``python benchmarks/shutdown_stress.py [--stops 120] [--parallel 3] [--seed 16]
 [--mode running|start-up]``
@@ -130,6 +130,10 @@ START_UP_TOOLS = {
                                 "-o", f"{out}.yaml"], 1),
     "drs-bag resimulate": (lambda out: ["-m", "drs_ros.bag.cli", "resimulate", str(EXAMPLE),
                                         "-o", str(out)], 1),
+    "drs-check": (lambda out: ["-c", "import sys; from drs_ros.bag.cli import check_alias; "
+                               "sys.exit(check_alias())", str(EXAMPLE)], 1),
+    "drs-demo": (lambda out: ["-m", "drs_ros.demo", "--out", str(out.parent), "--name",
+                              out.name], 1),
 }  # fmt: skip
 #: The longest a stop may take after its signal [s].
 STOP_WITHIN_S = 1.0
@@ -178,6 +182,7 @@ def start_up_main(args, work: Path, env: dict) -> int:
     from drs_ros.bag.cli import main as bag_main
     from drs_ros.recording.rerun_cli import run_rerun_cli
 
+    env = dict(env, DRS_DEMO_DOMAIN=str(args.domain + 1))  # the demo's node and its driver
     rng = random.Random(args.seed)
     order = [tool for tool, (_, share) in START_UP_TOOLS.items() for _ in range(share)]
     plan = [(order[i % len(order)], work / f"s{i}", rng.uniform(0.0, 3.5),
