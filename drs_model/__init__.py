@@ -30,25 +30,23 @@ from .errors import (
     SingularConfigurationError,
     StrokeRangeError,
 )
-from .kinematics import (
-    KinematicState,
-    flap_angle_limits,
-    gap,
-    kinematic_state,
-    solve_position,
-    solve_position_from_flap_angle,
-    stroke_for_gap,
-    stroke_limits,
-    velocity_ratio,
-)
-from .overrides import from_file
-from .params import SEED_LITERAL_IZ_WING, DRSParams, from_dict
-from .profile import Manoeuvre, QuinticSegment, drs_manoeuvre, quintic_move
 
-#: Names re-exported lazily (PEP 562): these modules pull in scipy.integrate/optimize (~0.5 s),
-#: which a quick ``drs limits`` or a kinematics-only user should not pay for.
+#: Names re-exported lazily (PEP 562): the model's modules pull in numpy (~0.1 s) and
+#: scipy.integrate/optimize (~0.5 s), which a quick ``drs limits`` or a kinematics-only user
+#: should not pay for, and which a console script imports only after it took SIGINT and SIGTERM
+#: (:mod:`drs_model.cli.start_signals`).
 _LAZY = MappingProxyType(
     {
+        **{name: ("kinematics", name) for name in (
+            "KinematicState", "flap_angle_limits", "gap", "kinematic_state", "solve_position",
+            "solve_position_from_flap_angle", "stroke_for_gap", "stroke_limits",
+            "velocity_ratio")},
+        "from_file": ("overrides", "from_file"),
+        "SEED_LITERAL_IZ_WING": ("params", "SEED_LITERAL_IZ_WING"),
+        "DRSParams": ("params", "DRSParams"),
+        "from_dict": ("params", "from_dict"),
+        **{name: ("profile", name) for name in (
+            "Manoeuvre", "QuinticSegment", "drs_manoeuvre", "quintic_move")},
         "ActuatorSim": ("actuator", "ActuatorSim"),
         "ActuatorState": ("actuator", "ActuatorState"),
         "DegenerateGeometryError": ("coriolis", "DegenerateGeometryError"),

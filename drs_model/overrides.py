@@ -123,12 +123,24 @@ def file_overrides(path: str | Path) -> dict[str, Any]:
     except ParameterError:
         raise
     except Exception as exc:  # noqa: BLE001 - any parser error becomes a ParameterError
-        raise ParameterError(f"cannot parse parameter file {str(path)!r}: {exc}") from exc
+        raise ParameterError(f"cannot parse parameter file {str(path)!r}: "
+                             f"{parse_error_text(exc)}") from exc
     if isinstance(data, Mapping) and "drs" in data and isinstance(data["drs"], Mapping):
         data = data["drs"]
     if not isinstance(data, Mapping):
         raise ParameterError(f"parameter file {str(path)!r} must hold a table of name = value")
     return dict(data)
+
+
+def parse_error_text(exc: Exception) -> str:
+    """A parser's error (YAML's, TOML's) as one line: YAML's problem and where (line, column,
+    from 1), not its several lines of context with a caret; any other error's words on one line.
+    A start-up error is one line on stderr (docs/cli.md)."""
+    mark = getattr(exc, "problem_mark", None)
+    problem = getattr(exc, "problem", None)
+    if problem and mark is not None:
+        return f"{problem} at line {mark.line + 1}, column {mark.column + 1}"
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def _known_names(names) -> None:

@@ -22,9 +22,18 @@ import signal
 import stat
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
+from drs_model.cli.start_signals import (
+    end_signals,
+    exit_at_once_on_signal,
+    ignore_signals,
+    interrupt_on_signal,
+    signal_received,
+)
 from drs_ros.errors import DRSRosError
 
 
@@ -162,8 +171,20 @@ def _rrd_verify(path: Path) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``drs-demo``; the exit status. A SIGINT or SIGTERM ends it with status 0 and one line:
+    at once while it starts, then with the node stopped (its recordings finished)."""
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = exit_at_once_on_signal("drs-demo") if main_thread else {}
+    try:
+        return _demo(argv, bool(previous))
+    finally:
+        end_signals(previous, console_script=argv is None)
+
+
+def _demo(argv: list[str] | None, signals: bool) -> int:
     ap = argparse.ArgumentParser(prog="drs-demo", description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="bags", help="output folder (default bags/)")
+    ap.add_argument("--out", default="bags", type=output_path,
+                    help="output folder (default bags/; its parent must exist)")
     ap.add_argument("--domain", type=int, default=int(os.environ.get("DRS_DEMO_DOMAIN", "73")))
     ap.add_argument("--publish-rate", type=float, default=500.0, help="node publish rate [Hz]")
     ap.add_argument("--name", default="demo", help="bag name: OUT/NAME/ and OUT/NAME.rrd")
@@ -195,12 +216,44 @@ def main(argv: list[str] | None = None) -> int:
         "flush_period:=0.2",
     ]
     _say("starting drs-node: " + " ".join(cmd[1:]))
+    if signals:
+        interrupt_on_signal()
     node = subprocess.Popen(
         cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )
     try:
-        seen = drive(args.domain)
+        return _drive_and_check(node, args.domain, bag, rrd)
+    except KeyboardInterrupt:
+        pass
+    except Exception:
+        if not signal_received():
+            raise
+    return _stopped(node)
+
+
+def _stopped(node: subprocess.Popen) -> int:
+    """A SIGINT or SIGTERM stopped the demo: the node is stopped with SIGINT (it finishes its
+    recordings), one line, status 0."""
+    ignore_signals()  # a second Ctrl-C must not leave the node running
+    if node.poll() is None:
+        node.send_signal(signal.SIGINT)
+    try:
+        node.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        node.kill()
+        node.communicate()
+    print(f"drs-demo: stopped by {signal_received() or 'a signal'}; drs-node stopped with exit "
+          f"code {node.returncode}", file=sys.stderr)  # fmt: skip
+    return EXIT_OK
+
+
+def _drive_and_check(node: subprocess.Popen, domain: int, bag: Path, rrd: Path) -> int:
+    """Drive the started node, stop it, check its bag and recording; the exit status."""
+    try:
+        seen = drive(domain)
     except Exception as exc:  # noqa: BLE001 - stop the node, then report
+        if signal_received():
+            raise KeyboardInterrupt from exc
         node.send_signal(signal.SIGINT)
         out_text, _ = node.communicate(timeout=20)
         print(out_text)

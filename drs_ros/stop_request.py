@@ -12,11 +12,9 @@ played), then stop in order.
 
 from __future__ import annotations
 
-import os
 import signal
 
-#: The signals that ask for a stop.
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+from drs_model.cli.start_signals import STOP_SIGNALS
 
 
 class StopRequest:
@@ -54,19 +52,4 @@ class StopRequest:
             signal.signal(sig, signal.SIG_IGN)
 
 
-def exit_at_once_on_signal(prog: str) -> dict:
-    """Until the program installs its own stop: SIGINT or SIGTERM ends the process at once, with
-    status 0 and the line ``PROG: stopped by SIGNAL while starting, nothing created``. For a
-    console script's first line, before its imports (rclpy's, numba's, scipy's: a second or
-    more, which a flag would only let run on): nothing exists yet that a stop must finish.
-    Returns the handlers the signals had."""
-
-    def exit_now(signum, frame) -> None:
-        line = f"{prog}: stopped by {signal.Signals(signum).name} while starting, nothing created"
-        os.write(2, (line + "\n").encode())
-        os._exit(0)
-
-    return {sig: signal.signal(sig, exit_now) for sig in STOP_SIGNALS}
-
-
-__all__ = ["STOP_SIGNALS", "StopRequest", "exit_at_once_on_signal"]
+__all__ = ["STOP_SIGNALS", "StopRequest"]

@@ -867,6 +867,7 @@ def test_the_stop_handler_play_installs_takes_no_lock(monkeypatch):
         seen.update({sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)})
         return 0
 
+    monkeypatch.setattr(player, "_prepare", lambda options: options)  # no bag to index
     monkeypatch.setattr(player, "_play", fake_play)
     assert player.play(None) == 0
     for sig, handler in seen.items():

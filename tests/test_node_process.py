@@ -85,6 +85,62 @@ def test_refused_parameter_exits_2_with_the_reason(tmp_path, request):
     assert "L2 must be > 0 m" in out
 
 
+#: Each start-up error of drs-node: (its own options, its ROS arguments). ``{dir}`` is the
+#: test's directory, holding ``malformed.yaml`` (not YAML) and ``latin1.yaml`` (not UTF-8).
+START_UP_ERRORS = {
+    "missing --params-file": ([], ["--params-file", "{dir}/missing.yaml"]),
+    "malformed --params-file": ([], ["--params-file", "{dir}/malformed.yaml"]),
+    "model file not UTF-8": ([], ["-p", "model_params_file:={dir}/latin1.yaml"]),
+    "model file malformed": ([], ["-p", "model_params_file:={dir}/malformed.yaml"]),
+    "unknown option": (["--managd"], []),
+    "refused parameter value": ([], ["-p", "publish_rate_hz:=-5.0"]),
+    "refused model value": ([], ["-p", "model.m_wing:=-2.0"]),
+}
+
+
+@pytest.fixture(scope="module")
+def start_up_errors(tmp_path_factory) -> dict[str, tuple[int, str, list[str]]]:
+    """drs-node started once with each of :data:`START_UP_ERRORS`, three at a time: name ->
+    (status, stderr, the files it left in its directory)."""
+    results = {}
+    names = list(START_UP_ERRORS)
+    for first in range(0, len(names), 3):
+        started = {}
+        for name in names[first : first + 3]:
+            where = tmp_path_factory.mktemp("start-up")
+            (where / "malformed.yaml").write_text("drs:\n  m_wing: [1, 2\n  Iz_wing: :\n")
+            (where / "latin1.yaml").write_bytes("m_wing: 5 # 5 kg \xb1 1\n".encode("latin-1"))
+            own, ros = START_UP_ERRORS[name]
+            args = [sys.executable, "-m", "drs_ros", *own, "--ros-args",
+                    *(a.format(dir=where) for a in ros), "-p", f"bag_path:={where}/bag",
+                    "-p", f"rrd_path:={where}/run.rrd"]  # fmt: skip
+            env = node_env(where / "log", domain_for(f"start-up {name}"))
+            started[name] = (where, subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL,
+                                                     stderr=subprocess.PIPE, text=True))
+        for name, (where, proc) in started.items():
+            try:
+                _, err = proc.communicate(timeout=120)
+            finally:
+                if proc.poll() is None:
+                    proc.kill()
+            made = sorted(p.name for p in where.iterdir()
+                          if p.name not in ("malformed.yaml", "latin1.yaml", "log"))  # fmt: skip
+            results[name] = (proc.returncode, err, made)
+    return results
+
+
+@pytest.mark.parametrize("name", list(START_UP_ERRORS))
+def test_a_start_up_error_is_status_2_in_one_line(start_up_errors, name):
+    """docs/cli.md: a node that refuses to start exits 2 with one line of its own on stderr
+    (rcl may log its own line before it), no traceback, and creates no recording."""
+    status, err, made = start_up_errors[name]
+    assert status == 2, err
+    assert "Traceback" not in err, err
+    own = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("[ERROR] [")]
+    assert len(own) == 1 and own[0].startswith("drs-node: refused to start: "), err
+    assert made == [], made
+
+
 @pytest.mark.parametrize("flag", ["--help", "-h"])
 def test_help_lists_every_parameter_and_starts_nothing(tmp_path, flag):
     """``drs-node --help`` prints how to start it and every parameter, with defaults and

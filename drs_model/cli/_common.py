@@ -115,16 +115,33 @@ def positive_number(text: str) -> float:
     return value
 
 
-def png_output_path(text: str) -> str:
-    """argparse ``type=`` of a PNG to write: the name ends in ``.png`` and its directory exists
-    (a mistyped directory is a usage error, not a tree created behind the user's back)."""
-    path = Path(text)
-    if path.suffix.lower() != ".png":
-        raise argparse.ArgumentTypeError(f"{text!r}: the output is a PNG, its name ends in .png")
-    parent = path.parent if str(path.parent) else Path(".")
+def output_path(text: str) -> str:
+    """argparse ``type=`` of a file or directory to write: its directory exists (a mistyped
+    directory is a usage error, status 2 before anything runs, not a tree created behind the
+    user's back)."""
+    parent = Path(text).parent
     if not parent.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r}: no directory {str(parent)!r}")
     return text
+
+
+def output_file_type(*suffixes: str) -> Callable[[str], str]:
+    """argparse ``type=`` of a file to write: its name ends in one of ``suffixes`` and its
+    directory exists (:func:`output_path`)."""
+    kinds = " or ".join(suffixes)
+
+    def check(text: str) -> str:
+        if Path(text).suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"{text!r}: the output is a {kinds} file, its name "
+                                             f"ends in {kinds}")  # fmt: skip
+        return output_path(text)
+
+    check.__name__ = f"{'_'.join(s.strip('.') for s in suffixes)}_output_path"
+    return check
+
+
+#: argparse ``type=`` of a PNG to write (``--plot``, ``drs draw --out``).
+png_output_path = output_file_type(".png")
 
 
 def positive_integer(text: str) -> int:

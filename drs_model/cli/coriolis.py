@@ -13,7 +13,7 @@ import numpy as np
 from .. import coriolis as cor
 from .. import plotting
 from ..errors import InputError
-from ._common import Output, add_json, float_list, table
+from ._common import Output, add_json, float_list, output_path, table
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,7 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     grp.add_argument("--angle", type=float, help="rod angle [rad] (default: 120 deg)")
     grp.add_argument("--angle-deg", type=float, help="rod angle [deg] (default: 120)")
     q.add_argument("--r-max", type=float, default=ex.r_max, help="map range of r for --plot [m]")
-    q.add_argument("--plot", metavar="DIR", help="write example 2's four contour+surface PNGs")
+    q.add_argument("--plot", metavar="DIR", type=output_path,
+                   help="write example 2's four contour+surface PNGs")
     q.add_argument("--dpi", type=int, default=100, help="PNG resolution (with --plot)")
     q.set_defaults(func=run_collar)
 
@@ -71,7 +72,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="also print the seed's convention (mm, deg, clockwise-positive rates)",
     )
-    q.add_argument("--plot", metavar="DIR", help="write slotted_link.png over 0..360 deg")
+    q.add_argument("--plot", metavar="DIR", type=output_path,
+                   help="write slotted_link.png over 0..360 deg")
     q.add_argument("--dpi", type=int, default=100, help="PNG resolution (with --plot)")
     q.set_defaults(func=run_slotted_link)
 

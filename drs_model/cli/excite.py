@@ -25,7 +25,9 @@ from ._common import (
     Output,
     add_common,
     load_both,
+    output_file_type,
     parameter_names_argument,
+    png_output_path,
     positive_integer,
     positive_number,
     table,
@@ -85,10 +87,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    f"({FORCE_LIMIT_DEFAULT_N:g})")
     p.add_argument("--seed", type=int, default=0, help="of the optimiser's starts (0)")
     p.add_argument("--starts", type=positive_integer, default=12, help="optimiser starts (12)")
-    p.add_argument("-o", "--output", metavar="GOAL.yaml", help="write the goal file (for "
+    p.add_argument("-o", "--output", metavar="GOAL.yaml", type=output_file_type(".yaml", ".yml"),
+                   help="write the goal file (for "
                    "ros2 action send_goal, or drs-bag from-goal to make a bag of it)")
     p.add_argument("--joint", default="drs_piston", help="the piston joint (drs_piston)")
-    p.add_argument("--plot", metavar="PNG", help="the stroke and rate of the excitation and of "
+    p.add_argument("--plot", metavar="PNG", type=png_output_path,
+                   help="the stroke and rate of the excitation and of "
                    "the seed's manoeuvre, as the rung runs them")  # fmt: skip
     p.set_defaults(func=run_excite)
 

@@ -9,7 +9,7 @@ import sys
 from ..errors import InputError
 from ..fidelity.ladder import DEFAULT_TOLERANCES, QUANTITIES, measure, needed_rung
 from ..fidelity.scenes import SCENES, STANDARD_SCENES
-from ._common import Output, add_common, load_both, table
+from ._common import Output, add_common, load_both, png_output_path, table
 
 #: What a scene's subscribers ask for, for the "needs" table: gap only (a lap simulation), and
 #: everything (a supervisor or hydraulic sizing test).
@@ -46,7 +46,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--lap", type=float, default=None, metavar="SECONDS",
         help="shorten the gap stream's 90 s lap to SECONDS (a quick look)",
     )  # fmt: skip
-    p.add_argument("--plot", metavar="PNG", help="write the chart (e.g. docs/img/fidelity.png)")
+    p.add_argument("--plot", metavar="PNG", type=png_output_path,
+                   help="write the chart (e.g. docs/img/fidelity.png)")
     p.add_argument("--dpi", type=int, default=100, help="PNG resolution (with --plot)")
     p.set_defaults(func=run_fidelity)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import Output, add_json, table
+from ._common import Output, add_json, output_path, table
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="an existing Dask scheduler, e.g. tcp://host:8786")  # fmt: skip
-    p.add_argument("-o", "--output", metavar="DIR", default="study",
+    p.add_argument("-o", "--output", metavar="DIR", default="study", type=output_path,
                    help="directory of study.parquet, histograms.png, sensitivity.png")  # fmt: skip
     p.add_argument("--chunk", type=int, default=None, metavar="ROWS",
                    help="samples per Dask task (default 128)")  # fmt: skip

@@ -25,6 +25,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 
 from . import fleet
@@ -129,7 +130,8 @@ def catalogue_row(bag: str | Path) -> dict[str, Any]:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", nargs="+", help="directories searched for bags, bags, or globs")
-    ap.add_argument("-o", "--output", required=True, help="the catalogue, a .parquet file")
+    ap.add_argument("-o", "--output", required=True, type=output_path,
+                    help="the catalogue, a .parquet file")
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag index") -> int:

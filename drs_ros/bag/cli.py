@@ -29,14 +29,17 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import signal
 import sys
 import threading
 from collections.abc import Sequence
 
 from drs_model.cli.exit_status import EXIT_OK
-
-from ..stop_request import STOP_SIGNALS, StopRequest, exit_at_once_on_signal
+from drs_model.cli.start_signals import (
+    end_signals,
+    exit_at_once_on_signal,
+    interrupt_on_signal,
+    signal_received,
+)
 
 #: verb -> (module, one-line help)
 VERBS = {
@@ -56,7 +59,7 @@ VERBS = {
 
 #: The verbs that take SIGINT and SIGTERM as a stop of their own (a flag read between two
 #: messages); the others end on a :class:`KeyboardInterrupt`, which :func:`main` turns into one
-#: line.
+#: line and status 0.
 STOPPABLE_VERBS = ("play",)
 
 
@@ -80,35 +83,66 @@ def main(argv: Sequence[str] | None = None) -> int:
     previous = exit_at_once_on_signal("drs-bag") if main_thread else {}
     try:
         return _run_verb(list(sys.argv[1:] if argv is None else argv), bool(previous))
-    finally:  # a caller in the same process (a test, a benchmark) gets its handlers back
-        StopRequest.restore(previous)
+    finally:
+        end_signals(previous, console_script=argv is None)
 
 
 def _run_verb(argv: list[str], signals: bool) -> int:
     """Parse ``argv``, import its verb and run it. A signal ends the process at once until the
     verb starts; then the verb takes it (``play``: a stop), or, with ``signals`` (the main
-    thread's), it is a :class:`KeyboardInterrupt`, one line and status 0."""
+    thread's), it interrupts the verb (:func:`_interruptible`)."""
     verb = next((a for a in argv if not a.startswith("-")), None)  # argparse judges it
     try:
         args = build_parser(verb).parse_args(argv)
-        module = importlib.import_module(VERBS[args.verb][0])
-        if signals and args.verb not in STOPPABLE_VERBS:  # a signal interrupts, as it did
-            for sig in STOP_SIGNALS:
-                signal.signal(sig, signal.default_int_handler)
-        return module.run(args, prog=f"drs-bag {args.verb}")
-    except BrokenPipeError:  # the reader of our output went away (drs-bag info | head)
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_OK
+    except BrokenPipeError:  # --help into a closed pipe
+        return _reader_gone()
+    module = importlib.import_module(VERBS[args.verb][0])
+    prog = f"drs-bag {args.verb}"
+    interrupt = signals and args.verb not in STOPPABLE_VERBS
+    return _interruptible(lambda: module.run(args, prog=prog), prog, interrupt)
+
+
+def _interruptible(run, prog: str, signals: bool) -> int:
+    """``run()``'s status. With ``signals``, SIGINT and SIGTERM interrupt it (whatever error a
+    library made of the interrupt, and whatever status the verb made of that error): the line
+    ``PROG: stopped by SIGNAL`` and status 0. A reader of the output that went away
+    (``drs-bag info | head``) is status 0 too."""
+    if signals:
+        interrupt_on_signal()
+    status = EXIT_OK
+    try:
+        status = run()
+    except BrokenPipeError:
+        status = _reader_gone()
     except KeyboardInterrupt:
-        print(f"drs-bag {verb}: stopped by a signal", file=sys.stderr)
+        if not signal_received():
+            print(f"{prog}: stopped by a signal", file=sys.stderr)
+    except Exception:
+        if not (signals and signal_received()):
+            raise
+    if signals and signal_received():
+        print(f"{prog}: stopped by {signal_received()}", file=sys.stderr)
         return EXIT_OK
+    return status
+
+
+def _reader_gone() -> int:
+    """Standard output's reader went away: further writes (and the flush at exit) go nowhere."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return EXIT_OK
 
 
 def check_alias(argv: Sequence[str] | None = None) -> int:
-    """``drs-check``: the old name of ``drs-bag check``."""
-    from .check import main as check_main
+    """``drs-check``: the old name of ``drs-bag check``, with the same signals."""
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = exit_at_once_on_signal("drs-check") if main_thread else {}
+    try:
+        from .check import main as check_main
 
-    return check_main(argv, prog="drs-check")
+        return _interruptible(lambda: check_main(argv, prog="drs-check"), "drs-check",
+                              bool(previous))  # fmt: skip
+    finally:
+        end_signals(previous, console_script=argv is None)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -35,7 +35,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 
-from drs_model.cli._common import parameter_names_argument
+from drs_model.cli._common import output_path, parameter_names_argument, png_output_path
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_INCONSISTENT,
@@ -184,9 +184,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     "stroke=1e-5 (default: estimated from the residuals)")  # fmt: skip
     ap.add_argument("--signals", type=signals_argument, metavar="NAME,...",
                     help="the signals the output error compares (default: the rung's)")
-    ap.add_argument("-o", "--output", help="one bag: write the report (FILE.json); many "
+    ap.add_argument("-o", "--output", type=output_path,
+                    help="one bag: write the report (FILE.json); many "
                     "bags: the season's table (FILE.parquet)")  # fmt: skip
-    ap.add_argument("--plot", metavar="FILE.png", help="one bag: measured against fitted")
+    ap.add_argument("--plot", metavar="FILE.png", type=png_output_path,
+                    help="one bag: measured against fitted")
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     add_node_arguments(ap)
     fleet.add_fleet_arguments(ap)

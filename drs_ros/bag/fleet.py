@@ -38,6 +38,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_INTERNAL,
@@ -64,7 +65,7 @@ class FleetError(DRSRosError):
 def add_fleet_arguments(ap: argparse.ArgumentParser, *table_flags: str) -> None:
     """``--jobs``, ``--scheduler``, and (``table_flags``, e.g. ``-o``) the table's path."""
     if table_flags:
-        ap.add_argument(*table_flags, dest="output", default=None,
+        ap.add_argument(*table_flags, dest="output", default=None, type=output_path,
                         help="with many bags: write the table, one row per bag, to this "
                         ".parquet file")  # fmt: skip
     ap.add_argument("--jobs", type=int, default=None,

@@ -27,7 +27,9 @@ import sys
 from collections.abc import Mapping
 from pathlib import Path
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
+from drs_model.overrides import parse_error_text
 
 from ..errors import DRSRosError
 from ..names import DEFAULT_NODE, NODE_TOPICS, expand_topic
@@ -55,9 +57,10 @@ def read_goal(path: str | Path) -> dict:
     import yaml
 
     try:
-        data = yaml.safe_load(Path(path).read_text())
+        data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise GoalFileError(f"{str(path)!r}: cannot read the goal: {exc}") from None
+        raise GoalFileError(f"{str(path)!r}: cannot read the goal: "
+                            f"{parse_error_text(exc)}") from None
     trajectory = data.get("trajectory") if isinstance(data, Mapping) else None
     if not isinstance(trajectory, Mapping):
         raise GoalFileError(f"{str(path)!r}: no 'trajectory' mapping (a FollowJointTrajectory "
@@ -167,7 +170,7 @@ def _topic_argument(text: str) -> str:
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("goal", help="the FollowJointTrajectory goal (YAML or JSON), e.g. the one "
                     "drs excite -o writes")  # fmt: skip
-    ap.add_argument("-o", "--output", required=True, metavar="DIR",
+    ap.add_argument("-o", "--output", required=True, metavar="DIR", type=output_path,
                     help="the bag directory to write (must not exist)")
     where = ap.add_mutually_exclusive_group()
     where.add_argument("--node", metavar="NAME", help="the node that will follow it, by its "

@@ -29,6 +29,7 @@ import sys
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 
 from ..errors import DRSRosError
@@ -200,7 +201,8 @@ def merge(sources: Sequence[str | Path], out: str | Path) -> dict:
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bags", nargs="+", metavar="BAG",
                     help="the bags to merge (directories, .mcap or .db3 files), two or more")
-    ap.add_argument("-o", "--output", required=True, help="the new bag directory to write")
+    ap.add_argument("-o", "--output", required=True, type=output_path,
+                    help="the new bag directory to write")
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag merge") -> int:

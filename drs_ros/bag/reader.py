@@ -61,6 +61,7 @@ def _exact_checker(padded: dict[str, int],
     be the exact CDR; any other difference is a problem."""
     from rclpy.serialization import deserialize_message
 
+    from drs_model.cli.start_signals import signal_received
     from drs_ros.recording import cdr, msgdefs
     from drs_ros.recording.cdr_padding import zero_padding
 
@@ -79,6 +80,8 @@ def _exact_checker(padded: dict[str, int],
         try:
             again = cdr.serializer(cls)(deserialize_message(data, cls))
         except Exception as exc:  # noqa: BLE001 - any decode failure is the bag's problem
+            if signal_received():  # a SIGINT pybind11 turned into a TypeError: no verdict
+                raise KeyboardInterrupt from exc
             return f"does not decode as {type_name} ({type(exc).__name__}: {exc})"
         if again == data:
             return ""

@@ -24,6 +24,7 @@ import shutil
 import sys
 from pathlib import Path
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EXIT_UNREADABLE
 
 from ..recording.destinations import check_new_bag, remove_unfinished_bag
@@ -167,7 +168,8 @@ def format_report(rep: dict) -> str:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", help="the damaged bag directory (split or not) or .mcap file")
-    ap.add_argument("-o", "--output", required=True, help="the new bag directory to write")
+    ap.add_argument("-o", "--output", required=True, type=output_path,
+                    help="the new bag directory to write")
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
 
 

@@ -42,6 +42,7 @@ import sys
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 
+from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_INTERNAL,
@@ -114,7 +115,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         choices=list(RUNGS),
         help="re-run on this rung of the fidelity ladder (default: the one recorded)",
     )
-    ap.add_argument("-o", "--output", help="write the re-simulated run as a new bag directory; "
+    ap.add_argument("-o", "--output", type=output_path,
+                    help="write the re-simulated run as a new bag directory; "
                     "with many bags, FILE.parquet: the table, one row per bag")  # fmt: skip
     ap.add_argument(
         "--tol",

@@ -28,6 +28,7 @@ from datetime import UTC, datetime
 
 import numpy as np
 
+from drs_model.cli._common import png_output_path
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_OK,
@@ -100,7 +101,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     f"alarms, later flags (default {DECISION:g})")  # fmt: skip
     ap.add_argument("--min-runs", type=min_runs_argument, default=MIN_RUNS,
                     help=f"runs before the first drift test, >= 3 (default {MIN_RUNS})")
-    ap.add_argument("--plot", metavar="FILE.png", help="draw each parameter over the season")
+    ap.add_argument("--plot", metavar="FILE.png", type=png_output_path,
+                    help="draw each parameter over the season")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
 
 

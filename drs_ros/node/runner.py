@@ -199,7 +199,8 @@ def refuse_unknown_options(own: list[str]) -> bool:
     option drs-node does not take: a typo (``--managd``) must not start another kind of node."""
     unknown = [a for a in own if a.startswith("-")]
     if unknown:
-        print(f"drs-node: error: unrecognized arguments: {' '.join(unknown)} (drs-node takes "
+        print(f"drs-node: refused to start: unrecognized arguments: {' '.join(unknown)} "
+              "(drs-node takes "
               "--managed, --help and ROS arguments after --ros-args)", file=sys.stderr)  # fmt: skip
     return bool(unknown)
 

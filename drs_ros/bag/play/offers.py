@@ -9,6 +9,8 @@ from typing import Any
 
 import yaml
 
+from drs_model.overrides import parse_error_text
+
 from ...recording.errors import RecordingError
 from ...recording.qos import DEFAULT_DEPTH, QOS_KEYS, parse_qos_yaml, qos_profile
 from .options import PlayError
@@ -46,7 +48,8 @@ def qos_overrides(path: str | Path) -> dict[str, Any]:
         return out
     except (OSError, yaml.YAMLError, TypeError, KeyError, ValueError, AttributeError) as exc:
         raise PlayError(
-            f"--qos-profile-overrides-path {str(path)!r}: {type(exc).__name__}: {exc}"
+            f"--qos-profile-overrides-path {str(path)!r}: {type(exc).__name__}: "
+            f"{parse_error_text(exc)}"
         ) from exc
 
 

@@ -226,26 +226,39 @@ class Player:
 def play(options: PlayOptions) -> int:
     """Play a bag with ``options``; the exit status (0 played or stopped, 2 unreadable bag).
 
-    SIGINT and SIGTERM set a :class:`~drs_ros.stop_request.StopRequest` (a plain flag: an
-    ``Event.set`` in the handler takes a lock that the main thread may hold inside
-    ``Event.wait`` when the handler runs there, a deadlock); the player reads it between two
-    messages and in every wait (at most ``MAX_SLEEP_S``)."""
+    The bag is indexed and rclpy imported first: a signal meanwhile (``drs-bag``'s console
+    script ends at once while nothing is created, :mod:`drs_model.cli.start_signals`) does not
+    wait for a second of imports. Then SIGINT and SIGTERM set a
+    :class:`~drs_ros.stop_request.StopRequest` (a plain flag: an ``Event.set`` in the handler
+    takes a lock that the main thread may hold inside ``Event.wait`` when the handler runs there,
+    a deadlock); the player reads it between two messages and in every wait (at most
+    ``MAX_SLEEP_S``)."""
+    prepared = _prepare(options)
     stop = StopRequest()
-    previous = stop.install()  # from the start: a signal while the bag is indexed is a stop too
+    previous = stop.install()  # before DDS starts: a signal from here on is a stop
     try:
-        return _play(options, stop)
+        return _play(prepared, stop)
     finally:
         stop.restore(previous)
 
 
-def _play(options: PlayOptions, stop: StopRequest) -> int:
-    index = index_bag(options.bag)  # fails before DDS starts
-    if stop.requested:
-        return EXIT_OK
+def _prepare(options: PlayOptions) -> tuple[PlayOptions, BagIndex, dict]:
+    """The bag indexed (it fails before DDS starts), ``--node``'s topics, the QoS overrides,
+    and rclpy imported: (options, index, overrides)."""
+    index = index_bag(options.bag)
     if options.node is not None:
         options = node_options(options, index)
     path = options.qos_overrides_path
     overrides = qos_overrides(path) if path else {}
+    import rclpy  # noqa: F401 - imported before the stop is taken (play)
+
+    return options, index, overrides
+
+
+def _play(prepared: tuple[PlayOptions, BagIndex, dict], stop: StopRequest) -> int:
+    options, index, overrides = prepared
+    if stop.requested:
+        return EXIT_OK
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     import rclpy
     from rclpy.context import Context
