@@ -16,7 +16,6 @@ anything else there is left alone and the demo refuses to start (exit status 2, 
 
 from __future__ import annotations
 
-import argparse
 import os
 import signal
 import stat
@@ -34,6 +33,7 @@ from drs_model.cli.start_signals import (
     interrupt_on_signal,
     signal_received,
 )
+from drs_model.cli.strict_parser import StrictParser
 from drs_ros.errors import DRSRosError
 
 
@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _demo(argv: list[str] | None, signals: bool) -> int:
-    ap = argparse.ArgumentParser(prog="drs-demo", description=__doc__.splitlines()[0])
+    ap = StrictParser(prog="drs-demo", description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="bags", type=output_path,
                     help="output folder (default bags/; its parent must exist)")
     ap.add_argument("--domain", type=int, default=int(os.environ.get("DRS_DEMO_DOMAIN", "73")))

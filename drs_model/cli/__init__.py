@@ -24,6 +24,7 @@ from .start_signals import (
     interrupt_on_signal,
     signal_received,
 )
+from .strict_parser import StrictParser
 
 #: Subcommand modules of this package, in help order. Each defines ``register(subparsers)`` and
 #: sets ``func`` (returning an ``Output``) on its parsers.
@@ -31,7 +32,7 @@ SUBCOMMAND_MODULES = ("geometry", "coriolis", "dynamics", "forward", "fidelity",
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = StrictParser(
         prog="drs", description="DRS flap actuator model: kinematics, profile, dynamics."
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

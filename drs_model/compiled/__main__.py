@@ -3,14 +3,14 @@ numba's cache, or only the share I (1-based) of N, so that N processes fill it t
 
 from __future__ import annotations
 
-import argparse
 import sys
 
+from ..cli.strict_parser import StrictParser
 from ..errors import NumbaUnavailableError
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m drs_model.compiled", description=__doc__)
+    ap = StrictParser(prog="python -m drs_model.compiled", description=__doc__)
     ap.add_argument("--part", default="1/1", help="the share I of N to compile (default 1/1)")
     args = ap.parse_args(argv)
     try:

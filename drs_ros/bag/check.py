@@ -45,6 +45,7 @@ from drs_model.cli.exit_status import (
     EXIT_UNREADABLE,
     EXIT_USAGE,
 )
+from drs_model.cli.strict_parser import StrictParser
 from drs_model.errors import DRSError
 from drs_model.overrides import file_overrides, parameter_file_argument, split_overrides
 from drs_model.params import DRSParams, from_dict
@@ -450,7 +451,7 @@ def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
 
 def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:
     """``drs-bag check`` / ``drs-check``; returns the exit status."""
-    ap = argparse.ArgumentParser(
+    ap = StrictParser(
         prog=prog,
         description="Verify every byte of a recorded DRS bag and check it against "
         "the model. Exit status (docs/cli.md): 0 ok, 1 a check failed, 2 a bad option (or "

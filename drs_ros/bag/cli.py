@@ -40,6 +40,7 @@ from drs_model.cli.start_signals import (
     interrupt_on_signal,
     signal_received,
 )
+from drs_model.cli.strict_parser import StrictParser
 
 #: verb -> (module, one-line help)
 VERBS = {
@@ -66,7 +67,7 @@ STOPPABLE_VERBS = ("play",)
 def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
     """The parser of every verb's name and help; only ``verb``'s options (its module imported):
     a verb imports what it needs, not every other verb's libraries (scipy's, dask's)."""
-    ap = argparse.ArgumentParser(prog="drs-bag", description=__doc__.splitlines()[0])
+    ap = StrictParser(prog="drs-bag", description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="verb", required=True, metavar="VERB")
     for name, (module, text) in VERBS.items():
         p = sub.add_parser(name, help=text, description=text)

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE, EXIT_USAGE
+from drs_model.cli.strict_parser import StrictParser
 
 from ...errors import UsageError
 from ...stop_request import StopRequest
@@ -327,7 +328,7 @@ def run(args: argparse.Namespace, prog: str = PROG) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``drs-bag play`` on its own (``python -m drs_ros.bag.play``)."""
-    parser = argparse.ArgumentParser(
+    parser = StrictParser(
         prog=PROG, description="Publish a rosbag2 MCAP bag onto ROS 2 topics (ros2 bag play)."
     )
     add_arguments(parser)
