@@ -41,7 +41,7 @@ if importlib.util.find_spec("numba") is None:
     pytest.skip("numba is not installed (pip install drs[fast])", allow_module_level=True)
 
 from drs_model import elementwise  # noqa: E402
-from drs_model.compiled import drivers, rk  # noqa: E402
+from drs_model.compiled import drivers, rk, rk_step  # noqa: E402
 from drs_model.compiled import simulate as compiled  # noqa: E402
 from drs_model.compiled.tableaux import tableau  # noqa: E402
 from drs_model.compiled.warm import warm_up  # noqa: E402
@@ -157,9 +157,9 @@ def test_compiled_psi3_kernel_equals_the_numpy_reference(params):
 
 def test_each_driver_build_is_keyed_on_the_code_it_inlines():
     """numba's cache checks the stamp of the file a function is defined in (drivers.py), and a
-    driver build inlines rk.integrate and the kernels: each build carries the digest of their
-    source files (rk.py, kernels.py, jit.py, read here) among its closure's values, which
-    numba's cache key includes, so an edit of them compiles anew."""
+    driver build inlines rk.integrate, its step and the kernels: each build carries the digest of
+    their source files (rk.py, rk_step.py, kernels.py, jit.py, read here) among its closure's
+    values, which numba's cache key includes, so an edit of them compiles anew."""
     import hashlib
     from pathlib import Path
 
@@ -167,7 +167,7 @@ def test_each_driver_build_is_keyed_on_the_code_it_inlines():
     from drs_model.compiled import jit as jit_module
 
     digest = hashlib.sha256()
-    for module in (rk, kernels, jit_module):
+    for module in (rk, rk_step, kernels, jit_module):
         digest.update(Path(module.__file__).read_bytes())
     for build in drivers.DRIVERS.values():
         texts = [c.cell_contents for c in build.py_func.__closure__
