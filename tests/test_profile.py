@@ -226,7 +226,7 @@ def test_a_plan_refuses_what_the_actuator_refuses(params, times, strokes, rates,
 def test_a_path_whose_hull_stays_inside_is_sampled_inside(coeffs, duration, width):
     """hull_leaves is a safe short cut for path_extremes: where the control points stay inside
     the limits, every sampled instant (and a dense sampling) lies inside too."""
-    from drs_model.profile import hull_leaves, path_extremes
+    from drs_model.path_range import hull_leaves, path_extremes
 
     c = np.array(coeffs)
     tau = np.linspace(0.0, duration, 2001)
@@ -254,7 +254,7 @@ def test_a_move_is_refused_exactly_when_its_samples_leave_the_range(
     move exactly when the move's sampled path leaves [s_min, s_max], computed independently
     from the same segment; from moving states that overshoot and from rest."""
     from drs_model.motion import StrokeMotion
-    from drs_model.profile import PATH_SAMPLES
+    from drs_model.path_range import PATH_SAMPLES
 
     lo, hi = stroke_limits(params)
     s0, s1 = lo + start * (hi - lo), lo + target * (hi - lo)
