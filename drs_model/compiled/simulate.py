@@ -305,20 +305,9 @@ def simulate_compiled(
     t_span: tuple[float, float],
     *,
     method: str = "dop853",
-    rtol: float = 1e-8,
-    atol=None,
-    t_eval=None,
-    first_step: float | None = None,
-    max_step: float = math.inf,
-    min_step: float = 1e-12,
-    initial: tuple | None = None,
-    y0=None,
-    breakpoints: tuple[float, ...] = (),
     flap_limits: tuple[float, float] | None = None,
     min_cos_psi1: float = 0.05,
-    stroke_range: tuple[float, float] | None = None,
-    stop_at_dead_centre: bool = False,
-    max_steps: int = 1_000_000,
+    **options,
 ):
     """Forward dynamics of formulation (a) (``psi3``) with a compiled adaptive RK method.
 
@@ -333,6 +322,10 @@ def simulate_compiled(
         Start and end times [s].
     method : {"dopri5", "dop853"}
         Dormand-Prince 5(4) or DOP853 (the tableaux and step control of scipy's RK45 / DOP853).
+    flap_limits, min_cos_psi1
+        Options of :class:`~drs_model.forward.Psi3Minimal`.
+    **options
+        The run's options, those of :func:`run_formulation` (with the same defaults):
     rtol, atol : float or array_like
         Tolerances; ``atol`` defaults to ``rtol * [1 rad, 100 rad/s]`` (as ``simulate``).
     t_eval : array_like, shape (n,), optional
@@ -344,8 +337,6 @@ def simulate_compiled(
         the closed stroke.
     breakpoints : tuple of float
         Extra restart times [s].
-    flap_limits, min_cos_psi1
-        Options of :class:`~drs_model.forward.Psi3Minimal`.
     stroke_range : (float, float), optional
         A step ending with the stroke outside ``[lo, hi]`` [m] raises
         :class:`~drs_model.errors.StrokeRangeError` (default: no check, as ``simulate``).
@@ -369,11 +360,8 @@ def simulate_compiled(
     InputError, IntegrationError, SingularConfigurationError, StrokeRangeError
         See the module docstring.
     """
-    options = dict(locals())  # the arguments, before any other name is bound
     form = psi3_formulation(p, flap_limits, min_cos_psi1)
-    for name in ("p", "flap_limits", "min_cos_psi1"):  # the formulation's
-        del options[name]
-    return run_formulation(form, **options)
+    return run_formulation(form, force, t_span, method=method, **options)
 
 
 def run_formulation(
@@ -406,20 +394,20 @@ def run_formulation(
     if atol is not None:  # hashable, for the plan's cache
         atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
     driver, plan, segments = _plan(
-        form=form,
-        fobj=fobj,
-        method=method,
-        t0=t0,
-        t1=t1,
-        rtol=rtol,
-        atol=atol,
-        first_step=first_step,
-        max_step=max_step,
-        min_step=min_step,
-        breakpoints=tuple(breakpoints),
-        stroke_range=None if stroke_range is None else tuple(stroke_range),
-        stop_at_dead_centre=bool(stop_at_dead_centre),
-        max_steps=max_steps,
+        form,
+        fobj,
+        method,
+        t0,
+        t1,
+        rtol,
+        atol,
+        first_step,
+        max_step,
+        min_step,
+        tuple(breakpoints),
+        None if stroke_range is None else tuple(stroke_range),
+        bool(stop_at_dead_centre),
+        max_steps,
     )
     if t_eval is None:
         te, has_eval = _NO_OUTPUT_TIMES, False
@@ -442,16 +430,18 @@ def _solution(formulation, label, block, nfev, nsteps, nrejected, segments) -> S
     return Solution(
         formulation,
         label,
-        t=block[0],
-        y=block[1:3],
-        q=block[3:6].T,
-        qd=block[6:9].T,
-        residual=block[9],
-        velocity_residual=block[10],
-        nfev=nfev,
-        nsteps=nsteps,
-        segments=list(segments),
-        nrejected=nrejected,
+        block[0],
+        block[1:3],
+        block[3:6].T,
+        block[6:9].T,
+        block[9],
+        block[10],
+        nfev,
+        0,
+        0,
+        nsteps,
+        list(segments),
+        nrejected,
     )
 
 
