@@ -170,8 +170,9 @@ def test_each_driver_build_is_keyed_on_the_code_it_inlines():
     for module in (rk, rk_step, kernels, jit_module):
         digest.update(Path(module.__file__).read_bytes())
     for build in drivers.DRIVERS.values():
-        texts = [c.cell_contents for c in build.py_func.__closure__
-                 if isinstance(c.cell_contents, str)]  # fmt: skip
+        texts = [
+            c.cell_contents for c in build.py_func.__closure__ if isinstance(c.cell_contents, str)
+        ]
         assert texts == [digest.hexdigest()]
 
 
@@ -234,9 +235,21 @@ def test_the_held_segment_evaluates_its_force_once_and_changes_no_bit(
     bit for bit, as one that calls the manoeuvre kernel at every stage of the hold."""
     form = compiled.psi3_formulation(params)
     _, args, _ = compiled._plan(
-        form, mforce, method, 0.0, params.T_total, 1e-7, None, None, math.inf, 1e-12, (), None,
-        False, 1_000_000,
-    )  # fmt: skip
+        form,
+        mforce,
+        method,
+        0.0,
+        params.T_total,
+        1e-7,
+        None,
+        None,
+        math.inf,
+        1e-12,
+        (),
+        None,
+        False,
+        1_000_000,
+    )
     kinds = args[1]
     assert kinds.tolist() == [1, 0, 1]  # manoeuvre kernel, one value, manoeuvre kernel
     every_stage = (args[0], np.ones_like(kinds), *args[2:])
