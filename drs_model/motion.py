@@ -17,10 +17,10 @@ import numpy as np
 from . import kinematics as kin
 from .errors import InputError, StrokeRangeError
 from .params import DRSParams
+from .path_range import leaving_paths
 from .profile import (
     QuinticPath,
     TrajectoryPlan,
-    leaving_paths,
     plan_trajectory,
     quintic_move,
 )

@@ -23,6 +23,7 @@ from . import elementwise, kernels
 from .errors import InputError, StrokeRangeError
 from .kinematics import stroke_limits
 from .params import DRSParams
+from .path_range import PATH_TOL, check_paths
 
 
 def quintic_coefficients(
@@ -142,9 +143,11 @@ def drs_manoeuvre(
     s_min = lo if s_min is None else float(s_min)
     s_max = hi if s_max is None else float(s_max)
     if not (math.isfinite(s_min) and math.isfinite(s_max) and s_min < s_max):
-        raise InputError(f"the manoeuvre's strokes must be finite with s_min < s_max [m], got "
-                         f"s_min = {s_min!r}, s_max = {s_max!r} (the gap rule's: {lo:.9g}, "
-                         f"{hi:.9g})")  # fmt: skip
+        raise InputError(
+            f"the manoeuvre's strokes must be finite with s_min < s_max [m], got "
+            f"s_min = {s_min!r}, s_max = {s_max!r} (the gap rule's: {lo:.9g}, "
+            f"{hi:.9g})"
+        )
     opening = QuinticSegment.between(0.0, p.T_opening, s_min, s_max)
     closing = QuinticSegment.between(p.T_opening + p.T_still, p.T_closing, s_max, s_min)
     return Manoeuvre(opening, closing, s_min, s_max)
@@ -186,15 +189,6 @@ def quintic_move(
 # ---- trajectories: many quintics end to end (ActuatorSim.command_trajectory) --------------------
 #: The most points a trajectory may have.
 MAX_TRAJECTORY_POINTS = 10_000
-#: Samples per segment (both ends included) at which a trajectory's path is checked against
-#: ``[s_min, s_max]``.
-PATH_SAMPLES = 65
-#: Tolerance [m] of that check (and of the strokes' range check).
-PATH_TOL = 1e-12
-#: Those instants as fractions of a segment's duration (made once: a stroke command checks its
-#: one segment on the real-time tick).
-_PATH_FRACTIONS = np.linspace(0.0, 1.0, PATH_SAMPLES)
-_PATH_FRACTIONS.flags.writeable = False
 #: A time within this [s] after a segment's end still belongs to that segment.
 _END_SLACK = 1e-12
 
@@ -214,70 +208,6 @@ def quintic_coefficients_array(duration, s0, s1, v0=0.0, v1=0.0, a0=0.0, a1=0.0)
         T, T2, (2 * T3, 2 * T3 * T, 2 * T3 * T2), h, v0, v1, a0, a1
     )
     return out
-
-
-def path_extremes(coeffs: np.ndarray, durations: np.ndarray, chunk: int = 2048):
-    """Smallest and largest stroke [m] of each quintic ``coeffs[k]`` (local time) over
-    ``PATH_SAMPLES`` equally spaced instants of ``[0, durations[k]]``, all segments at once (in
-    chunks of ``chunk`` segments, so memory stays bounded). Returns two arrays of shape
-    ``(n,)``."""
-    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
-    durations = np.asarray(durations, dtype=float).ravel()
-    u = _PATH_FRACTIONS
-    lo, hi = np.empty(len(durations)), np.empty(len(durations))
-    for a in range(0, len(durations), chunk):
-        c = coeffs[a : a + chunk]
-        tau = durations[a : a + chunk, None] * u
-        s = c[:, 5:6] * tau
-        for j in (4, 3, 2, 1):
-            s += c[:, j : j + 1]
-            s *= tau
-        s += c[:, 0:1]
-        lo[a : a + chunk], hi[a : a + chunk] = s.min(axis=1), s.max(axis=1)
-    return lo, hi
-
-
-#: Power basis (in u = tau / T) -> Bernstein basis of degree 5: ``b_j = sum_k C(j,k)/C(5,k) d_k``.
-_TO_BERNSTEIN = np.array(
-    [[math.comb(j, k) / math.comb(5, k) if k <= j else 0.0 for k in range(6)] for j in range(6)]
-)
-
-
-def hull_leaves(coeffs, durations, limits: tuple[float, float]) -> np.ndarray:
-    """Whether the Bernstein control points of each quintic ``coeffs[k]`` (local time, on ``[0,
-    durations[k]]``) leave ``limits`` [m], shape ``(n,)``; if not, the path lies inside them."""
-    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
-    durations = np.asarray(durations, dtype=float).ravel()
-    bern = (coeffs * np.vander(durations, 6, increasing=True)) @ _TO_BERNSTEIN.T
-    return (bern.min(axis=1) < limits[0]) | (bern.max(axis=1) > limits[1])
-
-
-def leaving_paths(coeffs, durations, limits: tuple[float, float]):
-    """``(k, lo, hi)``: the quintics ``coeffs[k]`` (local time) whose path leaves ``limits`` [m]
-    by more than :data:`PATH_TOL` at one of :data:`PATH_SAMPLES` instants, and their lowest and
-    highest samples [m]; sampled only where the control points leave (:func:`hull_leaves`)."""
-    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
-    durations = np.asarray(durations, dtype=float).ravel()
-    k = np.flatnonzero(hull_leaves(coeffs, durations, limits))
-    if not k.size:
-        return k, np.empty(0), np.empty(0)
-    lo, hi = path_extremes(coeffs[k], durations[k])
-    bad = (lo < limits[0] - PATH_TOL) | (hi > limits[1] + PATH_TOL)
-    return k[bad], lo[bad], hi[bad]
-
-
-def check_paths(coeffs, durations, limits: tuple[float, float], first: int = 0, n=None) -> None:
-    """Raise :class:`StrokeRangeError` if the path of a quintic ``coeffs[i]`` leaves ``limits``
-    (:func:`leaving_paths`), naming the first such segment (segment ``first + i`` leads to point
-    ``first + i`` of ``0..n-1``)."""
-    leaving, lo, hi = leaving_paths(coeffs, durations, limits)
-    if leaving.size:
-        n = np.size(durations) + first if n is None else n
-        raise StrokeRangeError(
-            f"the trajectory leaves [s_min, s_max] = [{limits[0]:.9g}, {limits[1]:.9g}] m on "
-            f"its way to point {first + int(leaving[0])} (of 0..{n - 1}), reaching "
-            f"{lo[0]:.6g}..{hi[0]:.6g} m"
-        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -328,8 +258,9 @@ class TrajectoryPlan:
         if m == 1:
             c = quintic_coefficients_array(dur, s0, s[0], v0, v_first, a0)
         else:
-            c = quintic_coefficients_array(dur, [s0, s[0]], s[:2], [v0, v_first],
-                                           [v_first, v[1]], [a0, 0.0])  # fmt: skip
+            c = quintic_coefficients_array(
+                dur, [s0, s[0]], s[:2], [v0, v_first], [v_first, v[1]], [a0, 0.0]
+            )
         check_paths(c, dur, self.limits, 0, t.size)
         return c
 
@@ -410,7 +341,7 @@ def plan_trajectory(p: DRSParams, times, strokes, rates=None) -> TrajectoryPlan:
         other than 0.
     StrokeRangeError
         A stroke outside ``[s_min, s_max]``, or a segment whose path leaves it (checked at
-        :data:`PATH_SAMPLES` instants per segment, to 1e-12 m).
+        :data:`~drs_model.path_range.PATH_SAMPLES` instants per segment, to 1e-12 m).
 
     Cost: a few ms for 10,000 points (numpy over all segments at once).
     """
@@ -423,15 +354,24 @@ def plan_trajectory(p: DRSParams, times, strokes, rates=None) -> TrajectoryPlan:
     coeffs = np.full((n, 6), math.nan)
     if n > n_head:
         k = slice(n_head, n)
-        coeffs[k] = quintic_coefficients_array(dur[k], s[n_head - 1 : -1], s[k],
-                                               v[n_head - 1 : -1], v[k])  # fmt: skip
+        coeffs[k] = quintic_coefficients_array(
+            dur[k], s[n_head - 1 : -1], s[k], v[n_head - 1 : -1], v[k]
+        )
         check_paths(coeffs[k], dur[k], limits, n_head, n)
     for a in (t, s, v):
         a.flags.writeable = False
     return TrajectoryPlan(
-        t, s, v, derived, limits, n_head, starts=_doubles(t_prev), durations=_doubles(dur),
-        ends=_doubles(t + _END_SLACK), coeffs=_doubles(coeffs),
-    )  # fmt: skip
+        t,
+        s,
+        v,
+        derived,
+        limits,
+        n_head,
+        starts=_doubles(t_prev),
+        durations=_doubles(dur),
+        ends=_doubles(t + _END_SLACK),
+        coeffs=_doubles(coeffs),
+    )
 
 
 def _doubles(values: np.ndarray) -> array:
@@ -460,16 +400,31 @@ class QuinticPath(Sequence):
     @classmethod
     def of_segment(cls, seg: QuinticSegment) -> QuinticPath:
         """One segment (``t_end`` is the segment's ``t1``)."""
-        return cls(seg.t0, seg.t1, [0.0], [seg.duration], [seg.duration + _END_SLACK],
-                   list(seg.coeffs), None, 1)  # fmt: skip
+        return cls(
+            seg.t0,
+            seg.t1,
+            [0.0],
+            [seg.duration],
+            [seg.duration + _END_SLACK],
+            list(seg.coeffs),
+            None,
+            1,
+        )
 
     @classmethod
     def of_plan(cls, plan: TrajectoryPlan, t_start: float, head: np.ndarray) -> QuinticPath:
         """The plan's segments from ``t_start`` [s], the first ``plan.n_head`` being ``head``
         (shape ``(n_head, 6)``)."""
-        return cls(t_start, t_start + float(plan.times[-1]), plan.starts, plan.durations,
-                   plan.ends, np.asarray(head, dtype=float).ravel().tolist(), plan.coeffs,
-                   plan.n_head)  # fmt: skip
+        return cls(
+            t_start,
+            t_start + float(plan.times[-1]),
+            plan.starts,
+            plan.durations,
+            plan.ends,
+            np.asarray(head, dtype=float).ravel().tolist(),
+            plan.coeffs,
+            plan.n_head,
+        )
 
     def __len__(self) -> int:
         return len(self._durations)
@@ -482,8 +437,9 @@ class QuinticPath(Sequence):
             raise IndexError(f"segment {k} of a path of {n}")
         k %= n
         c = self._head if k < self._n_head else self._tail
-        return QuinticSegment(self.t_start + self._starts[k], self._durations[k],
-                              tuple(c[6 * k : 6 * k + 6]))  # fmt: skip
+        return QuinticSegment(
+            self.t_start + self._starts[k], self._durations[k], tuple(c[6 * k : 6 * k + 6])
+        )
 
     def segment_index(self, t: float) -> int:
         """The segment in force at time ``t`` [s]: the first ending at or after ``t`` (within

@@ -41,7 +41,7 @@ if importlib.util.find_spec("numba") is None:
     pytest.skip("numba is not installed (pip install drs[fast])", allow_module_level=True)
 
 from drs_model import elementwise  # noqa: E402
-from drs_model.compiled import drivers, rk  # noqa: E402
+from drs_model.compiled import drivers, rk, rk_step  # noqa: E402
 from drs_model.compiled import simulate as compiled  # noqa: E402
 from drs_model.compiled.tableaux import tableau  # noqa: E402
 from drs_model.compiled.warm import warm_up  # noqa: E402
@@ -157,9 +157,9 @@ def test_compiled_psi3_kernel_equals_the_numpy_reference(params):
 
 def test_each_driver_build_is_keyed_on_the_code_it_inlines():
     """numba's cache checks the stamp of the file a function is defined in (drivers.py), and a
-    driver build inlines rk.integrate and the kernels: each build carries the digest of their
-    source files (rk.py, kernels.py, jit.py, read here) among its closure's values, which
-    numba's cache key includes, so an edit of them compiles anew."""
+    driver build inlines rk.integrate, its step and the kernels: each build carries the digest of
+    their source files (rk.py, rk_step.py, kernels.py, jit.py, read here) among its closure's
+    values, which numba's cache key includes, so an edit of them compiles anew."""
     import hashlib
     from pathlib import Path
 
@@ -167,11 +167,12 @@ def test_each_driver_build_is_keyed_on_the_code_it_inlines():
     from drs_model.compiled import jit as jit_module
 
     digest = hashlib.sha256()
-    for module in (rk, kernels, jit_module):
+    for module in (rk, rk_step, kernels, jit_module):
         digest.update(Path(module.__file__).read_bytes())
     for build in drivers.DRIVERS.values():
-        texts = [c.cell_contents for c in build.py_func.__closure__
-                 if isinstance(c.cell_contents, str)]  # fmt: skip
+        texts = [
+            c.cell_contents for c in build.py_func.__closure__ if isinstance(c.cell_contents, str)
+        ]
         assert texts == [digest.hexdigest()]
 
 
@@ -234,9 +235,21 @@ def test_the_held_segment_evaluates_its_force_once_and_changes_no_bit(
     bit for bit, as one that calls the manoeuvre kernel at every stage of the hold."""
     form = compiled.psi3_formulation(params)
     _, args, _ = compiled._plan(
-        form, mforce, method, 0.0, params.T_total, 1e-7, None, None, math.inf, 1e-12, (), None,
-        False, 1_000_000,
-    )  # fmt: skip
+        form,
+        mforce,
+        method,
+        0.0,
+        params.T_total,
+        1e-7,
+        None,
+        None,
+        math.inf,
+        1e-12,
+        (),
+        None,
+        False,
+        1_000_000,
+    )
     kinds = args[1]
     assert kinds.tolist() == [1, 0, 1]  # manoeuvre kernel, one value, manoeuvre kernel
     every_stage = (args[0], np.ones_like(kinds), *args[2:])

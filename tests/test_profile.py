@@ -183,8 +183,9 @@ def test_segment_lookup_by_bisection_matches_a_scan(params):
     path = QuinticPath.of_plan(plan, 2.0, plan.head(0.03, 0.0, 0.0))
     ends = [path.t_start + e for e in plan.times]
     rng = np.random.default_rng(1)
-    probes = np.concatenate([rng.uniform(1.9, 12.1, 300), np.array(ends[:50]) + 1e-13,
-                             np.array(ends[:50]) - 1e-9])  # fmt: skip
+    probes = np.concatenate(
+        [rng.uniform(1.9, 12.1, 300), np.array(ends[:50]) + 1e-13, np.array(ends[:50]) - 1e-9]
+    )
     for t in probes:
         scan = next((k for k, e in enumerate(ends) if t - path.t_start <= plan.ends[k]), n - 1)
         assert path.segment_index(float(t)) == scan
@@ -201,15 +202,25 @@ def test_segment_lookup_by_bisection_matches_a_scan(params):
         ([0.01], [0.2], None, StrokeRangeError, r"stroke 0\.2 m is outside \[s_min, s_max\]"),
         ([0.01], [math.nan], None, InputError, r"must be finite"),
         ([], [], None, InputError, r"needs 1\.\.10000 points"),
-        (np.arange(1, 10_002) * 1e-3, np.full(10_001, 0.02), None, InputError,
-         r"needs 1\.\.10000 points with one stroke per time, got 10001 times"),
+        (
+            np.arange(1, 10_002) * 1e-3,
+            np.full(10_001, 0.02),
+            None,
+            InputError,
+            r"needs 1\.\.10000 points with one stroke per time, got 10001 times",
+        ),
         ([0.01], [0.02], [math.inf], InputError, r"rates must be 1 finite values"),
         ([0.01, 0.02], [0.02, 0.03], [0.1, 0.2], InputError, r"must end at rest"),
         # a later segment that overshoots is refused by the plan alone (no state needed)
-        ([0.01, 0.02, 0.03], [0.02, 0.045, 0.046], [0.0, 2.0, 0.0], StrokeRangeError,
-         r"leaves \[s_min, s_max\].* on its way to point 2 \(of 0\.\.2\)"),
+        (
+            [0.01, 0.02, 0.03],
+            [0.02, 0.045, 0.046],
+            [0.0, 2.0, 0.0],
+            StrokeRangeError,
+            r"leaves \[s_min, s_max\].* on its way to point 2 \(of 0\.\.2\)",
+        ),
     ],
-)  # fmt: skip
+)
 def test_a_plan_refuses_what_the_actuator_refuses(params, times, strokes, rates, error, match):
     from drs_model.profile import plan_trajectory
 
@@ -226,7 +237,7 @@ def test_a_plan_refuses_what_the_actuator_refuses(params, times, strokes, rates,
 def test_a_path_whose_hull_stays_inside_is_sampled_inside(coeffs, duration, width):
     """hull_leaves is a safe short cut for path_extremes: where the control points stay inside
     the limits, every sampled instant (and a dense sampling) lies inside too."""
-    from drs_model.profile import hull_leaves, path_extremes
+    from drs_model.path_range import hull_leaves, path_extremes
 
     c = np.array(coeffs)
     tau = np.linspace(0.0, duration, 2001)
@@ -254,13 +265,14 @@ def test_a_move_is_refused_exactly_when_its_samples_leave_the_range(
     move exactly when the move's sampled path leaves [s_min, s_max], computed independently
     from the same segment; from moving states that overshoot and from rest."""
     from drs_model.motion import StrokeMotion
-    from drs_model.profile import PATH_SAMPLES
+    from drs_model.path_range import PATH_SAMPLES
 
     lo, hi = stroke_limits(params)
     s0, s1 = lo + start * (hi - lo), lo + target * (hi - lo)
     motion = StrokeMotion(params, 1e-3)
-    dur = duration if duration is not None else max(params.T_opening * abs(s1 - s0) / (hi - lo),
-                                                    2e-3)  # fmt: skip
+    dur = (
+        duration if duration is not None else max(params.T_opening * abs(s1 - s0) / (hi - lo), 2e-3)
+    )
     seg = quintic_move(params, s1, dur, s0, v0, a0, limits=(lo, hi))
     tau = np.linspace(0.0, seg.duration, PATH_SAMPLES)
     path = np.polynomial.polynomial.polyval(tau, seg.coeffs)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from .. import kernels
 from . import jit as jit_options
-from . import rk
+from . import rk, rk_step
 from .jit import jit, jitable
 from .rk import integrate as integrate_tableau
 from .tableaux import METHODS, tableau
@@ -29,10 +29,11 @@ def source_digest(*modules) -> str:
     return digest.hexdigest()
 
 
-#: The code a build inlines (the driver, the kernels, their inlined builds), bound into each
-#: build as well: numba's on-disk cache checks the stamp of this file alone, and the closure's
-#: values are part of its key, so an edit there compiles anew instead of loading a stale build.
-INLINED_SOURCE = source_digest(rk, kernels, jit_options)
+#: The code a build inlines (the driver and its step, the kernels, their inlined builds), bound
+#: into each build as well: numba's on-disk cache checks the stamp of this file alone, and the
+#: closure's values are part of its key, so an edit there compiles anew instead of loading a
+#: stale build.
+INLINED_SOURCE = source_digest(rk, rk_step, kernels, jit_options)
 
 
 def _driver(method: str):
@@ -41,14 +42,35 @@ def _driver(method: str):
     a, c, e, e3, dense, ns, n_ext, err_order, is853 = tableau(method)
     inlined_source = INLINED_SOURCE
 
-    def integrate(y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, rtol,
-                  atol, first_step, max_step, min_step, checks, max_steps):  # fmt: skip
+    def integrate(
+        y_start0,
+        y_start1,
+        t_eval,
+        has_eval,
+        edges,
+        kinds,
+        values,
+        mc,
+        mp,
+        kc,
+        rtol,
+        atol,
+        first_step,
+        max_step,
+        min_step,
+        checks,
+        max_steps,
+    ):
         inlined_source  # noqa: B018 - a value of the closure: part of numba's cache key
         return integrate_tableau(
-            y_start0, y_start1, t_eval, has_eval, edges, kinds, values, mc, mp, kc, a, c, e, e3,
-            dense, ns, n_ext, err_order, is853, rtol, atol, first_step, max_step, min_step,
-            checks, max_steps,
-        )  # fmt: skip
+            y_start0,
+            y_start1,
+            t_eval,
+            has_eval,
+            (edges, kinds, values, mc, mp, kc),
+            (a, c, e, e3, dense, ns, n_ext, err_order, is853),
+            (rtol, atol, first_step, max_step, min_step, checks, max_steps),
+        )
 
     integrate.__qualname__ = integrate.__name__ = f"integrate_{method}"
     integrate.__doc__ = f""":func:`.rk.integrate` of {method!r}: its arguments without the

@@ -45,6 +45,15 @@ def jitable(fn, inline: str = "never"):
     return register_jitable(inline=inline, **OPTIONS)(fn)
 
 
+def jitable_inlined(fn):
+    """Register the helper ``fn`` inlined into its caller in numba's IR. The helpers of an RK
+    step (its stages, error norm, checks and output) are: called, each passed its arrays as
+    structures with their references counted, they cost ~0.2-0.3 us a step, a sixth of a run
+    at rtol 1e-6 (``benchmarks/work_precision.py --floor``: 53.5 -> 44.8 us a run); the
+    warm-up (``python -m drs_model.compiled``) compiles ~25 s longer."""
+    return jitable(fn, "always")
+
+
 #: Inlined into their callers: the two halves of psi3_acceleration, which the RK driver calls
 #: separately to keep the position of a step's last stage (split, they cost as much as whole).
 _INLINED = (kernels.psi3_position, kernels.psi3_acceleration_at)

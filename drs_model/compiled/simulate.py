@@ -231,45 +231,72 @@ def _driver(method: str):
         raise InputError(f"method must be {methods}, got {method!r}") from None
 
 
-def _raise(status, label, t, y, info, seg, edges, checks, p, max_steps, min_step):
-    where = f"at t = {t:.9g} s (segment [{edges[seg]:.6g}, {edges[seg + 1]:.6g}] s)"
-    state = f"psi3 = {y[0]:.9g} rad, psi3' = {y[1]:.9g} rad/s"
-    head = f"{label} on formulation 'psi3'"
-    if status == rk.STEP_COLLAPSE:
-        raise IntegrationError(
-            f"{head}: step size collapsed to {info:.3g} s (10 ulp of t) {where}, {state}: "
-            f"the error control rejects every step (a stage outside the assembly range?)"
+#: What each failure status of the driver raises: ``(error type, message)``, the message a
+#: template of the run's ``head``, ``label``, ``where``, ``state``, ``t`` [s], ``y`` (psi3 [rad],
+#: psi3' [rad/s]), ``info`` (the status's value), ``checks``, ``s_dead`` [m], ``min_step`` [s]
+#: and ``max_steps``.
+_FAILURES = {
+    rk.STEP_COLLAPSE: (
+        IntegrationError,
+        "{head}: step size collapsed to {info:.3g} s (10 ulp of t) {where}, {state}: "
+        "the error control rejects every step (a stage outside the assembly range?)",
+    ),
+    rk.MIN_STEP: (
+        IntegrationError,
+        "{head}: step size collapsed to {info:.3g} s < min_step = {min_step:g} s {where}",
+    ),
+    rk.NONFINITE_STATE: (IntegrationError, "{head}: non-finite state {where}: {state}"),
+    rk.NONFINITE_FORCE: (
+        IntegrationError,
+        "{head}: piston force is not finite at t = {t!r} s: {info!r} N (the manoeuvre's "
+        "loop cannot close there?)",
+    ),
+    rk.SINGULAR: (
+        SingularConfigurationError,
+        "psi3 formulation ({label}): at psi3 = {y[0]:.9g} rad (t = {t:.9g} s) cos psi1 = "
+        "{info:.3g} < min_cos_psi1 = {checks[0]:g}: the link is nearly horizontal and psi3 "
+        "cannot stay the independent coordinate",
+    ),
+    rk.DEAD_CENTRE: (
+        SingularConfigurationError,
+        "{head}: step to t = {t:.9g} s crosses the dead centre: psi3 = {y[0]:.9g} rad >= "
+        "{checks[3]:.9g} rad (s_dead = {s_dead:.9g} m)",
+    ),
+    rk.STROKE_RANGE: (
+        StrokeRangeError,
+        "{head}: stroke s = {info:.9g} m at t = {t:.9g} s leaves the stroke range "
+        "[{checks[1]:.9g}, {checks[2]:.9g}] m ({state})",
+    ),
+    rk.TOO_MANY_STEPS: (
+        IntegrationError,
+        "{head}: more than max_steps = {max_steps} steps {where}",
+    ),
+}
+
+
+def _raise(status, label, t, y, info, seg, plan, p):
+    """Raise the typed error of the driver's failure ``status`` (:data:`_FAILURES`) at ``t`` [s]
+    in segment ``seg`` of the run of ``plan`` (:func:`_plan`'s driver arguments)."""
+    edges, min_step, checks, max_steps = plan[0], plan[-3], plan[-2], plan[-1]
+    error, message = _FAILURES.get(
+        status, (IntegrationError, "{head}: unknown status {status} {where}")
+    )
+    raise error(
+        message.format(
+            head=f"{label} on formulation 'psi3'",
+            label=label,
+            where=f"at t = {t:.9g} s (segment [{edges[seg]:.6g}, {edges[seg + 1]:.6g}] s)",
+            state=f"psi3 = {y[0]:.9g} rad, psi3' = {y[1]:.9g} rad/s",
+            status=status,
+            t=t,
+            y=y,
+            info=info,
+            checks=checks,
+            s_dead=dead_centre(p) if status == rk.DEAD_CENTRE else math.nan,
+            min_step=min_step,
+            max_steps=max_steps,
         )
-    if status == rk.MIN_STEP:
-        raise IntegrationError(
-            f"{head}: step size collapsed to {info:.3g} s < min_step = {min_step:g} s {where}"
-        )
-    if status == rk.NONFINITE_STATE:
-        raise IntegrationError(f"{head}: non-finite state {where}: {state}")
-    if status == rk.NONFINITE_FORCE:
-        raise IntegrationError(
-            f"{head}: piston force is not finite at t = {t!r} s: {info!r} N (the manoeuvre's "
-            f"loop cannot close there?)"
-        )
-    if status == rk.SINGULAR:
-        raise SingularConfigurationError(
-            f"psi3 formulation ({label}): at psi3 = {y[0]:.9g} rad (t = {t:.9g} s) cos psi1 = "
-            f"{info:.3g} < min_cos_psi1 = {checks[0]:g}: the link is nearly horizontal and psi3 "
-            f"cannot stay the independent coordinate"
-        )
-    if status == rk.DEAD_CENTRE:
-        raise SingularConfigurationError(
-            f"{head}: step to t = {t:.9g} s crosses the dead centre: psi3 = {y[0]:.9g} rad >= "
-            f"{checks[3]:.9g} rad (s_dead = {dead_centre(p):.9g} m)"
-        )
-    if status == rk.STROKE_RANGE:
-        raise StrokeRangeError(
-            f"{head}: stroke s = {info:.9g} m at t = {t:.9g} s leaves the stroke range "
-            f"[{checks[1]:.9g}, {checks[2]:.9g}] m ({state})"
-        )
-    if status == rk.TOO_MANY_STEPS:
-        raise IntegrationError(f"{head}: more than max_steps = {max_steps} steps {where}")
-    raise IntegrationError(f"{head}: unknown status {status} {where}")  # pragma: no cover
+    )
 
 
 def simulate_compiled(
@@ -278,20 +305,9 @@ def simulate_compiled(
     t_span: tuple[float, float],
     *,
     method: str = "dop853",
-    rtol: float = 1e-8,
-    atol=None,
-    t_eval=None,
-    first_step: float | None = None,
-    max_step: float = math.inf,
-    min_step: float = 1e-12,
-    initial: tuple | None = None,
-    y0=None,
-    breakpoints: tuple[float, ...] = (),
     flap_limits: tuple[float, float] | None = None,
     min_cos_psi1: float = 0.05,
-    stroke_range: tuple[float, float] | None = None,
-    stop_at_dead_centre: bool = False,
-    max_steps: int = 1_000_000,
+    **options,
 ):
     """Forward dynamics of formulation (a) (``psi3``) with a compiled adaptive RK method.
 
@@ -306,6 +322,10 @@ def simulate_compiled(
         Start and end times [s].
     method : {"dopri5", "dop853"}
         Dormand-Prince 5(4) or DOP853 (the tableaux and step control of scipy's RK45 / DOP853).
+    flap_limits, min_cos_psi1
+        Options of :class:`~drs_model.forward.Psi3Minimal`.
+    **options
+        The run's options, those of :func:`run_formulation` (with the same defaults):
     rtol, atol : float or array_like
         Tolerances; ``atol`` defaults to ``rtol * [1 rad, 100 rad/s]`` (as ``simulate``).
     t_eval : array_like, shape (n,), optional
@@ -317,8 +337,6 @@ def simulate_compiled(
         the closed stroke.
     breakpoints : tuple of float
         Extra restart times [s].
-    flap_limits, min_cos_psi1
-        Options of :class:`~drs_model.forward.Psi3Minimal`.
     stroke_range : (float, float), optional
         A step ending with the stroke outside ``[lo, hi]`` [m] raises
         :class:`~drs_model.errors.StrokeRangeError` (default: no check, as ``simulate``).
@@ -343,12 +361,7 @@ def simulate_compiled(
         See the module docstring.
     """
     form = psi3_formulation(p, flap_limits, min_cos_psi1)
-    return run_formulation(
-        form, force, t_span, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
-        first_step=first_step, max_step=max_step, min_step=min_step, initial=initial, y0=y0,
-        breakpoints=breakpoints, stroke_range=stroke_range,
-        stop_at_dead_centre=stop_at_dead_centre, max_steps=max_steps,
-    )  # fmt: skip
+    return run_formulation(form, force, t_span, method=method, **options)
 
 
 def run_formulation(
@@ -374,30 +387,28 @@ def run_formulation(
     """:func:`simulate_compiled` on a formulation instance (the hook of ``simulate``): validate,
     run the compiled driver, raise its failure as a typed error or return the
     :class:`~drs_model.forward.solution.Solution`."""
-    if not isinstance(form, Psi3Minimal):
-        if isinstance(form, str):
-            raise InputError("run_formulation takes a formulation instance")
-        raise InputError(
-            f"the compiled methods integrate formulation 'psi3' only, got {form.name!r}; use a "
-            f"scipy method for the others"
-        )
+    _check_formulation(form)
     fobj = as_force(force)
     t0, t1 = float(t_span[0]), float(t_span[1])  # checked in the cached plan
-    if y0 is not None:
-        y = np.asarray(y0, dtype=float).reshape(2)
-        form.check(t0, y)
-    elif initial is not None:
-        y = form.initial_state(*initial)
-    else:
-        y = _rest_state(form.p)
-    b0, bd0 = float(y[0]), float(y[1])
+    b0, bd0 = _start_state(form, t0, initial, y0)
     if atol is not None:  # hashable, for the plan's cache
         atol = tuple(np.broadcast_to(np.asarray(atol, dtype=np.float64), (2,)).tolist())
     driver, plan, segments = _plan(
-        form, fobj, method, t0, t1, rtol, atol, first_step, max_step, min_step,
-        tuple(breakpoints), None if stroke_range is None else tuple(stroke_range),
-        bool(stop_at_dead_centre), max_steps,
-    )  # fmt: skip
+        form,
+        fobj,
+        method,
+        t0,
+        t1,
+        rtol,
+        atol,
+        first_step,
+        max_step,
+        min_step,
+        tuple(breakpoints),
+        None if stroke_range is None else tuple(stroke_range),
+        bool(stop_at_dead_centre),
+        max_steps,
+    )
     if t_eval is None:
         te, has_eval = _NO_OUTPUT_TIMES, False
     else:
@@ -408,12 +419,51 @@ def run_formulation(
     )
     label = label or f"{method}-numba"
     if status != rk.OK:
-        edges, min_step, checks, max_steps = plan[0], plan[-3], plan[-2], plan[-1]
-        _raise(status, label, t_fail, (b_fail, bd_fail), info, seg, edges, checks, form.p,
-               max_steps, min_step)  # fmt: skip
-    # views into the one block the driver returned (q, qd: (n, 3), Fortran order; the
-    # residuals of minimal coordinates: its rows of zeros)
+        _raise(status, label, t_fail, (b_fail, bd_fail), info, seg, plan, form.p)
+    return _solution(form.name, label, block, nfev, nsteps, nrej, segments)
+
+
+def _solution(formulation, label, block, nfev, nsteps, nrejected, segments) -> Solution:
+    """The run's :class:`~drs_model.forward.solution.Solution`: views into the one block the
+    driver returned (q, qd: (n, 3), Fortran order; the residuals of minimal coordinates: its
+    rows of zeros)."""
     return Solution(
-        form.name, label, block[0], block[1:3], block[3:6].T, block[6:9].T, block[9], block[10],
-        nfev, 0, 0, nsteps, list(segments), nrej,
-    )  # fmt: skip
+        formulation,
+        label,
+        block[0],
+        block[1:3],
+        block[3:6].T,
+        block[6:9].T,
+        block[9],
+        block[10],
+        nfev,
+        0,
+        0,
+        nsteps,
+        list(segments),
+        nrejected,
+    )
+
+
+def _check_formulation(form) -> None:
+    """Refuse a formulation the compiled methods do not integrate (only ``psi3``'s)."""
+    if not isinstance(form, Psi3Minimal):
+        if isinstance(form, str):
+            raise InputError("run_formulation takes a formulation instance")
+        raise InputError(
+            f"the compiled methods integrate formulation 'psi3' only, got {form.name!r}; use a "
+            f"scipy method for the others"
+        )
+
+
+def _start_state(form: Psi3Minimal, t0: float, initial, y0) -> tuple[float, float]:
+    """``(psi3 [rad], psi3' [rad/s])`` at ``t0``: ``y0`` (checked), from ``initial = (q0, qd0)``,
+    or at rest at the closed stroke."""
+    if y0 is not None:
+        y = np.asarray(y0, dtype=float).reshape(2)
+        form.check(t0, y)
+    elif initial is not None:
+        y = form.initial_state(*initial)
+    else:
+        y = _rest_state(form.p)
+    return float(y[0]), float(y[1])

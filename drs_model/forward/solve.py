@@ -165,17 +165,12 @@ def simulate(
     SingularConfigurationError
         The s formulation approached the dead centre.
     """
-    if isinstance(method, str) and method in COMPILED_METHODS:
-        form, extra = _compiled_formulation(formulation, params, method, formulation_options)
-        return _compiled_driver().run_formulation(
-            form, force, t_span, method=COMPILED_METHODS[method], initial=initial, y0=y0,
-            label=method, rtol=rtol, atol=atol, t_eval=t_eval, first_step=first_step,
-            max_step=max_step, min_step=min_step, breakpoints=breakpoints, **extra,
-        )  # fmt: skip
     steps = dict(rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, min_step=min_step)
+    run = (force, t_span, (y0, initial), t_eval, breakpoints, steps)
+    if isinstance(method, str) and method in COMPILED_METHODS:
+        return _simulate_compiled(formulation, params, method, formulation_options, *run)
     form, base = _scipy_formulation(formulation, params, method, formulation_options)
-    return _simulate_scipy(form, base, method, force, t_span, (y0, initial), t_eval,
-                           breakpoints, steps)  # fmt: skip
+    return _simulate_scipy(form, base, method, *run)
 
 
 def _scipy_formulation(formulation, params, method, options: dict):
@@ -233,9 +228,18 @@ def _simulate_scipy(form, base, method, force, t_span, start, t_eval, breakpoint
     q, qd = form.to_q_qd(y_out)
     res, vres = form.residual(y_out)
     return Solution(
-        form.name, method, t_out, y_out, q, qd, res, vres, *counts, stats["nsteps"],
+        form.name,
+        method,
+        t_out,
+        y_out,
+        q,
+        qd,
+        res,
+        vres,
+        *counts,
+        stats["nsteps"],
         list(zip(edges[:-1], edges[1:], strict=True)),
-    )  # fmt: skip
+    )
 
 
 def _initial_state(form, t0: float, y0, initial):
@@ -286,6 +290,29 @@ def _compiled_driver():
     from ..compiled import simulate
 
     return simulate
+
+
+def _simulate_compiled(
+    formulation, params, method, options, force, t_span, start, t_eval, breakpoints, steps
+):
+    """``simulate`` with a compiled method: formulation (a) run by
+    :func:`drs_model.compiled.simulate.run_formulation`; ``start = (y0, initial)``, ``steps``
+    the tolerances and step bounds, ``options`` the formulation's and the driver's own."""
+    form, extra = _compiled_formulation(formulation, params, method, options)
+    y0, initial = start
+    return _compiled_driver().run_formulation(
+        form,
+        force,
+        t_span,
+        method=COMPILED_METHODS[method],
+        initial=initial,
+        y0=y0,
+        label=method,
+        t_eval=t_eval,
+        breakpoints=breakpoints,
+        **steps,
+        **extra,
+    )
 
 
 def _compiled_formulation(formulation, params, method: str, options: dict):

@@ -85,33 +85,86 @@ def _hermite(x, h, y0, d0, y1, d1):
     )
 
 
+@jitable
+def _set_checks(checks, lo, hi):
+    """The driver's ``checks`` of a sample: its stroke range ``[lo, hi]`` [m] checked,
+    ``Psi3Minimal``'s default ``min_cos_psi1``, no stop at the dead centre (formulation (a) passes
+    through it)."""
+    checks[0] = 0.05
+    checks[1] = lo
+    checks[2] = hi
+    checks[3] = math.inf
+    checks[4] = 1.0
+    checks[5] = 0.0
+
+
+@jitable
+def _run(is853, y0, d0, run, kc, rtol, atol, max_step, checks, max_steps):
+    """The driver from ``(psi3, psi3') = (y0, d0)`` over ``run = (no_eval, edges, kinds, values,
+    mc, mp)`` (one segment under a constant force, no output times) with steps of at most
+    ``max_step`` [s]. Returns ``(status, info, t_fail, psi3_fail, psi3'_fail, (t, psi3, psi3')
+    at the end of the last accepted step)``."""
+    no_eval, edges, kinds, values, mc, mp = run
+    status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = integrate_method(
+        is853,
+        y0,
+        d0,
+        no_eval,
+        False,
+        edges,
+        kinds,
+        values,
+        mc,
+        mp,
+        kc,
+        rtol,
+        atol,
+        0.0,
+        max_step,
+        1e-12,
+        checks,
+        max_steps,
+    )
+    last = block.shape[1] - 1
+    return status, info, t_fail, b_fail, bd_fail, (block[0, last], block[1, last], block[2, last])
+
+
+@jitable
+def _hermite_crossing(target, h, y0, d0, y1, d1):
+    """Where in ``[0, 1]`` the cubic Hermite interpolant of a step of ``h`` [s] from ``(y0, d0)``
+    to ``(y1, d1)`` meets ``target`` (bisection, :data:`_BISECTIONS` halvings)."""
+    a, b = 0.0, 1.0
+    sign_a = y0 - target
+    for _ in range(_BISECTIONS):
+        m = 0.5 * (a + b)
+        ym = _hermite(m, h, y0, d0, y1, d1) - target
+        if (ym > 0.0) == (sign_a > 0.0):
+            a = m
+        else:
+            b = m
+    return 0.5 * (a + b)
+
+
 @jit
-def _crossings(
-    psi3_start, psi3_target, kcs, lo, hi, towards_hi, force, horizon, is853, rtol, atol,
-    max_steps,
-):  # fmt: skip
+def _crossings(psi3_start, psi3_target, kcs, lo, hi, towards_hi, force, horizon, is853, tols):
+    """The loop of :func:`crossing_times` over the samples, compiled; ``tols = (rtol, atol,
+    max_steps)``."""
+    rtol, atol, max_steps = tols
     n = psi3_start.shape[0]
     times = np.full(n, np.nan)
     outcome = np.full(n, FAILED, dtype=np.int64)
     driver_status = np.zeros(n, dtype=np.int64)
     edges = np.array([0.0, horizon])
     kinds = np.zeros(1, dtype=np.int64)  # rk.CONSTANT
-    values = np.array([force])
     mc = np.zeros(kernels.N_CONSTANTS)  # the manoeuvre's: unread under a constant force
     mp = np.ones(kernels.N_PROFILE_CONSTANTS)
-    no_eval = np.zeros(0)
+    run = (np.zeros(0), edges, kinds, np.array([force]), mc, mp)
     checks = np.zeros(6)
     for i in range(n):
-        checks[0] = 0.05  # Psi3Minimal's default min_cos_psi1
-        checks[1] = lo[i]
-        checks[2] = hi[i]
-        checks[3] = math.inf
-        checks[4] = 1.0  # check the stroke range
-        checks[5] = 0.0  # formulation (a) passes through the dead centre
-        status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = integrate_method(
-            is853, psi3_start[i], 0.0, no_eval, False, edges, kinds, values, mc, mp, kcs[i],
-            rtol, atol, 0.0, math.inf, 1e-12, checks, max_steps,
-        )  # fmt: skip
+        _set_checks(checks, lo[i], hi[i])
+        status, info, t_fail, _, _, end = _run(
+            is853, psi3_start[i], 0.0, run, kcs[i], rtol, atol, math.inf, checks, max_steps
+        )
         driver_status[i] = status
         if status == rk.OK:
             outcome[i] = NOT_WITHIN_HORIZON
@@ -122,35 +175,22 @@ def _crossings(
         if (info > hi[i]) != towards_hi:
             outcome[i] = WRONG_WAY
             continue
-        last = block.shape[1] - 1  # the last accepted step before the one that crossed
-        t0, y0, d0 = block[0, last], block[1, last], block[2, last]
         # the crossing step again, in steps of at most 1/_REFINE of it: the interpolant's
         # error falls as h^4 (one DOP853 step near the stop spans ~1 ms, 6e-9 s of error)
+        t0, y0, d0 = end  # the last accepted step before the one that crossed
         h = t_fail - t0
         edges[0], edges[1] = t0, t0 + 2.0 * h
-        status, _, _, _, t_fail, b_fail, bd_fail, info, _, block = integrate_method(
-            is853, y0, d0, no_eval, False, edges, kinds, values, mc, mp, kcs[i], rtol, atol, 0.0,
-            h / _REFINE, 1e-12, checks, max_steps,
-        )  # fmt: skip
+        status, info, t_fail, b_fail, bd_fail, end = _run(
+            is853, y0, d0, run, kcs[i], rtol, atol, h / _REFINE, checks, max_steps
+        )
         edges[0], edges[1] = 0.0, horizon
         if status != rk.STROKE_RANGE or (info > hi[i]) != towards_hi:
             driver_status[i] = status
             outcome[i] = FAILED
             continue
-        last = block.shape[1] - 1
-        t0, y0, d0 = block[0, last], block[1, last], block[2, last]
+        t0, y0, d0 = end
         h = t_fail - t0
-        target = psi3_target[i]
-        a, b = 0.0, 1.0
-        sign_a = y0 - target
-        for _ in range(_BISECTIONS):
-            m = 0.5 * (a + b)
-            ym = _hermite(m, h, y0, d0, b_fail, bd_fail) - target
-            if (ym > 0.0) == (sign_a > 0.0):
-                a = m
-            else:
-                b = m
-        times[i] = t0 + 0.5 * (a + b) * h
+        times[i] = t0 + _hermite_crossing(psi3_target[i], h, y0, d0, b_fail, bd_fail) * h
         outcome[i] = REACHED
     return times, outcome, driver_status
 
@@ -204,6 +244,12 @@ def crossing_times(
     return _crossings(
         np.ascontiguousarray(psi3_start, dtype=np.float64),
         np.ascontiguousarray(psi3_target, dtype=np.float64),
-        kcs, lo, hi, bool(towards_hi), float(force), float(horizon), is853, rtol,
-        atol, int(max_steps),
-    )  # fmt: skip
+        kcs,
+        lo,
+        hi,
+        bool(towards_hi),
+        float(force),
+        float(horizon),
+        is853,
+        (rtol, atol, int(max_steps)),
+    )

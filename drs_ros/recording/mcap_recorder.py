@@ -43,7 +43,6 @@ import operator
 import os
 import threading
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +57,7 @@ from .destinations import check_new_bag
 from .errors import RecordingError
 from .flush_schedule import FlushSchedule
 from .mcap_append import MessageAppender
+from .message_tally import MessageTally, RecorderStats
 from .qos import qos_dict, qos_yaml
 
 _COMPRESSION = {
@@ -66,41 +66,6 @@ _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
 }
 _LIBRARY = f"drs_ros.recording (mcap-python {_mcap_version})"
-
-
-# ---- records ------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class RecorderStats:
-    """Counters for diagnostics (a snapshot).
-
-    Attributes
-    ----------
-    messages : dict
-        Messages written per topic.
-    message_count : int
-        Total messages written.
-    bytes_written : int
-        Total serialised payload [bytes].
-    file_bytes : int
-        Bytes handed to the OS so far (file size up to the last flush) [bytes].
-    flush_count : int
-        Chunk flushes so far.
-    messages_flushed : int
-        Messages safely in the file at the last flush (what a SIGKILL would keep).
-    seconds_since_flush : float
-        Age of the last flush (or of the start) [s].
-    finished : bool
-        Whether :meth:`McapRecorder.finish` ran.
-    """
-
-    messages: dict[str, int]
-    message_count: int
-    bytes_written: int
-    file_bytes: int
-    flush_count: int
-    messages_flushed: int
-    seconds_since_flush: float
-    finished: bool
 
 
 class McapRecorder:
@@ -179,18 +144,14 @@ class McapRecorder:
         self._lock = threading.Lock()
         self._topics: dict[str, TopicInfo] = {}
         self._schemas: dict[str, int] = {}
-        self._counts: dict[str, int] = {}
-        self._sequence: dict[str, int] = {}
-        self._message_count = 0
-        self._bytes = 0
-        self._t_min: int | None = None
-        self._t_max: int | None = None
+        self._tally = MessageTally()
         self._finished = False
         #: The first I/O error of a write or a flush (None: none); every later write raises it.
         self.io_error: OSError | None = None
         # closes the chunks on the schedule; the flush thread compresses and writes them
-        self._flusher = ChunkFlusher(self._writer, self._stream, self.path, self._lock, schedule,
-                                     self._failed, flush_thread)  # fmt: skip
+        self._flusher = ChunkFlusher(
+            self._writer, self._stream, self.path, self._lock, schedule, self._failed, flush_thread
+        )
         self._appender = MessageAppender(self._writer, self._flusher.on_full())
 
     # ---- context manager --------------------------------------------------------------------
@@ -284,8 +245,7 @@ class McapRecorder:
             channel_id = self._writer.register_channel(topic, "cdr", schema_id, metadata)
             info = TopicInfo(topic, name, cls, channel_id, tuple(profiles), type_hash)
             self._topics[topic] = info
-            self._counts[topic] = 0
-            self._sequence[topic] = 0
+            self._tally.add_topic(topic)
             return info
 
     @property
@@ -316,9 +276,9 @@ class McapRecorder:
         pub_ns = log_ns if publish_time_ns is None else _time_ns(publish_time_ns, "publish_time_ns")
         with self._lock:
             self._check_open()
-            seq = self._count_locked(topic, data, log_ns, sequence)
+            seq = self._tally.count(topic, len(data), log_ns, sequence)
             self._appender.append(self._topics[topic].channel_id, log_ns, data, pub_ns, seq)
-            closed = self._flusher.wrote_locked(self._message_count)
+            closed = self._flusher.wrote_locked(self._tally.message_count)
         if closed:
             self._flusher.write_closed()
         return seq
@@ -331,12 +291,13 @@ class McapRecorder:
         log_ns = _time_ns(log_time_ns, "log_time_ns")
         with self._lock:
             self._check_open()
-            topics = self._topics
-            count = self._count_locked
-            batch = [(topics[topic].channel_id, data, count(topic, data, log_ns, None))
-                     for topic, data in items]  # fmt: skip
+            topics, count = self._topics, self._tally.count
+            batch = [
+                (topics[topic].channel_id, data, count(topic, len(data), log_ns))
+                for topic, data in items
+            ]
             self._appender.append_many(log_ns, batch)  # the file's statistics updated once
-            closed = self._flusher.wrote_locked(self._message_count, len(items))
+            closed = self._flusher.wrote_locked(self._tally.message_count, len(items))
         if closed:
             self._flusher.write_closed()
         return [seq for _channel, _data, seq in batch]
@@ -357,25 +318,13 @@ class McapRecorder:
             f"{type(msg).__name__}"
         )
 
-    def _count_locked(self, topic: str, data: bytes, log_ns: int, sequence: int | None) -> int:
-        """One message more of ``topic`` in the recorder's counts; its sequence number (the
-        one given, or one more than the channel's last)."""
-        seq = self._sequence[topic] + 1 if sequence is None else int(sequence)
-        self._sequence[topic] = seq
-        self._counts[topic] += 1
-        self._message_count += 1
-        self._bytes += len(data)
-        self._t_min = log_ns if self._t_min is None else min(self._t_min, log_ns)
-        self._t_max = log_ns if self._t_max is None else max(self._t_max, log_ns)
-        return seq
-
     def flush(self) -> None:
         """Close the chunk in progress and hand everything to the OS (no fsync); returns once
         every closed chunk is in the file."""
         with self._lock:
             if self._finished:
                 return
-            self._flusher.close_locked(self._message_count)
+            self._flusher.close_locked(self._tally.message_count)
         self._flusher.drain()
 
     def _failed(self, exc: OSError) -> None:
@@ -393,9 +342,9 @@ class McapRecorder:
         """A snapshot of the counters (see :class:`RecorderStats`)."""
         with self._lock:
             return RecorderStats(
-                messages=dict(self._counts),
-                message_count=self._message_count,
-                bytes_written=self._bytes,
+                messages=dict(self._tally.counts),
+                message_count=self._tally.message_count,
+                bytes_written=self._tally.bytes,
                 file_bytes=self._flusher.file_bytes,
                 flush_count=self._flusher.schedule.count,
                 messages_flushed=self._flusher.schedule.messages_flushed,
@@ -409,9 +358,17 @@ class McapRecorder:
             return self._bag_metadata_locked()
 
     def _bag_metadata_locked(self) -> dict[str, Any]:
-        return bag_metadata(self._topics.values(), self._counts, self._message_count,
-                            self._t_min, self._t_max, self.path.name, self.custom_data,
-                            self.ros_distro)  # fmt: skip
+        tally = self._tally
+        return bag_metadata(
+            self._topics.values(),
+            tally.counts,
+            tally.message_count,
+            tally.t_min,
+            tally.t_max,
+            self.path.name,
+            self.custom_data,
+            self.ros_distro,
+        )
 
     def discard(self) -> None:
         """Close without finishing and delete the bag's files (a node that failed to start);
@@ -447,7 +404,7 @@ class McapRecorder:
             self._flusher.stop()
             meta = self._bag_metadata_locked()
             try:
-                self._flusher.close_locked(self._message_count)
+                self._flusher.close_locked(self._tally.message_count)
             except OSError as exc:
                 missing.append(f"its summary and footer ({exc.strerror or exc})")
         try:
@@ -458,8 +415,9 @@ class McapRecorder:
             try:
                 if not missing:  # a summary after a chunk that failed would index what is not
                     self._flusher.check_file()
-                    self._writer.add_metadata("rosbag2", {
-                        "serialized_metadata": yaml.safe_dump(meta, sort_keys=False)})
+                    self._writer.add_metadata(
+                        "rosbag2", {"serialized_metadata": yaml.safe_dump(meta, sort_keys=False)}
+                    )
                     self._writer.finish()
                     self._flusher.file_bytes = self._stream.tell()
             except OSError as exc:

@@ -63,109 +63,17 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from drs_model.errors import DRSError, InputError
+from drs_model.errors import DRSError
 
-from ..commands import PointNow, StrokeMove, TrajectoryMove, trajectory_move
-from ..conversions import PastTrajectoryError, started_points, time_msg
-from ..errors import DRSRosError
+from ..commands import PointNow, StrokeMove, TrajectoryMove
+from ..conversions import time_msg
 from ..names import ACCEPTED, REFUSED
 from ..rclpy_private import mark_executing, schedule_result
-from ..timestamps import ns_from_seconds, ns_of, seconds_from_ns, set_ns
+from ..timestamps import ns_from_seconds, set_ns
+from .trajectory_goal import GoalError, Result, Tolerances, goal_tolerances, plan_goal, violation
 
-Result = FollowJointTrajectory.Result
-#: JTC's "-1 erases a tolerance" (compared within float epsilon, as JTC does).
-ERASE = -1.0
-FLOAT_EPS = 1.1920928955078125e-07
 #: Effect-record outcome of a goal's end.
 RESULT = "result"
-
-
-@dataclass(frozen=True)
-class Tolerances:
-    """One joint's tolerances (0: not enforced), as JTC's ``SegmentTolerances``."""
-
-    path_position: float = 0.0
-    path_velocity: float = 0.0
-    path_acceleration: float = 0.0
-    goal_position: float = 0.0
-    goal_velocity: float = 0.0
-    goal_acceleration: float = 0.0
-    goal_time: float = 0.0
-
-
-class GoalError(DRSRosError):
-    """A goal refused with an error code of FollowJointTrajectory.Result."""
-
-    def __init__(self, code: int, message: str) -> None:
-        super().__init__(message)
-        self.code = code
-
-
-def _resolve(default: float, given: float) -> float:
-    """JTC's ``resolve_tolerance_source``."""
-    if given > 0.0:
-        return given
-    if abs(given - ERASE) < FLOAT_EPS:
-        return 0.0
-    if given < 0.0:
-        raise ValueError(f"illegal tolerance value {given!r}")
-    return default
-
-
-def goal_tolerances(goal, defaults: Tolerances, joint: str) -> tuple[Tolerances, str]:
-    """The goal's tolerances over the defaults (JTC's ``get_segment_tolerances``); returns them
-    and a note when the goal's were unusable and the defaults apply (as JTC logs)."""
-    given_time = seconds_from_ns(ns_of(goal.goal_time_tolerance))
-    try:
-        values = dict(vars(defaults))
-        values["goal_time"] = _resolve(defaults.goal_time, given_time)
-        for kind, entries in (("path", goal.path_tolerance), ("goal", goal.goal_tolerance)):
-            for tol in entries:
-                if tol.name != joint:
-                    raise ValueError(f"joint {tol.name!r} of goal.{kind}_tolerance is not "
-                                     f"the controller's ({joint!r})")  # fmt: skip
-                for q in ("position", "velocity", "acceleration"):
-                    key = f"{kind}_{q}"
-                    values[key] = _resolve(getattr(defaults, key), getattr(tol, q))
-    except ValueError as exc:
-        return defaults, f"{exc}: the default tolerances apply"
-    return Tolerances(**values), ""
-
-
-def plan_goal(goal, joint: str, now_ns: int) -> TrajectoryMove | PointNow:
-    """The piston's move of a FollowJointTrajectory goal, times from now [s] (a single point
-    at 0 s: :class:`~drs_ros.commands.PointNow`, timed when it starts); raises
-    :class:`GoalError` with JTC's check and the code of the action's result."""
-    traj = goal.trajectory
-    names = list(traj.joint_names)
-    if list(goal.multi_dof_trajectory.joint_names):
-        raise GoalError(Result.INVALID_JOINTS, "multi-DOF joints "
-                        f"{list(goal.multi_dof_trajectory.joint_names)} are not joints of this "
-                        f"controller; its only joint is {joint!r}")  # fmt: skip
-    if names != [joint]:
-        others = [n for n in names if n != joint] or names
-        raise GoalError(
-            Result.INVALID_JOINTS,
-            f"joints {names} don't match the controller's joints [{joint!r}]"
-            + (f": {others} are not controlled (the link and the flap are passive joints of the "
-               "closed loop, moved through the piston)" if others else ""),
-        )  # fmt: skip
-    if not traj.points:
-        raise GoalError(Result.INVALID_GOAL, "empty trajectory received")
-    last = traj.points[-1]
-    if any(abs(v) > FLOAT_EPS for v in last.velocities):
-        raise GoalError(Result.INVALID_GOAL, f"velocity of the last trajectory point of {joint} "
-                        f"is not zero: {list(last.velocities)[0]!r}")  # fmt: skip
-    if any(len(pt.effort) for pt in traj.points):
-        raise GoalError(Result.INVALID_GOAL, "trajectories with effort fields are only supported "
-                        "for controllers using the 'effort' command interface")  # fmt: skip
-    try:
-        times, strokes, rates = started_points(traj, joint, now_ns)
-    except PastTrajectoryError as exc:
-        raise GoalError(Result.OLD_HEADER_TIMESTAMP, str(exc)) from exc
-    except InputError as exc:
-        raise GoalError(Result.INVALID_GOAL, str(exc)) from exc
-    return trajectory_move(times, strokes, rates)
 
 
 def _point(s: float, v: float, a: float, since_ns: int) -> JointTrajectoryPoint:
@@ -200,15 +108,6 @@ class ActiveGoal:
         return float(s), float(v), float(a)
 
 
-def _violation(kind: str, joint: str, err: tuple[float, float, float], tol) -> str:
-    """The first tolerance ``err`` (position, velocity, acceleration) exceeds, or ''."""
-    for name, e, t, unit in zip(("position", "velocity", "acceleration"), err, tol,
-                                ("m", "m/s", "m/s^2"), strict=True):  # fmt: skip
-        if t > 0.0 and abs(e) > t:
-            return f"{joint} {name} error {e:.6g} {unit} exceeds the {kind} tolerance {t:g} {unit}"
-    return ""
-
-
 class FollowJointTrajectoryServer:
     """The action server of one node: goals are taken by the executor, acted on at ticks.
 
@@ -228,9 +127,16 @@ class FollowJointTrajectoryServer:
         Duration [s] of the move that holds the piston after a cancel.
     """
 
-    def __init__(self, node, actuator: Callable[[], object], joint: str, defaults: Tolerances,
-                 event: Callable[..., None], hold_duration: float,
-                 now_ns: Callable[[], int]) -> None:  # fmt: skip
+    def __init__(
+        self,
+        node,
+        actuator: Callable[[], object],
+        joint: str,
+        defaults: Tolerances,
+        event: Callable[..., None],
+        hold_duration: float,
+        now_ns: Callable[[], int],
+    ) -> None:
         self.node, self._actuator, self.joint = node, actuator, joint
         self._now_ns = now_ns
         self.defaults = defaults
@@ -292,8 +198,7 @@ class FollowJointTrajectoryServer:
     def _end(self, handle, status: str, code: int, message: str, now_ns: int) -> None:
         """End a goal: the executor sets its terminal state and sends the result."""
         with self._lock:
-            self._outcomes[_uuid(handle)] = (status, Result(error_code=code,
-                                                            error_string=message))  # fmt: skip
+            self._outcomes[_uuid(handle)] = (status, Result(error_code=code, error_string=message))
         # rclpy runs the execute callback in a task of the executor: the terminal state and the
         # result are set there (a callback that awaited the outcome instead would keep the
         # Jazzy executor busy, since it resumes every pending task at every spin)
@@ -303,9 +208,18 @@ class FollowJointTrajectoryServer:
             schedule_result(self.server, handle, self._finished)
         self.results[status] = self.results.get(status, 0) + 1
         level = DiagnosticStatus.OK if status == "succeeded" else DiagnosticStatus.WARN
-        self._event(RESULT, level, f"{status}: {message}" if message else status,
-                    {"goal_id": _uuid(handle), "status": status, "error_code": code,
-                     "error_string": message}, now_ns)  # fmt: skip
+        self._event(
+            RESULT,
+            level,
+            f"{status}: {message}" if message else status,
+            {
+                "goal_id": _uuid(handle),
+                "status": status,
+                "error_code": code,
+                "error_string": message,
+            },
+            now_ns,
+        )
 
     def _hold(self, now_ns: int) -> None:
         """Hold the piston where it is (JTC's ``set_hold_position``), as a smooth move."""
@@ -353,15 +267,25 @@ class FollowJointTrajectoryServer:
             if note:
                 self.node.get_logger().warning(f"goal {_uuid(handle)}: {note}")
             if self.goal is not None:  # JTC's preempt_active_goal
-                self._end(self.goal.handle, "aborted", Result.INVALID_GOAL,
-                          "Current goal preempted by new incoming action.", now_ns)  # fmt: skip
+                self._end(
+                    self.goal.handle,
+                    "aborted",
+                    Result.INVALID_GOAL,
+                    "Current goal preempted by new incoming action.",
+                    now_ns,
+                )
             mark_executing(handle)
             self.goal = ActiveGoal(handle, move, path, self.sim.t, tolerances)
             values = {**move.record(), "goal_id": _uuid(handle)}
             self._event(ACCEPTED, DiagnosticStatus.OK, "", values, now_ns)
             return
-        self._event(REFUSED, DiagnosticStatus.WARN, f"error_code {code}: {why}",
-                    {"goal_id": _uuid(handle), "error_code": code}, now_ns)  # fmt: skip
+        self._event(
+            REFUSED,
+            DiagnosticStatus.WARN,
+            f"error_code {code}: {why}",
+            {"goal_id": _uuid(handle), "error_code": code},
+            now_ns,
+        )
         self._end(handle, "aborted", code, why, now_ns)
 
     def update(self, stamp_ns: int, now_ns: int) -> None:
@@ -388,31 +312,53 @@ class FollowJointTrajectoryServer:
         before_last = t < goal.t_end
         path = ""
         if before_last or goal.first_sample:
-            path = _violation("path", self.joint, err, (tol.path_position, tol.path_velocity,
-                                                         tol.path_acceleration))  # fmt: skip
+            path = violation(
+                "path",
+                self.joint,
+                err,
+                (tol.path_position, tol.path_velocity, tol.path_acceleration),
+            )
         goal.first_sample = False
         outside = ""
         if not before_last:
-            outside = _violation("goal", self.joint, err, (tol.goal_position, tol.goal_velocity,
-                                                            tol.goal_acceleration))  # fmt: skip
+            outside = violation(
+                "goal",
+                self.joint,
+                err,
+                (tol.goal_position, tol.goal_velocity, tol.goal_acceleration),
+            )
         fb = FollowJointTrajectory.Feedback(joint_names=[self.joint])
         fb.header.stamp = time_msg(stamp_ns)
         # each instant to the nearest ns first: the difference is exact, whatever the floats' ulps
         since_ns = ns_from_seconds(t) - ns_from_seconds(goal.t_start)
-        fb.desired, fb.actual, fb.error = (_point(*want, since_ns), _point(*have, since_ns),
-                                           _point(*err, since_ns))  # fmt: skip
+        fb.desired, fb.actual, fb.error = (
+            _point(*want, since_ns),
+            _point(*have, since_ns),
+            _point(*err, since_ns),
+        )
         goal.handle.publish_feedback(fb)
         if path:
-            self._stop(goal, "aborted", Result.PATH_TOLERANCE_VIOLATED,
-                       f"Aborted due to path tolerance violation: {path}", now_ns)  # fmt: skip
+            self._stop(
+                goal,
+                "aborted",
+                Result.PATH_TOLERANCE_VIOLATED,
+                f"Aborted due to path tolerance violation: {path}",
+                now_ns,
+            )
         elif not before_last and not outside:
             self.goal = None
-            self._end(goal.handle, "succeeded", Result.SUCCESSFUL, "Goal successfully reached!",
-                      now_ns)  # fmt: skip
+            self._end(
+                goal.handle, "succeeded", Result.SUCCESSFUL, "Goal successfully reached!", now_ns
+            )
         elif not before_last and tol.goal_time != 0.0 and t - goal.t_end > tol.goal_time:
-            self._stop(goal, "aborted", Result.GOAL_TOLERANCE_VIOLATED,
-                       f"Aborted due to goal_time_tolerance exceeding by {t - goal.t_end:.6g} "
-                       f"seconds: {outside}", now_ns)  # fmt: skip
+            self._stop(
+                goal,
+                "aborted",
+                Result.GOAL_TOLERANCE_VIOLATED,
+                f"Aborted due to goal_time_tolerance exceeding by {t - goal.t_end:.6g} "
+                f"seconds: {outside}",
+                now_ns,
+            )
 
     def deactivate(self, now_ns: int) -> None:
         """JTC's on_deactivate: the active goal (and any not yet started) is aborted and the
@@ -427,8 +373,13 @@ class FollowJointTrajectoryServer:
         ends += [self.goal.handle] if self.goal is not None else []
         self.goal = None
         for handle in ends:
-            self._end(handle, "aborted", Result.INVALID_GOAL,
-                      "Current goal cancelled during deactivate transition.", now_ns)  # fmt: skip
+            self._end(
+                handle,
+                "aborted",
+                Result.INVALID_GOAL,
+                "Current goal cancelled during deactivate transition.",
+                now_ns,
+            )
         motion = self.sim.motion
         if motion.mode == "force" or (motion.mode == "stroke" and motion.t < motion.path.t_end):
             self._hold(now_ns)
@@ -441,11 +392,5 @@ def _uuid(handle) -> str:
     return bytes(handle.goal_id.uuid).hex()
 
 
-__all__ = [
-    "ActiveGoal",
-    "FollowJointTrajectoryServer",
-    "GoalError",
-    "Tolerances",
-    "goal_tolerances",
-    "plan_goal",
-]
+#: ``Tolerances`` with the server that takes them (:mod:`.trajectory_goal` defines it).
+__all__ = ["ActiveGoal", "FollowJointTrajectoryServer", "Tolerances"]

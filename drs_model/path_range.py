@@ -1,0 +1,90 @@
+"""Whether a quintic path stays within the stroke range: its sampled extremes, the Bernstein hull
+that spares sampling a path well inside, and the check that refuses one that leaves.
+
+A segment is a quintic ``s(tau) = sum c_k tau^k`` in local time on ``[0, T]`` (coefficients of
+:func:`drs_model.profile.quintic_coefficients_array`); the range is ``[s_min, s_max]`` [m]. A
+trajectory (:func:`drs_model.profile.plan_trajectory`) and a stroke command check their segments
+here.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import StrokeRangeError
+
+#: Samples per segment (both ends included) at which a trajectory's path is checked against
+#: ``[s_min, s_max]``.
+PATH_SAMPLES = 65
+#: Tolerance [m] of that check (and of the strokes' range check).
+PATH_TOL = 1e-12
+#: Those instants as fractions of a segment's duration (made once: a stroke command checks its
+#: one segment on the real-time tick).
+_PATH_FRACTIONS = np.linspace(0.0, 1.0, PATH_SAMPLES)
+_PATH_FRACTIONS.flags.writeable = False
+
+
+def path_extremes(coeffs: np.ndarray, durations: np.ndarray, chunk: int = 2048):
+    """Smallest and largest stroke [m] of each quintic ``coeffs[k]`` (local time) over
+    ``PATH_SAMPLES`` equally spaced instants of ``[0, durations[k]]``, all segments at once (in
+    chunks of ``chunk`` segments, so memory stays bounded). Returns two arrays of shape
+    ``(n,)``."""
+    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
+    durations = np.asarray(durations, dtype=float).ravel()
+    u = _PATH_FRACTIONS
+    lo, hi = np.empty(len(durations)), np.empty(len(durations))
+    for a in range(0, len(durations), chunk):
+        c = coeffs[a : a + chunk]
+        tau = durations[a : a + chunk, None] * u
+        s = c[:, 5:6] * tau
+        for j in (4, 3, 2, 1):
+            s += c[:, j : j + 1]
+            s *= tau
+        s += c[:, 0:1]
+        lo[a : a + chunk], hi[a : a + chunk] = s.min(axis=1), s.max(axis=1)
+    return lo, hi
+
+
+#: Power basis (in u = tau / T) -> Bernstein basis of degree 5: ``b_j = sum_k C(j,k)/C(5,k) d_k``.
+_TO_BERNSTEIN = np.array(
+    [[math.comb(j, k) / math.comb(5, k) if k <= j else 0.0 for k in range(6)] for j in range(6)]
+)
+
+
+def hull_leaves(coeffs, durations, limits: tuple[float, float]) -> np.ndarray:
+    """Whether the Bernstein control points of each quintic ``coeffs[k]`` (local time, on ``[0,
+    durations[k]]``) leave ``limits`` [m], shape ``(n,)``; if not, the path lies inside them."""
+    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
+    durations = np.asarray(durations, dtype=float).ravel()
+    bern = (coeffs * np.vander(durations, 6, increasing=True)) @ _TO_BERNSTEIN.T
+    return (bern.min(axis=1) < limits[0]) | (bern.max(axis=1) > limits[1])
+
+
+def leaving_paths(coeffs, durations, limits: tuple[float, float]):
+    """``(k, lo, hi)``: the quintics ``coeffs[k]`` (local time) whose path leaves ``limits`` [m]
+    by more than :data:`PATH_TOL` at one of :data:`PATH_SAMPLES` instants, and their lowest and
+    highest samples [m]; sampled only where the control points leave (:func:`hull_leaves`)."""
+    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
+    durations = np.asarray(durations, dtype=float).ravel()
+    k = np.flatnonzero(hull_leaves(coeffs, durations, limits))
+    if not k.size:
+        return k, np.empty(0), np.empty(0)
+    lo, hi = path_extremes(coeffs[k], durations[k])
+    bad = (lo < limits[0] - PATH_TOL) | (hi > limits[1] + PATH_TOL)
+    return k[bad], lo[bad], hi[bad]
+
+
+def check_paths(coeffs, durations, limits: tuple[float, float], first: int = 0, n=None) -> None:
+    """Raise :class:`StrokeRangeError` if the path of a quintic ``coeffs[i]`` leaves ``limits``
+    (:func:`leaving_paths`), naming the first such segment (segment ``first + i`` leads to point
+    ``first + i`` of ``0..n-1``)."""
+    leaving, lo, hi = leaving_paths(coeffs, durations, limits)
+    if leaving.size:
+        n = np.size(durations) + first if n is None else n
+        raise StrokeRangeError(
+            f"the trajectory leaves [s_min, s_max] = [{limits[0]:.9g}, {limits[1]:.9g}] m on "
+            f"its way to point {first + int(leaving[0])} (of 0..{n - 1}), reaching "
+            f"{lo[0]:.6g}..{hi[0]:.6g} m"
+        )
