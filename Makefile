@@ -4,6 +4,10 @@ PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+# Python caches the bytecode it compiles (__pycache__): a machine that sets
+# PYTHONDONTWRITEBYTECODE (ours do) would compile numpy, scipy, rclpy and drs from source in
+# every process the tests start (importing the node: 1.2 s against 0.5 s cached).
+unexport PYTHONDONTWRITEBYTECODE
 # DDS never leaves loopback on these machines; rclpy needs a writable log dir.
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export ROS_LOG_DIR ?= $(CURDIR)/.ros-log
@@ -20,7 +24,7 @@ INTERFACES := $(wildcard interfaces/*/package.xml interfaces/*/CMakeLists.txt in
 	interfaces/build-requirements.txt
 
 # --no-compile: pip would byte-compile every installed module (~12 s of a fresh install); Python
-# compiles the ones a process imports, once, on first import.
+# compiles the ones a process imports, once, on first import (PYTHONDONTWRITEBYTECODE unset above).
 $(STAMP): pyproject.toml $(INTERFACES) | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --no-compile --upgrade pip
 	$(BIN)/python -m pip install --quiet --no-compile -e ".[ros,plots,dev,fast,fleet]" -r interfaces/build-requirements.txt
