@@ -4,12 +4,15 @@ Dask workers; the scheduler's overhead per task.
 Copies ``bags/example`` (8517 messages, 1.4 MB, 3.5 s of a run) ``--bags`` times into a temporary
 directory and measures in one run, each ``--repeats`` times (medians reported):
 
-* ``index``: :func:`drs_ros.bag.catalogue.catalogue_row` of every bag in this process (summaries
+* ``index``: :func:`drs_ros.bag.season.catalogue.catalogue_row` of every bag in this process
+  (summaries
   only, no message decoded);
-* ``check, 1 process``: :func:`drs_ros.bag.check.check_one` of every bag in this process, one
+* ``check, 1 process``: :func:`drs_ros.bag.check.command.check_one` of every bag in this process,
+  one
   after the other (no Dask: the floor a fleet run is compared with);
-* ``check on N workers``: the fleet's tasks (:func:`drs_ros.bag.fleet.timed_row` of
-  :func:`drs_ros.bag.check.fleet_row`) on an embedded LocalCluster of N single-threaded worker
+* ``check on N workers``: the fleet's tasks (:func:`drs_ros.bag.season.fleet.timed_row` of
+  :func:`drs_ros.bag.check.command.fleet_row`) on an embedded LocalCluster of N single-threaded
+  worker
   processes (:func:`drs_model.cluster.dask_client`), started and warmed (one task per worker)
   before the clock starts; the cluster's start-up is reported apart;
 * the scheduler's overhead per task: ``--tiny`` tasks of a function that returns at once, on one
@@ -40,7 +43,7 @@ def _noop(x):
 
 
 def _check_args(bags: list[str]) -> argparse.Namespace:
-    from drs_ros.bag import check
+    from drs_ros.bag.check.command import check
 
     ap = argparse.ArgumentParser()
     check.add_arguments(ap)
@@ -55,8 +58,9 @@ def main(argv=None) -> int:
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
     from drs_model.cluster import dask_client, map_unordered
-    from drs_ros.bag import check, fleet
-    from drs_ros.bag.catalogue import catalogue_row
+    from drs_ros.bag.check.command import check
+    from drs_ros.bag.season import fleet
+    from drs_ros.bag.season.catalogue import catalogue_row
 
     load_before = os.getloadavg()[0]
     work = Path(tempfile.mkdtemp(prefix="drs-bag-fleet-"))

@@ -62,9 +62,9 @@ def closing_time(bag: Path) -> dict:
     """From the bag: the fault's simulated instant, the re-run's deviation from the recording,
     and the time to 5 % of the gap's travel from closed."""
     from drs_model.params import DRSParams
-    from drs_ros.bag.deviations import SIGNALS, compare
-    from drs_ros.bag.recorded_run import read_run, run_params
-    from drs_ros.bag.rerun import resimulate
+    from drs_ros.bag.read.recorded_run import read_run, run_params
+    from drs_ros.bag.replay.deviations import SIGNALS, compare
+    from drs_ros.bag.replay.rerun import resimulate
 
     run = read_run(bag)
     model = run_params(run.node_parameters)
@@ -90,7 +90,7 @@ def chambers_after(run, model, k0: int, k_end: int) -> dict | None:
     """Each chamber's lowest pressure [Pa] and the time [s] it spends with a vapour cavity open
     (at the vapour pressure), from the fault's step to the run's last, at every physics step of
     a second re-run of the bag (None for a rung without chambers)."""
-    from drs_ros.bag.rerun import resimulate
+    from drs_ros.bag.replay.rerun import resimulate
 
     rerun = resimulate(run, model)
     sim = rerun["sim"]

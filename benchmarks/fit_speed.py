@@ -8,13 +8,15 @@ opened and closed through the service, 130 physics steps at 1 kHz, with a leak t
 ``breakaway_friction`` 90 N) and 10 um of stroke noise. In one run, each ``--repeats`` times
 (medians reported):
 
-* ``resimulate``: :func:`drs_ros.bag.resimulate.resimulate_one` (read, re-run, compare);
-* ``fit``: :func:`drs_ros.bag.fit.fit_one` of the three parameters (equation error, then output
+* ``resimulate``: :func:`drs_ros.bag.replay.resimulate.resimulate_one` (read, re-run, compare);
+* ``fit``: :func:`drs_ros.bag.season.fit.fit_one` of the three parameters (equation error, then
+  output
   error from its estimates, identifiability, intervals);
 * ``anchor``: ``least_squares`` with its defaults (trust-region reflective, 2-point Jacobian)
   and the parameters' bounds, from the values the bag records (no leak, 40 N, 60 N), on the
   residuals of the same signals (stroke, force, chamber pressures) over the sensors'
-  resolutions, each evaluation a re-simulation (:class:`drs_ros.bag.fit_rerun.RunResimulation`):
+  resolutions, each evaluation a re-simulation
+  (:class:`drs_ros.bag.season.fit_rerun.RunResimulation`):
   the bag read once before the clock starts.
 
 Each reports its wall time, re-simulations and its estimates' relative errors. The machine is
@@ -65,10 +67,10 @@ def _anchor(bag: Path):
 
     from drs_model.fidelity.hydraulic_params import HydraulicParams
     from drs_model.identify.output_error import RESOLUTION
-    from drs_ros.bag.fit_rerun import RunResimulation
-    from drs_ros.bag.measured import read_measured
-    from drs_ros.bag.nodes import find_node
-    from drs_ros.bag.recorded_run import read_run
+    from drs_ros.bag.read.nodes import find_node
+    from drs_ros.bag.read.recorded_run import read_run
+    from drs_ros.bag.season.fit_rerun import RunResimulation
+    from drs_ros.bag.season.measured import read_measured
 
     node = find_node(bag, None)
     m = read_measured(bag, node)
@@ -102,8 +104,8 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
-    from drs_ros.bag.fit import fit_one
-    from drs_ros.bag.resimulate import resimulate_one
+    from drs_ros.bag.replay.resimulate import resimulate_one
+    from drs_ros.bag.season.fit import fit_one
 
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="drs-fit-speed-") as tmp:

@@ -1,6 +1,6 @@
 """Replay benchmark: how exactly and how fast can ``drs-bag play`` replay a bag?
 
-Plays a bag (``bags/example`` by default) with ``python -m drs_ros.bag.play`` at a series of
+Plays a bag (``bags/example`` by default) with ``python -m drs_ros.bag.replay.play`` at a series of
 ``--rate`` values while a raw subscriber in this process (reliable, keep last 10000, one
 subscription per topic, loopback-only DDS on its own domain) counts what arrives. It reports:
 
@@ -58,7 +58,7 @@ def play_once(bag, rate, sub, executor, expected, env, stats, extra=()):
     cmd = [
         sys.executable,
         "-m",
-        "drs_ros.bag.play",
+        "drs_ros.bag.replay.play",
         str(bag),
         "--rate",
         f"{rate:g}",

@@ -270,7 +270,7 @@ def _drive_and_check(node: subprocess.Popen, domain: int, bag: Path, rrd: Path) 
     for line in refusals[:3]:
         _say(f"node log: {line.strip()}")
 
-    from drs_ros.bag.check import main as check_main
+    from drs_ros.bag.check.command import main as check_main
 
     _say(f"drs-bag check {bag}")
     rc_check = check_main([str(bag)])

@@ -2,7 +2,7 @@
 ``hydraulic.<HydraulicParams field>``, at the values the model runs (a derived inertia as
 derived, the valve's port ratio as the number run). One table for the node
 (:mod:`drs_ros.node.parameters`), the bags it writes and a re-run's bag
-(:mod:`drs_ros.bag.rerun_bag`); :func:`drs_ros.bag.effects.model_params_from` and
+(:mod:`drs_ros.bag.replay.rerun_bag`); :func:`drs_ros.bag.read.effects.model_params_from` and
 ``hydraulic_params_from`` read them back.
 """
 

@@ -13,7 +13,7 @@ DEFAULT_JOINT_NAMES = ("drs_piston", "drs_link", "drs_flap")
 
 #: What the node publishes and receives, by role, as it names them before any remapping: ``~/``
 #: is under the node's fully qualified name, an absolute name stays as it is. The node records
-#: how it resolved each (its ``topics`` record); a bag's tools read that (drs_ros.bag.nodes).
+#: how it resolved each (its ``topics`` record); a bag's tools read that (drs_ros.bag.read.nodes).
 NODE_TOPICS = MappingProxyType({
     "joint_states": "/joint_states",  # the joint_states_topic parameter's default
     "piston_force": "~/piston_force",

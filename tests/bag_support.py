@@ -2,7 +2,7 @@
 several real bags merged into one (two drs nodes in one bag), written as rosbag2 writes a bag
 (drs's MCAP recorder: one MCAP file with its summary, and metadata.yaml).
 
-Every source is read verified (:func:`drs_ros.bag.reader.scan`); channels keep their schema and
+Every source is read verified (:func:`drs_ros.bag.read.reader.scan`); channels keep their schema and
 metadata (the first source's, for a topic two sources share); messages keep their bytes, times
 and sequence numbers, in the order ``drs-bag merge`` writes them
 (:func:`drs_ros.bag.merge.merged_messages`: each source's in its recorded order, interleaved by
@@ -25,7 +25,7 @@ def copy_bags(sources: Sequence[str | Path], out: str | Path,
     ``out``."""
     rename = rename or {}
     from drs_ros.bag.merge import merged_messages
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
     from drs_ros.recording.mcap_recorder import McapRecorder
     from drs_ros.recording.qos import parse_qos_yaml
 

@@ -1,8 +1,8 @@
 """A small bag read whole, for tests: every decoded message of the topics asked for kept in
 memory (:func:`read_bag`), and the checks of ``drs-bag check`` run on them (:func:`check_bag`).
 
-The product streams a bag instead (:func:`drs_ros.bag.decoded.stream_bag`,
-:class:`drs_ros.bag.model_checks.ModelChecker`): memory does not grow with it.
+The product streams a bag instead (:func:`drs_ros.bag.read.decoded.stream_bag`,
+:class:`drs_ros.bag.check.model_checks.ModelChecker`): memory does not grow with it.
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ from pathlib import Path
 
 def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False):
     """Verify a whole bag and keep every decoded message of ``topics``
-    (:func:`drs_ros.bag.decoded.stream_bag`): a :class:`~drs_ros.bag.decoded.BagData` whose
+    (:func:`drs_ros.bag.read.decoded.stream_bag`): a :class:`~drs_ros.bag.read.decoded.BagData`
+    whose
     ``messages`` maps each topic to its ``(log_time_ns, message)`` in file order.
 
     Raises
@@ -26,7 +27,7 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False):
         Decoding a message that passed the file's checks failed (its type is not installed):
         not a fault of the bag.
     """
-    from drs_ros.bag.decoded import stream_bag
+    from drs_ros.bag.read.decoded import stream_bag
 
     messages: dict[str, list] = {t: [] for t in topics}
     data = stream_bag(path, topics, lambda topic, log, msg: messages[topic].append((log, msg)),
@@ -37,9 +38,10 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False):
 
 def check_bag(data, params=None, **options) -> list:
     """Run every check of ``drs-bag check`` on the messages of :func:`read_bag`
-    (:class:`drs_ros.bag.model_checks.ModelChecker`, whose options ``options`` are), the topics
+    (:class:`drs_ros.bag.check.model_checks.ModelChecker`, whose options ``options`` are), the
+    topics
     merged by log time as a recorder interleaves them (each in its own order)."""
-    from drs_ros.bag.model_checks import ModelChecker
+    from drs_ros.bag.check.model_checks import ModelChecker
 
     checker = ModelChecker(params, **options)
     streams = [[(log_ns, topic, msg) for log_ns, msg in msgs]

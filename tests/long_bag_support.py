@@ -64,7 +64,7 @@ def write_long_bag(
     from sensor_msgs.msg import Image, JointState
     from std_msgs.msg import Float64
 
-    from drs_ros.bag.effects import parameter_event
+    from drs_ros.bag.read.effects import parameter_event
     from drs_ros.conversions import float_msg
     from drs_ros.recording import cdr
     from drs_ros.recording.mcap_recorder import McapRecorder

@@ -1,5 +1,6 @@
 """``python play_sigint_driver.py BAG N SEED``: ``drs-bag play BAG --loop`` N times in this process
-(its console entry, ``drs_ros.bag.play.main``), each ended by a SIGINT at a random moment of its
+(its console entry, ``drs_ros.bag.replay.play.main``), each ended by a SIGINT at a random moment of
+its
 playback; one JSON line per play on stdout: ``{"rc", "after_s", "latency_s", "error"}``.
 
 The SIGINT is real: ``os.kill`` of this process from a helper thread, which the kernel delivers
@@ -28,8 +29,8 @@ WINDOW_S = (0.0, 0.6)
 
 
 def main(bag: str, n: int, seed: int) -> int:
-    from drs_ros.bag.play import main as play_main
-    from drs_ros.bag.play.player import Player
+    from drs_ros.bag.replay.play import main as play_main
+    from drs_ros.bag.replay.play.player import Player
 
     rng = random.Random(seed)
     playing = threading.Event()  # set by the player's thread (the main one), never by a handler

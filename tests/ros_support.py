@@ -187,8 +187,8 @@ def tampered_copy(bag, out, change) -> int:
     only the model checks can tell. Returns the number of messages changed."""
     from message_support import serialize
 
-    from drs_ros.bag.decoded import decoder
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.decoded import decoder
+    from drs_ros.bag.read.reader import scan
     from drs_ros.bag.recover import _register
     from drs_ros.recording.mcap_recorder import McapRecorder
 

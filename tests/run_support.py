@@ -167,7 +167,7 @@ def record_run(bag_dir: str | Path, steps: int, commands: Sequence[Command] = ()
     :data:`~drs_model.fidelity.faults.FAULTS`) from the first tick, at the node time ``t0_ns``
     onwards, one tick per physics step; ``hydraulic_params``: the hydraulic rung's (default:
     HydraulicParams' defaults). Returns the bag directory."""
-    from drs_ros.bag.effects import parameter_event
+    from drs_ros.bag.read.effects import parameter_event
     from drs_ros.recording.mcap_recorder import McapRecorder
 
     params = DRSParams() if params is None else params

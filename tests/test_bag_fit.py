@@ -96,7 +96,7 @@ def _rewrite_with_rosbags(src, dst):
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
-    from drs_ros.bag.measured import measured_topics
+    from drs_ros.bag.season.measured import measured_topics
 
     drs_topics = measured_topics(None)  # a node of the default name, by role
     ts = get_typestore(Stores.ROS2_JAZZY)
@@ -248,8 +248,8 @@ def test_a_node_bag_says_whether_a_stop_may_have_held_the_rod(bags, tmp_path):
     rigid regression leaves those samples out (its notes count them)."""
     from run_support import Command, record_run
 
-    from drs_ros.bag.measured import read_measured
-    from drs_ros.bag.nodes import bag_nodes
+    from drs_ros.bag.read.nodes import bag_nodes
+    from drs_ros.bag.season.measured import read_measured
 
     def measured(bag):
         (node,) = bag_nodes(bag)

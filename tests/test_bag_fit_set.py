@@ -10,7 +10,7 @@ import pytest
 
 from drs_model.fidelity import HydraulicParams
 from drs_model.params import DRSParams
-from drs_ros.bag.fit import _models, set_argument
+from drs_ros.bag.season.fit import _models, set_argument
 
 
 @pytest.mark.parametrize("item", ["hydraulic.leak_to_outside=2e-13", "leak_to_outside=2e-13",

@@ -39,8 +39,8 @@ def _stroke_deviation(bag, *sets: str) -> tuple[int, float]:
 
 def test_the_bag_records_and_re_runs_its_hydraulic_parameters(bag):
     """Recorded as run; re-run with them exactly; with HydraulicParams' defaults it deviates."""
-    from drs_ros.bag.effects import hydraulic_params_from
-    from drs_ros.bag.nodes import bag_nodes
+    from drs_ros.bag.read.effects import hydraulic_params_from
+    from drs_ros.bag.read.nodes import bag_nodes
 
     (node,) = bag_nodes(bag)
     assert hydraulic_params_from(node.parameters) == HydraulicParams(**TRUTH)

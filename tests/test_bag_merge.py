@@ -57,7 +57,7 @@ def test_two_bags_of_one_run_split_by_topic_merge_back_into_it(tmp_path, capsys)
     before its states, logged a little later; interleaved by log time they come after. A merge
     keeps each bag's own order, so a node's records re-run when they are in one bag.)"""
     require_rclpy()
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
 
     signals = ["/joint_states", "/drs/piston_force", "/drs/flap_gap", "/drs/piston_acceleration",
                "/drs/joint_reactions", "/drs/markers", "/diagnostics"]  # fmt: skip
@@ -83,7 +83,7 @@ def test_a_sqlite3_bag_merges_with_an_mcap_bag(tmp_path, capsys):
     require_rclpy()
     from ros_support import mcap_to_db3
 
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
 
     db3 = mcap_to_db3(EXAMPLE, tmp_path / "db3")
     topics = [t for t in scan(EXAMPLE).counts if t != "/parameter_events"]

@@ -1,6 +1,6 @@
 """The bag names its node: a drs node run under any name, namespace and remapping, with model
 parameters of its own, and its bag read by every drs-bag verb by the names it recorded
-(drs_ros.bag.nodes); two nodes of one car recorded into one bag, picked with --node.
+(drs_ros.bag.read.nodes); two nodes of one car recorded into one bag, picked with --node.
 
 Each run is a real node process over loopback DDS, driven by a client in this process (a stroke
 command, then the service opens and closes the flap). The runs are parametrized over the node's
@@ -348,8 +348,8 @@ def test_the_merged_bag_holds_every_record_of_both_as_recorded(car):
     and mcap_ros2 read every message."""
     from test_bag_tools import judge_with_mcap_ros2, judge_with_rosbags
 
-    from drs_ros.bag.files import read_metadata
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.files import read_metadata
+    from drs_ros.bag.read.reader import scan
 
     both, bags = car
 

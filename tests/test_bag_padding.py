@@ -74,7 +74,7 @@ def padded_bag(tmp_path_factory) -> Path:
     require_rclpy()
     from rclpy.serialization import deserialize_message
 
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
     from drs_ros.recording import msgdefs
 
     judges = {c.topic: _rosbags_judge(c.type_name, c.schema_data)
@@ -108,7 +108,7 @@ def _note(notes: list[str]) -> str:
 
 
 def test_a_padded_bag_checks_with_a_note_naming_each_topic(padded_bag, capsys):
-    from drs_ros.bag import check
+    from drs_ros.bag.check.command import check
 
     assert check.main([str(padded_bag), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
@@ -131,7 +131,7 @@ def test_a_padded_bag_resimulates_as_the_original_does(padded_bag, capsys):
 
 def test_recover_copies_every_message_of_a_padded_bag(padded_bag, tmp_path, capsys):
     from drs_ros.bag.cli import main
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
 
     assert main(["recover", str(padded_bag), "-o", str(tmp_path / "out"), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
@@ -149,8 +149,8 @@ def test_a_difference_beyond_the_padding_is_still_refused(padded_bag, tmp_path):
     require_rclpy()
     from std_msgs.msg import Bool
 
-    from drs_ros.bag.files import BagReadError
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.files import BagReadError
+    from drs_ros.bag.read.reader import scan
     from drs_ros.recording.cdr_padding import zero_padding
     from drs_ros.recording.mcap_recorder import McapRecorder
 
@@ -173,7 +173,7 @@ def test_the_padding_zeroed_is_what_two_independent_decoders_ignore():
     changed; a count byte that rclpy alone ignores (it reads an impossible count of an empty
     sequence as empty) is not padding, and is refused."""
     require_rclpy()
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
     from drs_ros.recording import cdr, msgdefs
     from drs_ros.recording.cdr_padding import zero_padding
 

@@ -1,6 +1,6 @@
 """``drs-bag play`` over real DDS (each test on its own domain) and its offline parts.
 
-The player runs as a process (``python -m drs_ros.bag.play``); the subscribers are raw rclpy
+The player runs as a process (``python -m drs_ros.bag.replay.play``); the subscribers are raw rclpy
 subscriptions in the test, so what arrives is compared byte for byte with what ``mcap``'s own
 reader finds in the bag. Timing is judged by ratios with wide margins, never by wall-clock limits.
 """
@@ -180,7 +180,7 @@ class RawSubscriber:
 def start_play(tmp_path, request, *args: str) -> subprocess.Popen:
     require_rclpy()
     return subprocess.Popen(
-        [sys.executable, "-m", "drs_ros.bag.play", *args],
+        [sys.executable, "-m", "drs_ros.bag.replay.play", *args],
         env=node_env(tmp_path, domain_for(request.node.nodeid)),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -520,7 +520,7 @@ def test_progress_line_on_a_terminal_only(tmp_path, request):
     args = [
         sys.executable,
         "-m",
-        "drs_ros.bag.play",
+        "drs_ros.bag.replay.play",
         str(EXAMPLE),
         "--rate",
         "4",
@@ -605,7 +605,7 @@ def test_an_unreadable_bag_exits_2_in_one_line(tmp_path, kind):
         bag = tmp_path / "empty"
         bag.mkdir()
     res = subprocess.run(
-        [sys.executable, "-m", "drs_ros.bag.play", str(bag)],
+        [sys.executable, "-m", "drs_ros.bag.replay.play", str(bag)],
         env=node_env(tmp_path, 0),
         capture_output=True,
         text=True,
@@ -627,7 +627,7 @@ def test_an_unreadable_bag_exits_2_in_one_line(tmp_path, kind):
 def test_an_invalid_option_exits_2_in_one_line(tmp_path, request, option, words):
     require_rclpy()
     res = subprocess.run(
-        [sys.executable, "-m", "drs_ros.bag.play", str(EXAMPLE), *option],
+        [sys.executable, "-m", "drs_ros.bag.replay.play", str(EXAMPLE), *option],
         env=node_env(tmp_path, domain_for(request.node.nodeid)),
         capture_output=True,
         text=True,
@@ -643,7 +643,7 @@ def test_reading_streams_the_file_in_bounded_memory(tmp_path):
     """A 12 MB bag of 1 KiB messages in 64 KiB chunks: reading it through the player's reader
     must not hold more than a few chunks (an in-memory sort would hold all 12 MB)."""
     writer_mod = require_module("mcap.writer")
-    from drs_ros.bag.play import index_bag, iter_bag
+    from drs_ros.bag.replay.play import index_bag, iter_bag
 
     bag = tmp_path / "big.mcap"
     n, size = 12_000, 1024
@@ -676,7 +676,7 @@ def test_reading_streams_the_file_in_bounded_memory(tmp_path):
 
 def test_start_offset_skips_the_beginning(tmp_path):
     """``--start-offset`` starts reading that many seconds into the bag (the reader's part)."""
-    from drs_ros.bag.play import index_bag, iter_bag
+    from drs_ros.bag.replay.play import index_bag, iter_bag
 
     _types, messages = recorded(EXAMPLE)
     index = index_bag(EXAMPLE)
@@ -689,8 +689,8 @@ def test_start_offset_skips_the_beginning(tmp_path):
 def test_copy_of_the_example_bag_directory_plays_by_its_metadata(tmp_path):
     """A bag directory is read through its metadata.yaml's file list (the reader's resolver,
     which the player uses)."""
-    from drs_ros.bag.files import BagReadError, resolve
-    from drs_ros.bag.play import index_bag
+    from drs_ros.bag.read.files import BagReadError, resolve
+    from drs_ros.bag.replay.play import index_bag
 
     copy = tmp_path / "copy"
     shutil.copytree(EXAMPLE, copy)
@@ -721,7 +721,7 @@ def test_qos_of_identical_offers_is_the_first_with_default_history():
     require_rclpy()
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
-    from drs_ros.bag.play import playback_qos
+    from drs_ros.bag.replay.play import playback_qos
 
     text = as_yaml(
         offer(durability="transient_local", depth=1, reliability="best_effort"),
@@ -739,7 +739,7 @@ def test_qos_of_mixed_offers_or_none_is_the_default_with_a_warning():
     require_rclpy()
     from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-    from drs_ros.bag.play import playback_qos
+    from drs_ros.bag.replay.play import playback_qos
 
     mixed = as_yaml(offer(durability="transient_local"), offer(durability="volatile"))
     qos, note = playback_qos(mixed, "/t")
@@ -765,7 +765,7 @@ def test_qos_of_an_old_bag_reads_integer_policies_and_foxy_infinity():
     require_rclpy()
     from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-    from drs_ros.bag.play import playback_qos
+    from drs_ros.bag.replay.play import playback_qos
 
     foxy = {"sec": 2147483647, "nsec": 4294967295}
     text = as_yaml(
@@ -790,7 +790,7 @@ def test_qos_overrides_file_gives_partial_profiles_and_rejects_unknown_keys(tmp_
     require_rclpy()
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
-    from drs_ros.bag.play import PlayError, qos_overrides
+    from drs_ros.bag.replay.play import PlayError, qos_overrides
 
     path = tmp_path / "overrides.yaml"
     path.write_text(
@@ -859,7 +859,7 @@ def test_the_stop_handler_play_installs_takes_no_lock(monkeypatch):
     one that takes a lock (``threading.Event.set`` does) deadlocks when the thread already holds
     it (inside ``Event.wait``). The handler ``play`` installs for SIGINT and SIGTERM, traced while
     it runs, calls no lock method, and its stop is requested."""
-    from drs_ros.bag.play import player
+    from drs_ros.bag.replay.play import player
 
     seen = {}
 

@@ -34,7 +34,7 @@ def test_a_recorded_run_re_runs_exactly(which, request):
     virtual-work formulation, says so, and its force stays within the formulations' agreement
     (1e-9 relative of the 25 kN peak)."""
     require_rclpy()
-    from drs_ros.bag.rerun import VIRTUAL_WORK_NOTE
+    from drs_ros.bag.replay.rerun import VIRTUAL_WORK_NOTE
 
     bag = EXAMPLE if which == "example" else request.getfixturevalue("node_bag")
     rc, report = resimulate(str(bag), "--json")
@@ -70,7 +70,7 @@ def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
     # independent replay check above; and its params are the changed ones
     from decoded_support import read_bag
 
-    from drs_ros.bag.effects import model_params_from, recorded_node_parameters
+    from drs_ros.bag.read.effects import model_params_from, recorded_node_parameters
 
     data = read_bag(tmp_path / "light", ["/parameter_events", "/joint_states"])
     params = model_params_from(recorded_node_parameters(data.messages["/parameter_events"]))
@@ -151,7 +151,7 @@ def write_bag_with_a_reset(bag_dir, params, force_method: str = "fused") -> dict
     from drs_model.errors import DRSError
     from drs_model.params import NUMERIC_FIELDS
     from drs_ros import commands
-    from drs_ros.bag.effects import parameter_event
+    from drs_ros.bag.read.effects import parameter_event
     from drs_ros.conversions import command_event_msg, float_msg
     from drs_ros.names import ACCEPTED, CLOCK, DEFAULT_JOINT_NAMES, DEFAULT_TOPICS, RESET
     from drs_ros.recording.mcap_recorder import McapRecorder
@@ -248,7 +248,7 @@ def test_a_bag_naming_virtual_work_re_runs_the_virtual_work_formulation(tmp_path
     virtual-work formulation, says so in a note, and passes within the formulations'
     agreement (1e-9 relative); the motion does not depend on the formulation."""
     require_rclpy()
-    from drs_ros.bag.rerun import VIRTUAL_WORK_NOTE
+    from drs_ros.bag.replay.rerun import VIRTUAL_WORK_NOTE
 
     write_bag_with_a_reset(tmp_path / "vw", params, force_method="virtual-work")
     rc, report = resimulate(str(tmp_path / "vw"), "--json")
@@ -275,7 +275,7 @@ def test_recorded_model_parameters_are_rebuilt_exactly(params, overrides):
     import dataclasses
 
     from drs_model.params import NUMERIC_FIELDS, from_dict
-    from drs_ros.bag.effects import model_params_from, parameter_event, parameter_values
+    from drs_ros.bag.read.effects import model_params_from, parameter_event, parameter_values
 
     run = from_dict(overrides)
     values = {"physics_rate_hz": 1000.0, "integrator": "rk4",
@@ -292,9 +292,9 @@ def test_a_window_of_a_few_steps_re_runs_as_the_whole_run(monkeypatch):
     of 3 steps instead of 65536 the comparison of the example bag, its notes and the written
     bag's states are the same."""
     require_rclpy()
-    from drs_ros.bag import deviations
-    from drs_ros.bag import rerun as rerun_module
-    from drs_ros.bag.recorded_run import read_run, run_params
+    from drs_ros.bag.read.recorded_run import read_run, run_params
+    from drs_ros.bag.replay import deviations
+    from drs_ros.bag.replay import rerun as rerun_module
 
     def rerun():
         run = read_run(EXAMPLE)
@@ -323,8 +323,8 @@ def test_a_window_of_a_few_steps_re_runs_as_the_whole_run(monkeypatch):
 def test_the_re_run_takes_the_recorded_limit_moves(params, recorded, taken):
     """The node's limit_moves as recorded; a bag from before the parameter ran every move."""
     require_rclpy()
-    from drs_ros.bag.recorded_run import RecordedRun
-    from drs_ros.bag.rerun import resimulate as rerun
+    from drs_ros.bag.read.recorded_run import RecordedRun
+    from drs_ros.bag.replay.rerun import resimulate as rerun
     from drs_ros.names import DEFAULT_JOINT_NAMES
 
     values = {"physics_rate_hz": 1000.0, "force_limit": 2.5e4, "integrator": "rk4",

@@ -234,8 +234,8 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
     from message_support import serialize
     from std_srvs.srv import SetBool
 
-    from drs_ros.bag.files import BagReadError
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.files import BagReadError
+    from drs_ros.bag.read.reader import scan
     from drs_ros.recording import cdr
     from drs_ros.recording.mcap_recorder import McapRecorder
 
@@ -359,8 +359,8 @@ def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
     the callback's exception) with or without ``recover``: never a BagReadError, never a scan
     ended as if the file were truncated there."""
     require_rclpy()
-    from drs_ros.bag.files import BagReadError
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.files import BagReadError
+    from drs_ros.bag.read.reader import scan
 
     rec, *_ = write_drs_bag(tmp_path / "bag", params, n=100,
                             recorder_kwargs={"flush_messages": 30})  # fmt: skip
@@ -443,7 +443,7 @@ def test_recover_that_cannot_write_its_output_leaves_nothing(tmp_path):
 
 # ---- split bags ---------------------------------------------------------------------------------
 def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
-    from drs_ros.bag.files import BagReadError, resolve
+    from drs_ros.bag.read.files import BagReadError, resolve
 
     for k in (10, 0, 2, 1, 11):
         (tmp_path / f"run_{k}.mcap").write_bytes(b"")
@@ -456,7 +456,7 @@ def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
 
 def test_check_and_info_read_every_file_of_awrite_split_bag(tmp_path, params, capsys):
     require_rclpy()
-    from drs_ros.bag import check
+    from drs_ros.bag.check.command import check
     from drs_ros.bag.cli import main
 
     bag, _first = write_split_bag(tmp_path, params, killed=False)
@@ -480,7 +480,7 @@ def test_recover_keeps_every_file_of_a_killedwrite_split_bag(tmp_path, params):
     passes on it and rosbags reads it."""
     require_rclpy()
     require_module("rosbags")
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
 
     bag, first = write_split_bag(tmp_path, params, killed=True)
     res = run_tool("drs_ros.bag.cli", "check", str(bag), "--recover", "--json")

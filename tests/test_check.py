@@ -9,8 +9,8 @@ import pytest
 from decoded_support import check_bag, read_bag
 from ros_support import JOINT_NAMES, require_rclpy, write_drs_bag
 
-from drs_ros.bag import check, model_checks
-from drs_ros.bag.files import BagReadError
+from drs_ros.bag.check.command import check, model_checks
+from drs_ros.bag.read.files import BagReadError
 
 pytestmark = pytest.mark.ros
 

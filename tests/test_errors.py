@@ -64,16 +64,16 @@ def test_drs_ros_errors_have_their_own_root():
 CLI_FUNCTIONS = {
     "drs_model/cli/__init__.py": ("main",),
     "drs_ros/bag/cli.py": ("main", "check_alias"),
-    "drs_ros/bag/check.py": ("main", "run"),
+    "drs_ros/bag/check/command.py": ("main", "run"),
     "drs_ros/bag/recover.py": ("run",),
-    "drs_ros/bag/resimulate.py": ("run",),
+    "drs_ros/bag/replay/resimulate.py": ("run",),
     "drs_ros/bag/info.py": ("run",),
-    "drs_ros/bag/catalogue.py": ("run",),
-    "drs_ros/bag/fit.py": ("run",),
-    "drs_ros/bag/trend.py": ("run",),
+    "drs_ros/bag/season/catalogue.py": ("run",),
+    "drs_ros/bag/season/fit.py": ("run",),
+    "drs_ros/bag/season/trend.py": ("run",),
     "drs_ros/bag/from_goal.py": ("run",),
-    "drs_ros/bag/fleet.py": ("run_fleet",),
-    "drs_ros/bag/play/player.py": ("play", "run", "main"),
+    "drs_ros/bag/season/fleet.py": ("run_fleet",),
+    "drs_ros/bag/replay/play/player.py": ("play", "run", "main"),
     "drs_ros/node/runner.py": ("main",),
     "drs_ros/demo.py": ("main",),
 }
@@ -225,7 +225,7 @@ def test_a_look_ahead_consumer_that_raises_is_never_no_message():
     exception of the code that consumes its messages comes out as it is, never taken for "the
     bag has no such message" (check would fall back to the seed's parameters)."""
     require_rclpy()
-    from drs_ros.bag import look_ahead
+    from drs_ros.bag.read import look_ahead
 
     assert next(look_ahead.messages(EXAMPLE, ["/parameter_events"]), None) is not None
     with pytest.raises(ValueError, match="a bug in the caller"):

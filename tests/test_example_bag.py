@@ -38,7 +38,7 @@ def test_rosbags_reads_the_example_bag(params):
 
 def test_drs_check_passes_on_the_example(capsys):
     require_rclpy()
-    from drs_ros.bag.check import main
+    from drs_ros.bag.check.command import main
 
     assert main([str(BAGS / "example")]) == 0
     out = capsys.readouterr().out

@@ -1,4 +1,5 @@
-"""``drs_ros.bag.mcap_file.chunk_records``: a chunk's records one at a time, the same records as
+"""``drs_ros.bag.read.mcap_file.chunk_records``: a chunk's records one at a time, the same records
+as
 the mcap library's own ``breakup_chunk`` (the reference), and none from a chunk whose framing
 is damaged."""
 
@@ -11,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drs_ros.bag.mcap_file import chunk_records
+from drs_ros.bag.read.mcap_file import chunk_records
 
 
 def _chunks(payloads: list[bytes], compression: str) -> list:

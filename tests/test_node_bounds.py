@@ -70,8 +70,8 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
     byte verified (``drs-bag check``'s first stage)."""
     from decoded_support import read_bag
 
-    from drs_ros.bag.effects import effect_records
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.effects import effect_records
+    from drs_ros.bag.read.reader import scan
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
@@ -134,7 +134,7 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
     20 kHz physics) makes its ticks grow without bound from the moment it falls behind, and
     which tick a signal then meets depends on the machine's speed: the stall must make the long
     tick, not the load."""
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
     from drs_ros.recording.rerun_cli import run_rerun_cli
 
     domain = domain_for(request.node.nodeid)
@@ -179,7 +179,7 @@ def test_a_step_too_stiff_for_the_cap_holds_the_node_which_publishes_on(ros_cont
     from node_support import spin_until
     from rclpy.executors import SingleThreadedExecutor
 
-    from drs_ros.bag.effects import effect_records
+    from drs_ros.bag.read.effects import effect_records
     from drs_ros.node import DRSNode
 
     node = DRSNode(context=ros_context, parameter_overrides=[

@@ -89,7 +89,7 @@ def test_faults_are_taken_or_refused_with_a_reason(faulty_bag):
 def test_each_fault_is_recorded_where_it_took_effect(faulty_bag):
     from decoded_support import read_bag
 
-    from drs_ros.bag.effects import effect_records
+    from drs_ros.bag.read.effects import effect_records
 
     bag, _, _, joints = faulty_bag
     data = read_bag(bag, ["/drs/command_events", "/parameter_events", "/joint_states"])
@@ -175,7 +175,7 @@ def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monk
     from decoded_support import read_bag
     from std_msgs.msg import Float64
 
-    from drs_ros.bag.effects import effect_records
+    from drs_ros.bag.read.effects import effect_records
 
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     rung = _auto_run(tmp_path, "test_node_faults::auto_gap", {"/drs/flap_gap": Float64})

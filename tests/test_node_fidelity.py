@@ -59,7 +59,7 @@ def hydraulic_bag(tmp_path_factory):
 def test_the_hydraulic_node_publishes_and_records_its_pressures(hydraulic_bag):
     from decoded_support import read_bag
 
-    from drs_ros.bag.effects import recorded_node_parameters
+    from drs_ros.bag.read.effects import recorded_node_parameters
 
     bag, seen = hydraulic_bag
     hp = HydraulicParams()

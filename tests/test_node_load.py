@@ -41,7 +41,7 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     from std_msgs.msg import Float64
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.effects import effect_records
+    from drs_ros.bag.read.effects import effect_records
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"

@@ -62,7 +62,7 @@ def served_over_dds(ctx, node: DRSNode | None, name: str = "/drs") -> dict:
 
 
 def recorded(node: DRSNode, bag) -> dict:
-    from drs_ros.bag.nodes import bag_nodes
+    from drs_ros.bag.read.nodes import bag_nodes
 
     assert node.close_recordings() == []
     (bag_node,) = bag_nodes(bag)
@@ -74,7 +74,7 @@ def test_the_served_values_are_the_run_s_and_the_recorded_ones(ros_context, tmp_
     seed's 0.0096; a hydraulic value given reaches the hydraulic rung; served == recorded."""
     from drs_model.fidelity import HydraulicRung
     from drs_model.params import DRSParams
-    from drs_ros.bag.effects import hydraulic_params_from, model_params_from
+    from drs_ros.bag.read.effects import hydraulic_params_from, model_params_from
 
     bag = tmp_path / "bag"
     node = DRSNode(context=ros_context, parameter_overrides=[
@@ -185,7 +185,7 @@ def test_drs_node_serves_what_its_bag_records(ros_context, tmp_path, request):
 
     from drs_model.fidelity import HydraulicParams
     from drs_model.params import NUMERIC_FIELDS
-    from drs_ros.bag.effects import recorded_node_parameters
+    from drs_ros.bag.read.effects import recorded_node_parameters
 
     bag = tmp_path / "bag"
     proc = start_node(tmp_path, domain_for(request.node.nodeid), "model.m_wing:=3.0",

@@ -69,7 +69,7 @@ def test_sigkill_leaves_a_recoverable_bag(tmp_path, request):
     assert count > 100  # >~1 s of joint states etc. survived the SIGKILL
     # drs-bag check --recover checks the readable part, with an exit status of its own (3)
     res = subprocess.run(
-        [sys.executable, "-m", "drs_ros.bag.check", str(bag), "--recover"],
+        [sys.executable, "-m", "drs_ros.bag.check.command", str(bag), "--recover"],
         capture_output=True,
         text=True,
         env=node_env(tmp_path, 0),

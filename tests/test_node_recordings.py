@@ -122,7 +122,7 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
     logged and counted (diagnostics WARN, ``rerun`` says how many), the rerun recording goes on
     trying, and the bag is complete; one bag write that raises loses that message only. The
     stop names both losses, each in its own recording."""
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
 
     calls = {"bag": 0}
 
@@ -181,7 +181,7 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
 def test_a_finish_that_fails_names_what_is_missing(ros_context, tmp_path):
     """``metadata.yaml`` cannot be written (a directory took its name): the bag's file is
     finished (its summary read by the reader), and the stop names metadata.yaml and why."""
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
 
     node = _run_in_process(ros_context, tmp_path, 0.5,
                            during=lambda n: (tmp_path / "bag" / "metadata.yaml").mkdir())
@@ -206,7 +206,7 @@ def test_a_tick_batch_with_a_bad_record_loses_that_record_only(tmp_path):
 
     from std_msgs.msg import Float64
 
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
     from drs_ros.node.recordings import BagRecording
     from drs_ros.recording import cdr
     from drs_ros.recording.mcap_recorder import McapRecorder

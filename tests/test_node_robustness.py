@@ -61,7 +61,7 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     from trajectory_msgs.msg import JointTrajectory
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.effects import effect_records
+    from drs_ros.bag.read.effects import effect_records
 
     types = {"std_msgs/msg/Float64": Float64,
              "trajectory_msgs/msg/JointTrajectory": JointTrajectory}  # fmt: skip
@@ -202,7 +202,7 @@ def test_parameters_given_are_used_and_recorded_even_at_their_defaults(tmp_path,
     from decoded_support import read_bag
 
     from drs_model.params import DRSParams
-    from drs_ros.bag.effects import model_params_from, recorded_node_parameters
+    from drs_ros.bag.read.effects import model_params_from, recorded_node_parameters
 
     domain = domain_for(request.node.nodeid)
     model_file = tmp_path / "car.toml"
@@ -245,7 +245,7 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     from decoded_support import read_bag
     from rosgraph_msgs.msg import Clock
 
-    from drs_ros.bag.effects import effect_records
+    from drs_ros.bag.read.effects import effect_records
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
@@ -289,9 +289,9 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     assert -2.5e9 < int(jumps[0].values["jump_ns"]) < -1.0e9
     # and the run re-simulates exactly across the jump (states matched to their clock origin
     # in the order the node wrote them)
-    from drs_ros.bag.deviations import compare
-    from drs_ros.bag.recorded_run import read_run, run_params
-    from drs_ros.bag.rerun import resimulate
+    from drs_ros.bag.read.recorded_run import read_run, run_params
+    from drs_ros.bag.replay.deviations import compare
+    from drs_ros.bag.replay.rerun import resimulate
 
     run = read_run(bag)
     result = resimulate(run, run_params(run.node_parameters))
@@ -339,7 +339,7 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from drs_model.kinematics import stroke_limits
-    from drs_ros.bag.effects import effect_records
+    from drs_ros.bag.read.effects import effect_records
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"

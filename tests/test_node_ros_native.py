@@ -267,7 +267,7 @@ def test_the_parameter_file_round_trip(tmp_path, request):
     file's values (read back from the parameters it records in its bag)."""
     from decoded_support import read_bag
 
-    from drs_ros.bag.effects import recorded_node_parameters
+    from drs_ros.bag.read.effects import recorded_node_parameters
 
     values = yaml.safe_load(CONFIG.read_text())
     params = values["/drs"]["ros__parameters"]

@@ -447,7 +447,7 @@ def test_a_joint_command_with_uninitialised_padding_is_taken_and_recorded_exact(
         assert stack.node.effects.refused == 0
     finally:
         stack.close()
-    from drs_ros.bag.reader import scan
+    from drs_ros.bag.read.reader import scan
 
     recorded = []
     scan(bag, lambda m: recorded.append(bytes(m.data)), topics={"/drs/joint_commands"})

@@ -20,8 +20,8 @@ from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
 from std_srvs.srv import SetBool  # noqa: E402
 
 from drs_model.fidelity.ladder import REFERENCE  # noqa: E402
-from drs_ros.bag.recorded_run import read_run, run_params  # noqa: E402
-from drs_ros.bag.rerun import resimulate  # noqa: E402
+from drs_ros.bag.read.recorded_run import read_run, run_params  # noqa: E402
+from drs_ros.bag.replay.rerun import resimulate  # noqa: E402
 
 
 def _record(tmp_path):

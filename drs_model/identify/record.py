@@ -3,7 +3,7 @@
 A :class:`Record` holds one run's samples by signal, each an array of the same length as the
 sample times, NaN where a sample was lost (a dropout); a signal the run did not record is
 ``None``. Where they come from (a bag, a table, a simulation) is not its business: the bag tools
-fill it (:mod:`drs_ros.bag.measured`), the tests from the rungs directly.
+fill it (:mod:`drs_ros.bag.season.measured`), the tests from the rungs directly.
 
 Signals (SI units):
 

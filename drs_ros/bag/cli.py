@@ -2,23 +2,24 @@
 
 * ``drs-bag info BAG``: topics, types, counts, duration (:mod:`drs_ros.bag.info`);
 * ``drs-bag check BAG``: verify every byte, then check the run against the model
-  (:mod:`drs_ros.bag.check`; ``drs-check`` is its alias);
+  (:mod:`drs_ros.bag.check.command`; ``drs-check`` is its alias);
 * ``drs-bag recover BAG -o OUT``: a killed or truncated recording made whole
   (:mod:`drs_ros.bag.recover`);
 * ``drs-bag merge A B -o OUT``: several bags in one, byte for byte (:mod:`drs_ros.bag.merge`);
 * ``drs-bag resimulate BAG``: re-run the recorded commands in the model and compare
-  (:mod:`drs_ros.bag.resimulate`);
-* ``drs-bag play BAG``: publish the recorded messages onto ROS 2 topics (:mod:`drs_ros.bag.play`);
+  (:mod:`drs_ros.bag.replay.resimulate`);
+* ``drs-bag play BAG``: publish the recorded messages onto ROS 2 topics
+  (:mod:`drs_ros.bag.replay.play`);
 * ``drs-bag index DIR -o catalogue.parquet``: a table of many bags from their summaries alone
-  (:mod:`drs_ros.bag.catalogue`);
+  (:mod:`drs_ros.bag.season.catalogue`);
 * ``drs-bag fit BAG --params NAME,...``: the actuator's parameters from a run, with intervals
-  (:mod:`drs_ros.bag.fit`); ``drs-bag trend season.parquet``: their drift over a season
-  (:mod:`drs_ros.bag.trend`);
+  (:mod:`drs_ros.bag.season.fit`); ``drs-bag trend season.parquet``: their drift over a season
+  (:mod:`drs_ros.bag.season.trend`);
 * ``drs-bag from-goal GOAL.yaml -o DIR``: a FollowJointTrajectory goal (``drs excite -o``'s) as
   a bag for ``play`` (:mod:`drs_ros.bag.from_goal`).
 
 ``check``, ``resimulate`` and ``fit`` take many bags too (a fleet, on Dask:
-:mod:`drs_ros.bag.fleet`).
+:mod:`drs_ros.bag.season.fleet`).
 
 Each verb module has ``add_arguments(parser)`` and ``run(args) -> exit status`` (the statuses of
 every verb: docs/cli.md, :mod:`drs_model.cli.exit_status`).
@@ -45,14 +46,26 @@ from drs_model.cli.strict_parser import StrictParser
 #: verb -> (module, one-line help)
 VERBS = {
     "info": ("drs_ros.bag.info", "print what a bag holds (as ros2 bag info)"),
-    "check": ("drs_ros.bag.check", "verify every byte of a bag and check it against the model"),
+    "check": (
+        "drs_ros.bag.check.command",
+        "verify every byte of a bag and check it against the model",
+    ),
     "recover": ("drs_ros.bag.recover", "make a killed or truncated recording a complete bag"),
     "merge": ("drs_ros.bag.merge", "merge several bags into one rosbag2 bag, byte for byte"),
-    "resimulate": ("drs_ros.bag.resimulate", "re-run a recorded run in the model and compare"),
-    "play": ("drs_ros.bag.play", "publish a bag onto ROS 2 topics (as ros2 bag play)"),
-    "index": ("drs_ros.bag.catalogue", "catalogue many bags from their summaries (Parquet)"),
-    "fit": ("drs_ros.bag.fit", "identify the actuator's parameters from a bag, with intervals"),
-    "trend": ("drs_ros.bag.trend", "fitted parameters over a season: drift, threshold crossing"),
+    "resimulate": (
+        "drs_ros.bag.replay.resimulate",
+        "re-run a recorded run in the model and compare",
+    ),
+    "play": ("drs_ros.bag.replay.play", "publish a bag onto ROS 2 topics (as ros2 bag play)"),
+    "index": ("drs_ros.bag.season.catalogue", "catalogue many bags from their summaries (Parquet)"),
+    "fit": (
+        "drs_ros.bag.season.fit",
+        "identify the actuator's parameters from a bag, with intervals",
+    ),
+    "trend": (
+        "drs_ros.bag.season.trend",
+        "fitted parameters over a season: drift, threshold crossing",
+    ),
     "from-goal": ("drs_ros.bag.from_goal", "write a FollowJointTrajectory goal (drs excite's) as "
                   "a bag that play sends to the node"),
 }
@@ -138,7 +151,7 @@ def check_alias(argv: Sequence[str] | None = None) -> int:
     main_thread = threading.current_thread() is threading.main_thread()
     previous = exit_at_once_on_signal("drs-check") if main_thread else {}
     try:
-        from .check import main as check_main
+        from drs_ros.bag.check.command import main as check_main
 
         return _interruptible(lambda: check_main(argv, prog="drs-check"), "drs-check",
                               bool(previous))  # fmt: skip

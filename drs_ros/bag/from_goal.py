@@ -30,11 +30,10 @@ from pathlib import Path
 from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
 from drs_model.overrides import parse_error_text
-
-from ..errors import DRSRosError
-from ..names import DEFAULT_NODE, NODE_TOPICS, expand_topic
-from ..recording.errors import RecordingError
-from ..timestamps import NS_PER_S, T0_NS, ns_from_parts, split_ns
+from drs_ros.errors import DRSRosError
+from drs_ros.names import DEFAULT_NODE, NODE_TOPICS, expand_topic
+from drs_ros.recording.errors import RecordingError
+from drs_ros.timestamps import NS_PER_S, T0_NS, ns_from_parts, split_ns
 
 #: The fields of a trajectory point that hold one value per joint (the node takes these).
 POINT_VALUES = ("positions", "velocities", "accelerations")
@@ -144,7 +143,7 @@ def write_goal_bag(out: str | Path, trajectory: Mapping, topic: str | None = Non
     """
     from trajectory_msgs.msg import JointTrajectory
 
-    from ..recording.mcap_recorder import McapRecorder
+    from drs_ros.recording.mcap_recorder import McapRecorder
 
     out = Path(out)
     if out.exists():

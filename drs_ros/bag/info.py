@@ -1,5 +1,5 @@
 """``drs-bag info BAG``: what a bag holds, printed as ``ros2 bag info`` prints it, then the drs
-nodes it holds, each with its topics by role (:mod:`drs_ros.bag.nodes`).
+nodes it holds, each with its topics by role (:mod:`drs_ros.bag.read.nodes`).
 
 From ``metadata.yaml`` when the bag directory has one (as ``ros2 bag info`` does), else from a
 scan of the files (a bare ``.mcap``, or an unfinished recording, split or not: then said so).
@@ -15,12 +15,11 @@ import time
 from pathlib import Path
 
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
-
-from ..recording import msgdefs
-from ..timestamps import split_ns
-from .files import BagReadError, resolve
-from .nodes import bag_nodes, nodes_text
-from .reader import scan
+from drs_ros.bag.read.files import BagReadError, resolve
+from drs_ros.bag.read.nodes import bag_nodes, nodes_text
+from drs_ros.bag.read.reader import scan
+from drs_ros.recording import msgdefs
+from drs_ros.timestamps import split_ns
 
 _INDENT = " " * 19
 SERVICE_EVENT_TOPIC_SUFFIX = "/_service_event"
@@ -66,7 +65,7 @@ def _files_summary(path: str | Path) -> dict:
     """:func:`bag_summary` but the nodes."""
     bag = resolve(path, require_metadata=False)
     meta = bag.metadata
-    if meta is not None:  # checked by the resolver (drs_ros.bag.files.read_metadata)
+    if meta is not None:  # checked by the resolver (drs_ros.bag.read.files.read_metadata)
         topics = [(t["topic_metadata"]["name"], t["topic_metadata"]["type"], t["message_count"],
                    t["topic_metadata"].get("serialization_format", "cdr"))
                   for t in meta["topics_with_message_count"]]  # fmt: skip

@@ -11,7 +11,7 @@ first). OUT is drs's MCAP recorder's bag: one MCAP file with its summary, and ``
 in rosbag2's layout (:mod:`drs_ros.recording.bag_metadata`). ``check``, ``resimulate``, ``fit``
 and ``play`` then pick a node with ``--node``.
 
-Every source is verified first (:func:`drs_ros.bag.reader.scan`: every byte) and refused whole
+Every source is verified first (:func:`drs_ros.bag.read.reader.scan`: every byte) and refused whole
 if anything of it is wrong. Refused too, before OUT is made: fewer than two bags, one bag named
 twice, a topic whose type or schema differs between two bags, and one drs node in two bags (the
 merged bag could not tell their runs apart).
@@ -31,14 +31,13 @@ from pathlib import Path
 
 from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
-
-from ..errors import DRSRosError
-from ..recording.destinations import check_new_bag, remove_unfinished_bag
-from ..recording.errors import RecordingError
-from ..recording.mcap_recorder import McapRecorder
-from ..recording.qos import parse_qos_yaml
-from .files import BagReadError, resolve
-from .recorded import ChannelInfo, RecordedMessage
+from drs_ros.bag.read.files import BagReadError, resolve
+from drs_ros.bag.read.recorded import ChannelInfo, RecordedMessage
+from drs_ros.errors import DRSRosError
+from drs_ros.recording.destinations import check_new_bag, remove_unfinished_bag
+from drs_ros.recording.errors import RecordingError
+from drs_ros.recording.mcap_recorder import McapRecorder
+from drs_ros.recording.qos import parse_qos_yaml
 
 
 class MergeError(DRSRosError, ValueError):
@@ -48,10 +47,10 @@ class MergeError(DRSRosError, ValueError):
 
 def bag_messages(path: str | Path) -> Iterator[RecordedMessage]:
     """Every message of a bag in the order it was recorded, file after file, each with its
-    channel. Nothing is verified here (:func:`drs_ros.bag.reader.scan` does)."""
+    channel. Nothing is verified here (:func:`drs_ros.bag.read.reader.scan` does)."""
     bag = resolve(path)
     if bag.storage == "sqlite3":
-        from . import sqlite
+        from drs_ros.bag.read import sqlite
 
         channels = {c["id"]: ChannelInfo(**c) for c in sqlite.channels(bag)}
         for row, rec in enumerate(sqlite.iter_rows(bag), start=1):
@@ -65,9 +64,9 @@ def _mcap_messages(file: Path) -> Iterator[RecordedMessage]:
     from mcap.records import Channel, Chunk, Message, Schema
     from mcap.stream_reader import StreamReader
 
-    from ..recording.mcap_private import record_stream
-    from ..recording.mcap_records import MAGIC
-    from .mcap_file import chunk_records
+    from drs_ros.bag.read.mcap_file import chunk_records
+    from drs_ros.recording.mcap_private import record_stream
+    from drs_ros.recording.mcap_records import MAGIC
 
     schemas: dict[int, Schema] = {}
     channels: dict[int, ChannelInfo] = {}
@@ -103,7 +102,7 @@ def merged_messages(sources: Sequence[str | Path]) -> Iterator[RecordedMessage]:
 
 def merged_channels(scans: Sequence) -> dict[str, tuple[ChannelInfo, list[dict]]]:
     """topic -> (its channel, the offered QoS profiles of every bag, each once), from the
-    :class:`~drs_ros.bag.recorded.BagScan` of each source.
+    :class:`~drs_ros.bag.read.recorded.BagScan` of each source.
 
     Raises
     ------
@@ -131,8 +130,8 @@ def merged_channels(scans: Sequence) -> dict[str, tuple[ChannelInfo, list[dict]]
 
 def _verify(sources: Sequence[str | Path]) -> list:
     """Each source's verified scan; its drs nodes, each in one bag only."""
-    from .nodes import bag_nodes
-    from .reader import scan
+    from drs_ros.bag.read.nodes import bag_nodes
+    from drs_ros.bag.read.reader import scan
 
     if len(sources) < 2:
         raise MergeError(f"merge takes two bags or more, got {len(sources)}")

@@ -1,12 +1,13 @@
 """``drs-bag recover BAG -o OUT``: a SIGKILLed or truncated recording made whole again.
 
-Reads the damaged bag sequentially (:func:`drs_ros.bag.reader.scan` with ``recover``: chunk CRCs
+Reads the damaged bag sequentially (:func:`drs_ros.bag.read.reader.scan` with ``recover``: chunk
+CRCs
 checked, exact CDR bytes checked), every file of a split bag in order, each up to its first
 truncated or corrupt record, and copies every complete message into a new rosbag2 bag directory
 ``OUT`` (one MCAP file with its summary, plus ``metadata.yaml`` counting what was written):
 schemas, channel metadata, times and sequence numbers copied as they were. It then reports what
 was kept and what was lost, per file, and the drs nodes whose records it holds
-(:mod:`drs_ros.bag.nodes`: their names and topics). Readers that need the summary (rosbags,
+(:mod:`drs_ros.bag.read.nodes`: their names and topics). Readers that need the summary (rosbags,
 mcap_ros2's seeking reader, ``ros2 bag``) read the result.
 
 Exit status: 0 the result holds every message of a bag that was complete; 3 the bag was damaged
@@ -26,16 +27,15 @@ from pathlib import Path
 
 from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EXIT_UNREADABLE
-
-from ..recording.destinations import check_new_bag, remove_unfinished_bag
-from ..recording.errors import RecordingError
-from ..recording.mcap_recorder import McapRecorder
-from ..recording.qos import parse_qos_yaml
-from ..timestamps import split_ns
-from .files import BagReadError
-from .nodes import bag_nodes, nodes_text
-from .reader import scan
-from .recorded import ChannelInfo, MessageCallbackError, RecordedMessage
+from drs_ros.bag.read.files import BagReadError
+from drs_ros.bag.read.nodes import bag_nodes, nodes_text
+from drs_ros.bag.read.reader import scan
+from drs_ros.bag.read.recorded import ChannelInfo, MessageCallbackError, RecordedMessage
+from drs_ros.recording.destinations import check_new_bag, remove_unfinished_bag
+from drs_ros.recording.errors import RecordingError
+from drs_ros.recording.mcap_recorder import McapRecorder
+from drs_ros.recording.qos import parse_qos_yaml
+from drs_ros.timestamps import split_ns
 
 
 def _register(rec: McapRecorder, channel: ChannelInfo) -> None:

@@ -4,8 +4,9 @@ fields, the chunk record, the message index record and the footer (the MCAP spec
 https://mcap.dev/spec: little-endian, no padding).
 
 The writers (:mod:`drs_ros.recording.mcap_append`, :mod:`drs_ros.recording.mcap_chunks`) pack
-with these; the readers (:mod:`drs_ros.bag.mcap_file`, :mod:`drs_ros.bag.look_ahead`,
-:mod:`drs_ros.bag.play.index`) check and skip with them. No other module spells a field's size.
+with these; the readers (:mod:`drs_ros.bag.read.mcap_file`, :mod:`drs_ros.bag.read.look_ahead`,
+:mod:`drs_ros.bag.replay.play.index`) check and skip with them. No other module spells a field's
+size.
 """
 
 from __future__ import annotations

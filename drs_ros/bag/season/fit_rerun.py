@@ -1,0 +1,57 @@
+"""A bag's run re-simulated for a fit: the recorded commands on the rung, with trial parameter
+values, sampled where the bag's signals were (the output error's model).
+
+Each call is one re-run through :func:`drs_ros.bag.replay.rerun.resimulate` (the same commands,
+effect record and resets as ``drs-bag resimulate``), on the rung the fit runs on, with the
+recorded faults left out: a fit estimates what the faults changed (a leak, a jam) instead of
+being told. The rungs step their compiled kernels (numba).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from drs_model.fidelity.hydraulic_params import HydraulicParams
+from drs_model.identify.parameters import with_values
+from drs_model.params import DRSParams
+from drs_ros.bag.read.recorded_run import RecordedRun
+from drs_ros.bag.replay.rerun import resimulate
+
+#: The signals a re-simulation gives (the output error compares those the bag recorded; the
+#: chamber pressures on the hydraulic rung only).
+SIMULATED_SIGNALS = ("stroke", "stroke_rate", "piston_force", "pressure_a", "pressure_b")
+
+
+class RunResimulation:
+    """``simulate({name: value}) -> {signal: array}`` of a recorded run (module docstring) at
+    the physics steps ``steps`` of the measured samples."""
+
+    def __init__(self, run: RecordedRun, model: DRSParams, hydraulic: HydraulicParams,
+                 rung: str, steps: np.ndarray) -> None:  # fmt: skip
+        self.run, self.model, self.hydraulic, self.rung = run, model, hydraulic, rung
+        self.steps = np.asarray(steps, dtype=np.int64)
+
+    def __call__(self, values: dict[str, float]) -> dict[str, np.ndarray]:
+        p, hp = with_values(values, self.model, self.hydraulic)
+        # the moves the node carried out, whatever force the candidate's model needs for them
+        options = {"limit_moves": False, **({"hydraulic": hp} if self.rung == "hydraulic" else {})}
+        result = resimulate(self.run, p, self.rung, rung_options=options,
+                            replay_faults=False)
+        n = self.steps.size
+        kept = SIMULATED_SIGNALS if self.rung == "hydraulic" else SIMULATED_SIGNALS[:3]
+        out = {k: np.full(n, math.nan) for k in kept}
+        sim, dt = result["sim"], result["dt"]
+        for i, k in enumerate(self.steps):
+            state = result["state_at"](int(k))
+            if state is None:
+                continue
+            q, qd, force, _gap, _acc = state
+            out["stroke"][i], out["stroke_rate"][i], out["piston_force"][i] = q[0], qd[0], force
+            if self.rung == "hydraulic" and round(sim.t / dt) == k:  # the rung is at this step
+                out["pressure_a"][i], out["pressure_b"][i] = sim.y[2], sim.y[3]
+        return out
+
+
+__all__ = ["SIMULATED_SIGNALS", "RunResimulation"]
