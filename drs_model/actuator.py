@@ -79,6 +79,8 @@ class ActuatorSim(CommandedActuator):
         Refuse a move whose inverse-dynamics peak exceeds ``force_limit`` (default).
     """
 
+    method_options = frozenset({"integrator", "force_method"})
+
     def __init__(
         self,
         p: DRSParams,

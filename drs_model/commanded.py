@@ -65,6 +65,10 @@ class ActuatorState:
     transmission: float  # |cos(psi1 - psi3)|, 0 at the dead centre
 
 
+#: The method options' defaults (:class:`CommandedActuator`'s constructor).
+METHOD_DEFAULTS = {"integrator": "rk4", "force_method": "fused"}
+
+
 class CommandedActuator:
     """The shell of a fixed-step actuator (module docstring).
 
@@ -90,6 +94,12 @@ class CommandedActuator:
     #: Whether the state at each step follows from the time and the commands alone (nothing is
     #: integrated): :meth:`advance` then evaluates only the last of its steps, to the same bits.
     path_is_state = False
+    #: Whether the rung has fluid: chamber pressures and a spool to publish, and a stiffness the
+    #: physics step must resolve (:meth:`check_stiffness`).
+    has_fluid = False
+    #: The method options (``integrator``, ``force_method``) the rung uses: a value other than
+    #: the default for one it does not use is refused, never silently ignored.
+    method_options: frozenset[str] = frozenset()
 
     def __init__(
         self,
@@ -105,6 +115,7 @@ class CommandedActuator:
         if not (math.isfinite(force_limit) and force_limit > 0.0):
             raise InputError(f"force_limit must be a finite number > 0 N, got {force_limit!r}")
         check_methods(integrator, force_method)
+        self._refuse_unused_methods(integrator=integrator, force_method=force_method)
         self.p = p
         self.dt = float(dt)
         self.force_limit = float(force_limit)
@@ -116,6 +127,22 @@ class CommandedActuator:
         self.s_dead = kin.dead_centre(p)
         self._statics = None  # FusedInverseDynamics, built for the first stretched move
         self._force = math.nan
+
+    def _refuse_unused_methods(self, **given: str) -> None:
+        """Refuse a method option this rung does not use (see :attr:`method_options`) given a
+        value other than its default."""
+        for option, value in given.items():
+            default = METHOD_DEFAULTS[option]
+            if option not in self.method_options and value != default:
+                raise InputError(
+                    f"the {self.name} rung does not use {option}: got {value!r}, only its "
+                    f"default {default!r} is accepted"
+                )
+
+    def check_stiffness(self) -> int:
+        """The sub-steps one physics step needs: 1 for a rung without fluid (nothing stiff to
+        resolve; :class:`~drs_model.fidelity.HydraulicRung` measures its own)."""
+        return 1
 
     # ---- what a rung supplies ------------------------------------------------------------------
     def _force_now(self) -> float:

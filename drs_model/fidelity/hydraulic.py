@@ -61,8 +61,7 @@ class HydraulicRung(CommandedActuator):
     stability_fraction : float
         In (0, 1]: the fraction of the stable RK4 sub-step taken (a tighter run).
     guard : bool
-        Refuse an RK4 sub-step above the stability limit (default). Off only for
-        ``benchmarks/hydraulic_stability.py``, which measures where RK4 really blows up.
+        Refuse an RK4 sub-step above the stability limit (default; off: hydraulic_stability.py).
     locate_events : bool or "contacts"
         Split the sub-steps where the right-hand side is not smooth (a stop's contact, the
         vapour pressure, the relief, the spool's null...: :class:`~.hydraulic_events.EventLocator`),
@@ -80,6 +79,7 @@ class HydraulicRung(CommandedActuator):
 
     name = "hydraulic"
     state_type = RungState
+    has_fluid = True
 
     def __init__(
         self,

@@ -43,8 +43,6 @@ from rclpy.qos import QoSProfile
 from rclpy.service_introspection import ServiceIntrospectionState
 from std_srvs.srv import SetBool
 
-from drs_model.fidelity import HydraulicRung
-
 from .. import commands
 from ..conversions import diagnostics_status, parameter_event_msg
 from ..names import FIDELITY, TOPICS
@@ -139,7 +137,7 @@ class DRSNode(Node):
             self, joint_states_topic=self.get_parameter("joint_states_topic").value,
             joint_names=self.joint_names, frame_id=self.frame_id, params=self.params,
             s_min=self.sim.s_min, markers_period=settings.markers_period,
-            hydraulic=isinstance(self.sim, HydraulicRung) or self.fidelity == "auto")  # fmt: skip
+            hydraulic=self.sim.has_fluid or self.fidelity == "auto")  # fmt: skip
         self.effects = EffectRecord(
             self.outputs.events, self._record,
             lambda: (self.sim.t, self.sim.steps, self.clock.t0_ns), self.get_logger(),

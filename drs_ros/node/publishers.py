@@ -24,8 +24,6 @@ from sensor_msgs.msg import FluidPressure, JointState
 from std_msgs.msg import Float64
 from visualization_msgs.msg import MarkerArray
 
-from drs_model.fidelity import HydraulicRung
-
 from ..conversions import MechanismMarkers, joint_state_packer, reactions_packer
 from ..drawing import moving_drawings, still_drawings
 from ..publishing import LISTENER_CHECK_TICKS, create_publisher
@@ -155,7 +153,7 @@ class StatePublishers:
             (self.gap, pack(st.gap)),
             (self.accel, pack(st.qdd[0])),
         ]  # fmt: skip
-        if self.hydraulic and isinstance(sim, HydraulicRung):
+        if self.hydraulic and sim.has_fluid:
             out += self._hydraulic_messages(st, stamp)
         if tick % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
             self.listened = {pub: pub.get_subscription_count() > 0

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time
 
-from drs_model.fidelity import HydraulicRung, make_rung
+from drs_model.fidelity import RUNGS, make_rung
 from drs_model.fidelity.auto import choose_rung, ladder_errors
 
 
@@ -38,15 +38,19 @@ class RungChoice:
 
     def make(self, rung: str):
         """A new actuator of rung ``rung``, at rest."""
-        extra = {"hydraulic": self.hydraulic} if rung == "hydraulic" else {}
-        return make_rung(rung, self.params, self.physics_dt, **self.options, **extra)
+        extra = {"hydraulic": self.hydraulic} if rung == RUNGS["hydraulic"].name else {}
+        options = dict(self.options)
+        if self.auto:  # auto's rungs take the method options only where they use them
+            for option in ("integrator", "force_method"):
+                if option not in RUNGS[rung].method_options:
+                    options.pop(option, None)
+        return make_rung(rung, self.params, self.physics_dt, **options, **extra)
 
     def first(self):
         """The actuator the node starts with (a model too stiff for the physics rate raises
         :class:`~drs_model.errors.TooStiffError` now, not a refusal at every tick)."""
         sim = self.make("rigid" if self.auto else self.fidelity)
-        if isinstance(sim, HydraulicRung):
-            sim.check_stiffness()
+        sim.check_stiffness()
         return sim
 
     def wait_for_subscribers(self, seconds: float) -> None:
