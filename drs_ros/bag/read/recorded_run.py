@@ -41,7 +41,7 @@ from drs_ros.bag.read.nodes import (
 from drs_ros.bag.read.reader import scan
 from drs_ros.errors import DRSRosError
 from drs_ros.names import ACCEPTED, CLOCK, FIDELITY, REFUSED, RESET, TOPICS
-from drs_ros.timestamps import seconds_from_ns
+from drs_ros.timestamps import nearest_step, seconds_from_ns
 
 #: The roles of the topics a re-run reads: the effect record, the commands, the signals.
 RUN_ROLES = ("command_events", *commands.COMMAND_TYPES, "drs_service", "follow_joint_trajectory",
@@ -177,7 +177,7 @@ class RecordedRun:
             return math.nan
         dt = self.dt
         t = seconds_from_ns(stamp_ns - self.origin_ns)
-        return self.t_reset + round((t - self.t_reset) / dt) * dt
+        return self.t_reset + nearest_step(t - self.t_reset, dt) * dt
 
     def command_key(self, source: str) -> str:
         """The command (a key of :func:`drs_ros.commands.apply`) of an effect record's

@@ -14,7 +14,7 @@ from drs_ros.bag.read.recorded import MessageCallbackError
 from drs_ros.bag.read.recorded_run import RecordedRun, ResimulationError
 from drs_ros.bag.replay.rerun import STATE_WINDOW
 from drs_ros.names import CLOCK
-from drs_ros.timestamps import ns_of, seconds_from_ns
+from drs_ros.timestamps import nearest_step, ns_of, seconds_from_ns
 
 #: signal -> (unit, default tolerance)
 SIGNALS = {
@@ -105,7 +105,7 @@ def compare(run: RecordedRun, rerun: dict, tolerances: dict[str, float],
                     "the effect record holds no clock origin (t0) before the states"
                 )
             seen[0] += 1
-            k = round(seconds_from_ns(ns_of(msg.header.stamp) - origin[0]) / dt)
+            k = nearest_step(seconds_from_ns(ns_of(msg.header.stamp) - origin[0]), dt)
             recent[m.log_time] = k
             if len(recent) > STATE_WINDOW:
                 del recent[next(iter(recent))]

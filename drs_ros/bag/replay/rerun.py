@@ -18,6 +18,7 @@ from drs_ros.bag.read.effects import (
 )
 from drs_ros.bag.read.recorded_run import RecordedRun, ResimulationError
 from drs_ros.names import ACCEPTED, RESET
+from drs_ros.timestamps import nearest_step
 
 #: Re-simulated steps kept behind the latest one asked for (a recorded state is compared with
 #: the step its stamp names; a bag in the node's order never looks back more than a few).
@@ -52,7 +53,7 @@ class Rerun:
 
     def step_of(self, t: float) -> int:
         """The step of simulated time ``t`` [s]."""
-        return int(round(t / self.dt))
+        return nearest_step(t, self.dt)
 
     def keep(self) -> None:
         """Keep the rung's state as the node published it (a sensor fault changes the stroke)."""

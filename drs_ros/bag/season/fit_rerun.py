@@ -18,6 +18,7 @@ from drs_model.identify.parameters import with_values
 from drs_model.params import DRSParams
 from drs_ros.bag.read.recorded_run import RecordedRun
 from drs_ros.bag.replay.rerun import resimulate
+from drs_ros.timestamps import nearest_step
 
 #: The signals a re-simulation gives (the output error compares those the bag recorded; the
 #: chamber pressures on the hydraulic rung only).
@@ -49,7 +50,7 @@ class RunResimulation:
                 continue
             q, qd, force, _gap, _acc = state
             out["stroke"][i], out["stroke_rate"][i], out["piston_force"][i] = q[0], qd[0], force
-            if self.rung == "hydraulic" and round(sim.t / dt) == k:  # the rung is at this step
+            if sim.has_fluid and nearest_step(sim.t, dt) == k:  # the rung is at this step
                 out["pressure_a"][i], out["pressure_b"][i] = sim.y[2], sim.y[3]
         return out
 

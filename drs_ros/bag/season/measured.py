@@ -41,7 +41,7 @@ from drs_ros.bag.read.reader import scan
 from drs_ros.bag.read.recorded import MessageCallbackError
 from drs_ros.errors import DRSRosError
 from drs_ros.names import CLOCK, TOPICS
-from drs_ros.timestamps import ns_of, seconds_from_ns
+from drs_ros.timestamps import nearest_steps, ns_of, seconds_from_ns
 
 #: The fit's roles, and the role of :data:`drs_ros.names.NODE_TOPICS` that names the node's
 #: topic of each (the hydraulic ones: ``drs_ros.node.publishers.HYDRAULIC_TOPICS``).
@@ -261,7 +261,7 @@ def _assemble(joints, origins, got, node, records, topics) -> Measured:
     if node_parameters is not None and all(o is not None for _, o in keep):
         t = seconds_from_ns(stamp - np.array([o for _, o in keep], dtype=np.int64))
         dt = 1.0 / float(node_parameters["physics_rate_hz"])
-        steps = np.rint(t / dt).astype(np.int64)
+        steps = nearest_steps(t, dt)
     else:
         t = seconds_from_ns(stamp - stamp[0])
         notes.append("no clock records: times from the first joint state's stamp, and no "
