@@ -21,6 +21,7 @@ from .errors import DRSError, ForceLimitError, InputError, UnsupportedCommandErr
 from .motion import StrokeMotion
 from .params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from .profile import QuinticPath, QuinticSegment, TrajectoryPlan, quintic_move
+from .timebase import steps_within
 
 #: Why a rung without forces refuses what needs them.
 NO_FORCES = "it models no forces; use 'quasi-static', 'rigid' or 'hydraulic'"
@@ -397,7 +398,7 @@ class CommandedActuator:
     def advance_to(self, t: float, max_steps: int | None = None) -> int:
         """Step until the simulated time reaches ``t`` [s] (at most ``max_steps``); returns the
         number of steps taken."""
-        n = int(math.floor((t - self.t) / self.dt + 1e-9))
+        n = steps_within(t - self.t, self.dt)
         if max_steps is not None:
             n = min(n, max_steps)
         self.advance(max(n, 0))

@@ -1,80 +1,32 @@
-"""Time in integer nanoseconds, and its conversions: the only place drs_ros turns nanoseconds into
-``(sec, nanosec)`` or seconds, and back.
-
-Times are integer nanoseconds wherever they can be (stamps, log times, durations: ``_ns`` names,
-as rosbag2 and MCAP keep them). A message's ``builtin_interfaces/Time`` or ``Duration`` holds
-``sec`` and ``nanosec``; the model's simulated time and the tolerances are float seconds. This
-module converts between the three, with no rclpy (plain integers and any object with ``.sec``
-and ``.nanosec``), so that the node and the bag tools share it.
-
-Rounding:
-
-* :func:`split_ns` is floor division: ``nanosec`` in ``[0, 1e9)`` and ``sec`` negative for a
-  negative time, as rclpy's ``Time.to_msg`` / ``Duration.to_msg`` and rcl do; exact.
-* :func:`ns_from_parts` is exact.
-* :func:`seconds_from_ns` is Python's true division of integers: the float nearest to the exact
-  quotient (ties to even), also for epoch stamps beyond 2**53 ns.
-* :func:`ns_from_seconds` rounds the float product ``seconds * 1e9`` to the nearest integer
-  (ties to even): within half a nanosecond of the exact value plus the product's own rounding
-  (2**-53 relative, under 0.07 ns for 1e6 s). For a float that came from :func:`seconds_from_ns`
-  of at most 2**51 ns (26 days) it gives those nanoseconds back exactly. It is the one place a
-  float becomes nanoseconds.
-
-Why integers: a float split of seconds into whole seconds and a fraction is wrong at whole
-seconds (``2.3 - 1.3`` is ``0.9999999999999998`` s, whose fraction rounds to ``1e9`` ns: a
-split by ``t // 1`` and ``round`` gave 0 s 0 ns, a whole second short).
-"""
+"""drs_model's time conversions (:mod:`drs_model.timebase`: integer nanoseconds, ``(sec,
+nanosec)``, seconds, steps), under the name the node and the bag tools import them by."""
 
 from __future__ import annotations
 
-#: Nanoseconds per second.
-NS_PER_S = 1_000_000_000
-#: The first stamp of a bag made without a node clock (a played goal, a test fixture) [ns]: a
-#: fixed instant (2023-11-14), so that such bags are reproducible byte for byte.
-T0_NS = 1_700_000_000_000_000_000
-
-
-def split_ns(ns: int) -> tuple[int, int]:
-    """``(sec, nanosec)`` of ``ns`` [ns]: the fields of builtin_interfaces/Time and Duration
-    (floor division, ``0 <= nanosec < 1e9``)."""
-    return divmod(int(ns), NS_PER_S)
-
-
-def ns_from_parts(sec: int, nanosec: int) -> int:
-    """Nanoseconds of ``sec`` [s] and ``nanosec`` [ns] (exact)."""
-    return int(sec) * NS_PER_S + int(nanosec)
-
-
-def ns_of(stamp) -> int:
-    """Nanoseconds of a builtin_interfaces/Time or Duration (anything with ``.sec`` and
-    ``.nanosec``)."""
-    return ns_from_parts(stamp.sec, stamp.nanosec)
-
-
-def set_ns(stamp, ns: int):
-    """Set a builtin_interfaces/Time or Duration (``.sec``, ``.nanosec``) to ``ns`` [ns] in
-    place; returns it."""
-    stamp.sec, stamp.nanosec = split_ns(ns)
-    return stamp
-
-
-def seconds_from_ns(ns: int) -> float:
-    """Seconds [s] of ``ns`` [ns]: the nearest float (where the model or a tolerance needs one)."""
-    return ns / NS_PER_S
-
-
-def ns_from_seconds(seconds: float) -> int:
-    """Nanoseconds [ns] nearest to ``seconds`` [s] (ties to even; module docstring)."""
-    return round(seconds * NS_PER_S)
-
+from drs_model.timebase import (
+    NS_PER_S,
+    T0_NS,
+    nearest_step,
+    nearest_steps,
+    ns_from_parts,
+    ns_from_seconds,
+    ns_of,
+    seconds_from_ns,
+    set_ns,
+    split_ns,
+    steps_within,
+)
 
 __all__ = [
     "T0_NS",
     "NS_PER_S",
+    "nearest_step",
+    "nearest_steps",
     "ns_from_parts",
     "ns_from_seconds",
     "ns_of",
     "seconds_from_ns",
     "set_ns",
     "split_ns",
+    "steps_within",
 ]

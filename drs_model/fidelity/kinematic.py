@@ -15,6 +15,7 @@ import numpy as np
 
 from ..commanded import HYDRAULIC_FAULTS, CommandedActuator
 from ..params import FORCE_LIMIT_DEFAULT_N
+from ..timebase import steps_within
 from .base import RungState, refuse
 
 
@@ -54,7 +55,7 @@ class KinematicRung(CommandedActuator):
         """Jump to the step at (or just before) time ``t`` [s] at once: the kinematic rung has no
         state to integrate, its state at any time is the commanded path's."""
         m = self.motion
-        n = int(math.floor((t - m.t_reset) / self.dt + 1e-9))
+        n = steps_within(t - m.t_reset, self.dt)
         if n > m.steps:
             self.advance(n - m.steps)
 

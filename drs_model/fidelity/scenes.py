@@ -38,6 +38,7 @@ import numpy as np
 from .. import kinematics as kin
 from ..errors import InputError, UnsupportedCommandError
 from ..params import DRSParams
+from ..timebase import nearest_step
 from . import make_rung
 from .kinematic import KinematicRung, batch_strokes
 
@@ -193,7 +194,7 @@ def run_scene(
     cannot represent ends the run with ``refused`` set (no samples)."""
     p = DRSParams() if p is None else p
     rung = make_rung(rung_name, p, dt, **options)
-    n = int(round(scene.duration / dt))
+    n = nearest_step(scene.duration, dt)
     events = sorted(scene.events, key=lambda e: e[0])
     st = rung.state
     clock = time.perf_counter()

@@ -48,6 +48,7 @@ from ..inverse import FusedInverseDynamics
 from ..kinematics import stroke_limits
 from ..params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from ..profile import QuinticPath, plan_trajectory
+from ..timebase import ns_from_seconds, split_ns
 from .friction import FRICTION_PARAMETERS, friction_columns
 from .output_error import RESOLUTION
 from .parameters import RIGID_PARAMETERS, fit_parameter
@@ -197,7 +198,7 @@ class Excitation:
         as a mapping): the piston joint's points with positions and velocities."""
         points = []
         for t, s, v in zip(self.times, self.strokes, self.rates, strict=True):
-            sec, nanosec = divmod(int(round(float(t) * 1e9)), 1_000_000_000)
+            sec, nanosec = split_ns(ns_from_seconds(float(t)))
             points.append({"positions": [float(s)], "velocities": [float(v)],
                            "time_from_start": {"sec": sec, "nanosec": nanosec}})  # fmt: skip
         return {"trajectory": {"joint_names": [joint], "points": points}}

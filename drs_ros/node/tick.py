@@ -12,7 +12,6 @@ Two parts, each owning its state:
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -23,7 +22,7 @@ from drs_model.errors import DRSError
 
 from .. import commands
 from ..names import RESET
-from ..timestamps import ns_from_seconds, seconds_from_ns
+from ..timestamps import ns_from_seconds, seconds_from_ns, steps_within
 
 #: A wall clock that moves this much [s] more or less than the steady clock between two ticks
 #: has jumped (NTP slews far slower: 0.5 ms/s at most).
@@ -88,7 +87,7 @@ class SimulationClock:
     def steps_due(self, now_ns: int, simulated_s: float, dt: float) -> int:
         """Physics steps of ``dt`` [s] from ``simulated_s`` to the node time ``now_ns``."""
         target = seconds_from_ns(now_ns - self.t0_ns)
-        return int(math.floor((target - simulated_s) / dt + 1e-9))
+        return steps_within(target - simulated_s, dt)
 
     def drop(self, steps: int, dt: float) -> None:
         """Move the origin on by ``steps`` physics steps that will not be simulated."""
