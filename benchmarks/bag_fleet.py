@@ -43,7 +43,7 @@ def _noop(x):
 
 
 def _check_args(bags: list[str]) -> argparse.Namespace:
-    from drs_ros.bag.check.command import check
+    from drs_ros.bag.check import command as check
 
     ap = argparse.ArgumentParser()
     check.add_arguments(ap)
@@ -58,7 +58,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
     from drs_model.cluster import dask_client, map_unordered
-    from drs_ros.bag.check.command import check
+    from drs_ros.bag.check import command as check
     from drs_ros.bag.season import fleet
     from drs_ros.bag.season.catalogue import catalogue_row
 

@@ -56,8 +56,10 @@ def _bag(work: Path) -> Path:
 def _args(verb: str, argv: list[str]) -> argparse.Namespace:
     import importlib
 
+    from drs_ros.bag.cli import VERBS
+
     ap = argparse.ArgumentParser()
-    importlib.import_module(f"drs_ros.bag.{verb}").add_arguments(ap)
+    importlib.import_module(VERBS[verb][0]).add_arguments(ap)
     return ap.parse_args(argv)
 
 

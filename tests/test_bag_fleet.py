@@ -60,7 +60,7 @@ def test_find_bags_searches_directories_and_globs(fleet_dir):
 
 def test_two_workers_check_a_directory_of_bags_as_one_does(fleet_dir, tmp_path, capsys):
     require_module("pyarrow")
-    from drs_ros.bag.check.command import check
+    from drs_ros.bag.check import command as check
 
     status_2 = check.main([str(fleet_dir), "--jobs", "2", "-o", str(tmp_path / "two.parquet")])
     out = capsys.readouterr().out
@@ -128,7 +128,7 @@ def test_resimulate_a_fleet_gives_one_row_per_bag(fleet_dir, tmp_path, capsys):
 
 
 def test_a_bad_table_path_or_no_bag_is_one_line_and_status_2(fleet_dir, tmp_path, capsys):
-    from drs_ros.bag.check.command import check
+    from drs_ros.bag.check import command as check
 
     assert check.main([str(fleet_dir), "-o", str(tmp_path / "table.csv")]) == 2
     assert "names the table, a .parquet file" in capsys.readouterr().err
@@ -145,7 +145,7 @@ def test_index_catalogues_from_summaries_what_check_reads_from_every_byte(fleet_
     every message); an unfinished recording without a summary is a row with its error; DuckDB
     queries the file."""
     duckdb = require_module("duckdb")
-    from drs_ros.bag.check.command import check
+    from drs_ros.bag.check import command as check
     from drs_ros.bag.cli import main
 
     root = tmp_path / "season"  # the module's directory, and two bags more

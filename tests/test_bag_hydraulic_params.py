@@ -74,10 +74,10 @@ def _season_row(verb: str, bag, *args: str) -> dict:
     """The season-table row of one bag (what ``drs-bag VERB BAGS -o t.parquet`` writes per bag)."""
     import importlib
 
-    from drs_ros.bag.cli import build_parser
+    from drs_ros.bag.cli import VERBS, build_parser
 
     parsed = build_parser(verb).parse_args([verb, str(bag), *args])
-    (row,) = importlib.import_module(f"drs_ros.bag.{verb}").fleet_row(str(bag), parsed)
+    (row,) = importlib.import_module(VERBS[verb][0]).fleet_row(str(bag), parsed)
     return row
 
 

@@ -44,7 +44,8 @@ def test_check_memory_does_not_grow_with_the_bag(tmp_path, monkeypatch):
     require_rclpy()
     from long_bag_support import write_long_bag
 
-    from drs_ros.bag.check.command import check, model_checks
+    from drs_ros.bag.check import command as check
+    from drs_ros.bag.check import model_checks
 
     # blocks of 1000 joint states: the shorter bag already spans 5 of them
     monkeypatch.setattr(model_checks, "BLOCK_STATES", 1000)

@@ -108,7 +108,7 @@ def _note(notes: list[str]) -> str:
 
 
 def test_a_padded_bag_checks_with_a_note_naming_each_topic(padded_bag, capsys):
-    from drs_ros.bag.check.command import check
+    from drs_ros.bag.check import command as check
 
     assert check.main([str(padded_bag), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)

@@ -456,7 +456,7 @@ def test_resolve_finds_every_file_of_a_split_bag_in_order(tmp_path):
 
 def test_check_and_info_read_every_file_of_awrite_split_bag(tmp_path, params, capsys):
     require_rclpy()
-    from drs_ros.bag.check.command import check
+    from drs_ros.bag.check import command as check
     from drs_ros.bag.cli import main
 
     bag, _first = write_split_bag(tmp_path, params, killed=False)

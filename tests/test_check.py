@@ -9,7 +9,8 @@ import pytest
 from decoded_support import check_bag, read_bag
 from ros_support import JOINT_NAMES, require_rclpy, write_drs_bag
 
-from drs_ros.bag.check.command import check, model_checks
+from drs_ros.bag.check import command as check
+from drs_ros.bag.check import model_checks
 from drs_ros.bag.read.files import BagReadError
 
 pytestmark = pytest.mark.ros

@@ -30,7 +30,7 @@ def test_the_graph_is_read():
     assert "drs_model.compiled.simulate" in GRAPH["drs_model.forward.solve"]
     assert GRAPH["drs_model.kernels"] == set()  # the bottom of the stack
     assert "drs_ros.recording.cdr" in GRAPH["drs_ros.node.adapter"]
-    assert "drs_model.fidelity" in GRAPH["drs_ros.node.adapter"]  # its rungs are ActuatorSims
+    assert "drs_model.fidelity" in GRAPH["drs_ros.node.rung_choice"]  # the node's rungs
     assert "drs_model.actuator" in GRAPH["drs_model.fidelity.rigid"]
 
 
