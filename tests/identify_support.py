@@ -22,23 +22,27 @@ def run_rung(rung: str, p, moves=((0, True), (40, False)), steps: int = 80, dt: 
     rates)`` commanded at step 0)."""
     options = {"hydraulic": hydraulic} if rung == "hydraulic" else {}
     sim = make_rung(rung, p, dt, **options)
-    rows = []
-
-    def keep():
-        st = sim.state
-        rows.append((st.t, st.q[0], st.qd[0], st.qdd[0], st.piston_force,
-                     *(np.nan if v is None else v for v in (st.pressure_a, st.pressure_b,
-                                                            st.supply_pressure, st.spool))))
-
-    todo = dict(moves) if trajectory is None else {}
     if trajectory is not None:
         sim.command_trajectory(*trajectory)
-    keep()
+    return _sampled(sim, steps, {} if trajectory is not None else dict(moves), sim.command_drs)
+
+
+def _sampled(sim, steps: int, commands: dict, command) -> np.ndarray:
+    """Rows of :data:`COLUMNS` of ``sim`` at rest and after each of ``steps`` physics steps,
+    ``command(commands[k])`` given before step ``k``; a pressure the rung lacks is NaN."""
+
+    def row():
+        st = sim.state
+        return (st.t, st.q[0], st.qd[0], st.qdd[0], st.piston_force,
+                *(np.nan if v is None else v for v in (st.pressure_a, st.pressure_b,
+                                                       st.supply_pressure, st.spool)))  # fmt: skip
+
+    rows = [row()]
     for k in range(steps):
-        if k in todo:
-            sim.command_drs(todo[k])
+        if k in commands:
+            command(commands[k])
         sim.step()
-        keep()
+        rows.append(row())
     return np.array(rows)
 
 
@@ -68,17 +72,4 @@ def force_run(p, forces=((0, 1500.0), (60, 0.0), (120, 2500.0), (180, 0.0)), ste
     steps of ``forces``: 1500 N drives the flap onto its open stop, 0 N lets the air load close
     it onto the closed one (inelastic stops: the rod rests on them, held by the stop)."""
     sim = make_rung("rigid", p, dt)
-    rows = []
-
-    def keep():
-        st = sim.state
-        rows.append((st.t, st.q[0], st.qd[0], st.qdd[0], st.piston_force, *(np.nan,) * 4))
-
-    todo = dict(forces)
-    keep()
-    for k in range(steps):
-        if k in todo:
-            sim.command_force(todo[k])
-        sim.step()
-        keep()
-    return np.array(rows)
+    return _sampled(sim, steps, dict(forces), sim.command_force)

@@ -93,28 +93,13 @@ def test_free_flight_matches_the_forward_integrator(params):
     checked here against an independent tight solve_ivp run."""
     from scipy.integrate import solve_ivp
 
-    from drs_model.bodies import applied_forces, mass_matrix, velocity_forces
-    from drs_model.constraints import constraint_gamma, constraint_jacobian
-
     a = ActuatorSim(params, dt=1e-5)
     a.command_stroke(0.02)
     a.advance_to(0.02)  # at rest at 20 mm
     f = lagrange_force(params, 0.02) * 1.05  # 5 % more than holding: opens slowly
     a.command_force(f)
     t0, q0 = a.t, a.state.q
-
-    def rhs(t, y):  # index-1 full coordinates, written here from bodies + constraints
-        q, qd = y[:3], y[3:]
-        m = mass_matrix(q, params)
-        jac = constraint_jacobian(q, params)
-        kkt = np.block([[m, jac.T], [jac, np.zeros((2, 2))]])
-        r = np.concatenate(
-            [
-                applied_forces(q, f, params) - velocity_forces(q, qd, params),
-                constraint_gamma(q, qd, params),
-            ]
-        )
-        return np.concatenate([qd, np.linalg.solve(kkt, r)[:3]])
+    rhs = _index1_rhs(params, f)
 
     ref = solve_ivp(
         rhs, (0, 0.004), np.concatenate([q0, np.zeros(3)]), method="DOP853", rtol=1e-12, atol=1e-14

@@ -188,6 +188,11 @@ def start_play(tmp_path, request, *args: str) -> subprocess.Popen:
     )
 
 
+def play_example(tmp_path, request, *options: str) -> subprocess.Popen:
+    """``drs-bag play`` of the example bag from its start, losing nothing, with ``options``."""
+    return start_play(tmp_path, request, str(EXAMPLE), *START, *no_loss(tmp_path), *options)
+
+
 def receive_until_exit(sub: RawSubscriber, proc: subprocess.Popen, expected: int, timeout=60.0):
     """Spin until ``expected`` messages arrived or the player ended; then until the messages
     DDS holds for this process are taken (at most 30 s: a test process that fell behind drains
@@ -215,7 +220,7 @@ def test_every_message_arrives_byte_identical_and_in_order(ros_context, tmp_path
     assert total > 1000 and len([t for t in expected if expected[t]]) >= 5  # a real bag
     sub = RawSubscriber(ros_context, types)
     try:
-        proc = start_play(tmp_path, request, str(EXAMPLE), *START, *no_loss(tmp_path))
+        proc = play_example(tmp_path, request)
         _out, err = receive_until_exit(sub, proc, total)
         assert_clean_exit(proc, err)
         for topic in types:
@@ -250,9 +255,7 @@ def test_topics_plays_only_the_chosen_topics(ros_context, tmp_path, request):
     chosen = ["/drs/flap_gap", "/drs/stroke_cmd"]
     sub = RawSubscriber(ros_context, types)
     try:
-        proc = start_play(
-            tmp_path, request, str(EXAMPLE), *START, *no_loss(tmp_path), "--topics", *chosen
-        )
+        proc = play_example(tmp_path, request, "--topics", *chosen)
         expected = sum(len(messages[t]) for t in chosen)
         _out, err = receive_until_exit(sub, proc, expected)
         spin_for(sub.executor, 0.3)  # anything else would have arrived with them
@@ -290,17 +293,7 @@ def test_rate_2_plays_twice_as_fast(ros_context, tmp_path, request):
     topic = "/joint_states"
     sub = RawSubscriber(ros_context, {topic: types[topic]})
     try:
-        proc = start_play(
-            tmp_path,
-            request,
-            str(EXAMPLE),
-            *START,
-            *no_loss(tmp_path),
-            "--rate",
-            "2",
-            "--topics",
-            topic,
-        )
+        proc = play_example(tmp_path, request, "--rate", "2", "--topics", topic)
         _out, err = receive_until_exit(sub, proc, len(messages[topic]))
         assert_clean_exit(proc, err)
         assert sub.received[topic] == as_received(messages[topic])
@@ -317,16 +310,7 @@ def test_loop_plays_everything_again_until_sigint(ros_context, tmp_path, request
     once = {t: as_received(messages[t]) for t in chosen}
     sub = RawSubscriber(ros_context, chosen)
     try:
-        proc = start_play(
-            tmp_path,
-            request,
-            str(EXAMPLE),
-            *START,
-            *no_loss(tmp_path),
-            "--loop",
-            "--topics",
-            *chosen,
-        )
+        proc = play_example(tmp_path, request, "--loop", "--topics", *chosen)
         twice = 2 * sum(len(v) for v in once.values())
         assert spin_until(sub.executor, lambda: sub.count() >= twice, timeout=60.0), sub.count()
         assert proc.poll() is None  # still looping
@@ -355,17 +339,7 @@ def test_clock_drives_a_sim_time_node(ros_context, tmp_path, request):
     )
     try:
         assert sub.node.get_clock().now().nanoseconds == 0  # no /clock yet
-        proc = start_play(
-            tmp_path,
-            request,
-            str(EXAMPLE),
-            *START,
-            *no_loss(tmp_path),
-            "--clock",
-            "50",
-            "--topics",
-            topic,
-        )
+        proc = play_example(tmp_path, request, "--clock", "50", "--topics", topic)
         seen: list[tuple[float, int]] = []
         while proc.poll() is None:
             sub.executor.spin_once(timeout_sec=0.01)
@@ -392,17 +366,7 @@ def test_sigint_mid_play_stops_cleanly(ros_context, tmp_path, request):
     topic = "/joint_states"
     sub = RawSubscriber(ros_context, {topic: types[topic]})
     try:
-        proc = start_play(
-            tmp_path,
-            request,
-            str(EXAMPLE),
-            *START,
-            *no_loss(tmp_path),
-            "--topics",
-            topic,
-            "--rate",
-            "0.5",
-        )
+        proc = play_example(tmp_path, request, "--topics", topic, "--rate", "0.5")
         assert spin_until(sub.executor, lambda: sub.count() >= 100, timeout=30.0)
         proc.send_signal(signal.SIGINT)
         _out, err = proc.communicate(timeout=20)
@@ -463,19 +427,8 @@ def test_remap_publishes_on_the_new_name(ros_context, tmp_path, request):
     types, messages = recorded(EXAMPLE)
     sub = RawSubscriber(ros_context, {"/replay/gap": types["/drs/flap_gap"]})
     try:
-        proc = start_play(
-            tmp_path,
-            request,
-            str(EXAMPLE),
-            *START,
-            *no_loss(tmp_path),
-            "--rate",
-            "2",
-            "--topics",
-            "/drs/flap_gap",
-            "--remap",
-            "/drs/flap_gap:=/replay/gap",
-        )
+        remap = ("--remap", "/drs/flap_gap:=/replay/gap")
+        proc = play_example(tmp_path, request, "--rate", "2", "--topics", "/drs/flap_gap", *remap)
         _out, err = receive_until_exit(sub, proc, len(messages["/drs/flap_gap"]))
         assert_clean_exit(proc, err)
         assert sub.received["/replay/gap"] == as_received(messages["/drs/flap_gap"])
@@ -492,17 +445,7 @@ def test_start_offset_plays_from_that_time_on(ros_context, tmp_path, request):
     assert 0 < len(want) < len(messages[topic])
     sub = RawSubscriber(ros_context, {topic: types[topic]})
     try:
-        proc = start_play(
-            tmp_path,
-            request,
-            str(EXAMPLE),
-            *START,
-            *no_loss(tmp_path),
-            "--topics",
-            topic,
-            "--start-offset",
-            "2",
-        )
+        proc = play_example(tmp_path, request, "--topics", topic, "--start-offset", "2")
         _out, err = receive_until_exit(sub, proc, len(want))
         spin_for(sub.executor, 0.3)
         assert_clean_exit(proc, err)
