@@ -32,6 +32,7 @@ import numpy as np
 
 from ..commanded import HYDRAULIC_FAULTS
 from ..errors import InputError
+from ..timebase import nearest_step
 from .sensor_faults import SensorFaults, StrokeSensor
 
 #: fault name -> (healthy value, what it is). The node's parameters are ``fault.<name>``; faults
@@ -162,7 +163,7 @@ class RunFaults:
         self.sensor.faults = replace(self.sensor.faults, **{field: value})
 
     def _step(self, t: float) -> int:
-        return int(round(t / self.sim.dt))
+        return nearest_step(t, self.sim.dt)
 
     @property
     def values(self) -> MappingProxyType:
@@ -177,7 +178,7 @@ class RunFaults:
 
     def published_stroke(self, t: float, stroke: float) -> float:
         """The stroke [m] the sensor reports at simulated time ``t`` [s] for the true ``stroke``
-        (each draw a function of the seed and the step ``round(t / dt)``)."""
+        (each draw a function of the seed and the step ``nearest_step(t, dt)``)."""
         if self.sensor_healthy:
             return stroke
         return self.sensor.read(t, self._step(t), stroke)
