@@ -301,7 +301,7 @@ def season_table(tmp_path):
     [
         (["--threshold", "leak"], "--threshold", "--threshold expects NAME=VALUE"),
         (["--threshold", "leak=inf"], "--threshold", "must be finite"),
-        (["--decision", "-1"], "--decision", "must be finite and > 0"),
+        (["--decision", "-1"], "--decision", "must be a finite number > 0"),
         (["--min-runs", "2"], "--min-runs", "must be >= 3"),
         (["--params", ","], "--params", "name at least one parameter"),
     ],

@@ -24,19 +24,18 @@ from __future__ import annotations
 
 import argparse
 import heapq
-import shutil
 import sys
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE
+from drs_ros.bag.new_bag import new_bag
 from drs_ros.bag.read.files import BagReadError, resolve
 from drs_ros.bag.read.recorded import ChannelInfo, RecordedMessage
 from drs_ros.errors import DRSRosError
-from drs_ros.recording.destinations import check_new_bag, remove_unfinished_bag
+from drs_ros.recording.destinations import check_new_bag
 from drs_ros.recording.errors import RecordingError
-from drs_ros.recording.mcap_recorder import McapRecorder
 from drs_ros.recording.qos import parse_qos_yaml
 
 
@@ -170,14 +169,7 @@ def merge(sources: Sequence[str | Path], out: str | Path) -> dict:
     check_new_bag(out)
     scans = _verify(sources)
     channels = merged_channels(scans)
-    made = not Path(out).exists()
-    try:
-        rec = McapRecorder(out, flush_thread=False)
-    except RecordingError:
-        if made:
-            shutil.rmtree(out, ignore_errors=True)
-        raise
-    try:
+    with new_bag(out) as rec:
         for channel, profiles in channels.values():
             rec.register_recorded_topic(
                 channel.topic, channel.type_name, channel.schema_data,
@@ -188,9 +180,6 @@ def merge(sources: Sequence[str | Path], out: str | Path) -> dict:
             rec.write(m.topic, m.data, m.log_time, m.publish_time, sequence=m.sequence)
             counts[m.topic] = counts.get(m.topic, 0) + 1
         rec.finish()
-    except BaseException:
-        remove_unfinished_bag(rec, out, made)
-        raise
     return {"output": str(out), "sources": [{"bag": str(source), "messages": s.message_count}
                                             for source, s in zip(sources, scans, strict=True)],
             "messages": sum(counts.values()), "per_topic": counts}  # fmt: skip

@@ -21,17 +21,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import sys
 from pathlib import Path
 
 from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import EXIT_INTERNAL, EXIT_OK, EXIT_RECOVERED, EXIT_UNREADABLE
+from drs_ros.bag.new_bag import new_bag
 from drs_ros.bag.read.files import BagReadError
 from drs_ros.bag.read.nodes import bag_nodes, nodes_text
 from drs_ros.bag.read.reader import scan
 from drs_ros.bag.read.recorded import ChannelInfo, MessageCallbackError, RecordedMessage
-from drs_ros.recording.destinations import check_new_bag, remove_unfinished_bag
+from drs_ros.recording.destinations import check_new_bag
 from drs_ros.recording.errors import RecordingError
 from drs_ros.recording.mcap_recorder import McapRecorder
 from drs_ros.recording.qos import parse_qos_yaml
@@ -71,7 +71,6 @@ def recover(bag: str | Path, out: str | Path) -> dict:
         Copying a message failed for a reason other than writing ``out`` (nothing is left).
     """
     check_new_bag(out)
-    made = not Path(out).exists()
     last: list[int] = []
 
     def copy(m: RecordedMessage) -> None:
@@ -80,13 +79,7 @@ def recover(bag: str | Path, out: str | Path) -> dict:
         rec.write(m.topic, m.data, m.log_time, m.publish_time, sequence=m.sequence)
         last[:] = [max(last[0], m.log_time)] if last else [m.log_time]
 
-    try:
-        rec = McapRecorder(out, flush_thread=False)
-    except RecordingError:
-        if made:
-            shutil.rmtree(out, ignore_errors=True)
-        raise
-    try:
+    with new_bag(out) as rec:
         try:
             result = scan(bag, copy, recover=True)
             for channel in result.channels.values():  # topics without a message too
@@ -100,9 +93,6 @@ def recover(bag: str | Path, out: str | Path) -> dict:
             rec.finish()
         except OSError as exc:
             raise _unwritable(out, exc) from exc
-    except BaseException:
-        remove_unfinished_bag(rec, out, made)
-        raise
     files = [
         {
             "file": str(part.path),

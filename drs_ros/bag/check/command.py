@@ -40,7 +40,6 @@ from dataclasses import asdict, dataclass, field
 
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
-    EXIT_INTERNAL,
     EXIT_OK,
     EXIT_RECOVERED,
     EXIT_UNREADABLE,
@@ -58,22 +57,21 @@ from drs_ros.bag.check.model_checks import (
 )
 from drs_ros.bag.check.run_checks import TICK_TOPICS, RunChecker, fault_report
 from drs_ros.bag.check.run_stats import STATS_ROLES, RunStats
-from drs_ros.bag.read import look_ahead
 from drs_ros.bag.read.decoded import BagData, stream_bag
 from drs_ros.bag.read.effects import model_params_from
-from drs_ros.bag.read.files import BagReadError
-from drs_ros.bag.read.nodes import (
-    BagNode,
-    NodeSelectionError,
-    add_node_arguments,
-    bag_nodes,
-    given_topics,
-    node_note,
-    resolve_topics,
-    select_node,
-)
-from drs_ros.bag.read.recorded import MessageCallbackError
+from drs_ros.bag.read.nodes import BagNode, NodeSelectionError, add_node_arguments, node_note
 from drs_ros.bag.season import fleet
+from drs_ros.bag.verb import (
+    INTERNAL,
+    NO_NODE,
+    UNREADABLE,
+    Failure,
+    Verb,
+    bag_node,
+    caught,
+    failure_of,
+    node_topics,
+)
 from drs_ros.names import DEFAULT_JOINT_NAMES, DEFAULT_NODE
 from drs_ros.timestamps import seconds_from_ns
 
@@ -286,12 +284,10 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
     (default: the node ``--node`` picks, :func:`drs_ros.bag.read.nodes.select_node`); never raises
     for the bag's faults (they are the outcome's status and error)."""
     try:
-        if node is None:
-            node = select_node(bag_nodes(bag), args.node, bag)
+        node = bag_node(bag, args, node)
     except NodeSelectionError as exc:
-        return CheckOutcome(EXIT_USAGE, error=f"error: {exc}")
-    named = resolve_topics(node, [*CHECK_TOPICS, *STATS_ROLES, *RUN_ROLES],
-                           given_topics(args, CHECK_TOPICS), look_ahead.channels(bag))
+        return CheckOutcome(NO_NODE.status, error=NO_NODE.line(exc))
+    named = node_topics(bag, node, [*CHECK_TOPICS, *STATS_ROLES, *RUN_ROLES], args, CHECK_TOPICS)
     # every role the checks read, as this node named it (the given --*-topic options win)
     topics = {key: named.topics[key] for key in (*CHECK_TOPICS, *RUN_ROLES)}
     names = joint_names(args, node)
@@ -302,6 +298,7 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
                            diagnostics_name=None if node is None else node.diagnostics_name,
                            joint_names=names)  # fmt: skip
     params, hydraulic = None, {}
+    failures = _failures(args)
     try:
         if args.params:
             params, hydraulic = _file_params(args.params)
@@ -337,15 +334,9 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
         data.notes.append(f"model parameters: {origin}")
         results = checker.results()
         data.notes += run_notes(checker)
-    except MessageCallbackError as exc:  # the checker's own failure: no verdict on the bag
-        return CheckOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): "
-                            f"{exc}", params=params)  # fmt: skip
-    except BagReadError as exc:
-        return CheckOutcome(EXIT_UNREADABLE, error=f"error: {exc}", params=params)
-    except DRSError as exc:  # the model refuses the parameters: --params's, or the bag's own
-        whose = f"--params {args.params!r}" if args.params else "the bag's recorded parameters"
-        return CheckOutcome(EXIT_UNREADABLE, error=f"error: the model refuses {whose}: {exc}",
-                            params=params)  # fmt: skip
+    except caught(failures) as exc:
+        failure = failure_of(exc, failures)
+        return CheckOutcome(failure.status, error=failure.line(exc), params=params)
     if hydraulic and checker.rung != "hydraulic":
         return CheckOutcome(EXIT_USAGE, error=f"error: --params {args.params!r}: "
                             f"{', '.join(hydraulic)} are hydraulic parameters, and the run is "
@@ -357,6 +348,14 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
         status = EXIT_RECOVERED if data.recovered else EXIT_OK
     faults = fault_report(checker.run)
     return CheckOutcome(status, data, results, "", params, figures, faults, checker.rung, node)
+
+
+def _failures(args: argparse.Namespace) -> list[Failure]:
+    """How checking a bag fails: the checker's own failure (no verdict), the bag unreadable, the
+    model refusing the parameters (--params's, or the bag's own)."""
+    whose = f"--params {args.params!r}" if args.params else "the bag's recorded parameters"
+    refused = Failure(DRSError, EXIT_UNREADABLE, f"error: the model refuses {whose}: ")
+    return [INTERNAL, UNREADABLE, refused]
 
 
 def _file_params(path) -> tuple[DRSParams, dict]:
@@ -409,17 +408,17 @@ CHECK_VERDICTS = fleet.verdicts(passed="PASS", failed="FAIL")
 def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
     """Check one bag of a fleet (a Dask task): its rows of the table (see
     :mod:`drs_ros.bag.season.fleet`), one per drs node it holds (the one ``--node`` names, if
-    given):
-    verdict, exit status, error, each check's worst error and status, counts, the run's figures
-    (:class:`RunStats`) and the model parameters used."""
-    try:
-        nodes = fleet.row_nodes(bag, args.node)
-    except NodeSelectionError as exc:
-        return [fleet.no_node_row(bag, exc)]
-    return [_row(bag, check_one(bag, args, stats=True, node=node), node) for node in nodes]
+    given): verdict, exit status, error, each check's worst error and status, counts, the run's
+    figures (:class:`RunStats`) and the model parameters used."""
+    return VERB.rows(bag, args)
 
 
-def _row(bag: str, outcome: CheckOutcome, node: BagNode | None) -> dict:
+def _fleet_one(bag, args: argparse.Namespace, node: BagNode | None = None) -> CheckOutcome:
+    """One run of a fleet's bag: checked, with its figures."""
+    return check_one(bag, args, stats=True, node=node)
+
+
+def _row(bag: str, args: argparse.Namespace, outcome: CheckOutcome, node: BagNode | None) -> dict:
     row = fleet.base_row(bag, outcome.status, CHECK_VERDICTS[outcome.status], outcome.error, node)
     for column in dict.fromkeys(CHECK_COLUMNS.values()):
         row[column] = math.nan
@@ -440,20 +439,31 @@ def _row(bag: str, outcome: CheckOutcome, node: BagNode | None) -> dict:
     return row
 
 
+def _report(outcome: CheckOutcome, args: argparse.Namespace, prog: str) -> int:
+    """One bag's report, as a table or JSON."""
+    data, results, faults = outcome.data, outcome.results, outcome.faults
+    if args.json:
+        print(to_json(data, results, faults, outcome.node))
+    else:
+        print(format_table(data, results, faults))
+    return outcome.status
+
+
+#: ``drs-bag check`` on the skeleton of the verbs that judge a run.
+VERB = Verb(
+    one=_fleet_one,
+    single=check_one,
+    row=_row,
+    report=_report,
+    done="checked",
+    summary=lambda args: SUMMARY_COLUMNS,
+)
+
+
 def run(args: argparse.Namespace, prog: str = "drs-bag check") -> int:
     """Run ``drs-bag check``; returns the exit status (see the module docstring). Many bags
     (or a table, or a cluster) go to :func:`drs_ros.bag.season.fleet.run_fleet`."""
-    if fleet.is_fleet(args):
-        return fleet.run_fleet(fleet_row, args, prog, "checked", SUMMARY_COLUMNS)
-    outcome = check_one(args.bag[0], args)
-    if outcome.error:
-        print(f"{prog}: {outcome.error}", file=sys.stderr)
-        return outcome.status
-    data, results = outcome.data, outcome.results
-    faults = outcome.faults
-    print(to_json(data, results, faults, outcome.node) if args.json
-          else format_table(data, results, faults))  # fmt: skip
-    return outcome.status
+    return VERB.run(args, prog, fleet_row)
 
 
 def main(argv: Sequence[str] | None = None, prog: str = "drs-bag check") -> int:

@@ -39,18 +39,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 
 from drs_model.cli._common import output_path
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
-    EXIT_INTERNAL,
     EXIT_NOTHING_TO_RERUN,
     EXIT_OK,
     EXIT_UNREADABLE,
-    EXIT_USAGE,
 )
 from drs_model.errors import DRSError
 from drs_model.fidelity import RUNGS
@@ -59,21 +56,9 @@ from drs_model.overrides import (
     parameter_file_argument,
 )
 from drs_model.params import DRSParams
-from drs_ros.bag.read import look_ahead
-from drs_ros.bag.read.effects import (
-    MissingRecordError,
-)
+from drs_ros.bag.read.effects import MissingRecordError
 from drs_ros.bag.read.files import BagReadError
-from drs_ros.bag.read.nodes import (
-    BagNode,
-    NodeSelectionError,
-    add_node_arguments,
-    bag_nodes,
-    given_topics,
-    resolve_topics,
-    select_node,
-)
-from drs_ros.bag.read.recorded import MessageCallbackError
+from drs_ros.bag.read.nodes import BagNode, NodeSelectionError, add_node_arguments
 from drs_ros.bag.read.recorded_run import (
     RUN_ROLES,
     NothingToRerunError,
@@ -86,10 +71,33 @@ from drs_ros.bag.replay.deviations import SIGNALS, compare
 from drs_ros.bag.replay.rerun import resimulate
 from drs_ros.bag.replay.rerun_bag import bag_writer
 from drs_ros.bag.season import fleet
+from drs_ros.bag.verb import (
+    INTERNAL,
+    NO_NODE,
+    Failure,
+    Verb,
+    bag_node,
+    caught,
+    failure_of,
+    node_topics,
+)
 from drs_ros.recording.errors import RecordingError
 
 #: The roles with a ``--<role>-topic`` option.
 TOPIC_OPTIONS = ("command_events", "joint_states", "piston_force", "flap_gap")
+#: How re-running a bag fails, in this order (nothing to re-run is a kind of ResimulationError).
+FAILURES = (
+    INTERNAL,  # our own failure on an intact message
+    Failure(NothingToRerunError, EXIT_NOTHING_TO_RERUN, ""),
+    Failure((BagReadError, MissingRecordError, ResimulationError), EXIT_UNREADABLE),  # the bag's
+    Failure(RecordingError, EXIT_UNREADABLE, "error: -o: "),  # -o OUT exists or cannot be written
+    # the model refuses the re-run's parameters (or the recorded rung's)
+    Failure(
+        DRSError,
+        EXIT_UNREADABLE,
+        "error: the model refuses the re-run (the recorded parameters with --params/--set): ",
+    ),
+)
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -108,17 +116,23 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
         help="change a model or hydraulic parameter for the re-run (repeatable), e.g. "
         "m_wing=0.5 or leak_to_outside=1e-12",
     )
-    ap.add_argument("--params", type=parameter_file_argument,
-                    help="a .toml/.yaml file of model (and hydraulic) parameters for the "
-                    "re-run")  # fmt: skip
+    ap.add_argument(
+        "--params",
+        type=parameter_file_argument,
+        help="a .toml/.yaml file of model (and hydraulic) parameters for the re-run",
+    )
     ap.add_argument(
         "--fidelity",
         choices=list(RUNGS),
         help="re-run on this rung of the fidelity ladder (default: the one recorded)",
     )
-    ap.add_argument("-o", "--output", type=output_path,
-                    help="write the re-simulated run as a new bag directory; "
-                    "with many bags, FILE.parquet: the table, one row per bag")  # fmt: skip
+    ap.add_argument(
+        "-o",
+        "--output",
+        type=output_path,
+        help="write the re-simulated run as a new bag directory; "
+        "with many bags, FILE.parquet: the table, one row per bag",
+    )
     ap.add_argument(
         "--tol",
         type=float,
@@ -151,27 +165,31 @@ class ResimulationOutcome:
     hydraulic: object = None  # the HydraulicParams of the re-run
 
 
-def resimulate_one(bag, args: argparse.Namespace, output: str | None = None,
-                   node: BagNode | None = None) -> ResimulationOutcome:  # fmt: skip
+def resimulate_one(
+    bag, args: argparse.Namespace, output: str | None = None, node: BagNode | None = None
+) -> ResimulationOutcome:
     """Re-run one bag with the options of ``drs-bag resimulate`` (``args``), the run of
     ``node`` (default: the one ``--node`` picks), writing the re-simulated bag to ``output`` if
     given; never raises for the bag's faults."""
-    tolerances = {name: (args.force_tol if unit == "N" else args.tol)
-                  for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+    tolerances = {
+        name: (args.force_tol if unit == "N" else args.tol) for name, (unit, _) in SIGNALS.items()
+    }
     recorded = model = None
     try:
-        if node is None:
-            node = select_node(bag_nodes(bag), args.node, bag)
+        node = bag_node(bag, args, node)
     except NodeSelectionError as exc:
-        return ResimulationOutcome(EXIT_USAGE, error=f"error: {exc}")
-    named = resolve_topics(node, RUN_ROLES, given_topics(args, TOPIC_OPTIONS),
-                           look_ahead.channels(bag))  # fmt: skip
+        return ResimulationOutcome(NO_NODE.status, error=NO_NODE.line(exc))
+    named = node_topics(bag, node, RUN_ROLES, args, TOPIC_OPTIONS)
     try:
         recorded = read_run(bag, node, named.topics)
         model, hydraulic = run_models(recorded.node_parameters, args.set, args.params)
         rung = getattr(args, "fidelity", None) or recorded.rung()
-        result = resimulate(recorded, model, rung, rung_options={"hydraulic": hydraulic}
-                            if rung == "hydraulic" else None)  # fmt: skip
+        result = resimulate(
+            recorded,
+            model,
+            rung,
+            rung_options={"hydraulic": hydraulic} if rung == "hydraulic" else None,
+        )
         with ExitStack() as stack:
             on_state = None
             if output:
@@ -179,27 +197,20 @@ def resimulate_one(bag, args: argparse.Namespace, output: str | None = None,
                     bag_writer(output, recorded, (model, hydraulic), result["sim"].name)
                 )
             rows = compare(recorded, result, tolerances, on_state)
-    except MessageCallbackError as exc:  # our own failure on an intact message
-        return ResimulationOutcome(EXIT_INTERNAL, error="internal error (not a verdict on the "
-                                   f"bag): {exc}", run=recorded, model=model)  # fmt: skip
-    except NothingToRerunError as exc:
-        return ResimulationOutcome(EXIT_NOTHING_TO_RERUN, notes=named.notes, error=f"{exc}")
-    except (BagReadError, MissingRecordError, ResimulationError) as exc:  # the bag's fault
-        return ResimulationOutcome(EXIT_UNREADABLE, error=f"error: {exc}", run=recorded,
-                                   model=model)  # fmt: skip
-    except RecordingError as exc:  # -o OUT exists or cannot be written
-        return ResimulationOutcome(EXIT_UNREADABLE, error=f"error: -o: {exc}", run=recorded,
-                                   model=model)  # fmt: skip
-    except DRSError as exc:  # the model refuses the re-run's parameters (or the recorded rung's)
-        return ResimulationOutcome(EXIT_UNREADABLE, error="error: the model refuses the re-run "
-                                   f"(the recorded parameters with --params/--set): {exc}",
-                                   run=recorded, model=model)  # fmt: skip
+    except caught(FAILURES) as exc:
+        failure = failure_of(exc, FAILURES)
+        if failure.status == EXIT_NOTHING_TO_RERUN:  # what there is to say is in the notes
+            return ResimulationOutcome(failure.status, notes=named.notes, error=failure.line(exc))
+        return ResimulationOutcome(
+            failure.status, error=failure.line(exc), run=recorded, model=model
+        )
     ok = all(r["ok"] for r in rows)
     if output:
         result["notes"].append(f"wrote the re-simulated run to {output}")
     notes = named.notes + result["notes"]
-    return ResimulationOutcome(EXIT_OK if ok else EXIT_FAILED, rows, notes, "", recorded, model,
-                               hydraulic)  # fmt: skip
+    return ResimulationOutcome(
+        EXIT_OK if ok else EXIT_FAILED, rows, notes, "", recorded, model, hydraulic
+    )
 
 
 #: The verdict of each exit status of ``drs-bag resimulate``.
@@ -212,15 +223,12 @@ def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
     given):
     verdict, exit status, error, each signal's largest deviation, counts, the notes and the
     model parameters of the re-run."""
-    try:
-        nodes = fleet.row_nodes(bag, args.node)
-    except NodeSelectionError as exc:
-        return [fleet.no_node_row(bag, exc)]
-    return [_row(bag, args, resimulate_one(bag, args, node=node), node) for node in nodes]
+    return VERB.rows(bag, args)
 
 
-def _row(bag: str, args: argparse.Namespace, outcome: ResimulationOutcome,
-         node: BagNode | None) -> dict:  # fmt: skip
+def _row(
+    bag: str, args: argparse.Namespace, outcome: ResimulationOutcome, node: BagNode | None
+) -> dict:
     row = fleet.base_row(bag, outcome.status, RERUN_VERDICTS[outcome.status], outcome.error, node)
     for name, (unit, _) in SIGNALS.items():
         row[f"{name}_deviation_{unit.replace('/', '_')}"] = math.nan
@@ -235,45 +243,74 @@ def _row(bag: str, args: argparse.Namespace, outcome: ResimulationOutcome,
     rung = None if recorded is None else recorded.rung()
     row["fidelity"] = getattr(args, "fidelity", None) or rung
     row.update(fleet.param_columns(outcome.model))
-    row.update(fleet.hydraulic_columns(None if recorded is None else recorded.node_parameters,
-                                       outcome.hydraulic))  # fmt: skip
+    row.update(
+        fleet.hydraulic_columns(
+            None if recorded is None else recorded.node_parameters, outcome.hydraulic
+        )
+    )
     return row
 
 
-def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
-    if fleet.is_fleet(args):
-        return fleet.run_fleet(
-            fleet_row,
-            args,
-            prog,
-            "re-simulated",
-            ("messages", "stroke_deviation_m", "piston_force_deviation_N"),
-        )
-    outcome = resimulate_one(args.bag[0], args, args.output)
-    if outcome.error:
-        print(f"{prog}: {outcome.error}", file=sys.stderr)
-        return outcome.status
+def _report(outcome: ResimulationOutcome, args: argparse.Namespace, prog: str) -> int:
+    """One bag's report: each signal's largest deviation, as a table or JSON."""
     rows, notes, ok = outcome.rows, outcome.notes, outcome.status == 0
     if args.json:
-        print(json.dumps({"bag": str(args.bag[0]), "node": outcome.run.node, "ok": ok,
-                          "signals": rows,
-                          "notes": notes, "changed": args.set,
-                          "fidelity": args.fidelity}, indent=2,
-                         default=lambda x: None))  # fmt: skip
+        print(
+            json.dumps(
+                {
+                    "bag": str(args.bag[0]),
+                    "node": outcome.run.node,
+                    "ok": ok,
+                    "signals": rows,
+                    "notes": notes,
+                    "changed": args.set,
+                    "fidelity": args.fidelity,
+                },
+                indent=2,
+                default=lambda x: None,
+            )
+        )
     else:
-        print(f"re-simulated {args.bag[0]}, the run of {outcome.run.node}"
-              + (f" with {', '.join(args.set)}" if args.set else "")
-              + (f" on the {args.fidelity} rung" if args.fidelity else ""))  # fmt: skip
-        print(f"{'signal':<14} {'unit':<6} {'n':>6} {'max deviation':>14} {'at t [s]':>10} "
-              f"{'tol':>8}  status")  # fmt: skip
+        print(
+            f"re-simulated {args.bag[0]}, the run of {outcome.run.node}"
+            + (f" with {', '.join(args.set)}" if args.set else "")
+            + (f" on the {args.fidelity} rung" if args.fidelity else "")
+        )
+        print(
+            f"{'signal':<14} {'unit':<6} {'n':>6} {'max deviation':>14} {'at t [s]':>10} "
+            f"{'tol':>8}  status"
+        )
         for r in rows:
             at = "-" if r["at_time_s"] is None else f"{r['at_time_s']:.4f}"
-            print(f"{r['signal']:<14} {r['unit']:<6} {r['samples']:>6} "
-                  f"{r['max_deviation']:>14.3e} {at:>10} {r['tol']:>8.1e}  "
-                  f"{'ok' if r['ok'] else 'DEVIATES'}")  # fmt: skip
+            print(
+                f"{r['signal']:<14} {r['unit']:<6} {r['samples']:>6} "
+                f"{r['max_deviation']:>14.3e} {at:>10} {r['tol']:>8.1e}  "
+                f"{'ok' if r['ok'] else 'DEVIATES'}"
+            )
         for n in notes:
             print(f"note: {n}")
     return outcome.status
+
+
+def _single(bag, args: argparse.Namespace) -> ResimulationOutcome:
+    """The one bag of a command line, re-run (and written to ``-o``, if given)."""
+    return resimulate_one(bag, args, args.output)
+
+
+#: ``drs-bag resimulate`` on the skeleton of the verbs that judge a run.
+VERB = Verb(
+    one=resimulate_one,
+    single=_single,
+    row=_row,
+    report=_report,
+    done="re-simulated",
+    summary=lambda args: ("messages", "stroke_deviation_m", "piston_force_deviation_N"),
+)
+
+
+def run(args: argparse.Namespace, prog: str = "drs-bag resimulate") -> int:
+    """Run ``drs-bag resimulate``; returns the exit status (see the module docstring)."""
+    return VERB.run(args, prog, fleet_row)
 
 
 __all__ = [

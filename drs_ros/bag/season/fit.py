@@ -36,10 +36,10 @@ import sys
 from dataclasses import dataclass, field
 
 from drs_model.cli._common import output_path, parameter_names_argument, png_output_path
+from drs_model.cli.excite import design_names_argument as fit_names_argument
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_INCONSISTENT,
-    EXIT_INTERNAL,
     EXIT_OK,
     EXIT_REFUSED,
     EXIT_UNREADABLE,
@@ -50,47 +50,38 @@ from drs_model.fidelity import RUNGS
 from drs_model.identify import driver as identify
 from drs_model.identify.parameters import (
     RIGID_PARAMETERS,
-    fit_parameter,
     hydraulic_field_names,
     with_values,
 )
 from drs_model.overrides import assignment_overrides, split_overrides
 from drs_model.params import NUMERIC_FIELDS
 from drs_ros.bag.read.effects import hydraulic_params_from
-from drs_ros.bag.read.nodes import (
-    BagNode,
-    NodeSelectionError,
-    add_node_arguments,
-    bag_nodes,
-    select_node,
-)
-from drs_ros.bag.read.recorded import MessageCallbackError
+from drs_ros.bag.read.nodes import BagNode, NodeSelectionError, add_node_arguments
 from drs_ros.bag.season import fleet
 from drs_ros.bag.season.fit_report import document, dumps, format_text, plot, row_columns
 from drs_ros.bag.season.fit_rerun import SIMULATED_SIGNALS
 from drs_ros.bag.season.measured import MeasurementError, parse_topic_map, read_measured
+from drs_ros.bag.verb import INTERNAL, Failure, Verb, bag_node, caught, failure_of
 from drs_ros.errors import DRSRosError, UsageError
 
 #: The verdict of each exit status of ``drs-bag fit``.
-FIT_VERDICTS = {**fleet.verdicts(passed="FITTED", failed="NOT DETERMINED"),
-                EXIT_INCONSISTENT: "INCONSISTENT"}
+FIT_VERDICTS = {
+    **fleet.verdicts(passed="FITTED", failed="NOT DETERMINED"),
+    EXIT_INCONSISTENT: "INCONSISTENT",
+}
 #: The verdict of a fit the model refuses (exit status 2, as an unreadable bag).
 REFUSED = "REFUSED"
+#: How fitting a bag fails, in this order.
+FAILURES = (
+    INTERNAL,
+    Failure((NodeSelectionError, UsageError), EXIT_USAGE),
+    Failure(DRSRosError, EXIT_UNREADABLE),  # the bag: unreadable, or without what a fit needs
+    # the model refuses: a parameter its rung lacks, a --set value
+    Failure(DRSError, EXIT_REFUSED, "error: the model refuses the fit: ", verdict=REFUSED),
+)
 
 
 # ---- options, checked when parsed (argparse ``type=``) ---------------------------------------
-def fit_names_argument(text: str) -> list[str]:
-    """``--params NAME,...``: parameters that can be fitted (on some rung; whether the bag's
-    rung holds them is the model's to say), none twice."""
-    names = parameter_names_argument(text)
-    try:
-        for name in names:
-            fit_parameter(name)
-    except ParameterError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-    return names
-
-
 def _assignment(item: str, known, what: str) -> tuple[str, float]:
     try:
         ((name, value),) = assignment_overrides([item]).items()
@@ -120,7 +111,8 @@ def set_argument(item: str) -> str:
                 else:  # a bare name of neither
                     kind, valid = "model or hydraulic", (*known["model"], *known["hydraulic"])
                 raise argparse.ArgumentTypeError(
-                    f"{name!r} is no {kind} parameter; valid: {', '.join(valid)}")
+                    f"{name!r} is no {kind} parameter; valid: {', '.join(valid)}"
+                )
     return item
 
 
@@ -128,8 +120,9 @@ def noise_argument(item: str) -> str:
     """``--noise SIGNAL=STD``: a finite noise > 0 of a signal the re-simulation gives."""
     name, value = _assignment(item, SIMULATED_SIGNALS, "signal a re-simulation gives")
     if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"the noise of {name} must be a finite number > 0, "
-                                         f"got {value!r}")  # fmt: skip
+        raise argparse.ArgumentTypeError(
+            f"the noise of {name} must be a finite number > 0, got {value!r}"
+        )
     return item
 
 
@@ -138,8 +131,9 @@ def signals_argument(text: str) -> list[str]:
     names = parameter_names_argument(text)
     unknown = [n for n in names if n not in SIMULATED_SIGNALS]
     if unknown:
-        raise argparse.ArgumentTypeError(f"{unknown}: not signals a re-simulation gives; valid: "
-                                         f"{', '.join(SIMULATED_SIGNALS)}")  # fmt: skip
+        raise argparse.ArgumentTypeError(
+            f"{unknown}: not signals a re-simulation gives; valid: {', '.join(SIMULATED_SIGNALS)}"
+        )
     return names
 
 
@@ -163,40 +157,94 @@ def level_argument(text: str) -> float:
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("bag", nargs="+", help="bag directory, .mcap or .db3 file; several, "
-                    "directories searched for bags, or globs fit a season (one row per drs node "
-                    "of each bag)")  # fmt: skip
-    ap.add_argument("--params", dest="fit_params", required=True, type=fit_names_argument,
-                    metavar="NAME,...", help="the parameters to fit: DRSParams' masses, "
-                    "inertias and air loads, any HydraulicParams field (docs/identify.md)")
-    ap.add_argument("--fidelity", choices=[r for r in RUNGS if r != "kinematic"],
-                    help="the rung whose model is fitted (default: the one the bag recorded)")
-    ap.add_argument("--stage", choices=identify.STAGES, default="both",
-                    help="equation error, output error, or both (default)")  # fmt: skip
-    ap.add_argument("--topic-map", action="append", default=[], metavar="ROLE=TOPIC,...",
-                    type=topic_map_argument, help="topics by role, for a bag another tool wrote "
-                    "(or to override the node's): joint_states, stroke_acceleration, "
-                    "pressure_a, pressure_b, supply_pressure, spool")  # fmt: skip
-    ap.add_argument("--joint", help="the piston joint's name in the joint states (default: "
-                    "the node's first joint, or the message's first)")  # fmt: skip
-    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", type=set_argument,
-                    help="a model or hydraulic parameter's value (the start, or the value held "
-                    "for one not fitted), e.g. --set bulk_modulus=1.2e9 (repeatable)")  # fmt: skip
-    ap.add_argument("--level", type=level_argument, default=0.95,
-                    help="of the intervals, in [0.5, 1) (0.95)")
-    ap.add_argument("--noise", action="append", default=[], metavar="SIGNAL=STD",
-                    type=noise_argument, help="a signal's noise for the output error, e.g. "
-                    "stroke=1e-5 (default: estimated from the residuals)")  # fmt: skip
-    ap.add_argument("--signals", type=signals_argument, metavar="NAME,...",
-                    help="the signals the output error compares (default: the rung's)")
-    ap.add_argument("-o", "--output", type=output_path,
-                    help="one bag: write the report (FILE.json); many "
-                    "bags: the season's table (FILE.parquet)")  # fmt: skip
-    ap.add_argument("--plot", metavar="FILE.png", type=png_output_path,
-                    help="one bag: measured against fitted")
+    """The options of ``drs-bag fit``."""
+    ap.add_argument(
+        "bag",
+        nargs="+",
+        help="bag directory, .mcap or .db3 file; several, "
+        "directories searched for bags, or globs fit a season (one row per drs node "
+        "of each bag)",
+    )
+    ap.add_argument(
+        "--params",
+        dest="fit_params",
+        required=True,
+        type=fit_names_argument,
+        metavar="NAME,...",
+        help="the parameters to fit: DRSParams' masses, "
+        "inertias and air loads, any HydraulicParams field (docs/identify.md)",
+    )
+    ap.add_argument(
+        "--fidelity",
+        choices=[r for r in RUNGS if r != "kinematic"],
+        help="the rung whose model is fitted (default: the one the bag recorded)",
+    )
+    ap.add_argument(
+        "--stage",
+        choices=identify.STAGES,
+        default="both",
+        help="equation error, output error, or both (default)",
+    )
+    ap.add_argument(
+        "--topic-map",
+        action="append",
+        default=[],
+        metavar="ROLE=TOPIC,...",
+        type=topic_map_argument,
+        help="topics by role, for a bag another tool wrote "
+        "(or to override the node's): joint_states, stroke_acceleration, "
+        "pressure_a, pressure_b, supply_pressure, spool",
+    )
+    ap.add_argument(
+        "--joint",
+        help="the piston joint's name in the joint states (default: "
+        "the node's first joint, or the message's first)",
+    )
+    _add_estimation_arguments(ap)
+    ap.add_argument(
+        "-o",
+        "--output",
+        type=output_path,
+        help="one bag: write the report (FILE.json); many bags: the season's table (FILE.parquet)",
+    )
+    ap.add_argument(
+        "--plot", metavar="FILE.png", type=png_output_path, help="one bag: measured against fitted"
+    )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     add_node_arguments(ap)
     fleet.add_fleet_arguments(ap)
+
+
+def _add_estimation_arguments(ap: argparse.ArgumentParser) -> None:
+    """The options of the estimation: the start, the intervals' level, the output error's noise
+    and signals."""
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        type=set_argument,
+        help="a model or hydraulic parameter's value (the start, or the value held "
+        "for one not fitted), e.g. --set bulk_modulus=1.2e9 (repeatable)",
+    )
+    ap.add_argument(
+        "--level", type=level_argument, default=0.95, help="of the intervals, in [0.5, 1) (0.95)"
+    )
+    ap.add_argument(
+        "--noise",
+        action="append",
+        default=[],
+        metavar="SIGNAL=STD",
+        type=noise_argument,
+        help="a signal's noise for the output error, e.g. "
+        "stroke=1e-5 (default: estimated from the residuals)",
+    )
+    ap.add_argument(
+        "--signals",
+        type=signals_argument,
+        metavar="NAME,...",
+        help="the signals the output error compares (default: the rung's)",
+    )
 
 
 @dataclass
@@ -220,8 +268,7 @@ def _models(measured, sets):
     recorded none), then ``--set`` (a geometry value through :meth:`DRSParams.replace`, which
     keeps the parameters consistent)."""
     model, hydraulic = split_overrides(assignment_overrides(sets))
-    geometry = {k: v for k, v in model.items() if k in NUMERIC_FIELDS and k not in
-                RIGID_PARAMETERS}  # fmt: skip
+    geometry = {k: v for k, v in model.items() if k in NUMERIC_FIELDS and k not in RIGID_PARAMETERS}
     p = measured.params.replace(**geometry) if geometry else measured.params
     hp = hydraulic_params_from(measured.node_parameters)
     if "flow_law" in hydraulic:  # a word, not a number: with_values sets numbers
@@ -251,8 +298,7 @@ def fit_one(bag, args: argparse.Namespace, node: BagNode | None = None) -> FitOu
     of ``drs-bag fit``; never raises for the bag's faults."""
     measured = None
     try:
-        if node is None:
-            node = select_node(bag_nodes(bag), args.node, bag)
+        node = bag_node(bag, args, node)
         topic_map = {k: v for item in args.topic_map for k, v in item.items()}
         measured = read_measured(bag, node, topic_map, args.joint)
         rung = args.fidelity or measured.rung
@@ -261,20 +307,23 @@ def fit_one(bag, args: argparse.Namespace, node: BagNode | None = None) -> FitOu
         p, hp = _models(measured, args.set)
         identify.check_names(args.fit_params, rung, p, hp)
         simulate = _simulation(measured, rung, p, hp) if args.stage != "equation" else None
-        result = identify.fit(measured.record, args.fit_params, rung, p, hp, simulate=simulate,
-                              stage=args.stage, level=args.level,
-                              noise=assignment_overrides(args.noise) or None,
-                              signals=args.signals)  # fmt: skip
-    except MessageCallbackError as exc:
-        return FitOutcome(EXIT_INTERNAL, error=f"internal error (not a verdict on the bag): {exc}",
-                          measured=measured)  # fmt: skip
-    except (NodeSelectionError, UsageError) as exc:
-        return FitOutcome(EXIT_USAGE, error=f"error: {exc}", measured=measured)
-    except DRSRosError as exc:  # the bag: unreadable, or without what a fit needs
-        return FitOutcome(EXIT_UNREADABLE, error=f"error: {exc}", measured=measured)
-    except DRSError as exc:  # the model refuses: a parameter its rung lacks, a --set value
-        return FitOutcome(EXIT_REFUSED, error=f"error: the model refuses the fit: {exc}",
-                          measured=measured, verdict=REFUSED)  # fmt: skip
+        result = identify.fit(
+            measured.record,
+            args.fit_params,
+            rung,
+            p,
+            hp,
+            simulate=simulate,
+            stage=args.stage,
+            level=args.level,
+            noise=assignment_overrides(args.noise) or None,
+            signals=args.signals,
+        )
+    except caught(FAILURES) as exc:
+        failure = failure_of(exc, FAILURES)
+        return FitOutcome(
+            failure.status, error=failure.line(exc), measured=measured, verdict=failure.verdict
+        )
     status = EXIT_OK if all(e.determined for e in result.estimates) else EXIT_FAILED
     if result.inconsistent:  # a value neither stage's interval can be bet on, first
         status = EXIT_INCONSISTENT
@@ -287,11 +336,7 @@ def fleet_row(bag: str, args: argparse.Namespace) -> list[dict]:
     node it holds (the one ``--node`` names, if given): verdict, exit status, error, counts, the
     rung, and per parameter its value, interval, standard error, whether determined and by
     which stage; per signal the residual RMS."""
-    try:
-        nodes = fleet.row_nodes(bag, args.node)
-    except NodeSelectionError as exc:
-        return [fleet.no_node_row(bag, exc)]
-    return [_row(bag, args, fit_one(bag, args, node=node), node) for node in nodes]
+    return VERB.rows(bag, args)
 
 
 def _row(bag: str, args: argparse.Namespace, outcome: FitOutcome, node) -> dict:
@@ -300,8 +345,14 @@ def _row(bag: str, args: argparse.Namespace, outcome: FitOutcome, node) -> dict:
     if m is not None and m.counts:
         row.update(fleet.count_columns(m.counts, m.start_ns, m.end_ns, False))
     for name in args.fit_params:  # the same columns on every row, a fit or not
-        for suffix, empty in (("", math.nan), ("_lower", math.nan), ("_upper", math.nan),
-                              ("_std", math.nan), ("_determined", False), ("_stage", "")):
+        for suffix, empty in (
+            ("", math.nan),
+            ("_lower", math.nan),
+            ("_upper", math.nan),
+            ("_std", math.nan),
+            ("_determined", False),
+            ("_stage", ""),
+        ):
             row[f"{name}{suffix}"] = empty
     if outcome.result is not None:
         row.update(row_columns(outcome.result))
@@ -320,19 +371,10 @@ def _start_hydraulic(measured, sets):
         return None
 
 
-def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
-    if fleet.is_fleet(args):
-        return fleet.run_fleet(fleet_row, args, prog, "fitted", ("messages",
-                               *args.fit_params[:3]))  # fmt: skip
+def _report(outcome: FitOutcome, args: argparse.Namespace, prog: str) -> int:
+    """One bag's report (text or JSON), written to ``-o FILE.json`` and plotted to ``--plot``
+    if asked."""
     bag = args.bag[0]
-    if args.output and not str(args.output).endswith(".json"):
-        print(f"{prog}: error: -o {args.output!r}: with one bag, -o names the report "
-              "(FILE.json); FILE.parquet makes a season's table", file=sys.stderr)  # fmt: skip
-        return EXIT_USAGE
-    outcome = fit_one(bag, args)
-    if outcome.error:
-        print(f"{prog}: {outcome.error}", file=sys.stderr)
-        return outcome.status
     doc = document(bag, outcome.result, outcome.measured)
     print(dumps(doc) if args.json else format_text(bag, outcome.result, outcome.measured))
     try:
@@ -347,6 +389,41 @@ def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
     return outcome.status
 
 
-__all__ = ["FIT_VERDICTS", "REFUSED", "FitOutcome", "add_arguments", "fit_names_argument",
-           "fit_one", "fleet_row", "level_argument", "noise_argument", "parameter_names_argument",
-           "run", "set_argument", "signals_argument", "topic_map_argument"]
+#: ``drs-bag fit`` on the skeleton of the verbs that judge a run.
+VERB = Verb(
+    one=fit_one,
+    row=_row,
+    report=_report,
+    done="fitted",
+    summary=lambda args: ("messages", *args.fit_params[:3]),
+)
+
+
+def run(args: argparse.Namespace, prog: str = "drs-bag fit") -> int:
+    """Run ``drs-bag fit``; returns the exit status (see the module docstring)."""
+    if not fleet.is_fleet(args) and args.output and not str(args.output).endswith(".json"):
+        print(
+            f"{prog}: error: -o {args.output!r}: with one bag, -o names the report "
+            "(FILE.json); FILE.parquet makes a season's table",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    return VERB.run(args, prog, fleet_row)
+
+
+__all__ = [
+    "FIT_VERDICTS",
+    "REFUSED",
+    "FitOutcome",
+    "add_arguments",
+    "fit_names_argument",
+    "fit_one",
+    "fleet_row",
+    "level_argument",
+    "noise_argument",
+    "parameter_names_argument",
+    "run",
+    "set_argument",
+    "signals_argument",
+    "topic_map_argument",
+]

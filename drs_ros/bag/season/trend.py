@@ -28,7 +28,7 @@ from datetime import UTC, datetime
 
 import numpy as np
 
-from drs_model.cli._common import png_output_path
+from drs_model.cli._common import parameter_names_argument, png_output_path, positive_number
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_OK,
@@ -39,7 +39,6 @@ from drs_model.cli.exit_status import (
 from drs_model.errors import DRSError, ParameterError
 from drs_model.identify.trend import DECISION, MIN_RUNS, MODELS, trend
 from drs_model.overrides import assignment_overrides
-from drs_ros.bag.season.fit import parameter_names_argument
 from drs_ros.bag.season.fit_report import dumps
 from drs_ros.errors import DRSRosError, UsageError
 from drs_ros.timestamps import seconds_from_ns
@@ -60,17 +59,6 @@ def threshold_argument(item: str) -> str:
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"the threshold of {name} must be finite, got {value!r}")
     return item
-
-
-def decision_argument(text: str) -> float:
-    """``--decision``: the CUSUM's decision interval, a finite number > 0 [standard deviations]."""
-    try:
-        decision = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(decision) and decision > 0.0):
-        raise argparse.ArgumentTypeError(f"must be finite and > 0, got {decision!r}")
-    return decision
 
 
 def min_runs_argument(text: str) -> int:
@@ -95,7 +83,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="predict when NAME reaches VALUE (repeatable)")  # fmt: skip
     ap.add_argument("--model", choices=MODELS, default="auto", help="linear, exponential, or "
                     "auto: exponential when every value is > 0 (default)")  # fmt: skip
-    ap.add_argument("--decision", type=decision_argument, default=DECISION, help="the drift "
+    ap.add_argument("--decision", type=positive_number, default=DECISION, help="the drift "
                     "CUSUM's decision interval [standard deviations], > 0; higher: fewer false "
                     f"alarms, later flags (default {DECISION:g})")  # fmt: skip
     ap.add_argument("--min-runs", type=min_runs_argument, default=MIN_RUNS,
