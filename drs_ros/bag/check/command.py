@@ -32,11 +32,10 @@ passed every check of the file (e.g. a checked topic of a type that is not insta
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
@@ -55,6 +54,7 @@ from drs_ros.bag.check.model_checks import (
     ModelChecker,
     load_force_model,
 )
+from drs_ros.bag.check.report import format_table, to_json
 from drs_ros.bag.check.run_checks import TICK_TOPICS, RunChecker, fault_report
 from drs_ros.bag.check.run_stats import STATS_ROLES, RunStats
 from drs_ros.bag.read.decoded import BagData, stream_bag
@@ -73,83 +73,16 @@ from drs_ros.bag.verb import (
     node_topics,
 )
 from drs_ros.names import DEFAULT_JOINT_NAMES, DEFAULT_NODE
-from drs_ros.timestamps import seconds_from_ns
 
 #: The topics the model checks read (overridable with ``--<key>-topic``).
 CHECK_TOPICS = ("joint_states", "piston_force", "flap_gap", "piston_acceleration")
 #: The further roles the run's checks read: its parameters, its effect record, the hydraulic
 #: rung's pressures and spool (drs_ros.bag.check.run_checks).
-RUN_ROLES = ("parameter_events", "command_events",
-             *(r for r in TICK_TOPICS if r not in CHECK_TOPICS))
-
-
-def format_table(data: BagData, results: Sequence[CheckResult], faults: Sequence[dict] = ()) -> str:
-    """A plain-text report: counts per topic, the faults recorded (:func:`format_faults`), then
-    one row per check."""
-    lines = [f"bag: {data.path}" + ("  (recovered prefix)" if data.recovered else "")]
-    lines += [f"note: {n}" for n in data.notes]
-    width = max([28, *map(len, data.counts)])  # topic names as long as a namespace makes them
-    for topic, n in sorted(data.counts.items()):
-        lines.append(f"  {topic:<{width}} {n:>8} messages")
-    lines += format_faults(faults, data.start_ns)
-    # times are shown from the earliest header stamp (the checks report stamps, epoch seconds)
-    t0 = min(data.first_stamp_s.values(), default=0.0)
-    tw = max([20, *(len(r.topic) for r in results)])
-    head = (
-        f"{'check':<38} {'topic':<{tw}} {'n':>7} {'max error':>11} {'at t-t0 [s]':>12} "
-        f"{'tol':>9}  status"
-    )
-    lines += ["", head, "-" * len(head)]
-    for r in results:
-        err = "-" if math.isnan(r.max_error) else f"{r.max_error:.3e}"
-        at = "-" if math.isnan(r.at_time_s) else f"{r.at_time_s - t0:.6f}"
-        row = (
-            f"{r.name + ' [' + r.unit + ']':<38} {r.topic:<{tw}} {r.samples:>7} {err:>11} "
-            f"{at:>12} {r.tol:>9.2g}  {r.status}"
-        )
-        lines.append(row + (f"  ({r.note})" if r.note else ""))
-    return "\n".join(lines)
-
-
-def format_faults(faults: Sequence[dict], start_ns: int | None) -> list[str]:
-    """The recorded faults' spans, one line each: simulated time [s] and log time [s] from the
-    bag's first message."""
-    if not faults:
-        return []
-    start = start_ns or 0
-
-    def log(ns):
-        return "end" if ns is None else f"{seconds_from_ns(ns - start):.6f}"
-
-    lines = ["", "faults (from the effect record; simulated time, and log time from the bag's "
-             "first message) [s]:"]  # fmt: skip
-    for f in faults:
-        to = "end" if f["sim_to_s"] is None else f"{f['sim_to_s']:.6f}"
-        lines.append(f"  {f['fault'] + ' = ' + repr(f['value']):<40} sim {f['sim_from_s']:.6f} .. "
-                     f"{to}   log {log(f['log_from_ns'])} .. {log(f['log_to_ns'])}")  # fmt: skip
-    return lines
-
-
-def to_json(data: BagData, results: Sequence[CheckResult], faults: Sequence[dict] = (),
-            node: BagNode | None = None) -> str:  # fmt: skip
-    """The report as JSON (NaN written as null; ``node``: the drs node checked, if any)."""
-
-    def clean(value):
-        return None if isinstance(value, float) and math.isnan(value) else value
-
-    return json.dumps(
-        {
-            "bag": str(data.path),
-            "node": None if node is None else node.name,
-            "recovered": data.recovered,
-            "notes": data.notes,
-            "messages": data.counts,
-            "faults": list(faults),
-            "checks": [{k: clean(v) for k, v in asdict(r).items()} for r in results],
-            "ok": not any(r.status == "FAIL" for r in results),
-        },
-        indent=2,
-    )
+RUN_ROLES = (
+    "parameter_events",
+    "command_events",
+    *(r for r in TICK_TOPICS if r not in CHECK_TOPICS),
+)
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -247,8 +180,10 @@ def recorded_params(node: BagNode | None) -> tuple[DRSParams, str]:
     if node.parameters is None:
         return DRSParams(), f"the seed's (the bag recorded none for {node.name})"
     if not any(name.startswith("model.") for name in node.parameters):
-        return DRSParams(), (f"the seed's (the parameters {node.name} recorded on "
-                             "/parameter_events hold no model.* value)")  # fmt: skip
+        return DRSParams(), (
+            f"the seed's (the parameters {node.name} recorded on "
+            "/parameter_events hold no model.* value)"
+        )
     return model_params_from(node.parameters), f"recorded by {node.name} on /parameter_events"
 
 
@@ -278,8 +213,9 @@ class CheckOutcome:
     node: BagNode | None = None
 
 
-def check_one(bag, args: argparse.Namespace, stats: bool = False,
-              node: BagNode | None = None) -> CheckOutcome:  # fmt: skip
+def check_one(
+    bag, args: argparse.Namespace, stats: bool = False, node: BagNode | None = None
+) -> CheckOutcome:
     """Check one bag with the options of ``drs-bag check`` (``args``), as the run of ``node``
     (default: the node ``--node`` picks, :func:`drs_ros.bag.read.nodes.select_node`); never raises
     for the bag's faults (they are the outcome's status and error)."""
@@ -294,9 +230,11 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
     force_model, force_note = load_force_model(args.force_model)  # and _force_model_argument
     figures = None
     if stats:
-        figures = RunStats(topics={r: named.topics[r] for r in STATS_ROLES},
-                           diagnostics_name=None if node is None else node.diagnostics_name,
-                           joint_names=names)  # fmt: skip
+        figures = RunStats(
+            topics={r: named.topics[r] for r in STATS_ROLES},
+            diagnostics_name=None if node is None else node.diagnostics_name,
+            joint_names=names,
+        )
     params, hydraulic = None, {}
     failures = _failures(args)
     try:
@@ -316,9 +254,12 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
             max_match_s=args.max_match,
             force_model_tol=args.force_model_tol,
         )
-        checker = RunChecker(model, pressure_tol=getattr(args, "pressure_tol", 1.0),
-                             node=DEFAULT_NODE if node is None else node.name,
-                             hydraulic_overrides=hydraulic)  # fmt: skip
+        checker = RunChecker(
+            model,
+            pressure_tol=getattr(args, "pressure_tol", 1.0),
+            node=DEFAULT_NODE if node is None else node.name,
+            hydraulic_overrides=hydraulic,
+        )
         wanted = checker.topics
 
         def take(topic: str, log_ns: int, msg) -> None:
@@ -338,10 +279,14 @@ def check_one(bag, args: argparse.Namespace, stats: bool = False,
         failure = failure_of(exc, failures)
         return CheckOutcome(failure.status, error=failure.line(exc), params=params)
     if hydraulic and checker.rung != "hydraulic":
-        return CheckOutcome(EXIT_USAGE, error=f"error: --params {args.params!r}: "
-                            f"{', '.join(hydraulic)} are hydraulic parameters, and the run is "
-                            f"judged on the {checker.rung} rung, which has no hydraulic model: "
-                            "leave them out", params=params)  # fmt: skip
+        return CheckOutcome(
+            EXIT_USAGE,
+            error=f"error: --params {args.params!r}: "
+            f"{', '.join(hydraulic)} are hydraulic parameters, and the run is "
+            f"judged on the {checker.rung} rung, which has no hydraulic model: "
+            "leave them out",
+            params=params,
+        )
     if any(r.status == "FAIL" for r in results):
         status = EXIT_FAILED
     else:
@@ -378,10 +323,15 @@ def run_notes(checker: RunChecker) -> list[str]:
     elif record.fidelity_recorded:
         rung = f"judged on the {checker.rung} rung (the recorded fidelity parameter)"
     else:  # say what the bag lacks: the rung is the node's default, not a recorded value
-        why = ("the bag records no parameters of the node" if record.node_parameters is None
-               else f"the parameters {record.node} recorded hold none")  # fmt: skip
-        rung = (f"judged on the {checker.rung} rung: no fidelity was recorded ({why}); the "
-                f"node's default, {record.fidelity}, was assumed")  # fmt: skip
+        why = (
+            "the bag records no parameters of the node"
+            if record.node_parameters is None
+            else f"the parameters {record.node} recorded hold none"
+        )
+        rung = (
+            f"judged on the {checker.rung} rung: no fidelity was recorded ({why}); the "
+            f"node's default, {record.fidelity}, was assumed"
+        )
     return [rung, *record.fault_notes]
 
 
@@ -399,8 +349,14 @@ CHECK_COLUMNS = {
     "stroke vs faulty sensor model": "stroke_vs_sensor_model_m",
 }
 #: Columns of the printed summary of a fleet.
-SUMMARY_COLUMNS = ("messages", "duration_s", "peak_force_n", "largest_gap_m", "refused_commands",
-                   "missed_deadlines")  # fmt: skip
+SUMMARY_COLUMNS = (
+    "messages",
+    "duration_s",
+    "peak_force_n",
+    "largest_gap_m",
+    "refused_commands",
+    "missed_deadlines",
+)
 #: The verdict of each exit status of ``drs-bag check``.
 CHECK_VERDICTS = fleet.verdicts(passed="PASS", failed="FAIL")
 
