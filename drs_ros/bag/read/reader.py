@@ -49,8 +49,9 @@ from drs_ros.bag.read.mcap_file import scan_file
 from drs_ros.bag.read.recorded import BagScan, ChannelInfo, MessageCallbackError, RecordedMessage
 
 
-def _exact_checker(padded: dict[str, int],
-                   filled: dict[str, int]) -> Callable[[str, str, bytes], str | None]:  # fmt: skip
+def _exact_checker(
+    padded: dict[str, int], filled: dict[str, int]
+) -> Callable[[str, str, bytes], str | None]:
     """``check(topic, type_name, data) -> problem, '' (exact) or None (type not installed)``:
     decode with the installed type support and serialise again exactly. Up to 3 zero bytes
     after the exact CDR are the DDS transport's padding
@@ -96,11 +97,12 @@ def _exact_checker(padded: dict[str, int],
         except cdr.CdrError:
             pass  # not even CDR of its type in the walk: the difference below says where
         if len(data) != len(again):
-            return (f"is {len(data)} bytes where its CDR serialisation is {len(again)} "
-                    f"({len(data) - len(again):+d} bytes)")  # fmt: skip
+            return (
+                f"is {len(data)} bytes where its CDR serialisation is {len(again)} "
+                f"({len(data) - len(again):+d} bytes)"
+            )
         first = next(i for i, (a, b) in enumerate(zip(data, again, strict=True)) if a != b)
-        return (f"differs from its CDR serialisation at byte {first}, which is not alignment "
-                "padding")  # fmt: skip
+        return f"differs from its CDR serialisation at byte {first}, which is not alignment padding"
 
     return check
 
@@ -147,8 +149,7 @@ def scan(
     filled: dict[str, int] = {}
     check = _exact_checker(padded, filled) if exact else None
     unverified: set[str] = set()
-    take = partial(_take, check=check, unverified=unverified, on_message=on_message,
-                   wanted=wanted)  # fmt: skip
+    take = partial(_take, check=check, unverified=unverified, on_message=on_message, wanted=wanted)
     parts: list[BagScan] = []
     if bag.storage == "sqlite3":  # one result for the bag (its files are one database to rosbags)
         parts.append(_scan_sqlite(bag, on_message, check, wanted, unverified))
@@ -159,25 +160,48 @@ def scan(
             if not recover or len(bag.files) == 1:
                 raise
             reason = str(exc).split(": ", 1)[-1]
-            part = BagScan(file, bag.bag_dir, stopped_at=0, file_size=file.stat().st_size,
-                           reason=reason, notes=[f"nothing readable: {reason}"])  # fmt: skip
+            part = BagScan(
+                file,
+                bag.bag_dir,
+                stopped_at=0,
+                file_size=file.stat().st_size,
+                reason=reason,
+                notes=[f"nothing readable: {reason}"],
+            )
         parts.append(part)
     out = parts[0] if len(parts) == 1 else _combine(bag, parts)
     if recover and out.message_count == 0 and not out.complete:
         raise BagReadError(f"{str(out.path)!r}: nothing recoverable in any file: {out.reason}")
+    _conclude(out, bag, unverified, filled, padded)
+    return out
+
+
+def _conclude(
+    out: BagScan,
+    bag: BagFiles,
+    unverified: set[str],
+    filled: dict[str, int],
+    padded: dict[str, int],
+) -> None:
+    """What a whole scan adds to its result: the bag's ``metadata.yaml`` (checked against what
+    was read when the scan completed) and the notes of what it could not verify or found
+    padded."""
     out.metadata = bag.metadata
     if bag.metadata is not None and out.complete:
         _check_metadata(out, bag.metadata, bag.bag_dir / "metadata.yaml")
     if out.complete and unverified:
         out.notes.append(f"types not installed, bytes not verified: {sorted(unverified)}")
     if filled:  # said of a recovered part too: what was read of it holds them
-        out.notes.append(f"messages whose CDR alignment padding holds non-zero bytes (its "
-                         f"content is unspecified; rclpy decodes them, every other byte is "
-                         f"their exact CDR), per topic: {filled}")  # fmt: skip
+        out.notes.append(
+            f"messages whose CDR alignment padding holds non-zero bytes (its "
+            f"content is unspecified; rclpy decodes them, every other byte is "
+            f"their exact CDR), per topic: {filled}"
+        )
     if out.complete and padded:
-        out.notes.append(f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
-                         f"their exact CDR: {padded}")  # fmt: skip
-    return out
+        out.notes.append(
+            f"messages carrying the DDS transport's zero padding (<= 3 bytes) after "
+            f"their exact CDR: {padded}"
+        )
 
 
 def _combine(bag: BagFiles, parts: list[BagScan]) -> BagScan:
@@ -226,22 +250,33 @@ def _take(
     handed to ``on_message`` (whose failure is a :class:`MessageCallbackError`)."""
     channel = out.channels.get(rec.channel_id)
     if channel is None:
-        raise BagReadError(f"{str(path)!r}: a message at offset {at} names channel "
-                           f"{rec.channel_id}, never declared")  # fmt: skip
+        raise BagReadError(
+            f"{str(path)!r}: a message at offset {at} names channel "
+            f"{rec.channel_id}, never declared"
+        )
     if check is not None:
         problem = check(channel.topic, channel.type_name, rec.data)
         if problem is None:
             unverified.add(channel.type_name)
         elif problem:
-            raise BagReadError(f"{str(path)!r}: message {out.counts.get(channel.topic, 0) + 1} "
-                               f"of {channel.topic} (chunk at offset {at}) {problem}")  # fmt: skip
+            raise BagReadError(
+                f"{str(path)!r}: message {out.counts.get(channel.topic, 0) + 1} "
+                f"of {channel.topic} (chunk at offset {at}) {problem}"
+            )
     n = out.counts[channel.topic] = out.counts.get(channel.topic, 0) + 1
     out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
     out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
     if on_message is not None and (wanted is None or channel.topic in wanted):
-        message = RecordedMessage(channel.topic, channel.type_name, rec.log_time,
-                                  rec.publish_time, rec.sequence, bytes(rec.data), at,
-                                  channel)  # fmt: skip
+        message = RecordedMessage(
+            channel.topic,
+            channel.type_name,
+            rec.log_time,
+            rec.publish_time,
+            rec.sequence,
+            bytes(rec.data),
+            at,
+            channel,
+        )
         try:
             on_message(message)
         except Exception as exc:  # the caller's failure, not the file's: never a verdict
@@ -250,8 +285,11 @@ def _take(
                 f"{str(path)!r}: message {n} of {channel.topic} (offset {at}) passed "
                 f"every check of the file, then the caller's on_message callback raised "
                 f"{type(exc).__name__}: {said}",
-                path, channel.topic, n, at,
-            ) from exc  # fmt: skip
+                path,
+                channel.topic,
+                n,
+                at,
+            ) from exc
 
 
 def _scan_sqlite(
