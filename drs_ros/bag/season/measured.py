@@ -57,8 +57,12 @@ NODE_ROLES = {
 STAMPED = ("pressure_a", "pressure_b", "supply_pressure")
 #: The message type of each role's topic.
 ROLE_TYPES = {role: "std_msgs/msg/Float64" for role in NODE_ROLES}
-ROLE_TYPES.update({"joint_states": "sensor_msgs/msg/JointState",
-                   **dict.fromkeys(STAMPED, "sensor_msgs/msg/FluidPressure")})  # fmt: skip
+ROLE_TYPES.update(
+    {
+        "joint_states": "sensor_msgs/msg/JointState",
+        **dict.fromkeys(STAMPED, "sensor_msgs/msg/FluidPressure"),
+    }
+)
 
 
 class MeasurementError(DRSRosError, ValueError):
@@ -79,14 +83,17 @@ def parse_topic_map(items) -> dict[str, str]:
             if not sep or not topic:
                 raise MeasurementError(f"topic map item {part!r} is not ROLE=TOPIC")
             if role not in NODE_ROLES:
-                raise MeasurementError(f"unknown role {role!r} in the topic map; roles: "
-                                       f"{', '.join(NODE_ROLES)}")  # fmt: skip
+                raise MeasurementError(
+                    f"unknown role {role!r} in the topic map; roles: {', '.join(NODE_ROLES)}"
+                )
             out[role] = topic if topic.startswith("/") else "/" + topic
     return out
 
 
-def measured_topics(node: BagNode | None, topic_map: dict[str, str] | None = None,
-                    ) -> dict[str, str]:  # fmt: skip
+def measured_topics(
+    node: BagNode | None,
+    topic_map: dict[str, str] | None = None,
+) -> dict[str, str]:
     """The topic of each role (:data:`NODE_ROLES`) and of the node's effect record
     (``command_events``): the topic map's, else the node's as it recorded them, else (a bag
     that names no drs node) the default names."""
@@ -147,8 +154,10 @@ def _joint_index(msg, joint: str | None) -> int:
             return 0
         joint = names[0] if names else None
     if joint not in names:
-        raise MeasurementError(f"joint {joint!r} is not in the joint states' names {names}; "
-                               "name the piston joint with --joint")  # fmt: skip
+        raise MeasurementError(
+            f"joint {joint!r} is not in the joint states' names {names}; "
+            "name the piston joint with --joint"
+        )
     return names.index(joint)
 
 
@@ -161,9 +170,74 @@ def _node_joint_names(node: BagNode | None) -> list[str]:
     return [str(n) for n in names]
 
 
-def read_measured(bag: str | Path, node: BagNode | None,
-                  topic_map: dict[str, str] | None = None,
-                  joint: str | None = None) -> Measured:  # fmt: skip
+class _Collector:
+    """The messages of a measurement as a scan passes them (:meth:`take`): the joint states of
+    the node (with the clock origin in force at each), the other roles' samples, and the node's
+    effect record."""
+
+    def __init__(
+        self, topics: dict[str, str], events: str, node: BagNode | None, joint: str | None
+    ) -> None:
+        self.events, self.node, self.joint = events, node, joint
+        self.node_names = _node_joint_names(node)
+        self.decode = decoder()
+        self.joints: list[tuple] = []  # (log, stamp, position, velocity, effort)
+        self.origins: list[int] = []  # the clock origin in force at each joint state
+        self.got: dict[str, list] = {role: [] for role in topics if role != "joint_states"}
+        self.by_topic: dict[str, list[str]] = {}
+        for role, topic in topics.items():
+            self.by_topic.setdefault(topic, []).append(role)
+        self.event_messages: list = []
+        self.index: int | None = None  # of the piston joint in the joint states
+        self.origin: int | None = None
+
+    def take(self, m) -> None:
+        """One message of the scan."""
+        msg = self.decode(m)
+        if m.topic == self.events and self.node is not None:
+            self.event_messages.append((m.log_time, msg))
+            for r in effect_records([(m.log_time, msg)]):
+                if r.outcome == CLOCK:
+                    self.origin = int(r.values["t0_ns"])
+        for role in self.by_topic.get(m.topic, ()):
+            self._take(role, m, msg)
+
+    def _take(self, role: str, m, msg) -> None:
+        if m.type_name != ROLE_TYPES[role]:
+            raise MeasurementError(
+                f"{m.topic} holds {m.type_name} messages; the role {role} "
+                f"needs {ROLE_TYPES[role]} (see --topic-map)"
+            )
+        if role == "joint_states":
+            if self.node_names and list(msg.name) != self.node_names:
+                return  # another node's, on a topic they share
+            if self.index is None:
+                self.index = _joint_index(msg, self.joint or (self.node_names or [None])[0])
+            i = self.index
+            stamp = ns_of(msg.header.stamp)
+            self.joints.append(
+                (
+                    m.log_time,
+                    stamp,
+                    _value(msg.position, i),
+                    _value(msg.velocity, i),
+                    _value(msg.effort, i),
+                )
+            )
+            self.origins.append(self.origin)
+        elif role in STAMPED:
+            stamp = ns_of(msg.header.stamp)
+            self.got[role].append((stamp, float(msg.fluid_pressure)))
+        else:
+            self.got[role].append((m.log_time, float(msg.data)))
+
+
+def read_measured(
+    bag: str | Path,
+    node: BagNode | None,
+    topic_map: dict[str, str] | None = None,
+    joint: str | None = None,
+) -> Measured:
     """The measurement of ``node``'s run in ``bag`` (module docstring; ``node`` None: a bag that
     names no drs node); every byte verified as it is read.
 
@@ -176,58 +250,21 @@ def read_measured(bag: str | Path, node: BagNode | None,
     """
     topics = measured_topics(node, topic_map)
     events = topics.pop("command_events")
-    node_names = _node_joint_names(node)
-    decode = decoder()
-    joints: list[tuple] = []  # (log, stamp, position, velocity, effort)
-    origins: list[int] = []  # the clock origin in force at each joint state
-    got = {role: [] for role in topics if role != "joint_states"}
-    by_topic: dict[str, list[str]] = {}
-    for role, topic in topics.items():
-        by_topic.setdefault(topic, []).append(role)
-    event_messages: list = []
-    where = {"index": None, "origin": None}
-
-    def take(m) -> None:
-        msg = decode(m)
-        if m.topic == events and node is not None:
-            event_messages.append((m.log_time, msg))
-            for r in effect_records([(m.log_time, msg)]):
-                if r.outcome == CLOCK:
-                    where["origin"] = int(r.values["t0_ns"])
-        for role in by_topic.get(m.topic, ()):
-            _take(role, m, msg)
-
-    def _take(role, m, msg) -> None:
-        if m.type_name != ROLE_TYPES[role]:
-            raise MeasurementError(f"{m.topic} holds {m.type_name} messages; the role {role} "
-                                   f"needs {ROLE_TYPES[role]} (see --topic-map)")  # fmt: skip
-        if role == "joint_states":
-            if node_names and list(msg.name) != node_names:
-                return  # another node's, on a topic they share
-            if where["index"] is None:
-                where["index"] = _joint_index(msg, joint or (node_names or [None])[0])
-            i = where["index"]
-            stamp = ns_of(msg.header.stamp)
-            joints.append((m.log_time, stamp, _value(msg.position, i), _value(msg.velocity, i),
-                           _value(msg.effort, i)))  # fmt: skip
-            origins.append(where["origin"])
-        elif role in STAMPED:
-            stamp = ns_of(msg.header.stamp)
-            got[role].append((stamp, float(msg.fluid_pressure)))
-        else:
-            got[role].append((m.log_time, float(msg.data)))
-
+    seen = _Collector(topics, events, node, joint)
     wanted = {*topics.values(), *([events] if node is not None else [])}
     try:
-        result = scan(bag, take, exact=False, topics=wanted)
+        result = scan(bag, seen.take, exact=False, topics=wanted)
     except MessageCallbackError as exc:  # what the bag holds is no measurement: its error
         if isinstance(exc.__cause__, MeasurementError):
             raise exc.__cause__ from None
         raise
-    if not joints:
-        raise MeasurementError(f"{bag}: no joint states on {topics['joint_states']} (a bag "
-                               "written by another tool: name its topics with --topic-map)")
-    out = _assemble(joints, origins, got, node, effect_records(event_messages), topics)
+    if not seen.joints:
+        raise MeasurementError(
+            f"{bag}: no joint states on {topics['joint_states']} (a bag "
+            "written by another tool: name its topics with --topic-map)"
+        )
+    records = effect_records(seen.event_messages)
+    out = _assemble(seen.joints, seen.origins, seen.got, node, records, topics)
     out.start_ns, out.end_ns, out.counts = result.start_ns, result.end_ns, dict(result.counts)
     out.bag = Path(bag)
     return out
@@ -264,8 +301,9 @@ def _assemble(joints, origins, got, node, records, topics) -> Measured:
         steps = nearest_steps(t, dt)
     else:
         t = seconds_from_ns(stamp - stamp[0])
-        notes.append("no clock records: times from the first joint state's stamp, and no "
-                     "re-simulation")  # fmt: skip
+        notes.append(
+            "no clock records: times from the first joint state's stamp, and no re-simulation"
+        )
     signals = {"stroke": cols[:, 0]}
     for col, name in ((1, "stroke_rate"), (2, "piston_force")):
         if np.any(np.isfinite(cols[:, col])):
@@ -282,9 +320,25 @@ def _assemble(joints, origins, got, node, records, topics) -> Measured:
         params, source = DRSParams(), "the seed's (the bag names no drs node)"
     rung = recorded_rung(node_parameters, records) if node_parameters is not None else None
     record = Record(t=t, step=steps, stops_hold=_stops_may_hold(node, records), **signals)
-    return Measured(record, params, source, rung, node_parameters, records, dict(topics),
-                    None, notes=notes, node=node)  # fmt: skip
+    return Measured(
+        record,
+        params,
+        source,
+        rung,
+        node_parameters,
+        records,
+        dict(topics),
+        None,
+        notes=notes,
+        node=node,
+    )
 
 
-__all__ = ["NODE_ROLES", "Measured", "MeasurementError", "measured_topics", "parse_topic_map",
-           "read_measured"]
+__all__ = [
+    "NODE_ROLES",
+    "Measured",
+    "MeasurementError",
+    "measured_topics",
+    "parse_topic_map",
+    "read_measured",
+]
