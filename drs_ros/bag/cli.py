@@ -66,8 +66,10 @@ VERBS = {
         "drs_ros.bag.season.trend",
         "fitted parameters over a season: drift, threshold crossing",
     ),
-    "from-goal": ("drs_ros.bag.from_goal", "write a FollowJointTrajectory goal (drs excite's) as "
-                  "a bag that play sends to the node"),
+    "from-goal": (
+        "drs_ros.bag.from_goal",
+        "write a FollowJointTrajectory goal (drs excite's) as a bag that play sends to the node",
+    ),
 }
 
 
@@ -153,8 +155,9 @@ def check_alias(argv: Sequence[str] | None = None) -> int:
     try:
         from drs_ros.bag.check.command import main as check_main
 
-        return _interruptible(lambda: check_main(argv, prog="drs-check"), "drs-check",
-                              bool(previous))  # fmt: skip
+        return _interruptible(
+            lambda: check_main(argv, prog="drs-check"), "drs-check", bool(previous)
+        )
     finally:
         end_signals(previous, console_script=argv is None)
 

@@ -80,17 +80,30 @@ def _mcap_messages(file: Path) -> Iterator[RecordedMessage]:
                 elif isinstance(rec, Channel):
                     schema = schemas.get(rec.schema_id)
                     channels[rec.id] = ChannelInfo(
-                        rec.id, rec.topic, schema.name if schema else "",
-                        schema.encoding if schema else "", bytes(schema.data) if schema else b"",
-                        rec.message_encoding, dict(rec.metadata))  # fmt: skip
+                        rec.id,
+                        rec.topic,
+                        schema.name if schema else "",
+                        schema.encoding if schema else "",
+                        bytes(schema.data) if schema else b"",
+                        rec.message_encoding,
+                        dict(rec.metadata),
+                    )
                 elif isinstance(rec, Message):
                     yield _message(channels[rec.channel_id], rec, at)
             at = stream.count
 
 
 def _message(channel: ChannelInfo, rec, offset: int) -> RecordedMessage:
-    return RecordedMessage(channel.topic, channel.type_name, rec.log_time, rec.publish_time,
-                           rec.sequence, bytes(rec.data), offset, channel)  # fmt: skip
+    return RecordedMessage(
+        channel.topic,
+        channel.type_name,
+        rec.log_time,
+        rec.publish_time,
+        rec.sequence,
+        bytes(rec.data),
+        offset,
+        channel,
+    )
 
 
 def merged_messages(sources: Sequence[str | Path]) -> Iterator[RecordedMessage]:
@@ -119,10 +132,15 @@ def merged_channels(scans: Sequence) -> dict[str, tuple[ChannelInfo, list[dict]]
                 continue
             kept, held = known
             if (kept.type_name, kept.schema_data) != (channel.type_name, channel.schema_data):
-                what = ("is " + kept.type_name if kept.type_name != channel.type_name
-                        else "has another definition of " + kept.type_name)  # fmt: skip
-                raise MergeError(f"{channel.topic} {what} in {str(first[channel.topic])!r} than "
-                                 f"{channel.type_name} in {str(scan.path)!r}")  # fmt: skip
+                what = (
+                    "is " + kept.type_name
+                    if kept.type_name != channel.type_name
+                    else "has another definition of " + kept.type_name
+                )
+                raise MergeError(
+                    f"{channel.topic} {what} in {str(first[channel.topic])!r} than "
+                    f"{channel.type_name} in {str(scan.path)!r}"
+                )
             held += [p for p in profiles if p not in held]
     return out
 
@@ -148,7 +166,8 @@ def _verify(sources: Sequence[str | Path]) -> list:
                 raise MergeError(
                     f"the drs node {node.name} is in {owner[node.name]!r} and {str(source)!r}: "
                     "the merged bag could not tell their runs apart (record each node under its "
-                    "own name or namespace)")  # fmt: skip
+                    "own name or namespace)"
+                )
             owner[node.name] = str(source)
     return scans
 
@@ -172,25 +191,39 @@ def merge(sources: Sequence[str | Path], out: str | Path) -> dict:
     with new_bag(out) as rec:
         for channel, profiles in channels.values():
             rec.register_recorded_topic(
-                channel.topic, channel.type_name, channel.schema_data,
-                channel.schema_encoding or "ros2msg", profiles,
-                channel.metadata.get("topic_type_hash", ""))  # fmt: skip
+                channel.topic,
+                channel.type_name,
+                channel.schema_data,
+                channel.schema_encoding or "ros2msg",
+                profiles,
+                channel.metadata.get("topic_type_hash", ""),
+            )
         counts: dict[str, int] = {}
         for m in merged_messages(sources):
             rec.write(m.topic, m.data, m.log_time, m.publish_time, sequence=m.sequence)
             counts[m.topic] = counts.get(m.topic, 0) + 1
         rec.finish()
-    return {"output": str(out), "sources": [{"bag": str(source), "messages": s.message_count}
-                                            for source, s in zip(sources, scans, strict=True)],
-            "messages": sum(counts.values()), "per_topic": counts}  # fmt: skip
-
+    return {
+        "output": str(out),
+        "sources": [
+            {"bag": str(source), "messages": s.message_count}
+            for source, s in zip(sources, scans, strict=True)
+        ],
+        "messages": sum(counts.values()),
+        "per_topic": counts,
+    }
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("bags", nargs="+", metavar="BAG",
-                    help="the bags to merge (directories, .mcap or .db3 files), two or more")
-    ap.add_argument("-o", "--output", required=True, type=output_path,
-                    help="the new bag directory to write")
+    ap.add_argument(
+        "bags",
+        nargs="+",
+        metavar="BAG",
+        help="the bags to merge (directories, .mcap or .db3 files), two or more",
+    )
+    ap.add_argument(
+        "-o", "--output", required=True, type=output_path, help="the new bag directory to write"
+    )
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag merge") -> int:
@@ -205,5 +238,12 @@ def run(args: argparse.Namespace, prog: str = "drs-bag merge") -> int:
     return EXIT_OK
 
 
-__all__ = ["MergeError", "add_arguments", "bag_messages", "merge", "merged_channels",
-           "merged_messages", "run"]  # fmt: skip
+__all__ = [
+    "MergeError",
+    "add_arguments",
+    "bag_messages",
+    "merge",
+    "merged_channels",
+    "merged_messages",
+    "run",
+]

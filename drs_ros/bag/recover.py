@@ -56,7 +56,6 @@ def _unwritable(out: str | Path, cause: BaseException) -> RecordingError:
     )
 
 
-
 def recover(bag: str | Path, out: str | Path) -> dict:
     """Copy every complete message of ``bag`` (every file of a split bag, in order) into the new
     bag directory ``out``; a report (JSON-ready), with one entry per source file in ``files``.
@@ -158,8 +157,9 @@ def format_report(rep: dict) -> str:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", help="the damaged bag directory (split or not) or .mcap file")
-    ap.add_argument("-o", "--output", required=True, type=output_path,
-                    help="the new bag directory to write")
+    ap.add_argument(
+        "-o", "--output", required=True, type=output_path, help="the new bag directory to write"
+    )
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
 
 

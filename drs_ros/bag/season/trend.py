@@ -74,22 +74,53 @@ def min_runs_argument(text: str) -> int:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("table", help="the season's table (drs-bag fit DIR -o season.parquet)")
-    ap.add_argument("--params", dest="names", type=parameter_names_argument, metavar="NAME,...",
-                    help="the parameters (default: every fitted one)")
-    ap.add_argument("--node", metavar="NAME", help="the actuator, by its drs node's fully "
-                    "qualified name or its name (default: each node of the table)")  # fmt: skip
-    ap.add_argument("--threshold", action="append", default=[], metavar="NAME=VALUE",
-                    type=threshold_argument,
-                    help="predict when NAME reaches VALUE (repeatable)")  # fmt: skip
-    ap.add_argument("--model", choices=MODELS, default="auto", help="linear, exponential, or "
-                    "auto: exponential when every value is > 0 (default)")  # fmt: skip
-    ap.add_argument("--decision", type=positive_number, default=DECISION, help="the drift "
-                    "CUSUM's decision interval [standard deviations], > 0; higher: fewer false "
-                    f"alarms, later flags (default {DECISION:g})")  # fmt: skip
-    ap.add_argument("--min-runs", type=min_runs_argument, default=MIN_RUNS,
-                    help=f"runs before the first drift test, >= 3 (default {MIN_RUNS})")
-    ap.add_argument("--plot", metavar="FILE.png", type=png_output_path,
-                    help="draw each parameter over the season")
+    ap.add_argument(
+        "--params",
+        dest="names",
+        type=parameter_names_argument,
+        metavar="NAME,...",
+        help="the parameters (default: every fitted one)",
+    )
+    ap.add_argument(
+        "--node",
+        metavar="NAME",
+        help="the actuator, by its drs node's fully "
+        "qualified name or its name (default: each node of the table)",
+    )
+    ap.add_argument(
+        "--threshold",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        type=threshold_argument,
+        help="predict when NAME reaches VALUE (repeatable)",
+    )
+    ap.add_argument(
+        "--model",
+        choices=MODELS,
+        default="auto",
+        help="linear, exponential, or auto: exponential when every value is > 0 (default)",
+    )
+    ap.add_argument(
+        "--decision",
+        type=positive_number,
+        default=DECISION,
+        help="the drift "
+        "CUSUM's decision interval [standard deviations], > 0; higher: fewer false "
+        f"alarms, later flags (default {DECISION:g})",
+    )
+    ap.add_argument(
+        "--min-runs",
+        type=min_runs_argument,
+        default=MIN_RUNS,
+        help=f"runs before the first drift test, >= 3 (default {MIN_RUNS})",
+    )
+    ap.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        type=png_output_path,
+        help="draw each parameter over the season",
+    )
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
@@ -123,11 +154,14 @@ def node_seasons(cols: dict, node: str | None = None) -> list[tuple[str | None, 
     if node is not None:
         wanted = node if node.startswith("/") else f"/{node}"
         found = [n for n in held if n == wanted] or [
-            n for n in held if n is not None and n.rsplit("/", 1)[-1] == node]
+            n for n in held if n is not None and n.rsplit("/", 1)[-1] == node
+        ]
         if len(found) != 1:
             names = ", ".join(str(n) for n in held)
-            raise UsageError(f"--node {node!r} names {'several' if found else 'none'} of the "
-                             f"nodes of the table: {names}")  # fmt: skip
+            raise UsageError(
+                f"--node {node!r} names {'several' if found else 'none'} of the "
+                f"nodes of the table: {names}"
+            )
         held = found
     out = []
     for name in held:
@@ -158,16 +192,28 @@ def analyse(cols: dict, names, thresholds: dict, args, node: str | None = None) 
     out = []
     for name in names:
         tau, value, std = _series(cols, name)
-        tr = trend(name, tau, value, std, args.model, thresholds.get(name), args.decision,
-                   args.min_runs)  # fmt: skip
+        tr = trend(
+            name, tau, value, std, args.model, thresholds.get(name), args.decision, args.min_runs
+        )
         used = np.flatnonzero(np.isfinite(tau) & np.isfinite(value) & np.isfinite(std))
         used = used[np.argsort(tau[used], kind="stable")]
-        row = {"parameter": name, "node": node, "model": tr.model, "runs": int(tr.tau.size),
-               "slope_per_day": tr.slope * DAY_S, "slope_std_per_day": tr.slope_std * DAY_S,
-               "drift": {1: "rising", -1: "falling", 0: "none"}[tr.direction],
-               "onset_run": None, "onset_bag": None, "detected_run": None,
-               "detected_bag": None, "probability": None,
-               "threshold": tr.threshold, "crossing": None, "trend": tr}  # fmt: skip
+        row = {
+            "parameter": name,
+            "node": node,
+            "model": tr.model,
+            "runs": int(tr.tau.size),
+            "slope_per_day": tr.slope * DAY_S,
+            "slope_std_per_day": tr.slope_std * DAY_S,
+            "drift": {1: "rising", -1: "falling", 0: "none"}[tr.direction],
+            "onset_run": None,
+            "onset_bag": None,
+            "detected_run": None,
+            "detected_bag": None,
+            "probability": None,
+            "threshold": tr.threshold,
+            "crossing": None,
+            "trend": tr,
+        }
         if tr.detected is not None:
             row["detected_run"] = int(tr.detected) + 1
             row["detected_bag"] = bags[used[tr.detected]] if bags else None
@@ -176,9 +222,12 @@ def analyse(cols: dict, names, thresholds: dict, args, node: str | None = None) 
             row["onset_bag"] = bags[used[tr.onset]] if bags else None
         if tr.crossing is not None:
             lo, mid, hi = (tr.origin + c for c in tr.crossing)
-            row["crossing"] = {"low": _date(lo), "median": _date(mid), "high": _date(hi),
-                               "days_after_last_run": [(c - tr.tau[-1]) / DAY_S
-                                                       for c in tr.crossing]}  # fmt: skip
+            row["crossing"] = {
+                "low": _date(lo),
+                "median": _date(mid),
+                "high": _date(hi),
+                "days_after_last_run": [(c - tr.tau[-1]) / DAY_S for c in tr.crossing],
+            }
         out.append(row)
     return out
 
@@ -188,21 +237,28 @@ def format_text(rows: list[dict]) -> str:
     for r in rows:
         k, unit = (100.0, " %/day") if r["model"] == "exponential" else (1.0, " /day")
         of = "" if r["node"] is None else f" of {r['node']}"
-        lines.append(f"{r['parameter']}{of}: {r['runs']} runs, {r['model']} trend "
-                     f"{k * r['slope_per_day']:+.4g}{unit} (+- "
-                     f"{k * abs(r['slope_std_per_day']):.2g})")  # fmt: skip
+        lines.append(
+            f"{r['parameter']}{of}: {r['runs']} runs, {r['model']} trend "
+            f"{k * r['slope_per_day']:+.4g}{unit} (+- "
+            f"{k * abs(r['slope_std_per_day']):.2g})"
+        )
         if r["detected_run"] is None:
             lines.append("  drift: none")
         else:
-            lines.append(f"  drift: {r['drift']}, from run {r['onset_run']} ({r['onset_bag']}), "
-                         f"significant at run {r['detected_run']} ({r['detected_bag']}); the "
-                         f"line's P = {r['probability']:.6f}")  # fmt: skip
+            lines.append(
+                f"  drift: {r['drift']}, from run {r['onset_run']} ({r['onset_bag']}), "
+                f"significant at run {r['detected_run']} ({r['detected_bag']}); the "
+                f"line's P = {r['probability']:.6f}"
+            )
         if r["crossing"] is not None:
             c = r["crossing"]
-            days = ", ".join("never" if not math.isfinite(d) else f"{d:+.1f}"
-                             for d in c["days_after_last_run"])  # fmt: skip
-            lines.append(f"  reaches {r['threshold']:.6g} on {c['median']} (95 %: {c['low']} "
-                         f"to {c['high']}; days after the last run: {days})")  # fmt: skip
+            days = ", ".join(
+                "never" if not math.isfinite(d) else f"{d:+.1f}" for d in c["days_after_last_run"]
+            )
+            lines.append(
+                f"  reaches {r['threshold']:.6g} on {c['median']} (95 %: {c['low']} "
+                f"to {c['high']}; days after the last run: {days})"
+            )
     return "\n".join(lines)
 
 
@@ -225,20 +281,41 @@ def plot(rows: list[dict], seasons: dict, path: str) -> None:
         order = np.argsort(tau[ok])
         x = (tau[ok][order] - tr.origin) / DAY_S
         v, l_, h = value[ok][order], lo[ok][order], hi[ok][order]
-        ax.errorbar(x, v, yerr=[v - l_, h - v], fmt="o", ms=3, color="0.3", lw=0.8,
-                    label="fit, 95 % interval")  # fmt: skip
-        end = day[-1] if tr.crossing is None or not math.isfinite(tr.crossing[2]) else max(
-            day[-1], tr.crossing[2] / DAY_S)  # fmt: skip
+        ax.errorbar(
+            x,
+            v,
+            yerr=[v - l_, h - v],
+            fmt="o",
+            ms=3,
+            color="0.3",
+            lw=0.8,
+            label="fit, 95 % interval",
+        )
+        end = (
+            day[-1]
+            if tr.crossing is None or not math.isfinite(tr.crossing[2])
+            else max(day[-1], tr.crossing[2] / DAY_S)
+        )
         grid = np.linspace(0.0, end * 1.05 + 1e-9, 200)
         ax.plot(grid, tr.fitted(grid * DAY_S), "-", color="C0", label=f"{tr.model} trend")
         if tr.detected is not None:
-            ax.axvline(day[tr.detected], color="C3", ls="--", lw=1,
-                       label=f"drift significant (run {tr.detected + 1})")  # fmt: skip
+            ax.axvline(
+                day[tr.detected],
+                color="C3",
+                ls="--",
+                lw=1,
+                label=f"drift significant (run {tr.detected + 1})",
+            )
         if tr.threshold is not None:
             ax.axhline(tr.threshold, color="C1", lw=1, label="threshold")
             if tr.crossing is not None and math.isfinite(tr.crossing[2]):
-                ax.axvspan(tr.crossing[0] / DAY_S, tr.crossing[2] / DAY_S, color="C1", alpha=0.2,
-                           label="crossing, 95 %")  # fmt: skip
+                ax.axvspan(
+                    tr.crossing[0] / DAY_S,
+                    tr.crossing[2] / DAY_S,
+                    color="C1",
+                    alpha=0.2,
+                    label="crossing, 95 %",
+                )
         ax.set_ylabel(name)
         if r["node"] is not None:
             ax.set_title(r["node"], fontsize=9)
@@ -271,8 +348,11 @@ def run(args: argparse.Namespace, prog: str = "drs-bag trend") -> int:
             raise TrendInputError(f"{args.table!r} is no season table (no start_ns column)")
         names, thresholds = _checked_names(cols, args)
         seasons = dict(node_seasons(cols, args.node))
-        rows = [r for node, season in seasons.items()
-                for r in analyse(season, names, thresholds, args, node)]  # fmt: skip
+        rows = [
+            r
+            for node, season in seasons.items()
+            for r in analyse(season, names, thresholds, args, node)
+        ]
         if args.plot:
             plot(rows, seasons, args.plot)
     except UsageError as exc:
@@ -291,5 +371,12 @@ def run(args: argparse.Namespace, prog: str = "drs-bag trend") -> int:
     return EXIT_FAILED if any(r["detected_run"] is not None for r in rows) else EXIT_OK
 
 
-__all__ = ["TrendInputError", "add_arguments", "analyse", "node_seasons", "read_season", "run",
-           "threshold_argument"]
+__all__ = [
+    "TrendInputError",
+    "add_arguments",
+    "analyse",
+    "node_seasons",
+    "read_season",
+    "run",
+    "threshold_argument",
+]
