@@ -104,6 +104,20 @@ def parameter_names_argument(text: str) -> list[str]:
     return names
 
 
+def fit_names_argument(text: str) -> list[str]:
+    """argparse ``type=`` of ``NAME,...``: parameters that can be fitted, none twice (whether
+    a design or a fit can serve them is the model's to say)."""
+    from ..identify.parameters import fit_parameter
+
+    names = parameter_names_argument(text)
+    try:
+        for name in names:
+            fit_parameter(name)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return names
+
+
 def positive_number(text: str) -> float:
     """argparse ``type=``: a finite number > 0."""
     try:

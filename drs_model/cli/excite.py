@@ -19,14 +19,14 @@ import json
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..errors import InputError
 from ..params import FORCE_LIMIT_DEFAULT_N
 from ._common import (
     Output,
     add_common,
+    fit_names_argument,
     load_both,
     output_file_type,
-    parameter_names_argument,
     png_output_path,
     positive_integer,
     positive_number,
@@ -36,20 +36,6 @@ from ._common import (
 #: What ``drs excite --help`` and the report say of the bag form of the goal.
 BAG_RECIPE = ("drs-bag from-goal GOAL.yaml -o DIR [--node NAME] writes the goal as a bag that "
               "drs-bag play DIR sends to the node (the ros extra; docs/identify.md)")
-
-
-def design_names_argument(text: str) -> list[str]:
-    """argparse ``type=`` of ``NAME,...``: parameters that can be fitted, none twice (whether
-    a design can serve them is the model's to say)."""
-    from ..identify.parameters import fit_parameter
-
-    names = parameter_names_argument(text)
-    try:
-        for name in names:
-            fit_parameter(name)
-    except ParameterError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-    return names
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -63,7 +49,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=f"As a bag for drs-bag play: {BAG_RECIPE}.",
     )
     add_common(p)
-    p.add_argument("names", metavar="NAME,...", type=design_names_argument,
+    p.add_argument("names", metavar="NAME,...", type=fit_names_argument,
                    help="the parameters to identify, e.g. "
                    "m_pist,Iz_wing,F_drag_open,F_down_closed")  # fmt: skip
     p.add_argument("--fidelity", choices=("rigid", "quasi-static", "hydraulic"),
@@ -143,7 +129,7 @@ def run_excite(args: argparse.Namespace) -> Output:
     from ..identify.parameters import fit_parameter
 
     p, hp = load_both(args)
-    names = args.names  # checked when parsed (design_names_argument)
+    names = args.names  # checked when parsed (fit_names_argument)
     limits = default_limits(p, hp, args.force_limit)
     ex = design_excitation(names, p, hp, rung=args.fidelity, duration=args.duration,
                            harmonics=args.harmonics, sample_period=args.sample_period,

@@ -35,8 +35,12 @@ import math
 import sys
 from dataclasses import dataclass, field
 
-from drs_model.cli._common import output_path, parameter_names_argument, png_output_path
-from drs_model.cli.excite import design_names_argument as fit_names_argument
+from drs_model.cli._common import (
+    fit_names_argument,
+    output_path,
+    parameter_names_argument,
+    png_output_path,
+)
 from drs_model.cli.exit_status import (
     EXIT_FAILED,
     EXIT_INCONSISTENT,
