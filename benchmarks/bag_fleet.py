@@ -79,23 +79,47 @@ def main(argv=None) -> int:
 
         for _ in range(args.repeats):
             timed("index", lambda: [catalogue_row(b) for b in bags])
-            timed("check, 1 process", lambda: [check.check_one(b, check_args, stats=True)
-                                               for b in bags])  # fmt: skip
+            timed(
+                "check, 1 process",
+                lambda: [check.check_one(b, check_args, stats=True) for b in bags],
+            )
         startup = {}
         for jobs in (1, 2):  # one cluster at a time (two clients in one process race)
             t0 = time.perf_counter()
             with dask_client(jobs=jobs) as client:
                 startup[jobs] = time.perf_counter() - t0
                 # warm: every worker imports the tools and loads numba's cache once
-                list(map_unordered(client, fleet.timed_row, bags[:jobs], progress=False,
-                                   row_function=check.fleet_row, args=check_args))  # fmt: skip
+                list(
+                    map_unordered(
+                        client,
+                        fleet.timed_row,
+                        bags[:jobs],
+                        progress=False,
+                        row_function=check.fleet_row,
+                        args=check_args,
+                    )
+                )
                 for _ in range(args.repeats):
-                    timed(f"check on {jobs} worker(s)", lambda client=client: list(map_unordered(
-                        client, fleet.timed_row, bags, progress=False,
-                        row_function=check.fleet_row, args=check_args)))  # fmt: skip
+                    timed(
+                        f"check on {jobs} worker(s)",
+                        lambda client=client: list(
+                            map_unordered(
+                                client,
+                                fleet.timed_row,
+                                bags,
+                                progress=False,
+                                row_function=check.fleet_row,
+                                args=check_args,
+                            )
+                        ),
+                    )
                     if jobs == 1:
-                        timed("tiny tasks, 1 worker", lambda client=client: list(map_unordered(
-                            client, _noop, range(args.tiny), progress=False)))  # fmt: skip
+                        timed(
+                            "tiny tasks, 1 worker",
+                            lambda client=client: list(
+                                map_unordered(client, _noop, range(args.tiny), progress=False)
+                            ),
+                        )
     finally:
         shutil.rmtree(work, ignore_errors=True)
     med = {k: statistics.median(v) for k, v in times.items()}
@@ -114,17 +138,33 @@ def main(argv=None) -> int:
     print(f"scheduler overhead per task: {overhead * 1e3:.2f} ms ({args.tiny} tasks of a no-op)")
     print(f"cluster start-up: {startup[1]:.2f} s (1 worker), {startup[2]:.2f} s (2 workers)")
     per_bag = med["check, 1 process"] / n
-    print(f"check per bag: {per_bag:.3f} s in one process; the overhead is "
-          f"{100 * overhead / per_bag:.2f} % of it")
+    print(
+        f"check per bag: {per_bag:.3f} s in one process; the overhead is "
+        f"{100 * overhead / per_bag:.2f} % of it"
+    )
     load = (load_before, os.getloadavg()[0])
-    print(f"load average (1 min) before and after: {load[0]:.2f}, {load[1]:.2f} "
-          f"({os.cpu_count()} cores; other work on the machine shares them)")
+    print(
+        f"load average (1 min) before and after: {load[0]:.2f}, {load[1]:.2f} "
+        f"({os.cpu_count()} cores; other work on the machine shares them)"
+    )
     if args.json:
-        Path(args.json).write_text(json.dumps({
-            "bags": n, "repeats": args.repeats, "rows": rows, "scaling_1_to_2": scaling,
-            "overhead_per_task_s": overhead, "startup_s": startup, "check_per_bag_s": per_bag,
-            "load_average": load,
-            "raw": times}, indent=2) + "\n")  # fmt: skip
+        Path(args.json).write_text(
+            json.dumps(
+                {
+                    "bags": n,
+                    "repeats": args.repeats,
+                    "rows": rows,
+                    "scaling_1_to_2": scaling,
+                    "overhead_per_task_s": overhead,
+                    "startup_s": startup,
+                    "check_per_bag_s": per_bag,
+                    "load_average": load,
+                    "raw": times,
+                },
+                indent=2,
+            )
+            + "\n"
+        )
     return 0
 
 

@@ -34,8 +34,12 @@ def check_peak(bag: Path) -> dict:
     """``drs-bag check BAG`` in a fresh process: exit status, peak RSS [bytes], wall time [s]."""
     env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     start = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "drs_ros.bag.cli", "check", str(bag)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "drs_ros.bag.cli", "check", str(bag)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
     # wait4 gives this child's own rusage (ru_maxrss in KiB on Linux); read the pipes after it
     # (the check prints a few lines only, far below a pipe's buffer)
     _pid, status, usage = os.wait4(proc.pid, 0)
@@ -43,8 +47,13 @@ def check_peak(bag: Path) -> dict:
     out = proc.stdout.read().decode()
     err = proc.stderr.read().decode()
     proc.returncode = os.waitstatus_to_exitcode(status)
-    return {"status": proc.returncode, "peak_rss_bytes": usage.ru_maxrss * 1024,
-            "wall_s": wall, "report": out.splitlines()[:3], "stderr": err[-500:]}  # fmt: skip
+    return {
+        "status": proc.returncode,
+        "peak_rss_bytes": usage.ru_maxrss * 1024,
+        "wall_s": wall,
+        "report": out.splitlines()[:3],
+        "stderr": err[-500:],
+    }
 
 
 def main(argv=None) -> int:
@@ -58,8 +67,10 @@ def main(argv=None) -> int:
 
     image = args.image_kib * 1024
     rows = []
-    print(f"{'bag [MB]':>9} {'messages':>10} {'write [s]':>9} {'check [s]':>9} "
-          f"{'peak RSS [MB]':>13} {'RSS/size':>8}  status")  # fmt: skip
+    print(
+        f"{'bag [MB]':>9} {'messages':>10} {'write [s]':>9} {'check [s]':>9} "
+        f"{'peak RSS [MB]':>13} {'RSS/size':>8}  status"
+    )
     for size_mb in (float(x) for x in args.sizes_mb.split(",")):
         # one manoeuvre: 50 states x 4 topics (~19.5 kB) and one image
         cycles = max(1, int(size_mb * 1e6 / (19_500 + image)))
@@ -72,12 +83,19 @@ def main(argv=None) -> int:
             res = check_peak(bag)
         finally:
             shutil.rmtree(work, ignore_errors=True)
-        row = {"bag_bytes": size, "cycles": cycles, "messages": 1 + cycles * 201,
-               "write_s": t_write, **res}  # fmt: skip
+        row = {
+            "bag_bytes": size,
+            "cycles": cycles,
+            "messages": 1 + cycles * 201,
+            "write_s": t_write,
+            **res,
+        }
         rows.append(row)
-        print(f"{size / 1e6:>9.1f} {row['messages']:>10} {t_write:>9.1f} {res['wall_s']:>9.1f} "
-              f"{res['peak_rss_bytes'] / 1e6:>13.1f} {res['peak_rss_bytes'] / size:>8.3f}  "
-              f"{res['status']}")  # fmt: skip
+        print(
+            f"{size / 1e6:>9.1f} {row['messages']:>10} {t_write:>9.1f} {res['wall_s']:>9.1f} "
+            f"{res['peak_rss_bytes'] / 1e6:>13.1f} {res['peak_rss_bytes'] / size:>8.3f}  "
+            f"{res['status']}"
+        )
         if res["status"] != 0:
             print(res["stderr"], file=sys.stderr)
     if args.json:

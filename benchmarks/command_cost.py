@@ -53,25 +53,31 @@ def serialise_costs(n: int, rounds: int) -> dict[str, float]:
 
     serialize = cdr.serializer(DiagnosticArray)
     stamp = time.time_ns()
-    record = {"sim_time": repr(12.345), "step": 12345, "sequence": 17,
-              "received_ns": stamp, "value": repr(0.0461)}  # fmt: skip
+    record = {
+        "sim_time": repr(12.345),
+        "step": 12345,
+        "sequence": 17,
+        "received_ns": stamp,
+        "value": repr(0.0461),
+    }
     values = {f"value_{k}": f"{k * 1.2345:.6g}" for k in range(40)}
 
     def event():
-        return [command_event_status("/drs/stroke_cmd", "accepted", DiagnosticStatus.OK, "",
-                                     record)]  # fmt: skip
+        return [
+            command_event_status("/drs/stroke_cmd", "accepted", DiagnosticStatus.OK, "", record)
+        ]
 
     def diag():
         return [diagnostics_status("drs", DiagnosticStatus.OK, "mode stroke", values)]
 
     fns = {
         "effect record: message + serializer": lambda: serialize(
-            diagnostic_array_msg(stamp, event())),
+            diagnostic_array_msg(stamp, event())
+        ),
         "effect record: packed": lambda: diagnostic_array_cdr(stamp, event()),
-        "diagnostics: message + serializer": lambda: serialize(
-            diagnostic_array_msg(stamp, diag())),
+        "diagnostics: message + serializer": lambda: serialize(diagnostic_array_msg(stamp, diag())),
         "diagnostics: packed": lambda: diagnostic_array_cdr(stamp, diag()),
-    }  # fmt: skip
+    }
     for a, b in (list(fns.values())[:2], list(fns.values())[2:]):
         assert a() == b(), "the packer's bytes differ from the serializer's"
     return interleaved(fns, n, rounds)
@@ -88,9 +94,15 @@ def apply_costs(n: int, rounds: int, domain: int) -> dict[str, float]:
     ctx = rclpy.Context()
     rclpy.init(context=ctx, domain_id=domain)
     tmp = Path(tempfile.mkdtemp(prefix="command_cost_"))
-    node = DRSNode(context=ctx, tick_timer=False, parameter_overrides=[
-        Parameter("physics_rate_hz", value=1000.0), Parameter("publish_rate_hz", value=1000.0),
-        Parameter("bag_path", value=str(tmp / "bag"))])  # fmt: skip
+    node = DRSNode(
+        context=ctx,
+        tick_timer=False,
+        parameter_overrides=[
+            Parameter("physics_rate_hz", value=1000.0),
+            Parameter("publish_rate_hz", value=1000.0),
+            Parameter("bag_path", value=str(tmp / "bag")),
+        ],
+    )
     try:
         pack = cdr.flat_packer(Float64)
         lo, hi = node.sim.s_min, node.sim.s_max
@@ -110,9 +122,15 @@ def apply_costs(n: int, rounds: int, domain: int) -> dict[str, float]:
         def stroke():
             node.sim.command_stroke(target())
 
-        out = interleaved({"receive + apply, 1 command": lambda: receive_apply(1),
-                           "receive + apply, 2 (1 superseded)": lambda: receive_apply(2),
-                           "command_stroke (the actuator's)": stroke}, n, rounds)  # fmt: skip
+        out = interleaved(
+            {
+                "receive + apply, 1 command": lambda: receive_apply(1),
+                "receive + apply, 2 (1 superseded)": lambda: receive_apply(2),
+                "command_stroke (the actuator's)": stroke,
+            },
+            n,
+            rounds,
+        )
         # the tick's share apart: apply_pending of one waiting command
         t_apply = []
         for _ in range(rounds * n):

@@ -101,8 +101,13 @@ def main() -> int:
     ap.add_argument("--rate", type=float, default=1000.0, help="ticks per second [Hz]")
     ap.add_argument("--duration", type=float, default=10.0, help="seconds per loop")
     ap.add_argument("--repeats", type=int, default=2, help="loops per amount of work, alternated")
-    ap.add_argument("--work-us", type=float, nargs="+", default=[0.0, 300.0],
-                    help="busy work per tick [us], each measured")  # fmt: skip
+    ap.add_argument(
+        "--work-us",
+        type=float,
+        nargs="+",
+        default=[0.0, 300.0],
+        help="busy work per tick [us], each measured",
+    )
     ap.add_argument("--output", type=Path, default=RESULTS)
     args = ap.parse_args()
     policy = apply_tick_policy("fifo", 10)  # the node's default priority
@@ -113,21 +118,26 @@ def main() -> int:
             for work in args.work_us:
                 r = run(args.rate, args.duration, work)
                 runs.append(r)
-                print(f"work {work:5g} us a tick: missed {r['missed']}/{r['ticks']} "
-                      f"({100 * r['missed_share']:.2f} %), lateness p50/p99/max "
-                      f"{r['lateness_p50_us']:.0f}/{r['lateness_p99_us']:.0f}/"
-                      f"{r['lateness_max_us']:.0f} us, steal {r['steal_s']:.2f} s",
-                      flush=True)  # fmt: skip
+                print(
+                    f"work {work:5g} us a tick: missed {r['missed']}/{r['ticks']} "
+                    f"({100 * r['missed_share']:.2f} %), lateness p50/p99/max "
+                    f"{r['lateness_p50_us']:.0f}/{r['lateness_p99_us']:.0f}/"
+                    f"{r['lateness_max_us']:.0f} us, steal {r['steal_s']:.2f} s",
+                    flush=True,
+                )
     finally:
         leave_tick_policy(policy)
     for work in args.work_us:
         mine = [r for r in runs if r["work_us"] == work]
-        print(f"work {work:5g} us: median missed "
-              f"{100 * statistics.median(r['missed_share'] for r in mine):.2f} %, p99 "
-              f"{statistics.median(r['lateness_p99_us'] for r in mine):.0f} us")  # fmt: skip
+        print(
+            f"work {work:5g} us: median missed "
+            f"{100 * statistics.median(r['missed_share'] for r in mine):.2f} %, p99 "
+            f"{statistics.median(r['lateness_p99_us'] for r in mine):.0f} us"
+        )
     args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps({"rate_hz": args.rate, "policy": policy.text(),
-                                       "runs": runs}, indent=2) + "\n")  # fmt: skip
+    args.output.write_text(
+        json.dumps({"rate_hz": args.rate, "policy": policy.text(), "runs": runs}, indent=2) + "\n"
+    )
     return 0
 
 

@@ -34,8 +34,11 @@ def run_node(rung: str, bag: Path, ramp: float, domain: int) -> dict:
     from rclpy.parameter_client import AsyncParameterClient
     from std_srvs.srv import SetBool
 
-    overrides = [Parameter("fidelity", value=rung), Parameter("bag_path", value=str(bag)),
-                 Parameter("publish_rate_hz", value=250.0)]  # fmt: skip
+    overrides = [
+        Parameter("fidelity", value=rung),
+        Parameter("bag_path", value=str(bag)),
+        Parameter("publish_rate_hz", value=250.0),
+    ]
     with node_with_client(domain, overrides, "failsafe_client") as (_node, client, ex):
 
         def spin(seconds: float, done=None) -> None:
@@ -49,9 +52,12 @@ def run_node(rung: str, bag: Path, ramp: float, domain: int) -> dict:
         fut = drs.call_async(SetBool.Request(data=True))
         spin(5.0, fut.done)
         spin(0.4)  # open (the hydraulic rung takes ~55 ms) and hold
-        fut = params.set_parameters_atomically([
-            Parameter("fault.supply_loss_ramp_s", value=ramp),
-            Parameter("fault.supply_loss", value=True)])  # fmt: skip
+        fut = params.set_parameters_atomically(
+            [
+                Parameter("fault.supply_loss_ramp_s", value=ramp),
+                Parameter("fault.supply_loss", value=True),
+            ]
+        )
         spin(5.0, fut.done)
         result = fut.result().result
         spin(0.6)

@@ -94,8 +94,10 @@ def main() -> None:
     for scene, costs in scene_costs.items():
         for label, cost in costs.items():
             ratio = costs["rigid"] / cost
-            print(f"{scene:>22} {label:>18}: {cost * 1e3:8.3f} ms per simulated s "
-                  f"(rigid / this = {ratio:6.1f}x)")  # fmt: skip
+            print(
+                f"{scene:>22} {label:>18}: {cost * 1e3:8.3f} ms per simulated s "
+                f"(rigid / this = {ratio:6.1f}x)"
+            )
     for name, frac in node.items():
         print(f"node-like step() at 1 kHz, {name:>9}: {100 * frac:5.1f} % of a core")
     for goal, met in result["goals"].items():

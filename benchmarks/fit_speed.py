@@ -47,10 +47,19 @@ TRUTH = {"leak_to_outside": 2e-13, "coulomb_friction": 70.0, "breakaway_friction
 def _bag(work: Path) -> Path:
     from run_support import Command, record_run
 
-    faults = {"leak_m3_per_s_per_pa": 2e-13, "jam_friction_n": 30.0, "sensor.noise_std_m": 1e-5,
-              "sensor.noise_seed": 3}  # fmt: skip
-    return record_run(work / "bag", 130, [Command(1, "drs", True), Command(70, "drs", False)],
-                      fidelity="hydraulic", faults=faults)  # fmt: skip
+    faults = {
+        "leak_m3_per_s_per_pa": 2e-13,
+        "jam_friction_n": 30.0,
+        "sensor.noise_std_m": 1e-5,
+        "sensor.noise_seed": 3,
+    }
+    return record_run(
+        work / "bag",
+        130,
+        [Command(1, "drs", True), Command(70, "drs", False)],
+        fidelity="hydraulic",
+        faults=faults,
+    )
 
 
 def _args(verb: str, argv: list[str]) -> argparse.Namespace:
@@ -76,8 +85,9 @@ def _anchor(bag: Path):
 
     node = find_node(bag, None)
     m = read_measured(bag, node)
-    simulate = RunResimulation(read_run(bag, node), m.params, HydraulicParams(), "hydraulic",
-                               m.record.step)  # fmt: skip
+    simulate = RunResimulation(
+        read_run(bag, node), m.params, HydraulicParams(), "hydraulic", m.record.step
+    )
     signals = ("stroke", "piston_force", "pressure_a", "pressure_b")
     measured = {k: getattr(m.record, k) for k in signals}
     names = list(TRUTH)
@@ -129,22 +139,32 @@ def main(argv=None) -> int:
             times["anchor"].append(time.perf_counter() - start)
         estimates = {e.name: e.value for e in outcome.result.estimates}
         inside = {e.name: e.contains(TRUTH[e.name]) for e in outcome.result.estimates}
-        resims = sum(int(s.notes[0].split()[0]) for s in outcome.result.stages
-                     if s.stage == "output")  # fmt: skip
+        resims = sum(
+            int(s.notes[0].split()[0]) for s in outcome.result.stages if s.stage == "output"
+        )
         med = {k: statistics.median(v) for k, v in times.items()}
         out = {
             "median_s": med,
             "fit_over_resimulate": med["fit"] / med["resimulate"],
             "anchor_over_resimulate": med["anchor"] / med["resimulate"],
             "fit_over_anchor": med["fit"] / med["anchor"],
-            "fit": {"estimates": estimates, "relative_errors": _errors(estimates),
-                    "truth_within_interval": inside, "re_simulations": resims},
-            "anchor": {"estimates": anchor, "relative_errors": _errors(anchor),
-                       "re_simulations": nfev, "message": message},
+            "fit": {
+                "estimates": estimates,
+                "relative_errors": _errors(estimates),
+                "truth_within_interval": inside,
+                "re_simulations": resims,
+            },
+            "anchor": {
+                "estimates": anchor,
+                "relative_errors": _errors(anchor),
+                "re_simulations": nfev,
+                "message": message,
+            },
             "repeats": args.repeats,
-            "load_average_before": load_before, "load_average_after": os.getloadavg(),
+            "load_average_before": load_before,
+            "load_average_after": os.getloadavg(),
             "machine": f"{os.cpu_count()} cores, shared with other work (see the load)",
-        }  # fmt: skip
+        }
     print(json.dumps(out, indent=2, default=str))
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2, default=str) + "\n")

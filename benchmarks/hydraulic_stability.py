@@ -40,8 +40,16 @@ def stable(hp: HydraulicParams, method: str, substep: float) -> bool:
     """Whether both scenes run to the end at ``substep`` [s] (module docstring)."""
     for name in SCENE_NAMES:
         try:
-            tr = run_scene("hydraulic", SCENES[name], P, 1e-3, hydraulic=hp, method=method,
-                           substep=substep, guard=False)  # fmt: skip
+            tr = run_scene(
+                "hydraulic",
+                SCENES[name],
+                P,
+                1e-3,
+                hydraulic=hp,
+                method=method,
+                substep=substep,
+                guard=False,
+            )
         except (DRSError, FloatingPointError, ValueError):
             return False
         lo, hi = tr.stroke.min(), tr.stroke.max()
@@ -104,15 +112,26 @@ def work_precision(quick: bool) -> list[dict]:
     for method, substep, fraction in runs:
         costs, tr = [], None
         for _ in range(1 if quick else 3):
-            tr = run_scene("hydraulic", scene, P, 1e-3, method=method, substep=substep,
-                           stability_fraction=fraction)  # fmt: skip
+            tr = run_scene(
+                "hydraulic",
+                scene,
+                P,
+                1e-3,
+                method=method,
+                substep=substep,
+                stability_fraction=fraction,
+            )
             costs.append(tr.cost_per_second)
-        out.append({
-            "method": method, "substep": substep, "stability_fraction": fraction,
-            "stroke_error": float(np.max(np.abs(tr.stroke - ref.stroke))),
-            "force_error": float(np.max(np.abs(tr.force - ref.force))),
-            "cost_per_simulated_second": float(np.median(costs)),
-        })  # fmt: skip
+        out.append(
+            {
+                "method": method,
+                "substep": substep,
+                "stability_fraction": fraction,
+                "stroke_error": float(np.max(np.abs(tr.stroke - ref.stroke))),
+                "force_error": float(np.max(np.abs(tr.force - ref.force))),
+                "cost_per_simulated_second": float(np.median(costs)),
+            }
+        )
     return out
 
 
@@ -124,8 +143,11 @@ def plot(rows: list[dict], path: Path) -> None:
     FigureCanvasAgg(fig)
     ax = fig.subplots()
     for method in dict.fromkeys(r["method"] for r in rows):
-        pts = sorted((r["cost_per_simulated_second"], r["stroke_error"]) for r in rows
-                     if r["method"] == method)  # fmt: skip
+        pts = sorted(
+            (r["cost_per_simulated_second"], r["stroke_error"])
+            for r in rows
+            if r["method"] == method
+        )
         ax.loglog(*zip(*pts, strict=True), "o-", label=method)
     ax.set_xlabel("cost per simulated second [s/s] (1 = a whole core at real time)")
     ax.set_ylabel("max stroke error vs the chart's reference [m]")
@@ -146,21 +168,27 @@ def main() -> None:
     t0 = time.perf_counter()
     for beta in betas:
         for vol in volumes:
-            hp = HydraulicParams(bulk_modulus=beta, dead_volume_piston_side=vol,
-                                 dead_volume_rod_side=vol)  # fmt: skip
+            hp = HydraulicParams(
+                bulk_modulus=beta, dead_volume_piston_side=vol, dead_volume_rod_side=vol
+            )
             row = {
-                "bulk_modulus": beta, "dead_volume": vol, "oil_frequency": oil_frequency(hp),
-                "rk4_predicted": predicted_limit(hp), "rk4_measured": largest_stable(hp, "rk4"),
-            }  # fmt: skip
+                "bulk_modulus": beta,
+                "dead_volume": vol,
+                "oil_frequency": oil_frequency(hp),
+                "rk4_predicted": predicted_limit(hp),
+                "rk4_measured": largest_stable(hp, "rk4"),
+            }
             for method in ("ros2", "linearly-implicit-euler"):
                 row[f"{method}_stable_at_1ms"] = stable(hp, method, 1e-3)
             grid.append(row)
             if not args.json:
-                print(f"beta {beta:8.2g} Pa  V0 {vol:8.2g} m^3  w_h {row['oil_frequency']:8.0f} "
-                      f"rad/s  rk4 stable to {row['rk4_measured']:.3g} s (guard "
-                      f"{row['rk4_predicted']:.3g} s)  ros2/LIE at 1 ms: "
-                      f"{row['ros2_stable_at_1ms']}/{row['linearly-implicit-euler_stable_at_1ms']}",
-                      flush=True)  # fmt: skip
+                print(
+                    f"beta {beta:8.2g} Pa  V0 {vol:8.2g} m^3  w_h {row['oil_frequency']:8.0f} "
+                    f"rad/s  rk4 stable to {row['rk4_measured']:.3g} s (guard "
+                    f"{row['rk4_predicted']:.3g} s)  ros2/LIE at 1 ms: "
+                    f"{row['ros2_stable_at_1ms']}/{row['linearly-implicit-euler_stable_at_1ms']}",
+                    flush=True,
+                )
     wp = work_precision(args.quick)
     result = {"grid": grid, "work_precision": wp, "seconds": time.perf_counter() - t0}
     (ROOT / "benchmarks" / "results").mkdir(exist_ok=True)

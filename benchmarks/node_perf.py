@@ -108,10 +108,23 @@ class PerfRecord:
     def __call__(self, pid: int):
         self.pid = pid
         proc = subprocess.Popen(
-            [self.perf, "record", "-F", str(self.frequency), "-p", str(pid), "-o",
-             str(self.data), "--", "sleep", f"{self.seconds:g}"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-        )  # fmt: skip
+            [
+                self.perf,
+                "record",
+                "-F",
+                str(self.frequency),
+                "-p",
+                str(pid),
+                "-o",
+                str(self.data),
+                "--",
+                "sleep",
+                f"{self.seconds:g}",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
 
         def stop() -> None:
             _out, err = proc.communicate(timeout=self.seconds + 60)
@@ -134,24 +147,42 @@ def main(argv: list[str] | None = None) -> int:
         os.environ.setdefault("ROS_LOG_DIR", str(tmp / "log"))
         data = tmp / "perf.data"
         observe = PerfRecord(data, args.frequency, args.duration - 0.5)
-        run = node_rate.measure("deadline", 1000.0, args.duration, args.domain, tmp / "run",
-                                observe=observe)  # fmt: skip
+        run = node_rate.measure(
+            "deadline", 1000.0, args.duration, args.domain, tmp / "run", observe=observe
+        )
         report = subprocess.run(
-            [observe.perf, "report", "-i", str(data), "--no-children", "--sort", "pid,dso",
-             "--stdio", "-g", "none", "--percent-limit", "0"],
-            capture_output=True, text=True, check=True,
-        ).stdout  # fmt: skip
+            [
+                observe.perf,
+                "report",
+                "-i",
+                str(data),
+                "--no-children",
+                "--sort",
+                "pid,dso",
+                "--stdio",
+                "-g",
+                "none",
+                "--percent-limit",
+                "0",
+            ],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
     by_thread = shares(report, observe.pid)
     libraries = {lib for libs in by_thread.values() for lib in libs}
     totals = {t: sum(libs.values()) for t, libs in by_thread.items()}
-    print(f"drs-node, deadline loop at 1 kHz: {100 * run['cpu_share_of_core']:.1f} % of a core, "
-          f"missed {100 * run['missed_share']:.2f} %; perf samples by thread and library, % of "
-          f"the node's")  # fmt: skip
+    print(
+        f"drs-node, deadline loop at 1 kHz: {100 * run['cpu_share_of_core']:.1f} % of a core, "
+        f"missed {100 * run['missed_share']:.2f} %; perf samples by thread and library, % of "
+        f"the node's"
+    )
     width = max(len(lib) for lib in libraries)
     print(f"{'':<{width}}  " + "  ".join(f"{t[:24]:>24}" for t in totals))
     for lib in sorted(libraries, key=lambda x: -sum(v.get(x, 0) for v in by_thread.values())):
-        print(f"{lib:<{width}}  "
-              + "  ".join(f"{by_thread[t].get(lib, 0.0):24.1f}" for t in totals))  # fmt: skip
+        print(
+            f"{lib:<{width}}  " + "  ".join(f"{by_thread[t].get(lib, 0.0):24.1f}" for t in totals)
+        )
     print(f"{'all':<{width}}  " + "  ".join(f"{totals[t]:24.1f}" for t in totals))
     Path(args.json).write_text(json.dumps({"run": run, "shares_percent": by_thread}, indent=1))
     return 0

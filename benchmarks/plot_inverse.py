@@ -33,10 +33,15 @@ def plot_methods(p: DRSParams, path: Path) -> None:
     ax.plot(pk.time * 1e3, pk.force / 1e3, "kv", ms=8)
     ax.annotate(
         f"peak {pk.force / 1e3:.2f} kN\nt = {pk.time * 1e3:.3f} ms, s = {pk.stroke * 1e3:.3f} mm",
-        (pk.time * 1e3, pk.force / 1e3), xytext=(8, -34), textcoords="offset points",
+        (pk.time * 1e3, pk.force / 1e3),
+        xytext=(8, -34),
+        textcoords="offset points",
     )
-    ax.set(xlabel="time t [ms]", ylabel="piston force F [kN]",
-           title=f"Piston force, three formulations overlapping (Iz_wing = {p.Iz_wing:.4g} kg m^2)")
+    ax.set(
+        xlabel="time t [ms]",
+        ylabel="piston force F [kN]",
+        title=f"Piston force, three formulations overlapping (Iz_wing = {p.Iz_wing:.4g} kg m^2)",
+    )
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()
@@ -49,17 +54,28 @@ def plot_inertias(path: Path) -> None:
     fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
     cases = [
         (DRSParams(), "Iz_wing = m L^2 / 3 = 0.0096 kg m^2 (default)", "tab:blue"),
-        (DRSParams(Iz_wing=SEED_LITERAL_IZ_WING), "Iz_wing = m L / 3 = 0.08 (seed's literal)",
-         "tab:red"),
+        (
+            DRSParams(Iz_wing=SEED_LITERAL_IZ_WING),
+            "Iz_wing = m L / 3 = 0.08 (seed's literal)",
+            "tab:red",
+        ),
     ]
     for p, label, color in cases:
         ax.plot(t * 1e3, manoeuvre_force(t, p) / 1e3, color=color, label=label)
         pk = peak_force(p)
         ax.plot(pk.time * 1e3, pk.force / 1e3, "v", color=color, ms=8)
-        ax.annotate(f"{pk.force / 1e3:.1f} kN", (pk.time * 1e3, pk.force / 1e3),
-                    xytext=(8, 0), textcoords="offset points", color=color)
-    ax.set(xlabel="time t [ms]", ylabel="piston force F [kN]",
-           title="Piston force for the two flap inertias (virtual work)")
+        ax.annotate(
+            f"{pk.force / 1e3:.1f} kN",
+            (pk.time * 1e3, pk.force / 1e3),
+            xytext=(8, 0),
+            textcoords="offset points",
+            color=color,
+        )
+    ax.set(
+        xlabel="time t [ms]",
+        ylabel="piston force F [kN]",
+        title="Piston force for the two flap inertias (virtual work)",
+    )
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()

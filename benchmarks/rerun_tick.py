@@ -108,15 +108,19 @@ def main(argv: list[str] | None = None) -> int:
                 blocks[kind].append(fig)
                 print(kind, fig, flush=True)
     summary = {
-        kind: {key: statistics.median(b[key] for b in blocks[kind])
-               for key in blocks[kind][0] if key != "policy"}  # fmt: skip
+        kind: {
+            key: statistics.median(b[key] for b in blocks[kind])
+            for key in blocks[kind][0]
+            if key != "policy"
+        }
         | {"policy": blocks[kind][0]["policy"]}
         for kind in KINDS
     }
     print(json.dumps(summary, indent=1))
     out = Path(__file__).with_name("results") / "rerun_tick.json"
-    out.write_text(json.dumps({"args": vars(args), "median": summary, "blocks": blocks},
-                              indent=1) + "\n")  # fmt: skip
+    out.write_text(
+        json.dumps({"args": vars(args), "median": summary, "blocks": blocks}, indent=1) + "\n"
+    )
     return 0
 
 

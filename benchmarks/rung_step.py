@@ -76,12 +76,16 @@ def main() -> None:
         samples["call floor"].append(floor_per_second(args.seconds, args.publish_every))
     costs = {k: statistics.median(v) for k, v in samples.items()}
     for name, cost in costs.items():
-        print(f"{name:>13}: {cost * 1e3:8.3f} ms per simulated s "
-              f"({cost * DT * 1e6:6.2f} us per step), "
-              f"rigid / this = {costs['rigid'] / cost:6.1f}x")  # fmt: skip
+        print(
+            f"{name:>13}: {cost * 1e3:8.3f} ms per simulated s "
+            f"({cost * DT * 1e6:6.2f} us per step), "
+            f"rigid / this = {costs['rigid'] / cost:6.1f}x"
+        )
     ratio = costs["rigid"] / costs["kinematic"]
-    print(f"goal: kinematic >= 50x cheaper than rigid stepped: {ratio:.1f}x "
-          f"{'met' if ratio >= 50 else 'MISSED'}")  # fmt: skip
+    print(
+        f"goal: kinematic >= 50x cheaper than rigid stepped: {ratio:.1f}x "
+        f"{'met' if ratio >= 50 else 'MISSED'}"
+    )
 
 
 if __name__ == "__main__":

@@ -38,11 +38,23 @@ from pathlib import Path
 
 
 def start_node(bag: Path, env: dict) -> subprocess.Popen:
-    args = [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={bag}",
-            "-p", f"rrd_path:={bag}.rrd", "-p", "publish_rate_hz:=500.0",
-            "-p", "flush_period:=0.1"]  # fmt: skip
-    return subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            text=True)  # fmt: skip
+    args = [
+        sys.executable,
+        "-m",
+        "drs_ros",
+        "--ros-args",
+        "-p",
+        f"bag_path:={bag}",
+        "-p",
+        f"rrd_path:={bag}.rrd",
+        "-p",
+        "publish_rate_hz:=500.0",
+        "-p",
+        "flush_period:=0.1",
+    ]
+    return subprocess.Popen(
+        args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -108,41 +120,83 @@ def main(argv: list[str] | None = None) -> int:
                 if run_rerun_cli(["rrd", "verify", f"{work / n}.rrd"]).returncode != 0:
                     failures["rrd verify"] += 1
                 done += 1
-            print(f"{done}/{args.stops} stops, failures so far: {dict(failures) or 'none'}",
-                  file=sys.stderr)  # fmt: skip
+            print(
+                f"{done}/{args.stops} stops, failures so far: {dict(failures) or 'none'}",
+                file=sys.stderr,
+            )
     finally:
         client.close()
         for b in burners:
             b.kill()
     minutes = (time.monotonic() - t_start) / 60
-    print(f"{done} stops in {minutes:.1f} min, both cores busy: "
-          f"{sum(failures.values())} failed {dict(failures) or ''}")  # fmt: skip
+    print(
+        f"{done} stops in {minutes:.1f} min, both cores busy: "
+        f"{sum(failures.values())} failed {dict(failures) or ''}"
+    )
     return 1 if failures else 0
 
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
 #: tool -> (its command for output path OUT, its share of the signals)
 START_UP_TOOLS = {
-    "drs-node": (lambda out: ["-m", "drs_ros", "--ros-args", "-p", f"bag_path:={out}",
-                              "-p", f"rrd_path:={out}.rrd", "-p", "flush_period:=0.1"], 2),
+    "drs-node": (
+        lambda out: [
+            "-m",
+            "drs_ros",
+            "--ros-args",
+            "-p",
+            f"bag_path:={out}",
+            "-p",
+            f"rrd_path:={out}.rrd",
+            "-p",
+            "flush_period:=0.1",
+        ],
+        2,
+    ),
     "drs-bag play": (lambda out: ["-m", "drs_ros.bag.cli", "play", str(EXAMPLE)], 2),
-    "drs excite": (lambda out: ["-m", "drs_model.cli", "excite", "m_wing", "--starts", "2",
-                                "-o", f"{out}.yaml"], 1),
-    "drs-bag resimulate": (lambda out: ["-m", "drs_ros.bag.cli", "resimulate", str(EXAMPLE),
-                                        "-o", str(out)], 1),
-    "drs-check": (lambda out: ["-c", "import sys; from drs_ros.bag.cli import check_alias; "
-                               "sys.exit(check_alias())", str(EXAMPLE)], 1),
-    "drs-demo": (lambda out: ["-m", "drs_ros.demo", "--out", str(out.parent), "--name",
-                              out.name], 1),
-}  # fmt: skip
+    "drs excite": (
+        lambda out: [
+            "-m",
+            "drs_model.cli",
+            "excite",
+            "m_wing",
+            "--starts",
+            "2",
+            "-o",
+            f"{out}.yaml",
+        ],
+        1,
+    ),
+    "drs-bag resimulate": (
+        lambda out: ["-m", "drs_ros.bag.cli", "resimulate", str(EXAMPLE), "-o", str(out)],
+        1,
+    ),
+    "drs-check": (
+        lambda out: [
+            "-c",
+            "import sys; from drs_ros.bag.cli import check_alias; sys.exit(check_alias())",
+            str(EXAMPLE),
+        ],
+        1,
+    ),
+    "drs-demo": (
+        lambda out: ["-m", "drs_ros.demo", "--out", str(out.parent), "--name", out.name],
+        1,
+    ),
+}
 #: The longest a stop may take after its signal [s].
 STOP_WITHIN_S = 1.0
 
 
 def start_up_signal(tool: str, out: Path, env: dict, at_s: float, sig) -> dict:
     """Start ``tool``, send ``sig`` ``at_s`` after the start; what happened."""
-    proc = subprocess.Popen([sys.executable, *START_UP_TOOLS[tool][0](out)], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, *START_UP_TOOLS[tool][0](out)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     time.sleep(at_s)
     sent = time.monotonic()
     running = proc.poll() is None  # a tool that ended before its moment met no signal
@@ -153,8 +207,12 @@ def start_up_signal(tool: str, out: Path, env: dict, at_s: float, sig) -> dict:
     except subprocess.TimeoutExpired:
         proc.kill()
         _, err = proc.communicate()
-    return {"status": proc.returncode, "after_s": time.monotonic() - sent, "stderr": err,
-            "signalled": running}
+    return {
+        "status": proc.returncode,
+        "after_s": time.monotonic() - sent,
+        "stderr": err,
+        "signalled": running,
+    }
 
 
 def judge_start_up(tool: str, out: Path, run: dict, bag_main, run_rerun_cli) -> list[str]:
@@ -187,8 +245,15 @@ def start_up_main(args, work: Path, env: dict) -> int:
     env = dict(env, DRS_DEMO_DOMAIN=str(args.domain + 1))  # the demo's node and its driver
     rng = random.Random(args.seed)
     order = [tool for tool, (_, share) in START_UP_TOOLS.items() for _ in range(share)]
-    plan = [(order[i % len(order)], work / f"s{i}", rng.uniform(0.0, 3.5),
-             rng.choice([signal.SIGINT, signal.SIGTERM])) for i in range(args.stops)]  # fmt: skip
+    plan = [
+        (
+            order[i % len(order)],
+            work / f"s{i}",
+            rng.uniform(0.0, 3.5),
+            rng.choice([signal.SIGINT, signal.SIGTERM]),
+        )
+        for i in range(args.stops)
+    ]
     failures: Counter = Counter()
     latencies: dict[str, list[float]] = {}
     t_start = time.monotonic()
@@ -200,16 +265,22 @@ def start_up_main(args, work: Path, env: dict) -> int:
                 latencies.setdefault(tool, []).append(run["after_s"])
             last = (run["stderr"].strip().splitlines() or [""])[-1]
             met = "" if run["signalled"] else " (ended before it)"
-            print(f"{out.name} {tool}: {sig.name} at {at_s:.2f} s{met}, exit {run['status']} "
-                  f"{run['after_s']:.2f} s after: {', '.join(bad) or 'good'} | {last[:100]}")
+            print(
+                f"{out.name} {tool}: {sig.name} at {at_s:.2f} s{met}, exit {run['status']} "
+                f"{run['after_s']:.2f} s after: {', '.join(bad) or 'good'} | {last[:100]}"
+            )
             for b in bad:
                 failures[f"{tool}: {b}"] += 1
     minutes = (time.monotonic() - t_start) / 60
     for tool, values in latencies.items():
-        print(f"{tool}: {len(values)} signals met it running, it ended "
-              f"{min(values):.2f}..{max(values):.2f} s after the signal")  # fmt: skip
-    print(f"{args.stops} signals in {minutes:.1f} min: {sum(failures.values())} failed "
-          f"{dict(failures) or ''}")  # fmt: skip
+        print(
+            f"{tool}: {len(values)} signals met it running, it ended "
+            f"{min(values):.2f}..{max(values):.2f} s after the signal"
+        )
+    print(
+        f"{args.stops} signals in {minutes:.1f} min: {sum(failures.values())} failed "
+        f"{dict(failures) or ''}"
+    )
     return 1 if failures else 0
 
 

@@ -121,8 +121,10 @@ def main() -> None:
     spec = replace(read_spec(args.spec), samples=args.samples)
     small = replace(spec, samples=4)
     runs = spec.runs
-    print(f"study: {runs} runs ({args.samples} base samples x {len(spec.fields) + 2}), "
-          f"chunk {args.chunk}, {args.repeats} repeats, load {os.getloadavg()}")  # fmt: skip
+    print(
+        f"study: {runs} runs ({args.samples} base samples x {len(spec.fields) + 2}), "
+        f"chunk {args.chunk}, {args.repeats} repeats, load {os.getloadavg()}"
+    )
     floor(small, args.chunk)  # this process's numba loads
     times = {"floor": [], "1 worker": [], "2 workers": []}
     cpu = {k: [] for k in times}  # the workers' CPU seconds (the floor: this process's)
@@ -148,8 +150,7 @@ def main() -> None:
             times[key].append(wall)
             cpu[key].append(cpu_s)
             other[key].append(other_s)
-        done = ", ".join(f"{k} {v[-1]:.2f} s ({cpu[k][-1]:.2f} s CPU)"
-                         for k, v in times.items())  # fmt: skip
+        done = ", ".join(f"{k} {v[-1]:.2f} s ({cpu[k][-1]:.2f} s CPU)" for k, v in times.items())
         print(f"  repeat {r + 1}: {done}")
     py, total = python_share(spec)
     med = {k: statistics.median(v) for k, v in times.items()}
@@ -179,20 +180,30 @@ def main() -> None:
         "python_parameters_ms_per_sample": 1e3 * py / runs,
         "scheduler_overhead_ms_per_task": 1e3 * statistics.median(overhead),
     }
-    print(f"per sample: floor {1e3 * per_sample['floor']:.3f} ms, 1 worker "
-          f"{1e3 * per_sample['1 worker']:.3f} ms ({result['one_worker_over_floor']:.3f}x the "
-          f"floor, target <= 1.2), 2 workers {1e3 * per_sample['2 workers']:.3f} ms")  # fmt: skip
-    print("samples/s: " + ", ".join(f"{k} {v:.0f}" for k, v in
-          result["samples_per_second"].items()))  # fmt: skip
+    print(
+        f"per sample: floor {1e3 * per_sample['floor']:.3f} ms, 1 worker "
+        f"{1e3 * per_sample['1 worker']:.3f} ms ({result['one_worker_over_floor']:.3f}x the "
+        f"floor, target <= 1.2), 2 workers {1e3 * per_sample['2 workers']:.3f} ms"
+    )
+    print(
+        "samples/s: " + ", ".join(f"{k} {v:.0f}" for k, v in result["samples_per_second"].items())
+    )
     print(f"1 -> 2 workers: {speedup:.3f}x ({100 * speedup / 2:.1f} % of linear, target >= 90 %)")
-    print("workers' CPU per sample: " + ", ".join(f"{k} {v:.3f} ms" for k, v in
-          result["worker_cpu_ms_per_sample"].items()) + f"; 1 worker / floor "
-          f"{result['one_worker_over_floor_cpu']:.3f}, 2 workers / 1 worker "
-          f"{result['cpu_two_over_one_worker']:.3f}")  # fmt: skip
-    print("client + scheduler + nannies, CPU per sample: " + ", ".join(
-          f"{k} {v:.3f} ms" for k, v in result["other_cpu_ms_per_sample"].items()))  # fmt: skip
-    print(f"per-sample Python (prepare): {result['python_parameters_ms_per_sample']:.3f} ms, "
-          f"{100 * result['python_parameters_share']:.1f} % of the evaluation")  # fmt: skip
+    print(
+        "workers' CPU per sample: "
+        + ", ".join(f"{k} {v:.3f} ms" for k, v in result["worker_cpu_ms_per_sample"].items())
+        + f"; 1 worker / floor "
+        f"{result['one_worker_over_floor_cpu']:.3f}, 2 workers / 1 worker "
+        f"{result['cpu_two_over_one_worker']:.3f}"
+    )
+    print(
+        "client + scheduler + nannies, CPU per sample: "
+        + ", ".join(f"{k} {v:.3f} ms" for k, v in result["other_cpu_ms_per_sample"].items())
+    )
+    print(
+        f"per-sample Python (prepare): {result['python_parameters_ms_per_sample']:.3f} ms, "
+        f"{100 * result['python_parameters_share']:.1f} % of the evaluation"
+    )
     print(f"scheduler overhead: {result['scheduler_overhead_ms_per_task']:.3f} ms per task")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -116,6 +116,7 @@ class PartTimer:
     def calibrate(self, n: int = 20000) -> tuple[float, float]:
         """The wrappers' own cost [ns]: inside a timed call (counted in its part) and around it
         (counted in its caller's), from a timed no-op called ``n`` times by a timed loop."""
+
         class Probe:
             def noop(self):
                 return None
@@ -188,8 +189,9 @@ def instrument(node, timer: PartTimer) -> None:
 
 def start_listener(domain: int) -> subprocess.Popen:
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
-    proc = subprocess.Popen([sys.executable, "-c", LISTENER], env=env, stdout=subprocess.PIPE,
-                            text=True)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, "-c", LISTENER], env=env, stdout=subprocess.PIPE, text=True
+    )
     if proc.stdout.readline().strip() != "ready":
         proc.kill()
         raise RuntimeError("the listener did not start")
@@ -267,8 +269,10 @@ def drive(node, clock: FakeClock, ticks: int, state: dict) -> tuple[list, list, 
 
 
 def summary(values_ns) -> dict[str, float]:
-    return {"median_us": statistics.median(values_ns) / 1e3,
-            "mean_us": statistics.fmean(values_ns) / 1e3}  # fmt: skip
+    return {
+        "median_us": statistics.median(values_ns) / 1e3,
+        "mean_us": statistics.fmean(values_ns) / 1e3,
+    }
 
 
 def measure(node, clock: FakeClock, ticks: int, rounds: int) -> dict:
@@ -291,8 +295,10 @@ def measure(node, clock: FakeClock, ticks: int, rounds: int) -> dict:
                 timer.reset()
                 t, _p, a = drive(node, clock, 1, state)
                 aside.update(a)
-                own = {key: timer.tick[key] - inside * timer.calls[key]
-                       - around * timer.children[key] for key in timer.tick}  # fmt: skip
+                own = {
+                    key: timer.tick[key] - inside * timer.calls[key] - around * timer.children[key]
+                    for key in timer.tick
+                }
                 for key, ns in own.items():
                     parts[key].append(ns)
                 raw = sum(timer.tick.values())
@@ -338,8 +344,10 @@ def cold_ticks(node, clock: FakeClock, rounds: int) -> dict:
     state = {"n": 0}
     drive(node, clock, 1000, state)  # warm-up
     tt = time.thread_time_ns
-    runs: dict[str, dict[float, list]] = {"tick": collections.defaultdict(list),
-                                          "control": collections.defaultdict(list)}  # fmt: skip
+    runs: dict[str, dict[float, list]] = {
+        "tick": collections.defaultdict(list),
+        "control": collections.defaultdict(list),
+    }
     for _ in range(rounds):
         for gap in GAPS_S:
             for kind in ("tick", "control"):
@@ -357,31 +365,43 @@ def cold_ticks(node, clock: FakeClock, rounds: int) -> dict:
     out = {}
     for kind, by_gap in runs.items():
         base = statistics.median(by_gap[0.0])
-        out[kind] = {f"{1e3 * gap:g} ms": {"median_us": statistics.median(v),
-                                            "ratio": statistics.median(v) / base,
-                                            "rounds_us": v}
-                     for gap, v in by_gap.items()}  # fmt: skip
+        out[kind] = {
+            f"{1e3 * gap:g} ms": {
+                "median_us": statistics.median(v),
+                "ratio": statistics.median(v) / base,
+                "rounds_us": v,
+            }
+            for gap, v in by_gap.items()
+        }
     return out
 
 
 def print_cold(res: dict) -> None:
-    print(f"{'idle before the tick':22s} {'tick us':>9s} {'ratio':>6s} {'control us':>11s} "
-          f"{'ratio':>6s}")  # fmt: skip
+    print(
+        f"{'idle before the tick':22s} {'tick us':>9s} {'ratio':>6s} {'control us':>11s} "
+        f"{'ratio':>6s}"
+    )
     for gap in res["tick"]:
         tick, control = res["tick"][gap], res["control"][gap]
-        print(f"{gap:22s} {tick['median_us']:9.1f} {tick['ratio']:6.2f} "
-              f"{control['median_us']:11.1f} {control['ratio']:6.2f}")  # fmt: skip
+        print(
+            f"{gap:22s} {tick['median_us']:9.1f} {tick['ratio']:6.2f} "
+            f"{control['median_us']:11.1f} {control['ratio']:6.2f}"
+        )
 
 
 def print_table(res: dict) -> None:
     total = res["tick_instrumented"]["mean_us"]
     print(f"{'part of a tick':44s} {'median us':>10s} {'mean us':>10s} {'share':>7s}")
     for key, s in res["parts"].items():
-        print(f"{key:44s} {s['median_us']:10.1f} {s['mean_us']:10.1f} "
-              f"{100 * s['mean_us'] / total:6.1f}%")  # fmt: skip
-    for label, key in (("tick, instrumented, less the wrappers", "tick_instrumented"),
-                       ("tick, bare (tick thread)", "tick_thread"),
-                       ("tick, bare (whole process)", "tick_process")):  # fmt: skip
+        print(
+            f"{key:44s} {s['median_us']:10.1f} {s['mean_us']:10.1f} "
+            f"{100 * s['mean_us'] / total:6.1f}%"
+        )
+    for label, key in (
+        ("tick, instrumented, less the wrappers", "tick_instrumented"),
+        ("tick, bare (tick thread)", "tick_thread"),
+        ("tick, bare (whole process)", "tick_process"),
+    ):
         s = res[key]
         print(f"{label:44s} {s['median_us']:10.1f} {s['mean_us']:10.1f}")
     for key, us in res["aside_per_tick_us"].items():
@@ -398,9 +418,12 @@ def main() -> int:
     ap.add_argument("--fidelity", default="rigid")
     ap.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0")))
     ap.add_argument("--output", type=Path, default=RESULTS)
-    ap.add_argument("--gaps", action="store_true",
-                    help="only the tick's CPU after idle gaps of 0, 1, 4, 10 ms (the cold "
-                         "tick) beside a plain-Python control; to tick_cost_gaps.json")  # fmt: skip
+    ap.add_argument(
+        "--gaps",
+        action="store_true",
+        help="only the tick's CPU after idle gaps of 0, 1, 4, 10 ms (the cold "
+        "tick) beside a plain-Python control; to tick_cost_gaps.json",
+    )
     args = ap.parse_args()
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     if os.environ.pop("ROS_PYTHON_CHECK_FIELDS", None):
@@ -435,11 +458,14 @@ def main() -> int:
             rclpy.try_shutdown(context=ctx)
             if listener is not None:
                 stop_listener(listener)
-    res.update(listener=args.listener, fidelity=args.fidelity, loadavg=os.getloadavg(),
-               cpus=os.cpu_count())  # fmt: skip
-    print(f"tick_cost: {args.rounds} x {args.ticks} ticks of each kind, listener "
-          f"{args.listener}, fidelity {args.fidelity}, load {os.getloadavg()[0]:.1f} on "
-          f"{os.cpu_count()} cores")  # fmt: skip
+    res.update(
+        listener=args.listener, fidelity=args.fidelity, loadavg=os.getloadavg(), cpus=os.cpu_count()
+    )
+    print(
+        f"tick_cost: {args.rounds} x {args.ticks} ticks of each kind, listener "
+        f"{args.listener}, fidelity {args.fidelity}, load {os.getloadavg()[0]:.1f} on "
+        f"{os.cpu_count()} cores"
+    )
     if args.gaps:
         print_cold(res["cold"])
         if args.output == RESULTS:

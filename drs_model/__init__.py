@@ -37,16 +37,28 @@ from .errors import (
 #: (:mod:`drs_model.cli.start_signals`).
 _LAZY = MappingProxyType(
     {
-        **{name: ("kinematics", name) for name in (
-            "KinematicState", "flap_angle_limits", "gap", "kinematic_state", "solve_position",
-            "solve_position_from_flap_angle", "stroke_for_gap", "stroke_limits",
-            "velocity_ratio")},
+        **{
+            name: ("kinematics", name)
+            for name in (
+                "KinematicState",
+                "flap_angle_limits",
+                "gap",
+                "kinematic_state",
+                "solve_position",
+                "solve_position_from_flap_angle",
+                "stroke_for_gap",
+                "stroke_limits",
+                "velocity_ratio",
+            )
+        },
         "from_file": ("overrides", "from_file"),
         "SEED_LITERAL_IZ_WING": ("params", "SEED_LITERAL_IZ_WING"),
         "DRSParams": ("params", "DRSParams"),
         "from_dict": ("params", "from_dict"),
-        **{name: ("profile", name) for name in (
-            "Manoeuvre", "QuinticSegment", "drs_manoeuvre", "quintic_move")},
+        **{
+            name: ("profile", name)
+            for name in ("Manoeuvre", "QuinticSegment", "drs_manoeuvre", "quintic_move")
+        },
         "ActuatorSim": ("actuator", "ActuatorSim"),
         "ActuatorState": ("actuator", "ActuatorState"),
         "DegenerateGeometryError": ("coriolis", "DegenerateGeometryError"),

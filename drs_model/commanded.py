@@ -256,8 +256,10 @@ class CommandedActuator:
         short = np.flatnonzero(durations < self.dt * (1.0 - 1e-9))
         if short.size:
             k = int(short[0])
-            raise InputError(f"segment {first + k} of the move lasts {durations[k]:.6g} s, "
-                             f"shorter than the physics step dt = {self.dt:g} s")  # fmt: skip
+            raise InputError(
+                f"segment {first + k} of the move lasts {durations[k]:.6g} s, "
+                f"shorter than the physics step dt = {self.dt:g} s"
+            )
         if not self.limit_moves:
             return
         from .inverse import path_peak_force
@@ -357,8 +359,9 @@ class CommandedActuator:
         :attr:`limit_moves`, longer where the move needs more than ``force_limit`` in them (a
         heavier flap): the times are the seed's, not the caller's, as a stroke command's."""
         target, duration = self.motion.drs_move(open_flap)
-        return self.command_stroke(target, self._fit_duration(target, duration,
-                                                              self._command_start()))  # fmt: skip
+        return self.command_stroke(
+            target, self._fit_duration(target, duration, self._command_start())
+        )
 
     def _checked_force(self, force: float) -> float:
         """``force`` [N] as a float; refuse NaN or |F| > force_limit."""

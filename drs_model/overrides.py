@@ -55,8 +55,9 @@ def split_overrides(values: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str
     return model, hydraulic
 
 
-def apply_overrides(values: Mapping[str, Any], model: DRSParams | None = None,
-                    hydraulic=None) -> tuple[DRSParams, Any]:  # fmt: skip
+def apply_overrides(
+    values: Mapping[str, Any], model: DRSParams | None = None, hydraulic=None
+) -> tuple[DRSParams, Any]:
     """``model`` and ``hydraulic`` (default: the seed's and HydraulicParams' defaults) with
     ``values`` applied (:func:`split_overrides`), each checked by its dataclass."""
     from .fidelity.hydraulic_params import hydraulic_from_dict
@@ -66,8 +67,9 @@ def apply_overrides(values: Mapping[str, Any], model: DRSParams | None = None,
     return model, hydraulic_from_dict(hydraulic_values, base=hydraulic)
 
 
-def both_from_file(path: str | Path, model: DRSParams | None = None,
-                   hydraulic=None) -> tuple[DRSParams, Any]:  # fmt: skip
+def both_from_file(
+    path: str | Path, model: DRSParams | None = None, hydraulic=None
+) -> tuple[DRSParams, Any]:
     """:func:`apply_overrides` with a parameter file's values: DRSParams and HydraulicParams."""
     return apply_overrides(file_overrides(path), model, hydraulic)
 
@@ -103,8 +105,10 @@ def file_overrides(path: str | Path) -> dict[str, Any]:
     except OSError as exc:
         raise ParameterError(f"cannot read parameter file {str(path)!r}: {exc}") from exc
     except UnicodeDecodeError as exc:
-        raise ParameterError(f"cannot read parameter file {str(path)!r}: not UTF-8 text "
-                             f"(byte 0x{exc.object[exc.start]:02x} at {exc.start})") from None
+        raise ParameterError(
+            f"cannot read parameter file {str(path)!r}: not UTF-8 text "
+            f"(byte 0x{exc.object[exc.start]:02x} at {exc.start})"
+        ) from None
     suffix = path.suffix.lower()
     try:
         if suffix == ".toml":
@@ -123,8 +127,9 @@ def file_overrides(path: str | Path) -> dict[str, Any]:
     except ParameterError:
         raise
     except Exception as exc:  # noqa: BLE001 - any parser error becomes a ParameterError
-        raise ParameterError(f"cannot parse parameter file {str(path)!r}: "
-                             f"{parse_error_text(exc)}") from exc
+        raise ParameterError(
+            f"cannot parse parameter file {str(path)!r}: {parse_error_text(exc)}"
+        ) from exc
     if isinstance(data, Mapping) and "drs" in data and isinstance(data["drs"], Mapping):
         data = data["drs"]
     if not isinstance(data, Mapping):
@@ -150,8 +155,10 @@ def _known_names(names) -> None:
     known |= {f"hydraulic.{n}" for n in hydraulic}
     unknown = sorted(set(names) - known)
     if unknown:
-        raise ParameterError(f"unknown parameter(s) {unknown}; valid names: {sorted(model)} "
-                             f"and the hydraulic {sorted(hydraulic)}")
+        raise ParameterError(
+            f"unknown parameter(s) {unknown}; valid names: {sorted(model)} "
+            f"and the hydraulic {sorted(hydraulic)}"
+        )
 
 
 def parameter_file_argument(path: str) -> str:

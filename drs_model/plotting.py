@@ -148,9 +148,13 @@ def _collar_map(
     ax3 = fig.add_subplot(1, 2, 2, projection="3d")
     ax3.plot_surface(r_map, th_map, z, cmap="viridis", linewidth=0, antialiased=False)
     ax3.scatter(
-        [example.r], [math.degrees(example.theta)], [value], color="tab:red", s=30,
+        [example.r],
+        [math.degrees(example.theta)],
+        [value],
+        color="tab:red",
+        s=30,
         depthshade=False,
-    )  # fmt: skip
+    )
     ax3.set_xlabel("r [m]")
     ax3.set_ylabel("θ [deg]")
     ax3.set_zlabel(label)
@@ -299,10 +303,17 @@ def plot_fidelity(rows, path, dpi: int = 100) -> Path:
             if r.scene != scene or r.errors is None or not math.isfinite(r.cost_per_second):
                 continue
             err = max(r.errors["gap"], floor)
-            ax.loglog(r.cost_per_second, err, markers.get(r.rung, "x"), color=colours[r.label],
-                      label=r.label, alpha=0.8)  # fmt: skip
-        ref = next((r for r in rows if r.scene == scene and r.errors is None and not r.refused),
-                   None)  # fmt: skip
+            ax.loglog(
+                r.cost_per_second,
+                err,
+                markers.get(r.rung, "x"),
+                color=colours[r.label],
+                label=r.label,
+                alpha=0.8,
+            )
+        ref = next(
+            (r for r in rows if r.scene == scene and r.errors is None and not r.refused), None
+        )
         if ref is not None:
             ax.axvline(ref.cost_per_second, color="grey", lw=0.8, ls="--")
         ax.set_title(scene, fontsize=9)
@@ -316,7 +327,13 @@ def plot_fidelity(rows, path, dpi: int = 100) -> Path:
             if n not in names:
                 handles.append(h)
                 names.append(n)
-    fig.legend(handles, names, loc="lower right", fontsize=8,
-               title="dashed: the reference's cost", title_fontsize=7)  # fmt: skip
+    fig.legend(
+        handles,
+        names,
+        loc="lower right",
+        fontsize=8,
+        title="dashed: the reference's cost",
+        title_fontsize=7,
+    )
     _save(fig, path)
     return path

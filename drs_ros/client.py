@@ -36,9 +36,16 @@ class DRSClient:
     (of :data:`LISTENS`; default all, none for a command stream alone). ``client_name`` names
     the client's own node. Use as a context manager, or call :meth:`close`."""
 
-    def __init__(self, domain: int, node_name: str = "/drs", timeout: float = 30.0, *,
-                 keep: bool = False, listen=LISTENS,
-                 client_name: str = "drs_client") -> None:  # fmt: skip
+    def __init__(
+        self,
+        domain: int,
+        node_name: str = "/drs",
+        timeout: float = 30.0,
+        *,
+        keep: bool = False,
+        listen=LISTENS,
+        client_name: str = "drs_client",
+    ) -> None:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.context import Context
@@ -55,8 +62,12 @@ class DRSClient:
         self.node = Node(client_name, context=self._ctx)
         self._ex = SingleThreadedExecutor(context=self._ctx)
         self._ex.add_node(self.node)
-        self.seen: dict[str, object] = {"joint_states": 0, "gap_max": 0.0, "force_max": 0.0,
-                                        "diag": None}  # fmt: skip
+        self.seen: dict[str, object] = {
+            "joint_states": 0,
+            "gap_max": 0.0,
+            "force_max": 0.0,
+            "diag": None,
+        }
         self.keep = keep
         self.joint_state_msgs: list = []
         self.arrival_times: list[float] = []
@@ -135,14 +146,16 @@ class DRSClient:
         if not self._service.wait_for_service(timeout_sec=self.timeout):
             raise ClientError(f"the node's ~/drs service did not appear within {self.timeout} s")
         self._until(self.commands_matched, "the node's command topics were not matched")
-        self._until(lambda: int(self.seen["joint_states"]) >= joint_states,
-                    "no /joint_states from the node")  # fmt: skip
+        self._until(
+            lambda: int(self.seen["joint_states"]) >= joint_states, "no /joint_states from the node"
+        )
 
     # ---- commands --------------------------------------------------------------------------------
     def request_drs(self, value: bool):
         """``~/drs`` with ``value`` (true opens), not waiting for the answer: its future."""
         if not self._service.service_is_ready() and not self._service.wait_for_service(
-                timeout_sec=self.timeout):  # fmt: skip
+            timeout_sec=self.timeout
+        ):
             raise ClientError(f"the node's ~/drs service did not appear within {self.timeout} s")
         return self._service.call_async(self._set_bool.Request(data=value))
 
@@ -185,8 +198,9 @@ class DRSClient:
         if self._parameters is None:
             self._parameters = AsyncParameterClient(self.node, self.name)
             if not self._parameters.wait_for_services(self.timeout):
-                raise ClientError(f"the node's parameter services did not appear within "
-                                  f"{self.timeout:g} s")  # fmt: skip
+                raise ClientError(
+                    f"the node's parameter services did not appear within {self.timeout:g} s"
+                )
         fut = self._parameters.set_parameters([Parameter(name, value=value)])
         self._until(fut.done, f"no answer setting {name}")
         return fut.result().results[0]
@@ -198,8 +212,9 @@ class DRSClient:
         from rclpy.action import ActionClient
         from trajectory_msgs.msg import JointTrajectoryPoint
 
-        client = ActionClient(self.node, FollowJointTrajectory,
-                              f"{self.name}/follow_joint_trajectory")  # fmt: skip
+        client = ActionClient(
+            self.node, FollowJointTrajectory, f"{self.name}/follow_joint_trajectory"
+        )
         try:
             if not client.wait_for_server(timeout_sec=self.timeout):
                 raise ClientError("the node's ~/follow_joint_trajectory did not appear")
@@ -216,9 +231,11 @@ class DRSClient:
             res = result.result().result
         finally:
             client.destroy()
-        return (f"{stroke * 1e3:g} mm in {seconds * 1e3:g} ms (FollowJointTrajectory): "
-                f"error_code {res.error_code}, {res.error_string!r}, {len(feedback)} feedback "
-                "messages")  # fmt: skip
+        return (
+            f"{stroke * 1e3:g} mm in {seconds * 1e3:g} ms (FollowJointTrajectory): "
+            f"error_code {res.error_code}, {res.error_string!r}, {len(feedback)} feedback "
+            "messages"
+        )
 
     # ---- life ------------------------------------------------------------------------------------
     def close(self) -> None:

@@ -52,9 +52,12 @@ class TrajectoryMove:
 
     def record(self) -> dict[str, str]:
         """The effect record's values: exact (Python repr), so a re-run takes the same move."""
-        return {"value": f"<{len(self.times)} points>", "times": repr(list(self.times)),
-                "strokes": repr(list(self.strokes)),
-                "rates": repr(None if self.rates is None else list(self.rates))}  # fmt: skip
+        return {
+            "value": f"<{len(self.times)} points>",
+            "times": repr(list(self.times)),
+            "strokes": repr(list(self.strokes)),
+            "rates": repr(None if self.rates is None else list(self.rates)),
+        }
 
 
 @dataclass(frozen=True)
@@ -108,9 +111,11 @@ def move_from_record(values: dict[str, str]) -> TrajectoryMove | StrokeMove:
     if values.get("value") == "hold":
         return StrokeMove(float(values["target"]), float(values["duration"]))
     rates = ast.literal_eval(values["rates"])
-    return TrajectoryMove(tuple(ast.literal_eval(values["times"])),
-                          tuple(ast.literal_eval(values["strokes"])),
-                          None if rates is None else tuple(rates))  # fmt: skip
+    return TrajectoryMove(
+        tuple(ast.literal_eval(values["times"])),
+        tuple(ast.literal_eval(values["strokes"])),
+        None if rates is None else tuple(rates),
+    )
 
 
 @dataclass(frozen=True)
@@ -125,8 +130,9 @@ def describe(key: str, msg) -> object:
     if key == SERVICE_KEY:
         return bool(msg.data)
     if key == "joint_commands":
-        return (f"<JointState {list(msg.name)} position {list(msg.position)} "
-                f"effort {list(msg.effort)}>")  # fmt: skip
+        return (
+            f"<JointState {list(msg.name)} position {list(msg.position)} effort {list(msg.effort)}>"
+        )
     if key == ACTION_KEY:
         return msg.record()["value"]
     return msg.data

@@ -183,8 +183,12 @@ def main(argv: list[str] | None = None) -> int:
 
 def _demo(argv: list[str] | None, signals: bool) -> int:
     ap = StrictParser(prog="drs-demo", description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="bags", type=output_path,
-                    help="output folder (default bags/; its parent must exist)")
+    ap.add_argument(
+        "--out",
+        default="bags",
+        type=output_path,
+        help="output folder (default bags/; its parent must exist)",
+    )
     ap.add_argument("--domain", type=int, default=int(os.environ.get("DRS_DEMO_DOMAIN", "73")))
     ap.add_argument("--publish-rate", type=float, default=500.0, help="node publish rate [Hz]")
     ap.add_argument("--name", default="demo", help="bag name: OUT/NAME/ and OUT/NAME.rrd")
@@ -242,8 +246,11 @@ def _stopped(node: subprocess.Popen) -> int:
     except subprocess.TimeoutExpired:
         node.kill()
         node.communicate()
-    print(f"drs-demo: stopped by {signal_received() or 'a signal'}; drs-node stopped with exit "
-          f"code {node.returncode}", file=sys.stderr)  # fmt: skip
+    print(
+        f"drs-demo: stopped by {signal_received() or 'a signal'}; drs-node stopped with exit "
+        f"code {node.returncode}",
+        file=sys.stderr,
+    )
     return EXIT_OK
 
 

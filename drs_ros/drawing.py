@@ -23,8 +23,9 @@ def closed(points: np.ndarray) -> np.ndarray:
 
 def still_drawings(p: DRSParams) -> dict[str, np.ndarray]:
     """The FIA box, the main wing and the pylon: closed outlines (k, 2) [m]."""
-    box = np.array([[0.0, 0.0], [p.box_width, 0.0], [p.box_width, p.box_height],
-                    [0.0, p.box_height]])  # fmt: skip
+    box = np.array(
+        [[0.0, 0.0], [p.box_width, 0.0], [p.box_width, p.box_height], [0.0, p.box_height]]
+    )
     return {
         "fia_box": closed(box),
         "main_wing": closed(kinematics.main_wing_outline(p)),

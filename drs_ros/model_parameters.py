@@ -13,8 +13,10 @@ from drs_model.params import NUMERIC_FIELDS, DRSParams
 
 #: The model's parameters the node serves: ``model.<DRSParams field>``, then
 #: ``hydraulic.<HydraulicParams field>``.
-MODEL_PARAMETERS = (*(f"model.{name}" for name in NUMERIC_FIELDS),
-                    *(f"hydraulic.{name}" for name in HYDRAULIC_FIELDS))  # fmt: skip
+MODEL_PARAMETERS = (
+    *(f"model.{name}" for name in NUMERIC_FIELDS),
+    *(f"hydraulic.{name}" for name in HYDRAULIC_FIELDS),
+)
 
 
 def served_value(name: str, params: DRSParams, hydraulic: HydraulicParams) -> float | str:

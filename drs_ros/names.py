@@ -14,31 +14,33 @@ DEFAULT_JOINT_NAMES = ("drs_piston", "drs_link", "drs_flap")
 #: What the node publishes and receives, by role, as it names them before any remapping: ``~/``
 #: is under the node's fully qualified name, an absolute name stays as it is. The node records
 #: how it resolved each (its ``topics`` record); a bag's tools read that (drs_ros.bag.read.nodes).
-NODE_TOPICS = MappingProxyType({
-    "joint_states": "/joint_states",  # the joint_states_topic parameter's default
-    "piston_force": "~/piston_force",
-    "flap_gap": "~/flap_gap",
-    "piston_acceleration": "~/piston_acceleration",
-    "joint_reactions": "~/joint_reactions",
-    "markers": "~/markers",
-    "diagnostics": "/diagnostics",
-    "command_events": "~/command_events",
-    "parameter_events": "/parameter_events",
-    "stroke_cmd": "~/stroke_cmd",
-    "force_cmd": "~/force_cmd",
-    "trajectory_cmd": "~/trajectory_cmd",
-    "joint_commands": "~/joint_commands",  # the joint_commands_topic parameter's default
-    "follow_joint_trajectory": "~/follow_joint_trajectory",
-    "pressure_piston_side": "~/pressure_piston_side",
-    "pressure_rod_side": "~/pressure_rod_side",
-    "supply_pressure": "~/supply_pressure",
-    "valve_spool": "~/valve_spool",
-    "robot_description": "/robot_description",
-    "tf": "/tf",
-    "tf_static": "/tf_static",
-    "drs_service": "~/drs",
-    "drs_service_event": "~/drs/_service_event",
-})
+NODE_TOPICS = MappingProxyType(
+    {
+        "joint_states": "/joint_states",  # the joint_states_topic parameter's default
+        "piston_force": "~/piston_force",
+        "flap_gap": "~/flap_gap",
+        "piston_acceleration": "~/piston_acceleration",
+        "joint_reactions": "~/joint_reactions",
+        "markers": "~/markers",
+        "diagnostics": "/diagnostics",
+        "command_events": "~/command_events",
+        "parameter_events": "/parameter_events",
+        "stroke_cmd": "~/stroke_cmd",
+        "force_cmd": "~/force_cmd",
+        "trajectory_cmd": "~/trajectory_cmd",
+        "joint_commands": "~/joint_commands",  # the joint_commands_topic parameter's default
+        "follow_joint_trajectory": "~/follow_joint_trajectory",
+        "pressure_piston_side": "~/pressure_piston_side",
+        "pressure_rod_side": "~/pressure_rod_side",
+        "supply_pressure": "~/supply_pressure",
+        "valve_spool": "~/valve_spool",
+        "robot_description": "/robot_description",
+        "tf": "/tf",
+        "tf_static": "/tf_static",
+        "drs_service": "~/drs",
+        "drs_service_event": "~/drs/_service_event",
+    }
+)
 
 #: The node's name when none is given (``drs-node`` without ``-r __node:=`` or ``__ns:=``).
 DEFAULT_NODE = "/drs"

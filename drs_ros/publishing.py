@@ -19,9 +19,11 @@ LISTENER_CHECK_TICKS = 25
 def create_publisher(node, msg_type, topic: str, qos):
     """``node.create_publisher(msg_type, topic, qos)`` without QoS-event waitables."""
     return node.create_publisher(
-        msg_type, topic, qos,
+        msg_type,
+        topic,
+        qos,
         event_callbacks=PublisherEventCallbacks(use_default_callbacks=False),
-    )  # fmt: skip
+    )
 
 
 __all__ = ["LISTENER_CHECK_TICKS", "create_publisher"]

@@ -59,9 +59,17 @@ def venv_prefix() -> Path:
 
 
 def check_tools(prefix: Path) -> None:
-    missing = [pkg for pkg in ("ament_cmake", "rosidl_default_generators", "rosidl_core_generators",
-                               "ament_cmake_ros", "ament_cmake_include_directories")
-               if not (prefix / "share" / pkg).is_dir()]  # fmt: skip
+    missing = [
+        pkg
+        for pkg in (
+            "ament_cmake",
+            "rosidl_default_generators",
+            "rosidl_core_generators",
+            "ament_cmake_ros",
+            "ament_cmake_include_directories",
+        )
+        if not (prefix / "share" / pkg).is_dir()
+    ]
     if missing:
         raise BuildError(
             f"ROS build tools missing from {prefix}: {', '.join(missing)}; install them with "
@@ -93,7 +101,12 @@ def build_package(name: str, prefix: Path, build_root: Path, env: dict[str, str]
     build.mkdir(parents=True, exist_ok=True)
     generator = ["-G", "Ninja"] if shutil.which("ninja") else []
     configure = [
-        "cmake", "-S", str(source), "-B", str(build), *generator,
+        "cmake",
+        "-S",
+        str(source),
+        "-B",
+        str(build),
+        *generator,
         f"-DCMAKE_INSTALL_PREFIX={prefix}",
         f"-DCMAKE_PREFIX_PATH={prefix}",
         "-DCMAKE_BUILD_TYPE=Release",
@@ -102,7 +115,7 @@ def build_package(name: str, prefix: Path, build_root: Path, env: dict[str, str]
         f"-DCMAKE_PROJECT_INCLUDE={HERE / 'wheel_targets.cmake'}",
         f"-DDRS_PYTHON_INCLUDE_DIR={sysconfig.get_paths()['include']}",
         f"-DDRS_NUMPY_INCLUDE_DIR={numpy.get_include()}",
-    ]  # fmt: skip
+    ]
     run(configure, env, build / "drs-configure.log")
     run(["cmake", "--build", str(build)], env, build / "drs-build.log")
     run(["cmake", "--install", str(build)], env, build / "drs-install.log")
@@ -111,8 +124,9 @@ def build_package(name: str, prefix: Path, build_root: Path, env: dict[str, str]
 def check_installed(prefix: Path, env: dict[str, str]) -> dict[str, str]:
     """Import each package's type in a fresh interpreter; return type name -> RIHS01 hash."""
     code = "import importlib, sys\nfor path in sys.argv[1:]:\n    mod, _, cls = path.rpartition('.')\n    getattr(importlib.import_module(mod), cls)\n"  # noqa: E501
-    proc = subprocess.run([sys.executable, "-c", code, *PACKAGES.values()], env=env,
-                          capture_output=True, text=True)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-c", code, *PACKAGES.values()], env=env, capture_output=True, text=True
+    )
     if proc.returncode != 0:
         raise BuildError(f"the built interfaces do not import: {proc.stderr.strip()[-800:]}")
     hashes = {}
@@ -142,8 +156,10 @@ def main(argv: list[str] | None = None) -> int:
             t = time.monotonic()
             build_package(name, prefix, Path(args.build_dir), env)
             if not args.quiet:
-                print(f"interfaces: {name} built and installed into {prefix} "
-                      f"({time.monotonic() - t:.1f} s)")  # fmt: skip
+                print(
+                    f"interfaces: {name} built and installed into {prefix} "
+                    f"({time.monotonic() - t:.1f} s)"
+                )
         hashes = check_installed(prefix, env)
     except BuildError as exc:
         print(f"interfaces/build.py: {exc}", file=sys.stderr)

@@ -15,10 +15,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 
-def copy_bags(sources: Sequence[str | Path], out: str | Path,
-              change: Callable[[str, str, bytes], bytes] | None = None,
-              leave_out: Sequence[str] = (),
-              rename: dict[str, str] | None = None) -> Path:  # fmt: skip
+def copy_bags(
+    sources: Sequence[str | Path],
+    out: str | Path,
+    change: Callable[[str, str, bytes], bytes] | None = None,
+    leave_out: Sequence[str] = (),
+    rename: dict[str, str] | None = None,
+) -> Path:
     """Write the messages of ``sources`` into the new bag directory ``out``, but the topics of
     ``leave_out``, and those of ``rename``'s keys on its values (as a remapping would have named
     them); ``change(topic, type_name, data) -> data`` may replace a message's bytes. Returns
@@ -37,22 +40,26 @@ def copy_bags(sources: Sequence[str | Path], out: str | Path,
     with McapRecorder(out, flush_thread=False) as rec:
         for channel in channels.values():
             rec.register_recorded_topic(
-                rename.get(channel.topic, channel.topic), channel.type_name, channel.schema_data,
+                rename.get(channel.topic, channel.topic),
+                channel.type_name,
+                channel.schema_data,
                 channel.schema_encoding or "ros2msg",
                 parse_qos_yaml(channel.metadata.get("offered_qos_profiles", "")),
                 channel.metadata.get("topic_type_hash", ""),
-            )  # fmt: skip
+            )
         for m in merged_messages(sources):
             if m.topic in leave_out:
                 continue
             data = m.data if change is None else change(m.topic, m.type_name, m.data)
-            rec.write(rename.get(m.topic, m.topic), data, m.log_time, m.publish_time,
-                      sequence=m.sequence)  # fmt: skip
+            rec.write(
+                rename.get(m.topic, m.topic), data, m.log_time, m.publish_time, sequence=m.sequence
+            )
     return Path(out)
 
 
-def message_editor(type_name: str, edit: Callable[[object], bool],
-                   topic: str | None = None) -> Callable:  # fmt: skip
+def message_editor(
+    type_name: str, edit: Callable[[object], bool], topic: str | None = None
+) -> Callable:
     """A ``change`` for :func:`copy_bags`: each message of ``type_name`` (on ``topic``, if
     given) decoded, passed to ``edit(msg)`` (which changes it in place and returns True, or
     returns False to keep it as it was) and written as its exact CDR again."""

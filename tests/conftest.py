@@ -67,8 +67,12 @@ def _record_node_bag(out):
     require_rclpy()
     out.mkdir(parents=True, exist_ok=True)
     env = node_env(out, domain_for("conftest::node_bag"))
-    res = subprocess.run([sys.executable, "-m", "drs_ros.demo", "--out", str(out), "--domain",
-                          env["ROS_DOMAIN_ID"]], capture_output=True, text=True, timeout=180,
-                         env=env)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.demo", "--out", str(out), "--domain", env["ROS_DOMAIN_ID"]],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        env=env,
+    )
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
     return out / "demo"

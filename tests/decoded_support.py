@@ -30,8 +30,9 @@ def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False):
     from drs_ros.bag.read.decoded import stream_bag
 
     messages: dict[str, list] = {t: [] for t in topics}
-    data = stream_bag(path, topics, lambda topic, log, msg: messages[topic].append((log, msg)),
-                      recover)  # fmt: skip
+    data = stream_bag(
+        path, topics, lambda topic, log, msg: messages[topic].append((log, msg)), recover
+    )
     data.messages = messages
     return data
 
@@ -44,8 +45,9 @@ def check_bag(data, params=None, **options) -> list:
     from drs_ros.bag.check.model_checks import ModelChecker
 
     checker = ModelChecker(params, **options)
-    streams = [[(log_ns, topic, msg) for log_ns, msg in msgs]
-               for topic, msgs in data.messages.items()]  # fmt: skip
+    streams = [
+        [(log_ns, topic, msg) for log_ns, msg in msgs] for topic, msgs in data.messages.items()
+    ]
     for log_ns, topic, msg in heapq.merge(*streams, key=lambda m: m[0]):
         checker.add(topic, log_ns, msg)
     return checker.results()

@@ -36,8 +36,10 @@ def small_filesystem(path: Path, size_bytes: int):
     options = f"size={size_bytes},mode=0755".encode()
     if libc.mount(b"tmpfs", str(path).encode(), b"tmpfs", 0, options) != 0:
         err = ctypes.get_errno()
-        reason = (f"cannot mount a {size_bytes}-byte tmpfs at {path}: {os.strerror(err)} "
-                  "(the test needs root or CAP_SYS_ADMIN)")  # fmt: skip
+        reason = (
+            f"cannot mount a {size_bytes}-byte tmpfs at {path}: {os.strerror(err)} "
+            "(the test needs root or CAP_SYS_ADMIN)"
+        )
         if os.environ.get("CI"):
             pytest.fail(reason)
         pytest.skip(reason)

@@ -62,8 +62,9 @@ class Reference:
         return [t for t, i in self.events if i == index]
 
 
-def radau_reference(scene: Scene, watched, p: DRSParams | None = None, rtol: float = 1e-10,
-                    **rung_options) -> Reference:  # fmt: skip
+def radau_reference(
+    scene: Scene, watched, p: DRSParams | None = None, rtol: float = 1e-10, **rung_options
+) -> Reference:
     """The reference of ``scene`` (module docstring) from the rung's start state, restarted at
     each crossing of the switching functions ``watched`` (indices). The servo's references, the
     mode, the force command and the supply come from a rung used as the commands' clock (they
@@ -100,8 +101,16 @@ def radau_reference(scene: Scene, watched, p: DRSParams | None = None, rtol: flo
         while tb > ta:
             grid = np.arange(np.floor(ta * 1e3 + 1e-6) + 1, round(tb * 1e3) + 1) * 1e-3
             grid = np.minimum(grid[grid > ta], tb)  # k * 1e-3 may round just past tb
-            sol = solve_ivp(rhs, (ta, tb), y, method="Radau", rtol=rtol, atol=ATOL,
-                            t_eval=grid, events=[switch(i) for i in armed])  # fmt: skip
+            sol = solve_ivp(
+                rhs,
+                (ta, tb),
+                y,
+                method="Radau",
+                rtol=rtol,
+                atol=ATOL,
+                t_eval=grid,
+                events=[switch(i) for i in armed],
+            )
             assert sol.success, sol.message
             start = {i: switch(i)(ta, y) > 0.0 for i in armed}  # each function's side before
             if len(sol.t):  # no sample between two close crossings

@@ -11,12 +11,28 @@ from drs_model.fidelity.sensor_faults import SensorFaults, StrokeSensor
 from drs_model.identify.record import Record
 
 #: Columns of :func:`run_rung`'s table.
-COLUMNS = ("t", "stroke", "stroke_rate", "stroke_acceleration", "piston_force", "pressure_a",
-           "pressure_b", "supply_pressure", "spool")  # fmt: skip
+COLUMNS = (
+    "t",
+    "stroke",
+    "stroke_rate",
+    "stroke_acceleration",
+    "piston_force",
+    "pressure_a",
+    "pressure_b",
+    "supply_pressure",
+    "spool",
+)
 
 
-def run_rung(rung: str, p, moves=((0, True), (40, False)), steps: int = 80, dt: float = 1e-3,
-             hydraulic=None, trajectory=None) -> np.ndarray:
+def run_rung(
+    rung: str,
+    p,
+    moves=((0, True), (40, False)),
+    steps: int = 80,
+    dt: float = 1e-3,
+    hydraulic=None,
+    trajectory=None,
+) -> np.ndarray:
     """Rows of :data:`COLUMNS` at every physics step of ``rung``: the flap opened and closed
     through ``command_drs`` at the steps of ``moves`` (or ``trajectory = (times, strokes,
     rates)`` commanded at step 0)."""
@@ -33,9 +49,17 @@ def _sampled(sim, steps: int, commands: dict, command) -> np.ndarray:
 
     def row():
         st = sim.state
-        return (st.t, st.q[0], st.qd[0], st.qdd[0], st.piston_force,
-                *(np.nan if v is None else v for v in (st.pressure_a, st.pressure_b,
-                                                       st.supply_pressure, st.spool)))  # fmt: skip
+        return (
+            st.t,
+            st.q[0],
+            st.qd[0],
+            st.qdd[0],
+            st.piston_force,
+            *(
+                np.nan if v is None else v
+                for v in (st.pressure_a, st.pressure_b, st.supply_pressure, st.spool)
+            ),
+        )
 
     rows = [row()]
     for k in range(steps):
@@ -46,8 +70,9 @@ def _sampled(sim, steps: int, commands: dict, command) -> np.ndarray:
     return np.array(rows)
 
 
-def noisy_record(table: np.ndarray, noise: float = 0.0, seed: int = 0, stops_hold: bool = False,
-                 **drop) -> Record:  # fmt: skip
+def noisy_record(
+    table: np.ndarray, noise: float = 0.0, seed: int = 0, stops_hold: bool = False, **drop
+) -> Record:
     """The record of a :func:`run_rung` table, its stroke as a sensor of ``noise`` [m] (seed
     ``seed``) reads it; ``drop`` names signals to leave out (``stroke_rate=True``);
     ``stops_hold``: whether the run's commands may have held the rod on a stop (a force
@@ -66,8 +91,12 @@ def noisy_record(table: np.ndarray, noise: float = 0.0, seed: int = 0, stops_hol
     return Record(**cols, stops_hold=stops_hold)
 
 
-def force_run(p, forces=((0, 1500.0), (60, 0.0), (120, 2500.0), (180, 0.0)), steps: int = 240,
-              dt: float = 1e-3) -> np.ndarray:  # fmt: skip
+def force_run(
+    p,
+    forces=((0, 1500.0), (60, 0.0), (120, 2500.0), (180, 0.0)),
+    steps: int = 240,
+    dt: float = 1e-3,
+) -> np.ndarray:
     """Rows of :data:`COLUMNS` of the ``rigid`` rung under piston force commands [N] at the
     steps of ``forces``: 1500 N drives the flap onto its open stop, 0 N lets the air load close
     it onto the closed one (inelastic stops: the rod rests on them, held by the stop)."""

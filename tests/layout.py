@@ -26,22 +26,55 @@ FUNCTION_LIMIT = 80
 #: The longest a module of the packages may be [lines].
 MODULE_LIMIT = 500
 #: Ordinals and pointers before "pass" that make it a stage of the work rather than a loop.
-_PASS_ORDINALS = ("first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth",
-                  "ninth", "tenth", "eleventh", "twelfth", "this", "that", "last", "previous",
-                  "next", "composition")  # fmt: skip
+_PASS_ORDINALS = (
+    "first",
+    "second",
+    "third",
+    "fourth",
+    "fifth",
+    "sixth",
+    "seventh",
+    "eighth",
+    "ninth",
+    "tenth",
+    "eleventh",
+    "twelfth",
+    "this",
+    "that",
+    "last",
+    "previous",
+    "next",
+    "composition",
+)
 #: Words about the work rather than the product: an issue by number, the work's sittings and its
 #: workers (pytest's ``scope="session"`` excepted), a numbered or pointed-at pass, the builds of the
 #: past, the model "of today". (Assembled from parts so that this file does not match itself.)
-PROCESS_WORDS = re.compile("|".join([
-    r"\b[Ii]ssues? " + r"#?\d+", r"\b[Ii]ssue-" + r"\d+", r"\btoday's " + "model",
-    r"\b[Bb]efore " + r"issue\b",
-    r"(?<!scope=.)\b[Ss]ess" + r"ions?\b", r"\b[Aa]gen" + r"ts?\b",
-    r"(?i:\b(?:" + "|".join(_PASS_ORDINALS) + r")(?:-| )pass(?:es)?\b)",
-    r"(?i:\b(?:earlier|older|previous|former|old) build" + r"s?\b)",
-]))  # fmt: skip
+PROCESS_WORDS = re.compile(
+    "|".join(
+        [
+            r"\b[Ii]ssues? " + r"#?\d+",
+            r"\b[Ii]ssue-" + r"\d+",
+            r"\btoday's " + "model",
+            r"\b[Bb]efore " + r"issue\b",
+            r"(?<!scope=.)\b[Ss]ess" + r"ions?\b",
+            r"\b[Aa]gen" + r"ts?\b",
+            r"(?i:\b(?:" + "|".join(_PASS_ORDINALS) + r")(?:-| )pass(?:es)?\b)",
+            r"(?i:\b(?:earlier|older|previous|former|old) build" + r"s?\b)",
+        ]
+    )
+)
 #: Where the product's text lives: code, tests, docs, benchmarks, configuration.
-TEXT_PLACES = ("drs_model", "drs_ros", "tests", "docs", "benchmarks", "config", "README.md",
-               "Makefile", "pyproject.toml")  # fmt: skip
+TEXT_PLACES = (
+    "drs_model",
+    "drs_ros",
+    "tests",
+    "docs",
+    "benchmarks",
+    "config",
+    "README.md",
+    "Makefile",
+    "pyproject.toml",
+)
 TEXT_SUFFIXES = {".py", ".md", ".toml", ".yaml", ".yml", ".json", ".txt", ""}
 
 
@@ -111,7 +144,7 @@ def first_cycle(g: dict[str, set[str]]) -> list[str] | None:
                 state[stack.pop()] = 2
                 todo.pop()
             elif state.get(nxt) == 1:
-                return stack[stack.index(nxt):] + [nxt]
+                return stack[stack.index(nxt) :] + [nxt]
             elif nxt not in state and nxt in g:
                 state[nxt] = 1
                 stack.append(nxt)
@@ -119,8 +152,9 @@ def first_cycle(g: dict[str, set[str]]) -> list[str] | None:
     return None
 
 
-def long_functions(limit: int = FUNCTION_LIMIT,
-                   root: Path = ROOT) -> list[tuple[str, int, str, int]]:
+def long_functions(
+    limit: int = FUNCTION_LIMIT, root: Path = ROOT
+) -> list[tuple[str, int, str, int]]:
     """``(file, line, name, length)`` of every function of the packages longer than ``limit``
     lines, longest first."""
     out = []
@@ -160,9 +194,14 @@ def text_files(root: Path = ROOT) -> list[Path]:
     for place in TEXT_PLACES:
         path = root / place
         files = [path] if path.is_file() else sorted(path.rglob("*")) if path.is_dir() else []
-        out += [f for f in files if f.is_file() and f.suffix in TEXT_SUFFIXES
-                and "__pycache__" not in f.parts
-                and "data" not in f.relative_to(root).parts]  # fmt: skip
+        out += [
+            f
+            for f in files
+            if f.is_file()
+            and f.suffix in TEXT_SUFFIXES
+            and "__pycache__" not in f.parts
+            and "data" not in f.relative_to(root).parts
+        ]
     return out
 
 
@@ -183,8 +222,9 @@ def process_words(root: Path = ROOT) -> list[str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--graph", action="store_true", help="print each module's project imports")
-    ap.add_argument("--long", type=int, default=FUNCTION_LIMIT,
-                    help="function length limit [lines]")
+    ap.add_argument(
+        "--long", type=int, default=FUNCTION_LIMIT, help="function length limit [lines]"
+    )
     ap.add_argument("--root", type=Path, default=ROOT, help="the repository (default: this one)")
     args = ap.parse_args(argv)
     mods, g = modules(args.root), graph(args.root)

@@ -44,9 +44,14 @@ def cycle_samples(params: DRSParams) -> dict[str, np.ndarray]:
     s, v, a = man.evaluate(t)
     state = kinematic_state(s, v, a, params)
     force = inverse_dynamics((state.q, state.qd, state.qdd), params).piston_force
-    return {"t": t, "q": state.q, "qd": state.qd, "force": np.asarray(force, dtype=float),
-            "gap": np.asarray(gap(state.q, params), dtype=float),
-            "accel": np.asarray(a)}  # fmt: skip
+    return {
+        "t": t,
+        "q": state.q,
+        "qd": state.qd,
+        "force": np.asarray(force, dtype=float),
+        "gap": np.asarray(gap(state.q, params), dtype=float),
+        "accel": np.asarray(a),
+    }
 
 
 def write_long_bag(
@@ -76,22 +81,37 @@ def write_long_bag(
     tp = DEFAULT_TOPICS
     states, scalars = [], []
     for i in range(n):
-        js = JointState(name=list(DEFAULT_JOINT_NAMES),
-                        position=[float(x) for x in samples["q"][i]],
-                        velocity=[float(x) for x in samples["qd"][i]],
-                        effort=[float(samples["force"][i]), np.nan, np.nan])  # fmt: skip
+        js = JointState(
+            name=list(DEFAULT_JOINT_NAMES),
+            position=[float(x) for x in samples["q"][i]],
+            velocity=[float(x) for x in samples["qd"][i]],
+            effort=[float(samples["force"][i]), np.nan, np.nan],
+        )
         states.append(bytearray(cdr.serializer(JointState)(js)))
-        scalars.append([(tp[key], cdr.serializer(Float64)(float_msg(float(samples[name][i]))))
-                        for key, name in (("flap_gap", "gap"), ("piston_force", "force"),
-                                          ("piston_acceleration", "accel"))])  # fmt: skip
+        scalars.append(
+            [
+                (tp[key], cdr.serializer(Float64)(float_msg(float(samples[name][i]))))
+                for key, name in (
+                    ("flap_gap", "gap"),
+                    ("piston_force", "force"),
+                    ("piston_acceleration", "accel"),
+                )
+            ]
+        )
     offsets = [ns_from_seconds(t) for t in samples["t"]]
     bulk = None
     if bulk_bytes > 0:
-        image = Image(height=1, width=int(bulk_bytes), encoding="mono8", step=int(bulk_bytes),
-                      data=bytes(int(bulk_bytes)))  # fmt: skip
+        image = Image(
+            height=1,
+            width=int(bulk_bytes),
+            encoding="mono8",
+            step=int(bulk_bytes),
+            data=bytes(int(bulk_bytes)),
+        )
         bulk = bytearray(cdr.serializer(Image)(image))
-    with McapRecorder(bag_dir, flush_thread=False, compression=compression,
-                      chunk_size=chunk_size) as rec:  # fmt: skip
+    with McapRecorder(
+        bag_dir, flush_thread=False, compression=compression, chunk_size=chunk_size
+    ) as rec:
         rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
         values = {f"model.{k}": float(getattr(p, k)) for k in NUMERIC_FIELDS}
         rec.write(tp["parameter_events"], parameter_event("/drs", values, T0_NS), T0_NS)

@@ -51,8 +51,9 @@ def ros_context(request, tmp_path, monkeypatch):
 
 
 @contextlib.contextmanager
-def node_with_client(domain: int, overrides: Sequence, client_name: str,
-                     before_node: Callable | None = None) -> Iterator[tuple]:  # fmt: skip
+def node_with_client(
+    domain: int, overrides: Sequence, client_name: str, before_node: Callable | None = None
+) -> Iterator[tuple]:
     """A :class:`~drs_ros.node.DRSNode` with ``overrides`` (rclpy Parameters) and a client node
     ``client_name`` in one new rclpy context on ``domain``, spun by one executor: yields
     ``(node, client, executor)``. ``before_node(client)`` runs before the node exists (a
@@ -116,8 +117,9 @@ def node_env(tmp_path, domain: int) -> dict[str, str]:
     return env
 
 
-def start_node(tmp_path, domain: int, *params: str, stdout=subprocess.PIPE,
-               argv: list[str] | None = None) -> subprocess.Popen:
+def start_node(
+    tmp_path, domain: int, *params: str, stdout=subprocess.PIPE, argv: list[str] | None = None
+) -> subprocess.Popen:
     """The node as its own process (``python -m drs_ros``, or ``argv``) on ``domain`` with
     ``-p`` for each of ``params`` (``name:=value``); its output (stdout and stderr) in ``stdout``
     as text."""
@@ -125,8 +127,9 @@ def start_node(tmp_path, domain: int, *params: str, stdout=subprocess.PIPE,
     args = list(argv or [sys.executable, "-m", "drs_ros"]) + ["--ros-args"]
     for p in params:
         args += ["-p", p]
-    return subprocess.Popen(args, env=node_env(tmp_path, domain), stdout=stdout,
-                            stderr=subprocess.STDOUT, text=True)  # fmt: skip
+    return subprocess.Popen(
+        args, env=node_env(tmp_path, domain), stdout=stdout, stderr=subprocess.STDOUT, text=True
+    )
 
 
 def wait_for_file_growth(path, timeout: float = 20.0, min_size: int = 1) -> bool:

@@ -64,8 +64,10 @@ def main(bag: str, n: int, seed: int) -> int:
         faulthandler.cancel_dump_traceback_later()
         killer.join(timeout=WATCHDOG_S)
         latency = done - sent["t"] if "t" in sent else None
-        print(json.dumps({"rc": rc, "after_s": delay, "latency_s": latency, "error": error}),
-              flush=True)  # fmt: skip
+        print(
+            json.dumps({"rc": rc, "after_s": delay, "latency_s": latency, "error": error}),
+            flush=True,
+        )
         if latency is None or latency > WATCHDOG_S:
             return 3
     return 0

@@ -117,9 +117,13 @@ def mcap_to_db3(src, dst, max_messages: int | None = None):
         for cid, ch in summary.channels.items():
             schema = summary.schemas[ch.schema_id]
             rihs01 = ch.metadata.get("topic_type_hash") or "RIHS01_" + "0" * 64
-            conns[cid] = w.add_connection(ch.topic, schema.name, msgdef=schema.data.decode(),
-                                          rihs01=rihs01,
-                                          serialization_format=ch.message_encoding)  # fmt: skip
+            conns[cid] = w.add_connection(
+                ch.topic,
+                schema.name,
+                msgdef=schema.data.decode(),
+                rihs01=rihs01,
+                serialization_format=ch.message_encoding,
+            )
         messages = reader.iter_messages(log_time_order=False)  # the file's order, kept
         for n, (_schema, channel, message) in enumerate(messages):
             if max_messages is not None and n >= max_messages:
@@ -138,8 +142,13 @@ def write_split_bag(tmp_path, params, *, killed: bool, n: int = 240):
     half = n // 2
     parts = []
     for i, samples in enumerate((range(0, half), range(half, n))):
-        rec, *_ = write_drs_bag(tmp_path / f"part{i}", params, n=n, samples=samples,
-                                recorder_kwargs={"flush_messages": 45})  # fmt: skip
+        rec, *_ = write_drs_bag(
+            tmp_path / f"part{i}",
+            params,
+            n=n,
+            samples=samples,
+            recorder_kwargs={"flush_messages": 45},
+        )
         parts.append(rec)
     bag = tmp_path / "split"
     bag.mkdir()
@@ -151,12 +160,15 @@ def write_split_bag(tmp_path, params, *, killed: bool, n: int = 240):
     if not killed:
         metas = [rec.bag_metadata() for rec in parts]
         meta = metas[0]
-        for topic, other in zip(meta["topics_with_message_count"],
-                                metas[1]["topics_with_message_count"], strict=True):  # fmt: skip
+        for topic, other in zip(
+            meta["topics_with_message_count"], metas[1]["topics_with_message_count"], strict=True
+        ):
             topic["message_count"] += other["message_count"]
         meta["message_count"] += metas[1]["message_count"]
-        end = (metas[1]["starting_time"]["nanoseconds_since_epoch"]
-               + metas[1]["duration"]["nanoseconds"])  # fmt: skip
+        end = (
+            metas[1]["starting_time"]["nanoseconds_since_epoch"]
+            + metas[1]["duration"]["nanoseconds"]
+        )
         meta["duration"]["nanoseconds"] = end - meta["starting_time"]["nanoseconds_since_epoch"]
         meta["relative_file_paths"] = ["split_0.mcap", "split_1.mcap"]
         meta["files"] = []
@@ -173,8 +185,12 @@ def resimulate_json(*args) -> tuple[int, dict]:
     import subprocess
     import sys
 
-    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", *args, "--json"],
-                         capture_output=True, text=True, timeout=300)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", *args, "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode in (0, 1), res.stderr
     return res.returncode, json.loads(res.stdout)
 

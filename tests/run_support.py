@@ -47,8 +47,9 @@ class Command:
     value: object
 
 
-def seed_commands(params: DRSParams, physics_rate_hz: float = 1000.0,
-                  hold_s: float | None = None) -> tuple[Command, ...]:  # fmt: skip
+def seed_commands(
+    params: DRSParams, physics_rate_hz: float = 1000.0, hold_s: float | None = None
+) -> tuple[Command, ...]:
     """The seed's manoeuvre as the node takes it through its service: open at step 1, close
     when the opening and the hold are over."""
     hold = params.T_still if hold_s is None else hold_s
@@ -57,9 +58,15 @@ def seed_commands(params: DRSParams, physics_rate_hz: float = 1000.0,
 
 
 def _node_parameters(params, fidelity, physics_rate_hz, faults, joint_names, hydraulic) -> dict:
-    values = {"physics_rate_hz": float(physics_rate_hz), "publish_rate_hz": float(physics_rate_hz),
-              "force_limit": 2.0e4, "integrator": "rk4", "force_method": "fused",
-              "fidelity": fidelity, "joint_names": list(joint_names)}  # fmt: skip
+    values = {
+        "physics_rate_hz": float(physics_rate_hz),
+        "publish_rate_hz": float(physics_rate_hz),
+        "force_limit": 2.0e4,
+        "integrator": "rk4",
+        "force_method": "fused",
+        "fidelity": fidelity,
+        "joint_names": list(joint_names),
+    }
     values.update(served_values(params, hydraulic))  # model.* and hydraulic.*, as served
     for name, (healthy, _) in FAULTS.items():
         values[f"fault.{name}"] = faults.get(name, healthy)
@@ -125,8 +132,12 @@ class _Writer:
         received = now - 500_000
         seq = self.rec.write(tp[c.key], msg, received)
         cmds.apply(self.sim, c.key, msg, self.names[0])
-        self.event(now, tp[c.key], ACCEPTED, {"sequence": seq, "received_ns": received,
-                                               "value": repr(cmds.describe(c.key, msg))})
+        self.event(
+            now,
+            tp[c.key],
+            ACCEPTED,
+            {"sequence": seq, "received_ns": received, "value": repr(cmds.describe(c.key, msg))},
+        )
 
     def publish(self, now: int, hydraulic: bool) -> None:
         from message_support import joint_state_msg
@@ -139,14 +150,19 @@ class _Writer:
         js = joint_state_msg(st, self.names, stamp)
         js.position[0] = self.faults.published_stroke(st.t, float(st.q[0]))
         self.rec.write(tp["joint_states"], js, now)
-        for key, value in (("piston_force", st.piston_force), ("flap_gap", st.gap),
-                           ("piston_acceleration", st.qdd[0])):  # fmt: skip
+        for key, value in (
+            ("piston_force", st.piston_force),
+            ("flap_gap", st.gap),
+            ("piston_acceleration", st.qdd[0]),
+        ):
             self.rec.write(tp[key], float_msg(float(value)), now)
         if hydraulic:
             header = Header(stamp=time_msg(stamp), frame_id=self.frame_id)
-            for role, value in (("pressure_piston_side", st.pressure_a),
-                                ("pressure_rod_side", st.pressure_b),
-                                ("supply_pressure", st.supply_pressure)):  # fmt: skip
+            for role, value in (
+                ("pressure_piston_side", st.pressure_a),
+                ("pressure_rod_side", st.pressure_b),
+                ("supply_pressure", st.supply_pressure),
+            ):
                 self.rec.write(tp[role], FluidPressure(header=header, fluid_pressure=value), now)
             spool = math.nan if st.spool is None else st.spool
             self.rec.write(tp["valve_spool"], float_msg(float(spool)), now)
@@ -157,11 +173,19 @@ class _Data:
     data: object
 
 
-def record_run(bag_dir: str | Path, steps: int, commands: Sequence[Command] = (), *,
-               fidelity: str = "rigid", params: DRSParams | None = None,
-               faults: dict | None = None, physics_rate_hz: float = 1000.0,
-               t0_ns: int = T0_NS, joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
-               hydraulic_params: HydraulicParams | None = None) -> Path:
+def record_run(
+    bag_dir: str | Path,
+    steps: int,
+    commands: Sequence[Command] = (),
+    *,
+    fidelity: str = "rigid",
+    params: DRSParams | None = None,
+    faults: dict | None = None,
+    physics_rate_hz: float = 1000.0,
+    t0_ns: int = T0_NS,
+    joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
+    hydraulic_params: HydraulicParams | None = None,
+) -> Path:
     """Record ``steps`` physics steps of a run (module docstring) into the new bag directory
     ``bag_dir``: ``commands`` act at their steps, ``faults`` (``name -> value`` of
     :data:`~drs_model.fidelity.faults.FAULTS`) from the first tick, at the node time ``t0_ns``
@@ -183,8 +207,7 @@ def record_run(bag_dir: str | Path, steps: int, commands: Sequence[Command] = ()
     with McapRecorder(bag_dir, flush_thread=False) as rec:
         _register(rec, hydraulic)
         values = _node_parameters(params, fidelity, physics_rate_hz, faults, joint_names, hp)
-        rec.write(DEFAULT_TOPICS["parameter_events"], parameter_event("/drs", values, t0_ns),
-                  t0_ns)  # fmt: skip
+        rec.write(DEFAULT_TOPICS["parameter_events"], parameter_event("/drs", values, t0_ns), t0_ns)
         w = _Writer(rec, sim, run_faults, joint_names, t0_ns)
         w.event(t0_ns, CLOCK, CLOCK, {"t0_ns": t0_ns})
         for name in FAULTS:  # the faults given at start, in FAULTS order, at the first tick

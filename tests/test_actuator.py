@@ -123,7 +123,7 @@ def test_scalar_kinematics_equal_the_vectorised(params, s, sd, sdd):
 
 
 def test_each_force_method_runs_its_own_formulation(params):
-    """"fused" runs the fused closed form (FusedInverseDynamics) and "virtual-work" the
+    """ "fused" runs the fused closed form (FusedInverseDynamics) and "virtual-work" the
     virtual-work formulation (d'Alembert along dq/dpsi3), each to the bit on the state it
     reached; the two are different computations (their round-off differs on some step of the
     opening) that agree to 1e-9 relative, as do the other formulations."""
@@ -254,10 +254,14 @@ def reference_contacts(params, q0, qd0, force, horizon):
     closed.direction, opened.direction = -1, 1
     contacts, t0, y0 = [], 0.0, np.concatenate([q0, qd0])
     while t0 < horizon and len(contacts) < 10:
-        sol = solve_ivp(rhs, (t0, horizon), y0, method="DOP853", rtol=1e-10, atol=1e-12,
-                        events=(closed, opened))  # fmt: skip
-        hits = [(sol.t_events[i][0], name) for i, name in enumerate(("closed", "open"))
-                if sol.t_events[i].size]  # fmt: skip
+        sol = solve_ivp(
+            rhs, (t0, horizon), y0, method="DOP853", rtol=1e-10, atol=1e-12, events=(closed, opened)
+        )
+        hits = [
+            (sol.t_events[i][0], name)
+            for i, name in enumerate(("closed", "open"))
+            if sol.t_events[i].size
+        ]
         if not hits:
             return contacts, None
         t_c, stop = min(hits)
@@ -359,8 +363,15 @@ def test_a_flap_thrown_onto_the_open_stop_leaves_it_within_the_step(params, dt):
     assert first.at_stop == "closed" and states[-1].at_stop == "closed"
     (_, t_open), (_, t_closed) = contacts
     y0 = np.concatenate([kin.solve_position(s_max, params), np.zeros(3)])
-    ref = solve_ivp(_index1_rhs(params, 0.0), (t_open, t_closed), y0, method="DOP853",
-                    rtol=1e-10, atol=1e-12, dense_output=True)  # fmt: skip
+    ref = solve_ivp(
+        _index1_rhs(params, 0.0),
+        (t_open, t_closed),
+        y0,
+        method="DOP853",
+        rtol=1e-10,
+        atol=1e-12,
+        dense_output=True,
+    )
     free = [st_ for st_ in states if t_open < st_.t - start.t < t_closed]
     assert free and all(st_.at_stop is None for st_ in free)
     dev = max(abs(st_.q[0] - ref.sol(st_.t - start.t)[0]) for st_ in free)
@@ -393,8 +404,9 @@ def _wave(params, n, dt=1e-3, period=0.5):
 
 
 def _states(a, n):
-    return [(st_.t, *st_.q, *st_.qd, *st_.qdd, st_.piston_force) for st_ in (a.step() for _ in
-            range(n))]  # fmt: skip
+    return [
+        (st_.t, *st_.q, *st_.qd, *st_.qdd, st_.piston_force) for st_ in (a.step() for _ in range(n))
+    ]
 
 
 @pytest.mark.parametrize("with_rates", [False, True])
@@ -413,8 +425,9 @@ def test_a_planned_trajectory_is_the_same_to_the_bit(params, with_rates):
         a.command_drs(True)
         a.advance(4)  # moving at ~3 m/s
         plan = a.plan_trajectory(times, strokes, rates) if planned else None
-        path = a.command_trajectory(plan) if planned else a.command_trajectory(times, strokes,
-                                                                               rates)  # fmt: skip
+        path = (
+            a.command_trajectory(plan) if planned else a.command_trajectory(times, strokes, rates)
+        )
         assert len(path) == 400 and path.t_start == a.t
         runs.append(_states(a, 420))
     assert runs[0] == runs[1]

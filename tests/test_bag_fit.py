@@ -16,8 +16,12 @@ from ros_support import require_rclpy
 
 from drs_model.params import DRSParams
 
-HYDRAULIC_FAULTS = {"leak_m3_per_s_per_pa": 2e-13, "jam_friction_n": 30.0,
-                    "sensor.noise_std_m": 1e-5, "sensor.noise_seed": 3}  # fmt: skip
+HYDRAULIC_FAULTS = {
+    "leak_m3_per_s_per_pa": 2e-13,
+    "jam_friction_n": 30.0,
+    "sensor.noise_std_m": 1e-5,
+    "sensor.noise_seed": 3,
+}
 #: The truth of the hydraulic bag: HydraulicParams' defaults plus the faults.
 TRUTH = {"leak_to_outside": 2e-13, "coulomb_friction": 70.0, "breakaway_friction": 90.0}
 
@@ -42,11 +46,20 @@ def bags(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("fit")
     p = DRSParams()
-    hydraulic = record_run(out / "hydraulic", 130, [Command(1, "drs", True),
-                           Command(70, "drs", False)], fidelity="hydraulic",
-                           faults=HYDRAULIC_FAULTS)  # fmt: skip
-    rigid = record_run(out / "rigid", 80, seed_commands(p), fidelity="rigid",
-                       faults={"sensor.noise_std_m": 1e-5, "sensor.noise_seed": 1})  # fmt: skip
+    hydraulic = record_run(
+        out / "hydraulic",
+        130,
+        [Command(1, "drs", True), Command(70, "drs", False)],
+        fidelity="hydraulic",
+        faults=HYDRAULIC_FAULTS,
+    )
+    rigid = record_run(
+        out / "rigid",
+        80,
+        seed_commands(p),
+        fidelity="rigid",
+        faults={"sensor.noise_std_m": 1e-5, "sensor.noise_seed": 1},
+    )
     return {"hydraulic": hydraulic, "rigid": rigid, "dir": out}
 
 
@@ -60,8 +73,17 @@ def test_a_recorded_run_re_runs_exactly(bags):
 
 def test_a_leak_and_a_jam_are_recovered_within_their_intervals(bags, tmp_path):
     out, png = tmp_path / "fit.json", tmp_path / "fit.png"
-    res = drs_bag("fit", str(bags["hydraulic"]), "--params", ",".join(TRUTH), "--json",
-                  "-o", str(out), "--plot", str(png))  # fmt: skip
+    res = drs_bag(
+        "fit",
+        str(bags["hydraulic"]),
+        "--params",
+        ",".join(TRUTH),
+        "--json",
+        "-o",
+        str(out),
+        "--plot",
+        str(png),
+    )
     assert res.returncode == 0, res.stderr
     doc = json.loads(res.stdout)
     assert json.loads(out.read_text()) == doc
@@ -80,8 +102,14 @@ def test_what_the_run_cannot_separate_is_refused_with_its_reason(bags):
     """The five inertial parameters: the link's mass acts as point masses at its pins, and
     only gravity (at a 10 um stroke noise) tells it apart: four intervals wider than their
     values, reported as not determined with what they trade off with."""
-    res = drs_bag("fit", str(bags["rigid"]), "--params",
-                  "m_pist,m_link,m_wing,Iz_link,Iz_wing", "--stage", "equation")  # fmt: skip
+    res = drs_bag(
+        "fit",
+        str(bags["rigid"]),
+        "--params",
+        "m_pist,m_link,m_wing,Iz_link,Iz_wing",
+        "--stage",
+        "equation",
+    )
     assert res.returncode == 1, res.stderr
     assert "not determined (no value reported):" in res.stdout
     assert res.stdout.count("the data do not determine it; it trades off with") >= 3
@@ -102,9 +130,13 @@ def _rewrite_with_rosbags(src, dst):
     ts = get_typestore(Stores.ROS2_JAZZY)
     T = ts.types
     data = read_bag(src, list(drs_topics.values()))
-    topics = {"joint_states": "/actuator/joint_states", "pressure_a": "/hyd/cap_end",
-              "pressure_b": "/hyd/rod_end", "supply_pressure": "/hyd/supply",
-              "spool": "/hyd/spool"}  # fmt: skip
+    topics = {
+        "joint_states": "/actuator/joint_states",
+        "pressure_a": "/hyd/cap_end",
+        "pressure_b": "/hyd/rod_end",
+        "supply_pressure": "/hyd/supply",
+        "spool": "/hyd/spool",
+    }
     kinds = {"joint_states": "sensor_msgs/msg/JointState", "spool": "std_msgs/msg/Float64"}
     with Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         for role, topic in topics.items():
@@ -114,16 +146,22 @@ def _rewrite_with_rosbags(src, dst):
                 if role == "spool":
                     msg = T[kind](data=m.data)
                 else:
-                    header = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](
-                        sec=m.header.stamp.sec, nanosec=m.header.stamp.nanosec), frame_id="")
+                    header = T["std_msgs/msg/Header"](
+                        stamp=T["builtin_interfaces/msg/Time"](
+                            sec=m.header.stamp.sec, nanosec=m.header.stamp.nanosec
+                        ),
+                        frame_id="",
+                    )
                     if role == "joint_states":
-                        msg = T[kind](header=header, name=["piston"],
-                                      position=np.array(m.position[:1]),
-                                      velocity=np.array(m.velocity[:1]),
-                                      effort=np.array(m.effort[:1]))  # fmt: skip
+                        msg = T[kind](
+                            header=header,
+                            name=["piston"],
+                            position=np.array(m.position[:1]),
+                            velocity=np.array(m.velocity[:1]),
+                            effort=np.array(m.effort[:1]),
+                        )
                     else:
-                        msg = T[kind](header=header, fluid_pressure=m.fluid_pressure,
-                                      variance=0.0)  # fmt: skip
+                        msg = T[kind](header=header, fluid_pressure=m.fluid_pressure, variance=0.0)
                 w.write(conn, log, ts.serialize_cdr(msg, kind))
     return dst, topics
 
@@ -132,18 +170,35 @@ def test_a_rosbags_written_bag_fits_like_the_drs_one(bags, tmp_path):
     foreign, topics = _rewrite_with_rosbags(bags["hydraulic"], tmp_path / "foreign")
     names = "leak_to_outside,valve_rated_flow,coulomb_friction,viscous_friction"
     mapping = ",".join(f"{k}={v}" for k, v in topics.items())
-    res = drs_bag("fit", str(foreign), "--params", names, "--topic-map", mapping, "--joint",
-                  "piston")  # fmt: skip
-    assert res.returncode == 2 and "error: --fidelity: the bag does not say which rung it ran " \
-        "on" in res.stderr  # fmt: skip
-    res = drs_bag("fit", str(foreign), "--params", names, "--topic-map", mapping, "--joint",
-                  "piston", "--fidelity", "hydraulic", "--json")  # fmt: skip
+    res = drs_bag(
+        "fit", str(foreign), "--params", names, "--topic-map", mapping, "--joint", "piston"
+    )
+    assert (
+        res.returncode == 2
+        and "error: --fidelity: the bag does not say which rung it ran on" in res.stderr
+    )
+    res = drs_bag(
+        "fit",
+        str(foreign),
+        "--params",
+        names,
+        "--topic-map",
+        mapping,
+        "--joint",
+        "piston",
+        "--fidelity",
+        "hydraulic",
+        "--json",
+    )
     assert res.returncode == 0, res.stderr
     got = json.loads(res.stdout)
     assert "no clock records" in " ".join(got["notes"])
     assert got["node"] is None and got["topics"]["pressure_a"] == "/hyd/cap_end"
-    ref = json.loads(drs_bag("fit", str(bags["hydraulic"]), "--params", names, "--stage",
-                             "equation", "--json").stdout)  # fmt: skip
+    ref = json.loads(
+        drs_bag(
+            "fit", str(bags["hydraulic"]), "--params", names, "--stage", "equation", "--json"
+        ).stdout
+    )
     for a, b in zip(got["estimates"], ref["estimates"], strict=True):
         assert a["stage"] == "equation"  # no commands recorded: no output error
         for key in ("value", "lower", "upper"):
@@ -153,8 +208,10 @@ def test_a_rosbags_written_bag_fits_like_the_drs_one(bags, tmp_path):
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--params", "leak_to_outside"], "the model refuses the fit: the 'rigid' rung has no "
-                                          "hydraulics"),
+        (
+            ["--params", "leak_to_outside"],
+            "the model refuses the fit: the 'rigid' rung has no hydraulics",
+        ),
         (["--params", "m_pist", "--set", "m_wing=-1"], "the model refuses the fit: "),
         (["--params", "m_pist", "-o", "fit.csv"], "-o names the report"),
     ],
@@ -166,25 +223,46 @@ def test_what_the_bag_s_model_cannot_fit_is_refused_with_a_reason(bags, args, ma
 
 
 def test_a_bag_without_the_joint_states_named_is_refused(bags):
-    res = drs_bag("fit", str(bags["rigid"]), "--params", "m_pist", "--topic-map",
-                  "joint_states=/nothing/here")  # fmt: skip
+    res = drs_bag(
+        "fit", str(bags["rigid"]), "--params", "m_pist", "--topic-map", "joint_states=/nothing/here"
+    )
     assert res.returncode == 2 and "no joint states on /nothing/here" in res.stderr
-    res = drs_bag("fit", str(bags["rigid"]), "--params", "m_pist", "--topic-map",
-                  "joint_states=/drs/piston_force")  # fmt: skip
+    res = drs_bag(
+        "fit",
+        str(bags["rigid"]),
+        "--params",
+        "m_pist",
+        "--topic-map",
+        "joint_states=/drs/piston_force",
+    )
     assert res.returncode == 2, res.stderr
-    assert ("/drs/piston_force holds std_msgs/msg/Float64 messages; the role joint_states needs "
-            "sensor_msgs/msg/JointState") in res.stderr
+    assert (
+        "/drs/piston_force holds std_msgs/msg/Float64 messages; the role joint_states needs "
+        "sensor_msgs/msg/JointState"
+    ) in res.stderr
 
 
 #: The node as a stack names it: in a namespace, renamed, its joint states, piston force and
 #: piston-side pressure remapped (``(namespace, --ros-args, node, joint states, pressure_a)``).
 NODE_NAMES = {
     "default": (None, [], "/drs", "/joint_states", "/drs/pressure_piston_side"),
-    "renamed": ("/car7", ["-r", "__node:=drs_rear", "-r", "/joint_states:=/car7/joint_states",
-                          "-r", "~/piston_force:=/car7/rear_force",
-                          "-r", "~/pressure_piston_side:=/car7/rear_pressure_a"],
-                "/car7/drs_rear", "/car7/joint_states", "/car7/rear_pressure_a"),
-}  # fmt: skip
+    "renamed": (
+        "/car7",
+        [
+            "-r",
+            "__node:=drs_rear",
+            "-r",
+            "/joint_states:=/car7/joint_states",
+            "-r",
+            "~/piston_force:=/car7/rear_force",
+            "-r",
+            "~/pressure_piston_side:=/car7/rear_pressure_a",
+        ],
+        "/car7/drs_rear",
+        "/car7/joint_states",
+        "/car7/rear_pressure_a",
+    ),
+}
 
 
 @pytest.mark.ros
@@ -203,12 +281,14 @@ def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp
     from drs_ros.node import DRSNode
 
     namespace, ros_args, name, joint_states, pressure_a = NODE_NAMES[naming]
-    overrides = [Parameter("fidelity", value="hydraulic"),
-                 Parameter("publish_rate_hz", value=1000.0),
-                 Parameter("bag_path", value=str(tmp_path / "bag")),
-                 Parameter("fault.leak_m3_per_s_per_pa", value=2e-13),
-                 Parameter("fault.sensor.noise_std_m", value=1e-5),
-                 Parameter("fault.sensor.noise_seed", value=5)]  # fmt: skip
+    overrides = [
+        Parameter("fidelity", value="hydraulic"),
+        Parameter("publish_rate_hz", value=1000.0),
+        Parameter("bag_path", value=str(tmp_path / "bag")),
+        Parameter("fault.leak_m3_per_s_per_pa", value=2e-13),
+        Parameter("fault.sensor.noise_std_m", value=1e-5),
+        Parameter("fault.sensor.noise_seed", value=5),
+    ]
     naming_args = {"cli_args": ["--ros-args", *ros_args]} if ros_args else {}
     if namespace:
         naming_args["namespace"] = namespace
@@ -232,10 +312,14 @@ def test_a_node_bag_with_faults_given_at_start_re_runs_and_fits(ros_context, tmp
     res = drs_bag("fit", str(tmp_path / "bag"), "--params", "leak_to_outside", "--json")
     assert res.returncode == 0, res.stdout + res.stderr
     doc = json.loads(res.stdout)
-    assert doc["node"] == name and doc["model_parameters"] == \
-        f"recorded by {name} on /parameter_events"  # fmt: skip
-    assert (doc["topics"]["joint_states"], doc["topics"]["pressure_a"]) == (joint_states,
-                                                                            pressure_a)
+    assert (
+        doc["node"] == name
+        and doc["model_parameters"] == f"recorded by {name} on /parameter_events"
+    )
+    assert (doc["topics"]["joint_states"], doc["topics"]["pressure_a"]) == (
+        joint_states,
+        pressure_a,
+    )
     (leak,) = doc["estimates"]
     assert leak["stage"] == "output" and leak["lower"] <= 2e-13 <= leak["upper"], leak
     residuals = {r["signal"]: r for r in doc["stages"][-1]["residuals"]}
@@ -256,8 +340,9 @@ def test_a_node_bag_says_whether_a_stop_may_have_held_the_rod(bags, tmp_path):
         return read_measured(bag, node).record
 
     assert measured(bags["rigid"]).stops_hold is False
-    forced = record_run(tmp_path / "forced", 80, [Command(1, "force_cmd", 1500.0)],
-                        fidelity="rigid")  # fmt: skip
+    forced = record_run(
+        tmp_path / "forced", 80, [Command(1, "force_cmd", 1500.0)], fidelity="rigid"
+    )
     assert measured(forced).stops_hold is True
     res = drs_bag("fit", forced, "--params", "m_wing", "--stage", "equation", "--json")
     notes = " ".join(json.loads(res.stdout)["stages"][0]["notes"])

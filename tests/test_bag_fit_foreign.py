@@ -25,23 +25,30 @@ def _write_joint_states(path, table) -> None:
         schema = writer.register_msgdef(name, msgdefs.full_definition(name))
         for k, (t, s, sd, _, force, *_) in enumerate(table):
             ns = 10**9 + round(t * 1e9)
-            msg = {"header": {"stamp": {"sec": ns // 10**9, "nanosec": ns % 10**9},
-                              "frame_id": ""},
-                   "name": ["piston"], "position": [s], "velocity": [sd], "effort": [force]}
-            writer.write_message("/joint_states", schema, msg, log_time=ns, publish_time=ns,
-                                 sequence=k)  # fmt: skip
+            msg = {
+                "header": {"stamp": {"sec": ns // 10**9, "nanosec": ns % 10**9}, "frame_id": ""},
+                "name": ["piston"],
+                "position": [s],
+                "velocity": [sd],
+                "effort": [force],
+            }
+            writer.write_message(
+                "/joint_states", schema, msg, log_time=ns, publish_time=ns, sequence=k
+            )
         writer.finish()
 
 
 @pytest.mark.parametrize("dt", [1e-3, 5e-4])
 def test_a_joint_state_only_mcap_fits_the_wing_within_its_interval(tmp_path, dt):
     p = DRSParams()
-    table = run_rung("rigid", p, moves=((0, True), (int(0.04 / dt), False)),
-                     steps=int(0.08 / dt), dt=dt)  # fmt: skip
+    table = run_rung(
+        "rigid", p, moves=((0, True), (int(0.04 / dt), False)), steps=int(0.08 / dt), dt=dt
+    )
     bag = tmp_path / "joint_states.mcap"
     _write_joint_states(bag, table)
-    res = drs_bag("fit", bag, "--fidelity", "rigid", "--params", "m_wing", "--joint", "piston",
-                  "--json")  # fmt: skip
+    res = drs_bag(
+        "fit", bag, "--fidelity", "rigid", "--params", "m_wing", "--joint", "piston", "--json"
+    )
     assert res.returncode == 0, res.stderr
     doc = json.loads(res.stdout)
     (e,) = doc["estimates"]

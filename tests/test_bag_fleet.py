@@ -81,8 +81,15 @@ def test_two_workers_check_a_directory_of_bags_as_one_does(fleet_dir, tmp_path, 
     assert by_name["split"]["messages"] == 720 and by_name["split"]["storage"] == "mcap"
     assert by_name["sqlite"]["storage"] == "sqlite3"
     # the sqlite3 copy of the example is the example
-    for column in ("loop_constraint_m", "gap_vs_model_m", "piston_force_vs_model_n",
-                   "peak_force_n", "largest_gap_m", "refused_commands", "missed_deadlines"):
+    for column in (
+        "loop_constraint_m",
+        "gap_vs_model_m",
+        "piston_force_vs_model_n",
+        "peak_force_n",
+        "largest_gap_m",
+        "refused_commands",
+        "missed_deadlines",
+    ):
         assert by_name["sqlite"][column] == by_name["example"][column], column
     # the run's figures, from an independent reading of the example bag (mcap's reader)
     assert by_name["example"]["peak_force_n"] == pytest.approx(_peak_force(EXAMPLE), abs=0)
@@ -106,8 +113,10 @@ def _peak_force(bag: Path) -> float:
 
     with open(next(bag.glob("*.mcap")), "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        forces = [abs(m.effort[0]) for _s, _c, _m, m in
-                  reader.iter_decoded_messages(topics=["/joint_states"])]  # fmt: skip
+        forces = [
+            abs(m.effort[0])
+            for _s, _c, _m, m in reader.iter_decoded_messages(topics=["/joint_states"])
+        ]
     return max(forces)
 
 
@@ -117,8 +126,20 @@ def test_resimulate_a_fleet_gives_one_row_per_bag(fleet_dir, tmp_path, capsys):
     day1 = fleet_dir / "runs" / "day1"
     table = tmp_path / "resim.parquet"
     glob = str(day1 / "*")
-    assert main(["resimulate", glob, str(fleet_dir / "runs" / "day2" / "damaged"), "--jobs", "2",
-                 "-o", str(table)]) == 1  # fmt: skip
+    assert (
+        main(
+            [
+                "resimulate",
+                glob,
+                str(fleet_dir / "runs" / "day2" / "damaged"),
+                "--jobs",
+                "2",
+                "-o",
+                str(table),
+            ]
+        )
+        == 1
+    )
     rows = {Path(r["bag"]).name: r for r in _table(table)}
     assert list(rows) == ["example", "node", "damaged"]
     assert rows["node"]["verdict"] == "PASS" and rows["node"]["stroke_deviation_m"] == 0.0
@@ -138,8 +159,9 @@ def test_a_bad_table_path_or_no_bag_is_one_line_and_status_2(fleet_dir, tmp_path
     assert "no bag under" in capsys.readouterr().err
 
 
-def test_index_catalogues_from_summaries_what_check_reads_from_every_byte(fleet_dir, tmp_path,
-                                                                         capsys):  # fmt: skip
+def test_index_catalogues_from_summaries_what_check_reads_from_every_byte(
+    fleet_dir, tmp_path, capsys
+):
     """The catalogue's columns equal the check table's for every readable bag (the same counts,
     start and duration, from metadata.yaml or the MCAP summary or the sqlite3 tables instead of
     every message); an unfinished recording without a summary is a row with its error; DuckDB
@@ -173,8 +195,10 @@ def test_index_catalogues_from_summaries_what_check_reads_from_every_byte(fleet_
     # the summary of the truncated copy still says what its metadata.yaml says: the index
     # is no check
     assert rows["damaged"]["error"] is None and checked["damaged"]["verdict"] == "UNREADABLE"
-    query = (f"SELECT storage, count(*) AS bags, sum(counts['/joint_states']) AS joint_states "
-             f"FROM '{catalogue}' WHERE error IS NULL GROUP BY storage ORDER BY storage")
+    query = (
+        f"SELECT storage, count(*) AS bags, sum(counts['/joint_states']) AS joint_states "
+        f"FROM '{catalogue}' WHERE error IS NULL GROUP BY storage ORDER BY storage"
+    )
     got = duckdb.sql(query).fetchall()
     want: dict[str, list] = {}
     for row in rows.values():

@@ -16,11 +16,19 @@ from ros_support import require_rclpy
 from drs_model.cli.exit_status import EXIT_OK, EXIT_UNREADABLE, EXIT_USAGE
 
 #: A goal as ``drs excite -o`` writes it: two points of the piston joint.
-GOAL = {"trajectory": {"joint_names": ["drs_piston"], "points": [
-    {"positions": [0.01], "velocities": [0.2],
-     "time_from_start": {"sec": 0, "nanosec": 50_000_000}},
-    {"positions": [0.03], "velocities": [0.0], "time_from_start": {"sec": 1, "nanosec": 5}},
-]}}  # fmt: skip
+GOAL = {
+    "trajectory": {
+        "joint_names": ["drs_piston"],
+        "points": [
+            {
+                "positions": [0.01],
+                "velocities": [0.2],
+                "time_from_start": {"sec": 0, "nanosec": 50_000_000},
+            },
+            {"positions": [0.03], "velocities": [0.0], "time_from_start": {"sec": 1, "nanosec": 5}},
+        ],
+    }
+}
 
 
 def drs_bag(*args) -> tuple[int, str, str]:
@@ -46,16 +54,21 @@ def _read_with_rosbags(bag):
     from rosbags.highlevel import AnyReader
 
     with AnyReader([bag]) as reader:
-        return [(c.topic, c.msgtype, reader.deserialize(raw, c.msgtype))
-                for c, _t, raw in reader.messages()]  # fmt: skip
+        return [
+            (c.topic, c.msgtype, reader.deserialize(raw, c.msgtype))
+            for c, _t, raw in reader.messages()
+        ]
 
 
-@pytest.mark.parametrize(("argv", "topic"), [
-    ([], "/drs/trajectory_cmd"),
-    (["--node", "/car7/drs_rear"], "/car7/drs_rear/trajectory_cmd"),
-    (["--node", "car7/drs_rear"], "/car7/drs_rear/trajectory_cmd"),
-    (["--topic", "/stack/drs_traj"], "/stack/drs_traj"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("argv", "topic"),
+    [
+        ([], "/drs/trajectory_cmd"),
+        (["--node", "/car7/drs_rear"], "/car7/drs_rear/trajectory_cmd"),
+        (["--node", "car7/drs_rear"], "/car7/drs_rear/trajectory_cmd"),
+        (["--topic", "/stack/drs_traj"], "/stack/drs_traj"),
+    ],
+)
 def test_the_goal_is_the_bag_s_trajectory_command_on_the_node_s_topic(tmp_path, argv, topic):
     bag = tmp_path / "bag"
     status, out, err = drs_bag("from-goal", _goal(tmp_path), "-o", bag, *argv)
@@ -66,30 +79,58 @@ def test_the_goal_is_the_bag_s_trajectory_command_on_the_node_s_topic(tmp_path, 
     assert (got_topic, msgtype) == (topic, "trajectory_msgs/msg/JointTrajectory")
     assert list(msg.joint_names) == ["drs_piston"]
     points = GOAL["trajectory"]["points"]
-    assert [(list(p.positions), list(p.velocities), list(p.accelerations),
-             p.time_from_start.sec, p.time_from_start.nanosec) for p in msg.points] == [
-        (p["positions"], p["velocities"], [], p["time_from_start"]["sec"],
-         p["time_from_start"]["nanosec"]) for p in points]  # fmt: skip
+    assert [
+        (
+            list(p.positions),
+            list(p.velocities),
+            list(p.accelerations),
+            p.time_from_start.sec,
+            p.time_from_start.nanosec,
+        )
+        for p in msg.points
+    ] == [
+        (
+            p["positions"],
+            p["velocities"],
+            [],
+            p["time_from_start"]["sec"],
+            p["time_from_start"]["nanosec"],
+        )
+        for p in points
+    ]
 
 
 def _points(*points):
     return {"trajectory": {"joint_names": ["drs_piston"], "points": list(points)}}
 
 
-@pytest.mark.parametrize(("goal", "match"), [
-    ({"goal": 1}, "no 'trajectory' mapping"),
-    ({"trajectory": {"joint_names": [], "points": []}}, "joint_names must be a list of names"),
-    (_points(), "the trajectory has no points"),
-    (_points({"positions": [0.01, 0.02]}), r"point 0: positions must hold 1 value\(s\)"),
-    (_points({"positions": [0.01], "time_from_start": {"sec": 1}},
-             {"positions": [float("nan")], "time_from_start": {"sec": 2}}),
-     "point 1: positions must be finite numbers"),
-    (_points({"positions": [0.01], "time_from_start": {"sec": 1}},
-             {"positions": [0.02], "time_from_start": {"sec": 1}}),
-     "point 1: time_from_start must increase"),
-    (_points({"positions": [0.01], "time_from_start": {"sec": 0, "nanosec": 2_000_000_000}}),
-     r"point 0: time_from_start must be >= 0 s with nanosec in \[0, 1e9\)"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("goal", "match"),
+    [
+        ({"goal": 1}, "no 'trajectory' mapping"),
+        ({"trajectory": {"joint_names": [], "points": []}}, "joint_names must be a list of names"),
+        (_points(), "the trajectory has no points"),
+        (_points({"positions": [0.01, 0.02]}), r"point 0: positions must hold 1 value\(s\)"),
+        (
+            _points(
+                {"positions": [0.01], "time_from_start": {"sec": 1}},
+                {"positions": [float("nan")], "time_from_start": {"sec": 2}},
+            ),
+            "point 1: positions must be finite numbers",
+        ),
+        (
+            _points(
+                {"positions": [0.01], "time_from_start": {"sec": 1}},
+                {"positions": [0.02], "time_from_start": {"sec": 1}},
+            ),
+            "point 1: time_from_start must increase",
+        ),
+        (
+            _points({"positions": [0.01], "time_from_start": {"sec": 0, "nanosec": 2_000_000_000}}),
+            r"point 0: time_from_start must be >= 0 s with nanosec in \[0, 1e9\)",
+        ),
+    ],
+)
 def test_a_malformed_goal_is_the_file_s_error_naming_the_point(tmp_path, goal, match):
     bag = tmp_path / "bag"
     status, out, err = drs_bag("from-goal", _goal(tmp_path, goal), "-o", bag)
@@ -108,6 +149,7 @@ def test_an_unreadable_goal_an_existing_output_and_a_bad_topic_are_refused(tmp_p
     status, _out, err = drs_bag("from-goal", _goal(tmp_path), "-o", bag)
     assert status == EXIT_UNREADABLE and "exists: name a new bag directory" in err
     assert [p.name for p in bag.iterdir()] == ["keep.txt"]
-    status, _out, err = drs_bag("from-goal", _goal(tmp_path), "-o", tmp_path / "b",
-                                "--topic", "relative/name")  # fmt: skip
+    status, _out, err = drs_bag(
+        "from-goal", _goal(tmp_path), "-o", tmp_path / "b", "--topic", "relative/name"
+    )
     assert status == EXIT_USAGE and "argument --topic: needs an absolute topic name" in err

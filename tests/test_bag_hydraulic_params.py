@@ -23,9 +23,14 @@ def bag(tmp_path_factory):
     from run_support import Command, record_run
 
     out = tmp_path_factory.mktemp("hydraulic_params")
-    return record_run(out / "bag", 130, [Command(1, "drs", True), Command(70, "drs", False)],
-                      fidelity="hydraulic", hydraulic_params=HydraulicParams(**TRUTH),
-                      faults={"sensor.noise_std_m": 1e-5, "sensor.noise_seed": 3})  # fmt: skip
+    return record_run(
+        out / "bag",
+        130,
+        [Command(1, "drs", True), Command(70, "drs", False)],
+        fidelity="hydraulic",
+        hydraulic_params=HydraulicParams(**TRUTH),
+        faults={"sensor.noise_std_m": 1e-5, "sensor.noise_seed": 3},
+    )
 
 
 def _stroke_deviation(bag, *sets: str) -> tuple[int, float]:
@@ -47,8 +52,7 @@ def test_the_bag_records_and_re_runs_its_hydraulic_parameters(bag):
     assert node.parameters["hydraulic.valve_port_ratio"] == pytest.approx(0.75, rel=1e-15)
     assert _stroke_deviation(bag) == (0, 0.0)
     defaults = HydraulicParams()
-    status, deviation = _stroke_deviation(
-        bag, *(f"{k}={getattr(defaults, k)!r}" for k in TRUTH))
+    status, deviation = _stroke_deviation(bag, *(f"{k}={getattr(defaults, k)!r}" for k in TRUTH))
     assert status == 1 and deviation > 1e-6  # DEVIATES: the defaults are not what ran
 
 
@@ -62,8 +66,9 @@ def test_a_fit_re_runs_the_bag_closer_than_the_defaults(bag):
         args += ["--set", item]
     res = drs_bag(*args)
     assert res.returncode == 0, res.stdout + res.stderr
-    fitted = {e["name"]: e["value"] for e in json.loads(res.stdout)["estimates"]
-              if e["stage"] == "output"}  # fmt: skip
+    fitted = {
+        e["name"]: e["value"] for e in json.loads(res.stdout)["estimates"] if e["stage"] == "output"
+    }
     assert set(fitted) == set(TRUTH)
     _, with_defaults = _stroke_deviation(bag, *start)
     _, with_fitted = _stroke_deviation(bag, *(f"{k}={v!r}" for k, v in fitted.items()))
@@ -87,8 +92,9 @@ def test_season_rows_carry_the_hydraulic_parameters_used(bag):
     assert row["param_hydraulic.leak_to_outside"] == TRUTH["leak_to_outside"]
     assert row["param_hydraulic.coulomb_friction"] == 75.0
     assert row["param_hydraulic.flow_law"] == HydraulicParams().flow_law
-    row = _season_row("fit", bag, "--params", "leak_to_outside", "--stage", "equation",
-                      "--set", "flow_law=linear")  # fmt: skip
+    row = _season_row(
+        "fit", bag, "--params", "leak_to_outside", "--stage", "equation", "--set", "flow_law=linear"
+    )
     assert row["param_hydraulic.breakaway_friction"] == TRUTH["breakaway_friction"]
     assert row["param_hydraulic.flow_law"] == "linear"
 

@@ -33,9 +33,12 @@ def test_what_merge_refuses(tmp_path, capsys):
     line = _refused(capsys, EXAMPLE, twin, "-o", out)
     assert "the drs node /drs is in" in line and str(twin) in line
     # a topic of another type in the other bag
-    other = copy_bags([EXAMPLE], tmp_path / "other",
-                      leave_out=["/parameter_events", "/drs/markers"],
-                      rename={"/drs/flap_gap": "/drs/markers"})  # fmt: skip
+    other = copy_bags(
+        [EXAMPLE],
+        tmp_path / "other",
+        leave_out=["/parameter_events", "/drs/markers"],
+        rename={"/drs/flap_gap": "/drs/markers"},
+    )
     line = _refused(capsys, EXAMPLE, other, "-o", out)
     assert "/drs/markers is visualization_msgs/msg/MarkerArray in" in line
     assert "than std_msgs/msg/Float64 in" in line
@@ -59,8 +62,15 @@ def test_two_bags_of_one_run_split_by_topic_merge_back_into_it(tmp_path, capsys)
     require_rclpy()
     from drs_ros.bag.read.reader import scan
 
-    signals = ["/joint_states", "/drs/piston_force", "/drs/flap_gap", "/drs/piston_acceleration",
-               "/drs/joint_reactions", "/drs/markers", "/diagnostics"]  # fmt: skip
+    signals = [
+        "/joint_states",
+        "/drs/piston_force",
+        "/drs/flap_gap",
+        "/drs/piston_acceleration",
+        "/drs/joint_reactions",
+        "/drs/markers",
+        "/diagnostics",
+    ]
     rest = [t for t in scan(EXAMPLE).counts if t not in signals]
     a = copy_bags([EXAMPLE], tmp_path / "a", leave_out=signals)
     b = copy_bags([EXAMPLE], tmp_path / "b", leave_out=rest)
@@ -87,8 +97,12 @@ def test_a_sqlite3_bag_merges_with_an_mcap_bag(tmp_path, capsys):
 
     db3 = mcap_to_db3(EXAMPLE, tmp_path / "db3")
     topics = [t for t in scan(EXAMPLE).counts if t != "/parameter_events"]
-    other = copy_bags([EXAMPLE], tmp_path / "other", leave_out=["/parameter_events"],
-                      rename={t: "/other" + t for t in topics})  # fmt: skip
+    other = copy_bags(
+        [EXAMPLE],
+        tmp_path / "other",
+        leave_out=["/parameter_events"],
+        rename={t: "/other" + t for t in topics},
+    )
     assert main(["merge", str(db3), str(other), "-o", str(tmp_path / "both")]) == 0
     assert "db3: 8517 messages" in capsys.readouterr().out
 

@@ -42,29 +42,72 @@ class Launch:
 #: Node names as a stack gives them: the default, and a namespace with a renamed node and two
 #: remapped topics (an absolute one, the joint states, and a private one, the piston force).
 LAUNCHES = {
-    "default": Launch(("-p", "model.m_wing:=3.0"), "/drs", "/joint_states",
-                      "/drs/piston_force", 3.0),
-    "renamed": Launch(("-r", "__ns:=/car7", "-r", "__node:=drs_rear",
-                       "-r", "/joint_states:=/car7/joint_states",
-                       "-r", "~/piston_force:=/car7/rear_force", "-p", "model.m_wing:=3.0"),
-                      "/car7/drs_rear", "/car7/joint_states", "/car7/rear_force", 3.0),
-}  # fmt: skip
+    "default": Launch(
+        ("-p", "model.m_wing:=3.0"), "/drs", "/joint_states", "/drs/piston_force", 3.0
+    ),
+    "renamed": Launch(
+        (
+            "-r",
+            "__ns:=/car7",
+            "-r",
+            "__node:=drs_rear",
+            "-r",
+            "/joint_states:=/car7/joint_states",
+            "-r",
+            "~/piston_force:=/car7/rear_force",
+            "-p",
+            "model.m_wing:=3.0",
+        ),
+        "/car7/drs_rear",
+        "/car7/joint_states",
+        "/car7/rear_force",
+        3.0,
+    ),
+}
 #: The rungs the runs are made on.
 RUNGS = ("rigid",)
 #: Two actuators of one car in two namespaces, each with its own flap mass.
-FRONT = Launch(("-r", "__ns:=/car7/front", "-r", "__node:=drs_front",
-                "-r", "/joint_states:=joint_states", "-p", "model.m_wing:=3.0"),
-               "/car7/front/drs_front", "/car7/front/joint_states",
-               "/car7/front/drs_front/piston_force", 3.0)  # fmt: skip
-REAR = Launch(("-r", "__ns:=/car7/rear", "-r", "__node:=drs_rear",
-               "-r", "/joint_states:=joint_states", "-p", "model.m_wing:=2.5"),
-              "/car7/rear/drs_rear", "/car7/rear/joint_states",
-              "/car7/rear/drs_rear/piston_force", 2.5)  # fmt: skip
+FRONT = Launch(
+    (
+        "-r",
+        "__ns:=/car7/front",
+        "-r",
+        "__node:=drs_front",
+        "-r",
+        "/joint_states:=joint_states",
+        "-p",
+        "model.m_wing:=3.0",
+    ),
+    "/car7/front/drs_front",
+    "/car7/front/joint_states",
+    "/car7/front/drs_front/piston_force",
+    3.0,
+)
+REAR = Launch(
+    (
+        "-r",
+        "__ns:=/car7/rear",
+        "-r",
+        "__node:=drs_rear",
+        "-r",
+        "/joint_states:=joint_states",
+        "-p",
+        "model.m_wing:=2.5",
+    ),
+    "/car7/rear/drs_rear",
+    "/car7/rear/joint_states",
+    "/car7/rear/drs_rear/piston_force",
+    2.5,
+)
 
 
 def drs_bag(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=600)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 def record_runs(out: Path, launches: list[tuple[Launch, str]], domain: int) -> list[Path]:
@@ -75,12 +118,28 @@ def record_runs(out: Path, launches: list[tuple[Launch, str]], domain: int) -> l
     try:
         for i, (launch, rung) in enumerate(launches):
             bag = out / f"bag{i}"
-            args = [sys.executable, "-m", "drs_ros", "--ros-args", *launch.ros_args,
-                    "-p", f"fidelity:={rung}", "-p", f"bag_path:={bag}",
-                    "-p", "flush_period:=0.2"]  # fmt: skip
-            procs.append(subprocess.Popen(args, env=node_env(out, domain), text=True,
-                                          stdout=subprocess.PIPE,
-                                          stderr=subprocess.STDOUT))  # fmt: skip
+            args = [
+                sys.executable,
+                "-m",
+                "drs_ros",
+                "--ros-args",
+                *launch.ros_args,
+                "-p",
+                f"fidelity:={rung}",
+                "-p",
+                f"bag_path:={bag}",
+                "-p",
+                "flush_period:=0.2",
+            ]
+            procs.append(
+                subprocess.Popen(
+                    args,
+                    env=node_env(out, domain),
+                    text=True,
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.STDOUT,
+                )
+            )
             bags.append(bag)
         for bag in bags:
             assert wait_for_file_growth(bag / f"{bag.name}_0.mcap", timeout=60.0), "no bag"
@@ -132,11 +191,15 @@ def drive(launches: list[Launch], domain: int, out: Path) -> None:
         strokes = {}
         for launch in launches:
             strokes[launch.node] = seen = []
-            client.create_subscription(JointState, launch.joint_states,
-                                       lambda m, seen=seen: seen.append(m.position[0]),
-                                       100)  # fmt: skip
-        stroke_cmds = [client.create_publisher(Float64, f"{x.node}/stroke_cmd", 10)
-                       for x in launches]  # fmt: skip
+            client.create_subscription(
+                JointState,
+                launch.joint_states,
+                lambda m, seen=seen: seen.append(m.position[0]),
+                100,
+            )
+        stroke_cmds = [
+            client.create_publisher(Float64, f"{x.node}/stroke_cmd", 10) for x in launches
+        ]
         services = [client.create_client(SetBool, f"{x.node}/drs") for x in launches]
         for service in services:
             assert service.wait_for_service(timeout_sec=60.0), service.srv_name
@@ -210,9 +273,11 @@ def test_a_changed_force_fails_check(run, tmp_path):
         msg.effort = [msg.effort[0] + 50.0, *msg.effort[1:]]
         return True
 
-    tampered = copy_bags([bag], tmp_path / "tampered",
-                         message_editor("sensor_msgs/msg/JointState", edit,
-                                        launch.joint_states))  # fmt: skip
+    tampered = copy_bags(
+        [bag],
+        tmp_path / "tampered",
+        message_editor("sensor_msgs/msg/JointState", edit, launch.joint_states),
+    )
     assert seen[0] == len(states)
     status, report = check_json(tampered)
     assert status == 1
@@ -234,8 +299,9 @@ def test_a_changed_recorded_parameter_fails_check(run, tmp_path):
                 p.value.double_value = DRSParams().m_wing
         return True
 
-    tampered = copy_bags([bag], tmp_path / "tampered",
-                         message_editor("rcl_interfaces/msg/ParameterEvent", edit))  # fmt: skip
+    tampered = copy_bags(
+        [bag], tmp_path / "tampered", message_editor("rcl_interfaces/msg/ParameterEvent", edit)
+    )
     status, report = check_json(tampered)
     assert status == 1 and force_check(report)["status"] == "FAIL"
     assert check_json(copy_bags([bag], tmp_path / "copy"))[0] == 0  # the copy alone passes
@@ -307,12 +373,16 @@ def test_an_older_bag_names_its_node_by_its_parameters_alone(tmp_path):
     example = Path(__file__).resolve().parents[1] / "bags" / "example"
     status, report = check_json(example)
     assert status == 0 and report["node"] == "/drs"
-    assert "node: /drs (topics from its name, unremapped: the bag records no topic names)" in \
-        report["notes"]  # fmt: skip
+    assert (
+        "node: /drs (topics from its name, unremapped: the bag records no topic names)"
+        in report["notes"]
+    )
     moved = copy_bags([example], tmp_path / "moved", rename={"/joint_states": "/car7/joint_states"})
     _status, report = check_json(moved)
-    assert ("the bag holds no /joint_states (joint_states of /drs unremapped): if it was "
-            "remapped, name it with --joint-states-topic") in report["notes"]  # fmt: skip
+    assert (
+        "the bag holds no /joint_states (joint_states of /drs unremapped): if it was "
+        "remapped, name it with --joint-states-topic"
+    ) in report["notes"]
     status, report = check_json(moved, "--joint-states-topic", "/car7/joint_states")
     assert status == 0 and force_check(report)["samples"] > 100
     assert {c["topic"] for c in report["checks"]} >= {"/car7/joint_states"}
@@ -355,8 +425,9 @@ def test_the_merged_bag_holds_every_record_of_both_as_recorded(car):
 
     def records(bag):
         out = []
-        result = scan(bag, lambda m: out.append((m.topic, m.log_time, m.publish_time, m.sequence,
-                                                 m.data)))  # fmt: skip
+        result = scan(
+            bag, lambda m: out.append((m.topic, m.log_time, m.publish_time, m.sequence, m.data))
+        )
         return out, result
 
     merged, result = records(both)
@@ -394,11 +465,21 @@ def test_the_fleet_gives_a_row_per_node(car, tmp_path):
     assert res.returncode == 0, res.stdout + res.stderr
     rows = pq.read_table(tmp_path / "table.parquet").to_pylist()
     assert [(r["bag"], r["node"], r["verdict"]) for r in rows] == [
-        (str(both), FRONT.node, "PASS"), (str(both), REAR.node, "PASS")]  # fmt: skip
+        (str(both), FRONT.node, "PASS"),
+        (str(both), REAR.node, "PASS"),
+    ]
     assert [r["param_m_wing"] for r in rows] == [FRONT.m_wing, REAR.m_wing]
     assert "1 bags, 2 rows: 2 PASS" in res.stdout
-    res = drs_bag("resimulate", both.parent, "--jobs", "1", "--node", REAR.node,
-                  "-o", tmp_path / "rerun.parquet")  # fmt: skip
+    res = drs_bag(
+        "resimulate",
+        both.parent,
+        "--jobs",
+        "1",
+        "--node",
+        REAR.node,
+        "-o",
+        tmp_path / "rerun.parquet",
+    )
     assert res.returncode == 0, res.stdout + res.stderr
     (row,) = pq.read_table(tmp_path / "rerun.parquet").to_pylist()
     assert (row["node"], row["verdict"], row["stroke_deviation_m"]) == (REAR.node, "PASS", 0.0)
@@ -415,11 +496,27 @@ def test_play_plays_the_topics_of_the_node_named(car, tmp_path):
     with client_node("drs_play_listener", domain, tmp_path) as (listener, ex):
         for topic, seen in got.items():
             listener.create_subscription(Float64, topic, seen.append, 1000)
-        player = subprocess.Popen([sys.executable, "-m", "drs_ros.bag.cli", "play", str(both),
-                                   "--node", FRONT.node, "--topics", FRONT.piston_force,
-                                   REAR.piston_force, "--wait-for-subscribers", "--rate", "4"],
-                                  env=node_env(tmp_path, domain), text=True,
-                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT)  # fmt: skip
+        player = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "drs_ros.bag.cli",
+                "play",
+                str(both),
+                "--node",
+                FRONT.node,
+                "--topics",
+                FRONT.piston_force,
+                REAR.piston_force,
+                "--wait-for-subscribers",
+                "--rate",
+                "4",
+            ],
+            env=node_env(tmp_path, domain),
+            text=True,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+        )
         try:
             end = time.monotonic() + 120
             while player.poll() is None and time.monotonic() < end:
@@ -456,11 +553,12 @@ def test_fit_fits_the_run_of_the_node_named_and_a_season_gives_a_row_per_node(ca
         (m_wing,) = doc["estimates"]
         # the node's states are its model's, noise-free: the fit is the recorded mass
         assert m_wing["determined"] and m_wing["value"] == pytest.approx(launch.m_wing, abs=1e-6)
-    res = drs_bag(*fit[:1], both.parent, *fit[1:], "--jobs", "1", "-o",
-                  tmp_path / "season.parquet")  # fmt: skip
+    res = drs_bag(*fit[:1], both.parent, *fit[1:], "--jobs", "1", "-o", tmp_path / "season.parquet")
     assert res.returncode == 0, res.stdout + res.stderr
     rows = pq.read_table(tmp_path / "season.parquet").to_pylist()
     assert [(r["bag"], r["node"], r["verdict"]) for r in rows] == [
-        (str(both), FRONT.node, "FITTED"), (str(both), REAR.node, "FITTED")]  # fmt: skip
+        (str(both), FRONT.node, "FITTED"),
+        (str(both), REAR.node, "FITTED"),
+    ]
     assert [r["m_wing"] for r in rows] == pytest.approx([FRONT.m_wing, REAR.m_wing], abs=1e-6)
     assert [r["param_m_wing"] for r in rows] == [FRONT.m_wing, REAR.m_wing]

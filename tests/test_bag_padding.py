@@ -77,8 +77,9 @@ def padded_bag(tmp_path_factory) -> Path:
     from drs_ros.bag.read.reader import scan
     from drs_ros.recording import msgdefs
 
-    judges = {c.topic: _rosbags_judge(c.type_name, c.schema_data)
-              for c in scan(EXAMPLE).channels.values()}  # fmt: skip
+    judges = {
+        c.topic: _rosbags_judge(c.type_name, c.schema_data) for c in scan(EXAMPLE).channels.values()
+    }
     filled: dict[str, int] = {}
     where: dict[tuple[str, int], list[int]] = {}  # (topic, length) -> padding offsets
 
@@ -154,8 +155,11 @@ def test_a_difference_beyond_the_padding_is_still_refused(padded_bag, tmp_path):
     from drs_ros.recording.cdr_padding import zero_padding
     from drs_ros.recording.mcap_recorder import McapRecorder
 
-    leaked = copy_bags([padded_bag], tmp_path / "leaked",
-                       change=lambda t, _n, d: d + b"\x7f" if t == "/diagnostics" else d)
+    leaked = copy_bags(
+        [padded_bag],
+        tmp_path / "leaked",
+        change=lambda t, _n, d: d + b"\x7f" if t == "/diagnostics" else d,
+    )
     with pytest.raises(BagReadError, match=r"message 1 of /diagnostics .* bytes where its CDR"):
         scan(leaked)
     two = b"\x00\x01\x00\x00\x02"

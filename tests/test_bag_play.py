@@ -277,8 +277,17 @@ def test_a_sqlite3_bag_plays_the_same_bytes_in_the_same_order(ros_context, tmp_p
     chosen = ["/joint_states", "/drs/flap_gap", "/drs/stroke_cmd"]
     sub = RawSubscriber(ros_context, {t: types[t] for t in chosen})
     try:
-        proc = start_play(tmp_path, request, str(db3), *START, *no_loss(tmp_path), "--rate", "4",
-                          "--topics", *chosen)  # fmt: skip
+        proc = start_play(
+            tmp_path,
+            request,
+            str(db3),
+            *START,
+            *no_loss(tmp_path),
+            "--rate",
+            "4",
+            "--topics",
+            *chosen,
+        )
         expected = sum(len(messages[t]) for t in chosen)
         _out, err = receive_until_exit(sub, proc, expected)
         assert_clean_exit(proc, err)

@@ -17,8 +17,12 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
 
 
 def resimulate(*args) -> tuple[int, dict | str]:
-    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", *args],
-                         capture_output=True, text=True, timeout=300)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     if "--json" in args and res.returncode in (0, 1):
         return res.returncode, json.loads(res.stdout)
     return res.returncode, res.stderr
@@ -54,8 +58,9 @@ def test_a_lighter_flap_changes_what_the_run_needed(node_bag, tmp_path):
     stroke-mode force changes and so does the force-mode motion; the re-run is written as a bag
     that drs-bag check passes with the parameters it records."""
     require_rclpy()
-    rc, report = resimulate(str(node_bag), "--set", "m_wing=0.6", "-o", str(tmp_path / "light"),
-                            "--json")  # fmt: skip
+    rc, report = resimulate(
+        str(node_bag), "--set", "m_wing=0.6", "-o", str(tmp_path / "light"), "--json"
+    )
     assert rc == 1  # past the tolerances, as it must be
     rows = {r["signal"]: r for r in report["signals"]}
     assert rows["piston_force"]["max_deviation"] > 100.0  # N
@@ -110,14 +115,20 @@ def test_a_bag_of_another_tool_has_nothing_to_re_run(tmp_path, params):
     assert rc == 5, err
     assert len(err.strip().splitlines()) == 1 and "nothing to re-run" in err
     assert "names no drs node" in err
-    check = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "check",
-                            str(tmp_path / "runs" / "other")],
-                           capture_output=True, text=True)  # fmt: skip
+    check = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "check", str(tmp_path / "runs" / "other")],
+        capture_output=True,
+        text=True,
+    )
     assert check.returncode == 0, check.stdout + check.stderr
     rc, _ = resimulate(str(tmp_path / "runs"), "--jobs", "1", "-o", str(tmp_path / "t.parquet"))
     (row,) = pq.read_table(tmp_path / "t.parquet").to_pylist()
-    assert (rc, row["verdict"], row["exit_status"], row["node"]) == (1, "NOTHING TO RE-RUN", 5,
-                                                                      None)  # fmt: skip
+    assert (rc, row["verdict"], row["exit_status"], row["node"]) == (
+        1,
+        "NOTHING TO RE-RUN",
+        5,
+        None,
+    )
 
 
 def test_bad_set_is_refused_with_a_reason(tmp_path):
@@ -157,14 +168,26 @@ def write_bag_with_a_reset(bag_dir, params, force_method: str = "fused") -> dict
     from drs_ros.recording.mcap_recorder import McapRecorder
 
     tp, names, hz = DEFAULT_TOPICS, list(DEFAULT_JOINT_NAMES), 100.0
-    node_params = {"physics_rate_hz": hz, "publish_rate_hz": hz, "force_limit": 2.0e4,
-                   "integrator": "rk4", "force_method": force_method, "joint_names": names,
-                   **{f"model.{k}": float(getattr(params, k)) for k in NUMERIC_FIELDS}}  # fmt: skip
+    node_params = {
+        "physics_rate_hz": hz,
+        "publish_rate_hz": hz,
+        "force_limit": 2.0e4,
+        "integrator": "rk4",
+        "force_method": force_method,
+        "joint_names": names,
+        **{f"model.{k}": float(getattr(params, k)) for k in NUMERIC_FIELDS},
+    }
     # as that node ran: its force_limit, and every move carried out (no limit_moves then)
-    sim = ActuatorSim(params, dt=1.0 / hz, force_limit=2.0e4, force_method="fused",
-                      limit_moves=False)  # fmt: skip
-    schedule = {1: ("stroke_cmd", 0.046), 30: ("force_cmd", -5000.0), 50: ("stroke_cmd", 0.02),
-                80: ("force_cmd", 600.0), 120: ("force_cmd", -20000.0)}  # fmt: skip
+    sim = ActuatorSim(
+        params, dt=1.0 / hz, force_limit=2.0e4, force_method="fused", limit_moves=False
+    )
+    schedule = {
+        1: ("stroke_cmd", 0.046),
+        30: ("force_cmd", -5000.0),
+        50: ("stroke_cmd", 0.02),
+        80: ("force_cmd", 600.0),
+        120: ("force_cmd", -20000.0),
+    }
     reset_tick, written = 30, {"resets": [], "states": {}}
     with McapRecorder(bag_dir, flush_thread=False) as rec:
         rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
@@ -185,8 +208,14 @@ def write_bag_with_a_reset(bag_dir, params, force_method: str = "fused") -> dict
         def hold(now: int, s_before: float, reason: str) -> None:  # the node's except DRSError
             s_hold = min(max(s_before, sim.s_min), sim.s_max)
             sim.reset(sim.t, s_hold)
-            event(now, RESET, RESET, DiagnosticStatus.WARN, f"step 'force' refused: {reason}",
-                  {"stroke": repr(s_hold)})  # fmt: skip
+            event(
+                now,
+                RESET,
+                RESET,
+                DiagnosticStatus.WARN,
+                f"step 'force' refused: {reason}",
+                {"stroke": repr(s_hold)},
+            )
             written["resets"].append((sim.t, s_hold))
 
         for tick in range(151):
@@ -198,8 +227,14 @@ def write_bag_with_a_reset(bag_dir, params, force_method: str = "fused") -> dict
                 received = now - 5_000_000
                 seq = rec.write(tp[key], Float64(data=value), received)
                 commands.apply(sim, key, Float64(data=value), names[0])
-                event(now, tp[key], ACCEPTED, DiagnosticStatus.OK, "",
-                      {"sequence": seq, "received_ns": received, "value": repr(value)})  # fmt: skip
+                event(
+                    now,
+                    tp[key],
+                    ACCEPTED,
+                    DiagnosticStatus.OK,
+                    "",
+                    {"sequence": seq, "received_ns": received, "value": repr(value)},
+                )
             s_before = float(sim.state.q[0])
             if tick == reset_tick:  # as it ran then: the model of the time raised in this step
                 try:
@@ -241,7 +276,6 @@ def test_a_bag_with_a_reset_re_runs_exactly(tmp_path, params):
     assert not report["notes"], report["notes"]
 
 
-
 def test_a_bag_naming_virtual_work_re_runs_the_virtual_work_formulation(tmp_path, params):
     """A bag whose force_method is 'virtual-work' but whose forces are the fused closed form's
     (as drs nodes recorded while the name meant the fused path): the re-run runs the
@@ -257,6 +291,7 @@ def test_a_bag_naming_virtual_work_re_runs_the_virtual_work_formulation(tmp_path
     assert rows["stroke"]["max_deviation"] == 0.0 and rows["gap"]["max_deviation"] == 0.0
     assert 0.0 < rows["piston_force"]["max_deviation"] <= 1e-9 * 2.0e4  # N
     assert report["notes"] == [VIRTUAL_WORK_NOTE]
+
 
 @pytest.mark.parametrize(
     "overrides",
@@ -278,8 +313,11 @@ def test_recorded_model_parameters_are_rebuilt_exactly(params, overrides):
     from drs_ros.bag.read.effects import model_params_from, parameter_event, parameter_values
 
     run = from_dict(overrides)
-    values = {"physics_rate_hz": 1000.0, "integrator": "rk4",
-              **{f"model.{k}": float(getattr(run, k)) for k in NUMERIC_FIELDS}}  # fmt: skip
+    values = {
+        "physics_rate_hz": 1000.0,
+        "integrator": "rk4",
+        **{f"model.{k}": float(getattr(run, k)) for k in NUMERIC_FIELDS},
+    }
     got = model_params_from(parameter_values(parameter_event("/drs", values, 0)))
     for f in dataclasses.fields(run):
         assert getattr(got, f.name) == getattr(run, f.name), f.name
@@ -301,8 +339,9 @@ def test_a_window_of_a_few_steps_re_runs_as_the_whole_run(monkeypatch):
         result = rerun_module.resimulate(run, run_params(run.node_parameters))
         written = []
         tolerances = {name: tol for name, (_unit, tol) in deviations.SIGNALS.items()}
-        rows = deviations.compare(run, result, tolerances,
-                              lambda log, m, state: written.append((log, state)))  # fmt: skip
+        rows = deviations.compare(
+            run, result, tolerances, lambda log, m, state: written.append((log, state))
+        )
         return rows, result["notes"], written, len(result["states"])
 
     rows, notes, written, held = rerun()
@@ -327,8 +366,13 @@ def test_the_re_run_takes_the_recorded_limit_moves(params, recorded, taken):
     from drs_ros.bag.replay.rerun import resimulate as rerun
     from drs_ros.names import DEFAULT_JOINT_NAMES
 
-    values = {"physics_rate_hz": 1000.0, "force_limit": 2.5e4, "integrator": "rk4",
-              "force_method": "fused", "joint_names": list(DEFAULT_JOINT_NAMES)}  # fmt: skip
+    values = {
+        "physics_rate_hz": 1000.0,
+        "force_limit": 2.5e4,
+        "integrator": "rk4",
+        "force_method": "fused",
+        "joint_names": list(DEFAULT_JOINT_NAMES),
+    }
     if recorded is not None:
         values["limit_moves"] = recorded
     sim = rerun(RecordedRun(keep_records=True, node_parameters=values), params)["sim"]

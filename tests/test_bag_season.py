@@ -39,17 +39,36 @@ def seasons(tmp_path_factory):
     out = tmp_path_factory.mktemp("season")
     for season, growth in (("worn", 1.05), ("healthy", 1.0)):
         for k in range(RUNS):
-            faults = {"leak_m3_per_s_per_pa": 1e-13 * growth**k, "sensor.noise_std_m": 1e-5,
-                      "sensor.noise_seed": 100 * (season == "healthy") + k}  # fmt: skip
-            record_run(out / season / f"run_{k:02d}", 120, [Command(1, "drs", True)],
-                       fidelity="hydraulic", physics_rate_hz=2000.0, faults=faults,
-                       t0_ns=T0_NS + k * DAY_NS)  # fmt: skip
+            faults = {
+                "leak_m3_per_s_per_pa": 1e-13 * growth**k,
+                "sensor.noise_std_m": 1e-5,
+                "sensor.noise_seed": 100 * (season == "healthy") + k,
+            }
+            record_run(
+                out / season / f"run_{k:02d}",
+                120,
+                [Command(1, "drs", True)],
+                fidelity="hydraulic",
+                physics_rate_hz=2000.0,
+                faults=faults,
+                t0_ns=T0_NS + k * DAY_NS,
+            )
     return out
 
 
 def _fit(bags, table, jobs, runs=RUNS):
-    status, out, err = drs_bag("fit", bags, "--params", "leak_to_outside", "--stage",
-                               "equation", "--jobs", jobs, "-o", table)  # fmt: skip
+    status, out, err = drs_bag(
+        "fit",
+        bags,
+        "--params",
+        "leak_to_outside",
+        "--stage",
+        "equation",
+        "--jobs",
+        jobs,
+        "-o",
+        table,
+    )
     assert status == 0, out + err
     assert f"{runs} bags: {runs} FITTED" in out
 
@@ -57,13 +76,21 @@ def _fit(bags, table, jobs, runs=RUNS):
 def test_a_growing_leak_is_flagged_with_its_run_and_its_crossing(seasons):
     table = seasons / "worn.parquet"
     _fit(seasons / "worn", table, 2)
-    status, out, err = drs_bag("trend", table, "--threshold", "leak_to_outside=1e-12", "--json",
-                               "--plot", seasons / "worn.png")  # fmt: skip
+    status, out, err = drs_bag(
+        "trend",
+        table,
+        "--threshold",
+        "leak_to_outside=1e-12",
+        "--json",
+        "--plot",
+        seasons / "worn.png",
+    )
     assert status == 1, out + err
     (row,) = json.loads(out)
     assert row["drift"] == "rising" and row["model"] == "exponential"
     assert 8 <= row["detected_run"] <= 12 and row["detected_bag"].endswith(
-        f"run_{row['detected_run'] - 1:02d}")  # fmt: skip
+        f"run_{row['detected_run'] - 1:02d}"
+    )
     truth = math.log(10.0) / math.log(1.05) - (RUNS - 1)  # days after the last run: 8.2
     low, median, high = row["crossing"]["days_after_last_run"]
     assert abs(median - truth) < 1.5 and low < median < high
@@ -100,18 +127,26 @@ def test_each_actuator_of_a_season_is_trended_on_its_own(tmp_path):
     for k in range(RUNS):
         for node, growth in (("/car7/front/drs_front", 1.05), ("/car7/rear/drs_rear", 1.0)):
             value = 1e-13 * growth**k
-            rows.append({"bag": f"runs/{node.rsplit('/', 1)[-1]}_{k:02d}", "node": node,
-                         "start_ns": k * DAY_NS,
-                         "leak_to_outside": value * (1 + 0.01 * rng.standard_normal()),
-                         "leak_to_outside_std": 0.01 * value,
-                         "leak_to_outside_determined": True})  # fmt: skip
+            rows.append(
+                {
+                    "bag": f"runs/{node.rsplit('/', 1)[-1]}_{k:02d}",
+                    "node": node,
+                    "start_ns": k * DAY_NS,
+                    "leak_to_outside": value * (1 + 0.01 * rng.standard_normal()),
+                    "leak_to_outside_std": 0.01 * value,
+                    "leak_to_outside_determined": True,
+                }
+            )
     table = tmp_path / "car.parquet"
     pq.write_table(pa.Table.from_pylist(rows), table)
     status, out, err = drs_bag("trend", table, "--json")
     assert status == 1, out + err
     front, rear = json.loads(out)
-    assert (front["node"], front["drift"], front["runs"]) == ("/car7/front/drs_front", "rising",
-                                                              RUNS)  # fmt: skip
+    assert (front["node"], front["drift"], front["runs"]) == (
+        "/car7/front/drs_front",
+        "rising",
+        RUNS,
+    )
     assert front["detected_bag"].startswith("runs/drs_front_")
     assert (rear["node"], rear["drift"], rear["runs"]) == ("/car7/rear/drs_rear", "none", RUNS)
     status, out, err = drs_bag("trend", table, "--node", "drs_rear")
@@ -132,9 +167,17 @@ def test_a_drift_from_run_28_is_reported_with_its_onset_and_its_flag(tmp_path):
     rng = np.random.default_rng(28)
     values = 2.0 + 0.01 * rng.standard_normal(RUNS)
     values[27:] += 0.02 * np.arange(1, RUNS - 26)
-    rows = [{"bag": f"runs/run_{k + 1:02d}", "node": "/drs", "start_ns": k * DAY_NS,
-             "m_wing": values[k], "m_wing_std": 0.01, "m_wing_determined": True}
-            for k in range(RUNS)]  # fmt: skip
+    rows = [
+        {
+            "bag": f"runs/run_{k + 1:02d}",
+            "node": "/drs",
+            "start_ns": k * DAY_NS,
+            "m_wing": values[k],
+            "m_wing_std": 0.01,
+            "m_wing_determined": True,
+        }
+        for k in range(RUNS)
+    ]
     table = tmp_path / "season.parquet"
     pq.write_table(pa.Table.from_pylist(rows), table)
     status, out, err = drs_bag("trend", table, "--json")
@@ -146,7 +189,9 @@ def test_a_drift_from_run_28_is_reported_with_its_onset_and_its_flag(tmp_path):
     assert row["detected_bag"] == f"runs/run_{row['detected_run']:02d}"
     status, out, err = drs_bag("trend", table)
     assert status == 1, out + err
-    assert (f"drift: rising, from run {row['onset_run']} ({row['onset_bag']}), significant at "
-            f"run {row['detected_run']} ({row['detected_bag']})") in out  # fmt: skip
+    assert (
+        f"drift: rising, from run {row['onset_run']} ({row['onset_bag']}), significant at "
+        f"run {row['detected_run']} ({row['detected_bag']})"
+    ) in out
     status, out, err = drs_bag("trend", table, "--decision", "1000")
     assert status == 0 and "drift: none" in out, out + err

@@ -19,8 +19,12 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
 
 
 def drs_bag(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", *args], capture_output=True,
-                          text=True, timeout=300)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 @pytest.fixture(scope="module")

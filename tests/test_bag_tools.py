@@ -34,8 +34,9 @@ SERVICE_EVENTS = "/drs/drs/_service_event"
 
 
 def run_tool(*args, env=None, timeout=120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", *args], capture_output=True, text=True,
-                          timeout=timeout, env=env)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", *args], capture_output=True, text=True, timeout=timeout, env=env
+    )
 
 
 def judge_with_rosbags(bag: Path) -> dict[str, int]:
@@ -52,8 +53,11 @@ def judge_with_rosbags(bag: Path) -> dict[str, int]:
             if "/srv/" in msgtype:  # rosbags' own name for the type (see the docstring)
                 store.register(get_types_from_msg(msgdef, msgtype))
         for conn, _t, raw in reader.messages():
-            name = conn.msgtype.replace("/srv/", "/srv/msg/") if "/srv/" in conn.msgtype \
-                else conn.msgtype  # fmt: skip
+            name = (
+                conn.msgtype.replace("/srv/", "/srv/msg/")
+                if "/srv/" in conn.msgtype
+                else conn.msgtype
+            )
             again = bytes(store.serialize_cdr(store.deserialize_cdr(raw, name), name))
             assert again == bytes(raw), f"{conn.topic}: recorded bytes are not the exact CDR"
             counts[conn.topic] = counts.get(conn.topic, 0) + 1
@@ -82,11 +86,20 @@ def judge_with_mcap_ros2(bag: Path) -> dict[str, int]:
 
 
 EVERY_TOPIC = {
-    "/joint_states", "/drs/piston_force", "/drs/flap_gap", "/drs/piston_acceleration",
-    "/drs/joint_reactions", "/drs/markers", "/diagnostics", "/drs/command_events",
+    "/joint_states",
+    "/drs/piston_force",
+    "/drs/flap_gap",
+    "/drs/piston_acceleration",
+    "/drs/joint_reactions",
+    "/drs/markers",
+    "/diagnostics",
+    "/drs/command_events",
     "/parameter_events",
-    "/drs/stroke_cmd", "/drs/force_cmd", "/drs/trajectory_cmd", SERVICE_EVENTS,
-}  # fmt: skip
+    "/drs/stroke_cmd",
+    "/drs/force_cmd",
+    "/drs/trajectory_cmd",
+    SERVICE_EVENTS,
+}
 
 
 @pytest.mark.parametrize("which", ["example", "node"])
@@ -143,8 +156,16 @@ def _corrupt(kind: str, src: Path, dst: Path, rng: random.Random) -> Path:
     return dst
 
 
-CORRUPTIONS = ["truncate_half", "truncate_random", "flip_chunk", "overwrite_message",
-               "no_metadata", "empty", "not_mcap", "trailing_bytes"]  # fmt: skip
+CORRUPTIONS = [
+    "truncate_half",
+    "truncate_random",
+    "flip_chunk",
+    "overwrite_message",
+    "no_metadata",
+    "empty",
+    "not_mcap",
+    "trailing_bytes",
+]
 
 
 @pytest.mark.parametrize("kind", CORRUPTIONS)
@@ -164,10 +185,22 @@ def test_sigkill_then_recover_gives_a_bag_every_reader_reads(tmp_path, request):
     flush, publish_hz = 0.2, 250.0
     env = node_env(tmp_path, domain_for(request.node.nodeid))
     proc = subprocess.Popen(
-        [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={tmp_path / 'bag'}",
-         "-p", f"flush_period:={flush}", "-p", f"publish_rate_hz:={publish_hz}"],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "drs_ros",
+            "--ros-args",
+            "-p",
+            f"bag_path:={tmp_path / 'bag'}",
+            "-p",
+            f"flush_period:={flush}",
+            "-p",
+            f"publish_rate_hz:={publish_hz}",
+        ],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         # well past start-up (which takes seconds on a loaded machine), with flushes behind it
         assert wait_for_file_growth(tmp_path / "bag" / "bag_0.mcap", timeout=60)
@@ -179,8 +212,9 @@ def test_sigkill_then_recover_gives_a_bag_every_reader_reads(tmp_path, request):
     assert not (tmp_path / "bag" / "metadata.yaml").exists()
     res = run_tool("drs_ros.bag.cli", "check", str(tmp_path / "bag"))
     assert res.returncode == 2 and "drs-bag recover" in res.stderr
-    res = run_tool("drs_ros.bag.cli", "recover", str(tmp_path / "bag"), "-o",
-                   str(tmp_path / "fixed"), "--json")  # fmt: skip
+    res = run_tool(
+        "drs_ros.bag.cli", "recover", str(tmp_path / "bag"), "-o", str(tmp_path / "fixed"), "--json"
+    )
     assert res.returncode == 3, res.stderr  # damaged source, readable part kept
     import json
 
@@ -195,8 +229,9 @@ def test_sigkill_then_recover_gives_a_bag_every_reader_reads(tmp_path, request):
     assert run_tool("drs_ros.bag.cli", "check", str(tmp_path / "fixed")).returncode == 0
 
 
-@pytest.mark.parametrize("case", ["existing_rrd", "unwritable_rrd", "bag_is_a_file",
-                                  "existing_bag"])  # fmt: skip
+@pytest.mark.parametrize(
+    "case", ["existing_rrd", "unwritable_rrd", "bag_is_a_file", "existing_bag"]
+)
 def test_start_up_is_all_or_nothing(case, tmp_path, request):
     require_rclpy()
     bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
@@ -212,17 +247,30 @@ def test_start_up_is_all_or_nothing(case, tmp_path, request):
         (bag / "bag_0.mcap").write_bytes(b"an earlier run")
     before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     res = subprocess.run(
-        [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={bag}",
-         "-p", f"rrd_path:={rrd}"],
-        env=node_env(tmp_path / "log", domain_for(request.node.nodeid)), capture_output=True,
-        text=True, timeout=60,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "drs_ros",
+            "--ros-args",
+            "-p",
+            f"bag_path:={bag}",
+            "-p",
+            f"rrd_path:={rrd}",
+        ],
+        env=node_env(tmp_path / "log", domain_for(request.node.nodeid)),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == 2, res.stderr
     errors = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(errors) == 1 and errors[0].startswith("drs-node: refused to start: "), res.stderr
     assert "Traceback" not in res.stderr and "overwrite=True" not in res.stderr
-    after = {p: p.read_bytes() for p in tmp_path.rglob("*")
-             if p.is_file() and "log" not in p.relative_to(tmp_path).parts}  # fmt: skip
+    after = {
+        p: p.read_bytes()
+        for p in tmp_path.rglob("*")
+        if p.is_file() and "log" not in p.relative_to(tmp_path).parts
+    }
     assert after == before  # nothing created, nothing changed
 
 
@@ -247,8 +295,11 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
     assert cdr.exact_bytes(padded, SetBool.Event) == exact
     with pytest.raises(cdr.CdrError, match="plus at most 3 zero bytes"):
         cdr.exact_bytes(exact + b"\x01", SetBool.Event)
-    for name, data, ok in (("padded", padded, True), ("leaked", exact + b"\x7f\x00", False),
-                           ("long", exact + bytes(4), False)):  # fmt: skip
+    for name, data, ok in (
+        ("padded", padded, True),
+        ("leaked", exact + b"\x7f\x00", False),
+        ("long", exact + bytes(4), False),
+    ):
         with McapRecorder(tmp_path / name, flush_thread=False) as rec:
             rec.register_topic(SERVICE_EVENTS, SetBool.Event, 10)
             rec.write(SERVICE_EVENTS, data, 1)
@@ -308,9 +359,20 @@ def _malformed(kind: str):
     return yaml.safe_dump(meta, sort_keys=False), words
 
 
-MALFORMED = ["not_yaml", "not_utf8", "empty", "a_list", "no_key", "info_not_mapping",
-             "count_not_int", "negative_total", "no_topic_metadata", "files_not_a_list",
-             "file_outside", "no_starting_time"]  # fmt: skip
+MALFORMED = [
+    "not_yaml",
+    "not_utf8",
+    "empty",
+    "a_list",
+    "no_key",
+    "info_not_mapping",
+    "count_not_int",
+    "negative_total",
+    "no_topic_metadata",
+    "files_not_a_list",
+    "file_outside",
+    "no_starting_time",
+]
 VERBS = ["info", "check", "recover", "resimulate", "play"]
 
 
@@ -362,8 +424,7 @@ def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
     from drs_ros.bag.read.files import BagReadError
     from drs_ros.bag.read.reader import scan
 
-    rec, *_ = write_drs_bag(tmp_path / "bag", params, n=100,
-                            recorder_kwargs={"flush_messages": 30})  # fmt: skip
+    rec, *_ = write_drs_bag(tmp_path / "bag", params, n=100, recorder_kwargs={"flush_messages": 30})
     bug = ValueError("the caller's own bug")
     seen: list = []
 
@@ -379,8 +440,10 @@ def test_a_failing_callback_is_not_a_verdict_on_the_bag(tmp_path, params):
         except Exception as exc:  # noqa: BLE001 - what it is is the test
             raised = exc
         else:
-            pytest.fail(f"recover={recover}: the callback's error ended the scan as damage to "
-                        f"the file: {result.reason!r}, {result.message_count} kept")  # fmt: skip
+            pytest.fail(
+                f"recover={recover}: the callback's error ended the scan as damage to "
+                f"the file: {result.reason!r}, {result.message_count} kept"
+            )
         assert not isinstance(raised, BagReadError), f"reported as the bag's fault: {raised}"
         assert type(raised).__name__ == "MessageCallbackError" and raised.__cause__ is bug
         assert (raised.topic, raised.offset) == (seen[-1].topic, seen[-1].offset)
@@ -393,11 +456,15 @@ def _bag_of_an_uninstalled_type(bag: Path) -> None:
     from drs_ros.recording.mcap_recorder import McapRecorder
 
     with McapRecorder(bag, flush_thread=False) as rec:
-        rec.register_recorded_topic("/joint_states", "drs_test_msgs/msg/Unknown", b"float64 x",
-                                    "ros2msg", [], "")  # fmt: skip
+        rec.register_recorded_topic(
+            "/joint_states", "drs_test_msgs/msg/Unknown", b"float64 x", "ros2msg", [], ""
+        )
         for k in range(20):
-            rec.write("/joint_states", b"\x00\x01\x00\x00" + struct.pack("<d", k),
-                      1_700_000_000_000_000_000 + k * 1_000_000)  # fmt: skip
+            rec.write(
+                "/joint_states",
+                b"\x00\x01\x00\x00" + struct.pack("<d", k),
+                1_700_000_000_000_000_000 + k * 1_000_000,
+            )
 
 
 def test_check_reports_its_own_failure_apart_from_corruption(tmp_path):
@@ -432,8 +499,11 @@ def test_recover_that_cannot_write_its_output_leaves_nothing(tmp_path):
     out = tmp_path / "out"
     res = subprocess.run(
         [sys.executable, "-m", "drs_ros.bag.cli", "recover", str(EXAMPLE), "-o", str(out)],
-        capture_output=True, text=True, timeout=120, preexec_fn=limit,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=limit,
+    )
     assert res.returncode == 2, (res.stdout[-1000:], res.stderr)
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
@@ -462,8 +532,11 @@ def test_check_and_info_read_every_file_of_awrite_split_bag(tmp_path, params, ca
     bag, _first = write_split_bag(tmp_path, params, killed=False)
     assert check.main([str(bag), "--json"]) == 0, capsys.readouterr().err
     report = json.loads(capsys.readouterr().out)
-    assert report["messages"] == {"/joint_states": 240, "/drs/flap_gap": 240,
-                                  "/drs/piston_force": 240}  # fmt: skip
+    assert report["messages"] == {
+        "/joint_states": 240,
+        "/drs/flap_gap": 240,
+        "/drs/piston_force": 240,
+    }
     assert main(["info", str(bag), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["files"] == ["split_0.mcap", "split_1.mcap"]

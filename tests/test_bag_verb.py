@@ -38,10 +38,14 @@ INTERNAL_LINE = "internal error (not a verdict on the bag): "
         (ResimulationError("no joint states"), EXIT_UNREADABLE, "error: no joint states"),
         (BagReadError("crc"), EXIT_UNREADABLE, "error: crc"),
         (RecordingError("exists"), EXIT_UNREADABLE, "error: -o: exists"),
-        (DRSError("m_wing"), EXIT_UNREADABLE, "error: the model refuses the re-run (the "
-         "recorded parameters with --params/--set): m_wing"),
+        (
+            DRSError("m_wing"),
+            EXIT_UNREADABLE,
+            "error: the model refuses the re-run (the "
+            "recorded parameters with --params/--set): m_wing",
+        ),
     ],
-)  # fmt: skip
+)
 def test_resimulate_answers_each_failure_the_first_that_fits(exc, status, line):
     # NothingToRerunError is a ResimulationError: listed first, it is not called unreadable
     failure = verb.failure_of(exc, resimulate.FAILURES)

@@ -34,11 +34,17 @@ def _same(a: float, b: float) -> bool:
 
 
 @settings(max_examples=200, deadline=None)
-@given(names=st.tuples(name, name, name), q=st.tuples(number, number, number),
-       qd=st.tuples(number, number, number), force=number, stamp_ns=stamp,
-       stroke=st.none() | number)  # fmt: skip
-def test_packed_joint_states_equal_the_serialiser_and_read_back(names, q, qd, force, stamp_ns,
-                                                                 stroke):  # fmt: skip
+@given(
+    names=st.tuples(name, name, name),
+    q=st.tuples(number, number, number),
+    qd=st.tuples(number, number, number),
+    force=number,
+    stamp_ns=stamp,
+    stroke=st.none() | number,
+)
+def test_packed_joint_states_equal_the_serialiser_and_read_back(
+    names, q, qd, force, stamp_ns, stroke
+):
     state = SimpleNamespace(q=np.array(q), qd=np.array(qd), piston_force=force)
     packed = joint_state_packer(names)(state, stamp_ns, stroke)
     msg = joint_state_msg(state, names, stamp_ns)
@@ -50,8 +56,11 @@ def test_packed_joint_states_equal_the_serialiser_and_read_back(names, q, qd, fo
     assert list(back.name) == list(names)
     assert (back.header.stamp.sec, back.header.stamp.nanosec) == split_ns(stamp_ns)
     want = [stroke if stroke is not None else q[0], *q[1:]]
-    for got, exp in zip([*back.position, *back.velocity, *back.effort],
-                        [*want, *qd, force, math.nan, math.nan], strict=True):  # fmt: skip
+    for got, exp in zip(
+        [*back.position, *back.velocity, *back.effort],
+        [*want, *qd, force, math.nan, math.nan],
+        strict=True,
+    ):
         assert _same(got, exp)
 
 
@@ -60,8 +69,7 @@ def test_packed_joint_states_equal_the_serialiser_and_read_back(names, q, qd, fo
 def test_a_layout_of_a_stamped_scalar_message(frame, pressure, stamp_ns):
     proto = FluidPressure()
     proto.header.frame_id = frame
-    pack = cdr.Layout(proto).packer(["header.stamp.sec", "header.stamp.nanosec",
-                                     "fluid_pressure"])  # fmt: skip
+    pack = cdr.Layout(proto).packer(["header.stamp.sec", "header.stamp.nanosec", "fluid_pressure"])
     packed = pack(*split_ns(stamp_ns), pressure)
     msg = FluidPressure(fluid_pressure=pressure)
     msg.header.frame_id = frame

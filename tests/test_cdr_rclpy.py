@@ -54,8 +54,18 @@ from drs_ros.timestamps import split_ns  # noqa: E402
 
 #: What the node publishes (drs_ros.node.publishers, drs_ros.stack.tf_tree) and records (the
 #: commands it receives, its service's events, its parameters) through the engine.
-NODE_TYPES = [JointState, Float64, FluidPressure, DiagnosticArray, MarkerArray, TFMessage, String,
-              JointTrajectory, SetBool.Event, ParameterEvent]  # fmt: skip
+NODE_TYPES = [
+    JointState,
+    Float64,
+    FluidPressure,
+    DiagnosticArray,
+    MarkerArray,
+    TFMessage,
+    String,
+    JointTrajectory,
+    SetBool.Event,
+    ParameterEvent,
+]
 
 #: The largest float32 rclpy takes: the one below FLT_MAX.
 FLOAT32_BELOW_MAX = float(np.nextafter(np.finfo(np.float32).max, np.float32(0)))
@@ -70,7 +80,8 @@ def _basic(typename: str):
         return st.floats(width=64)  # NaN, +-inf, -0.0, subnormals
     if typename == "float":  # rclpy refuses FLT_MAX itself (its bound is 3.402823466e38)
         return st.floats(-FLOAT32_BELOW_MAX, FLOAT32_BELOW_MAX, width=32) | st.sampled_from(
-            [math.inf, -math.inf, math.nan, -0.0])
+            [math.inf, -math.inf, math.nan, -0.0]
+        )
     if typename == "boolean":
         return st.booleans()
     if typename == "octet":
@@ -151,8 +162,11 @@ def assert_rclpy_agrees(packed: bytes, msg) -> None:
     assert cdr.decode_exact(wire[: len(packed)], cls)[1] == packed
 
 
-SLOW = settings(max_examples=40, deadline=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+SLOW = settings(
+    max_examples=40,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 
 
 @SLOW
@@ -172,22 +186,33 @@ NAME = st.text(TEXT, max_size=8) | st.text(TEXT, min_size=100, max_size=400)
 
 
 @SLOW
-@given(names=st.tuples(NAME, NAME, NAME), numbers=st.lists(NUMBER, min_size=7, max_size=7),
-       stamp_ns=STAMP_NS, stroke=st.none() | NUMBER)  # fmt: skip
+@given(
+    names=st.tuples(NAME, NAME, NAME),
+    numbers=st.lists(NUMBER, min_size=7, max_size=7),
+    stamp_ns=STAMP_NS,
+    stroke=st.none() | NUMBER,
+)
 def test_the_packed_joint_states_are_rclpy_s(names, numbers, stamp_ns, stroke):
     from types import SimpleNamespace
 
-    state = SimpleNamespace(q=np.array(numbers[:3]), qd=np.array(numbers[3:6]),
-                            piston_force=numbers[6])  # fmt: skip
-    msg = JointState(name=list(names), header=_header(stamp_ns, ""),
-                     position=[numbers[0] if stroke is None else stroke, *numbers[1:3]],
-                     velocity=numbers[3:6], effort=[numbers[6], math.nan, math.nan])  # fmt: skip
+    state = SimpleNamespace(
+        q=np.array(numbers[:3]), qd=np.array(numbers[3:6]), piston_force=numbers[6]
+    )
+    msg = JointState(
+        name=list(names),
+        header=_header(stamp_ns, ""),
+        position=[numbers[0] if stroke is None else stroke, *numbers[1:3]],
+        velocity=numbers[3:6],
+        effort=[numbers[6], math.nan, math.nan],
+    )
     assert_rclpy_agrees(joint_state_packer(names)(state, stamp_ns, stroke), msg)
 
 
 @SLOW
-@given(values=st.lists(NUMBER, min_size=len(REACTION_NAMES), max_size=len(REACTION_NAMES)),
-       stamp_ns=STAMP_NS)  # fmt: skip
+@given(
+    values=st.lists(NUMBER, min_size=len(REACTION_NAMES), max_size=len(REACTION_NAMES)),
+    stamp_ns=STAMP_NS,
+)
 def test_the_packed_reactions_are_rclpy_s(values, stamp_ns):
     msg = JointState(header=_header(stamp_ns, ""), name=list(REACTION_NAMES), effort=values)
     reactions = dict(zip(REACTION_NAMES, values, strict=True))
@@ -206,17 +231,24 @@ def test_the_packed_scalars_and_pressures_are_rclpy_s(value, frame, stamp_ns):
     assert_rclpy_agrees(cdr.flat_packer(Float64)(value), Float64(data=value))
     # as drs_ros.node.publishers lays out the hydraulic rung's pressures
     pack = cdr.Layout(FluidPressure(header=_header(0, frame))).packer(
-        ["header.stamp.sec", "header.stamp.nanosec", "fluid_pressure"])
+        ["header.stamp.sec", "header.stamp.nanosec", "fluid_pressure"]
+    )
     msg = FluidPressure(header=_header(stamp_ns, frame), fluid_pressure=value)
     assert_rclpy_agrees(pack(*split_ns(stamp_ns), value), msg)
 
 
 @SLOW
-@given(frames=st.lists(st.tuples(NAME, NAME), min_size=1, max_size=4), data=st.data(),
-       stamp_ns=STAMP_NS)  # fmt: skip
+@given(
+    frames=st.lists(st.tuples(NAME, NAME), min_size=1, max_size=4),
+    data=st.data(),
+    stamp_ns=STAMP_NS,
+)
 def test_the_packed_transforms_are_rclpy_s(frames, data, stamp_ns):
-    values = data.draw(st.lists(st.lists(NUMBER, min_size=7, max_size=7), min_size=len(frames),
-                                max_size=len(frames)))  # fmt: skip
+    values = data.draw(
+        st.lists(
+            st.lists(NUMBER, min_size=7, max_size=7), min_size=len(frames), max_size=len(frames)
+        )
+    )
     msg = TFMessage(transforms=[])
     for (parent, child), v in zip(frames, values, strict=True):
         t = TransformStamped(header=_header(stamp_ns, parent), child_frame_id=child)

@@ -216,10 +216,8 @@ def test_checks_block_by_block_equal_the_checks_over_the_whole_bag(tmp_path, par
     for without in (None, "/drs/piston_acceleration"):
         if without:
             data.messages.pop(without)
-        whole = check_bag(data, params, force_model=hook, force_note=note,
-                                       block_states=10**9)  # fmt: skip
-        blocks = check_bag(data, params, force_model=hook, force_note=note,
-                                        block_states=block)  # fmt: skip
+        whole = check_bag(data, params, force_model=hook, force_note=note, block_states=10**9)
+        blocks = check_bag(data, params, force_model=hook, force_note=note, block_states=block)
         assert [r.name for r in whole][-1].startswith("piston force vs model")
         assert whole[-1].samples > 0
         for a, b in zip(whole, blocks, strict=True):
@@ -234,8 +232,9 @@ def test_compressed_chunks_are_checked(tmp_path, params, compression, capsys):
     require_rclpy()
     from long_bag_support import write_long_bag
 
-    bag = write_long_bag(tmp_path / compression, 4, params=params, compression=compression,
-                         chunk_size=4096)  # fmt: skip
+    bag = write_long_bag(
+        tmp_path / compression, 4, params=params, compression=compression, chunk_size=4096
+    )
     assert check.main([str(bag), "--json"]) == check.EXIT_OK
     report = json.loads(capsys.readouterr().out)
     assert report["messages"]["/joint_states"] == 4 * 50
@@ -267,13 +266,17 @@ def test_notes_say_only_what_the_bag_records(tmp_path, capsys):
     example = Path(__file__).resolve().parents[1] / "bags" / "example"
     notes = _notes(example, capsys)
     assert not any("recorded fidelity parameter" in n for n in notes)
-    assert ("judged on the rigid rung: no fidelity was recorded (the parameters /drs recorded "
-            "hold none); the node's default, rigid, was assumed") in notes
+    assert (
+        "judged on the rigid rung: no fidelity was recorded (the parameters /drs recorded "
+        "hold none); the node's default, rigid, was assumed"
+    ) in notes
     assert "model parameters: recorded by /drs on /parameter_events" in notes
     bare = copy_bags([example], tmp_path / "bare", leave_out=["/parameter_events"])
     notes = _notes(bare, capsys)
-    assert ("judged on the rigid rung: no fidelity was recorded (the bag records no parameters "
-            "of the node); the node's default, rigid, was assumed") in notes
+    assert (
+        "judged on the rigid rung: no fidelity was recorded (the bag records no parameters "
+        "of the node); the node's default, rigid, was assumed"
+    ) in notes
     assert any(n.startswith("model parameters: the seed's") for n in notes)
     assert notes[0].endswith("(CRCs, summary, metadata.yaml, exact CDR)")
     (mcap,) = bare.glob("*.mcap")

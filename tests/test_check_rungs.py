@@ -29,12 +29,21 @@ from rclpy.parameter import Parameter  # noqa: E402
 #: absolute and a private topic remapped, and a model parameter of its own.
 LAUNCHES = {
     "default": [],
-    "renamed": ["-r", "__ns:=/car7", "-r", "__node:=drs_rear",
-                "-r", "/joint_states:=/car7/joint_states",
-                "-r", "~/piston_force:=/car7/rear_force",
-                "-r", "~/pressure_piston_side:=/car7/rear_pressure_a",
-                "-p", "model.m_wing:=3.0"],
-}  # fmt: skip
+    "renamed": [
+        "-r",
+        "__ns:=/car7",
+        "-r",
+        "__node:=drs_rear",
+        "-r",
+        "/joint_states:=/car7/joint_states",
+        "-r",
+        "~/piston_force:=/car7/rear_force",
+        "-r",
+        "~/pressure_piston_side:=/car7/rear_pressure_a",
+        "-p",
+        "model.m_wing:=3.0",
+    ],
+}
 
 RUNGS = ("kinematic", "quasi-static", "rigid", "hydraulic")
 
@@ -50,15 +59,31 @@ SENSOR = [_p("sensor.bias_m", 1e-3), _p("sensor.noise_std_m", 1e-4), _p("sensor.
 #: service.
 SCRIPTS = {
     ("kinematic", "healthy"): ["open", "slow", "close"],
-    ("kinematic", "faulted"): ["open", SENSOR, [_p("sensor.dropout", 0.3)], "close",
-                               [_p("sensor.frozen", True)]],
-    ("quasi-static", "faulted"): ["open", SENSOR, [_p("sensor.dropout", 0.3)],
-                                  [_p("sensor.frozen", True)], [_p("supply_loss", True)]],
-    ("hydraulic", "faulted"): ["open", [_p("leak_m3_per_s_per_pa", 2e-12)],
-                               [_p("stuck_valve", True)], [_p("stuck_valve", False)],
-                               [_p("jam_friction_n", 100.0)], SENSOR, [_p("sensor.dropout", 0.3)],
-                               [_p("supply_loss_ramp_s", 0.05), _p("supply_loss", True)]],
-}  # fmt: skip
+    ("kinematic", "faulted"): [
+        "open",
+        SENSOR,
+        [_p("sensor.dropout", 0.3)],
+        "close",
+        [_p("sensor.frozen", True)],
+    ],
+    ("quasi-static", "faulted"): [
+        "open",
+        SENSOR,
+        [_p("sensor.dropout", 0.3)],
+        [_p("sensor.frozen", True)],
+        [_p("supply_loss", True)],
+    ],
+    ("hydraulic", "faulted"): [
+        "open",
+        [_p("leak_m3_per_s_per_pa", 2e-12)],
+        [_p("stuck_valve", True)],
+        [_p("stuck_valve", False)],
+        [_p("jam_friction_n", 100.0)],
+        SENSOR,
+        [_p("sensor.dropout", 0.3)],
+        [_p("supply_loss_ramp_s", 0.05), _p("supply_loss", True)],
+    ],
+}
 SCRIPTS[("quasi-static", "healthy")] = SCRIPTS[("rigid", "healthy")] = ["open", "slow", "close"]
 SCRIPTS[("hydraulic", "healthy")] = ["open", "slow", "close"]
 SCRIPTS[("rigid", "faulted")] = SCRIPTS[("quasi-static", "faulted")]
@@ -121,10 +146,24 @@ def run_node(tmp_path, domain: int, rung: str, script: list, launch: list[str]):
     from trajectory_msgs.msg import JointTrajectory
 
     bag = tmp_path / "bag"
-    args = [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"fidelity:={rung}",
-            "-p", f"bag_path:={bag}", *launch]  # fmt: skip
-    proc = subprocess.Popen(args, env=node_env(tmp_path, domain), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)  # fmt: skip
+    args = [
+        sys.executable,
+        "-m",
+        "drs_ros",
+        "--ros-args",
+        "-p",
+        f"fidelity:={rung}",
+        "-p",
+        f"bag_path:={bag}",
+        *launch,
+    ]
+    proc = subprocess.Popen(
+        args,
+        env=node_env(tmp_path, domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     ctx = rclpy.Context()
     rclpy.init(context=ctx, domain_id=domain)
     client = rclpy.create_node("check_rungs_client", context=ctx)
@@ -206,9 +245,11 @@ def tamper(bag, out, rung: str, case: str, launch: list[str]) -> set[str]:
         else:  # the force changed alike in both places it is published
             value = 50.0 if rung == "kinematic" else 5.0
             edits = {js: (k, "effort", value), force_topic: (k, "data", value)}
-            expect = {"kinematic": {"no piston force (kinematic rung)"},
-                      "quasi-static": {"piston force vs statics"},
-                      "rigid": {"piston force vs model, logged accel."}}[rung]  # fmt: skip
+            expect = {
+                "kinematic": {"no piston force (kinematic rung)"},
+                "quasi-static": {"piston force vs statics"},
+                "rigid": {"piston force vs model, logged accel."},
+            }[rung]
     elif rung == "kinematic":  # the frozen sensor's last reading, 0.1 mm off
         edits = {js: (_last(bag, js), "position", 1e-4)}
         expect = {"stroke vs faulty sensor model"}

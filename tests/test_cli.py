@@ -83,8 +83,12 @@ def test_console_script_runs():
 
 @pytest.mark.parametrize("out", ["x.txt", "no/such/dir/x.png"])
 def test_draw_to_a_bad_path_exits_2_and_creates_nothing(tmp_path, out):
-    res = subprocess.run([sys.executable, "-m", "drs_model.cli", "draw", "--out", out],
-                         capture_output=True, text=True, cwd=tmp_path)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_model.cli", "draw", "--out", out],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert res.returncode == 2, res.stderr
     assert "Traceback" not in res.stderr
     assert "drs draw: error: argument --out" in res.stderr
@@ -99,8 +103,12 @@ def test_a_reader_gone_is_no_error():
     read_end, write_end = os.pipe()
     os.close(read_end)
     try:
-        res = subprocess.run([sys.executable, "-m", "drs_model.cli", "limits"],
-                             stdout=write_end, stderr=subprocess.PIPE, text=True)  # fmt: skip
+        res = subprocess.run(
+            [sys.executable, "-m", "drs_model.cli", "limits"],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
     finally:
         os.close(write_end)
     assert res.returncode == 0, res.stderr

@@ -35,10 +35,12 @@ BAD_OUTPUTS = [
     ("drs-bag", ["from-goal", "goal.yaml", "-o", "{missing}/out"], "-o/--output"),
     ("drs-bag", ["index", str(EXAMPLE), "-o", "{missing}/c.parquet"], "-o/--output"),
     ("drs-bag", ["check", str(EXAMPLE), "other", "-o", "{missing}/t.parquet"], "-o/--output"),
-    ("drs-bag", ["fit", str(EXAMPLE), "--params", "m_wing", "-o", "{missing}/f.json"],
-     "-o/--output"),
-    ("drs-bag", ["fit", str(EXAMPLE), "--params", "m_wing", "--plot", "{missing}/f.png"],
-     "--plot"),
+    (
+        "drs-bag",
+        ["fit", str(EXAMPLE), "--params", "m_wing", "-o", "{missing}/f.json"],
+        "-o/--output",
+    ),
+    ("drs-bag", ["fit", str(EXAMPLE), "--params", "m_wing", "--plot", "{missing}/f.png"], "--plot"),
     ("drs-bag", ["trend", "season.parquet", "--plot", "{dir}/t.svg"], "--plot"),
     ("drs-demo", ["--out", "{missing}/bags"], "--out"),
 ]
@@ -56,12 +58,17 @@ def _main(tool: str):
     return main
 
 
-@pytest.mark.parametrize(("tool", "argv", "option"), BAD_OUTPUTS,
-                         ids=[" ".join([t, *a[:1], o]) + (" ext" if "{dir}" in " ".join(a)
-                                                            else " dir")
-                              for t, a, o in BAD_OUTPUTS])  # fmt: skip
-def test_a_bad_output_path_is_status_2_and_creates_nothing(tmp_path, monkeypatch, tool, argv,
-                                                          option):  # fmt: skip
+@pytest.mark.parametrize(
+    ("tool", "argv", "option"),
+    BAD_OUTPUTS,
+    ids=[
+        " ".join([t, *a[:1], o]) + (" ext" if "{dir}" in " ".join(a) else " dir")
+        for t, a, o in BAD_OUTPUTS
+    ],
+)
+def test_a_bad_output_path_is_status_2_and_creates_nothing(
+    tmp_path, monkeypatch, tool, argv, option
+):
     main = _main(tool)
     monkeypatch.chdir(tmp_path)
     args = [a.format(missing=tmp_path / "no" / "such", dir=tmp_path) for a in argv]
@@ -102,8 +109,9 @@ def piped_runs(tmp_path_factory) -> dict[str, subprocess.CompletedProcess]:
             read_end, write_end = os.pipe()
             os.close(read_end)
             args = [a.format(dir=where) for a in PIPED[name]]
-            proc = subprocess.Popen([sys.executable, "-m", *args], stdout=write_end,
-                                    stderr=subprocess.PIPE, text=True)  # fmt: skip
+            proc = subprocess.Popen(
+                [sys.executable, "-m", *args], stdout=write_end, stderr=subprocess.PIPE, text=True
+            )
             os.close(write_end)
             started[name] = proc
         for name, proc in started.items():

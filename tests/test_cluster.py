@@ -75,8 +75,11 @@ def test_an_existing_cluster_by_address_is_used_and_left_running():
 
 def test_progress_bar_counts_every_task(capfd):
     with dask_client(jobs=1) as client:
-        list(map_unordered(client, _pid_and_square, [1, 2, 3, 4], description="squares",
-                           progress=True))  # fmt: skip
+        list(
+            map_unordered(
+                client, _pid_and_square, [1, 2, 3, 4], description="squares", progress=True
+            )
+        )
     err = capfd.readouterr().err
     assert "squares" in err and "4/4" in err
 

@@ -37,8 +37,9 @@ def scene(params):
     """The scene as the node builds it (drs_ros.node.publishers) and its packer."""
     s_min, _ = kin.stroke_limits(params)
     lines, pins, _ = moving_drawings(np.array([[s_min, 0.0, 0.0]]), params)
-    markers = MechanismMarkers(still_drawings(params), {k: v.shape[1] for k, v in lines.items()},
-                               pins.shape[1], "drs_base")  # fmt: skip
+    markers = MechanismMarkers(
+        still_drawings(params), {k: v.shape[1] for k, v in lines.items()}, pins.shape[1], "drs_base"
+    )
     return markers, markers.packer()
 
 
@@ -51,14 +52,20 @@ def _drawing(params, fraction: float):
 
 
 @settings(max_examples=150, deadline=None)
-@given(fraction=st.floats(0.0, 1.0), forces=st.lists(force, min_size=3, max_size=3),
-       stamps=st.lists(stamp, min_size=3, max_size=3),
-       shapes=st.lists(st.booleans(), min_size=1, max_size=3))  # fmt: skip
+@given(
+    fraction=st.floats(0.0, 1.0),
+    forces=st.lists(force, min_size=3, max_size=3),
+    stamps=st.lists(stamp, min_size=3, max_size=3),
+    shapes=st.lists(st.booleans(), min_size=1, max_size=3),
+)
 @example(fraction=0.0, forces=[-0.0, 0.0, -0.0], stamps=[0, 1, 0], shapes=[True, False])
-@example(fraction=1.0, forces=[math.nan, math.inf, -math.inf],
-         stamps=[LAST_STAMP_NS, 0, LAST_STAMP_NS], shapes=[False, True, False])  # fmt: skip
-def test_packed_markers_are_the_serialised_message(params, scene, fraction, forces, stamps,
-                                                   shapes):  # fmt: skip
+@example(
+    fraction=1.0,
+    forces=[math.nan, math.inf, -math.inf],
+    stamps=[LAST_STAMP_NS, 0, LAST_STAMP_NS],
+    shapes=[False, True, False],
+)
+def test_packed_markers_are_the_serialised_message(params, scene, fraction, forces, stamps, shapes):
     """Packed one after another in either shape (each shape's buffer is reused), every array's
     bytes are those of the message."""
     markers, pack = scene
@@ -71,13 +78,14 @@ def test_packed_markers_are_the_serialised_message(params, scene, fraction, forc
 
 
 @settings(max_examples=60, deadline=None)
-@given(fraction=st.floats(0.0, 1.0), piston_force=force, stamp_ns=stamp,
-       with_still=st.booleans())  # fmt: skip
-def test_rclpy_reads_the_drawn_points_back(params, scene, fraction, piston_force, stamp_ns,
-                                           with_still):  # fmt: skip
+@given(fraction=st.floats(0.0, 1.0), piston_force=force, stamp_ns=stamp, with_still=st.booleans())
+def test_rclpy_reads_the_drawn_points_back(
+    params, scene, fraction, piston_force, stamp_ns, with_still
+):
     lines, pins, force_at = _drawing(params, fraction)
-    back = deserialize_message(scene[1](lines, pins, force_at, piston_force, stamp_ns,
-                                        with_still), MarkerArray)  # fmt: skip
+    back = deserialize_message(
+        scene[1](lines, pins, force_at, piston_force, stamp_ns, with_still), MarkerArray
+    )
     by_ns = {m.ns: m for m in back.markers}
     still = {f"drs/{name}" for name in still_drawings(params)}
     assert (still <= set(by_ns)) == with_still and (still & set(by_ns) == set()) != with_still

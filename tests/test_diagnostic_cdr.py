@@ -35,10 +35,11 @@ STAMP_MIN, STAMP_MAX = -(2**31) * 10**9, 2**31 * 10**9 - 1
 # they are no UTF-8), and long ones, which move every later field's alignment
 texts = st.one_of(st.text(max_size=12), st.text(min_size=100, max_size=700))
 levels = st.one_of(
-    st.sampled_from([DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR,
-                     DiagnosticStatus.STALE]),
+    st.sampled_from(
+        [DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR, DiagnosticStatus.STALE]
+    ),
     st.integers(0, 255).map(lambda i: bytes([i])),
-)  # fmt: skip
+)
 stamps = st.one_of(st.just(0), st.just(STAMP_MAX), st.integers(STAMP_MIN, STAMP_MAX))
 statuses = st.lists(
     st.builds(Status, levels, texts, texts, texts, st.lists(st.tuples(texts, texts), max_size=6)),
@@ -52,8 +53,9 @@ def rclpy_message(stamp_ns: int, frame_id: str, sts: list[Status]) -> Diagnostic
     arr.header.stamp.sec, arr.header.stamp.nanosec = split_ns(stamp_ns)
     arr.header.frame_id = frame_id
     for s in sts:
-        status = DiagnosticStatus(level=s.level, name=s.name, message=s.message,
-                                  hardware_id=s.hardware_id)  # fmt: skip
+        status = DiagnosticStatus(
+            level=s.level, name=s.name, message=s.message, hardware_id=s.hardware_id
+        )
         status.values = [KeyValue(key=k, value=v) for k, v in s.values]
         arr.status.append(status)
     return arr
@@ -93,7 +95,9 @@ def test_every_alignment_of_a_count_after_a_string():
             assert back.header.frame_id == "f" * n
             assert back.status[0].hardware_id == "h" * m
             assert (back.status[0].values[0].key, back.status[0].values[0].value) == (
-                "k" * m, "v" * n)  # fmt: skip
+                "k" * m,
+                "v" * n,
+            )
 
 
 values = st.dictionaries(
@@ -109,8 +113,9 @@ def test_effect_record_as_the_bag_tools_read_it(stamp_ns, source, outcome, level
     """A record packed (what the node publishes and records) decodes to its documented form,
     and is the bytes of the message form (``command_event_msg``, which a re-simulated bag
     writes)."""
-    data = diagnostic_array_cdr(stamp_ns, [command_event_status(source, outcome, level, reason,
-                                                                 vals)])  # fmt: skip
+    data = diagnostic_array_cdr(
+        stamp_ns, [command_event_status(source, outcome, level, reason, vals)]
+    )
     assert data == SERIALIZE(command_event_msg(stamp_ns, source, outcome, level, reason, vals))
     (status,) = deserialize_message(data, DiagnosticArray).status
     assert status.name == c_string(source)
@@ -124,12 +129,17 @@ def test_effect_record_as_the_bag_tools_read_it(stamp_ns, source, outcome, level
 
 def test_diagnostics_status_names_the_node_and_stringifies():
     vals = {"mode": "stroke", "ticks": 12, "gap_m": f"{math.pi:.9g}", "last_refusal": "none"}
-    data = diagnostic_array_cdr(5, [diagnostics_status("drs", DiagnosticStatus.OK, "mode stroke",
-                                                       vals)])  # fmt: skip
+    data = diagnostic_array_cdr(
+        5, [diagnostics_status("drs", DiagnosticStatus.OK, "mode stroke", vals)]
+    )
     (status,) = deserialize_message(data, DiagnosticArray).status
     assert status.name == "drs: actuator"
     assert {kv.key: kv.value for kv in status.values} == {
-        "mode": "stroke", "ticks": "12", "gap_m": "3.14159265", "last_refusal": "none"}  # fmt: skip
+        "mode": "stroke",
+        "ticks": "12",
+        "gap_m": "3.14159265",
+        "last_refusal": "none",
+    }
 
 
 @pytest.mark.parametrize(

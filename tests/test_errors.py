@@ -37,8 +37,7 @@ def _exception_classes(package: str):
         name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
         module = importlib.import_module(name)
         for obj in vars(module).values():
-            if (inspect.isclass(obj) and issubclass(obj, BaseException)
-                    and obj.__module__ == name):  # fmt: skip
+            if inspect.isclass(obj) and issubclass(obj, BaseException) and obj.__module__ == name:
                 yield obj
 
 
@@ -157,8 +156,9 @@ def unknown_params(tmp_path):
 
 
 @pytest.mark.parametrize("fleet", [False, True])
-def test_check_bad_params_is_a_usage_error_not_an_unreadable_bag(capsys, tmp_path, fleet,
-                                                                unknown_params):  # fmt: skip
+def test_check_bad_params_is_a_usage_error_not_an_unreadable_bag(
+    capsys, tmp_path, fleet, unknown_params
+):
     """A misspelt parameter file, or one that cannot be read, is argparse's error naming
     ``--params``, before any bag is read: the bag is not reported UNREADABLE, and a fleet writes
     no table of UNREADABLE rows."""
@@ -198,9 +198,12 @@ def test_check_a_damaged_bag_is_a_bag_error(capsys, tmp_path):
 
 @pytest.mark.parametrize(
     ("argv", "option"),
-    [(["--set", "m_wingg=0.5"], "--set"), (["--set", "m_wing"], "--set"),
-     (["--params", "no/such.toml"], "--params")],
-)  # fmt: skip
+    [
+        (["--set", "m_wingg=0.5"], "--set"),
+        (["--set", "m_wing"], "--set"),
+        (["--params", "no/such.toml"], "--params"),
+    ],
+)
 def test_resimulate_bad_option_is_a_usage_error(capsys, argv, option):
     status, out = _bag_tool(capsys, "resimulate", EXAMPLE, *argv)
     assert status == exit_status.EXIT_USAGE
@@ -240,29 +243,42 @@ def test_a_look_ahead_consumer_that_raises_is_never_no_message():
         (["--params", "m_pistt"], "--params", "'m_pistt' cannot be fitted"),
         (["--params", "Iz_pist"], "--params", "the piston does not turn"),
         (["--params", "m_pist,m_pist"], "--params", "named twice"),
-        (["--params", "m_pist", "--topic-map", "pressure=/p"], "--topic-map",
-         "unknown role 'pressure'"),
-        (["--params", "m_pist", "--topic-map", "joint_states"], "--topic-map",
-         "is not ROLE=TOPIC"),
-        (["--params", "m_pist", "--set", "L22=1"], "--set",
-         "'L22' is no model or hydraulic parameter"),
+        (
+            ["--params", "m_pist", "--topic-map", "pressure=/p"],
+            "--topic-map",
+            "unknown role 'pressure'",
+        ),
+        (["--params", "m_pist", "--topic-map", "joint_states"], "--topic-map", "is not ROLE=TOPIC"),
+        (
+            ["--params", "m_pist", "--set", "L22=1"],
+            "--set",
+            "'L22' is no model or hydraulic parameter",
+        ),
         (["--params", "m_pist", "--set", "bulk_modulus=stiff"], "--set", "is not a number"),
-        (["--params", "m_pist", "--noise", "stroke=-1e-5"], "--noise",
-         "the noise of stroke must be a finite number > 0"),
-        (["--params", "m_pist", "--noise", "strok=1e-5"], "--noise",
-         "'strok' is no signal a re-simulation gives"),
+        (
+            ["--params", "m_pist", "--noise", "stroke=-1e-5"],
+            "--noise",
+            "the noise of stroke must be a finite number > 0",
+        ),
+        (
+            ["--params", "m_pist", "--noise", "strok=1e-5"],
+            "--noise",
+            "'strok' is no signal a re-simulation gives",
+        ),
         (["--params", "m_pist", "--signals", "gap"], "--signals", "not signals a re-simulation"),
         (["--params", "m_pist", "--level", "0.3"], "--level", r"must be in \[0.5, 1\)"),
     ],
-)  # fmt: skip
+)
 @pytest.mark.parametrize("fleet", [False, True])
-def test_fit_bad_option_is_a_usage_error_before_any_bag_is_read(capsys, tmp_path, argv, option,
-                                                                match, fleet):  # fmt: skip
+def test_fit_bad_option_is_a_usage_error_before_any_bag_is_read(
+    capsys, tmp_path, argv, option, match, fleet
+):
     """The bag named does not exist: the error is the option's (argparse's line), never the
     bag's, and a season writes no table."""
     table = tmp_path / "season.parquet"
-    bags = [tmp_path / "no_bag", tmp_path / "no_bag2", "-o", table] if fleet else \
-        [tmp_path / "no_bag"]  # fmt: skip
+    bags = (
+        [tmp_path / "no_bag", tmp_path / "no_bag2", "-o", table] if fleet else [tmp_path / "no_bag"]
+    )
     status, out = _bag_tool(capsys, "fit", *bags, *argv)
     assert status == exit_status.EXIT_USAGE
     assert re.search(rf"drs-bag fit: error: argument {option}: .*{match}", out), out
@@ -276,8 +292,9 @@ def test_fit_a_bag_without_a_measurement_is_a_bag_error(capsys, tmp_path):
 
 
 def test_fit_node_naming_no_node_of_the_bag_is_a_usage_error(capsys):
-    status, out = _bag_tool(capsys, "fit", EXAMPLE, "--params", "m_pist", "--stage",
-                            "equation", "--node", "/nobody")  # fmt: skip
+    status, out = _bag_tool(
+        capsys, "fit", EXAMPLE, "--params", "m_pist", "--stage", "equation", "--node", "/nobody"
+    )
     assert status == exit_status.EXIT_USAGE
     assert "drs-bag fit: error: --node '/nobody' names none of the drs nodes" in out
 
@@ -289,10 +306,19 @@ def season_table(tmp_path):
     import pyarrow.parquet as pq
 
     path = tmp_path / "season.parquet"
-    pq.write_table(pa.table({"bag": ["a", "b"], "node": ["/drs", "/drs"],
-                             "start_ns": [0, 86_400 * 10**9], "leak_to_outside": [1e-13, 1e-13],
-                             "leak_to_outside_std": [1e-15, 1e-15],
-                             "leak_to_outside_determined": [True, True]}), path)  # fmt: skip
+    pq.write_table(
+        pa.table(
+            {
+                "bag": ["a", "b"],
+                "node": ["/drs", "/drs"],
+                "start_ns": [0, 86_400 * 10**9],
+                "leak_to_outside": [1e-13, 1e-13],
+                "leak_to_outside_std": [1e-15, 1e-15],
+                "leak_to_outside_determined": [True, True],
+            }
+        ),
+        path,
+    )
     return path
 
 
@@ -305,7 +331,7 @@ def season_table(tmp_path):
         (["--min-runs", "2"], "--min-runs", "must be >= 3"),
         (["--params", ","], "--params", "name at least one parameter"),
     ],
-)  # fmt: skip
+)
 def test_trend_bad_option_is_a_usage_error(capsys, tmp_path, argv, option, match):
     status, out = _bag_tool(capsys, "trend", tmp_path / "no.parquet", *argv)
     assert status == exit_status.EXIT_USAGE
@@ -313,7 +339,8 @@ def test_trend_bad_option_is_a_usage_error(capsys, tmp_path, argv, option, match
 
 
 def test_trend_names_the_table_lacks_are_usage_errors_and_too_few_runs_a_refusal(
-        capsys, tmp_path, season_table):  # fmt: skip
+    capsys, tmp_path, season_table
+):
     status, out = _bag_tool(capsys, "trend", season_table, "--params", "bulk_modulus")
     assert status == exit_status.EXIT_USAGE
     assert "drs-bag trend: error: --params: the table holds no fit of ['bulk_modulus']" in out
@@ -323,8 +350,10 @@ def test_trend_names_the_table_lacks_are_usage_errors_and_too_few_runs_a_refusal
     assert status == exit_status.EXIT_USAGE and "--threshold for ['m_pist']" in out
     status, out = _bag_tool(capsys, "trend", season_table)
     assert status == exit_status.EXIT_REFUSED
-    assert ("drs-bag trend: error: the model refuses the trend: leak_to_outside: a trend needs "
-            "three runs with a value, got 2") in out  # fmt: skip
+    assert (
+        "drs-bag trend: error: the model refuses the trend: leak_to_outside: a trend needs "
+        "three runs with a value, got 2"
+    ) in out
     garbage = tmp_path / "garbage.parquet"
     garbage.write_bytes(b"no parquet")
     status, out = _bag_tool(capsys, "trend", garbage)
@@ -341,13 +370,14 @@ def test_trend_names_the_table_lacks_are_usage_errors_and_too_few_runs_a_refusal
         (["m_pist", "--starts", "0"], "--starts", "must be >= 1"),
         (["m_pist", "--harmonics", "two"], "--harmonics", "'two' is not an integer"),
     ],
-)  # fmt: skip
+)
 def test_excite_bad_option_is_a_usage_error(capsys, argv, option, match):
     with pytest.raises(SystemExit) as exc:
         drs_main(["excite", *argv])
     assert exc.value.code == exit_status.EXIT_USAGE
-    assert re.search(rf"drs excite: error: argument {re.escape(option)}: .*{match}",
-                     capsys.readouterr().err)  # fmt: skip
+    assert re.search(
+        rf"drs excite: error: argument {re.escape(option)}: .*{match}", capsys.readouterr().err
+    )
 
 
 def test_excite_a_parameter_the_design_cannot_serve_is_the_model_s_refusal(capsys):
@@ -365,14 +395,27 @@ pytest_ros = pytest.mark.ros
 def test_node_refusal_at_start_names_the_parameter(tmp_path, request):
     require_rclpy()
     res = subprocess.run(
-        [sys.executable, "-m", "drs_ros", "--ros-args", "-p", "model.m_wing:=-2.0",
-         "-p", f"bag_path:={tmp_path / 'bag'}"],
+        [
+            sys.executable,
+            "-m",
+            "drs_ros",
+            "--ros-args",
+            "-p",
+            "model.m_wing:=-2.0",
+            "-p",
+            f"bag_path:={tmp_path / 'bag'}",
+        ],
         env=node_env(tmp_path, domain_for(request.node.nodeid)),
-        capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == exit_status.EXIT_REFUSED, res.stderr
-    assert re.search(r"drs-node: refused to start: the model refuses model\.m_wing:=-2\.0: "
-                     r"m_wing must be > 0", res.stderr)  # fmt: skip
+    assert re.search(
+        r"drs-node: refused to start: the model refuses model\.m_wing:=-2\.0: "
+        r"m_wing must be > 0",
+        res.stderr,
+    )
     assert not (tmp_path / "bag").exists()
 
 
@@ -399,8 +442,9 @@ RUN_ENDS = textwrap.dedent(
 def test_run_ends_the_process_with_mains_status_after_the_exit_handlers():
     """``drs-node`` ends the process itself once main returned (the middleware's teardown is
     skipped): main's status, its last lines, the exit handlers, nothing after."""
-    res = subprocess.run([sys.executable, "-c", RUN_ENDS], capture_output=True, text=True,
-                         timeout=120)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-c", RUN_ENDS], capture_output=True, text=True, timeout=120
+    )
     assert res.returncode == 3, res.stderr
     assert res.stderr.splitlines()[-2:] == ["main's last line", "an exit handler ran"]
 
@@ -430,10 +474,14 @@ def test_node_error_while_running_is_not_a_refusal_to_start(tmp_path, request):
     res = subprocess.run(
         [sys.executable, "-c", FAILING_RUN, str(bag)],
         env=node_env(tmp_path, domain_for(request.node.nodeid)),
-        capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == exit_status.EXIT_INTERNAL, res.stderr
     assert "refused to start" not in res.stderr
-    assert ("drs-node: stopped by an error while running: ConvergenceError: the model gave up "
-            "while running") in res.stderr  # fmt: skip
+    assert (
+        "drs-node: stopped by an error while running: ConvergenceError: the model gave up "
+        "while running"
+    ) in res.stderr
     assert (bag / "metadata.yaml").exists()  # the recordings were finished

@@ -39,8 +39,7 @@ def measured() -> dict[str, tuple[float, float | None]]:
         ["fidelity", "--scene", AUTO_SCENE, "--dt", str(AUTO_DT), "--json"]
     )
     rows = json.loads(dumps(args.func(args).data))["rows"]  # as printed: NaN is null
-    out = {r["run"]: (r["errors"]["gap"], r["errors"]["force"]) for r in rows
-           if r["run"] in ORDER}  # fmt: skip
+    out = {r["run"]: (r["errors"]["gap"], r["errors"]["force"]) for r in rows if r["run"] in ORDER}
     assert set(out) == set(ORDER)
     return out
 
@@ -85,8 +84,10 @@ def test_the_rule_meets_the_measured_errors_on_each_side_of_each(measured):
             for force_tol in force_tols:
                 rung = choose_rung(asked, gap_tol, force_tol, table)
                 assert rung == _expected(asked, gap_tol, force_tol, measured), (
-                    asked, gap_tol, force_tol,
-                )  # fmt: skip
+                    asked,
+                    gap_tol,
+                    force_tol,
+                )
                 chosen.add(rung)
     assert {"kinematic", "hydraulic"} <= chosen and len(chosen) >= 3  # the grid's answers vary
 
@@ -103,9 +104,11 @@ def test_the_choice_meets_the_tolerances_and_no_lower_rung_does(asked, gap_tol, 
     def meets(rung):
         e = table[rung]
         has_force = e.force is not None and e.force <= force_tol
-        return (("hydraulics" not in asked or rung == "hydraulic")
-                and ("gap" not in asked or e.gap <= gap_tol)
-                and ("force" not in asked or has_force))  # fmt: skip
+        return (
+            ("hydraulics" not in asked or rung == "hydraulic")
+            and ("gap" not in asked or e.gap <= gap_tol)
+            and ("force" not in asked or has_force)
+        )
 
     chosen = choose_rung(asked, gap_tol, force_tol, table)
     assert meets(chosen) or chosen == "hydraulic"
@@ -116,8 +119,12 @@ def test_ties_go_down_the_ladder_never_to_a_timing():
     """Two rungs with the same errors: the lower one, whatever they cost (the table holds no
     cost); a lower rung that meets the tolerances wins over a more accurate higher one."""
     same = RungErrors(2e-4, 1.0e3)
-    table = {"kinematic": RungErrors(2e-4, None), "quasi-static": same, "rigid": same,
-             "hydraulic": RungErrors(1e-7, 5.0)}  # fmt: skip
+    table = {
+        "kinematic": RungErrors(2e-4, None),
+        "quasi-static": same,
+        "rigid": same,
+        "hydraulic": RungErrors(1e-7, 5.0),
+    }
     assert choose_rung({"gap", "force"}, 5e-4, 2e3, table) == "quasi-static"
     table["rigid"] = RungErrors(1e-4, 10.0)  # more accurate, and still not chosen
     assert choose_rung({"gap", "force"}, 5e-4, 2e3, table) == "quasi-static"

@@ -50,8 +50,9 @@ def radau_reference(scene: Scene, rtol: float = 1e-10):
             k += 1
         if tb > t0:
             grid = np.arange(round(t0 * 1e3) + 1, round(tb * 1e3) + 1) * 1e-3
-            sol = solve_ivp(rhs, (t0, tb), y, method="Radau", rtol=rtol, atol=ATOL, t_eval=grid,
-                            events=floor_b)  # fmt: skip
+            sol = solve_ivp(
+                rhs, (t0, tb), y, method="Radau", rtol=rtol, atol=ATOL, t_eval=grid, events=floor_b
+            )
             assert sol.success, sol.message
             ts.append(sol.t)
             ys.append(sol.y.T)
@@ -101,8 +102,9 @@ def test_the_cavity_closes_as_in_the_reference(reference, options, stroke_tol, p
     assert len(crossings) == 2 and 0.1 < crossings[0] < 0.3 < crossings[1] < 0.34, crossings
     open_ = tr.cavity_b[1:] > 0.0
     steps = np.flatnonzero(np.diff(open_.astype(int))) + 1
-    np.testing.assert_allclose(tr.t[1:][steps], np.ceil(np.array(crossings) * 1e3) * 1e-3,
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        tr.t[1:][steps], np.ceil(np.array(crossings) * 1e3) * 1e-3, atol=1e-12
+    )
     assert _opening_after(tr.t, tr.stroke, 0.32) == pytest.approx(
         _opening_after(t, stroke, 0.32), abs=1e-12
     )

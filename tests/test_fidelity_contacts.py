@@ -72,8 +72,9 @@ def test_the_stops_contact_is_located_within_the_sub_step(stops_reference, fract
     stroke, force, pa, pb = _errors(located, ref)
     assert stroke < 2e-6 and force < 10.0 and max(pa, pb) < 0.5e5, (stroke, force, pa, pb)
     np.testing.assert_array_equal(_on_a_stop(located.stroke[1:]), _on_a_stop(ref.stroke))
-    crossing = run_scene("hydraulic", STOPS_BOTH_WAYS, P, stability_fraction=fraction,
-                         locate_events=False)  # fmt: skip
+    crossing = run_scene(
+        "hydraulic", STOPS_BOTH_WAYS, P, stability_fraction=fraction, locate_events=False
+    )
     stroke, force, pa, pb = _errors(crossing, ref)
     assert force > 30.0 and max(pa, pb) > 1e5, (stroke, force, pa, pb)
 

@@ -126,8 +126,9 @@ def test_noise_has_its_deviation_and_repeats_with_its_seed():
     assert np.std(a) == pytest.approx(1e-4, rel=0.05) and abs(np.mean(a)) < 1e-5
     # a step's draw depends on (seed, step) alone: read from step 1000 on, the same values
     sensor = StrokeSensor(SensorFaults(noise=1e-4, seed=7))
-    late = [sensor.read(1.0 + 1e-3 * k, 1000 + k, TRUTH[1000 + k]) - TRUTH[1000 + k]
-            for k in range(10)]  # fmt: skip
+    late = [
+        sensor.read(1.0 + 1e-3 * k, 1000 + k, TRUTH[1000 + k]) - TRUTH[1000 + k] for k in range(10)
+    ]
     np.testing.assert_array_equal(late, a[1000:1010])
 
 

@@ -97,9 +97,20 @@ def _floor_run(fault, hp=None, steps=400, **options):
         va, vb = hk.chamber_volumes(st.q[0], rung._h)
         cav = rung.cavity_volumes()
         friction = hk.friction_force(st.qd[0], rung._h)
-        rows.append((pa, pb, st.pressure_a, st.pressure_b, st.piston_force,
-                     pa * rung.hydraulic.piston_area - pb * rung.hydraulic.rod_side_area - friction,
-                     *cav, va, vb, *rung.y[2:4]))  # fmt: skip
+        rows.append(
+            (
+                pa,
+                pb,
+                st.pressure_a,
+                st.pressure_b,
+                st.piston_force,
+                pa * rung.hydraulic.piston_area - pb * rung.hydraulic.rod_side_area - friction,
+                *cav,
+                va,
+                vb,
+                *rung.y[2:4],
+            )
+        )
     return np.array(rows), rung
 
 
@@ -115,10 +126,15 @@ FAULTS = {
 @pytest.mark.parametrize("fault", sorted(FAULTS))
 @pytest.mark.parametrize(
     "options",
-    [{}, {"hp": NO_AIR}, {"method": "ros2"}, {"method": "linearly-implicit-euler"},
-     {"stability_fraction": 0.25, "locate_events": True}],
+    [
+        {},
+        {"hp": NO_AIR},
+        {"method": "ros2"},
+        {"method": "linearly-implicit-euler"},
+        {"stability_fraction": 0.25, "locate_events": True},
+    ],
     ids=["default", "no air", "ros2", "lie", "located"],
-)  # fmt: skip
+)
 def test_no_pressure_below_the_vapour_pressure(fault, options):
     """Whatever the fault and the rung's options, no chamber holds tension: the pressures
     published and the force on the rod are those of chambers at or above the vapour pressure,
@@ -174,8 +190,9 @@ def _trace(name, hp):
     return np.array(out)
 
 
-@pytest.mark.parametrize("name", ["open-hold-close", "open-hold-close-100ms", "force-step",
-                                  "supply-loss"])  # fmt: skip
+@pytest.mark.parametrize(
+    "name", ["open-hold-close", "open-hold-close-100ms", "force-step", "supply-loss"]
+)
 def test_without_air_the_constant_modulus_traces_are_reproduced(name):
     """tests/data/constant_bulk_modulus_traces.npz was written by the rung before the oil's low
     pressure was modelled (tests/data/make_constant_bulk_modulus_traces.py). Without entrained
@@ -223,8 +240,13 @@ def test_without_air_the_charts_figures_are_reproduced():
         # force: the previous chart's rung crossed the stop's contact, a jump of its damping
         # force, inside a sub-step (29 N off at the force step's impact); the rung locates it
         # now (3 N), the reference did then and does
-        for q, tol in (("gap", 3e-6), ("stroke", 3e-6), ("force", 30.0), ("opening", 1e-12),
-                       ("closing", 1e-12)):  # fmt: skip
+        for q, tol in (
+            ("gap", 3e-6),
+            ("stroke", 3e-6),
+            ("force", 30.0),
+            ("opening", 1e-12),
+            ("closing", 1e-12),
+        ):
             assert same(r.errors[q], o["errors"][q], tol), (o["scene"], o["run"], q)
         checked += 1
     assert checked == 3 * 5 - 2  # kinematic and its batch refuse the force step
@@ -256,11 +278,13 @@ def test_energy_balance_over_the_failsafe_scene(name):
         s_ref, v_ref = rung._reference(rung.t)
         ps = rung.supply_pressure(rung.t)
         mode = hk.MODE_FORCE if rung.mode == "force" else hk.MODE_STROKE
-        powers = hk.power_balance(*rung.y, mode, s_ref, v_ref, rung._force_cmd, ps, 0.0,
-                                  tuple(c), tuple(h))  # fmt: skip
+        powers = hk.power_balance(
+            *rung.y, mode, s_ref, v_ref, rung._force_cmd, ps, 0.0, tuple(c), tuple(h)
+        )
         st = rung.state
-        rows.append((rung.t, *powers, *st.q, *st.qd, *rung.chamber_pressures(),
-                     *rung.cavity_volumes()))  # fmt: skip
+        rows.append(
+            (rung.t, *powers, *st.q, *st.qd, *rung.chamber_pressures(), *rung.cavity_volumes())
+        )
 
     scene = SCENES.get(name, STOPS_BOTH_WAYS)
     events = {round(t / dt): (action, argument) for t, action, argument in scene.events}
@@ -374,8 +398,11 @@ def test_the_relief_scene_passes_the_relief_laws_flow():
     np.testing.assert_allclose(stored[open_], inflow[open_], rtol=0, atol=1e-3 * np.max(relief(pa)))
 
     def rod_side(p_a):
-        return brentq(lambda p: orifice(k_b, p - hp.return_pressure)
-                      - hp.leak_across_piston * (p_a - p), hp.return_pressure, p_a)  # fmt: skip
+        return brentq(
+            lambda p: orifice(k_b, p - hp.return_pressure) - hp.leak_across_piston * (p_a - p),
+            hp.return_pressure,
+            p_a,
+        )
 
     def piston_side(p_a):
         return orifice(k, 300e5 - p_a) - relief(p_a) - hp.leak_across_piston * (p_a - rod_side(p_a))
@@ -407,8 +434,11 @@ def test_the_reflected_mass_from_the_kinetic_energy_and_the_inverse_dynamics():
     assert umu / u0**2 == pytest.approx(from_energy, rel=1e-9)
     turn = abs(1.0 / u0)  # rad of flap per metre of stroke
     doc = (ROOT / "docs" / "fidelity.md").read_text()
-    m = re.search(r"m_eff = u\.M\.u / u_s\^2`: ([0-9.]+) kg closed, where the flap turns "
-                  r"([0-9.]+) rad per metre", doc)  # fmt: skip
+    m = re.search(
+        r"m_eff = u\.M\.u / u_s\^2`: ([0-9.]+) kg closed, where the flap turns "
+        r"([0-9.]+) rad per metre",
+        doc,
+    )
     assert m, "docs/fidelity.md no longer quotes the reflected mass"
     assert float(m.group(1)) == round(from_energy, 2)
     assert float(m.group(2)) == round(turn, 1)
@@ -421,8 +451,9 @@ def test_the_documented_failsafe_time_is_the_rungs():
     gives today, with the floor; and it is shorter than the constant-modulus rung's, whose
     rod-side suction held the flap back."""
     results = json.loads((ROOT / "benchmarks" / "results" / "fidelity.json").read_text())
-    documented = {r["run"]: r["closing_time"] for r in results["rows"]
-                  if r["scene"] == "supply-loss"}  # fmt: skip
+    documented = {
+        r["run"]: r["closing_time"] for r in results["rows"] if r["scene"] == "supply-loss"
+    }
     scene = SCENES["supply-loss"]
     closing = event_times(run_scene("hydraulic", scene, P), scene, P)[1]
     assert closing == pytest.approx(documented["hydraulic"], abs=1e-9)

@@ -73,9 +73,12 @@ def test_the_replayed_sensor_publishes_what_the_run_published(rung):
     run = RunFaults(sim)
     replay = SensorReplay(rung, 1e-3)
     sim.command_stroke(sim.s_max, 0.2)
-    script = {20: [("sensor.bias_m", 1e-3), ("sensor.noise_std_m", 1e-4),
-                   ("sensor.noise_seed", 11)], 60: [("sensor.dropout", 0.3)],
-              120: [("sensor.frozen", True)], 160: [("sensor.frozen", False)]}  # fmt: skip
+    script = {
+        20: [("sensor.bias_m", 1e-3), ("sensor.noise_std_m", 1e-4), ("sensor.noise_seed", 11)],
+        60: [("sensor.dropout", 0.3)],
+        120: [("sensor.frozen", True)],
+        160: [("sensor.frozen", False)],
+    }
     published, replayed = [], []
     for k in range(200):
         for name, value in script.get(k, []):

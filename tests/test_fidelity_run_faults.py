@@ -53,8 +53,12 @@ def _true_arrays(true):
 @pytest.mark.parametrize("rung", list(RUNGS))
 def test_sensor_faults_change_the_published_stroke_only(rung):
     healthy, pub_h, _ = _run(rung, {})
-    faults = {"sensor.bias_m": 1e-3, "sensor.noise_std_m": 1e-4, "sensor.noise_seed": 7,
-              "sensor.dropout": 0.2}  # fmt: skip
+    faults = {
+        "sensor.bias_m": 1e-3,
+        "sensor.noise_std_m": 1e-4,
+        "sensor.noise_seed": 7,
+        "sensor.dropout": 0.2,
+    }
     faulty, pub_f, _ = _run(rung, faults)
     # the simulation is untouched: every true quantity bit for bit
     np.testing.assert_array_equal(_true_arrays(faulty), _true_arrays(healthy))
@@ -167,10 +171,12 @@ def test_supply_loss_ramp_on_hydraulic_follows_the_ramp():
 @given(
     name=st.sampled_from(sorted(FAULTS)),
     value=st.one_of(
-        st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 5), st.booleans(),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.integers(-5, 5),
+        st.booleans(),
         st.text(max_size=3),
     ),
-)  # fmt: skip
+)
 def test_a_bad_value_is_refused_and_changes_nothing(name, value):
     """Any value of the wrong kind or out of range raises InputError naming the fault; one that
     is taken is kept as the value in force."""
@@ -191,17 +197,20 @@ SENSOR_FAULTS = sorted(n for n in FAULTS if n.startswith("sensor."))
 
 
 @settings(max_examples=40, deadline=None)
-@given(
-    changes=st.lists(st.tuples(st.sampled_from(SENSOR_FAULTS), st.booleans()), max_size=12)
-)
+@given(changes=st.lists(st.tuples(st.sampled_from(SENSOR_FAULTS), st.booleans()), max_size=12))
 def test_the_sensor_is_healthy_exactly_when_every_sensor_fault_is_at_its_healthy_value(changes):
     """Whatever the order of the sensor faults set and cleared, ``sensor_healthy`` (kept where a
     fault is applied) is the comparison of every sensor fault with its healthy value, and the
     stroke published is the true one exactly then; the values cannot be changed but by apply."""
     sim = make_rung("rigid", P, 1e-3)
     run = RunFaults(sim)
-    faulty = {"sensor.bias_m": 1e-3, "sensor.noise_std_m": 1e-4, "sensor.noise_seed": 7,
-              "sensor.dropout": 0.5, "sensor.frozen": True}  # fmt: skip
+    faulty = {
+        "sensor.bias_m": 1e-3,
+        "sensor.noise_std_m": 1e-4,
+        "sensor.noise_seed": 7,
+        "sensor.dropout": 0.5,
+        "sensor.frozen": True,
+    }
     for name, set_faulty in changes:
         run.apply(name, faulty[name] if set_faulty else FAULTS[name][0])
         sim.advance(1)
@@ -243,7 +252,8 @@ def test_the_hydraulic_bounds_are_what_their_reasons_say():
     passes 16 times the valve's rated flow at 200 bar (within 5 %)."""
     hp = HydraulicParams()
     assert FAULT_RANGES["jam_friction_n"][1] == pytest.approx(
-        hp.relief_pressure * hp.piston_area, rel=0.01)  # fmt: skip
+        hp.relief_pressure * hp.piston_area, rel=0.01
+    )
     flow = FAULT_RANGES["leak_m3_per_s_per_pa"][1] * 200e5
     assert flow == pytest.approx(120.0 / 60000.0, rel=0.05)
     assert flow / hp.valve_rated_flow == pytest.approx(16.0, rel=0.05)
@@ -271,8 +281,11 @@ def test_a_fault_too_stiff_for_the_step_is_refused_with_the_rung_s_reason():
     sim.command_drs(True)
     sim.advance(150)  # open: the stiffest place for friction (the least inertia at the rod)
     run = RunFaults(sim)
-    with pytest.raises(TooStiffError, match=r"needs 3\d\d(\.\d+)? rk4 sub-steps per step, above "
-                       r"1/2 of the cap of 100"):  # fmt: skip
+    with pytest.raises(
+        TooStiffError,
+        match=r"needs 3\d\d(\.\d+)? rk4 sub-steps per step, above "
+        r"1/2 of the cap of 100",
+    ):
         run.apply("jam_friction_n", 5000.0)
     assert run.active() == {}
     run.apply("jam_friction_n", 500.0)  # a lighter jam is taken

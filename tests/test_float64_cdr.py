@@ -17,8 +17,9 @@ from std_msgs.msg import Float64  # noqa: E402
 from drs_ros.node.float64_cdr import EXACT_LEN, read_float64  # noqa: E402
 from drs_ros.recording import cdr  # noqa: E402
 
-HEADERS = st.sampled_from([cdr.CDR_LE_HEADER, b"\x00\x00\x00\x00", b"\x00\x01\x00\x03",
-                           b"\x00\x01", b""])  # fmt: skip
+HEADERS = st.sampled_from(
+    [cdr.CDR_LE_HEADER, b"\x00\x00\x00\x00", b"\x00\x01\x00\x03", b"\x00\x01", b""]
+)
 
 
 @st.composite

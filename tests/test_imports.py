@@ -119,8 +119,11 @@ def _ros_imports(path: Path) -> list[str]:
             called = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
             if called in ("import_module", "__import__") and isinstance(node.args[0].value, str):
                 names = [node.args[0].value]
-        found += [f"{path.relative_to(ROOT)}:{node.lineno} {n}" for n in names
-                  if n.split(".")[0] in ROS_ONLY]  # fmt: skip
+        found += [
+            f"{path.relative_to(ROOT)}:{node.lineno} {n}"
+            for n in names
+            if n.split(".")[0] in ROS_ONLY
+        ]
     return found
 
 
@@ -146,4 +149,7 @@ def test_a_ros_import_in_drs_model_would_be_found(tmp_path, monkeypatch):
     )
     monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
     assert sorted(h.split(" ", 1)[1] for h in _ros_imports(planted)) == [
-        "drs_ros.bag.from_goal", "drs_ros.names", "rclpy.node"]  # fmt: skip
+        "drs_ros.bag.from_goal",
+        "drs_ros.names",
+        "rclpy.node",
+    ]

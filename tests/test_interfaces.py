@@ -76,13 +76,18 @@ def action_definitions(text: str) -> dict[str, str]:
     }
     for srv in ("SendGoal", "GetResult"):
         s = f"{a}_{srv}"
-        defs[f"{s}_Event"] = (f"service_msgs/ServiceEventInfo info\n{s}_Request[<=1] request\n"
-                              f"{s}_Response[<=1] response\n")  # fmt: skip
-        defs[s] = (f"{s}_Request request_message\n{s}_Response response_message\n"
-                   f"{s}_Event event_message\n")  # fmt: skip
-    defs[a] = (f"{a}_Goal goal\n{a}_Result result\n{a}_Feedback feedback\n"
-               f"{a}_SendGoal send_goal_service\n{a}_GetResult get_result_service\n"
-               f"{a}_FeedbackMessage feedback_message\n")  # fmt: skip
+        defs[f"{s}_Event"] = (
+            f"service_msgs/ServiceEventInfo info\n{s}_Request[<=1] request\n"
+            f"{s}_Response[<=1] response\n"
+        )
+        defs[s] = (
+            f"{s}_Request request_message\n{s}_Response response_message\n{s}_Event event_message\n"
+        )
+    defs[a] = (
+        f"{a}_Goal goal\n{a}_Result result\n{a}_Feedback feedback\n"
+        f"{a}_SendGoal send_goal_service\n{a}_GetResult get_result_service\n"
+        f"{a}_FeedbackMessage feedback_message\n"
+    )
     return defs
 
 
@@ -141,6 +146,11 @@ def test_built_types_import_and_name_themselves_as_upstream():
     )
     assert msgdefs.type_hash(TFMessage) == TFMESSAGE_RIHS01
     result = FollowJointTrajectory.Result
-    assert (result.SUCCESSFUL, result.INVALID_GOAL, result.INVALID_JOINTS,
-            result.OLD_HEADER_TIMESTAMP, result.PATH_TOLERANCE_VIOLATED,
-            result.GOAL_TOLERANCE_VIOLATED) == (0, -1, -2, -3, -4, -5)  # fmt: skip
+    assert (
+        result.SUCCESSFUL,
+        result.INVALID_GOAL,
+        result.INVALID_JOINTS,
+        result.OLD_HEADER_TIMESTAMP,
+        result.PATH_TOLERANCE_VIOLATED,
+        result.GOAL_TOLERANCE_VIOLATED,
+    ) == (0, -1, -2, -3, -4, -5)

@@ -43,8 +43,15 @@ def test_the_profile_rests_exactly_outside_the_moves(params):
     s_min or s_max exactly and no motion; inside a move, the quintic."""
     man = drs_manoeuvre(params)
     k = man.constants()
-    for t, s in ((-1.0, man.s_min), (0.0, man.s_min), (0.01, man.s_max), (0.025, man.s_max),
-                 (0.04, man.s_max), (0.05, man.s_min), (1.0, man.s_min)):  # fmt: skip
+    for t, s in (
+        (-1.0, man.s_min),
+        (0.0, man.s_min),
+        (0.01, man.s_max),
+        (0.025, man.s_max),
+        (0.04, man.s_max),
+        (0.05, man.s_min),
+        (1.0, man.s_min),
+    ):
         assert kernels.manoeuvre_profile(t, k) == (s, 0.0, 0.0), t
     s, sd, _ = kernels.manoeuvre_profile(0.005, k)
     assert s == pytest.approx(0.5 * (man.s_min + man.s_max), rel=1e-12) and sd > 0.0

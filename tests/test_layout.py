@@ -52,11 +52,18 @@ def test_a_long_function_and_module_would_be_found(tmp_path):
 
 
 def test_process_words_would_be_found(tmp_path):
-    said = ["# the fix of iss" + "ue 17", "x = 1  # as before iss" + "ue",
-            "see the sess" + "ion of 2026-11-23", "today's " + "model takes it",
-            "a test sess" + "ion warms the cache"]  # fmt: skip
-    kept = ["ros2/rosbag2#2365 (upstream)", "@pytest.fixture(scope='session')",
-            "the issues an engineer files"]  # fmt: skip
+    said = [
+        "# the fix of iss" + "ue 17",
+        "x = 1  # as before iss" + "ue",
+        "see the sess" + "ion of 2026-11-23",
+        "today's " + "model takes it",
+        "a test sess" + "ion warms the cache",
+    ]
+    kept = [
+        "ros2/rosbag2#2365 (upstream)",
+        "@pytest.fixture(scope='session')",
+        "the issues an engineer files",
+    ]
     root = _planted(tmp_path, "\n".join(said + kept) + "\n")
     found = layout.process_words(root)
     assert [f.split(": ", 1)[1] for f in found] == said
@@ -76,10 +83,14 @@ HISTORY = {
     "docs/forward.md": "Not taken in that " + "pass; the ag" + "ent moved on",
 }
 PRODUCT = [
-    '@pytest.fixture(scope="session")', "# second solve with the noise estimated",
-    "one compiled pass over the times", "the relief passes what the valve gives",
-    "a bag recorded before the effect record existed", "the bag passes `check`",
-    "each pass of the sweep", "a build of the driver per method",
+    '@pytest.fixture(scope="session")',
+    "# second solve with the noise estimated",
+    "one compiled pass over the times",
+    "the relief passes what the valve gives",
+    "a bag recorded before the effect record existed",
+    "the bag passes `check`",
+    "each pass of the sweep",
+    "a build of the driver per method",
 ]
 
 

@@ -17,10 +17,15 @@ from drs_ros.recording.mcap_append import MessageAppender
 from drs_ros.recording.mcap_chunks import handoff_for
 
 MESSAGES = st.lists(
-    st.tuples(st.integers(1, 3), st.integers(0, 2**40), st.binary(max_size=300),
-              st.integers(0, 2**32 - 1), st.booleans()),
+    st.tuples(
+        st.integers(1, 3),
+        st.integers(0, 2**40),
+        st.binary(max_size=300),
+        st.integers(0, 2**32 - 1),
+        st.booleans(),
+    ),
     max_size=60,
-)  # fmt: skip
+)
 COMPRESSIONS = st.sampled_from([CompressionType.NONE, CompressionType.LZ4, CompressionType.ZSTD])
 
 
@@ -80,10 +85,15 @@ def handoff_bag(messages, chunk_size: int, compression, concurrent: bool) -> byt
 
 
 @settings(max_examples=60, deadline=None)
-@given(messages=MESSAGES, chunk_size=st.sampled_from([64, 1000, 1 << 20]),
-       compression=COMPRESSIONS, concurrent=st.booleans())  # fmt: skip
-def test_the_file_is_byte_for_byte_what_the_writer_makes(messages, chunk_size, compression,
-                                                         concurrent):  # fmt: skip
+@given(
+    messages=MESSAGES,
+    chunk_size=st.sampled_from([64, 1000, 1 << 20]),
+    compression=COMPRESSIONS,
+    concurrent=st.booleans(),
+)
+def test_the_file_is_byte_for_byte_what_the_writer_makes(
+    messages, chunk_size, compression, concurrent
+):
     # chunks closed by size and by flushes, written at once or by another thread meanwhile,
     # log times in any order, empty payloads, three compressions: every byte the same
     assert handoff_bag(messages, chunk_size, compression, concurrent) == library_bag(
@@ -119,8 +129,7 @@ def test_the_writing_thread_never_encodes_a_chunk(tmp_path, monkeypatch):
         return encode(self, closed)
 
     monkeypatch.setattr(mcap_chunks.ChunkHandoff, "encode", spy)
-    with McapRecorder(tmp_path / "b", flush_messages=20, chunk_size=512,
-                      compression="zstd") as rec:  # fmt: skip
+    with McapRecorder(tmp_path / "b", flush_messages=20, chunk_size=512, compression="zstd") as rec:
         rec.register_topic("/x", Float64)
         for k in range(500):
             rec.write("/x", Float64(data=float(k)), k)

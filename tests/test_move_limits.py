@@ -55,7 +55,8 @@ def test_the_peak_names_its_segment(params):
     peak = path_peak_force(params, [slow.coeffs, fast.coeffs], [slow.duration, fast.duration])
     assert peak.segment == 1
     assert abs(peak.force) == pytest.approx(
-        abs(path_peak_force(params, [fast.coeffs], [fast.duration]).force), rel=1e-12)
+        abs(path_peak_force(params, [fast.coeffs], [fast.duration]).force), rel=1e-12
+    )
 
 
 @pytest.mark.parametrize("rung", sorted(RUNGS))
@@ -170,9 +171,7 @@ def test_a_move_is_refused_exactly_when_its_peak_exceeds_the_limit(
 
 @settings(max_examples=30, deadline=None)
 @given(start=st.floats(0.0, 1.0), end=st.floats(0.0, 1.0), rung=st.sampled_from(sorted(RUNGS)))
-def test_a_stroke_command_given_no_duration_takes_one_within_the_limit(
-    params, start, end, rung
-):
+def test_a_stroke_command_given_no_duration_takes_one_within_the_limit(params, start, end, rung):
     """``~/stroke_cmd`` gives no duration: the move takes the seed's (T_opening scaled by the
     distance) where that fits force_limit, else the shortest that fits, within 2 %: its
     independent peak lies in [0.98, 1.001] x force_limit."""

@@ -147,11 +147,12 @@ def test_bad_commands_are_refused_and_the_node_keeps_running(harness, params):
     harness.wait_connected()
     # one at a time, each after the last was refused: each is refused once, for its own reason
     # (a newer command of its topic before the next physics step would supersede it instead)
-    for pub, key, bad in [(harness.stroke_pub, "stroke_cmd", v)
-                          for v in (math.nan, math.inf, 0.1, -0.01)] + [
+    for pub, key, bad in [
+        (harness.stroke_pub, "stroke_cmd", v) for v in (math.nan, math.inf, 0.1, -0.01)
+    ] + [
         (harness.force_pub, "force_cmd", math.nan),
         (harness.force_pub, "force_cmd", 1e9),
-    ]:  # fmt: skip
+    ]:
         refused = harness.node.effects.refused
         pub.publish(Float64(data=bad))
         assert spin_until(harness.exec, lambda r=refused: harness.node.effects.refused > r, 5.0)
@@ -381,10 +382,13 @@ def _trajectory(names, points):
 
     msg = JointTrajectory(joint_names=list(names))
     for t, pos, vel in points:
-        msg.points.append(JointTrajectoryPoint(
-            positions=list(pos), velocities=list(vel),
-            time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9))),
-        ))  # fmt: skip
+        msg.points.append(
+            JointTrajectoryPoint(
+                positions=list(pos),
+                velocities=list(vel),
+                time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9))),
+            )
+        )
     return msg
 
 
@@ -437,13 +441,17 @@ def test_diagnostics_recover_once_the_window_has_passed(ros_context, tmp_path):
     # 50 Hz publishing: a tick is late only past 30 ms, so a loaded test machine does not keep
     # the node in WARN for missed deadlines; a 3 s window: a stalled test process (a tick 466 ms
     # late was seen) may publish its next diagnostics more than 1 s after the refusal
-    h = Harness(ros_context, [Parameter("diagnostics_window", value=3.0),
-                              Parameter("publish_rate_hz", value=50.0)])  # fmt: skip
+    h = Harness(
+        ros_context,
+        [Parameter("diagnostics_window", value=3.0), Parameter("publish_rate_hz", value=50.0)],
+    )
     levels: list[tuple[bytes, str]] = []
     h.client.create_subscription(
-        DiagnosticArray, "/diagnostics",
-        lambda m: levels.append((m.status[0].level, m.status[0].message)), 10,
-    )  # fmt: skip
+        DiagnosticArray,
+        "/diagnostics",
+        lambda m: levels.append((m.status[0].level, m.status[0].message)),
+        10,
+    )
     try:
         h.wait_connected()
         assert spin_until(h.exec, lambda: any(lv == DiagnosticStatus.OK for lv, _ in levels), 10.0)

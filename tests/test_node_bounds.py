@@ -75,8 +75,9 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
-    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"fidelity:={rung}",
-                      f"publish_rate_hz:={PUBLISH_HZ}")  # fmt: skip
+    proc = start_node(
+        tmp_path, domain, f"bag_path:={bag}", f"fidelity:={rung}", f"publish_rate_hz:={PUBLISH_HZ}"
+    )
     client = DRSClient(domain, timeout=60.0, keep=True, listen=("joint_states",))
     lo, hi = stroke_limits(params)
     target = lo + 0.4 * (hi - lo)
@@ -88,11 +89,13 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
             result = client.set_parameter(f"fault.{name}", value)
             assert result.successful == (outcome == "taken"), (name, value, result.reason)
             if outcome == "out of range":
-                edges = ", ".join(f"{v:g}" if isinstance(v, float) else str(v)
-                                  for v in FAULT_RANGES[name][:2])  # fmt: skip
+                edges = ", ".join(
+                    f"{v:g}" if isinstance(v, float) else str(v) for v in FAULT_RANGES[name][:2]
+                )
                 assert f"fault {name} must be in [{edges}]" in result.reason, result.reason
                 assert f"got {value!r}" in result.reason or f"got {float(value)!r}" in (
-                    result.reason)  # fmt: skip
+                    result.reason
+                )
             elif outcome == "not modelled":
                 assert f"'{rung}' rung cannot model fault {name}" in result.reason
         client.spin(0.2)
@@ -103,21 +106,31 @@ def test_every_fault_at_its_edges_and_beyond_through_the_parameter_service(
         # a good command afterwards: the stroke goes where it is told
         client.stroke(target)
         assert client.wait_for(lambda: abs(client.stroke_now() - target) < 1e-5, timeout=30.0), (
-            client.stroke_now(), target)  # fmt: skip
+            client.stroke_now(),
+            target,
+        )
     finally:
         client.close()
         out = stop_node(proc)
     assert proc.returncode == 0, out[-3000:]
     assert scan(bag).complete
-    refused = [(r.source, r.values["value"]) for r in effect_records(
-        read_bag(bag, ["/drs/command_events"]).messages["/drs/command_events"])
-        if r.outcome == "refused"]  # fmt: skip
-    assert refused == [(f"fault.{n}", repr(v if isinstance(FAULTS[n][0], int) else float(v)))
-                       for n, v, outcome in plan if outcome != "taken"]  # fmt: skip
+    refused = [
+        (r.source, r.values["value"])
+        for r in effect_records(
+            read_bag(bag, ["/drs/command_events"]).messages["/drs/command_events"]
+        )
+        if r.outcome == "refused"
+    ]
+    assert refused == [
+        (f"fault.{n}", repr(v if isinstance(FAULTS[n][0], int) else float(v)))
+        for n, v, outcome in plan
+        if outcome != "taken"
+    ]
 
 
-@pytest.mark.parametrize(("sig", "executor"),
-                         [(signal.SIGINT, "deadline"), (signal.SIGTERM, "single")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("sig", "executor"), [(signal.SIGINT, "deadline"), (signal.SIGTERM, "single")]
+)
 def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
     tmp_path, request, params, sig, executor
 ):
@@ -139,9 +152,15 @@ def test_a_stop_in_a_tick_of_many_seconds_ends_the_node_within_a_second(
 
     domain = domain_for(request.node.nodeid)
     bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
-    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
-                      "fidelity:=hydraulic", "max_catch_up_steps:=100000",
-                      f"executor:={executor}")  # fmt: skip
+    proc = start_node(
+        tmp_path,
+        domain,
+        f"bag_path:={bag}",
+        f"rrd_path:={rrd}",
+        "fidelity:=hydraulic",
+        "max_catch_up_steps:=100000",
+        f"executor:={executor}",
+    )
     client = DRSClient(domain, timeout=60.0, keep=True, listen=("joint_states",))
     _, s_max = stroke_limits(params)
     try:
@@ -182,9 +201,13 @@ def test_a_step_too_stiff_for_the_cap_holds_the_node_which_publishes_on(ros_cont
     from drs_ros.bag.read.effects import effect_records
     from drs_ros.node import DRSNode
 
-    node = DRSNode(context=ros_context, parameter_overrides=[
-        Parameter("fidelity", value="hydraulic"),
-        Parameter("bag_path", value=str(tmp_path / "bag"))])  # fmt: skip
+    node = DRSNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("fidelity", value="hydraulic"),
+            Parameter("bag_path", value=str(tmp_path / "bag")),
+        ],
+    )
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     try:
@@ -203,8 +226,9 @@ def test_a_step_too_stiff_for_the_cap_holds_the_node_which_publishes_on(ros_cont
         lines = node.close_recordings()
         node.destroy_node()
     assert lines == []
-    records = effect_records(read_bag(tmp_path / "bag", ["/drs/command_events"])
-                             .messages["/drs/command_events"])  # fmt: skip
+    records = effect_records(
+        read_bag(tmp_path / "bag", ["/drs/command_events"]).messages["/drs/command_events"]
+    )
     resets = [r for r in records if r.outcome == "reset"]
     steps = [line for line in node.effects.refusals if line.startswith("step ")]
     assert resets and steps  # each refused step held the flap, with the rung's reason

@@ -28,16 +28,27 @@ from drs_ros.node import DRSNode  # noqa: E402
 #: (parameters set in one call, whether the node takes them), in order, each after 0.1 s
 STEPS = (
     ([Parameter("fault.leak_m3_per_s_per_pa", value=2e-12)], True),
-    ([Parameter("fault.sensor.bias_m", value=1e-3), Parameter("fault.sensor.noise_std_m",
-      value=1e-4), Parameter("fault.sensor.noise_seed", value=11)], True),
+    (
+        [
+            Parameter("fault.sensor.bias_m", value=1e-3),
+            Parameter("fault.sensor.noise_std_m", value=1e-4),
+            Parameter("fault.sensor.noise_seed", value=11),
+        ],
+        True,
+    ),
     ([Parameter("fault.leak_m3_per_s_per_pa", value=-1.0)], False),  # negative: refused
     ([Parameter("fault.sensor.dropout", value=0.25)], True),
     ([Parameter("fault.stuck_valve", value=True)], True),
     ([Parameter("fault.stuck_valve", value=False)], True),
-    ([Parameter("fault.supply_loss", value=True),
-      Parameter("fault.supply_loss_ramp_s", value=0.05)], True),
+    (
+        [
+            Parameter("fault.supply_loss", value=True),
+            Parameter("fault.supply_loss_ramp_s", value=0.05),
+        ],
+        True,
+    ),
     ([Parameter("fault.sensor.frozen", value=True)], True),
-)  # fmt: skip
+)
 
 
 @pytest.fixture(scope="module")
@@ -50,13 +61,16 @@ def faulty_bag(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
-    overrides = [Parameter("fidelity", value="hydraulic"),
-                 Parameter("bag_path", value=str(out / "bag"))]  # fmt: skip
+    overrides = [
+        Parameter("fidelity", value="hydraulic"),
+        Parameter("bag_path", value=str(out / "bag")),
+    ]
     joints: list = []
     results = []
     try:
-        with node_with_client(int(domain_for("test_node_faults::faulty_bag")), overrides,
-                              "drs_faults_client") as (node, client, ex):  # fmt: skip
+        with node_with_client(
+            int(domain_for("test_node_faults::faulty_bag")), overrides, "drs_faults_client"
+        ) as (node, client, ex):
             client.create_subscription(JointState, "/joint_states", joints.append, 100)
             params = AsyncParameterClient(client, "/drs")
             drs = client.create_client(SetBool, "/drs/drs")
@@ -93,8 +107,11 @@ def test_each_fault_is_recorded_where_it_took_effect(faulty_bag):
 
     bag, _, _, joints = faulty_bag
     data = read_bag(bag, ["/drs/command_events", "/parameter_events", "/joint_states"])
-    records = [r for r in effect_records(data.messages["/drs/command_events"])
-               if r.source.startswith("fault.")]  # fmt: skip
+    records = [
+        r
+        for r in effect_records(data.messages["/drs/command_events"])
+        if r.source.startswith("fault.")
+    ]
     taken = [(p.name, p.value) for plist, ok in STEPS if ok for p in plist]
     # within a call, a ramp acts before the supply loss it shapes
     i = taken.index(("fault.supply_loss", True))
@@ -108,8 +125,9 @@ def test_each_fault_is_recorded_where_it_took_effect(faulty_bag):
     times = [r.sim_time for r in records if r.outcome == "accepted"]
     assert times == sorted(times) and times[0] > 0.09  # each at a tick, after the open
     # every change taken is on /parameter_events in the bag, the refused one is not
-    changed = [(p.name, p) for _, ev in data.messages["/parameter_events"]
-               for p in ev.changed_parameters]  # fmt: skip
+    changed = [
+        (p.name, p) for _, ev in data.messages["/parameter_events"] for p in ev.changed_parameters
+    ]
     assert sorted({n for n, _ in changed}) == sorted({n for n, _ in taken})
     # the published stroke: dropouts (NaN) appear only after the dropout was set
     published = [m.position[0] for _, m in data.messages["/joint_states"]]
@@ -151,8 +169,10 @@ def _auto_run(tmp_path, domain_key, topics, bag=True):
     to discover them, then open through the service and run 0.3 s; the node's chosen rung."""
     from node_support import domain_for, node_with_client
 
-    overrides = [Parameter("fidelity", value="auto"),
-                 Parameter("fidelity_auto_discovery_s", value=0.5)]  # fmt: skip
+    overrides = [
+        Parameter("fidelity", value="auto"),
+        Parameter("fidelity_auto_discovery_s", value=0.5),
+    ]
     if bag:
         overrides.append(Parameter("bag_path", value=str(tmp_path / "bag")))
 
@@ -160,8 +180,9 @@ def _auto_run(tmp_path, domain_key, topics, bag=True):
         for topic, msg_type in topics.items():
             client.create_subscription(msg_type, topic, lambda _m: None, 10)
 
-    with node_with_client(int(domain_for(domain_key)), overrides, "drs_auto_client",
-                          before_node=subscribe) as (node, client, ex):  # fmt: skip
+    with node_with_client(
+        int(domain_for(domain_key)), overrides, "drs_auto_client", before_node=subscribe
+    ) as (node, client, ex):
         drs = client.create_client(SetBool, "/drs/drs")
         assert drs.wait_for_service(timeout_sec=10.0)
         spin_for(ex, 0.6)  # auto chooses at the first tick after 0.5 s
@@ -181,8 +202,9 @@ def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monk
     rung = _auto_run(tmp_path, "test_node_faults::auto_gap", {"/drs/flap_gap": Float64})
     assert rung == "kinematic"
     data = read_bag(tmp_path / "bag", ["/drs/command_events"])
-    (choice,) = [r for r in effect_records(data.messages["/drs/command_events"])
-                 if r.source == "fidelity"]  # fmt: skip
+    (choice,) = [
+        r for r in effect_records(data.messages["/drs/command_events"]) if r.source == "fidelity"
+    ]
     assert choice.values["rung"] == "kinematic" and choice.values["asked"] == "gap"
     assert choice.sim_time == 0.0
     rc, report = resimulate_json(str(tmp_path / "bag"))
@@ -190,13 +212,19 @@ def test_auto_takes_kinematic_for_the_gap_and_a_bag_re_runs_on_it(tmp_path, monk
     # every signal to the bit (the kinematic rung's force is NaN in both)
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
     # check judges it on the rung auto chose (no force), read from the effect record
-    out = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "check", str(tmp_path / "bag"),
-                          "--json"], capture_output=True, text=True, timeout=300)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "check", str(tmp_path / "bag"), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     check = json.loads(out.stdout)
     assert any("kinematic rung (fidelity auto's choice" in n for n in check["notes"])
-    assert any(c["name"] == "no piston force (kinematic rung)" and c["status"] == "ok"
-               for c in check["checks"])  # fmt: skip
+    assert any(
+        c["name"] == "no piston force (kinematic rung)" and c["status"] == "ok"
+        for c in check["checks"]
+    )
 
 
 @pytest.mark.parametrize(
@@ -213,8 +241,12 @@ def test_auto_takes_the_rung_the_subscribers_need(tmp_path, monkeypatch, topic, 
     from drs_ros.node.parameters import NODE_PARAMETERS
 
     default = {name: value for name, value, *_ in NODE_PARAMETERS}
-    rung = choose_rung({"gap", asks}, default["fidelity_tolerance"],
-                       default["fidelity_force_tolerance"], ladder_errors())  # fmt: skip
+    rung = choose_rung(
+        {"gap", asks},
+        default["fidelity_tolerance"],
+        default["fidelity_force_tolerance"],
+        ladder_errors(),
+    )
     assert asks == "force" or rung == "hydraulic"
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     msg_type = FluidPressure if "pressure" in topic else Float64

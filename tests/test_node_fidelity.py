@@ -19,8 +19,12 @@ from drs_model.fidelity import HydraulicParams  # noqa: E402
 from drs_ros.node import DRSNode  # noqa: E402
 from drs_ros.node.parameters import StartupError  # noqa: E402
 
-HYDRAULIC = ("/drs/pressure_piston_side", "/drs/pressure_rod_side", "/drs/supply_pressure",
-             "/drs/valve_spool")  # fmt: skip
+HYDRAULIC = (
+    "/drs/pressure_piston_side",
+    "/drs/pressure_rod_side",
+    "/drs/supply_pressure",
+    "/drs/valve_spool",
+)
 
 
 @pytest.fixture(scope="module")
@@ -33,12 +37,15 @@ def hydraulic_bag(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
-    overrides = [Parameter("fidelity", value="hydraulic"),
-                 Parameter("bag_path", value=str(out / "bag"))]  # fmt: skip
+    overrides = [
+        Parameter("fidelity", value="hydraulic"),
+        Parameter("bag_path", value=str(out / "bag")),
+    ]
     seen = {"pa": [], "joints": []}
     try:
-        with node_with_client(int(domain_for("test_node_fidelity::hydraulic_bag")), overrides,
-                              "drs_fidelity_client") as (node, client, ex):  # fmt: skip
+        with node_with_client(
+            int(domain_for("test_node_fidelity::hydraulic_bag")), overrides, "drs_fidelity_client"
+        ) as (node, client, ex):
             client.create_subscription(FluidPressure, HYDRAULIC[0], seen["pa"].append, 100)
             client.create_subscription(JointState, "/joint_states", seen["joints"].append, 100)
             drs = client.create_client(SetBool, "/drs/drs")

@@ -30,8 +30,13 @@ AT_REST = {"kinematic": 1e-12, "quasi-static": 1e-12, "rigid": 1e-12, "hydraulic
 
 @pytest.fixture(params=RUNGS)
 def rung_stack(request, ros_context, tmp_path):
-    s = Stack(ros_context, [Parameter("bag_path", value=str(tmp_path / "bag")),
-                            Parameter("fidelity", value=request.param)])  # fmt: skip
+    s = Stack(
+        ros_context,
+        [
+            Parameter("bag_path", value=str(tmp_path / "bag")),
+            Parameter("fidelity", value=request.param),
+        ],
+    )
     s.rung = request.param
     yield s
     s.close()
@@ -51,6 +56,7 @@ def _holds(stack):
 
 def _settled(stack, target, tol, timeout=3.0):
     """Spin until the published stroke stays within ``tol`` of ``target`` (a few states)."""
+
     def near():
         tail = stack.joints[-5:]
         return len(tail) == 5 and all(abs(m.position[0] - target) <= tol for m in tail)
@@ -63,8 +69,7 @@ def test_moveit_shaped_goals_succeed(rung_stack):
     st = rung_stack
     st.ready()
     s_now = st.joints[-1].position[0]
-    for first, points in ((s_now, [(0.05, 0.02), (0.1, 0.03)]),
-                          (0.01, [(0.08, 0.015)])):  # fmt: skip
+    for first, points in ((s_now, [(0.05, 0.02), (0.1, 0.03)]), (0.01, [(0.08, 0.015)])):
         res = st.result(st.send(goal_of([(0.0, first), *points])))
         assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.error_string
         assert res.result.error_code == Result.SUCCESSFUL
@@ -103,16 +108,18 @@ def test_preemption_hands_the_piston_to_the_new_goal_from_where_it_is(rung_stack
     seen = st.joints[-1].position[0]
     second = st.send(goal_of([(0.0, seen), (0.1, 0.012)]))
     res = st.result(first)
-    assert (res.status, res.result.error_code) == (GoalStatus.STATUS_ABORTED,
-                                                   Result.INVALID_GOAL)  # fmt: skip
+    assert (res.status, res.result.error_code) == (GoalStatus.STATUS_ABORTED, Result.INVALID_GOAL)
     assert "preempted" in res.result.error_string
     res = st.result(second)
     assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.error_string
     assert _settled(st, 0.012, AT_REST[st.rung])
     # no jump anywhere: the rate between published states (any of them may be lost under
     # load) stays below 0.5 m/s; the goals' quintics peak at ~0.19 m/s
-    rates = [(b.position[0] - a.position[0]) / (_sec(b) - _sec(a))
-             for a, b in itertools.pairwise(st.joints) if _sec(b) > _sec(a)]  # fmt: skip
+    rates = [
+        (b.position[0] - a.position[0]) / (_sec(b) - _sec(a))
+        for a, b in itertools.pairwise(st.joints)
+        if _sec(b) > _sec(a)
+    ]
     assert max(abs(r) for r in rates) < 0.5
 
 
@@ -167,8 +174,12 @@ def test_trajectory_cmd_starts_at_its_header_stamp(ros_context, tmp_path):
         spin_for(st.exec, 0.1)
     finally:
         st.close()
-    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag),
-                          "--json"], capture_output=True, text=True, timeout=300)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr
     rows = {r["signal"]: r for r in json.loads(res.stdout)["signals"]}
     assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows

@@ -53,8 +53,7 @@ class LifecycleManager:
         return self._call(self.change, request).success
 
 
-def run_cycle(manager: LifecycleManager, client: DRSClient, target: float,
-              during=None) -> None:  # fmt: skip
+def run_cycle(manager: LifecycleManager, client: DRSClient, target: float, during=None) -> None:
     """configure, activate, move to ``target`` [m] (:func:`start_cycle`), ``during()``,
     deactivate, cleanup."""
     start_cycle(manager, client, target)
@@ -94,12 +93,15 @@ def bag_strokes(bag: Path) -> tuple[list[float], list[float]]:
 
     with AnyReader([bag]) as reader:
         conns = [c for c in reader.connections if c.topic == "/drs/stroke_cmd"]
-        commands = [reader.deserialize(raw, c.msgtype).data
-                    for c, _, raw in reader.messages(connections=conns)]  # fmt: skip
+        commands = [
+            reader.deserialize(raw, c.msgtype).data
+            for c, _, raw in reader.messages(connections=conns)
+        ]
     with open(bag / f"{bag.name}_0.mcap", "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        strokes = [m.position[0] for _, _, _, m in reader.iter_decoded_messages(
-            topics=["/joint_states"])]  # fmt: skip
+        strokes = [
+            m.position[0] for _, _, _, m in reader.iter_decoded_messages(topics=["/joint_states"])
+        ]
     return commands, strokes
 
 
@@ -113,8 +115,10 @@ def rrd_strokes(rrd: Path) -> list[tuple[int, float]]:
         batch = chunk.to_record_batch()
         if str(chunk.entity_path) == "/series/stroke" and "sim_time" in batch.schema.names:
             times = batch.column("sim_time").cast("int64").to_pylist()
-            rows += [(t, v[0]) for t, v in zip(times, batch.column("Scalars:scalars").to_pylist(),
-                                               strict=True)]  # fmt: skip
+            rows += [
+                (t, v[0])
+                for t, v in zip(times, batch.column("Scalars:scalars").to_pylist(), strict=True)
+            ]
     return sorted(rows)
 
 
@@ -166,8 +170,9 @@ def test_five_cycles_record_five_complete_bags_and_recordings(tmp_path, request,
     assert "incomplete" not in out and "refused" not in out, out[-3000:]
     bags = [bag] + [tmp_path / f"bag_{n}" for n in range(1, 5)]
     rrds = [rrd] + [tmp_path / f"run_{n}.rrd" for n in range(1, 5)]
-    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(("bag", "run"))) == \
-        sorted(p.name for p in bags + rrds)  # fmt: skip
+    assert sorted(
+        p.name for p in tmp_path.iterdir() if p.name.startswith(("bag", "run"))
+    ) == sorted(p.name for p in bags + rrds)
     for b, r, target in zip(bags, rrds, strokes, strict=True):
         assert_cycle_recorded(b, r, target, stroke_limits(params)[0])
 
@@ -191,8 +196,9 @@ def test_a_stop_in_a_later_cycle_finishes_its_recordings(tmp_path, request, para
     assert proc.returncode == 0, out[-3000:]
     assert "drs-node: stopped by SIGINT, recordings finished" in out, out[-3000:]
     assert_cycle_recorded(bag, rrd, strokes[0], stroke_limits(params)[0])
-    assert_cycle_recorded(tmp_path / "bag_1", tmp_path / "run_1.rrd", strokes[1],
-                          stroke_limits(params)[0])  # fmt: skip
+    assert_cycle_recorded(
+        tmp_path / "bag_1", tmp_path / "run_1.rrd", strokes[1], stroke_limits(params)[0]
+    )
 
 
 def test_a_bag_lost_in_one_cycle_reaches_the_exit_status(tmp_path, request, params):
@@ -203,8 +209,9 @@ def test_a_bag_lost_in_one_cycle_reaches_the_exit_status(tmp_path, request, para
     bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
     lost = tmp_path / "bag_1"
     strokes = targets(params, 3)
-    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
-                      "flush_period:=0.2", argv=MANAGED)  # fmt: skip
+    proc = start_node(
+        tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}", "flush_period:=0.2", argv=MANAGED
+    )
     client = DRSClient(domain, keep=True, listen=("joint_states",), timeout=60.0)
 
     def remove_the_bag() -> None:
@@ -226,15 +233,18 @@ def test_a_bag_lost_in_one_cycle_reaches_the_exit_status(tmp_path, request, para
     assert "removed while recording" in line, out[-3000:]
     assert "recordings incomplete" in out
     assert not lost.exists()
-    for b, r, target in ((bag, rrd, strokes[0]),
-                         (tmp_path / "bag_2", tmp_path / "run_2.rrd", strokes[2])):  # fmt: skip
+    for b, r, target in (
+        (bag, rrd, strokes[0]),
+        (tmp_path / "bag_2", tmp_path / "run_2.rrd", strokes[2]),
+    ):
         assert_cycle_recorded(b, r, target, stroke_limits(params)[0])
     verify = run_rerun_cli(["rrd", "verify", str(tmp_path / "run_1.rrd")])
     assert verify.returncode == 0, verify.stderr[-1000:]  # the bag's loss is the bag's only
 
 
 def test_a_later_cycle_never_overwrites_and_its_refusal_reaches_the_exit_status(
-        tmp_path, request, params):  # fmt: skip
+    tmp_path, request, params
+):
     """The second configure's bag path exists (a directory holding a file): that configure
     fails with the reason, the node stays alive and unconfigured and the file is untouched;
     once it is moved away the next configure records to that name (a refused configure takes
@@ -261,8 +271,9 @@ def test_a_later_cycle_never_overwrites_and_its_refusal_reaches_the_exit_status(
         client.close()
         out = stop_node(proc)
     assert proc.returncode == 2, out[-3000:]
-    assert f"drs-node: configure refused: bag path '{taken}' already holds files" in out, \
-        out[-3000:]  # fmt: skip
+    assert f"drs-node: configure refused: bag path '{taken}' already holds files" in out, out[
+        -3000:
+    ]
     assert "configure 2 of this node records to bag_path and rrd_path with _1 appended" in out
     assert bag_check(bag) == 0 and bag_check(taken) == 0
     assert set(bag_strokes(taken)[0]) == {strokes[1]}

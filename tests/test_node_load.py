@@ -46,11 +46,21 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={bag}",
-         "-p", f"publish_rate_hz:={PUBLISH_HZ}"],
-        env=node_env(tmp_path, domain), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        [
+            sys.executable,
+            "-m",
+            "drs_ros",
+            "--ros-args",
+            "-p",
+            f"bag_path:={bag}",
+            "-p",
+            f"publish_rate_hz:={PUBLISH_HZ}",
+        ],
+        env=node_env(tmp_path, domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
         text=True,
-    )  # fmt: skip
+    )
     ctx = Context()
     rclpy.init(context=ctx, domain_id=domain)
     client = Node("flooder", context=ctx)
@@ -87,15 +97,19 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
     assert proc.returncode == 0, out[-2000:]
     assert sent >= 15_000  # the flood really was ~10 kHz
 
-    data = read_bag(bag, ["/drs/stroke_cmd", "/drs/command_events", "/diagnostics",
-                          "/joint_states"])  # fmt: skip
+    data = read_bag(
+        bag, ["/drs/stroke_cmd", "/drs/command_events", "/diagnostics", "/joint_states"]
+    )
     # the node's ticks: each logs its joint state at the tick's node time, the time its effects
     # are logged at too
     ticks = np.sort([log for log, _ in data.messages["/joint_states"]])
     commands = data.messages["/drs/stroke_cmd"]
     received = [log for log, _ in commands]
-    records = [r for r in effect_records(data.messages["/drs/command_events"])
-               if r.source == "/drs/stroke_cmd"]  # fmt: skip
+    records = [
+        r
+        for r in effect_records(data.messages["/drs/command_events"])
+        if r.source == "/drs/stroke_cmd"
+    ]
     took_effect = [r for r in records if r.outcome in ("accepted", "refused")]
     superseded = sum(int(r.values["count"]) for r in records if r.outcome == "superseded")
     # every command received is recorded, and is accounted for exactly once

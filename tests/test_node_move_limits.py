@@ -32,8 +32,12 @@ from drs_model.inverse import inverse_dynamics  # noqa: E402
 
 
 def _resimulated(bag) -> dict:
-    res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag),
-                          "--json"], capture_output=True, text=True, timeout=300)  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr
     return {r["signal"]: r for r in json.loads(res.stdout)["signals"]}
 
@@ -82,17 +86,17 @@ def test_a_2ms_full_stroke_goal_is_refused_with_the_peak_and_the_limit(ros_conte
         st.close()
 
 
-def test_the_force_published_along_a_fast_move_is_the_force_of_that_motion(
-    ros_context, params
-):
+def test_the_force_published_along_a_fast_move_is_the_force_of_that_motion(ros_context, params):
     """A stroke command 20 mm off the closed stop (68 kN in the seed's 4.4 ms) is timed within
     the limit; every state published along it carries the Newton-Euler force of the path the
     node followed at that state's instant, within force_limit. The node publishes one state a
     tick: the move goes back and forth until a few states have landed inside it (a late tick
     on a loaded machine may skip one move)."""
     hz = 1000.0
-    st = Stack(ros_context, [Parameter("physics_rate_hz", value=hz),
-                             Parameter("publish_rate_hz", value=hz)])  # fmt: skip
+    st = Stack(
+        ros_context,
+        [Parameter("physics_rate_hz", value=hz), Parameter("publish_rate_hz", value=hz)],
+    )
     try:
         st.ready()
         s_min = kin.stroke_limits(params)[0]
@@ -138,7 +142,8 @@ def test_a_goal_of_one_point_at_0_s_moves_there_now(ros_context, params, tmp_pat
         assert st.joints[-1].position[0] == pytest.approx(0.03, abs=1e-12)
         path = st.node.sim.motion.path
         assert path.t_end - path.t_start >= params.T_opening * 0.03 / np.ptp(
-            kin.stroke_limits(params)) * (1 - 1e-12)  # fmt: skip
+            kin.stroke_limits(params)
+        ) * (1 - 1e-12)
         # at the present state: nothing to move, it succeeds as it is
         res = st.result(st.send(goal_of([(0.0, 0.03)])))
         assert res.status == GoalStatus.STATUS_SUCCEEDED, res.result.error_string
@@ -168,8 +173,10 @@ def test_deactivation_holds_the_piston_where_it_is(ros_context, params, tmp_path
         assert spin_until(st.exec, lambda: st.joints[-1].position[0] > 0.005, 3.0)
         st.node.deactivate()
         res = st.result(handle)
-        assert (res.status, res.result.error_code) == (GoalStatus.STATUS_ABORTED,
-                                                       Result.INVALID_GOAL)  # fmt: skip
+        assert (res.status, res.result.error_code) == (
+            GoalStatus.STATUS_ABORTED,
+            Result.INVALID_GOAL,
+        )
         assert res.result.error_string == "Current goal cancelled during deactivate transition."
         held_from = float(st.node.sim.state.q[0])
         target = st.node.sim.motion.target  # the hold's

@@ -47,13 +47,15 @@ def served_over_dds(ctx, node: DRSNode | None, name: str = "/drs") -> dict:
     try:
         params = AsyncParameterClient(client, name)
         assert spin_until(ex, params.services_are_ready, 60.0), "no parameter services"
-        names = list(_result(ex, params.list_parameters(["model", "hydraulic"]), "list")
-                     .result.names)  # fmt: skip
+        names = list(
+            _result(ex, params.list_parameters(["model", "hydraulic"]), "list").result.names
+        )
         values = _result(ex, params.get_parameters(names), "get").values
         descriptors = _result(ex, params.describe_parameters(names), "describe").descriptors
         assert all(d.read_only for d in descriptors)
-        refused = _result(ex, params.set_parameters([Parameter("model.Iz_wing", value=1.0)]),
-                          "set").results[0]  # fmt: skip
+        refused = _result(
+            ex, params.set_parameters([Parameter("model.Iz_wing", value=1.0)]), "set"
+        ).results[0]
         assert not refused.successful and "read-only" in refused.reason
         return {n: parameter_value_to_python(v) for n, v in zip(names, values, strict=True)}
     finally:
@@ -77,11 +79,16 @@ def test_the_served_values_are_the_run_s_and_the_recorded_ones(ros_context, tmp_
     from drs_ros.bag.read.effects import hydraulic_params_from, model_params_from
 
     bag = tmp_path / "bag"
-    node = DRSNode(context=ros_context, parameter_overrides=[
-        Parameter("model.m_wing", value=3.0), Parameter("fidelity", value="hydraulic"),
-        Parameter("hydraulic.leak_to_outside", value=1e-12),
-        Parameter("hydraulic.coulomb_friction", value=50),  # an integer for a double
-        Parameter("bag_path", value=str(bag))])  # fmt: skip
+    node = DRSNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("model.m_wing", value=3.0),
+            Parameter("fidelity", value="hydraulic"),
+            Parameter("hydraulic.leak_to_outside", value=1e-12),
+            Parameter("hydraulic.coulomb_friction", value=50),  # an integer for a double
+            Parameter("bag_path", value=str(bag)),
+        ],
+    )
     try:
         served = served_over_dds(ros_context, node)
         assert served["model.m_wing"] == 3.0
@@ -108,9 +115,18 @@ def test_the_shipped_yaml_leaves_model_params_file_its_values(ros_context, tmp_p
     model_file = tmp_path / "car.toml"
     model_file.write_text("m_wing = 5.0\ncoulomb_friction = 55.0\n")
     bag = tmp_path / "bag"
-    node = DRSNode(context=ros_context, cli_args=[
-        "--ros-args", "--params-file", str(CONFIG), "-p", f"model_params_file:={model_file}",
-        "-p", f"bag_path:={bag}"])  # fmt: skip
+    node = DRSNode(
+        context=ros_context,
+        cli_args=[
+            "--ros-args",
+            "--params-file",
+            str(CONFIG),
+            "-p",
+            f"model_params_file:={model_file}",
+            "-p",
+            f"bag_path:={bag}",
+        ],
+    )
     try:
         assert node.params.m_wing == 5.0
         served = served_over_dds(ros_context, node)
@@ -133,36 +149,58 @@ def test_a_parameter_file_that_shadows_model_params_file_is_refused(ros_context,
     model_file = tmp_path / "car.toml"
     model_file.write_text("m_wing = 5.0\n")
     with pytest.raises(StartupError) as exc:
-        DRSNode(context=ros_context, cli_args=[
-            "--ros-args", "--params-file", str(ros_file), "-p",
-            f"model_params_file:={model_file}", "-p", f"bag_path:={tmp_path / 'bag'}"])
+        DRSNode(
+            context=ros_context,
+            cli_args=[
+                "--ros-args",
+                "--params-file",
+                str(ros_file),
+                "-p",
+                f"model_params_file:={model_file}",
+                "-p",
+                f"bag_path:={tmp_path / 'bag'}",
+            ],
+        )
     assert "model.m_wing:=2.0" in str(exc.value) and str(model_file) in str(exc.value)
     assert "5.0" in str(exc.value)
     assert not (tmp_path / "bag").exists()
 
 
-@pytest.mark.parametrize(("overrides", "match"), [
-    ([Parameter("hydraulic.bulk_modulus", value=-1.0)],
-     r"hydraulic\.bulk_modulus:=-1\.0: bulk_modulus must be > 0"),
-    ([Parameter("hydraulic.air_polytropic_index", value=2.0)],
-     r"air_polytropic_index must be in \[1, 1\.4\]"),
-    ([Parameter("hydraulic.flow_law", value="laminar")], r"flow_law must be one of"),
-])  # fmt: skip
-def test_a_hydraulic_value_out_of_its_range_is_refused_with_the_reason(ros_context, overrides,
-                                                                        match):  # fmt: skip
+@pytest.mark.parametrize(
+    ("overrides", "match"),
+    [
+        (
+            [Parameter("hydraulic.bulk_modulus", value=-1.0)],
+            r"hydraulic\.bulk_modulus:=-1\.0: bulk_modulus must be > 0",
+        ),
+        (
+            [Parameter("hydraulic.air_polytropic_index", value=2.0)],
+            r"air_polytropic_index must be in \[1, 1\.4\]",
+        ),
+        ([Parameter("hydraulic.flow_law", value="laminar")], r"flow_law must be one of"),
+    ],
+)
+def test_a_hydraulic_value_out_of_its_range_is_refused_with_the_reason(
+    ros_context, overrides, match
+):
     with pytest.raises(StartupError, match=match):
         DRSNode(context=ros_context, parameter_overrides=overrides)
 
 
 def test_a_misspelt_hydraulic_parameter_is_refused_with_the_closest(ros_context):
     with pytest.raises(StartupError, match=r"did you mean 'hydraulic\.leak_to_outside'\?"):
-        DRSNode(context=ros_context, parameter_overrides=[
-            Parameter("hydraulic.leak_to_outsde", value=1e-12)])  # fmt: skip
+        DRSNode(
+            context=ros_context,
+            parameter_overrides=[Parameter("hydraulic.leak_to_outsde", value=1e-12)],
+        )
 
 
 def test_a_managed_node_configured_again_serves_the_same_values(ros_context):
-    node = DRSNode(context=ros_context, managed=True,
-                   parameter_overrides=[Parameter("model.m_wing", value=3.0)])  # fmt: skip
+    node = DRSNode(
+        context=ros_context,
+        managed=True,
+        parameter_overrides=[Parameter("model.m_wing", value=3.0)],
+    )
     try:
         assert not node.has_parameter("model.m_wing")  # unknown until the model is built
         node.configure()
@@ -188,8 +226,9 @@ def test_drs_node_serves_what_its_bag_records(ros_context, tmp_path, request):
     from drs_ros.bag.read.effects import recorded_node_parameters
 
     bag = tmp_path / "bag"
-    proc = start_node(tmp_path, domain_for(request.node.nodeid), "model.m_wing:=3.0",
-                      f"bag_path:={bag}")  # fmt: skip
+    proc = start_node(
+        tmp_path, domain_for(request.node.nodeid), "model.m_wing:=3.0", f"bag_path:={bag}"
+    )
     try:
         served = served_over_dds(ros_context, None)
     finally:
@@ -198,8 +237,9 @@ def test_drs_node_serves_what_its_bag_records(ros_context, tmp_path, request):
         out, _ = proc.communicate(timeout=60)
     assert proc.returncode == 0, out[-2000:]
     assert served["model.Iz_wing"] == pytest.approx(3.0 * L_WING**2 / 3.0, rel=1e-15)
-    got = recorded_node_parameters(read_bag(bag, ["/parameter_events"]).messages[
-        "/parameter_events"])  # fmt: skip
+    got = recorded_node_parameters(
+        read_bag(bag, ["/parameter_events"]).messages["/parameter_events"]
+    )
     assert {k: got[k] for k in served} == served
     # every DRSParams number and every HydraulicParams field
     assert len(served) == len(NUMERIC_FIELDS) + len(fields(HydraulicParams))

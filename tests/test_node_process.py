@@ -111,20 +111,36 @@ def start_up_errors(tmp_path_factory) -> dict[str, tuple[int, str, list[str]]]:
             (where / "malformed.yaml").write_text("drs:\n  m_wing: [1, 2\n  Iz_wing: :\n")
             (where / "latin1.yaml").write_bytes("m_wing: 5 # 5 kg \xb1 1\n".encode("latin-1"))
             own, ros = START_UP_ERRORS[name]
-            args = [sys.executable, "-m", "drs_ros", *own, "--ros-args",
-                    *(a.format(dir=where) for a in ros), "-p", f"bag_path:={where}/bag",
-                    "-p", f"rrd_path:={where}/run.rrd"]  # fmt: skip
+            args = [
+                sys.executable,
+                "-m",
+                "drs_ros",
+                *own,
+                "--ros-args",
+                *(a.format(dir=where) for a in ros),
+                "-p",
+                f"bag_path:={where}/bag",
+                "-p",
+                f"rrd_path:={where}/run.rrd",
+            ]
             env = node_env(where / "log", domain_for(f"start-up {name}"))
-            started[name] = (where, subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL,
-                                                     stderr=subprocess.PIPE, text=True))
+            started[name] = (
+                where,
+                subprocess.Popen(
+                    args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+                ),
+            )
         for name, (where, proc) in started.items():
             try:
                 _, err = proc.communicate(timeout=120)
             finally:
                 if proc.poll() is None:
                     proc.kill()
-            made = sorted(p.name for p in where.iterdir()
-                          if p.name not in ("malformed.yaml", "latin1.yaml", "log"))  # fmt: skip
+            made = sorted(
+                p.name
+                for p in where.iterdir()
+                if p.name not in ("malformed.yaml", "latin1.yaml", "log")
+            )
             results[name] = (proc.returncode, err, made)
     return results
 
@@ -148,8 +164,14 @@ def test_help_lists_every_parameter_and_starts_nothing(tmp_path, flag):
     from drs_model.fidelity.faults import FAULTS
     from drs_ros.node import NODE_PARAMETERS
 
-    res = subprocess.run([sys.executable, "-m", "drs_ros", flag], capture_output=True, text=True,
-                         timeout=120, cwd=tmp_path, env=node_env(tmp_path, 0))  # fmt: skip
+    res = subprocess.run(
+        [sys.executable, "-m", "drs_ros", flag],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+        env=node_env(tmp_path, 0),
+    )
     assert res.returncode == 0, res.stderr
     assert res.stdout.startswith("usage: drs-node")
     listed = {line.split()[0] for line in res.stdout.splitlines() if line.startswith("  ")}

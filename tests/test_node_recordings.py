@@ -31,8 +31,11 @@ from drs_ros.recording.rerun_cli import run_rerun_cli  # noqa: E402
 def errors(watcher: DRSClient) -> list:
     """The node's diagnostics at ERROR that ``watcher`` kept, as {key: value} with the
     message."""
-    return [{"message": s.message, **{kv.key: kv.value for kv in s.values}}
-            for s in watcher.diagnostic_statuses if s.level == DiagnosticStatus.ERROR]  # fmt: skip
+    return [
+        {"message": s.message, **{kv.key: kv.value for kv in s.values}}
+        for s in watcher.diagnostic_statuses
+        if s.level == DiagnosticStatus.ERROR
+    ]
 
 
 def states_keep_coming(watcher: DRSClient, seconds: float = 1.0) -> bool:
@@ -77,8 +80,7 @@ def test_a_removed_bag_is_named_and_the_rrd_is_complete(tmp_path, request):
     so (diagnostics at ERROR), runs on, and exits 1 naming the bag; the .rrd is complete."""
     domain = domain_for(request.node.nodeid)
     bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
-    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}",
-                      "flush_period:=0.2")  # fmt: skip
+    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"rrd_path:={rrd}", "flush_period:=0.2")
     watcher = DRSClient(domain, keep=True, listen=("joint_states", "diagnostics"))
     try:
         assert wait_for_file_growth(bag / "bag_0.mcap", timeout=60, min_size=50_000)
@@ -100,9 +102,13 @@ def test_a_removed_bag_is_named_and_the_rrd_is_complete(tmp_path, request):
 
 def _run_in_process(ros_context, tmp_path, seconds: float, during=None) -> DRSNode:
     """A node with a bag and an .rrd, spun ``seconds``; ``during(node)`` after the first tick."""
-    node = DRSNode(context=ros_context, parameter_overrides=[
-        Parameter("bag_path", value=str(tmp_path / "bag")),
-        Parameter("rrd_path", value=str(tmp_path / "run.rrd"))])  # fmt: skip
+    node = DRSNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("bag_path", value=str(tmp_path / "bag")),
+            Parameter("rrd_path", value=str(tmp_path / "run.rrd")),
+        ],
+    )
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     try:
@@ -128,6 +134,7 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
 
     def break_both(node):
         calls["before"] = node.recordings.recorder.stats().message_count
+
         def rerun_fails(*args):
             calls["rerun"] = calls.get("rerun", 0) + 1
             raise RuntimeError("rerun logging failed on purpose")
@@ -162,8 +169,10 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
         node.destroy_node()
     lost = calls["rerun"]  # every call the broken rerun logging was asked for, one item each
     assert 100 < lost <= node.effects.ticks - 6  # it went on trying, once a tick at most
-    assert "items not recorded (last: RuntimeError: rerun logging failed on purpose)" in (
-        values["rerun"])  # fmt: skip
+    assert (
+        "items not recorded (last: RuntimeError: rerun logging failed on purpose)"
+        in (values["rerun"])
+    )
     assert "; 1 items not recorded (last: TypeError" in values["bag"]
     assert level == DiagnosticStatus.WARN and "recording error" in message
     assert len(lines) == 2
@@ -171,7 +180,8 @@ def test_a_raising_rerun_call_leaves_the_bag_complete(ros_context, tmp_path):
     assert rerun_line.startswith(f"rerun recording '{tmp_path / 'run.rrd'}' lacks")
     assert int(rerun_line.split(" lacks ")[1].split()[0]) == lost
     assert bag_line.startswith(f"bag '{tmp_path / 'bag'}' lacks 1 items") and "TypeError" in (
-        bag_line)  # fmt: skip
+        bag_line
+    )
     assert bag_check(tmp_path / "bag") == 0
     # every message but the one lost, in a bag that reads to its end
     assert scan(tmp_path / "bag").message_count == calls["before"] + calls["bag"] - 1
@@ -183,19 +193,21 @@ def test_a_finish_that_fails_names_what_is_missing(ros_context, tmp_path):
     finished (its summary read by the reader), and the stop names metadata.yaml and why."""
     from drs_ros.bag.read.reader import scan
 
-    node = _run_in_process(ros_context, tmp_path, 0.5,
-                           during=lambda n: (tmp_path / "bag" / "metadata.yaml").mkdir())
+    node = _run_in_process(
+        ros_context, tmp_path, 0.5, during=lambda n: (tmp_path / "bag" / "metadata.yaml").mkdir()
+    )
     try:
         lines = node.close_recordings()
         assert node.close_recordings() == lines  # idempotent, the lines kept
     finally:
         node.destroy_node()
     (line,) = lines
-    assert line == (f"bag '{tmp_path / 'bag'}' is incomplete: metadata.yaml (Is a directory) "
-                    "could not be written")  # fmt: skip
+    assert line == (
+        f"bag '{tmp_path / 'bag'}' is incomplete: metadata.yaml (Is a directory) "
+        "could not be written"
+    )
     assert scan(tmp_path / "bag" / "bag_0.mcap").complete
     assert run_rerun_cli(["rrd", "verify", str(tmp_path / "run.rrd")]).returncode == 0
-
 
 
 def test_a_tick_batch_with_a_bad_record_loses_that_record_only(tmp_path):
@@ -233,8 +245,10 @@ class Lines:
         self.lines.append(msg)
 
 
-@pytest.mark.parametrize("error", [RuntimeError("rerun refused a batch on purpose"),
-                                   OSError(28, "No space left on device")])  # fmt: skip
+@pytest.mark.parametrize(
+    "error",
+    [RuntimeError("rerun refused a batch on purpose"), OSError(28, "No space left on device")],
+)
 def test_a_batch_the_rerun_sender_fails_reaches_the_health_not_the_tick(tmp_path, params, error):
     """rerun's send_columns raises in the recorder's sender thread for the second batch: the
     tick-side log_state never raises, and the next one takes the failure in: a RuntimeError
@@ -257,31 +271,40 @@ def test_a_batch_the_rerun_sender_fails_reaches_the_health_not_the_tick(tmp_path
     if isinstance(error, OSError):
         assert part.health.failure == "OSError: [Errno 28] No space left on device"
         assert part.status().startswith("failed: OSError")
-        assert part.finish() == [f"{part.health.name} is incomplete: recording stopped "
-                                 f"(OSError: [Errno 28] No space left on device)"]  # fmt: skip
+        assert part.finish() == [
+            f"{part.health.name} is incomplete: recording stopped "
+            f"(OSError: [Errno 28] No space left on device)"
+        ]
     else:
         assert part.health.errors == 10 and not part.health.failure
-        assert part.status().endswith("10 items not recorded (last: RuntimeError: rerun refused "
-                                      "a batch on purpose)")  # fmt: skip
+        assert part.status().endswith(
+            "10 items not recorded (last: RuntimeError: rerun refused a batch on purpose)"
+        )
         assert lost == [f"{part.health.name}: RuntimeError: rerun refused a batch on purpose"]
         assert "10 items were not recorded" in logger.lines[0] and "Traceback" in logger.lines[0]
         name = part.health.name
-        assert part.finish() == [f"{name} lacks 10 items that could not be recorded (last: "
-                                 "RuntimeError: rerun refused a batch on purpose)"]  # fmt: skip
+        assert part.finish() == [
+            f"{name} lacks 10 items that could not be recorded (last: "
+            "RuntimeError: rerun refused a batch on purpose)"
+        ]
 
 
-@pytest.mark.parametrize(("path", "cycle", "keep_suffix", "expected"), [
-    ("runs/a", 0, False, "runs/a"),
-    ("runs/a", 1, False, "runs/a_1"),
-    ("runs/a.v2", 12, False, "runs/a.v2_12"),  # a bag directory: its whole name
-    ("runs/a/", 2, False, "runs/a_2"),
-    ("runs/run.rrd", 0, True, "runs/run.rrd"),
-    ("runs/run.rrd", 3, True, "runs/run_3.rrd"),
-    ("run", 1, True, "run_1"),
-    ("", 4, False, ""),  # nothing recorded stays nothing
-])  # fmt: skip
-def test_each_configure_of_a_managed_node_records_to_its_own_name(path, cycle, keep_suffix,
-                                                                  expected):  # fmt: skip
+@pytest.mark.parametrize(
+    ("path", "cycle", "keep_suffix", "expected"),
+    [
+        ("runs/a", 0, False, "runs/a"),
+        ("runs/a", 1, False, "runs/a_1"),
+        ("runs/a.v2", 12, False, "runs/a.v2_12"),  # a bag directory: its whole name
+        ("runs/a/", 2, False, "runs/a_2"),
+        ("runs/run.rrd", 0, True, "runs/run.rrd"),
+        ("runs/run.rrd", 3, True, "runs/run_3.rrd"),
+        ("run", 1, True, "run_1"),
+        ("", 4, False, ""),  # nothing recorded stays nothing
+    ],
+)
+def test_each_configure_of_a_managed_node_records_to_its_own_name(
+    path, cycle, keep_suffix, expected
+):
     """The first cycle records to the parameter's path, the n-th later one to that name with
     ``_n`` appended (before an .rrd's suffix), as docs/ros.md says."""
     from drs_ros.node.recordings import cycle_path

@@ -39,16 +39,18 @@ def _stamp(msg) -> int:
 
 
 def test_markers_draw_the_published_joint_state(ros_context, params):
-    node = DRSNode(context=ros_context, parameter_overrides=[
-        Parameter("markers_rate_hz", value=100.0)])  # fmt: skip
+    node = DRSNode(
+        context=ros_context, parameter_overrides=[Parameter("markers_rate_hz", value=100.0)]
+    )
     client = Node("viewer", context=ros_context)
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     ex.add_node(client)
     joints: dict[int, JointState] = {}
     markers: list[MarkerArray] = []
-    client.create_subscription(JointState, "/joint_states", lambda m: joints.__setitem__(
-        _stamp(m), m), 1000)  # fmt: skip
+    client.create_subscription(
+        JointState, "/joint_states", lambda m: joints.__setitem__(_stamp(m), m), 1000
+    )
     client.create_subscription(MarkerArray, "/drs/markers", markers.append, 100)
     stroke = client.create_publisher(Float64, "/drs/stroke_cmd", 10)
     try:
@@ -71,11 +73,11 @@ def test_markers_draw_the_published_joint_state(ros_context, params):
             piston = np.array([[p.x, p.y] for p in by_ns["drs/piston"].points])
             np.testing.assert_allclose(piston, np.vstack([pts["A"], pts["B"]]), atol=1e-9, rtol=0)
             flap = np.array([[p.x, p.y] for p in by_ns["drs/flap"].points])
-            np.testing.assert_allclose(flap[:-1], kin.flap_outline(q, params)[0], atol=1e-9,
-                                       rtol=0)  # fmt: skip
+            np.testing.assert_allclose(flap[:-1], kin.flap_outline(q, params)[0], atol=1e-9, rtol=0)
             arrow = by_ns["drs/force"]
-            np.testing.assert_allclose([arrow.points[0].x, arrow.points[0].y], pts["P"][0],
-                                       atol=1e-9, rtol=0)  # fmt: skip
+            np.testing.assert_allclose(
+                [arrow.points[0].x, arrow.points[0].y], pts["P"][0], atol=1e-9, rtol=0
+            )
             # the arrow's length is the piston force, 1e-5 m/N
             assert arrow.points[1].y - arrow.points[0].y == pytest.approx(
                 1e-5 * js.effort[0], abs=1e-12
@@ -87,8 +89,7 @@ def test_markers_draw_the_published_joint_state(ros_context, params):
         wings = [m for arr in markers for m in arr.markers if m.ns == "drs/main_wing"]
         assert wings and 5 * len(wings) < len(markers)
         outline = np.array([[p.x, p.y] for p in wings[0].points])
-        np.testing.assert_allclose(outline[:-1], kin.main_wing_outline(params), atol=1e-12,
-                                   rtol=0)  # fmt: skip
+        np.testing.assert_allclose(outline[:-1], kin.main_wing_outline(params), atol=1e-12, rtol=0)
     finally:
         ex.shutdown()
         client.destroy_node()
@@ -134,8 +135,9 @@ class Lifecycle:
 
 def test_every_lifecycle_transition_over_the_standard_services(ros_context, tmp_path):
     bag = tmp_path / "bag"
-    node = ManagedDRSNode(context=ros_context, parameter_overrides=[
-        Parameter("bag_path", value=str(bag))])  # fmt: skip
+    node = ManagedDRSNode(
+        context=ros_context, parameter_overrides=[Parameter("bag_path", value=str(bag))]
+    )
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     manager = Lifecycle(ros_context, ex)
@@ -170,8 +172,12 @@ def test_every_lifecycle_transition_over_the_standard_services(ros_context, tmp_
         assert manager.transition(Transition.TRANSITION_CLEANUP)
         assert manager.state() == State.PRIMARY_STATE_UNCONFIGURED
         # the recording is complete after cleanup: every byte verified, the model checks pass
-        res = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "check", str(bag)],
-                             capture_output=True, text=True, timeout=120)  # fmt: skip
+        res = subprocess.run(
+            [sys.executable, "-m", "drs_ros.bag.cli", "check", str(bag)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert res.returncode == 0, res.stdout[-2000:] + res.stderr
         assert manager.transition(Transition.TRANSITION_UNCONFIGURED_SHUTDOWN)
         assert manager.state() == State.PRIMARY_STATE_FINALIZED
@@ -299,10 +305,10 @@ def test_a_bad_value_in_the_parameter_file_is_refused_like_on_the_command_line(t
     path.write_text(yaml.safe_dump(values))
     # a refusal ends the node as soon as it has read its parameters; on a loaded machine the
     # start-up alone (rclpy, numba's cache) can take seconds, so wait long for the exit
-    rc_file, _, _, err_file = _run_node(tmp_path, request, "--params-file", str(path),
-                                        seconds=60.0)  # fmt: skip
-    rc_cli, _, _, err_cli = _run_node(tmp_path, request, "-p", "publish_rate_hz:=1000000.0",
-                                      seconds=60.0)  # fmt: skip
+    rc_file, _, _, err_file = _run_node(tmp_path, request, "--params-file", str(path), seconds=60.0)
+    rc_cli, _, _, err_cli = _run_node(
+        tmp_path, request, "-p", "publish_rate_hz:=1000000.0", seconds=60.0
+    )
     assert rc_file == rc_cli == 2
     line_file = [ln for ln in err_file.splitlines() if "refused to start" in ln]
     line_cli = [ln for ln in err_cli.splitlines() if "refused to start" in ln]
@@ -315,10 +321,13 @@ def test_rerun_connect_refuses_a_host_off_loopback(ros_context, tmp_path):
     """A live rerun stream goes to loopback only; a bad URL refuses to start, leaving nothing."""
     from drs_ros.recording.rerun_recorder import RerunLogError
 
-    for url, reason in (("rerun+http://192.0.2.7:9876/proxy", "loopback"),
-                        ("not a url", "rerun")):  # fmt: skip
+    for url, reason in (("rerun+http://192.0.2.7:9876/proxy", "loopback"), ("not a url", "rerun")):
         with pytest.raises(RerunLogError, match=reason):
-            DRSNode(context=ros_context, parameter_overrides=[
-                Parameter("rerun_connect", value=url),
-                Parameter("bag_path", value=str(tmp_path / "bag"))])  # fmt: skip
+            DRSNode(
+                context=ros_context,
+                parameter_overrides=[
+                    Parameter("rerun_connect", value=url),
+                    Parameter("bag_path", value=str(tmp_path / "bag")),
+                ],
+            )
         assert not (tmp_path / "bag").exists()

@@ -56,8 +56,9 @@ class Stack:
         self.events = []
         from diagnostic_msgs.msg import DiagnosticArray
 
-        c.create_subscription(DiagnosticArray, "/drs/command_events",
-                              lambda m: self.events.extend(m.status), 100)  # fmt: skip
+        c.create_subscription(
+            DiagnosticArray, "/drs/command_events", lambda m: self.events.extend(m.status), 100
+        )
         self.commands = c.create_publisher(JointState, "/drs/joint_commands", 10)
         self.force = c.create_publisher(Float64, "/drs/force_cmd", 10)
         self.action = ActionClient(c, FollowJointTrajectory, "/drs/follow_joint_trajectory")
@@ -127,8 +128,11 @@ def test_a_goal_reaches_its_points_with_feedback_at_the_publish_rate(stack, para
         return stamp.sec * 10**9 + stamp.nanosec
 
     fb_stamps = [ns(f.header.stamp) for f in feedback]
-    window = [ns(m.header.stamp) for m in stack.joints
-              if fb_stamps[0] <= ns(m.header.stamp) <= fb_stamps[-1]]  # fmt: skip
+    window = [
+        ns(m.header.stamp)
+        for m in stack.joints
+        if fb_stamps[0] <= ns(m.header.stamp) <= fb_stamps[-1]
+    ]
     assert fb_stamps == window and len(fb_stamps) >= 5
     fb = feedback[len(feedback) // 2]
     assert list(fb.joint_names) == ["drs_piston"]
@@ -138,8 +142,9 @@ def test_a_goal_reaches_its_points_with_feedback_at_the_publish_rate(stack, para
     by_stamp = {(m.header.stamp.sec, m.header.stamp.nanosec): m.position[0] for m in stack.joints}
     stamp = (fb.header.stamp.sec, fb.header.stamp.nanosec)
     assert by_stamp[stamp] == fb.actual.positions[0]
-    times = [f.actual.time_from_start.sec + 1e-9 * f.actual.time_from_start.nanosec
-             for f in feedback]  # fmt: skip
+    times = [
+        f.actual.time_from_start.sec + 1e-9 * f.actual.time_from_start.nanosec for f in feedback
+    ]
     assert all(b > a for a, b in zip(times, times[1:], strict=False))
 
 
@@ -244,8 +249,9 @@ def test_cancel_holds_the_current_position(stack, params):
     res = stack.result(handle)
     assert res.status == GoalStatus.STATUS_CANCELED
     # the hold is in the effect record: a move back to the stroke where the goal was cancelled
-    assert spin_until(stack.exec, lambda: any(_value(s, "value") == "hold"
-                                              for s in stack.events), 2.0)  # fmt: skip
+    assert spin_until(
+        stack.exec, lambda: any(_value(s, "value") == "hold" for s in stack.events), 2.0
+    )
     hold = next(s for s in stack.events if _value(s, "value") == "hold")
     target = float(_value(hold, "target"))
     step = int(_value(hold, "step"))
@@ -253,8 +259,10 @@ def test_cancel_holds_the_current_position(stack, params):
     assert stack.joints[-1].position[0] == target and stack.joints[-1].velocity[0] == 0.0
     # the target is the stroke published at the cancelling step (the joint state of that step)
     t0_ns = stack.node.clock.t0_ns
-    at = {round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec - t0_ns) / 1e6):
-          m.position[0] for m in stack.joints}  # fmt: skip
+    at = {
+        round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec - t0_ns) / 1e6): m.position[0]
+        for m in stack.joints
+    }
     assert at[step] == target
     assert 0.001 < target < 0.04
 
@@ -325,8 +333,9 @@ def test_robot_description_is_latched_and_parses(stack, params):
 
 
 def joint_command(names, position=(), effort=(), velocity=()):
-    return JointState(name=list(names), position=list(position), effort=list(effort),
-                      velocity=list(velocity))  # fmt: skip
+    return JointState(
+        name=list(names), position=list(position), effort=list(effort), velocity=list(velocity)
+    )
 
 
 def test_joint_state_commands_move_and_push_the_piston(stack, params):
@@ -407,16 +416,24 @@ def test_a_bag_of_the_action_tf_and_joint_commands_checks_and_re_runs(ros_contex
         spin_for(stack.exec, 0.1)
     finally:
         stack.close()
-    check = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "check", str(bag)],
-                           capture_output=True, text=True, timeout=120)  # fmt: skip
+    check = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "check", str(bag)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert check.returncode == 0, check.stdout + check.stderr
     by_rosbags, by_mcap = judge_with_rosbags(bag), judge_with_mcap_ros2(bag)
     assert by_rosbags == by_mcap
     assert by_rosbags["/robot_description"] == by_rosbags["/tf_static"] == 1
     assert by_rosbags["/tf"] == by_rosbags["/joint_states"]
     assert by_rosbags["/drs/joint_commands"] == 3
-    again = subprocess.run([sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag),
-                            "--json"], capture_output=True, text=True, timeout=300)  # fmt: skip
+    again = subprocess.run(
+        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert again.returncode == 0, again.stdout + again.stderr
     report = json.loads(again.stdout)
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
@@ -484,8 +501,9 @@ def test_feedback_times_are_exact_across_whole_seconds(ros_context):
         assert stack.action.wait_for_server(timeout_sec=5.0)
         feedback = []
         s0 = float(node.sim.state.q[0])
-        handle = stack.send(goal_of([(1.0, s0 + 0.01), (2.5, s0 + 0.02)]),
-                            lambda m: feedback.append(m.feedback))  # fmt: skip
+        handle = stack.send(
+            goal_of([(1.0, s0 + 0.01), (2.5, s0 + 0.02)]), lambda m: feedback.append(m.feedback)
+        )
         result = handle.get_result_async()
         while not result.done() and now[0] < 4_000_000_000:
             seen = len(feedback)

@@ -29,8 +29,9 @@ def _record(tmp_path):
     after that, and the flap opened again 0.03 s later; the bag."""
     bag = tmp_path / "bag"
     overrides = [Parameter("fidelity", value="hydraulic"), Parameter("bag_path", value=str(bag))]
-    with node_with_client(int(domain_for("test_node_supply_return")), overrides,
-                          "drs_supply_return_client") as (_, client, ex):  # fmt: skip
+    with node_with_client(
+        int(domain_for("test_node_supply_return")), overrides, "drs_supply_return_client"
+    ) as (_, client, ex):
         params = AsyncParameterClient(client, "/drs")
         drs = client.create_client(SetBool, "/drs/drs")
         assert drs.wait_for_service(timeout_sec=10.0) and params.wait_for_services(10.0)
@@ -83,8 +84,11 @@ def test_the_flap_reopens_after_the_supply_returns_as_in_the_reference(tmp_path)
     faults = [r for r in run.records if r.source == "fault.supply_loss" and r.outcome == "accepted"]
     assert [r.values["value"] for r in faults] == ["True", "False"]
     t_loss, t_back = faults[0].sim_time, faults[1].sim_time
-    opens = [r.sim_time for r in run.records if r.sim_time > t_back and "drs" in r.source
-             and r.outcome == "accepted"]  # fmt: skip
+    opens = [
+        r.sim_time
+        for r in run.records
+        if r.sim_time > t_back and "drs" in r.source and r.outcome == "accepted"
+    ]
     assert opens, [(r.source, r.outcome, r.sim_time) for r in run.records]
     node = resimulate(run, model)
     ref = resimulate(run, model, rung_options=REFERENCE[2])

@@ -139,9 +139,13 @@ def test_a_tick_late_by_several_periods_is_counted_in_diagnostics(ros_context): 
     from drs_ros.node.runner import run_deadline_loop
     from drs_ros.stop_request import StopRequest
 
-    node = DRSNode(context=ros_context, tick_timer=False, parameter_overrides=[
-        Parameter("tick_scheduling", value="other"),  # this is pytest's own thread
-    ])  # fmt: skip
+    node = DRSNode(
+        context=ros_context,
+        tick_timer=False,
+        parameter_overrides=[
+            Parameter("tick_scheduling", value="other"),  # this is pytest's own thread
+        ],
+    )
     stop = StopRequest()
     tick, count = node.tick, [0]
     stall_s = 4 * node.publish_period
@@ -191,9 +195,13 @@ def test_the_executor_thread_waits_for_work_and_the_stop_wakes_it(ros_context, m
         return wait(self, *args, **kwargs)
 
     monkeypatch.setattr(SingleThreadedExecutor, "wait_for_ready_callbacks", counted)
-    node = DRSNode(context=ros_context, tick_timer=False, parameter_overrides=[
-        Parameter("tick_scheduling", value="other"),  # this is pytest's own thread
-    ])  # fmt: skip
+    node = DRSNode(
+        context=ros_context,
+        tick_timer=False,
+        parameter_overrides=[
+            Parameter("tick_scheduling", value="other"),  # this is pytest's own thread
+        ],
+    )
     stop = StopRequest()
     tick, count, stopped_at = node.tick, [0], []
     ticks = round(1.0 / node.publish_period)  # a second of ticks
@@ -244,8 +252,9 @@ def test_the_executor_thread_leaves_nothing_behind_on_its_stop_future(ros_contex
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(node)
     stop, stopped = StopRequest(), CountingFuture()
-    thread = threading.Thread(target=runner.spin_until_stopped,
-                              args=(node, executor, stop, None, 5.0, stopped))  # fmt: skip
+    thread = threading.Thread(
+        target=runner.spin_until_stopped, args=(node, executor, stop, None, 5.0, stopped)
+    )
     thread.start()
     try:
         time.sleep(0.2)
@@ -288,8 +297,11 @@ def _wait_past_start_up(bag, more: int) -> None:
 @pytest.mark.slow
 def test_without_the_privilege_of_fifo_the_node_starts_says_why_and_runs(tmp_path, request):
     bag = tmp_path / "bag"
-    proc = start_node(tmp_path, domain_for(request.node.nodeid),
-                      argv=[sys.executable, "-c", REFUSED_FIFO, str(bag)])  # fmt: skip
+    proc = start_node(
+        tmp_path,
+        domain_for(request.node.nodeid),
+        argv=[sys.executable, "-c", REFUSED_FIFO, str(bag)],
+    )
     try:
         _wait_past_start_up(bag, 64 * 1024)
     finally:
@@ -299,9 +311,14 @@ def test_without_the_privilege_of_fifo_the_node_starts_says_why_and_runs(tmp_pat
     assert "tick thread: SCHED_OTHER (SCHED_FIFO asked for, refused" in out
     assert "CAP_SYS_NICE" in out
     from decoded_support import read_bag
+
     data = read_bag(bag, ["/drs/command_events", "/joint_states"])
-    scheduling = [status for _, msg in data.messages["/drs/command_events"]
-                  for status in msg.status if status.name == "scheduling"]  # fmt: skip
+    scheduling = [
+        status
+        for _, msg in data.messages["/drs/command_events"]
+        for status in msg.status
+        if status.name == "scheduling"
+    ]
     assert len(scheduling) == 1
     values = {kv.key: kv.value for kv in scheduling[0].values}
     assert values["policy"] == "SCHED_OTHER"
@@ -311,9 +328,7 @@ def test_without_the_privilege_of_fifo_the_node_starts_says_why_and_runs(tmp_pat
 
 @pytest.mark.ros
 @pytest.mark.slow
-def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(
-    tmp_path, request
-):
+def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(tmp_path, request):
     """A node at 1 kHz physics and publish for 6.5 s (diagnostics come at 1 Hz: five of them after
     the first state) with both recordings. Read back by the
     ``mcap`` library and decoded by ``rosbags`` (neither ours): every recorded message is the
@@ -327,9 +342,15 @@ def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     bag = tmp_path / "bag"
-    proc = start_node(tmp_path, domain_for(request.node.nodeid), f"bag_path:={bag}",
-                      f"rrd_path:={tmp_path / 'run.rrd'}", "publish_rate_hz:=1000.0",
-                      "physics_rate_hz:=1000.0", "fidelity:=rigid")  # fmt: skip
+    proc = start_node(
+        tmp_path,
+        domain_for(request.node.nodeid),
+        f"bag_path:={bag}",
+        f"rrd_path:={tmp_path / 'run.rrd'}",
+        "publish_rate_hz:=1000.0",
+        "physics_rate_hz:=1000.0",
+        "fidelity:=rigid",
+    )
     try:
         _wait_past_start_up(bag, 1024)
         time.sleep(6.5)

@@ -19,9 +19,14 @@ from drs_model.params import DRSParams
 
 
 def test_names_are_sorted_into_the_model_s_and_the_hydraulic_ones():
-    model, hydraulic = split_overrides({"m_wing": 3.0, "model.L2": 0.05,
-                                        "hydraulic.leak_to_outside": 1e-12,
-                                        "coulomb_friction": 50.0})  # fmt: skip
+    model, hydraulic = split_overrides(
+        {
+            "m_wing": 3.0,
+            "model.L2": 0.05,
+            "hydraulic.leak_to_outside": 1e-12,
+            "coulomb_friction": 50.0,
+        }
+    )
     assert model == {"m_wing": 3.0, "L2": 0.05}
     assert hydraulic == {"leak_to_outside": 1e-12, "coulomb_friction": 50.0}
     p, hp = apply_overrides({"m_wing": 3.0, "hydraulic.leak_to_outside": 1e-12})
@@ -35,7 +40,9 @@ def test_names_are_sorted_into_the_model_s_and_the_hydraulic_ones():
 
 def test_flow_law_is_the_one_word_of_set():
     assert assignment_overrides(["flow_law=linear", "bulk_modulus=1e9"]) == {
-        "flow_law": "linear", "bulk_modulus": 1e9}  # fmt: skip
+        "flow_law": "linear",
+        "bulk_modulus": 1e9,
+    }
     assert apply_overrides(assignment_overrides(["flow_law=linear"]))[1].flow_law == "linear"
 
 
@@ -76,10 +83,26 @@ def test_drs_fidelity_runs_the_hydraulic_values_given(monkeypatch, tmp_path, cap
 
 def test_drs_excite_designs_for_the_hydraulic_values_given(capsys):
     """A valve four times slower (its spool's time constant) changes what the design predicts."""
+
     def predicted(*extra):
         # the seed manoeuvre's prediction does not depend on the design: one short start
-        assert main(["excite", "m_pist", "--fidelity", "hydraulic", "--json", "--starts", "1",
-                     "--harmonics", "2", *extra]) == 0
+        assert (
+            main(
+                [
+                    "excite",
+                    "m_pist",
+                    "--fidelity",
+                    "hydraulic",
+                    "--json",
+                    "--starts",
+                    "1",
+                    "--harmonics",
+                    "2",
+                    *extra,
+                ]
+            )
+            == 0
+        )
         (row,) = json.loads(capsys.readouterr().out)["parameters"]
         return row["std_seed_manoeuvre"]
 

@@ -16,8 +16,11 @@ def _node(ctx, *overrides):
 
     from drs_ros.node import DRSNode
 
-    return DRSNode(context=ctx, tick_timer=False,
-                   parameter_overrides=[Parameter(k, value=v) for k, v in overrides])  # fmt: skip
+    return DRSNode(
+        context=ctx,
+        tick_timer=False,
+        parameter_overrides=[Parameter(k, value=v) for k, v in overrides],
+    )
 
 
 def test_the_nodes_publishers_have_no_event_handlers(ros_context):  # noqa: F811
@@ -42,8 +45,10 @@ def test_tf_is_computed_only_while_listened_to_or_recorded(ros_context, tmp_path
     from drs_ros.publishing import LISTENER_CHECK_TICKS
 
     packed = {}
-    nodes = {"quiet": _node(ros_context),
-             "bag": _node(ros_context, ("bag_path", str(tmp_path / "bag")))}  # fmt: skip
+    nodes = {
+        "quiet": _node(ros_context),
+        "bag": _node(ros_context, ("bag_path", str(tmp_path / "bag"))),
+    }
     listener = None
     try:
         for name, node in nodes.items():

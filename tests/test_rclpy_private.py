@@ -43,7 +43,10 @@ def test_goal_helpers_have_the_signatures_the_action_server_calls():
     # the private members rclpy_private calls, as the pinned rclpy defines them
     assert list(inspect.signature(ServerGoalHandle._update_state).parameters) == ["self", "event"]
     assert list(inspect.signature(ActionServer.notify_execute).parameters) == [
-        "self", "goal_handle", "execute_callback"]  # fmt: skip
+        "self",
+        "goal_handle",
+        "execute_callback",
+    ]
 
 
 def test_a_goal_marked_executing_ends_through_the_scheduled_result(ros_context):
@@ -61,9 +64,14 @@ def test_a_goal_marked_executing_ends_through_the_scheduled_result(ros_context):
         handle.abort()
         return FollowJointTrajectory.Result(error_code=-4, error_string="probe")
 
-    server = ActionServer(server_node, FollowJointTrajectory, "probe_action",
-                          execute_callback=finish, goal_callback=lambda _g: GoalResponse.ACCEPT,
-                          handle_accepted_callback=handles.append)  # fmt: skip
+    server = ActionServer(
+        server_node,
+        FollowJointTrajectory,
+        "probe_action",
+        execute_callback=finish,
+        goal_callback=lambda _g: GoalResponse.ACCEPT,
+        handle_accepted_callback=handles.append,
+    )
     client = ActionClient(client_node, FollowJointTrajectory, "probe_action")
     try:
         assert spin_until(ex, client.server_is_ready, 10.0)
@@ -87,5 +95,3 @@ def test_a_goal_marked_executing_ends_through_the_scheduled_result(ros_context):
         ex.shutdown()
         server_node.destroy_node()
         client_node.destroy_node()
-
-

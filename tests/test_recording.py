@@ -227,8 +227,11 @@ def test_a_removed_bag_file_is_an_io_error_at_the_next_flush(tmp_path):
     assert isinstance(rec.io_error, FileNotFoundError)
     with pytest.raises(OSError, match="the bag failed earlier"):
         rec.write("/x", Float64(data=0.0), 99)
-    with pytest.raises(RecordingError, match=r"its summary and footer \(.*\) and metadata\.yaml "
-                       r"\(No such file or directory\) could not be written"):  # fmt: skip
+    with pytest.raises(
+        RecordingError,
+        match=r"its summary and footer \(.*\) and metadata\.yaml "
+        r"\(No such file or directory\) could not be written",
+    ):
         rec.finish()
 
     kept = McapRecorder(tmp_path / "c", flush_thread=False, flush_messages=10)
@@ -363,13 +366,15 @@ def test_write_many_is_write_for_each_and_refuses_a_bad_record_before_writing(tm
     from drs_ros.recording.mcap_recorder import McapRecorder
 
     pack = cdr.flat_packer(Float64)
-    ticks = [[("/a", pack(float(k))), ("/b", pack(-float(k))), ("/a", pack(0.5 * k))]
-             for k in range(40)]  # fmt: skip
+    ticks = [
+        [("/a", pack(float(k))), ("/b", pack(-float(k))), ("/a", pack(0.5 * k))] for k in range(40)
+    ]
     files = []
     for many in (False, True):
         # chunks closed by size (the schedule counts a batch at once, so it is kept out)
-        with McapRecorder(tmp_path / f"m{many}" / "bag", flush_thread=False, flush_period=10.0,
-                          chunk_size=300) as rec:  # fmt: skip
+        with McapRecorder(
+            tmp_path / f"m{many}" / "bag", flush_thread=False, flush_period=10.0, chunk_size=300
+        ) as rec:
             rec.register_topic("/a", Float64)
             rec.register_topic("/b", Float64)
             for k, records in enumerate(ticks):

@@ -325,8 +325,11 @@ def test_a_full_file_system_is_seen_while_recording_and_named_at_close(tmp_path,
             time.sleep(SINK_CHECK_PERIOD_S / 5)
         assert rec.sink_error is not None and "file writer stopped" in rec.sink_error
         assert "0 bytes are free" in rec.sink_error
-        with pytest.raises(RerunSinkError, match=rf"'{re.escape(str(path))}' is incomplete, its "
-                           r"end is missing: rerun's file writer stopped"):  # fmt: skip
+        with pytest.raises(
+            RerunSinkError,
+            match=rf"'{re.escape(str(path))}' is incomplete, its "
+            r"end is missing: rerun's file writer stopped",
+        ):
             rec.close()
         rec.close()  # idempotent
 
@@ -402,8 +405,9 @@ def test_close_sends_the_partial_batch_and_the_queue_every_state_in_order(tmp_pa
     np.testing.assert_allclose(t_read, t, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(stroke, q[:, 0])
     np.testing.assert_array_equal(read_series(path, "/series/piston_force")[1], force)
-    np.testing.assert_allclose(read_series(path, "/series/gap")[1], kinematics.gap(q, params),
-                               rtol=0, atol=1e-15)  # fmt: skip
+    np.testing.assert_allclose(
+        read_series(path, "/series/gap")[1], kinematics.gap(q, params), rtol=0, atol=1e-15
+    )
     _, other = read_rows(path)
     assert all(other["/" + e] == sum(flags) for e in DRAWINGS)
     assert verified(path)
@@ -434,8 +438,11 @@ def test_a_batch_the_sender_fails_is_kept_and_logging_neither_raises_nor_waits(
         assert failure.error is full and failure.states == 10
         rec.close()
     else:
-        with pytest.raises(RerunLogError, match=r"lacks 10 states the sender could not send "
-                           r"\(1 batches; last: OSError: \[Errno 28\] No space left"):  # fmt: skip
+        with pytest.raises(
+            RerunLogError,
+            match=r"lacks 10 states the sender could not send "
+            r"\(1 batches; last: OSError: \[Errno 28\] No space left",
+        ):
             rec.close()
     t_read, _ = read_series(path, "/series/stroke")
     np.testing.assert_allclose(t_read, np.concatenate([t[:10], t[20:]]), rtol=0, atol=1e-9)

@@ -55,8 +55,10 @@ def test_a_failing_batch_is_kept_and_the_next_ones_are_sent():
         sender.put(np.full(10 + i, float(i)), i)  # batch i holds 10 + i states
     sender.drain()
     failures = sender.take_failures()
-    assert [str(f.error) for f in failures] == ["batch 1 refused on purpose",
-                                                "batch 3 refused on purpose"]  # fmt: skip
+    assert [str(f.error) for f in failures] == [
+        "batch 1 refused on purpose",
+        "batch 3 refused on purpose",
+    ]
     assert [f.states for f in failures] == [11, 13]
     assert [b[0] for b in send.batches] == [0.0, 2.0, 4.0]
     assert sender.take_failures() == [] and not sender.failed  # each taken once

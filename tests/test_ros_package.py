@@ -265,8 +265,9 @@ def test_colcon_build_then_drs_node_from_the_install_space(tmp_path, request, sy
         mcap = bag / "bag_0.mcap"
         grew = wait_for_file_growth(mcap, timeout=30.0, min_size=2000)
         # the first flush already holds the robot description (~30 kB): wait for a later one
-        grew = grew and wait_for_file_growth(mcap, timeout=30.0,
-                                             min_size=mcap.stat().st_size + 2000)  # fmt: skip
+        grew = grew and wait_for_file_growth(
+            mcap, timeout=30.0, min_size=mcap.stat().st_size + 2000
+        )
         # let it tick after that flush, as the clean-exit tests do
         time.sleep(1.0)
         node.send_signal(signal.SIGINT)

@@ -52,8 +52,13 @@ def test_the_node_asks_no_rung_its_type():
     from pathlib import Path
 
     node = Path(__file__).resolve().parents[1] / "drs_ros" / "node"
-    hits = [f"{p.name}: {line.strip()}" for p in sorted(node.glob("*.py"))
-            for line in p.read_text().splitlines()
-            if any(name in line for name in ("HydraulicRung", "KinematicRung", "QuasiStaticRung",
-                                             "RigidRung"))]  # fmt: skip
+    hits = [
+        f"{p.name}: {line.strip()}"
+        for p in sorted(node.glob("*.py"))
+        for line in p.read_text().splitlines()
+        if any(
+            name in line
+            for name in ("HydraulicRung", "KinematicRung", "QuasiStaticRung", "RigidRung")
+        )
+    ]
     assert hits == []

@@ -77,9 +77,14 @@ def test_frames_sit_where_kinematics_puts_the_points(urdf, params, frac):
     q = kin.solve_position(s_min + frac * (s_max - s_min), params)
     urdf.update_cfg(dict(zip(NAMES, q, strict=True)))
     pts = kin.point_positions(q, params)
-    for frame, point in (("drs_piston_rod", "P"), ("drs_link_bar", "B"), ("drs_flap_wing", "D"),
-                         ("drs_flap_pin", "C3"), ("drs_link_tip", "C"),
-                         ("drs_flap_tip", "T")):  # fmt: skip
+    for frame, point in (
+        ("drs_piston_rod", "P"),
+        ("drs_link_bar", "B"),
+        ("drs_flap_wing", "D"),
+        ("drs_flap_pin", "C3"),
+        ("drs_link_tip", "C"),
+        ("drs_flap_tip", "T"),
+    ):
         where = urdf.get_transform(frame, "drs_base")[:3, 3]
         assert np.abs(where - [*pts[point], 0.0]).max() < 1e-12, (frame, where, pts[point])
     # the loop cut at the pin: both halves in one place (the model's constraint holds)
@@ -123,11 +128,13 @@ def test_visuals_are_the_seeds_outlines(urdf, params):
 def test_mount_rotation_puts_the_seed_frame_upright():
     """Default mount: the seed's x (rearwards) is REP 103's -x, its y (up) is +z."""
     x, y, z, w = description.rpy_quaternion(*description.SEED_FRAME_IN_REP103_RPY)
-    rot = np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+    rot = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
     assert np.allclose(rot @ [1, 0, 0], [-1, 0, 0], atol=1e-15)
     assert np.allclose(rot @ [0, 1, 0], [0, 0, 1], atol=1e-15)
     assert np.allclose(rot @ [0, 0, 1], [0, 1, 0], atol=1e-15)  # left
@@ -143,8 +150,10 @@ def test_ros2_control_block_names_the_topic_system(params):
     hw = control.find("hardware")
     assert hw.find("plugin").text == "joint_state_topic_hardware_interface/JointStateTopicSystem"
     params_ = {p.get("name"): p.text for p in hw.findall("param")}
-    assert params_ == {"joint_commands_topic": "/drs/joint_commands",
-                       "joint_states_topic": "/drs/joint_states"}  # fmt: skip
+    assert params_ == {
+        "joint_commands_topic": "/drs/joint_commands",
+        "joint_states_topic": "/drs/joint_states",
+    }
     joints = {j.get("name"): j for j in control.findall("joint")}
     assert list(joints) == list(NAMES)
     cmds = [c.get("name") for c in joints["drs_piston"].findall("command_interface")]

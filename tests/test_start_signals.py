@@ -34,17 +34,30 @@ def _run_pair(work: Path, k: int, rng: random.Random, domain: int) -> list[dict]
     returns what happened to each."""
     bag = work / f"node{k}"
     commands = {
-        "drs-node": [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"bag_path:={bag}",
-                     "-p", "flush_period:=0.2"],
+        "drs-node": [
+            sys.executable,
+            "-m",
+            "drs_ros",
+            "--ros-args",
+            "-p",
+            f"bag_path:={bag}",
+            "-p",
+            "flush_period:=0.2",
+        ],
         "drs-bag play": [sys.executable, "-m", "drs_ros.bag.cli", "play", str(EXAMPLE)],
-    }  # fmt: skip
-    plan = {tool: (rng.uniform(0.0, LATEST_S), rng.choice((signal.SIGINT, signal.SIGTERM)))
-            for tool in commands}  # fmt: skip
+    }
+    plan = {
+        tool: (rng.uniform(0.0, LATEST_S), rng.choice((signal.SIGINT, signal.SIGTERM)))
+        for tool in commands
+    }
     env = node_env(work / "log", domain)
     t0 = time.monotonic()
-    procs = {tool: subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL,
-                                    stderr=subprocess.PIPE, text=True)
-             for tool, argv in commands.items()}  # fmt: skip
+    procs = {
+        tool: subprocess.Popen(
+            argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+        )
+        for tool, argv in commands.items()
+    }
     sent_at = {}
     try:
         for tool, (at, sig) in sorted(plan.items(), key=lambda item: item[1][0]):
@@ -57,10 +70,18 @@ def _run_pair(work: Path, k: int, rng: random.Random, domain: int) -> list[dict]
             _, err = proc.communicate(timeout=60)  # a hang, not a slow stop
             after = time.monotonic() - sent_at[tool] if tool in sent_at else None
             at, sig = plan[tool]
-            runs.append({"tool": tool, "k": k, "at_s": round(at, 3), "signal": sig.name,
-                         "sent": tool in sent_at, "status": proc.returncode,
-                         "ended_s_after": None if after is None else round(after, 2),
-                         "stderr": err})  # fmt: skip
+            runs.append(
+                {
+                    "tool": tool,
+                    "k": k,
+                    "at_s": round(at, 3),
+                    "signal": sig.name,
+                    "sent": tool in sent_at,
+                    "status": proc.returncode,
+                    "ended_s_after": None if after is None else round(after, 2),
+                    "stderr": err,
+                }
+            )
     finally:
         for proc in procs.values():
             if proc.poll() is None:
@@ -101,8 +122,10 @@ def test_signals_at_random_moments_of_start_and_run(tmp_path, request):
                 problem.append(verdict)
         if problem:
             last = lines[-1] if lines else ""
-            bad.append(f"{run['tool']} #{run['k']}: {run['signal']} at {run['at_s']} s: "
-                       f"{', '.join(problem)}; last line {last!r}")  # fmt: skip
+            bad.append(
+                f"{run['tool']} #{run['k']}: {run['signal']} at {run['at_s']} s: "
+                f"{', '.join(problem)}; last line {last!r}"
+            )
     moments = [(r["tool"], r["signal"], r["at_s"], r["ended_s_after"]) for r in runs]
     assert not bad, "\n".join(bad) + f"\nevery (tool, signal, moment s, ended s after): {moments}"
     assert sum(r["sent"] for r in runs) >= len(runs) - 1, moments  # the signals met the tools

@@ -63,13 +63,22 @@ def _with(path: str, value) -> dict:
 @pytest.mark.parametrize(
     ("path", "value", "match"),
     [
-        ("parameters.L22", {"distribution": "normal", "std": 1.0},
-         r"\[parameters.L22\]: 'L22' is not a DRSParams field; valid fields: \['box_height'"),
-        ("parameters.L2.distribution", "gaussian",
-         r"unknown distribution 'gaussian'; valid distributions: \['uniform', 'normal'\]"),
+        (
+            "parameters.L22",
+            {"distribution": "normal", "std": 1.0},
+            r"\[parameters.L22\]: 'L22' is not a DRSParams field; valid fields: \['box_height'",
+        ),
+        (
+            "parameters.L2.distribution",
+            "gaussian",
+            r"unknown distribution 'gaussian'; valid distributions: \['uniform', 'normal'\]",
+        ),
         ("parameters.L2.distribution", None, r"\[parameters.L2\] needs distribution = one of"),
-        ("parameters.L2.sigma", 1e-5,
-         r"\[parameters.L2\] \(normal\): unknown key\(s\) \['sigma'\]; valid keys: "),
+        (
+            "parameters.L2.sigma",
+            1e-5,
+            r"\[parameters.L2\] \(normal\): unknown key\(s\) \['sigma'\]; valid keys: ",
+        ),
         ("parameters.m_wing.high", None, r"\[parameters.m_wing\] \(uniform\): missing key"),
         ("parameters.m_wing.high", 1.8, r"\[parameters.m_wing\]: uniform needs low < high"),
         ("parameters.L2.std", -1e-5, r"\[parameters.L2\]: normal needs std > 0, got std=-1e-05"),
@@ -85,7 +94,7 @@ def _with(path: str, value) -> dict:
         ("samplers", {}, r"the spec: unknown key\(s\) \['samplers'\]; valid keys"),
         ("parameters", {}, r"a study varies at least one parameter"),
     ],
-)  # fmt: skip
+)
 def test_spec_errors_name_the_value_and_the_valid_ones(path, value, match):
     with pytest.raises(StudySpecError, match=match):
         parse_spec(_with(path, value))
@@ -169,8 +178,10 @@ def test_sobol_indices_of_a_known_function(method):
 @pytest.fixture(scope="module")
 def one_and_two_workers():
     spec = parse_spec(SPEC)
-    return spec, run_study(spec, jobs=1, chunk=32, progress=False), run_study(
-        spec, jobs=2, chunk=32, progress=False
+    return (
+        spec,
+        run_study(spec, jobs=1, chunk=32, progress=False),
+        run_study(spec, jobs=2, chunk=32, progress=False),
     )
 
 

@@ -59,8 +59,10 @@ def test_the_nominal_sample_reproduces_drs_peak(batch):
     assert batch["lowest_force"][0] == pytest.approx(ref["force_min"], rel=1e-12)
     assert batch["peak_time"][0] == pytest.approx(ref["peak_time"], abs=1e-9)
     assert batch["lowest_time"][0] == pytest.approx(ref["force_min_time"], abs=1e-9)
-    for ours, theirs in ((batch["peak_force"][0], ref["peak_force"]),
-                         (batch["lowest_force"][0], ref["force_min"])):  # fmt: skip
+    for ours, theirs in (
+        (batch["peak_force"][0], ref["peak_force"]),
+        (batch["lowest_force"][0], ref["force_min"]),
+    ):
         assert f"{ours:.9g}" == f"{theirs:.9g}"  # what `drs peak` prints
     # the design's gap rule holds at its own stops
     assert abs(batch["gap_error_closed"][0]) < 1e-15
@@ -86,8 +88,15 @@ def _reference_time(p, s_from, s_to, force, horizon):
         return y[0] - s_to
 
     reached.terminal = True
-    sol = solve_ivp(rhs, (0.0, horizon), [s_from, 0.0], method="DOP853", rtol=1e-12,
-                    atol=[1e-15, 1e-13], events=reached)  # fmt: skip
+    sol = solve_ivp(
+        rhs,
+        (0.0, horizon),
+        [s_from, 0.0],
+        method="DOP853",
+        rtol=1e-12,
+        atol=[1e-15, 1e-13],
+        events=reached,
+    )
     assert sol.status == 1, sol.message
     return float(sol.t_events[0][0])
 

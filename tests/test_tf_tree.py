@@ -29,8 +29,12 @@ finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 def test_packed_transforms_read_back_and_equal_the_serialiser(pairs, stamp_ns, data):
     values = [data.draw(st.tuples(*[finite] * 7)) for _ in pairs]
     packed = MovingTransformsPacker(pairs).pack(stamp_ns, values)
-    msg = TFMessage(transforms=[transform_msg((p, c, v[:3], v[3:]), stamp_ns)
-                                for (p, c), v in zip(pairs, values, strict=True)])  # fmt: skip
+    msg = TFMessage(
+        transforms=[
+            transform_msg((p, c, v[:3], v[3:]), stamp_ns)
+            for (p, c), v in zip(pairs, values, strict=True)
+        ]
+    )
     assert packed == serialize(msg)
     back = deserialize_message(packed, TFMessage)
     assert len(back.transforms) == len(pairs)

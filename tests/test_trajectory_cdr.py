@@ -20,8 +20,9 @@ from drs_ros.conversions import trajectory_points  # noqa: E402
 from drs_ros.node.trajectory_cdr import read_joint_trajectory  # noqa: E402
 from drs_ros.recording import cdr  # noqa: E402
 
-NAMES = st.lists(st.sampled_from(["drs_piston", "drs_link", "drs_flap", "other", "é"]),
-                 min_size=0, max_size=4)  # fmt: skip
+NAMES = st.lists(
+    st.sampled_from(["drs_piston", "drs_link", "drs_flap", "other", "é"]), min_size=0, max_size=4
+)
 FLOATS = st.floats(allow_nan=True, allow_infinity=True, width=64)
 
 
@@ -37,8 +38,9 @@ def trajectories(draw) -> JointTrajectory:
         for field in ("velocities", "accelerations", "effort"):
             k = draw(st.sampled_from([0, n, 1]))
             setattr(pt, field, draw(st.lists(FLOATS, min_size=k, max_size=k)))
-        pt.time_from_start = Duration(sec=draw(st.integers(0, 3)),
-                                      nanosec=draw(st.integers(0, 999_999_999)))  # fmt: skip
+        pt.time_from_start = Duration(
+            sec=draw(st.integers(0, 3)), nanosec=draw(st.integers(0, 999_999_999))
+        )
         msg.points.append(pt)
     return msg
 
@@ -55,8 +57,12 @@ def same(a, b) -> bool:
     """Equal, NaN equal to NaN."""
     if isinstance(a, str) or isinstance(b, str):
         return a == b
-    flat = [(x, y) for u, v in zip(a, b, strict=True) if u is not None or v is not None
-            for x, y in zip(u, v, strict=True)]  # fmt: skip
+    flat = [
+        (x, y)
+        for u, v in zip(a, b, strict=True)
+        if u is not None or v is not None
+        for x, y in zip(u, v, strict=True)
+    ]
     return all(x == y or (x != x and y != y) for x, y in flat) and len(a) == len(b)
 
 

@@ -15,5 +15,9 @@ def scalar_segments(times, strokes, rates, s0, v0=0.0, a0=0.0):
     if rates is None:
         rates = [(s[k + 2] - s[k]) / (t[k + 2] - t[k]) for k in range(n - 1)] + [0.0]
     v = [v0, *rates]
-    return [QuinticSegment.between(t[k], t[k + 1] - t[k], s[k], s[k + 1], v[k], v[k + 1],
-                                   a0 if k == 0 else 0.0, 0.0) for k in range(n)]  # fmt: skip
+    return [
+        QuinticSegment.between(
+            t[k], t[k + 1] - t[k], s[k], s[k + 1], v[k], v[k + 1], a0 if k == 0 else 0.0, 0.0
+        )
+        for k in range(n)
+    ]

@@ -41,9 +41,13 @@ def add_common(parser: argparse.ArgumentParser) -> None:
     """``--json``, ``--params FILE`` and ``--set NAME=VALUE`` for the subcommands of the DRS
     model (the Coriolis examples take their own options)."""
     add_json(parser)
-    parser.add_argument("--params", metavar="FILE", type=parameter_file_argument,
-                        help="TOML/YAML file of DRSParams (and, where a hydraulic rung runs, "
-                        "HydraulicParams) overrides")  # fmt: skip
+    parser.add_argument(
+        "--params",
+        metavar="FILE",
+        type=parameter_file_argument,
+        help="TOML/YAML file of DRSParams (and, where a hydraulic rung runs, "
+        "HydraulicParams) overrides",
+    )
     parser.add_argument(
         "--set",
         metavar="NAME=VALUE",
@@ -67,8 +71,9 @@ def load_params(args: argparse.Namespace) -> DRSParams:
     a hydraulic value given to it is refused (it would change nothing)."""
     model, hydraulic = _given_values(args)
     if hydraulic:
-        raise ParameterError(f"{sorted(hydraulic)}: hydraulic parameters, and this command runs "
-                             "no hydraulic rung")  # fmt: skip
+        raise ParameterError(
+            f"{sorted(hydraulic)}: hydraulic parameters, and this command runs no hydraulic rung"
+        )
     return apply_overrides(model)[0]
 
 
@@ -146,8 +151,9 @@ def output_file_type(*suffixes: str) -> Callable[[str], str]:
 
     def check(text: str) -> str:
         if Path(text).suffix.lower() not in suffixes:
-            raise argparse.ArgumentTypeError(f"{text!r}: the output is a {kinds} file, its name "
-                                             f"ends in {kinds}")  # fmt: skip
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: the output is a {kinds} file, its name ends in {kinds}"
+            )
         return output_path(text)
 
     check.__name__ = f"{'_'.join(s.strip('.') for s in suffixes)}_output_path"

@@ -38,8 +38,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     grp.add_argument("--angle", type=float, help="rod angle [rad] (default: 120 deg)")
     grp.add_argument("--angle-deg", type=float, help="rod angle [deg] (default: 120)")
     q.add_argument("--r-max", type=float, default=ex.r_max, help="map range of r for --plot [m]")
-    q.add_argument("--plot", metavar="DIR", type=output_path,
-                   help="write example 2's four contour+surface PNGs")
+    q.add_argument(
+        "--plot",
+        metavar="DIR",
+        type=output_path,
+        help="write example 2's four contour+surface PNGs",
+    )
     q.add_argument("--dpi", type=int, default=100, help="PNG resolution (with --plot)")
     q.set_defaults(func=run_collar)
 
@@ -72,8 +76,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="also print the seed's convention (mm, deg, clockwise-positive rates)",
     )
-    q.add_argument("--plot", metavar="DIR", type=output_path,
-                   help="write slotted_link.png over 0..360 deg")
+    q.add_argument(
+        "--plot", metavar="DIR", type=output_path, help="write slotted_link.png over 0..360 deg"
+    )
     q.add_argument("--dpi", type=int, default=100, help="PNG resolution (with --plot)")
     q.set_defaults(func=run_slotted_link)
 

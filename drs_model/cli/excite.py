@@ -34,8 +34,10 @@ from ._common import (
 )
 
 #: What ``drs excite --help`` and the report say of the bag form of the goal.
-BAG_RECIPE = ("drs-bag from-goal GOAL.yaml -o DIR [--node NAME] writes the goal as a bag that "
-              "drs-bag play DIR sends to the node (the ros extra; docs/identify.md)")
+BAG_RECIPE = (
+    "drs-bag from-goal GOAL.yaml -o DIR [--node NAME] writes the goal as a bag that "
+    "drs-bag play DIR sends to the node (the ros extra; docs/identify.md)"
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -49,37 +51,70 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=f"As a bag for drs-bag play: {BAG_RECIPE}.",
     )
     add_common(p)
-    p.add_argument("names", metavar="NAME,...", type=fit_names_argument,
-                   help="the parameters to identify, e.g. "
-                   "m_pist,Iz_wing,F_drag_open,F_down_closed")  # fmt: skip
-    p.add_argument("--fidelity", choices=("rigid", "quasi-static", "hydraulic"),
-                   default="hydraulic", help="the rung the fit will run on (default hydraulic)")
-    p.add_argument("--duration", type=positive_number, default=0.3,
-                   help="the run's length [s] (0.3)")
-    p.add_argument("--harmonics", type=positive_integer, default=10,
-                   help="of the multisine (10)")
-    p.add_argument("--criterion", choices=("worst-ratio", "D"), default="worst-ratio",
-                   help="worst-ratio: the largest ratio of a parameter's standard error to the "
-                   "seed manoeuvre's, least; D: log det of the information, largest (a trade "
-                   "of one parameter for another scores well) (default worst-ratio)")
-    p.add_argument("--point-spacing", type=positive_number, default=4e-3,
-                   help="between the trajectory's points [s] (0.004)")  # fmt: skip
-    p.add_argument("--sample-period", type=positive_number, default=1e-3,
-                   help="of the recorded states the fit will read [s] (0.001)")  # fmt: skip
-    p.add_argument("--noise", type=positive_number, default=1e-5,
-                   help="stroke sensor noise [m] (1e-5)")
-    p.add_argument("--force-limit", type=positive_number, default=FORCE_LIMIT_DEFAULT_N,
-                   help="the node's force limit [N]; the supply's force applies too "
-                   f"({FORCE_LIMIT_DEFAULT_N:g})")
+    p.add_argument(
+        "names",
+        metavar="NAME,...",
+        type=fit_names_argument,
+        help="the parameters to identify, e.g. m_pist,Iz_wing,F_drag_open,F_down_closed",
+    )
+    p.add_argument(
+        "--fidelity",
+        choices=("rigid", "quasi-static", "hydraulic"),
+        default="hydraulic",
+        help="the rung the fit will run on (default hydraulic)",
+    )
+    p.add_argument(
+        "--duration", type=positive_number, default=0.3, help="the run's length [s] (0.3)"
+    )
+    p.add_argument("--harmonics", type=positive_integer, default=10, help="of the multisine (10)")
+    p.add_argument(
+        "--criterion",
+        choices=("worst-ratio", "D"),
+        default="worst-ratio",
+        help="worst-ratio: the largest ratio of a parameter's standard error to the "
+        "seed manoeuvre's, least; D: log det of the information, largest (a trade "
+        "of one parameter for another scores well) (default worst-ratio)",
+    )
+    p.add_argument(
+        "--point-spacing",
+        type=positive_number,
+        default=4e-3,
+        help="between the trajectory's points [s] (0.004)",
+    )
+    p.add_argument(
+        "--sample-period",
+        type=positive_number,
+        default=1e-3,
+        help="of the recorded states the fit will read [s] (0.001)",
+    )
+    p.add_argument(
+        "--noise", type=positive_number, default=1e-5, help="stroke sensor noise [m] (1e-5)"
+    )
+    p.add_argument(
+        "--force-limit",
+        type=positive_number,
+        default=FORCE_LIMIT_DEFAULT_N,
+        help="the node's force limit [N]; the supply's force applies too "
+        f"({FORCE_LIMIT_DEFAULT_N:g})",
+    )
     p.add_argument("--seed", type=int, default=0, help="of the optimiser's starts (0)")
     p.add_argument("--starts", type=positive_integer, default=12, help="optimiser starts (12)")
-    p.add_argument("-o", "--output", metavar="GOAL.yaml", type=output_file_type(".yaml", ".yml"),
-                   help="write the goal file (for "
-                   "ros2 action send_goal, or drs-bag from-goal to make a bag of it)")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="GOAL.yaml",
+        type=output_file_type(".yaml", ".yml"),
+        help="write the goal file (for "
+        "ros2 action send_goal, or drs-bag from-goal to make a bag of it)",
+    )
     p.add_argument("--joint", default="drs_piston", help="the piston joint (drs_piston)")
-    p.add_argument("--plot", metavar="PNG", type=png_output_path,
-                   help="the stroke and rate of the excitation and of "
-                   "the seed's manoeuvre, as the rung runs them")  # fmt: skip
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        type=png_output_path,
+        help="the stroke and rate of the excitation and of "
+        "the seed's manoeuvre, as the rung runs them",
+    )
     p.set_defaults(func=run_excite)
 
 
@@ -101,8 +136,10 @@ def _plot(path: str, t, excitation, seed, rung: str) -> None:
     import matplotlib.pyplot as plt
 
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
-    for (s, sd, _), label, style in ((excitation, "excitation", "-"),
-                                     (seed, "seed manoeuvre", "--")):  # fmt: skip
+    for (s, sd, _), label, style in (
+        (excitation, "excitation", "-"),
+        (seed, "seed manoeuvre", "--"),
+    ):
         ax.plot(t * 1e3, s * 1e3, style, label=label)
         bx.plot(t * 1e3, sd, style, label=label)
     ax.set_ylabel("stroke [mm]")
@@ -131,20 +168,35 @@ def run_excite(args: argparse.Namespace) -> Output:
     p, hp = load_both(args)
     names = args.names  # checked when parsed (fit_names_argument)
     limits = default_limits(p, hp, args.force_limit)
-    ex = design_excitation(names, p, hp, rung=args.fidelity, duration=args.duration,
-                           harmonics=args.harmonics, sample_period=args.sample_period,
-                           point_spacing=args.point_spacing, limits=limits,
-                           stroke_noise=args.noise, seed=args.seed, starts=args.starts,
-                           criterion=args.criterion)  # fmt: skip
+    ex = design_excitation(
+        names,
+        p,
+        hp,
+        rung=args.fidelity,
+        duration=args.duration,
+        harmonics=args.harmonics,
+        sample_period=args.sample_period,
+        point_spacing=args.point_spacing,
+        limits=limits,
+        stroke_noise=args.noise,
+        seed=args.seed,
+        starts=args.starts,
+        criterion=args.criterion,
+    )
     # both as the rung runs them (the hydraulic rung's servo and valve slow both down)
     length = float(ex.t[-1])
-    ran = rung_motion(p, hp, args.fidelity, length, args.sample_period,
-                      (ex.times, ex.strokes, ex.rates))  # fmt: skip
-    std = standard_errors(information(names, *ran, p, hp, args.fidelity, args.noise), names,
-                          p, hp)  # fmt: skip
-    seed_std = standard_errors(seed_manoeuvre_information(names, p, hp, args.fidelity, length,
-                                                          args.sample_period, args.noise),
-                               names, p, hp)  # fmt: skip
+    ran = rung_motion(
+        p, hp, args.fidelity, length, args.sample_period, (ex.times, ex.strokes, ex.rates)
+    )
+    std = standard_errors(information(names, *ran, p, hp, args.fidelity, args.noise), names, p, hp)
+    seed_std = standard_errors(
+        seed_manoeuvre_information(
+            names, p, hp, args.fidelity, length, args.sample_period, args.noise
+        ),
+        names,
+        p,
+        hp,
+    )
     files = {}
     try:
         if args.plot:
@@ -157,25 +209,42 @@ def run_excite(args: argparse.Namespace) -> Output:
     except OSError as exc:  # a file named by -o or --plot
         raise InputError(f"cannot write: {exc}") from None
     data = {
-        "parameters": [{"name": n, "unit": fit_parameter(n, p, hp).unit,
-                        "std_excitation": float(a), "std_seed_manoeuvre": float(b)}
-                       for n, a, b in zip(names, std, seed_std, strict=True)],  # fmt: skip
-        "rung": args.fidelity, "criterion": args.criterion, "duration_s": length,
+        "parameters": [
+            {
+                "name": n,
+                "unit": fit_parameter(n, p, hp).unit,
+                "std_excitation": float(a),
+                "std_seed_manoeuvre": float(b),
+            }
+            for n, a, b in zip(names, std, seed_std, strict=True)
+        ],
+        "rung": args.fidelity,
+        "criterion": args.criterion,
+        "duration_s": length,
         "points": len(ex.times),
         "log_det_information": ex.log_det,
-        "limits": {"margin_m": limits.margin, "rate_m_per_s": limits.rate,
-                   "force_n": limits.force},
-        "peaks": {"stroke_m": [float(ex.s.min()), float(ex.s.max())],
-                  "rate_m_per_s": float(np.abs(ex.sd).max()),
-                  "force_n": float(np.abs(ex.force).max())},
+        "limits": {"margin_m": limits.margin, "rate_m_per_s": limits.rate, "force_n": limits.force},
+        "peaks": {
+            "stroke_m": [float(ex.s.min()), float(ex.s.max())],
+            "rate_m_per_s": float(np.abs(ex.sd).max()),
+            "force_n": float(np.abs(ex.force).max()),
+        },
         "files": files,
-    }  # fmt: skip
+    }
     return Output(data, render(data))
 
 
 def render(data: dict) -> str:
-    rows = [[d["name"], d["unit"], d["std_excitation"], d["std_seed_manoeuvre"],
-             d["std_seed_manoeuvre"] / d["std_excitation"]] for d in data["parameters"]]
+    rows = [
+        [
+            d["name"],
+            d["unit"],
+            d["std_excitation"],
+            d["std_seed_manoeuvre"],
+            d["std_seed_manoeuvre"] / d["std_excitation"],
+        ]
+        for d in data["parameters"]
+    ]
     lim, peak = data["limits"], data["peaks"]
     lines = [
         f"drs excite: {data['points']} points over {data['duration_s']:g} s on the "

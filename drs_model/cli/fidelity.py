@@ -17,8 +17,14 @@ ASKS = {"gap": ("gap",), "all": tuple(QUANTITIES)}
 
 
 #: The chambers' table: each chamber's lowest pressure and time at the vapour pressure.
-FLOOR_HEADERS = ("scene", "run", "lowest p_A [Pa]", "lowest p_B [Pa]", "at floor A [s]",
-                 "at floor B [s]")  # fmt: skip
+FLOOR_HEADERS = (
+    "scene",
+    "run",
+    "lowest p_A [Pa]",
+    "lowest p_B [Pa]",
+    "at floor A [s]",
+    "at floor B [s]",
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,20 +40,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dt", type=float, default=1e-3, help="physics step [s] (default 1 kHz)")
     for name, unit in QUANTITIES.items():
         p.add_argument(
-            f"--{name}-tol", type=float, default=DEFAULT_TOLERANCES[name],
+            f"--{name}-tol",
+            type=float,
+            default=DEFAULT_TOLERANCES[name],
             help=f"tolerance on the {name} error [{unit}] (default {DEFAULT_TOLERANCES[name]:g})",
-        )  # fmt: skip
+        )
     p.add_argument(
-        "--scene", action="append", choices=list(SCENES), default=None, metavar="NAME",
-        help="run only this standard scene (repeatable; default all: "
-        f"{', '.join(SCENES)})",
-    )  # fmt: skip
+        "--scene",
+        action="append",
+        choices=list(SCENES),
+        default=None,
+        metavar="NAME",
+        help=f"run only this standard scene (repeatable; default all: {', '.join(SCENES)})",
+    )
     p.add_argument(
-        "--lap", type=float, default=None, metavar="SECONDS",
+        "--lap",
+        type=float,
+        default=None,
+        metavar="SECONDS",
         help="shorten the gap stream's 90 s lap to SECONDS (a quick look)",
-    )  # fmt: skip
-    p.add_argument("--plot", metavar="PNG", type=png_output_path,
-                   help="write the chart (e.g. docs/img/fidelity.png)")
+    )
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        type=png_output_path,
+        help="write the chart (e.g. docs/img/fidelity.png)",
+    )
     p.add_argument("--dpi", type=int, default=100, help="PNG resolution (with --plot)")
     p.set_defaults(func=run_fidelity)
 
@@ -66,8 +84,9 @@ def run_fidelity(args: argparse.Namespace) -> Output:
             print(f"[fidelity] {label}", file=sys.stderr, flush=True)
 
     scenes = STANDARD_SCENES if not args.scene else tuple(SCENES[n] for n in args.scene)
-    rows = measure(params, args.dt, scenes=scenes, lap_seconds=args.lap, progress=progress,
-                   hydraulic=hydraulic)
+    rows = measure(
+        params, args.dt, scenes=scenes, lap_seconds=args.lap, progress=progress, hydraulic=hydraulic
+    )
     scenes = list(dict.fromkeys(r.scene for r in rows))
     needs = {
         scene: {ask: needed_rung(rows, scene, qs, tolerances) for ask, qs in ASKS.items()}
@@ -87,7 +106,7 @@ def run_fidelity(args: argparse.Namespace) -> Output:
                 "closing_time": r.closing,
                 "refused": r.refused,
                 "chambers": r.chambers,
-            }  # fmt: skip
+            }
             for r in rows
         ],
         "needs": needs,
@@ -97,20 +116,30 @@ def run_fidelity(args: argparse.Namespace) -> Output:
         from ..plotting import plot_fidelity
 
         data["plot"] = str(plot_fidelity(rows, args.plot, dpi=args.dpi))
-    headers = ("scene", "run", "gap [m]", "stroke [m]", "force [N]", "opening [s]",
-               "closing [s]", "cost [s/s]")  # fmt: skip
+    headers = (
+        "scene",
+        "run",
+        "gap [m]",
+        "stroke [m]",
+        "force [N]",
+        "opening [s]",
+        "closing [s]",
+        "cost [s/s]",
+    )
     body = []
     for r in rows:
         if r.refused:
             body.append((r.scene, r.label, "refused", "", "", "", "", ""))
             continue
         e = r.errors or {}
-        body.append((r.scene, r.label, *(e.get(q, "reference") for q in QUANTITIES),
-                     r.cost_per_second))  # fmt: skip
+        body.append(
+            (r.scene, r.label, *(e.get(q, "reference") for q in QUANTITIES), r.cost_per_second)
+        )
     need_rows = [(s, *(needs[s][a] or "none" for a in ASKS)) for s in scenes]
     floor_keys = ("lowest_pressure_a", "lowest_pressure_b", "time_at_floor_a", "time_at_floor_b")
-    floor_rows = [(r.scene, r.label, *(r.chambers[k] for k in floor_keys))
-                  for r in rows if r.chambers]  # fmt: skip
+    floor_rows = [
+        (r.scene, r.label, *(r.chambers[k] for k in floor_keys)) for r in rows if r.chambers
+    ]
     tol_text = ", ".join(f"{k} {v:g} {QUANTITIES[k]}" for k, v in tolerances.items())
     text = (
         table(headers, body, fmt="{:.3g}")

@@ -49,8 +49,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="S[,S...]",
         help="strokes [m] (default: closed, half-way, open)",
     )
-    p.add_argument("--out", default="mechanism.png", type=png_output_path,
-                   help="PNG path (its directory must exist)")  # fmt: skip
+    p.add_argument(
+        "--out",
+        default="mechanism.png",
+        type=png_output_path,
+        help="PNG path (its directory must exist)",
+    )
     p.set_defaults(func=run_draw)
 
     p = sub.add_parser("demo", help="the manoeuvre end to end, model only (limits + table)")

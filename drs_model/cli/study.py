@@ -21,12 +21,24 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="worker processes of the embedded Dask cluster (default: the cores)",
     )
-    where.add_argument("--scheduler", metavar="ADDRESS",
-                       help="an existing Dask scheduler, e.g. tcp://host:8786")  # fmt: skip
-    p.add_argument("-o", "--output", metavar="DIR", default="study", type=output_path,
-                   help="directory of study.parquet, histograms.png, sensitivity.png")  # fmt: skip
-    p.add_argument("--chunk", type=int, default=None, metavar="ROWS",
-                   help="samples per Dask task (default 128)")  # fmt: skip
+    where.add_argument(
+        "--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://host:8786"
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="DIR",
+        default="study",
+        type=output_path,
+        help="directory of study.parquet, histograms.png, sensitivity.png",
+    )
+    p.add_argument(
+        "--chunk",
+        type=int,
+        default=None,
+        metavar="ROWS",
+        help="samples per Dask task (default 128)",
+    )
     p.set_defaults(func=run_study_command)
 
 
@@ -60,10 +72,20 @@ def render(data: dict) -> str:
         if s is None or name not in DISPLAY:
             continue
         label, scale, unit = DISPLAY[name]
-        rows.append([f"{label} [{unit}]", s["n"], *(s[k] * scale for k in
-                     ("mean", "std", "min", "p1", "p50", "p99", "max"))])  # fmt: skip
-    lines.append(table(["result", "n", "mean", "std", "min", "1 %", "median", "99 %", "max"],
-                       rows, fmt="{:.5g}"))  # fmt: skip
+        rows.append(
+            [
+                f"{label} [{unit}]",
+                s["n"],
+                *(s[k] * scale for k in ("mean", "std", "min", "p1", "p50", "p99", "max")),
+            ]
+        )
+    lines.append(
+        table(
+            ["result", "n", "mean", "std", "min", "1 %", "median", "99 %", "max"],
+            rows,
+            fmt="{:.5g}",
+        )
+    )
     for name, counts in data["forward_runs"].items():
         lines.append(
             f"{name.replace('_', ' ')}: " + ", ".join(f"{k} {v}" for k, v in counts.items())
@@ -71,8 +93,9 @@ def render(data: dict) -> str:
     if data["sensitivity"]:
         lines.append("sensitivity (Sobol' total index, first order in brackets), largest first:")
         for name, ranks in data["sensitivity"].items():
-            top = ", ".join(f"{r['field']} {r['total_order']:.2f} ({r['first_order']:.2f})"
-                            for r in ranks[:4])  # fmt: skip
+            top = ", ".join(
+                f"{r['field']} {r['total_order']:.2f} ({r['first_order']:.2f})" for r in ranks[:4]
+            )
             lines.append(f"  {DISPLAY[name][0]}: {top}")
     lines.append("files: " + ", ".join(data["files"].values()))
     return "\n".join(lines)

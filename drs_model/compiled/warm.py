@@ -58,8 +58,15 @@ def _one_sample_and_arrays(p: DRSParams) -> None:
         ufuncs.gufunc(fn)
     # the study's batch of forward runs (drs study): one opening run of the nominal flap
     psi3_closed, psi3_open = flap_angle_limits(p)
-    crossing_times([psi3_closed], [psi3_open], np.array([model_constants(p)]),
-                   ([integ.s_min - 1e-9], [integ.s_max]), True, 3000.0, 0.001)  # fmt: skip
+    crossing_times(
+        [psi3_closed],
+        [psi3_open],
+        np.array([model_constants(p)]),
+        ([integ.s_min - 1e-9], [integ.s_max]),
+        True,
+        3000.0,
+        0.001,
+    )
     from ..fidelity.hydraulic import HydraulicRung
     from ..fidelity.hydraulic_steps import STEP_METHODS
 

@@ -58,8 +58,9 @@ def errors_from_rows(rows) -> Mapping[str, RungErrors]:
     for row in rows:
         if row.scene == AUTO_SCENE and row.label == row.rung and row.errors is not None:
             force = row.errors["force"]
-            out[row.rung] = RungErrors(float(row.errors["gap"]),
-                                       None if math.isnan(force) else float(force))  # fmt: skip
+            out[row.rung] = RungErrors(
+                float(row.errors["gap"]), None if math.isnan(force) else float(force)
+            )
     missing = [rung for rung in RUNGS if rung != "hydraulic" and rung not in out]
     if missing:
         raise InputError(f"the ladder's rows hold no errors of {missing} on {AUTO_SCENE}")
@@ -71,8 +72,7 @@ def _measured(p: DRSParams, hydraulic) -> Mapping[str, RungErrors]:
     from .ladder import measure
     from .scenes import SCENES
 
-    return errors_from_rows(measure(p, AUTO_DT, scenes=(SCENES[AUTO_SCENE],),
-                                    hydraulic=hydraulic))  # fmt: skip
+    return errors_from_rows(measure(p, AUTO_DT, scenes=(SCENES[AUTO_SCENE],), hydraulic=hydraulic))
 
 
 def ladder_errors(p: DRSParams | None = None, hydraulic=None) -> Mapping[str, RungErrors]:
@@ -81,12 +81,14 @@ def ladder_errors(p: DRSParams | None = None, hydraulic=None) -> Mapping[str, Ru
     few seconds of simulation, once per parameters in a process."""
     from .hydraulic_params import HydraulicParams
 
-    return _measured(DRSParams() if p is None else p,
-                     HydraulicParams() if hydraulic is None else hydraulic)
+    return _measured(
+        DRSParams() if p is None else p, HydraulicParams() if hydraulic is None else hydraulic
+    )
 
 
-def choose_rung(asked, gap_tolerance: float, force_tolerance: float,
-                errors: Mapping[str, RungErrors]) -> str:  # fmt: skip
+def choose_rung(
+    asked, gap_tolerance: float, force_tolerance: float, errors: Mapping[str, RungErrors]
+) -> str:
     """The first rung in the ladder's order that models everything ``asked`` (a set of
     :data:`ASKED`) within ``gap_tolerance`` [m] and ``force_tolerance`` [N], by ``errors``
     (:func:`ladder_errors`); ``hydraulic``, the reference, when none lower does. Nothing asked:

@@ -62,24 +62,43 @@ HYDRAULIC_ONLY = HYDRAULIC_FAULTS
 #: rung's cap of 1000 with its margin of 2).
 FAULT_RANGES = MappingProxyType(
     {
-        "supply_loss_ramp_s": (0.0, 10.0, "an engine stall and the accumulator's reserve take "
-                               "seconds to empty the supply; a slower decline is a leak"),
-        "leak_m3_per_s_per_pa": (0.0, 1e-10, "1e-10 m^3/(s Pa) passes 120 l/min at 200 bar, 16 "
-                                 "times the servo valve's rated 7.5 l/min (as much as the relief "
-                                 "valve's full gain): the chamber holds no pressure at all, as "
-                                 "through a burst line"),
-        "jam_friction_n": (0.0, 5000.0, "the cylinder's force at the relief pressure (250 bar "
-                           "on the 2.0 cm^2 piston: 5.0 kN): a jam that strong holds the flap "
-                           "against all the cylinder and the air load can do (a seized flap); "
-                           "a stronger one holds it no better"),
-        "sensor.bias_m": (-0.1, 0.1, "a stroke sensor spans the piston's stroke (46 mm with the "
-                          "seed's geometry): a reading 0.1 m off is no reading of this actuator"),
-        "sensor.noise_std_m": (0.0, 0.1, "noise of 0.1 m, twice the whole stroke, already "
-                               "hides the stroke"),
+        "supply_loss_ramp_s": (
+            0.0,
+            10.0,
+            "an engine stall and the accumulator's reserve take "
+            "seconds to empty the supply; a slower decline is a leak",
+        ),
+        "leak_m3_per_s_per_pa": (
+            0.0,
+            1e-10,
+            "1e-10 m^3/(s Pa) passes 120 l/min at 200 bar, 16 "
+            "times the servo valve's rated 7.5 l/min (as much as the relief "
+            "valve's full gain): the chamber holds no pressure at all, as "
+            "through a burst line",
+        ),
+        "jam_friction_n": (
+            0.0,
+            5000.0,
+            "the cylinder's force at the relief pressure (250 bar "
+            "on the 2.0 cm^2 piston: 5.0 kN): a jam that strong holds the flap "
+            "against all the cylinder and the air load can do (a seized flap); "
+            "a stronger one holds it no better",
+        ),
+        "sensor.bias_m": (
+            -0.1,
+            0.1,
+            "a stroke sensor spans the piston's stroke (46 mm with the "
+            "seed's geometry): a reading 0.1 m off is no reading of this actuator",
+        ),
+        "sensor.noise_std_m": (
+            0.0,
+            0.1,
+            "noise of 0.1 m, twice the whole stroke, already hides the stroke",
+        ),
         "sensor.noise_seed": (0, 2**63 - 1, "a ROS integer parameter (int64) >= 0"),
         "sensor.dropout": (0.0, 1.0, "a probability"),
     }
-)  # fmt: skip
+)
 
 
 def describe_range(name: str) -> str:
@@ -158,8 +177,12 @@ class RunFaults:
             elif not value:
                 self.sensor.thaw()
             return
-        field = {"sensor.bias_m": "bias", "sensor.noise_std_m": "noise",
-                 "sensor.noise_seed": "seed", "sensor.dropout": "dropout"}[name]  # fmt: skip
+        field = {
+            "sensor.bias_m": "bias",
+            "sensor.noise_std_m": "noise",
+            "sensor.noise_seed": "seed",
+            "sensor.dropout": "dropout",
+        }[name]
         self.sensor.faults = replace(self.sensor.faults, **{field: value})
 
     def _step(self, t: float) -> int:

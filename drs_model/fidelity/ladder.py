@@ -157,20 +157,39 @@ def measure(
             progress(f"{scene.name}: {REFERENCE[0]}")
         ref = run_scene(REFERENCE[1], scene, p, dt, **REFERENCE[2], **extra)
         ref_times = event_times(ref, scene, p)
-        rows.append(LadderRow(scene.name, REFERENCE[0], REFERENCE[1], None,
-                              ref.cost_per_second, *ref_times,
-                              chambers=chamber_floor(ref)))  # fmt: skip
+        rows.append(
+            LadderRow(
+                scene.name,
+                REFERENCE[0],
+                REFERENCE[1],
+                None,
+                ref.cost_per_second,
+                *ref_times,
+                chambers=chamber_floor(ref),
+            )
+        )
         for label, rung, options in RUNS:
             if progress:
                 progress(f"{scene.name}: {label}")
             tr = run_scene(rung, scene, p, dt, **options, **(extra if rung == "hydraulic" else {}))
             if tr.refused:
-                rows.append(LadderRow(scene.name, label, rung, None, math.nan, math.nan,
-                                      math.nan, tr.refused))  # fmt: skip
+                rows.append(
+                    LadderRow(
+                        scene.name, label, rung, None, math.nan, math.nan, math.nan, tr.refused
+                    )
+                )
                 continue
-            rows.append(LadderRow(scene.name, label, rung, errors(tr, ref, scene, p),
-                                  tr.cost_per_second, *event_times(tr, scene, p),
-                                  chambers=chamber_floor(tr)))  # fmt: skip
+            rows.append(
+                LadderRow(
+                    scene.name,
+                    label,
+                    rung,
+                    errors(tr, ref, scene, p),
+                    tr.cost_per_second,
+                    *event_times(tr, scene, p),
+                    chambers=chamber_floor(tr),
+                )
+            )
     return rows
 
 

@@ -67,8 +67,9 @@ class HydraulicRecord:
     from that instant on.
     """
 
-    def __init__(self, p: DRSParams, dt: float = 1e-3,
-                 hydraulic: HydraulicParams | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, p: DRSParams, dt: float = 1e-3, hydraulic: HydraulicParams | None = None
+    ) -> None:
         self._rung = HydraulicRung(p, dt, hydraulic=hydraulic)
         self._faults = RunFaults(self._rung)
 

@@ -242,9 +242,11 @@ def _newton_euler_terms(q, qd, qdd, p: DRSParams, flap_limits) -> _NewtonEulerTe
         *_angles(q), q[..., PSI3], *_rates(qd, qdd), _constants(p, flap_limits)
     )
     return _NewtonEulerTerms(
-        pos, np.stack(np.broadcast_arrays(0.0, k1y), -1), np.stack((k2x, k2y), -1),
+        pos,
+        np.stack(np.broadcast_arrays(0.0, k1y), -1),
+        np.stack((k2x, k2y), -1),
         np.stack((k3x, k3y), -1),
-    )  # fmt: skip
+    )
 
 
 def _angles(q: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -233,8 +233,10 @@ def path_peak_force(
     c_all = np.asarray(coeffs, dtype=float).reshape(-1, 6)
     d_all = np.asarray(durations, dtype=float).ravel()
     if not c_all.shape[0] or c_all.shape[0] != d_all.size or int(samples) < 2:
-        raise InputError(f"need one duration per segment and >= 2 samples, got {c_all.shape[0]} "
-                         f"segments, {d_all.size} durations, {samples!r} samples")  # fmt: skip
+        raise InputError(
+            f"need one duration per segment and >= 2 samples, got {c_all.shape[0]} "
+            f"segments, {d_all.size} durations, {samples!r} samples"
+        )
     fused = _fused(p, None, None)
     u = np.linspace(0.0, 1.0, int(samples))
     best = PathPeak(0.0, 0, 0.0, math.nan)

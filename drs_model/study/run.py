@@ -168,20 +168,28 @@ def summary(result: StudyResult) -> dict:
             continue
         p1, p50, p99 = np.percentile(x, [1, 50, 99])
         spread[name] = {
-            "n": int(x.size), "mean": float(x.mean()), "std": float(x.std()),
-            "min": float(x.min()), "p1": float(p1), "p50": float(p50), "p99": float(p99),
+            "n": int(x.size),
+            "mean": float(x.mean()),
+            "std": float(x.std()),
+            "min": float(x.min()),
+            "p1": float(p1),
+            "p50": float(p50),
+            "p99": float(p99),
             "max": float(x.max()),
-        }  # fmt: skip
+        }
     ranking = {}
     for name, ind in result.indices.items():
         if ind is None:
             continue
         order = np.argsort(-ind.total_order)
         ranking[name] = [
-            {"field": result.spec.fields[i], "first_order": float(ind.first_order[i]),
-             "total_order": float(ind.total_order[i])}
+            {
+                "field": result.spec.fields[i],
+                "first_order": float(ind.first_order[i]),
+                "total_order": float(ind.total_order[i]),
+            }
             for i in order
-        ]  # fmt: skip
+        ]
     status = {}
     for name in ("opening_status", "closing_status"):
         counts: dict[str, int] = {}

@@ -43,8 +43,11 @@ def sobol(result: np.ndarray, blocks: np.ndarray, fields) -> Indices | None:
     if n < MIN_GROUPS:
         return None
     res = sobol_indices(
-        func={"f_A": f_a[complete][None, :], "f_B": f_b[complete][None, :],
-              "f_AB": f_ab[:, complete][:, None, :]},
+        func={
+            "f_A": f_a[complete][None, :],
+            "f_B": f_b[complete][None, :],
+            "f_AB": f_ab[:, complete][:, None, :],
+        },
         n=n,
-    )  # fmt: skip
+    )
     return Indices(np.atleast_1d(res.first_order), np.atleast_1d(res.total_order), n)

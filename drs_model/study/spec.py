@@ -200,8 +200,9 @@ def parse_spec(data: Mapping[str, Any]) -> StudySpec:
         _keys(f"{where} ({kind})", table, valid, required)
         try:
             if kind == "uniform":
-                dist = Uniform(_number(f"{where} low", table["low"]),
-                               _number(f"{where} high", table["high"]))  # fmt: skip
+                dist = Uniform(
+                    _number(f"{where} low", table["low"]), _number(f"{where} high", table["high"])
+                )
             else:
                 mean = table.get("mean", getattr(design, name))
                 dist = Normal(_number(f"{where} mean", mean), _number(f"{where} std", table["std"]))

@@ -58,12 +58,15 @@ def read_goal(path: str | Path) -> dict:
     try:
         data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise GoalFileError(f"{str(path)!r}: cannot read the goal: "
-                            f"{parse_error_text(exc)}") from None
+        raise GoalFileError(
+            f"{str(path)!r}: cannot read the goal: {parse_error_text(exc)}"
+        ) from None
     trajectory = data.get("trajectory") if isinstance(data, Mapping) else None
     if not isinstance(trajectory, Mapping):
-        raise GoalFileError(f"{str(path)!r}: no 'trajectory' mapping (a FollowJointTrajectory "
-                            "goal, as drs excite -o writes it)")  # fmt: skip
+        raise GoalFileError(
+            f"{str(path)!r}: no 'trajectory' mapping (a FollowJointTrajectory "
+            "goal, as drs excite -o writes it)"
+        )
     try:
         check_trajectory(trajectory)
     except GoalFileError as exc:
@@ -75,11 +78,13 @@ def _time_ns(point: Mapping, k: int) -> int:
     t = point.get("time_from_start", {})
     sec, nanosec = (t.get("sec", 0), t.get("nanosec", 0)) if isinstance(t, Mapping) else (t, 0)
     if not all(isinstance(v, int) and not isinstance(v, bool) for v in (sec, nanosec)):
-        raise GoalFileError(f"point {k}: time_from_start must be integer sec and nanosec, "
-                            f"got {t!r}")  # fmt: skip
+        raise GoalFileError(
+            f"point {k}: time_from_start must be integer sec and nanosec, got {t!r}"
+        )
     if not 0 <= nanosec < NS_PER_S or sec < 0:
-        raise GoalFileError(f"point {k}: time_from_start must be >= 0 s with nanosec in "
-                            f"[0, 1e9), got {t!r}")  # fmt: skip
+        raise GoalFileError(
+            f"point {k}: time_from_start must be >= 0 s with nanosec in [0, 1e9), got {t!r}"
+        )
     return ns_from_parts(sec, nanosec)
 
 
@@ -99,15 +104,21 @@ def check_trajectory(trajectory: Mapping) -> None:
             values = point.get(key, [])
             if key == "positions" or values:
                 if not (isinstance(values, list) and len(values) == len(joints)):
-                    raise GoalFileError(f"point {k}: {key} must hold {len(joints)} value(s), one "
-                                        f"per joint, got {values!r}")  # fmt: skip
-                if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                           and math.isfinite(v) for v in values):  # fmt: skip
+                    raise GoalFileError(
+                        f"point {k}: {key} must hold {len(joints)} value(s), one "
+                        f"per joint, got {values!r}"
+                    )
+                if not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in values
+                ):
                     raise GoalFileError(f"point {k}: {key} must be finite numbers, got {values!r}")
         now = _time_ns(point, k)
         if now <= last:
-            raise GoalFileError(f"point {k}: time_from_start must increase from point to point "
-                                f"(the node refuses a trajectory whose times do not)")  # fmt: skip
+            raise GoalFileError(
+                f"point {k}: time_from_start must increase from point to point "
+                f"(the node refuses a trajectory whose times do not)"
+            )
         last = now
 
 
@@ -120,8 +131,9 @@ def trajectory_message(trajectory: Mapping):
     for point in trajectory["points"]:
         sec, nanosec = split_ns(_time_ns(point, len(points)))
         values = {key: [float(v) for v in point.get(key) or []] for key in POINT_VALUES}
-        points.append(JointTrajectoryPoint(**values, time_from_start=Duration(sec=sec,
-                                                                              nanosec=nanosec)))
+        points.append(
+            JointTrajectoryPoint(**values, time_from_start=Duration(sec=sec, nanosec=nanosec))
+        )
     return JointTrajectory(joint_names=list(trajectory["joint_names"]), points=points)
 
 
@@ -131,8 +143,9 @@ def node_topic(node: str | None = None) -> str:
     return expand_topic(NODE_TOPICS["trajectory_cmd"], name if name.startswith("/") else "/" + name)
 
 
-def write_goal_bag(out: str | Path, trajectory: Mapping, topic: str | None = None,
-                   t0_ns: int = T0_NS) -> Path:
+def write_goal_bag(
+    out: str | Path, trajectory: Mapping, topic: str | None = None, t0_ns: int = T0_NS
+) -> Path:
     """Write the new bag directory ``out`` holding ``trajectory`` once on ``topic`` (default:
     ``/drs/trajectory_cmd``), logged at ``t0_ns``.
 
@@ -167,14 +180,26 @@ def _topic_argument(text: str) -> str:
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("goal", help="the FollowJointTrajectory goal (YAML or JSON), e.g. the one "
-                    "drs excite -o writes")  # fmt: skip
-    ap.add_argument("-o", "--output", required=True, metavar="DIR", type=output_path,
-                    help="the bag directory to write (must not exist)")
+    ap.add_argument(
+        "goal",
+        help="the FollowJointTrajectory goal (YAML or JSON), e.g. the one drs excite -o writes",
+    )
+    ap.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="DIR",
+        type=output_path,
+        help="the bag directory to write (must not exist)",
+    )
     where = ap.add_mutually_exclusive_group()
-    where.add_argument("--node", metavar="NAME", help="the node that will follow it, by its "
-                       "fully qualified name: the bag's topic is NAME/trajectory_cmd (default "
-                       f"{DEFAULT_NODE})")  # fmt: skip
+    where.add_argument(
+        "--node",
+        metavar="NAME",
+        help="the node that will follow it, by its "
+        "fully qualified name: the bag's topic is NAME/trajectory_cmd (default "
+        f"{DEFAULT_NODE})",
+    )
     where.add_argument("--topic", type=_topic_argument, help="the topic to write it on instead")
 
 
@@ -187,8 +212,10 @@ def run(args: argparse.Namespace, prog: str = "drs-bag from-goal") -> int:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_UNREADABLE
     points = len(trajectory["points"])
-    print(f"wrote {args.output}: {points} points of {', '.join(trajectory['joint_names'])} on "
-          f"{topic} (drs-bag play {args.output} sends them to the node)")  # fmt: skip
+    print(
+        f"wrote {args.output}: {points} points of {', '.join(trajectory['joint_names'])} on "
+        f"{topic} (drs-bag play {args.output} sends them to the node)"
+    )
     return EXIT_OK
 
 

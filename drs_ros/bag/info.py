@@ -66,9 +66,15 @@ def _files_summary(path: str | Path) -> dict:
     bag = resolve(path, require_metadata=False)
     meta = bag.metadata
     if meta is not None:  # checked by the resolver (drs_ros.bag.read.files.read_metadata)
-        topics = [(t["topic_metadata"]["name"], t["topic_metadata"]["type"], t["message_count"],
-                   t["topic_metadata"].get("serialization_format", "cdr"))
-                  for t in meta["topics_with_message_count"]]  # fmt: skip
+        topics = [
+            (
+                t["topic_metadata"]["name"],
+                t["topic_metadata"]["type"],
+                t["message_count"],
+                t["topic_metadata"].get("serialization_format", "cdr"),
+            )
+            for t in meta["topics_with_message_count"]
+        ]
         return {
             "files": [f.name for f in bag.files],
             "size": sum(f.stat().st_size for f in bag.files),
@@ -80,8 +86,10 @@ def _files_summary(path: str | Path) -> dict:
             "source": "metadata.yaml",
         }
     result = scan(path, recover=True, exact=False)
-    topics = [(c.topic, c.type_name, result.counts.get(c.topic, 0), c.message_encoding)
-              for c in result.channels.values()]  # fmt: skip
+    topics = [
+        (c.topic, c.type_name, result.counts.get(c.topic, 0), c.message_encoding)
+        for c in result.channels.values()
+    ]
     start = result.start_ns or 0
     source = "the files" if result.parts else "the file"
     return {
@@ -113,13 +121,17 @@ def format_info(info: dict) -> str:
         f"End:               {_point(end)}",
         f"Messages:          {sum(t[2] for t in plain)}",
     ]
-    rows = [f"Topic: {n} | Type: {t} | Count: {c} | Serialization Format: {f}"
-            for n, t, c, f in plain]  # fmt: skip
+    rows = [
+        f"Topic: {n} | Type: {t} | Count: {c} | Serialization Format: {f}" for n, t, c, f in plain
+    ]
     lines.append("Topic information: " + f"\n{_INDENT}".join(rows))
     lines.append(f"Service:           {len(services)}")
-    rows = [f"Service: {n.removesuffix(SERVICE_EVENT_TOPIC_SUFFIX)} | "
-            f"Type: {t.removesuffix(msgdefs.SERVICE_EVENT_SUFFIX)} | Event Count: {c} | "
-            f"Serialization Format: {f}" for n, t, c, f in services]  # fmt: skip
+    rows = [
+        f"Service: {n.removesuffix(SERVICE_EVENT_TOPIC_SUFFIX)} | "
+        f"Type: {t.removesuffix(msgdefs.SERVICE_EVENT_SUFFIX)} | Event Count: {c} | "
+        f"Serialization Format: {f}"
+        for n, t, c, f in services
+    ]
     lines.append("Service information: " + f"\n{_INDENT}  ".join(rows))
     if info["source"] != "metadata.yaml":
         lines.append(f"(read from {info['source']}: no metadata.yaml)")

@@ -122,19 +122,30 @@ class EffectRecord:
         self.tick_policy = "rclpy timer (executor thread)"
         self.lateness = LatenessHistogram()
 
-    def refuse_malformed(self, topic: str, msg_type, data: bytes, exc: Exception,
-                         now_ns: int) -> None:  # fmt: skip
+    def refuse_malformed(
+        self, topic: str, msg_type, data: bytes, exc: Exception, now_ns: int
+    ) -> None:
         """Bytes that are no ``msg_type``: refused with the reason; the bytes themselves go into
         the effect record (hex, for forensics), never onto the typed topic."""
         type_name = f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
         reason = self.refuse(
             topic, f"<{len(data)} bytes>", f"not a valid {type_name} ({error_text(exc)})", now_ns
         )
-        self.event(topic, REFUSED, DiagnosticStatus.WARN, reason, None, {
-            "value": f"<{len(data)} bytes>", "malformed": "true", "size": len(data),
-            "sha256": hashlib.sha256(data).hexdigest(),
-            "bytes_hex": data[:MALFORMED_BYTES_KEPT].hex(),
-        }, now_ns)  # fmt: skip
+        self.event(
+            topic,
+            REFUSED,
+            DiagnosticStatus.WARN,
+            reason,
+            None,
+            {
+                "value": f"<{len(data)} bytes>",
+                "malformed": "true",
+                "size": len(data),
+                "sha256": hashlib.sha256(data).hexdigest(),
+                "bytes_hex": data[:MALFORMED_BYTES_KEPT].hex(),
+            },
+            now_ns,
+        )
 
     def refuse_command(self, cmd: PendingCommand, exc: Exception, now_ns: int) -> None:
         """A command its actuator refuses: counted, logged and recorded with the reason."""
@@ -179,8 +190,9 @@ class EffectRecord:
         self._publisher.publish(data)
         self._record(self._topic, data, now_ns)
 
-    def clock_origin(self, now_ns: int, level: bytes = DiagnosticStatus.OK, reason: str = "",
-                     **values) -> None:  # fmt: skip
+    def clock_origin(
+        self, now_ns: int, level: bytes = DiagnosticStatus.OK, reason: str = "", **values
+    ) -> None:
         """A ``clock`` record: the clock origin ``t0_ns`` now in force (at the first tick, after
         dropped steps, after a clock jump), with ``values`` after it."""
         t0_ns = self._instant()[2]
@@ -205,13 +217,16 @@ class EffectRecord:
         if not recent:
             return DiagnosticStatus.OK, f"mode {mode}"
         window = seconds_from_ns(self.troubles.window_ns)
-        parts = [f"{n} {kind.replace('_', ' ')} (last: {reason})"
-                 for kind, (n, reason) in sorted(recent.items())]  # fmt: skip
+        parts = [
+            f"{n} {kind.replace('_', ' ')} (last: {reason})"
+            for kind, (n, reason) in sorted(recent.items())
+        ]
         return DiagnosticStatus.WARN, f"in the last {window:g} s: " + "; ".join(parts)
 
 
-def diagnostics_values(st, effects: EffectRecord, faults: str, callback_errors: int,
-                       recordings: dict[str, str]) -> dict[str, object]:  # fmt: skip
+def diagnostics_values(
+    st, effects: EffectRecord, faults: str, callback_errors: int, recordings: dict[str, str]
+) -> dict[str, object]:
     """What diagnostics report, by name: the actuator's state ``st``, the counters of
     ``effects``, the ``faults`` in force, the callbacks that failed, the ``recordings``' status
     and the CPU time spent."""

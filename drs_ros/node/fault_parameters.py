@@ -44,8 +44,11 @@ def declare_fault_parameters(node: Node) -> None:
                 overrides[full] = Parameter(full, Parameter.Type.DOUBLE, float(given.value))
         if name in FAULT_RANGES:  # not as a descriptor range: rclpy would refuse an outlier
             description += f"; range {describe_range(name)}"  # before the effect record sees it
-        node.declare_parameter(full, healthy, ParameterDescriptor(
-            description=f"fault (run time, docs/fidelity.md): {description}"))  # fmt: skip
+        node.declare_parameter(
+            full,
+            healthy,
+            ParameterDescriptor(description=f"fault (run time, docs/fidelity.md): {description}"),
+        )
 
 
 class NodeFaults:
@@ -80,8 +83,11 @@ class NodeFaults:
         self.faults = RunFaults(sim)
         gp = self._node.get_parameter
         healthy = {FAULT_PREFIX + name: value for name, (value, _text) in FAULTS.items()}
-        self._pending = [(name, gp(name).value) for name in fault_parameter_names()
-                         if gp(name).value != healthy[name]]  # fmt: skip
+        self._pending = [
+            (name, gp(name).value)
+            for name in fault_parameter_names()
+            if gp(name).value != healthy[name]
+        ]
         if not self._watching:  # once, though configured again
             self._watching = True
             self._node.add_on_set_parameters_callback(self._on_set_faults)
@@ -114,8 +120,15 @@ class NodeFaults:
                     value = self.faults.check(name, p.value)
                 except DRSError as exc:
                     reason = self._effects.refuse(p.name, p.value, str(exc), now)
-                    self._effects.event(p.name, REFUSED, DiagnosticStatus.WARN, reason, None,
-                                        {"value": repr(p.value)}, now)  # fmt: skip
+                    self._effects.event(
+                        p.name,
+                        REFUSED,
+                        DiagnosticStatus.WARN,
+                        reason,
+                        None,
+                        {"value": repr(p.value)},
+                        now,
+                    )
                     return SetParametersResult(successful=False, reason=reason)
                 checked.append((p.name, value))
             order = list(fault_parameter_names())
@@ -146,12 +159,18 @@ class NodeFaults:
                 self.faults.apply(name, value)
             except DRSError as exc:  # checked when set: only a rung changed since would refuse
                 reason = fx.refuse(full, value, str(exc), now_ns)
-                fx.event(full, REFUSED, DiagnosticStatus.WARN, reason, None,
-                         {"value": repr(value)}, now_ns)  # fmt: skip
+                fx.event(
+                    full,
+                    REFUSED,
+                    DiagnosticStatus.WARN,
+                    reason,
+                    None,
+                    {"value": repr(value)},
+                    now_ns,
+                )
                 continue
             fx.troubles.add(now_ns, "fault", f"{full} = {value!r}")
-            fx.event(full, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)},
-                     now_ns)  # fmt: skip
+            fx.event(full, ACCEPTED, DiagnosticStatus.OK, "", None, {"value": repr(value)}, now_ns)
 
     def text(self) -> str:
         """The faults in force, for diagnostics ('none' when healthy)."""

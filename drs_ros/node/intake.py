@@ -34,8 +34,9 @@ def command_decoders() -> dict:
     CDR, which every reader of the bag decodes; a trajectory is read in place (rclpy's decoder
     would hold the GIL for ~100 ms on 10,000 points, a stall of the real-time tick), and so is a
     Float64 (~2 us against ~13)."""
-    decode = {key: functools.partial(cdr.decode_exact, msg_class=cls)
-              for key, cls in COMMANDS.items()}  # fmt: skip
+    decode = {
+        key: functools.partial(cdr.decode_exact, msg_class=cls) for key, cls in COMMANDS.items()
+    }
     decode.update({key: read_float64 for key, cls in COMMANDS.items() if cls is Float64})
     decode["trajectory_cmd"] = lambda data: (v := read_joint_trajectory(data), v.exact)
     return decode
@@ -62,9 +63,17 @@ class CommandIntake:
         The node clock [ns]; ``record(topic, data, now_ns)``, the bytes into the bag.
     """
 
-    def __init__(self, topics: dict[str, str], service_name: str, piston_joint: str,
-                 effects: EffectRecord, actuator: Callable[[], object], lock,
-                 now_ns: Callable[[], int], record: Callable) -> None:  # fmt: skip
+    def __init__(
+        self,
+        topics: dict[str, str],
+        service_name: str,
+        piston_joint: str,
+        effects: EffectRecord,
+        actuator: Callable[[], object],
+        lock,
+        now_ns: Callable[[], int],
+        record: Callable,
+    ) -> None:
         self.topics, self.service_name, self.piston_joint = topics, service_name, piston_joint
         self._effects, self._actuator, self._lock = effects, actuator, lock
         self._now_ns, self._record = now_ns, record
@@ -104,8 +113,9 @@ class CommandIntake:
             fx.received += 1
             # only bytes that decode go on the typed topic: the bag stays readable by all readers
             # recorded as its exact CDR: the bytes that arrived, any alignment padding zeroed
-            cmd = PendingCommand(key, topic, msg, self._record(topic, exact, now), now, prepared,
-                                 planned_ns)  # fmt: skip
+            cmd = PendingCommand(
+                key, topic, msg, self._record(topic, exact, now), now, prepared, planned_ns
+            )
             if refusal is not None:
                 fx.refuse_command(cmd, refusal, now)
                 return
@@ -127,9 +137,18 @@ class CommandIntake:
                 reason = f"{n} {cmd.key} replaced by a newer one before the next physics step"
                 fx.troubles.add(now_ns, SUPERSEDED, reason)
                 known = [q for q in cmd.superseded if q is not None]
-                fx.event(cmd.topic, SUPERSEDED, DiagnosticStatus.STALE, reason, None, {
-                    "count": n, "sequences": f"{known[0]}..{known[-1]}" if known else "",
-                }, now_ns)  # fmt: skip
+                fx.event(
+                    cmd.topic,
+                    SUPERSEDED,
+                    DiagnosticStatus.STALE,
+                    reason,
+                    None,
+                    {
+                        "count": n,
+                        "sequences": f"{known[0]}..{known[-1]}" if known else "",
+                    },
+                    now_ns,
+                )
             try:
                 commands.apply(sim, cmd.key, cmd.msg, self.piston_joint, cmd.prepared)
             except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
@@ -148,13 +167,19 @@ class CommandIntake:
         fx = self._effects
         value = commands.describe(commands.SERVICE_KEY, request)
         try:
-            seg = commands.apply(self._actuator(), commands.SERVICE_KEY, request,
-                                 self.piston_joint)  # fmt: skip
+            seg = commands.apply(self._actuator(), commands.SERVICE_KEY, request, self.piston_joint)
         except Exception as exc:  # noqa: BLE001 - what a request carries never stops the node
             response.success = False
             response.message = fx.refuse("drs", value, refusal_reason(exc), now_ns)
-            fx.event(self.service_name, REFUSED, DiagnosticStatus.WARN, response.message, None,
-                     {"value": repr(value)}, now_ns)  # fmt: skip
+            fx.event(
+                self.service_name,
+                REFUSED,
+                DiagnosticStatus.WARN,
+                response.message,
+                None,
+                {"value": repr(value)},
+                now_ns,
+            )
             return response
         fx.accepted += 1
         response.success = True
@@ -162,8 +187,15 @@ class CommandIntake:
             f"{'opening' if value else 'closing'} to {seg.evaluate(seg.t1)[0]:.6g} m "
             f"in {seg.duration:g} s"
         )
-        fx.event(self.service_name, ACCEPTED, DiagnosticStatus.OK, "", None,
-                 {"value": repr(value)}, now_ns)  # fmt: skip
+        fx.event(
+            self.service_name,
+            ACCEPTED,
+            DiagnosticStatus.OK,
+            "",
+            None,
+            {"value": repr(value)},
+            now_ns,
+        )
         return response
 
 

@@ -50,50 +50,120 @@ FIDELITIES = (*RUNGS, "auto")
 #: The node's own parameters: (name, default, description, valid range or choices). All read-only.
 NODE_PARAMETERS = (
     ("physics_rate_hz", 1000.0, "fixed physics step rate [Hz]", (100.0, 20000.0)),
-    ("publish_rate_hz", 250.0, "joint-state publish rate [Hz], at most physics_rate_hz",
-     (1.0, 2000.0)),
+    (
+        "publish_rate_hz",
+        250.0,
+        "joint-state publish rate [Hz], at most physics_rate_hz",
+        (1.0, 2000.0),
+    ),
     ("joint_names", DEFAULT_JOINT_NAMES, "JointState names: piston, link, flap", None),
     ("integrator", "rk4", "fixed-step method of force mode", None),
-    ("force_method", "fused",
-     "inverse-dynamics formulation: fused (the fused closed form), newton-euler, lagrange, "
-     "virtual-work (d'Alembert along dq/dpsi3)", None),
-    ("fidelity", "rigid",
-     "model rung: kinematic, quasi-static, rigid, hydraulic or auto (docs/fidelity.md)",
-     FIDELITIES),
-    ("fidelity_tolerance", 5e-4, "auto: largest gap error [m] against the hydraulic rung",
-     (1e-9, 1.0)),
-    ("fidelity_force_tolerance", 2000.0,
-     "auto: largest piston force error [N] against the hydraulic rung", (1e-3, 1e6)),
-    ("fidelity_auto_discovery_s", 1.0,
-     "auto: time [s] after activation the node waits for subscribers before it chooses",
-     (0.0, 60.0)),
-    ("force_limit", FORCE_LIMIT_DEFAULT_N,
-     "largest accepted |piston force| [N]: of a force command and, with limit_moves, of a "
-     "move's inverse-dynamics peak", (1.0, 1.0e6)),
-    ("limit_moves", True, "refuse a trajectory or goal whose inverse-dynamics peak force "
-     "exceeds force_limit, naming both; a stroke or DRS command takes longer instead", None),
-    ("max_catch_up_steps", 200, "physics steps per tick before the simulation drops time",
-     (1, 100000)),
-    ("frame_id", "drs_base", "frame of ~/markers: the seed's ground frame (x rearwards, y up)",
-     None),
-    ("markers_rate_hz", 30.0, "~/markers (and rerun drawing) rate [Hz], computed only when used",
-     (0.1, 1000.0)),
-    ("diagnostics_window", 5.0, "diagnostics report the troubles of the last this many s [s]",
-     (0.1, 3600.0)),
-    ("executor", "deadline",
-     "deadline (ticks on absolute deadlines, executor thread for the rest) or single", EXECUTORS),
-    ("tick_scheduling", "fifo", "the deadline loop's tick thread under SCHED_FIFO when the "
-     "process may have it (else SCHED_OTHER, saying why) or other (SCHED_OTHER)", TICK_SCHEDULING),
+    (
+        "force_method",
+        "fused",
+        "inverse-dynamics formulation: fused (the fused closed form), newton-euler, lagrange, "
+        "virtual-work (d'Alembert along dq/dpsi3)",
+        None,
+    ),
+    (
+        "fidelity",
+        "rigid",
+        "model rung: kinematic, quasi-static, rigid, hydraulic or auto (docs/fidelity.md)",
+        FIDELITIES,
+    ),
+    (
+        "fidelity_tolerance",
+        5e-4,
+        "auto: largest gap error [m] against the hydraulic rung",
+        (1e-9, 1.0),
+    ),
+    (
+        "fidelity_force_tolerance",
+        2000.0,
+        "auto: largest piston force error [N] against the hydraulic rung",
+        (1e-3, 1e6),
+    ),
+    (
+        "fidelity_auto_discovery_s",
+        1.0,
+        "auto: time [s] after activation the node waits for subscribers before it chooses",
+        (0.0, 60.0),
+    ),
+    (
+        "force_limit",
+        FORCE_LIMIT_DEFAULT_N,
+        "largest accepted |piston force| [N]: of a force command and, with limit_moves, of a "
+        "move's inverse-dynamics peak",
+        (1.0, 1.0e6),
+    ),
+    (
+        "limit_moves",
+        True,
+        "refuse a trajectory or goal whose inverse-dynamics peak force "
+        "exceeds force_limit, naming both; a stroke or DRS command takes longer instead",
+        None,
+    ),
+    (
+        "max_catch_up_steps",
+        200,
+        "physics steps per tick before the simulation drops time",
+        (1, 100000),
+    ),
+    (
+        "frame_id",
+        "drs_base",
+        "frame of ~/markers: the seed's ground frame (x rearwards, y up)",
+        None,
+    ),
+    (
+        "markers_rate_hz",
+        30.0,
+        "~/markers (and rerun drawing) rate [Hz], computed only when used",
+        (0.1, 1000.0),
+    ),
+    (
+        "diagnostics_window",
+        5.0,
+        "diagnostics report the troubles of the last this many s [s]",
+        (0.1, 3600.0),
+    ),
+    (
+        "executor",
+        "deadline",
+        "deadline (ticks on absolute deadlines, executor thread for the rest) or single",
+        EXECUTORS,
+    ),
+    (
+        "tick_scheduling",
+        "fifo",
+        "the deadline loop's tick thread under SCHED_FIFO when the "
+        "process may have it (else SCHED_OTHER, saying why) or other (SCHED_OTHER)",
+        TICK_SCHEDULING,
+    ),
     ("tick_fifo_priority", 10, "SCHED_FIFO priority of the tick thread", FIFO_PRIORITY_RANGE),
-    ("bag_path", "", "MCAP bag directory ('' = no bag; --managed: the n-th later "
-     "configure's is this name with _n appended)", None),
-    ("rrd_path", "", "rerun .rrd file ('' = none; --managed: the n-th later configure's "
-     "is NAME_n.rrd)", None),
-    ("rerun_connect", "", "stream to a running rerun viewer on loopback, e.g. "
-     "rerun+http://127.0.0.1:9876/proxy ('' = none)", None),
+    (
+        "bag_path",
+        "",
+        "MCAP bag directory ('' = no bag; --managed: the n-th later "
+        "configure's is this name with _n appended)",
+        None,
+    ),
+    (
+        "rrd_path",
+        "",
+        "rerun .rrd file ('' = none; --managed: the n-th later configure's is NAME_n.rrd)",
+        None,
+    ),
+    (
+        "rerun_connect",
+        "",
+        "stream to a running rerun viewer on loopback, e.g. "
+        "rerun+http://127.0.0.1:9876/proxy ('' = none)",
+        None,
+    ),
     ("flush_period", 0.5, "MCAP flush period [s]", (0.01, 10.0)),
     ("model_params_file", "", "TOML/YAML file of DRSParams overrides", None),
-) + STACK_PARAMETERS  # fmt: skip
+) + STACK_PARAMETERS
 
 
 class StartupError(DRSRosError):
@@ -151,8 +221,11 @@ def declare_parameters(node: Node) -> frozenset[str]:
 def _given_values(node: Node, given_names: frozenset[str]) -> dict[str, object]:
     """The ``model.*`` and ``hydraulic.*`` values given to the node, by parameter name."""
     overrides = parameter_overrides(node)
-    return {name: overrides[name].value for name in MODEL_PARAMETERS
-            if name in given_names and name in overrides}  # fmt: skip
+    return {
+        name: overrides[name].value
+        for name in MODEL_PARAMETERS
+        if name in given_names and name in overrides
+    }
 
 
 def _file_values(path: str) -> dict[str, object]:
@@ -161,8 +234,10 @@ def _file_values(path: str) -> dict[str, object]:
         model, hydraulic = split_overrides(file_overrides(path))
     except ParameterError as exc:
         raise StartupError(f"model_params_file {path!r}: {exc}") from exc
-    return {**{f"model.{k}": v for k, v in model.items()},
-            **{f"hydraulic.{k}": v for k, v in hydraulic.items()}}  # fmt: skip
+    return {
+        **{f"model.{k}": v for k, v in model.items()},
+        **{f"hydraulic.{k}": v for k, v in hydraulic.items()},
+    }
 
 
 def model_params(node: Node, given_names: frozenset[str]) -> tuple[DRSParams, HydraulicParams]:
@@ -176,9 +251,12 @@ def model_params(node: Node, given_names: frozenset[str]) -> tuple[DRSParams, Hy
     path = node.get_parameter("model_params_file").value
     given = _given_values(node, given_names)
     from_file = _file_values(path) if path else {}
-    shadowed = [f"{name}:={given[name]!r} shadows model_params_file {path!r}'s "
-                f"{name.split('.', 1)[1]} = {from_file[name]!r}" for name in given
-                if name in from_file and given[name] != from_file[name]]  # fmt: skip
+    shadowed = [
+        f"{name}:={given[name]!r} shadows model_params_file {path!r}'s "
+        f"{name.split('.', 1)[1]} = {from_file[name]!r}"
+        for name in given
+        if name in from_file and given[name] != from_file[name]
+    ]
     if shadowed:
         raise StartupError(f"{'; '.join(shadowed)}: give each value in one place")
     try:
@@ -195,10 +273,12 @@ def model_params(node: Node, given_names: frozenset[str]) -> tuple[DRSParams, Hy
 def _descriptor(name: str) -> ParameterDescriptor:
     owner, field = name.split(".", 1)
     if owner == "model":
-        return ParameterDescriptor(description=f"DRSParams.{field} (SI), as the model runs it",
-                                   read_only=True)  # fmt: skip
-    desc = ParameterDescriptor(description=f"HydraulicParams.{field} (SI), as the model runs it",
-                               read_only=True)  # fmt: skip
+        return ParameterDescriptor(
+            description=f"DRSParams.{field} (SI), as the model runs it", read_only=True
+        )
+    desc = ParameterDescriptor(
+        description=f"HydraulicParams.{field} (SI), as the model runs it", read_only=True
+    )
     desc.additional_constraints = field_range(field)
     return desc
 
@@ -217,8 +297,10 @@ def serve_model_parameters(node: Node, params: DRSParams, hydraulic: HydraulicPa
             continue
         node.declare_parameter(name, value, _descriptor(name), ignore_override=True)
     if changed:
-        raise StartupError(f"the model's parameters changed since the node was first configured "
-                           f"({', '.join(changed)}): they are read-only; start a new node")
+        raise StartupError(
+            f"the model's parameters changed since the node was first configured "
+            f"({', '.join(changed)}): they are read-only; start a new node"
+        )
 
 
 @dataclass(frozen=True)
@@ -279,8 +361,15 @@ def tick_settings(node: Node) -> TickSettings:
             f"every late tick would drop simulated time; give max_catch_up_steps >= {needed} "
             "or publish faster"
         )
-    return TickSettings(physics_hz, publish_hz, gp("markers_rate_hz").value, max_catch_up,
-                        gp("frame_id").value, tuple(joint_names), gp("fidelity").value)  # fmt: skip
+    return TickSettings(
+        physics_hz,
+        publish_hz,
+        gp("markers_rate_hz").value,
+        max_catch_up,
+        gp("frame_id").value,
+        tuple(joint_names),
+        gp("fidelity").value,
+    )
 
 
 def effective_parameters(node: Node) -> list[Parameter]:
@@ -312,12 +401,18 @@ def usage_text() -> str:
     for name, default, description, valid in NODE_PARAMETERS:
         shown = list(default) if isinstance(default, tuple) else default
         lines.append(f"  {name} (default {shown!r}{_valid_text(valid)}): {description}")
-    lines.append("  model.<field> (default: the seed's value): a DRSParams field, SI units; one of "
-                 + ", ".join(NUMERIC_FIELDS))  # fmt: skip
-    lines.append("  hydraulic.<field> (default: HydraulicParams'): the hydraulic rung's, SI units; "
-                 + ", ".join(f"{n} ({field_range(n)})" for n in HYDRAULIC_FIELDS))  # fmt: skip
-    lines.append("  model_params_file may set both; a value given there and as a parameter that "
-                 "differ refuse to start. Served once configured, as the model runs them.")
+    lines.append(
+        "  model.<field> (default: the seed's value): a DRSParams field, SI units; one of "
+        + ", ".join(NUMERIC_FIELDS)
+    )
+    lines.append(
+        "  hydraulic.<field> (default: HydraulicParams'): the hydraulic rung's, SI units; "
+        + ", ".join(f"{n} ({field_range(n)})" for n in HYDRAULIC_FIELDS)
+    )
+    lines.append(
+        "  model_params_file may set both; a value given there and as a parameter that "
+        "differ refuse to start. Served once configured, as the model runs them."
+    )
     lines += ["", "fault parameters (may change while the node runs; healthy by default):"]
     for name, (healthy, description) in FAULTS.items():
         valid = f"; {describe_range(name)}" if name in FAULT_RANGES else ""

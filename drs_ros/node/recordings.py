@@ -96,18 +96,22 @@ class RecordingHealth:
             self._on_error(f"{self.name}: {self.last_error}")
         if self.errors == items:  # loudly, with where it came from; then one line a second
             where = "".join(traceback.format_exception(exc))
-            self._logger.error(f"{self.name}: {items} items were not recorded (the recording "
-                               f"goes on): {where}")  # fmt: skip
+            self._logger.error(
+                f"{self.name}: {items} items were not recorded (the recording goes on): {where}"
+            )
         else:
-            self._logger.error(f"{self.name}: {self.errors} items not recorded, last: "
-                               f"{self.last_error}", throttle_duration_sec=1.0)  # fmt: skip
+            self._logger.error(
+                f"{self.name}: {self.errors} items not recorded, last: {self.last_error}",
+                throttle_duration_sec=1.0,
+            )
 
     def fail(self, reason: str) -> None:
         """Stop the recording for good (the first reason is kept)."""
         if not self.failure:
             self.failure = reason
-            self._logger.error(f"{self.name} stopped: {reason}; the actuator and the other "
-                               "recording go on")  # fmt: skip
+            self._logger.error(
+                f"{self.name} stopped: {reason}; the actuator and the other recording go on"
+            )
 
     def status(self, going: str) -> str:
         """For diagnostics: ``going`` (what it recorded) while it goes on, then the failure; the
@@ -121,8 +125,10 @@ class RecordingHealth:
         """The items lost, as a line for the stop (empty when none)."""
         if not self.errors:
             return []
-        return [f"{self.name} lacks {self.errors} items that could not be recorded (last: "
-                f"{self.last_error})"]  # fmt: skip
+        return [
+            f"{self.name} lacks {self.errors} items that could not be recorded (last: "
+            f"{self.last_error})"
+        ]
 
 
 def _unfinished(name: str, exc: Exception) -> str:
@@ -177,8 +183,10 @@ class BagRecording:
             self.recorder.abandon()
             s = self.recorder.stats()
             if not self.recorder.path.exists():
-                lines.append(f"{self.health.name} is lost: {self.health.failure}; nothing of "
-                             f"its {s.message_count} messages remains")  # fmt: skip
+                lines.append(
+                    f"{self.health.name} is lost: {self.health.failure}; nothing of "
+                    f"its {s.message_count} messages remains"
+                )
             else:
                 lines.append(
                     f"{self.health.name} is incomplete: recording stopped after "
@@ -231,11 +239,14 @@ class RerunRecording:
         except Exception as exc:  # noqa: BLE001 - the file's end is missing: the stop names it
             lines.append(_unfinished(self.health.name, exc))
         if self.health.failure and not lines:
-            lines.append(f"{self.health.name} is incomplete: recording stopped "
-                         f"({self.health.failure})")  # fmt: skip
+            lines.append(
+                f"{self.health.name} is incomplete: recording stopped ({self.health.failure})"
+            )
         if self.recorder.stream_error is not None:
-            lines.append(f"{self.health.name}: the live stream was not delivered: "
-                         f"{self.recorder.stream_error}")  # fmt: skip
+            lines.append(
+                f"{self.health.name}: the live stream was not delivered: "
+                f"{self.recorder.stream_error}"
+            )
         return lines + self.health.lost()
 
 
@@ -258,8 +269,16 @@ class NodeRecordings:
         self.cycles = 0
         self._made_bag_dir = False
 
-    def open(self, bag: str, rrd: str, live: str, flush_period: float, params,
-             max_draw_hz: float, states_hz: float = RERUN_BATCH_MIN) -> None:  # fmt: skip
+    def open(
+        self,
+        bag: str,
+        rrd: str,
+        live: str,
+        flush_period: float,
+        params,
+        max_draw_hz: float,
+        states_hz: float = RERUN_BATCH_MIN,
+    ) -> None:
         """``bag``: the MCAP bag directory, ``rrd``: the rerun file, ``live``: a rerun viewer's
         URL ('' = none of each); ``flush_period`` [s]: the bag's; ``params``: the mechanism the
         rerun recording draws, at most ``max_draw_hz`` [Hz]; ``states_hz``: the states logged
@@ -281,8 +300,13 @@ class NodeRecordings:
 
                 # the mechanism drawn as often as ~/markers draws it; the series at every sample
                 batch = max(RERUN_BATCH_MIN, round(states_hz))
-                self.rerun = RerunRecorder(rrd or None, params, connect_url=live or None,
-                                           max_draw_hz=max_draw_hz, batch=batch)  # fmt: skip
+                self.rerun = RerunRecorder(
+                    rrd or None,
+                    params,
+                    connect_url=live or None,
+                    max_draw_hz=max_draw_hz,
+                    batch=batch,
+                )
                 self.rrd = RerunRecording(self.rerun, self._logger, self._lost)
         except Exception as exc:
             self._made_bag_dir = made_dir
@@ -308,9 +332,11 @@ class NodeRecordings:
             if self.cycles == 0:
                 raise
             n = self.cycles
-            raise type(exc)(f"{exc}; configure {n + 1} of this node records to bag_path and "
-                            f"rrd_path with _{n} appended to the name (before .rrd): move that "
-                            "one away, or start a new node") from None  # fmt: skip
+            raise type(exc)(
+                f"{exc}; configure {n + 1} of this node records to bag_path and "
+                f"rrd_path with _{n} appended to the name (before .rrd): move that "
+                "one away, or start a new node"
+            ) from None
 
     def discard(self) -> None:
         """Close and delete the recordings of a node that fails to start: nothing is left."""
@@ -351,8 +377,11 @@ class NodeRecordings:
 
     def failures(self) -> list[str]:
         """The recordings stopped for good, each with its reason (for the diagnostics level)."""
-        return [f"{p.health.name} stopped: {p.health.failure}" for p in (self.bag, self.rrd)
-                if p is not None and p.health.failure]  # fmt: skip
+        return [
+            f"{p.health.name} stopped: {p.health.failure}"
+            for p in (self.bag, self.rrd)
+            if p is not None and p.health.failure
+        ]
 
     def close(self) -> list[str]:
         """Finish the MCAP bag and the rerun file (idempotent); one line per recording that is

@@ -23,8 +23,15 @@ class RungChoice:
     ``force_tolerance`` [N]: the node's ``fidelity_tolerance`` and
     ``fidelity_force_tolerance``."""
 
-    def __init__(self, fidelity: str, params, physics_dt: float, options: dict,
-                 tolerance: float, force_tolerance: float) -> None:  # fmt: skip
+    def __init__(
+        self,
+        fidelity: str,
+        params,
+        physics_dt: float,
+        options: dict,
+        tolerance: float,
+        force_tolerance: float,
+    ) -> None:
         (self.params, self.hydraulic), self.physics_dt = params, physics_dt
         self.fidelity = fidelity
         self.options, self.tolerance, self.force_tolerance = options, tolerance, force_tolerance

@@ -120,8 +120,9 @@ class Tick:
     """One tick of the node (:meth:`run`), on ``clock`` with a physics step ``physics_dt`` [s]
     and at most ``max_catch_up`` steps per tick (a stall beyond drops simulated time)."""
 
-    def __init__(self, parts: TickParts, clock: SimulationClock, physics_dt: float,
-                 max_catch_up: int) -> None:  # fmt: skip
+    def __init__(
+        self, parts: TickParts, clock: SimulationClock, physics_dt: float, max_catch_up: int
+    ) -> None:
         self.parts, self.clock = parts, clock
         self.physics_dt, self.max_catch_up = physics_dt, max_catch_up
 
@@ -148,8 +149,9 @@ class Tick:
         late = clock.since_last_if_late(mono)
         if late is not None:
             effects.missed_deadlines += 1
-            effects.troubles.add(now, "missed_deadline",
-                                 f"tick {seconds_from_ns(late) * 1e3:.1f} ms after the last")
+            effects.troubles.add(
+                now, "missed_deadline", f"tick {seconds_from_ns(late) * 1e3:.1f} ms after the last"
+            )
         clock.ticked(now, mono)
         effects.ticks += 1
         t = time.thread_time()  # this thread's own CPU: the executor's is not the tick's
@@ -163,8 +165,9 @@ class Tick:
         except DRSError as exc:  # the model refuses to go on: at rest where it is, and say why
             reason = effects.refuse("step", sim.mode, str(exc), now)
             s_rest = commands.reset_at_rest(sim)
-            effects.event(RESET, RESET, DiagnosticStatus.WARN, reason, None,
-                          {"stroke": repr(s_rest)}, now)  # fmt: skip
+            effects.event(
+                RESET, RESET, DiagnosticStatus.WARN, reason, None, {"stroke": repr(s_rest)}, now
+            )
         effects.cpu["model"] += time.thread_time() - t
         if due > 0 or effects.ticks == 1:  # publish new states only (stamps strictly increase)
             parts.publish(now)

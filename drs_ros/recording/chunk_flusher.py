@@ -28,9 +28,16 @@ class ChunkFlusher:
     daemon thread writes the closed chunks and closes the chunk of a recorder whose writes
     stopped for a period."""
 
-    def __init__(self, writer, stream, path: Path, lock: threading.Lock,
-                 schedule: FlushSchedule, failed: Callable[[OSError], None],
-                 flush_thread: bool) -> None:  # fmt: skip
+    def __init__(
+        self,
+        writer,
+        stream,
+        path: Path,
+        lock: threading.Lock,
+        schedule: FlushSchedule,
+        failed: Callable[[OSError], None],
+        flush_thread: bool,
+    ) -> None:
         self._writer, self._stream, self._path, self._lock = writer, stream, path, lock
         self.schedule, self._failed = schedule, failed
         #: Bytes in the file after the last chunk written [bytes].
@@ -40,8 +47,9 @@ class ChunkFlusher:
         self._wake = threading.Event()  # a chunk closed: the flush thread writes it
         self._thread: threading.Thread | None = None
         if flush_thread:
-            self._thread = threading.Thread(target=self._loop, name="mcap-recorder-flush",
-                                            daemon=True)  # fmt: skip
+            self._thread = threading.Thread(
+                target=self._loop, name="mcap-recorder-flush", daemon=True
+            )
             self._thread.start()
 
     def on_full(self) -> Callable[[], None] | None:

@@ -44,8 +44,9 @@ class MessageAppender:
         if not self.direct:
             self.append = writer.add_message
 
-    def append(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
-               sequence: int) -> None:  # fmt: skip
+    def append(
+        self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int
+    ) -> None:
         """Add one message record (``data``: its payload) to the open chunk; the chunk is
         closed and written when it outgrows the writer's chunk size, as ``add_message`` does."""
         self._file_statistics(log_time, 1)
@@ -77,8 +78,9 @@ class MessageAppender:
             stats.message_end_time = log_time
         stats.message_count += count
 
-    def _into_chunk(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
-                    sequence: int) -> None:  # fmt: skip
+    def _into_chunk(
+        self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int
+    ) -> None:
         """The record into the open chunk, its index and time bounds; the chunk closed when it
         outgrows the writer's chunk size."""
         chunk = self._chunk
@@ -92,8 +94,16 @@ class MessageAppender:
             index = chunk.message_indices[channel_id] = MessageIndex(channel_id, [])
         index.records.append((log_time, buffer.tell()))
         chunk.num_messages += 1
-        buffer.write(MESSAGE_HEAD.pack(MESSAGE_OPCODE, _FIELDS_BYTES + len(data), channel_id,
-                                       sequence, log_time, publish_time))  # fmt: skip
+        buffer.write(
+            MESSAGE_HEAD.pack(
+                MESSAGE_OPCODE,
+                _FIELDS_BYTES + len(data),
+                channel_id,
+                sequence,
+                log_time,
+                publish_time,
+            )
+        )
         buffer.write(data)
         if buffer.tell() > self._chunk_size:
             self._on_full()

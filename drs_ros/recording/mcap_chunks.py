@@ -99,9 +99,15 @@ class ChunkHandoff:
         if chunk.num_messages == 0:
             return False
         indices = {cid: index.records for cid, index in chunk.message_indices.items()}
-        self._pending.append(ClosedChunk(chunk.end(), chunk.message_start_time,
-                                         chunk.message_end_time, indices,
-                                         chunk.num_messages))  # fmt: skip
+        self._pending.append(
+            ClosedChunk(
+                chunk.end(),
+                chunk.message_start_time,
+                chunk.message_end_time,
+                indices,
+                chunk.num_messages,
+            )
+        )
         chunk.reset()  # a new index dict's lists: the closed chunk keeps its own
         return True
 
@@ -160,13 +166,19 @@ class ChunkHandoff:
             length += len(record)
         self._flush_records()
         closed = encoded.closed
-        self._chunk_indices.append(ChunkIndex(
-            message_start_time=closed.message_start_time,
-            message_end_time=closed.message_end_time, chunk_start_offset=start,
-            chunk_length=len(encoded.chunk_record), message_index_offsets=offsets,
-            message_index_length=length, compression=encoded.compression,
-            compressed_size=encoded.compressed_size, uncompressed_size=len(closed.records),
-        ))  # fmt: skip
+        self._chunk_indices.append(
+            ChunkIndex(
+                message_start_time=closed.message_start_time,
+                message_end_time=closed.message_end_time,
+                chunk_start_offset=start,
+                chunk_length=len(encoded.chunk_record),
+                message_index_offsets=offsets,
+                message_index_length=length,
+                compression=encoded.compression,
+                compressed_size=encoded.compressed_size,
+                uncompressed_size=len(closed.records),
+            )
+        )
         self._stream.flush()
 
 

@@ -17,12 +17,17 @@ def run_rerun_cli(args: list[str], timeout: float = 120.0) -> subprocess.Complet
     exe = Path(sys.executable).with_name("rerun")
     cli = str(exe) if exe.exists() else "rerun"
     with tempfile.TemporaryDirectory(prefix="drs-rerun-") as home:
-        env = dict(os.environ, XDG_CONFIG_HOME=str(Path(home) / "config"),
-                   XDG_DATA_HOME=str(Path(home) / "data"))  # fmt: skip
-        subprocess.run([cli, "analytics", "disable"], env=env, capture_output=True,
-                       timeout=timeout, check=True)  # fmt: skip
-        return subprocess.run([cli, *args], env=env, capture_output=True, text=True,
-                              timeout=timeout)  # fmt: skip
+        env = dict(
+            os.environ,
+            XDG_CONFIG_HOME=str(Path(home) / "config"),
+            XDG_DATA_HOME=str(Path(home) / "data"),
+        )
+        subprocess.run(
+            [cli, "analytics", "disable"], env=env, capture_output=True, timeout=timeout, check=True
+        )
+        return subprocess.run(
+            [cli, *args], env=env, capture_output=True, text=True, timeout=timeout
+        )
 
 
 __all__ = ["run_rerun_cli"]

@@ -173,8 +173,11 @@ class RerunRecorder:
         self.rec = self._open_sinks(application_id)
         self._closed = False
         #: The file sink's health (None: no file): its first failure, found while recording.
-        self.sink = None if self.path is None else FileSinkWatch(self.rec, self.path,
-                                                                 live=connect_url is not None)
+        self.sink = (
+            None
+            if self.path is None
+            else FileSinkWatch(self.rec, self.path, live=connect_url is not None)
+        )
         self._log_static()
         self._sender = BatchSender(self._send_logged, name="rerun-sender")
 
@@ -468,8 +471,10 @@ def _unsent(failures: list[SendFailure]) -> str:
     if not failures:
         return ""
     last = failures[-1].error
-    return (f"{sum(f.states for f in failures)} states the sender could not send "
-            f"({len(failures)} batches; last: {type(last).__name__}: {last})")  # fmt: skip
+    return (
+        f"{sum(f.states for f in failures)} states the sender could not send "
+        f"({len(failures)} batches; last: {type(last).__name__}: {last})"
+    )
 
 
 __all__ = [

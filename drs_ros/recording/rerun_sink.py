@@ -46,8 +46,9 @@ class FileSinkWatch:
         self.failure: str | None = None
         self._identity = _identity(self.path)
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, args=(period,),
-                                        name="rerun-sink-watch", daemon=True)  # fmt: skip
+        self._thread = threading.Thread(
+            target=self._run, args=(period,), name="rerun-sink-watch", daemon=True
+        )
         self._thread.start()
 
     def _run(self, period: float) -> None:

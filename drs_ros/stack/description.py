@@ -68,8 +68,15 @@ class Frames:
     @classmethod
     def of(cls, joint_names, base: str) -> Frames:
         piston, link, flap = joint_names
-        return cls(base, f"{piston}_rod", f"{link}_bar", f"{flap}_wing", f"{link}_tip",
-                   f"{flap}_pin", f"{flap}_tip")  # fmt: skip
+        return cls(
+            base,
+            f"{piston}_rod",
+            f"{link}_bar",
+            f"{flap}_wing",
+            f"{link}_tip",
+            f"{flap}_pin",
+            f"{flap}_tip",
+        )
 
 
 @dataclass(frozen=True)
@@ -127,8 +134,12 @@ def rpy_quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float,
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)  # fmt: skip
+    return (
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    )
 
 
 def _z_rotation(angle: float) -> tuple[float, float, float, float]:
@@ -196,8 +207,10 @@ def _outline_visuals(name: str, points: np.ndarray, origin=(0.0, 0.0), angle: fl
     within the link's frame."""
     c, s = math.cos(angle), math.sin(angle)
     pts = np.asarray(points, dtype=float)
-    pts = np.stack([origin[0] + c * pts[:, 0] - s * pts[:, 1],
-                    origin[1] + s * pts[:, 0] + c * pts[:, 1]], axis=-1)  # fmt: skip
+    pts = np.stack(
+        [origin[0] + c * pts[:, 0] - s * pts[:, 1], origin[1] + s * pts[:, 0] + c * pts[:, 1]],
+        axis=-1,
+    )
     out = []
     for k, (a, b) in enumerate(zip(pts[:-1], pts[1:], strict=True)):
         length = float(np.hypot(*(b - a)))
@@ -232,8 +245,10 @@ def _inertial(mass: float, com: tuple[float, float], izz: float) -> str:
 
 
 def _limit(lim: JointLimit) -> str:
-    return (f'<limit lower="{_num(lim.lower)}" upper="{_num(lim.upper)}" '
-            f'velocity="{_num(lim.velocity)}" effort="{_num(lim.effort)}"/>')  # fmt: skip
+    return (
+        f'<limit lower="{_num(lim.lower)}" upper="{_num(lim.upper)}" '
+        f'velocity="{_num(lim.velocity)}" effort="{_num(lim.effort)}"/>'
+    )
 
 
 def ros2_control_block(
@@ -324,9 +339,11 @@ def robot_description(
         f'<axis xyz="0.0 0.0 1.0"/>{_limit(lim[2])}</joint>',
     ]
     for parent, child, xyz, _q in fixed_transforms(p, fr):
-        lines.append(f'<joint name="{child}_joint" type="fixed"><parent link="{parent}"/>'
-                     f'<child link="{child}"/><origin xyz="{_xyz(*xyz)}" rpy="0.0 0.0 0.0"/>'
-                     "</joint>")  # fmt: skip
+        lines.append(
+            f'<joint name="{child}_joint" type="fixed"><parent link="{parent}"/>'
+            f'<child link="{child}"/><origin xyz="{_xyz(*xyz)}" rpy="0.0 0.0 0.0"/>'
+            "</joint>"
+        )
     if ros2_control:
         lines.append(ros2_control)
     lines.append("</robot>")

@@ -30,28 +30,61 @@ from .tf_tree import TfPublisher
 #: The node parameters of these features: (name, default, description, valid range or choices),
 #: as the node's table holds its own. JTC's ``constraints.*`` are the tolerance defaults.
 STACK_PARAMETERS = (
-    ("publish_tf", True, "publish /tf, /tf_static and /robot_description (false when "
-     "robot_state_publisher does it from ros2_control's joint states)", None),
-    ("mount_frame", "base_link", "parent frame of frame_id on the car (REP 105); '' = none",
-     None),
+    (
+        "publish_tf",
+        True,
+        "publish /tf, /tf_static and /robot_description (false when "
+        "robot_state_publisher does it from ros2_control's joint states)",
+        None,
+    ),
+    ("mount_frame", "base_link", "parent frame of frame_id on the car (REP 105); '' = none", None),
     ("mount_xyz", (0.0, 0.0, 0.0), "position of frame_id in mount_frame [m]", None),
-    ("mount_rpy", description.SEED_FRAME_IN_REP103_RPY,
-     "roll, pitch, yaw of frame_id in mount_frame [rad] (default: the seed's x rearwards, "
-     "y up in REP 103's x forward, z up)", None),
-    ("joint_commands_topic", "~/joint_commands",
-     "sensor_msgs/JointState commands by joint name (ros2_control's JointStateTopicSystem "
-     "joint_commands_topic)", None),
-    ("joint_states_topic", "/joint_states",
-     "where the joint states go (JointStateTopicSystem's joint_states_topic)", None),
-    ("path_tolerance", 0.0, "default path tolerance of the piston [m] (0 = none; JTC's "
-     "constraints.<joint>.trajectory)", (0.0, 1.0)),
-    ("goal_tolerance", 0.0, "default goal tolerance of the piston [m] (0 = none; JTC's "
-     "constraints.<joint>.goal)", (0.0, 1.0)),
-    ("stopped_velocity_tolerance", 0.01, "default goal velocity tolerance [m/s] (JTC's "
-     "constraints.stopped_velocity_tolerance)", (0.0, 100.0)),
-    ("goal_time_tolerance", 0.0, "default time past a trajectory's end to reach the goal "
-     "tolerance [s] (0 = wait; JTC's constraints.goal_time)", (0.0, 3600.0)),
-)  # fmt: skip
+    (
+        "mount_rpy",
+        description.SEED_FRAME_IN_REP103_RPY,
+        "roll, pitch, yaw of frame_id in mount_frame [rad] (default: the seed's x rearwards, "
+        "y up in REP 103's x forward, z up)",
+        None,
+    ),
+    (
+        "joint_commands_topic",
+        "~/joint_commands",
+        "sensor_msgs/JointState commands by joint name (ros2_control's JointStateTopicSystem "
+        "joint_commands_topic)",
+        None,
+    ),
+    (
+        "joint_states_topic",
+        "/joint_states",
+        "where the joint states go (JointStateTopicSystem's joint_states_topic)",
+        None,
+    ),
+    (
+        "path_tolerance",
+        0.0,
+        "default path tolerance of the piston [m] (0 = none; JTC's constraints.<joint>.trajectory)",
+        (0.0, 1.0),
+    ),
+    (
+        "goal_tolerance",
+        0.0,
+        "default goal tolerance of the piston [m] (0 = none; JTC's constraints.<joint>.goal)",
+        (0.0, 1.0),
+    ),
+    (
+        "stopped_velocity_tolerance",
+        0.01,
+        "default goal velocity tolerance [m/s] (JTC's constraints.stopped_velocity_tolerance)",
+        (0.0, 100.0),
+    ),
+    (
+        "goal_time_tolerance",
+        0.0,
+        "default time past a trajectory's end to reach the goal "
+        "tolerance [s] (0 = wait; JTC's constraints.goal_time)",
+        (0.0, 3600.0),
+    ),
+)
 
 
 @dataclass(frozen=True)
@@ -101,13 +134,24 @@ class StackLayer:
         self.tf = None
         if gp("publish_tf").value:
             mount_frame = gp("mount_frame").value
-            mount = ((mount_frame, list(gp("mount_xyz").value), list(gp("mount_rpy").value))
-                     if mount_frame else None)  # fmt: skip
-            control = description.ros2_control_block(self.joint_names, self.commands_topic,
-                                                     self.states_topic)  # fmt: skip
-            self.tf = TfPublisher(node, model.params, self.joint_names, model.frame_id,
-                                  hooks.actuator().force_limit, mount, control,
-                                  hooks.record)  # fmt: skip
+            mount = (
+                (mount_frame, list(gp("mount_xyz").value), list(gp("mount_rpy").value))
+                if mount_frame
+                else None
+            )
+            control = description.ros2_control_block(
+                self.joint_names, self.commands_topic, self.states_topic
+            )
+            self.tf = TfPublisher(
+                node,
+                model.params,
+                self.joint_names,
+                model.frame_id,
+                hooks.actuator().force_limit,
+                mount,
+                control,
+                hooks.record,
+            )
         self.defaults = Tolerances(
             path_position=gp("path_tolerance").value,
             goal_position=gp("goal_tolerance").value,
@@ -115,9 +159,14 @@ class StackLayer:
             goal_time=gp("goal_time_tolerance").value,
         )
         self.action = FollowJointTrajectoryServer(
-            node, hooks.actuator, self.joint_names[0], self.defaults, self._action_event,
-            hold_duration=model.params.T_opening, now_ns=hooks.now_ns,
-        )  # fmt: skip
+            node,
+            hooks.actuator,
+            self.joint_names[0],
+            self.defaults,
+            self._action_event,
+            hold_duration=model.params.T_opening,
+            now_ns=hooks.now_ns,
+        )
         self.sub_commands = None
 
     # ---- what the node asks ----------------------------------------------------------------------
@@ -131,8 +180,11 @@ class StackLayer:
         record)."""
         names = {"follow_joint_trajectory": self.action.name}
         if self.tf is not None:
-            names.update(tf=self.tf.pub_tf.topic_name, tf_static=self.tf.pub_static.topic_name,
-                         robot_description=self.tf.pub_description.topic_name)  # fmt: skip
+            names.update(
+                tf=self.tf.pub_tf.topic_name,
+                tf_static=self.tf.pub_static.topic_name,
+                robot_description=self.tf.pub_description.topic_name,
+            )
         return names
 
     def recorded_topics(self) -> list[tuple[str, type, QoSProfile]]:
@@ -146,9 +198,12 @@ class StackLayer:
 
     def activate(self) -> None:
         self.sub_commands = self.node.create_subscription(
-            JointState, self.commands_topic, self._on_joint_command,
-            QoSProfile(depth=COMMAND_QOS_DEPTH), raw=True,
-        )  # fmt: skip
+            JointState,
+            self.commands_topic,
+            self._on_joint_command,
+            QoSProfile(depth=COMMAND_QOS_DEPTH),
+            raw=True,
+        )
         self.action.active_flag = True
 
     def _on_joint_command(self, data: bytes) -> None:
@@ -182,8 +237,9 @@ class StackLayer:
         """After the states of a tick are out: the action's goals and feedback."""
         self.action.update(stamp_ns, now_ns)
 
-    def _action_event(self, outcome: str, level: bytes, reason: str, values: dict,
-                      now_ns: int) -> None:  # fmt: skip
+    def _action_event(
+        self, outcome: str, level: bytes, reason: str, values: dict, now_ns: int
+    ) -> None:
         self.hooks.event(self.action.name, outcome, level, reason, values, now_ns)
 
 

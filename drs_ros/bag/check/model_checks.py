@@ -71,8 +71,13 @@ def joint_row(log_ns: int, msg, joint_names: Sequence[str]) -> tuple | None:
     if len(msg.position) < 3:
         return None
     eff = list(msg.effort)
-    return (stamp_s(log_ns, msg), log_ns, pick(msg.position), pick(msg.velocity),
-            eff[order[0]] if len(eff) > order[0] else math.nan)  # fmt: skip
+    return (
+        stamp_s(log_ns, msg),
+        log_ns,
+        pick(msg.position),
+        pick(msg.velocity),
+        eff[order[0]] if len(eff) > order[0] else math.nan,
+    )
 
 
 def _worst(err: np.ndarray, t: np.ndarray) -> tuple[float, float, int]:
@@ -90,8 +95,17 @@ def _skipped(name, topic, unit, tol, why) -> CheckResult:
 
 def _refused(name, topic, samples, tol, exc) -> CheckResult:
     """A force check failed because the force model refuses the logged motion."""
-    return CheckResult(name, topic, "N", samples, math.inf, math.nan, tol, "FAIL",
-                       f"the force model refuses the logged motion: {exc}")  # fmt: skip
+    return CheckResult(
+        name,
+        topic,
+        "N",
+        samples,
+        math.inf,
+        math.nan,
+        tol,
+        "FAIL",
+        f"the force model refuses the logged motion: {exc}",
+    )
 
 
 def _nearest(log_ref: np.ndarray, log_query: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -267,17 +281,21 @@ class ModelChecker:
         rows, self._rows = self._rows, []
         scalars = {}
         for key, samples in self._scalars.items():
-            scalars[key] = (np.array([s[0] for s in samples], dtype=np.int64),
-                            np.array([s[1] for s in samples], dtype=float))  # fmt: skip
+            scalars[key] = (
+                np.array([s[0] for s in samples], dtype=np.int64),
+                np.array([s[1] for s in samples], dtype=float),
+            )
             self._scalars[key] = []
-        self._window.append(_Block(
-            np.array([r[0] for r in rows], dtype=float),
-            np.array([r[1] for r in rows], dtype=np.int64),
-            np.array([r[2] for r in rows], dtype=float).reshape(-1, 3),
-            np.array([r[3] for r in rows], dtype=float).reshape(-1, 3),
-            np.array([r[4] for r in rows], dtype=float),
-            scalars,
-        ))  # fmt: skip
+        self._window.append(
+            _Block(
+                np.array([r[0] for r in rows], dtype=float),
+                np.array([r[1] for r in rows], dtype=np.int64),
+                np.array([r[2] for r in rows], dtype=float).reshape(-1, 3),
+                np.array([r[3] for r in rows], dtype=float).reshape(-1, 3),
+                np.array([r[4] for r in rows], dtype=float),
+                scalars,
+            )
+        )
         self.states += len(rows)
         self._closed += 1
         # a block is checked when its successor is complete; the one before it is then dropped
@@ -298,8 +316,9 @@ class ModelChecker:
         p = self.p
         if len(own.t):
             self.loop.add(np.max(np.abs(constraint(own.q, p)), axis=-1), own.t)
-            self.velocity.add(np.max(np.abs(constraint_velocity_term(own.q, own.qd, p)),
-                                     axis=-1), own.t)  # fmt: skip
+            self.velocity.add(
+                np.max(np.abs(constraint_velocity_term(own.q, own.qd, p)), axis=-1), own.t
+            )
             finite = np.all(np.isfinite(own.q), axis=1) & np.all(np.isfinite(own.qd), axis=1)
             bad = int((~finite).sum())
             if bad and not self.n_bad:
@@ -314,8 +333,7 @@ class ModelChecker:
         if self.force_model is not None:
             acc_log = np.concatenate([b.scalars["accel"][0] for b in ctx])
             acc_val = np.concatenate([b.scalars["accel"][1] for b in ctx])
-            self._accel_block(q[mine], qd[mine], effort[mine], t[mine], log[mine], acc_log,
-                              acc_val)  # fmt: skip
+            self._accel_block(q[mine], qd[mine], effort[mine], t[mine], log[mine], acc_log, acc_val)
             if not self.accel_seen:
                 self._fd_block(t, q, qd, effort, mine)
         self._checked += 1
@@ -336,8 +354,7 @@ class ModelChecker:
         p = self.p
         s_min, s_max = stroke_limits(p)
         at_rest = np.all(qd == 0.0, axis=1)
-        on_stop = at_rest & ((np.abs(q[:, 0] - s_min) < 1e-12) |
-                             (np.abs(q[:, 0] - s_max) < 1e-12))  # fmt: skip
+        on_stop = at_rest & ((np.abs(q[:, 0] - s_min) < 1e-12) | (np.abs(q[:, 0] - s_max) < 1e-12))
         self.accel_on_stop += int(on_stop.sum())
         if not len(acc_log):
             return
@@ -371,8 +388,9 @@ class ModelChecker:
             return
         qdd = np.gradient(qds, ts, axis=0)
         try:
-            model = np.asarray(self.force_model(qs[owned], qds[owned], qdd[owned], self.p),
-                               dtype=float).reshape(-1)  # fmt: skip
+            model = np.asarray(
+                self.force_model(qs[owned], qds[owned], qdd[owned], self.p), dtype=float
+            ).reshape(-1)
         except DRSError as exc:
             self.fd_refusal = exc
             return
@@ -396,10 +414,19 @@ class ModelChecker:
         ]
         if self.states:
             bad = self.n_bad
-            out.append(CheckResult("finite joint states", js_topic, "count", self.states,
-                                   float(bad), self.first_bad if bad else math.nan, 0.0,
-                                   "FAIL" if bad else "ok",
-                                   f"{bad} joint states hold NaN/inf" if bad else ""))  # fmt: skip
+            out.append(
+                CheckResult(
+                    "finite joint states",
+                    js_topic,
+                    "count",
+                    self.states,
+                    float(bad),
+                    self.first_bad if bad else math.nan,
+                    0.0,
+                    "FAIL" if bad else "ok",
+                    f"{bad} joint states hold NaN/inf" if bad else "",
+                )
+            )
         out.append(self.gap.result("gap vs kinematics.gap(q)", self.tp["flap_gap"], "m", tol))
         if self.force_model is not None and self.accel_seen and self.states:
             out.append(self._accel_result())
@@ -410,8 +437,13 @@ class ModelChecker:
     def _accel_result(self) -> CheckResult:
         name, topic = "piston force vs model, logged accel.", self.tp["piston_acceleration"]
         if self.accel_used == 0:
-            return _skipped(name, topic, "N", self.force_tol,
-                            "no joint state paired with an acceleration off the end stops")
+            return _skipped(
+                name,
+                topic,
+                "N",
+                self.force_tol,
+                "no joint state paired with an acceleration off the end stops",
+            )
         if self.accel_refusal is not None:
             return _refused(name, topic, self.accel_used, self.force_tol, self.accel_refusal)
         note = f"{self.force_note}; {self.accel_on_stop} samples resting on an end stop left out"
@@ -420,22 +452,32 @@ class ModelChecker:
     def _fd_result(self) -> CheckResult:
         js_topic, force_tol = self.tp["joint_states"], self.force_tol
         if self.force_model is None:
-            return _skipped(FORCE_CHECK, js_topic, "N", force_tol,
-                            self.force_note or "skipped: no force model")  # fmt: skip
+            return _skipped(
+                FORCE_CHECK, js_topic, "N", force_tol, self.force_note or "skipped: no force model"
+            )
         if self.states < 3:
             return _skipped(FORCE_CHECK, js_topic, "N", force_tol, "fewer than 3 joint states")
         if self.fd_good < 3:
-            return _skipped(FORCE_CHECK, js_topic, "N", force_tol,
-                            "fewer than 3 usable joint states")  # fmt: skip
+            return _skipped(
+                FORCE_CHECK, js_topic, "N", force_tol, "fewer than 3 usable joint states"
+            )
         if self.fd_refusal is not None:
             return _refused(FORCE_CHECK, js_topic, self.fd_good, force_tol, self.fd_refusal)
-        note = (f"{self.force_note}; qdd by finite differences of the logged qd, peak |F| "
-                f"{self.fd_peak:.4g} N")  # fmt: skip
+        note = (
+            f"{self.force_note}; qdd by finite differences of the logged qd, peak |F| "
+            f"{self.fd_peak:.4g} N"
+        )
         if self.force_model_tol is None:
-            res = self.fd.result(FORCE_CHECK, js_topic, "N", math.inf,
-                                 note + "; informational, set a tolerance to enforce")
-            return CheckResult(**{**asdict(res), "tol": math.nan,
-                                  "status": "info" if res.samples else res.status})  # fmt: skip
+            res = self.fd.result(
+                FORCE_CHECK,
+                js_topic,
+                "N",
+                math.inf,
+                note + "; informational, set a tolerance to enforce",
+            )
+            return CheckResult(
+                **{**asdict(res), "tol": math.nan, "status": "info" if res.samples else res.status}
+            )
         return self.fd.result(FORCE_CHECK, js_topic, "N", self.force_model_tol, note)
 
 

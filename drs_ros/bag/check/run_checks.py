@@ -70,8 +70,14 @@ class RunChecker:
     ``pressure_tol`` [Pa] is the tolerance of the hydraulic pressure checks; ``node`` the fully
     qualified name whose parameters and records are read."""
 
-    def __init__(self, model: ModelChecker, *, pressure_tol: float = 1.0, node: str = "/drs",
-                 hydraulic_overrides: dict | None = None):  # fmt: skip
+    def __init__(
+        self,
+        model: ModelChecker,
+        *,
+        pressure_tol: float = 1.0,
+        node: str = "/drs",
+        hydraulic_overrides: dict | None = None,
+    ):
         self.model, self.p = model, model.p
         # HydraulicParams values set over the recorded ones (a --params file's hydraulic names)
         self.hydraulic_overrides = dict(hydraulic_overrides or {})
@@ -92,8 +98,19 @@ class RunChecker:
         self._zero_force = False  # a supply loss on a rung that models it as a zero force
         self._stuck = False
         self._stuck_spool: float | None = None
-        self.worst = {k: _Worst() for k in ("sensor", "force_topic", "kinematic", "statics",
-                                            "zero_force", "rod", "supply", "spool")}  # fmt: skip
+        self.worst = {
+            k: _Worst()
+            for k in (
+                "sensor",
+                "force_topic",
+                "kinematic",
+                "statics",
+                "zero_force",
+                "rod",
+                "supply",
+                "spool",
+            )
+        }
         self.on_stop = self.missing_pressures = 0
         self.bad_faults: list[str] = []  # accepted fault records the model refuses
 
@@ -224,8 +241,9 @@ class RunChecker:
             w["force_topic"].add([_dev(tick["piston_force"], effort)], [t])
         if self.rung == "kinematic":
             forces = [effort, tick.get("piston_force", math.nan)]
-            w["kinematic"].add([max((abs(f) for f in forces if not math.isnan(f)), default=0.0)],
-                               [t])  # fmt: skip
+            w["kinematic"].add(
+                [max((abs(f) for f in forces if not math.isnan(f)), default=0.0)], [t]
+            )
         elif self.rung == "quasi-static":
             self._statics(t, q, qd, effort)
         elif self.rung == "hydraulic":
@@ -264,27 +282,55 @@ class RunChecker:
         """Every check's result: the joint-state checks, then the rung's and the faults'."""
         self._resolve()
         self._flush()
-        out = [r for r in self.model.results()
-               if self.rung in DYNAMIC_RUNGS or r.name != FORCE_CHECK]  # fmt: skip
+        out = [
+            r for r in self.model.results() if self.rung in DYNAMIC_RUNGS or r.name != FORCE_CHECK
+        ]
         return out + self._rung_results()
 
     def _rung_results(self) -> list[CheckResult]:
         tp, w, ftol = self.tp, self.worst, self.model.force_tol
         js, force = tp["joint_states"], tp["piston_force"]
-        out = [w["force_topic"].result("piston force topic vs joint effort", force, "N", 0.0,
-                                       "the same value published twice")]  # fmt: skip
+        out = [
+            w["force_topic"].result(
+                "piston force topic vs joint effort",
+                force,
+                "N",
+                0.0,
+                "the same value published twice",
+            )
+        ]
         if self.rung is None:
-            out.append(CheckResult("rung of the run", tp["command_events"], "-", 0, math.inf,
-                                   math.nan, 0.0, "FAIL", self.rung_error))  # fmt: skip
+            out.append(
+                CheckResult(
+                    "rung of the run",
+                    tp["command_events"],
+                    "-",
+                    0,
+                    math.inf,
+                    math.nan,
+                    0.0,
+                    "FAIL",
+                    self.rung_error,
+                )
+            )
         elif self.rung == "kinematic":
             res = w["kinematic"].result("no piston force (kinematic rung)", js, "N", 0.0)
-            note = ("the kinematic rung models no force: every force sample is NaN or absent"
-                    if res.status == "ok" else "the kinematic rung models no force, yet the bag "
-                    "holds force values")  # fmt: skip
+            note = (
+                "the kinematic rung models no force: every force sample is NaN or absent"
+                if res.status == "ok"
+                else "the kinematic rung models no force, yet the bag holds force values"
+            )
             out.append(replace(res, note=note))
         elif self.rung == "quasi-static":
-            out.append(w["statics"].result("piston force vs statics", js, "N", ftol,
-                       f"{self.on_stop} samples resting on an end stop left out"))  # fmt: skip
+            out.append(
+                w["statics"].result(
+                    "piston force vs statics",
+                    js,
+                    "N",
+                    ftol,
+                    f"{self.on_stop} samples resting on an end stop left out",
+                )
+            )
         elif self.rung == "hydraulic":
             out += self._hydraulic_results()
         out += self._fault_results()
@@ -292,27 +338,56 @@ class RunChecker:
 
     def _hydraulic_results(self) -> list[CheckResult]:
         tp, w, ptol = self.tp, self.worst, self.pressure_tol
-        note = (f"{self.missing_pressures} joint states without both pressures"
-                if self.missing_pressures else "p_A A_A - p_B A_B - friction")  # fmt: skip
+        note = (
+            f"{self.missing_pressures} joint states without both pressures"
+            if self.missing_pressures
+            else "p_A A_A - p_B A_B - friction"
+        )
         return [
-            w["rod"].result("piston force vs chamber pressures", tp["pressure_piston_side"], "N",
-                            self.model.force_tol, note),
-            w["supply"].result("supply pressure vs faults", tp["supply_pressure"], "Pa", ptol,
-                               "the supply, its loss and ramps as recorded"),
-        ]  # fmt: skip
+            w["rod"].result(
+                "piston force vs chamber pressures",
+                tp["pressure_piston_side"],
+                "N",
+                self.model.force_tol,
+                note,
+            ),
+            w["supply"].result(
+                "supply pressure vs faults",
+                tp["supply_pressure"],
+                "Pa",
+                ptol,
+                "the supply, its loss and ramps as recorded",
+            ),
+        ]
 
     def _fault_results(self) -> list[CheckResult]:
         tp, w = self.tp, self.worst
         out = []
         if self.bad_faults:
-            out.append(CheckResult("recorded faults", tp["command_events"], "count",
-                                   len(self.bad_faults), float(len(self.bad_faults)), math.nan,
-                                   0.0, "FAIL", "; ".join(self.bad_faults)))  # fmt: skip
+            out.append(
+                CheckResult(
+                    "recorded faults",
+                    tp["command_events"],
+                    "count",
+                    len(self.bad_faults),
+                    float(len(self.bad_faults)),
+                    math.nan,
+                    0.0,
+                    "FAIL",
+                    "; ".join(self.bad_faults),
+                )
+            )
         if w["sensor"].samples:
-            out.append(w["sensor"].result(
-                "stroke vs faulty sensor model", tp["joint_states"], "m", self.model.tol,
-                "the sensor faults replayed (seeded noise, dropouts, bias, frozen); the true "
-                "stroke, from the flap angle, is what the other checks use"))  # fmt: skip
+            out.append(
+                w["sensor"].result(
+                    "stroke vs faulty sensor model",
+                    tp["joint_states"],
+                    "m",
+                    self.model.tol,
+                    "the sensor faults replayed (seeded noise, dropouts, bias, frozen); the true "
+                    "stroke, from the flap angle, is what the other checks use",
+                )
+            )
         if w["zero_force"].samples:
             out.append(
                 w["zero_force"].result(
@@ -324,8 +399,11 @@ class RunChecker:
                 )
             )
         if w["spool"].samples:
-            out.append(w["spool"].result("stuck spool holds", tp["valve_spool"], "-", 0.0,
-                                         "the spool where it stuck"))  # fmt: skip
+            out.append(
+                w["spool"].result(
+                    "stuck spool holds", tp["valve_spool"], "-", 0.0, "the spool where it stuck"
+                )
+            )
         return out
 
 
@@ -333,10 +411,16 @@ def fault_report(run: RecordedRun) -> list[dict]:
     """The recorded faults' spans, JSON-ready: fault, value, from and to in simulated time [s]
     and log time [ns] (``to`` None: to the end of the recording)."""
     return [
-        {"fault": s.fault, "value": s.value, "sim_from_s": s.sim_from_s, "sim_to_s": s.sim_to_s,
-         "log_from_ns": s.log_from_ns, "log_to_ns": s.log_to_ns}
+        {
+            "fault": s.fault,
+            "value": s.value,
+            "sim_from_s": s.sim_from_s,
+            "sim_to_s": s.sim_to_s,
+            "log_from_ns": s.log_from_ns,
+            "log_to_ns": s.log_to_ns,
+        }
         for s in run.spans
-    ]  # fmt: skip
+    ]
 
 
 __all__ = ["RunChecker", "TICK_TOPICS", "fault_report"]

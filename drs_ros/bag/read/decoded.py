@@ -121,10 +121,20 @@ def stream_bag(
     result = scan(path, take, recover=recover, topics=wanted)
     notes = list(result.notes)
     if result.complete:
-        notes.insert(0, f"verified: {result.message_count} messages, every byte read "
-                        f"({verified_what(result)})")  # fmt: skip
-    return BagData(result.path, {}, dict(result.counts), not result.complete, notes, first,
-                   result.start_ns, result.end_ns)  # fmt: skip
+        notes.insert(
+            0,
+            f"verified: {result.message_count} messages, every byte read ({verified_what(result)})",
+        )
+    return BagData(
+        result.path,
+        {},
+        dict(result.counts),
+        not result.complete,
+        notes,
+        first,
+        result.start_ns,
+        result.end_ns,
+    )
 
 
 __all__ = ["BagData", "decoder", "stamp_s", "stream_bag", "verified_what"]

@@ -20,10 +20,16 @@ from drs_ros.names import FAULT_PREFIX, FIDELITY
 
 #: rcl_interfaces/ParameterType values -> the ParameterValue field holding the value.
 _VALUE_FIELDS = {
-    1: "bool_value", 2: "integer_value", 3: "double_value", 4: "string_value",
-    5: "byte_array_value", 6: "bool_array_value", 7: "integer_array_value",
-    8: "double_array_value", 9: "string_array_value",
-}  # fmt: skip
+    1: "bool_value",
+    2: "integer_value",
+    3: "double_value",
+    4: "string_value",
+    5: "byte_array_value",
+    6: "bool_array_value",
+    7: "integer_array_value",
+    8: "double_array_value",
+    9: "string_array_value",
+}
 
 
 def parameter_values(event) -> dict[str, object]:
@@ -71,8 +77,9 @@ def _start_event(messages: Sequence, node: str | None):
     return None
 
 
-def recorded_node_parameters(messages: Sequence,
-                             node: str | None = None) -> dict[str, object] | None:  # fmt: skip
+def recorded_node_parameters(
+    messages: Sequence, node: str | None = None
+) -> dict[str, object] | None:
     """The parameters ``node`` (a fully qualified name; None: the first node that recorded any)
     recorded at start (``(log_ns, ParameterEvent)`` pairs), or None. Which nodes a bag holds:
     :func:`drs_ros.bag.read.nodes.bag_nodes`."""
@@ -100,8 +107,11 @@ def hydraulic_params_from(values: dict[str, object] | None):
     the node recorded them (none) gives HydraulicParams' defaults."""
     from drs_model.fidelity.hydraulic_params import HYDRAULIC_FIELDS, hydraulic_from_dict
 
-    recorded = {k.removeprefix("hydraulic."): v for k, v in (values or {}).items()
-                if k.startswith("hydraulic.")}  # fmt: skip
+    recorded = {
+        k.removeprefix("hydraulic."): v
+        for k, v in (values or {}).items()
+        if k.startswith("hydraulic.")
+    }
     return hydraulic_from_dict({k: v for k, v in recorded.items() if k in HYDRAULIC_FIELDS})
 
 

@@ -149,18 +149,23 @@ def read_metadata(meta_path: str | Path) -> dict[str, Any]:
     _check_files(fields, meta, key)
     fields.count(fields.get(meta, key, "message_count"), f"{key}.message_count")
     _check_topics(fields, meta, key)
-    for field_name, unit in (("starting_time", "nanoseconds_since_epoch"),
-                             ("duration", "nanoseconds")):  # fmt: skip
+    for field_name, unit in (
+        ("starting_time", "nanoseconds_since_epoch"),
+        ("duration", "nanoseconds"),
+    ):
         value = fields.mapping(fields.get(meta, key, field_name), f"{key}.{field_name}")
         fields.count(fields.get(value, f"{key}.{field_name}", unit), f"{key}.{field_name}.{unit}")
     storage = meta.get("storage_identifier", "mcap")
     if storage not in STORAGES:
-        raise fields.bad(f"{key}.storage_identifier is {_shown(storage)}: only {STORAGES} bags "
-                         "are read")  # fmt: skip
+        raise fields.bad(
+            f"{key}.storage_identifier is {_shown(storage)}: only {STORAGES} bags are read"
+        )
     if storage == "sqlite3" and meta.get("compression_format"):
-        raise fields.bad(f"{key}.compression_format is {_shown(meta['compression_format'])}: "
-                         "compressed sqlite3 bags are not read (decompress with ros2 bag "
-                         "convert)")  # fmt: skip
+        raise fields.bad(
+            f"{key}.compression_format is {_shown(meta['compression_format'])}: "
+            "compressed sqlite3 bags are not read (decompress with ros2 bag "
+            "convert)"
+        )
     distro = meta.get("ros_distro")
     if distro is not None and not isinstance(distro, str):
         raise fields.bad(f"{key}.ros_distro must be a string, got {_shown(distro)}")
@@ -201,8 +206,10 @@ def _load_yaml(meta_path: str | Path, fields: _Fields) -> Any:
     where = fields.where
     try:
         # libyaml's safe loader when PyYAML has it (13x faster: a catalogue reads thousands)
-        return yaml.load(Path(meta_path).read_text(encoding="utf-8"),
-                         Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))  # fmt: skip
+        return yaml.load(
+            Path(meta_path).read_text(encoding="utf-8"),
+            Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader),
+        )
     except (OSError, UnicodeDecodeError) as exc:
         raise BagMetadataError(f"{where!r}: cannot be read ({exc})") from exc
     except yaml.YAMLError as exc:
@@ -216,8 +223,7 @@ def _check_files(fields: _Fields, meta: dict, key: str) -> None:
     """``relative_file_paths``: a non-empty list of names of files inside the bag directory."""
     files = fields.get(meta, key, "relative_file_paths")
     if not isinstance(files, list) or not files:
-        raise fields.bad(f"{key}.relative_file_paths must be a non-empty list, got "
-                         f"{_shown(files)}")  # fmt: skip
+        raise fields.bad(f"{key}.relative_file_paths must be a non-empty list, got {_shown(files)}")
     for i, name in enumerate(files):
         fields.text(name, f"{key}.relative_file_paths[{i}]")
         if Path(name).is_absolute() or ".." in Path(name).parts:
@@ -237,11 +243,13 @@ def _check_topics(fields: _Fields, meta: dict, key: str) -> None:
         fields.mapping(entry, name)
         topic = fields.mapping(fields.get(entry, name, "topic_metadata"), f"{name}.topic_metadata")
         for part in ("name", "type"):
-            fields.text(fields.get(topic, f"{name}.topic_metadata", part),
-                        f"{name}.topic_metadata.{part}")  # fmt: skip
+            fields.text(
+                fields.get(topic, f"{name}.topic_metadata", part), f"{name}.topic_metadata.{part}"
+            )
         if "serialization_format" in topic:
-            fields.text(topic["serialization_format"],
-                        f"{name}.topic_metadata.serialization_format")  # fmt: skip
+            fields.text(
+                topic["serialization_format"], f"{name}.topic_metadata.serialization_format"
+            )
         fields.count(fields.get(entry, name, "message_count"), f"{name}.message_count")
 
 

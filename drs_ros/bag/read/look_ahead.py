@@ -82,8 +82,10 @@ def _mcap_channels(file: Path) -> list[tuple[str, str]]:
 
     summary = _summary(file)
     if summary is not None:
-        return [(c.topic, _type_name(summary.schemas.get(c.schema_id)))
-                for c in summary.channels.values()]  # fmt: skip
+        return [
+            (c.topic, _type_name(summary.schemas.get(c.schema_id)))
+            for c in summary.channels.values()
+        ]
     out, schemas = [], {}
     for rec in _streamed_records(file):
         if isinstance(rec, Schema):
@@ -198,9 +200,15 @@ def _chunk_messages(f, index, ids: list[int], first_only: set[str], by_id: dict)
 
 
 def _recorded(schema, channel, message) -> RecordedMessage:
-    return RecordedMessage(channel.topic, _type_name(schema), message.log_time,
-                           message.publish_time, message.sequence, bytes(message.data),
-                           0)  # fmt: skip
+    return RecordedMessage(
+        channel.topic,
+        _type_name(schema),
+        message.log_time,
+        message.publish_time,
+        message.sequence,
+        bytes(message.data),
+        0,
+    )
 
 
 def _streamed_messages(file: Path, topics: set[str], first_only: set[str]):
@@ -237,8 +245,9 @@ def _sqlite_messages(bag, topics: set[str], first_only: set[str]):
                 continue
             if topic in first_only:
                 done.add(topic)
-            yield RecordedMessage(topic, type_name, row.log_time, row.publish_time, row.sequence,
-                                  row.data, 0)  # fmt: skip
+            yield RecordedMessage(
+                topic, type_name, row.log_time, row.publish_time, row.sequence, row.data, 0
+            )
     except BagReadError:
         return
 

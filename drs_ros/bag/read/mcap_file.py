@@ -126,8 +126,10 @@ class _McapFileScan:
             f.seek(0, 2)
             size = f.tell()
             if size != end_of_file:
-                self.fail(f"{size - end_of_file} unread bytes after the closing magic at offset "
-                          f"{end_of_file}")  # fmt: skip
+                self.fail(
+                    f"{size - end_of_file} unread bytes after the closing magic at offset "
+                    f"{end_of_file}"
+                )
             _check_summary(f, self.footer, size, self.fail)
 
     def data_record(self, rec, at: int) -> None:
@@ -178,8 +180,17 @@ def mcap_read_errors() -> tuple[type[BaseException], ...]:
     file: the errors a reader of a bag means to catch (and no other)."""
     from mcap.exceptions import McapError
 
-    return (McapError, ValueError, EOFError, OSError, struct.error, KeyError, IndexError,
-            UnicodeDecodeError, *_decompression_errors())  # fmt: skip
+    return (
+        McapError,
+        ValueError,
+        EOFError,
+        OSError,
+        struct.error,
+        KeyError,
+        IndexError,
+        UnicodeDecodeError,
+        *_decompression_errors(),
+    )
 
 
 def _decompression_errors() -> tuple[type[BaseException], ...]:
@@ -225,8 +236,10 @@ def chunk_records(chunk) -> Iterator[object]:
             raise EOFError(f"a record header cut at byte {at} of a {length}-byte chunk")
         opcode, record_len = RECORD_HEAD.unpack_from(data, at)
         if opcode == Opcode.MESSAGE and record_len < fixed:
-            raise EOFError(f"a message record of {record_len} bytes at byte {at} of its chunk "
-                           f"(its fixed fields alone take {fixed})")  # fmt: skip
+            raise EOFError(
+                f"a message record of {record_len} bytes at byte {at} of its chunk "
+                f"(its fixed fields alone take {fixed})"
+            )
         at += head + record_len
         if at > length:
             raise EOFError(f"a record of {record_len} bytes overruns its {length}-byte chunk")
@@ -251,8 +264,10 @@ def _check_summary(f, footer, size: int, fail) -> None:
     data = f.read(footer_at + FOOTER_CRC_COVERED - footer.summary_start)
     crc = zlib.crc32(data)
     if crc != footer.summary_crc:
-        fail(f"summary CRC mismatch (footer says {footer.summary_crc:#010x}, the bytes from "
-             f"offset {footer.summary_start} give {crc:#010x})")  # fmt: skip
+        fail(
+            f"summary CRC mismatch (footer says {footer.summary_crc:#010x}, the bytes from "
+            f"offset {footer.summary_start} give {crc:#010x})"
+        )
 
 
 def _describe(exc: BaseException, where: str) -> str:

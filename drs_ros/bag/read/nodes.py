@@ -121,8 +121,9 @@ def bag_nodes(path: str | Path | BagFiles) -> list[BagNode]:
         for status in msg.status[:1]:
             values = {kv.key: kv.value for kv in status.values}
             if status.name == TOPICS and values.get("node", "").startswith("/"):
-                records.setdefault(values["node"], {k: v for k, v in values.items()
-                                                    if k not in _RECORD_KEYS})  # fmt: skip
+                records.setdefault(
+                    values["node"], {k: v for k, v in values.items() if k not in _RECORD_KEYS}
+                )
     out = []
     for name in sorted(set(starts) | set(records)):
         params = starts.get(name)
@@ -188,8 +189,10 @@ def find_node(bag: str | Path, name: str | None) -> BagNode | None:
 def node_note(node: BagNode | None) -> str:
     """What a report says of the node whose run it read."""
     if node is None:
-        return ("node: none named by the bag (no node parameters, no topics record): topics by "
-                "their default names or the --*-topic options")  # fmt: skip
+        return (
+            "node: none named by the bag (no node parameters, no topics record): topics by "
+            "their default names or the --*-topic options"
+        )
     return f"node: {node.describe()}"
 
 
@@ -202,9 +205,12 @@ class NodeTopics:
     notes: list[str] = field(default_factory=list)
 
 
-def resolve_topics(node: BagNode | None, roles: Sequence[str],
-                   given: Mapping[str, str | None] | None = None,
-                   held: Mapping[str, str] | None = None) -> NodeTopics:  # fmt: skip
+def resolve_topics(
+    node: BagNode | None,
+    roles: Sequence[str],
+    given: Mapping[str, str | None] | None = None,
+    held: Mapping[str, str] | None = None,
+) -> NodeTopics:
     """The topic of each role in ``roles``: the one ``given`` (an option ``--<role>-topic``),
     else the node's, else (a bag of no drs node) the default name's.
 
@@ -234,9 +240,13 @@ def resolve_topics(node: BagNode | None, roles: Sequence[str],
 def add_node_arguments(ap: argparse.ArgumentParser, roles: Sequence[str] = ()) -> None:
     """``--node`` and, for each of ``roles``, ``--<role>-topic`` (``dest`` ``topic_<role>``):
     what a verb's user gives where the bag does not say."""
-    ap.add_argument("--node", default=None, metavar="NAME",
-                    help="the drs node, by its fully qualified name (/car7/drs_rear) or its "
-                    "name, when the bag holds several (default: the bag's only one)")  # fmt: skip
+    ap.add_argument(
+        "--node",
+        default=None,
+        metavar="NAME",
+        help="the drs node, by its fully qualified name (/car7/drs_rear) or its "
+        "name, when the bag holds several (default: the bag's only one)",
+    )
     for role in roles:
         ap.add_argument(
             f"--{role.replace('_', '-')}-topic",

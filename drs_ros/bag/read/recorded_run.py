@@ -44,9 +44,17 @@ from drs_ros.names import ACCEPTED, CLOCK, FIDELITY, REFUSED, RESET, TOPICS
 from drs_ros.timestamps import nearest_step, seconds_from_ns
 
 #: The roles of the topics a re-run reads: the effect record, the commands, the signals.
-RUN_ROLES = ("command_events", *commands.COMMAND_TYPES, "drs_service", "follow_joint_trajectory",
-             "joint_states", "piston_force", "flap_gap", "piston_acceleration",
-             "parameter_events")  # fmt: skip
+RUN_ROLES = (
+    "command_events",
+    *commands.COMMAND_TYPES,
+    "drs_service",
+    "follow_joint_trajectory",
+    "joint_states",
+    "piston_force",
+    "flap_gap",
+    "piston_acceleration",
+    "parameter_events",
+)
 
 
 class ResimulationError(DRSRosError):
@@ -86,8 +94,9 @@ class RecordedRun:
     latest log time [ns]) and ``topics`` (role -> topic, :data:`RUN_ROLES`).
     ``fault_notes`` says which faults were refused (never in force)."""
 
-    def __init__(self, node: str = "/drs", *, keep_records: bool = False,
-                 node_parameters: dict | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, node: str = "/drs", *, keep_records: bool = False, node_parameters: dict | None = None
+    ) -> None:
         self.node = node
         self.node_parameters = node_parameters
         self.keep_records = keep_records
@@ -129,8 +138,10 @@ class RecordedRun:
 
     def _fault(self, r: EffectRecord) -> None:
         if r.outcome == REFUSED:
-            self.fault_notes.append(f"{r.source} = {r.values.get('value', '?')} refused at "
-                                    f"{r.sim_time:.6f} s (never in force)")  # fmt: skip
+            self.fault_notes.append(
+                f"{r.source} = {r.values.get('value', '?')} refused at "
+                f"{r.sim_time:.6f} s (never in force)"
+            )
             return
         if r.outcome != ACCEPTED:
             return
@@ -219,8 +230,11 @@ def read_run(bag: str | Path, node=_FIND, topics: dict[str, str] | None = None) 
         topics = resolve_topics(node, RUN_ROLES).topics
     cmd_topics = {topics[k] for k in commands.COMMAND_TYPES} if node is not None else set()
     events_topic = topics["command_events"]
-    run = RecordedRun(keep_records=True) if node is None else RecordedRun(
-        node.name, keep_records=True, node_parameters=node.parameters)  # fmt: skip
+    run = (
+        RecordedRun(keep_records=True)
+        if node is None
+        else RecordedRun(node.name, keep_records=True, node_parameters=node.parameters)
+    )
     decode = decoder()
 
     def keep(m) -> None:

@@ -36,8 +36,9 @@ class Row:
 
 def _failure(path: Path, exc: BaseException) -> BagReadError:
     said = " ".join(str(exc).split()) or type(exc).__name__
-    return BagReadError(f"{str(path)!r}: not a readable rosbag2 sqlite3 bag "
-                        f"({type(exc).__name__}: {said})")  # fmt: skip
+    return BagReadError(
+        f"{str(path)!r}: not a readable rosbag2 sqlite3 bag ({type(exc).__name__}: {said})"
+    )
 
 
 def check_integrity(path: Path) -> None:
@@ -60,8 +61,10 @@ def check_integrity(path: Path) -> None:
         problems = "; ".join(" ".join(r.split()) for r in result)  # one line, the first three
         raise BagReadError(f"{str(path)!r}: the sqlite3 database is damaged ({problems})")
     if not {"messages", "topics"} <= tables:
-        raise BagReadError(f"{str(path)!r}: an SQLite database without rosbag2's tables "
-                           f"'messages' and 'topics' (it has {sorted(tables)})")  # fmt: skip
+        raise BagReadError(
+            f"{str(path)!r}: an SQLite database without rosbag2's tables "
+            f"'messages' and 'topics' (it has {sorted(tables)})"
+        )
 
 
 def _sources(bag: BagFiles) -> list[Path]:
@@ -143,8 +146,10 @@ def iter_rows(bag: BagFiles, topics=None) -> Iterator[Row]:
             ):
                 topic = names.get(topic_id)
                 if topic is None:
-                    raise BagReadError(f"{str(file)!r}: a message names topic id {topic_id}, "
-                                       "which the topics table does not hold")  # fmt: skip
+                    raise BagReadError(
+                        f"{str(file)!r}: a message names topic id {topic_id}, "
+                        "which the topics table does not hold"
+                    )
                 if topics is not None and topic not in topics:
                     continue
                 n = sequence[topic] = sequence.get(topic, 0) + 1

@@ -18,10 +18,15 @@ from drs_ros.timestamps import nearest_step, ns_of, seconds_from_ns
 
 #: signal -> (unit, default tolerance)
 SIGNALS = {
-    "stroke": ("m", 1e-9), "link_angle": ("rad", 1e-9), "flap_angle": ("rad", 1e-9),
-    "stroke_rate": ("m/s", 1e-9), "link_rate": ("rad/s", 1e-9), "flap_rate": ("rad/s", 1e-9),
-    "piston_force": ("N", 1e-6), "gap": ("m", 1e-9),
-}  # fmt: skip
+    "stroke": ("m", 1e-9),
+    "link_angle": ("rad", 1e-9),
+    "flap_angle": ("rad", 1e-9),
+    "stroke_rate": ("m/s", 1e-9),
+    "link_rate": ("rad/s", 1e-9),
+    "flap_rate": ("rad/s", 1e-9),
+    "piston_force": ("N", 1e-6),
+    "gap": ("m", 1e-9),
+}
 
 
 def _deviation(recorded: float, simulated: float) -> float:
@@ -37,9 +42,17 @@ class _LargestDeviations:
     its first occurrence [s] and the samples compared; NaN counts as the worst."""
 
     def __init__(self, tolerances: dict[str, float]):
-        self.rows = {name: {"signal": name, "unit": unit, "max_deviation": 0.0,
-                            "at_time_s": math.nan, "samples": 0, "tol": tolerances[name]}
-                     for name, (unit, _) in SIGNALS.items()}  # fmt: skip
+        self.rows = {
+            name: {
+                "signal": name,
+                "unit": unit,
+                "max_deviation": 0.0,
+                "at_time_s": math.nan,
+                "samples": 0,
+                "tol": tolerances[name],
+            }
+            for name, (unit, _) in SIGNALS.items()
+        }
 
     def note(self, name: str, dev: float, t: float) -> None:
         row = self.rows[name]
@@ -67,8 +80,9 @@ class _LargestDeviations:
         return out
 
 
-def compare(run: RecordedRun, rerun: dict, tolerances: dict[str, float],
-            on_state: Callable | None = None) -> list[dict]:  # fmt: skip
+def compare(
+    run: RecordedRun, rerun: dict, tolerances: dict[str, float], on_state: Callable | None = None
+) -> list[dict]:
     """Largest deviation per signal between the recorded and the re-simulated samples, the
     recorded ones streamed from the bag (a second read, a chunk at a time).
 

@@ -60,8 +60,7 @@ class Rerun:
         st = self.sim.state
         q = st.q.copy()
         q[0] = self.faults.published_stroke(st.t, q[0])
-        self.states[self.step_of(st.t)] = (q, st.qd.copy(), st.piston_force, st.gap,
-                                           st.qdd[0])  # fmt: skip
+        self.states[self.step_of(st.t)] = (q, st.qd.copy(), st.piston_force, st.gap, st.qdd[0])
 
     def advance_to(self, t: float) -> None:
         """Step the rung to simulated time ``t`` [s], keeping each state."""
@@ -74,9 +73,11 @@ class Rerun:
                 # run's RESET record, if it has one here, follows
                 s_hold = commands.reset_at_rest(sim)
                 if self.step_of(sim.t) not in self.reset_steps:
-                    self.notes.append(f"at {sim.t:.6f} s the re-run's model refuses a step the "
-                                      f"run took ({exc}); held at {s_hold!r} m as the node "
-                                      "would")  # fmt: skip
+                    self.notes.append(
+                        f"at {sim.t:.6f} s the re-run's model refuses a step the "
+                        f"run took ({exc}); held at {s_hold!r} m as the node "
+                        "would"
+                    )
             self.keep()
 
     def apply(self, r) -> None:
@@ -108,8 +109,10 @@ class Rerun:
         try:
             apply_fault_record(self.faults, r)
         except DRSError as exc:
-            self.notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
-                              f"{r.values.get('value', '')}: {exc}")  # fmt: skip
+            self.notes.append(
+                f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
+                f"{r.values.get('value', '')}: {exc}"
+            )
         if self.sim.steps == 0 and self.sim.t == 0.0:  # given at start: the node's first tick
             self.keep()  # applies it before it publishes the first state
 
@@ -128,11 +131,14 @@ class Rerun:
                 )
         planned = r.values.get("planned_ns")  # a stamped trajectory: the clock it was read on
         try:
-            commands.apply(self.sim, key, msg, self.piston, None,
-                           None if planned is None else int(planned))  # fmt: skip
+            commands.apply(
+                self.sim, key, msg, self.piston, None, None if planned is None else int(planned)
+            )
         except DRSError as exc:
-            self.notes.append(f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
-                              f"{r.values.get('value', '')}: {exc}")  # fmt: skip
+            self.notes.append(
+                f"at {r.sim_time:.6f} s the re-run refuses {r.source} "
+                f"{r.values.get('value', '')}: {exc}"
+            )
         # no keep(): the node published this step's state before the command acted on it
 
     def state_at(self, k: int):
@@ -158,8 +164,14 @@ class Rerun:
             self.apply(self.pending[self.applied - 1])
 
 
-def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None, *,
-               rung_options: dict | None = None, replay_faults: bool = True) -> dict:  # fmt: skip
+def resimulate(
+    run: RecordedRun,
+    model: DRSParams,
+    fidelity: str | None = None,
+    *,
+    rung_options: dict | None = None,
+    replay_faults: bool = True,
+) -> dict:
     """The re-run of the recorded commands on the recorded rung (``rigid`` for a bag recorded
     before the ``fidelity`` parameter), or on ``fidelity``, step by step as
     :func:`.deviations.compare` asks for its states (``state_at(step)``), and its notes:
@@ -186,9 +198,15 @@ def resimulate(run: RecordedRun, model: DRSParams, fidelity: str | None = None, 
     rerun = Rerun(run, sim, dt, replay_faults)
     if np_["force_method"] == "virtual-work":
         rerun.notes.append(VIRTUAL_WORK_NOTE)
-    return {"sim": sim, "states": rerun.states, "dt": dt, "notes": rerun.notes,
-            "advance_to": rerun.advance_to, "state_at": rerun.state_at,
-            "finish": rerun.finish}  # fmt: skip
+    return {
+        "sim": sim,
+        "states": rerun.states,
+        "dt": dt,
+        "notes": rerun.notes,
+        "advance_to": rerun.advance_to,
+        "state_at": rerun.state_at,
+        "finish": rerun.finish,
+    }
 
 
 @dataclass

@@ -44,12 +44,21 @@ def bag_writer(out: str | Path, run: RecordedRun, models: tuple[DRSParams, objec
             rec.register_topic(tp["parameter_events"], ParameterEvent, 1000)
             rec.write(tp["parameter_events"], parameter_event(run.node, values, log), log)
             # the node's name and the topics written, as a node's topics record gives them
-            written = {k: tp[k] for k in ("joint_states", "piston_force", "flap_gap",
-                                          "piston_acceleration", "parameter_events",
-                                          "command_events")}  # fmt: skip
+            written = {
+                k: tp[k]
+                for k in (
+                    "joint_states",
+                    "piston_force",
+                    "flap_gap",
+                    "piston_acceleration",
+                    "parameter_events",
+                    "command_events",
+                )
+            }
             rec.register_topic(tp["command_events"], DiagnosticArray, 100)
-            record = command_event_msg(log, TOPICS, TOPICS, DiagnosticStatus.OK, "",
-                                       {"node": run.node, **written})  # fmt: skip
+            record = command_event_msg(
+                log, TOPICS, TOPICS, DiagnosticStatus.OK, "", {"node": run.node, **written}
+            )
             rec.write(tp["command_events"], record, log)
             rec.register_topic(tp["joint_states"], JointState, 10)
             for key in ("piston_force", "flap_gap", "piston_acceleration"):
@@ -57,9 +66,12 @@ def bag_writer(out: str | Path, run: RecordedRun, models: tuple[DRSParams, objec
         if state is None:
             return
         q, qd, force, gap, acc = state
-        js = JointState(name=names, position=[float(x) for x in q],
-                        velocity=[float(x) for x in qd],
-                        effort=[float(force), math.nan, math.nan])  # fmt: skip
+        js = JointState(
+            name=names,
+            position=[float(x) for x in q],
+            velocity=[float(x) for x in qd],
+            effort=[float(force), math.nan, math.nan],
+        )
         js.header.stamp = time_msg(ns_of(m.header.stamp))
         rec.write(tp["joint_states"], js, log)
         rec.write(tp["piston_force"], float_msg(force), log)

@@ -44,11 +44,14 @@ def _mcap_summary(files) -> tuple[dict, dict, int | None, int | None]:
             with open(file, "rb") as f:
                 summary = make_reader(f).get_summary()
         except Exception as exc:  # the mcap library's errors: a bad file, not a crash
-            raise BagReadError(f"{str(file)!r}: no readable MCAP summary "
-                               f"({type(exc).__name__}: {exc})") from exc  # fmt: skip
+            raise BagReadError(
+                f"{str(file)!r}: no readable MCAP summary ({type(exc).__name__}: {exc})"
+            ) from exc
         if summary is None or summary.statistics is None:
-            raise BagReadError(f"{str(file)!r}: no summary statistics (an unfinished recording? "
-                               "drs-bag recover makes it whole)")  # fmt: skip
+            raise BagReadError(
+                f"{str(file)!r}: no summary statistics (an unfinished recording? "
+                "drs-bag recover makes it whole)"
+            )
         for cid, channel in summary.channels.items():
             schema = summary.schemas.get(channel.schema_id)
             types.setdefault(channel.topic, schema.name if schema is not None else "")
@@ -72,10 +75,12 @@ def _sqlite_summary(bag) -> tuple[dict, dict, int | None, int | None]:
     for file in bag.files:
         try:
             with sqlite3.connect(f"file:{file}?mode=ro&immutable=1", uri=True) as db:
-                rows = db.execute("SELECT topics.name, topics.type, count(messages.id), "
-                                  "min(messages.timestamp), max(messages.timestamp) FROM topics "
-                                  "LEFT JOIN messages ON messages.topic_id = topics.id "
-                                  "GROUP BY topics.id").fetchall()  # fmt: skip
+                rows = db.execute(
+                    "SELECT topics.name, topics.type, count(messages.id), "
+                    "min(messages.timestamp), max(messages.timestamp) FROM topics "
+                    "LEFT JOIN messages ON messages.topic_id = topics.id "
+                    "GROUP BY topics.id"
+                ).fetchall()
             db.close()
         except sqlite3.Error as exc:
             raise BagReadError(
@@ -92,10 +97,21 @@ def _sqlite_summary(bag) -> tuple[dict, dict, int | None, int | None]:
 
 def catalogue_row(bag: str | Path) -> dict[str, Any]:
     """The catalogue's row of one bag (see the module docstring); never raises for the bag."""
-    row: dict[str, Any] = {"bag": str(bag), "storage": None, "source": None, "files": [],
-                           "size_bytes": None, "messages": None, "counts": {}, "topics": {},
-                           "start_ns": None, "duration_s": math.nan, "ros_distro": None,
-                           "error": None, "nodes": []}  # fmt: skip
+    row: dict[str, Any] = {
+        "bag": str(bag),
+        "storage": None,
+        "source": None,
+        "files": [],
+        "size_bytes": None,
+        "messages": None,
+        "counts": {},
+        "topics": {},
+        "start_ns": None,
+        "duration_s": math.nan,
+        "ros_distro": None,
+        "error": None,
+        "nodes": [],
+    }
     try:
         found = resolve(bag, require_metadata=False)
         row["storage"] = found.storage
@@ -129,8 +145,9 @@ def catalogue_row(bag: str | Path) -> dict[str, Any]:
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("bag", nargs="+", help="directories searched for bags, bags, or globs")
-    ap.add_argument("-o", "--output", required=True, type=output_path,
-                    help="the catalogue, a .parquet file")
+    ap.add_argument(
+        "-o", "--output", required=True, type=output_path, help="the catalogue, a .parquet file"
+    )
 
 
 def run(args: argparse.Namespace, prog: str = "drs-bag index") -> int:
@@ -154,8 +171,10 @@ def run(args: argparse.Namespace, prog: str = "drs-bag index") -> int:
     bad = [r for r in rows if r["error"]]
     for r in bad:
         print(f"{r['bag']}: {r['error']}", file=sys.stderr)
-    print(f"catalogued {len(rows)} bags ({sum(r['messages'] or 0 for r in rows)} messages, "
-          f"{len(bad)} with an error) into {args.output}")  # fmt: skip
+    print(
+        f"catalogued {len(rows)} bags ({sum(r['messages'] or 0 for r in rows)} messages, "
+        f"{len(bad)} with an error) into {args.output}"
+    )
     return EXIT_FAILED if bad else EXIT_OK
 
 

@@ -64,23 +64,36 @@ class FleetError(DRSRosError):
 def add_fleet_arguments(ap: argparse.ArgumentParser, *table_flags: str) -> None:
     """``--jobs``, ``--scheduler``, and (``table_flags``, e.g. ``-o``) the table's path."""
     if table_flags:
-        ap.add_argument(*table_flags, dest="output", default=None, type=output_path,
-                        help="with many bags: write the table, one row per bag, to this "
-                        ".parquet file")  # fmt: skip
-    ap.add_argument("--jobs", type=int, default=None,
-                    help="with many bags: worker processes of the embedded Dask cluster "
-                    "(default: the usable cores)")  # fmt: skip
-    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                    help="with many bags: run on the Dask cluster at ADDRESS "
-                    "(tcp://host:8786) instead of an embedded one")  # fmt: skip
+        ap.add_argument(
+            *table_flags,
+            dest="output",
+            default=None,
+            type=output_path,
+            help="with many bags: write the table, one row per bag, to this .parquet file",
+        )
+    ap.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        help="with many bags: worker processes of the embedded Dask cluster "
+        "(default: the usable cores)",
+    )
+    ap.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="with many bags: run on the Dask cluster at ADDRESS "
+        "(tcp://host:8786) instead of an embedded one",
+    )
 
 
 def _is_bag(path: Path) -> bool:
     """A bag by itself: a file, or a directory holding metadata.yaml or bag files."""
     if path.is_file():
         return True
-    return path.is_dir() and ((path / "metadata.yaml").is_file() or
-                              any(p.suffix in _BAG_SUFFIXES for p in path.iterdir()))  # fmt: skip
+    return path.is_dir() and (
+        (path / "metadata.yaml").is_file() or any(p.suffix in _BAG_SUFFIXES for p in path.iterdir())
+    )
 
 
 def table_path(args: argparse.Namespace) -> str | None:
@@ -181,8 +194,12 @@ def row_nodes(bag: str, name: str | None) -> list:
 
 #: The verdict of each exit status that means the same in every verb (each verb names its own
 #: verdicts of 0 and 1: :func:`verdicts`).
-SHARED_VERDICTS = {EXIT_UNREADABLE: "UNREADABLE", EXIT_RECOVERED: "RECOVERED",
-                   EXIT_INTERNAL: "INTERNAL ERROR", EXIT_NOTHING_TO_RERUN: "NOTHING TO RE-RUN"}
+SHARED_VERDICTS = {
+    EXIT_UNREADABLE: "UNREADABLE",
+    EXIT_RECOVERED: "RECOVERED",
+    EXIT_INTERNAL: "INTERNAL ERROR",
+    EXIT_NOTHING_TO_RERUN: "NOTHING TO RE-RUN",
+}
 
 
 def verdicts(passed: str, failed: str) -> dict[int, str]:
@@ -193,10 +210,19 @@ def verdicts(passed: str, failed: str) -> dict[int, str]:
 
 def base_row(bag: str, status: int, verdict: str, error: str, node=None) -> dict[str, Any]:
     """The columns every verb's row starts with (``node``: the row's drs node, or None)."""
-    return {"bag": str(bag), "node": None if node is None else node.name, "verdict": verdict,
-            "exit_status": int(status), "error": error or None, "storage": _storage(bag),
-            "messages": None, "counts": {}, "start_ns": None, "duration_s": math.nan,
-            "recovered": None}  # fmt: skip
+    return {
+        "bag": str(bag),
+        "node": None if node is None else node.name,
+        "verdict": verdict,
+        "exit_status": int(status),
+        "error": error or None,
+        "storage": _storage(bag),
+        "messages": None,
+        "counts": {},
+        "start_ns": None,
+        "duration_s": math.nan,
+        "recovered": None,
+    }
 
 
 def no_node_row(bag: str, error: Exception) -> dict[str, Any]:
@@ -214,20 +240,28 @@ def _storage(bag: str) -> str | None:
         return None
 
 
-def count_columns(counts: dict[str, int], start_ns: int | None, end_ns: int | None,
-                  recovered: bool) -> dict[str, Any]:  # fmt: skip
+def count_columns(
+    counts: dict[str, int], start_ns: int | None, end_ns: int | None, recovered: bool
+) -> dict[str, Any]:
     """Messages in all, per topic, the first log time [ns] and the duration [s]."""
-    duration = (seconds_from_ns(end_ns - start_ns)
-                if start_ns is not None and end_ns is not None else None)  # fmt: skip
-    return {"messages": sum(counts.values()), "counts": dict(counts), "start_ns": start_ns,
-            "duration_s": math.nan if duration is None else duration,
-            "recovered": bool(recovered)}  # fmt: skip
+    duration = (
+        seconds_from_ns(end_ns - start_ns) if start_ns is not None and end_ns is not None else None
+    )
+    return {
+        "messages": sum(counts.values()),
+        "counts": dict(counts),
+        "start_ns": start_ns,
+        "duration_s": math.nan if duration is None else duration,
+        "recovered": bool(recovered),
+    }
 
 
 def param_columns(params) -> dict[str, float]:
     """``param_<name>`` of every numeric model parameter (NaN when none was used)."""
-    return {f"param_{k}": (math.nan if params is None else float(getattr(params, k)))
-            for k in NUMERIC_FIELDS}  # fmt: skip
+    return {
+        f"param_{k}": (math.nan if params is None else float(getattr(params, k)))
+        for k in NUMERIC_FIELDS
+    }
 
 
 def hydraulic_columns(node_parameters, hydraulic) -> dict[str, object]:
@@ -236,8 +270,10 @@ def hydraulic_columns(node_parameters, hydraulic) -> dict[str, object]:
     a bag that never ran the hydraulic rung has no such columns)."""
     if hydraulic is None or not any(k.startswith("hydraulic.") for k in node_parameters or {}):
         return {}
-    return {f"param_hydraulic.{f.name}": getattr(hydraulic, f.name)
-            for f in dataclasses.fields(hydraulic)}  # fmt: skip
+    return {
+        f"param_hydraulic.{f.name}": getattr(hydraulic, f.name)
+        for f in dataclasses.fields(hydraulic)
+    }
 
 
 def timed_row(bag: str, row_function: Callable, args: argparse.Namespace) -> list[dict]:
@@ -250,20 +286,35 @@ def timed_row(bag: str, row_function: Callable, args: argparse.Namespace) -> lis
     return rows
 
 
-def run_rows(row_function: Callable, bags: Sequence[str], args: argparse.Namespace,
-             description: str, progress: bool | None = None) -> list[dict]:  # fmt: skip
+def run_rows(
+    row_function: Callable,
+    bags: Sequence[str],
+    args: argparse.Namespace,
+    description: str,
+    progress: bool | None = None,
+) -> list[dict]:
     """The rows of each bag (one per drs node), in order, computed on Dask (``args.jobs``,
     ``args.scheduler``); a task that raised anyway is a row with its error."""
     from drs_model.cluster import TaskFailure, dask_client, map_unordered
 
     rows: list[list[dict]] = [[] for _ in bags]
     with dask_client(args.scheduler, args.jobs) as client:
-        for i, result in map_unordered(client, timed_row, bags, description=description,
-                                       progress=progress, row_function=row_function,
-                                       args=args):  # fmt: skip
+        for i, result in map_unordered(
+            client,
+            timed_row,
+            bags,
+            description=description,
+            progress=progress,
+            row_function=row_function,
+            args=args,
+        ):
             if isinstance(result, TaskFailure):
-                failed = base_row(bags[i], EXIT_INTERNAL, SHARED_VERDICTS[EXIT_INTERNAL],
-                                  f"internal error: {result}")  # fmt: skip
+                failed = base_row(
+                    bags[i],
+                    EXIT_INTERNAL,
+                    SHARED_VERDICTS[EXIT_INTERNAL],
+                    f"internal error: {result}",
+                )
                 failed["task_s"] = math.nan
                 result = [failed]
             rows[i] = result
@@ -291,9 +342,15 @@ def to_table(rows: list[dict]):
         elif any(isinstance(v, list) for v in values):  # empty in every row, too
             kind = pa.list_(pa.string())
         else:
-            kind = (pa.bool_() if isinstance(sample, bool) else
-                    pa.int64() if isinstance(sample, int) else
-                    pa.float64() if isinstance(sample, float) else pa.string())  # fmt: skip
+            kind = (
+                pa.bool_()
+                if isinstance(sample, bool)
+                else pa.int64()
+                if isinstance(sample, int)
+                else pa.float64()
+                if isinstance(sample, float)
+                else pa.string()
+            )
             if kind == pa.float64():  # NaN (nothing to say) is a null: a missing value
                 data[name] = [None if v is None or v != v else float(v) for v in values]
         fields.append(pa.field(name, kind))
@@ -331,14 +388,20 @@ def format_summary(rows: list[dict], columns: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
-def run_fleet(row_function: Callable, args: argparse.Namespace, prog: str, done: str,
-              columns: Sequence[str] = ("messages", "duration_s")) -> int:  # fmt: skip
+def run_fleet(
+    row_function: Callable,
+    args: argparse.Namespace,
+    prog: str,
+    done: str,
+    columns: Sequence[str] = ("messages", "duration_s"),
+) -> int:
     """A verb over many bags: find them, run ``row_function`` on each on Dask, write the table
     (``-o``), print the summary; the exit status (see the module docstring)."""
     try:
         if args.output and not table_path(args):
-            raise FleetError(f"-o {args.output!r}: with many bags, -o names the table, a "
-                             ".parquet file")  # fmt: skip
+            raise FleetError(
+                f"-o {args.output!r}: with many bags, -o names the table, a .parquet file"
+            )
         bags = [str(b) for b in find_bags(args.bag)]
         if not bags:
             raise FleetError(f"no bag under {', '.join(map(repr, args.bag))}")

@@ -112,9 +112,15 @@ def _index_sqlite(bag) -> BagIndex:
 
     from drs_ros.bag.read import sqlite
 
-    channels = {c["topic"]: Channel(c["topic"], c["type_name"], c["message_encoding"],
-                                    c["metadata"].get("offered_qos_profiles") or None)
-                for c in sqlite.channels(bag)}  # fmt: skip
+    channels = {
+        c["topic"]: Channel(
+            c["topic"],
+            c["type_name"],
+            c["message_encoding"],
+            c["metadata"].get("offered_qos_profiles") or None,
+        )
+        for c in sqlite.channels(bag)
+    }
     start, end, count = math.inf, -1, 0
     for file in bag.files:
         try:

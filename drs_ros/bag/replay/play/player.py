@@ -305,8 +305,10 @@ def node_options(options: PlayOptions, index: BagIndex) -> PlayOptions:
     if options.topics:
         topics = [t for t in topics if t in options.topics]
     if not topics:
-        raise PlayError(f"--node {options.node}: {node.name} has no recorded topic to play"
-                        + (" among --topics" if options.topics else ""))  # fmt: skip
+        raise PlayError(
+            f"--node {options.node}: {node.name} has no recorded topic to play"
+            + (" among --topics" if options.topics else "")
+        )
     return dataclasses.replace(options, topics=tuple(sorted(topics)))
 
 
