@@ -16,8 +16,8 @@ from drs_model.compiled.scalar import compiled_or_plain
 from drs_model.errors import InputError, ParameterError, StiffStepError, UnsupportedCommandError
 from drs_model.fidelity import RUNGS, HydraulicParams, make_rung
 from drs_model.fidelity import hydraulic_kernels as hk
-from drs_model.fidelity.hydraulic import hydraulic_constants
 from drs_model.fidelity.hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, rk4_step
+from drs_model.fidelity.hydraulic_vector import hydraulic_constants
 from drs_model.inverse import inverse_dynamics
 
 P = DRSParams()
@@ -130,11 +130,18 @@ def _ideal(beta: float) -> HydraulicParams:
     lag, 20x the flow so it never saturates on the manoeuvre), no friction, no leak, no relief; a
     loop gain well under the oil column's frequency at every beta (200 rad/s crossover)."""
     return HydraulicParams(
-        flow_law="linear", spool_time_constant=0.0, viscous_friction=0.0, coulomb_friction=0.0,
-        breakaway_friction=0.0, leak_across_piston=0.0, relief_flow_gain=0.0,
-        valve_rated_flow=20 * 7.5 / 60000, bulk_modulus=beta, position_gain=10.0,
+        flow_law="linear",
+        spool_time_constant=0.0,
+        viscous_friction=0.0,
+        coulomb_friction=0.0,
+        breakaway_friction=0.0,
+        leak_across_piston=0.0,
+        relief_flow_gain=0.0,
+        valve_rated_flow=20 * 7.5 / 60000,
+        bulk_modulus=beta,
+        position_gain=10.0,
         entrained_air_fraction=0.0,
-    )  # fmt: skip
+    )
 
 
 def _limit_errors(beta: float) -> tuple[float, float]:
@@ -242,8 +249,23 @@ def test_the_stiff_limit_is_where_rk4_blows_up():
     def run(factor):
         y, step = y0.copy(), factor * RK4_LIMIT / rate
         for _ in range(int(0.01 / step)):
-            y = rk4_step(y, 0.0, 0.005, 0.0, 0.005, 0.0, 0.005, 0.0, 0.0, 210e5, 210e5, 0.0, step,
-                         tuple(c), tuple(h))  # fmt: skip
+            y = rk4_step(
+                y,
+                0.0,
+                0.005,
+                0.0,
+                0.005,
+                0.0,
+                0.005,
+                0.0,
+                0.0,
+                210e5,
+                210e5,
+                0.0,
+                step,
+                tuple(c),
+                tuple(h),
+            )
             if not np.all(np.isfinite(y)) or abs(y[2]) > 1e10:
                 return math.inf
         return abs(y[2] - rung.y[2])
