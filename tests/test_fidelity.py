@@ -16,8 +16,8 @@ from drs_model.compiled.scalar import compiled_or_plain
 from drs_model.errors import InputError, ParameterError, StiffStepError, UnsupportedCommandError
 from drs_model.fidelity import RUNGS, HydraulicParams, make_rung
 from drs_model.fidelity import hydraulic_kernels as hk
-from drs_model.fidelity.hydraulic import hydraulic_constants
 from drs_model.fidelity.hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, rk4_step
+from drs_model.fidelity.hydraulic_vector import hydraulic_constants
 from drs_model.inverse import inverse_dynamics
 
 P = DRSParams()

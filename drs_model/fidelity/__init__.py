@@ -20,8 +20,10 @@ from types import MappingProxyType
 
 from ..errors import InputError
 from .base import RungState
-from .hydraulic import HydraulicRung, equilibrium_state, hydraulic_constants
+from .hydraulic import HydraulicRung
+from .hydraulic_kernels import equilibrium_state
 from .hydraulic_params import HydraulicParams
+from .hydraulic_vector import hydraulic_constants
 from .kinematic import KinematicRung
 from .quasi_static import QuasiStaticRung
 from .rigid import RigidRung

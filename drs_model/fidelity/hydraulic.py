@@ -25,15 +25,17 @@ from .. import kinematics as kin
 from ..bodies import model_constants
 from ..commanded import CommandedActuator
 from ..compiled.scalar import compiled_or_plain
-from ..errors import InputError, StiffStepError, TooStiffError
+from ..errors import StiffStepError
 from ..params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from . import hydraulic_kernels as hk
 from . import hydraulic_steps as hs
+from . import hydraulic_vector
 from .base import RungState
 from .hydraulic_events import ContactLocator, EventLocator
-from .hydraulic_kernels import equilibrium_state, hydraulic_constants
+from .hydraulic_kernels import equilibrium_state
 from .hydraulic_params import HydraulicParams
 from .hydraulic_steps import CALLEES, RK4_LIMIT, STEP_METHODS, state_rate
+from .hydraulic_vector import hydraulic_constants
 from .supply import SupplyPressure
 
 
@@ -98,24 +100,12 @@ class HydraulicRung(CommandedActuator):
         recheck: bool = True,
         limit_moves: bool = True,
     ) -> None:
-        if method not in STEP_METHODS:
-            raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
-        if substep is not None and not (math.isfinite(substep) and substep > 0.0):
-            raise InputError(f"substep must be a finite number > 0 s, got {substep!r}")
-        if not (math.isfinite(stability_fraction) and 0.0 < stability_fraction <= 1.0):
-            raise InputError(f"stability_fraction must be in (0, 1], got {stability_fraction!r}")
-        if max_substeps is not None and (
-            isinstance(max_substeps, bool) or not isinstance(max_substeps, int) or max_substeps < 1
-        ):
-            raise InputError(f"max_substeps must be an int >= 1 or None, got {max_substeps!r}")
+        self.locate_events = hs.checked_options(
+            method, substep, stability_fraction, max_substeps, locate_events
+        )
         self._max_substeps = max_substeps
         self.stability_fraction = float(stability_fraction)
         self.guard = bool(guard)
-        if locate_events not in (True, False, "contacts"):
-            raise InputError(
-                f"locate_events must be True, False or 'contacts', got {locate_events!r}"
-            )
-        self.locate_events = "contacts" if locate_events == "contacts" else bool(locate_events)
         self.recheck = bool(recheck)
         self.hydraulic = HydraulicParams() if hydraulic is None else hydraulic
         self.method = method
@@ -170,10 +160,10 @@ class HydraulicRung(CommandedActuator):
         s_ref, v_ref = self._reference(self.t)
         ps = self.supply_pressure(self.t)
         mode = hk.MODE_FORCE if self.mode == "force" else hk.MODE_STROKE
+        f_ref, held = self._force_cmd, float(self._spool_held)
         _, bdd, _, _, _ = hk.hydraulic_derivatives(
-            psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, self._force_cmd, ps,
-            float(self._spool_held), c, h,
-        )  # fmt: skip
+            psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, held, c, h
+        )
         s, psi1, _, _ = kernels.psi3_configuration(psi3, c)
         q = (s, psi1, psi3)
         sin1, cos1 = math.sin(psi1), math.cos(psi1)
@@ -219,8 +209,10 @@ class HydraulicRung(CommandedActuator):
         """``(V_cav,A, V_cav,B)`` [m^3]: the vapour cavities of the chambers (0 while full)."""
         s, _, _, _ = kernels.psi3_configuration(float(self._y[0]), self._c)
         va, vb = hk.chamber_volumes(s, self._h)
-        return (hk.cavity_volume(float(self._y[2]), va, self._h),
-                hk.cavity_volume(float(self._y[3]), vb, self._h))  # fmt: skip
+        return (
+            hk.cavity_volume(float(self._y[2]), va, self._h),
+            hk.cavity_volume(float(self._y[3]), vb, self._h),
+        )
 
     # ---- supply and faults ---------------------------------------------------------------------
     def supply_pressure(self, t: float) -> float:
@@ -250,28 +242,11 @@ class HydraulicRung(CommandedActuator):
 
     def leaking(self, coefficient: float) -> tuple[float, ...]:
         """The rung's constants with the extra leak of :meth:`set_leak` (nothing changes)."""
-        base = self.hydraulic.leak_to_outside
-        return self._fault_constants("leak", coefficient, ((hk.C_LEAK_EXT, base),))
+        return hydraulic_vector.leaking(self._h, self.hydraulic, coefficient)
 
     def jammed(self, friction: float) -> tuple[float, ...]:
         """The rung's constants with the extra friction of :meth:`jam` (nothing changes)."""
-        hp = self.hydraulic
-        fields = ((hk.F_COULOMB, hp.coulomb_friction), (hk.F_BREAKAWAY, hp.breakaway_friction))
-        return self._fault_constants("jam friction", friction, fields)
-
-    def _fault_constants(self, what: str, extra: float, fields) -> tuple[float, ...]:
-        if not (isinstance(extra, (int, float)) and math.isfinite(extra) and extra >= 0.0):
-            raise InputError(f"{what} must be a finite number >= 0, got {extra!r}")
-        h = list(self._h)
-        for index, base in fields:
-            h[index] = base + float(extra)
-        friction = h[hk.F_COULOMB] > 0.0 or h[hk.F_BREAKAWAY] > 0.0
-        if friction and (h[hk.V_STRIBECK] <= 0.0 or h[hk.V_SMOOTH] <= 0.0):
-            raise InputError(
-                f"{what} needs stribeck_velocity and friction_smoothing_velocity > 0 in "
-                "HydraulicParams"
-            )
-        return tuple(h)
+        return hydraulic_vector.jammed(self._h, self.hydraulic, friction)
 
     def _use_constants(self, h: tuple[float, ...]) -> None:
         self.check_stiffness(h)
@@ -290,18 +265,10 @@ class HydraulicRung(CommandedActuator):
         full = self.hydraulic.supply_pressure
         probes = [(self._y, self.supply_pressure(self.t))]
         probes += [(y, full) for y in self._rest_at_stops]
-        rate = max(self._rate_fn(*(float(v) for v in y[:5]), p, c, h_arr)
-                   for y, p in probes)  # fmt: skip
-        longest = self.stability_fraction * RK4_LIMIT / rate
-        needed = self.dt / (longest if self.substep is None else self.substep)
-        if not needed * hs.STIFFNESS_MARGIN <= self.max_substeps:
-            raise TooStiffError(
-                f"too stiff for a physics step of {self.dt:.3g} s: its stiffest rate {rate:.4g} "
-                f"1/s needs {needed:.4g} {self.method} sub-steps per step, above "
-                f"1/{hs.STIFFNESS_MARGIN:g} of the cap of {self.max_substeps} (max_substeps); "
-                "a shorter physics step (a higher rate) needs fewer"
-            )
-        return max(1, math.ceil(needed * (1 - 1e-12)))
+        rate = max(self._rate_fn(*(float(v) for v in y[:5]), p, c, h_arr) for y, p in probes)
+        return hs.substeps_within_margin(
+            rate, self.dt, self.stability_fraction, self.substep, self.max_substeps, self.method
+        )
 
     @cached_property
     def _rest_at_stops(self) -> tuple[np.ndarray, np.ndarray]:
@@ -426,9 +393,15 @@ class HydraulicRung(CommandedActuator):
         """:func:`~.hydraulic_kernels.stiffest_rate` [1/s] at the state ``y`` at ``t`` [s]."""
         c, h = self._consts
         return self._rate_fn(
-            float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(y[4]),
-            self.supply_pressure(t), c, h,
-        )  # fmt: skip
+            float(y[0]),
+            float(y[1]),
+            float(y[2]),
+            float(y[3]),
+            float(y[4]),
+            self.supply_pressure(t),
+            c,
+            h,
+        )
 
     def _substeps_for(self, rate: float, t0: float, t1: float, used: int) -> int:
         return hs.substeps_needed(
@@ -460,15 +433,28 @@ class HydraulicRung(CommandedActuator):
         sm, vm = self._reference(ta + 0.5 * hsub)
         s1, v1 = self._reference(ta + hsub)
         return self._step_fn(
-            y, mode, s0, v0, sm, vm, s1, v1, f_ref, self.supply_pressure(ta),
-            self.supply_pressure(ta + hsub), held, hsub, c, h,
-        )  # fmt: skip
+            y,
+            mode,
+            s0,
+            v0,
+            sm,
+            vm,
+            s1,
+            v1,
+            f_ref,
+            self.supply_pressure(ta),
+            self.supply_pressure(ta + hsub),
+            held,
+            hsub,
+            c,
+            h,
+        )
 
     def _switches(self, y, t: float, mode: float, f_ref: float, held: float):
         c, h = self._consts
         (s_ref, v_ref), ps = self._reference(t), self.supply_pressure(t)
-        return self._switch_fn(float(y[0]), float(y[1]), float(y[2]), float(y[3]), float(y[4]),
-                               mode, s_ref, v_ref, f_ref, ps, held, c, h)  # fmt: skip
+        psi3, psi3d, pa, pb, xv = (float(v) for v in y[:5])
+        return self._switch_fn(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, held, c, h)
 
     def _rate(self, y, t: float, mode: float, f_ref: float, held: float):
         c, h = self._consts

@@ -64,8 +64,9 @@ class EventLocator:
         #: Events located so far (a count, for tests and benchmarks).
         self.events = 0
 
-    def advance(self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float,
-                whole=None):  # fmt: skip
+    def advance(
+        self, y, ta: float, hsub: float, mode: float, f_ref: float, held: float, whole=None
+    ):
         """The state at ``ta + hsub`` [s] from ``y`` at ``ta``, split at each event; ``whole``:
         the method's step over the whole sub-step where the caller has taken it already."""
         args = (mode, f_ref, held)
@@ -82,8 +83,10 @@ class EventLocator:
             lo, hi = 0.0, 1.0
             for _ in range(BISECTIONS):
                 mid = 0.5 * (lo + hi)
-                if _crossed(g0, self._switches(self._step_to(y, t, mid * rest, *args),
-                                               t + mid * rest, *args)):  # fmt: skip
+                if _crossed(
+                    g0,
+                    self._switches(self._step_to(y, t, mid * rest, *args), t + mid * rest, *args),
+                ):
                     hi = mid
                 else:
                     lo = mid

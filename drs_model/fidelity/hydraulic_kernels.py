@@ -64,7 +64,8 @@ from .. import kernels
 from .. import kinematics as kin
 from ..inverse import FusedInverseDynamics
 
-# indices of the hydraulic constants vector (:func:`drs_model.fidelity.hydraulic.constants`)
+# indices of the hydraulic constants vector
+# (:func:`drs_model.fidelity.hydraulic_vector.hydraulic_constants` fills it)
 AREA_A, AREA_B, VOL_A0, VOL_B0, BETA = 0, 1, 2, 3, 4
 K_EDGE, PORT_RATIO, P_LAMINAR, LINEAR_LAW, Q_NO_LOAD = 5, 6, 7, 8, 9
 TAU_SPOOL, P_RELIEF, K_RELIEF, C_LEAK_AB, C_LEAK_EXT, P_RETURN = 10, 11, 12, 13, 14, 15
@@ -278,9 +279,12 @@ def stiffest_rate(psi3, psi3d, pa, pb, xv, ps, c, h):
     if h[TAU_SPOOL] > 0.0:
         decay = max(decay, 1.0 / h[TAU_SPOOL])
     sd = u0 * psi3d
-    air = max(air_stiffening_rate(pa, va, h[AREA_A] * sd, xv, ps - pa, pa - h[P_RETURN], 1.0, h),
-              air_stiffening_rate(pb, vb, -h[AREA_B] * sd, -xv, ps - pb, pb - h[P_RETURN],
-                                  h[PORT_RATIO], h))  # fmt: skip
+    air = max(
+        air_stiffening_rate(pa, va, h[AREA_A] * sd, xv, ps - pa, pa - h[P_RETURN], 1.0, h),
+        air_stiffening_rate(
+            pb, vb, -h[AREA_B] * sd, -xv, ps - pb, pb - h[P_RETURN], h[PORT_RATIO], h
+        ),
+    )
     return max(omega, decay, air)
 
 
@@ -308,8 +312,10 @@ def air_stiffening_rate(p, v, v_rate, opening, dp_in, dp_out, port, h):
         q_in = edge_flow(k, max(opening, 0.0), dp_in, plam, lin, q)
         q_in -= edge_flow(k, max(-opening, 0.0), dp_out, plam, lin, q)
     else:
-        q_in = max(abs(edge_flow(k, 1.0, dp_in, plam, lin, q)),
-                   abs(edge_flow(k, 1.0, dp_out, plam, lin, q)))  # fmt: skip
+        q_in = max(
+            abs(edge_flow(k, 1.0, dp_in, plam, lin, q)),
+            abs(edge_flow(k, 1.0, dp_out, plam, lin, q)),
+        )
     return abs(slope) / v * abs(q_in - v_rate)
 
 
@@ -394,11 +400,22 @@ def switching_functions(psi3, psi3d, pa, pb, xv, mode, s_ref, v_ref, f_ref, ps, 
     pr = h[P_RETURN]
     below, above, damp_closed, damp_open = stop_switches(psi3, psi3d, c, h)
     return (
-        x, u - 1.0, u + 1.0,
-        ps - p_a, p_a - pr, ps - p_b, p_b - pr,
-        p_a - h[P_RELIEF], p_b - h[P_RELIEF], pa - h[P_VAPOUR], pb - h[P_VAPOUR],
-        below, above, damp_closed, damp_open,
-    )  # fmt: skip
+        x,
+        u - 1.0,
+        u + 1.0,
+        ps - p_a,
+        p_a - pr,
+        ps - p_b,
+        p_b - pr,
+        p_a - h[P_RELIEF],
+        p_b - h[P_RELIEF],
+        pa - h[P_VAPOUR],
+        pb - h[P_VAPOUR],
+        below,
+        above,
+        damp_closed,
+        damp_open,
+    )
 
 
 def stop_switches(psi3, psi3d, c, h):
@@ -412,38 +429,6 @@ def stop_switches(psi3, psi3d, c, h):
     damp_closed = h[K_STOP] * below - h[C_STOP] * sd if below > 0.0 else 1.0
     damp_open = h[K_STOP] * above + h[C_STOP] * sd if above > 0.0 else 1.0
     return below, above, damp_closed, damp_open
-
-
-def hydraulic_constants(hp, p) -> tuple[float, ...]:
-    """The constants vector of these kernels for ``hp`` (a
-    :class:`~drs_model.fidelity.hydraulic_params.HydraulicParams`) and the stroke limits of ``p``
-    (a :class:`~drs_model.params.DRSParams`), indexed ``AREA_A`` ... above. Not a kernel: the
-    rung builds it once."""
-    s_min, s_max = kin.stroke_limits(p)
-    out = [0.0] * N_HYDRAULIC_CONSTANTS
-    out[AREA_A], out[AREA_B] = hp.piston_area, hp.rod_side_area
-    out[VOL_A0], out[VOL_B0] = hp.dead_volume_piston_side, hp.dead_volume_rod_side
-    out[BETA] = hp.bulk_modulus
-    out[K_EDGE], out[PORT_RATIO] = hp.orifice_coefficient, hp.port_ratio
-    out[P_LAMINAR] = hp.valve_laminar_pressure
-    out[LINEAR_LAW] = 1.0 if hp.flow_law == "linear" else 0.0
-    out[Q_NO_LOAD] = hp.no_load_flow
-    out[TAU_SPOOL] = hp.spool_time_constant
-    out[P_RELIEF], out[K_RELIEF] = hp.relief_pressure, hp.relief_flow_gain
-    out[C_LEAK_AB], out[C_LEAK_EXT] = hp.leak_across_piston, hp.leak_to_outside
-    out[P_RETURN] = hp.return_pressure
-    out[C_VISCOUS], out[F_COULOMB] = hp.viscous_friction, hp.coulomb_friction
-    out[F_BREAKAWAY], out[V_STRIBECK] = hp.breakaway_friction, hp.stribeck_velocity
-    out[V_SMOOTH] = hp.friction_smoothing_velocity
-    out[K_STOP], out[C_STOP] = hp.stop_stiffness, hp.stop_damping
-    out[S_MIN], out[S_MAX] = s_min, s_max
-    out[K_POSITION], out[K_FEEDFORWARD] = hp.position_gain, hp.velocity_feedforward
-    out[K_FORCE] = hp.force_gain
-    out[AIR_FRACTION] = hp.entrained_air_fraction
-    out[P_AIR_SATURATION] = hp.air_saturation_pressure
-    out[AIR_INDEX] = hp.air_polytropic_index
-    out[P_VAPOUR] = hp.vapour_pressure
-    return tuple(float(x) for x in out)
 
 
 def equilibrium_state(s: float, p, hp, ps: float | None = None):

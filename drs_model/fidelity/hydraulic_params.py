@@ -121,24 +121,39 @@ class HydraulicParams:
     force_gain: float = 1.0 / 2000.0
 
     _POSITIVE = (
-        "bulk_modulus", "bore_diameter", "valve_rated_flow",
-        "valve_rated_pressure_drop", "valve_laminar_pressure", "supply_pressure",
-        "air_saturation_pressure", "vapour_pressure",
-    )  # fmt: skip
+        "bulk_modulus",
+        "bore_diameter",
+        "valve_rated_flow",
+        "valve_rated_pressure_drop",
+        "valve_laminar_pressure",
+        "supply_pressure",
+        "air_saturation_pressure",
+        "vapour_pressure",
+    )
     _NON_NEGATIVE = (
-        "rod_diameter", "dead_volume_piston_side", "dead_volume_rod_side", "spool_time_constant",
-        "relief_flow_gain", "leak_across_piston", "leak_to_outside", "viscous_friction",
-        "coulomb_friction", "breakaway_friction", "stop_stiffness", "stop_damping",
-        "position_gain", "velocity_feedforward", "force_gain", "return_pressure",
+        "rod_diameter",
+        "dead_volume_piston_side",
+        "dead_volume_rod_side",
+        "spool_time_constant",
+        "relief_flow_gain",
+        "leak_across_piston",
+        "leak_to_outside",
+        "viscous_friction",
+        "coulomb_friction",
+        "breakaway_friction",
+        "stop_stiffness",
+        "stop_damping",
+        "position_gain",
+        "velocity_feedforward",
+        "force_gain",
+        "return_pressure",
         "entrained_air_fraction",
-    )  # fmt: skip
+    )
 
     def __new__(cls, *args: Any, **kwargs: Any) -> HydraulicParams:
         removed = sorted(set(kwargs) & set(REMOVED_FIELDS))
         if removed:
-            raise ParameterError(
-                "; ".join(f"{name}: {REMOVED_FIELDS[name]}" for name in removed)
-            )
+            raise ParameterError("; ".join(f"{name}: {REMOVED_FIELDS[name]}" for name in removed))
         return super().__new__(cls)
 
     def __post_init__(self) -> None:
@@ -279,8 +294,9 @@ def field_range(name: str) -> str:
     return ">= 0"
 
 
-def hydraulic_from_dict(overrides: dict[str, Any], base: HydraulicParams | None = None
-                        ) -> HydraulicParams:  # fmt: skip
+def hydraulic_from_dict(
+    overrides: dict[str, Any], base: HydraulicParams | None = None
+) -> HydraulicParams:
     """``base`` (default: the defaults) with ``overrides`` applied, validated; an unknown name or
     a bad value raises :class:`ParameterError` naming it and the valid range.
 

@@ -30,7 +30,7 @@ import math
 import numpy as np
 
 from .. import explicit_steps
-from ..errors import StiffStepError, TooStiffError
+from ..errors import InputError, StiffStepError, TooStiffError
 from . import hydraulic_kernels
 from .hydraulic_kernels import hydraulic_derivatives
 
@@ -85,6 +85,42 @@ DEFAULT_IMPLICIT_SUBSTEP = 1e-4
 RETAKE_HEADROOM = 1.25
 #: ... and the next step starts from at least this fraction of the rate a step was taken at.
 RATE_MEMORY = 0.9
+
+
+def checked_options(method, substep, stability_fraction, max_substeps, locate_events):
+    """Refuse (:class:`~drs_model.errors.InputError`, naming the value and its range) a
+    sub-stepping option of :class:`~drs_model.fidelity.hydraulic.HydraulicRung` out of range;
+    returns ``locate_events`` as the rung keeps it (``"contacts"``, ``True`` or ``False``)."""
+    if method not in STEP_METHODS:
+        raise InputError(f"method must be one of {sorted(STEP_METHODS)}, got {method!r}")
+    if substep is not None and not (math.isfinite(substep) and substep > 0.0):
+        raise InputError(f"substep must be a finite number > 0 s, got {substep!r}")
+    if not (math.isfinite(stability_fraction) and 0.0 < stability_fraction <= 1.0):
+        raise InputError(f"stability_fraction must be in (0, 1], got {stability_fraction!r}")
+    if max_substeps is not None and (
+        isinstance(max_substeps, bool) or not isinstance(max_substeps, int) or max_substeps < 1
+    ):
+        raise InputError(f"max_substeps must be an int >= 1 or None, got {max_substeps!r}")
+    if locate_events not in (True, False, "contacts"):
+        raise InputError(f"locate_events must be True, False or 'contacts', got {locate_events!r}")
+    return "contacts" if locate_events == "contacts" else bool(locate_events)
+
+
+def substeps_within_margin(rate, dt, fraction, substep, cap, method) -> int:
+    """The sub-steps of ``method`` a physics step of ``dt`` [s] needs at the stiffest rate
+    ``rate`` [1/s] (the longest ``substep`` [s] given, else ``fraction`` of RK4's stable one).
+    Raises :class:`~drs_model.errors.TooStiffError` when that is above
+    ``cap / STIFFNESS_MARGIN``: the rung's check of a fault or a start."""
+    longest = fraction * RK4_LIMIT / rate
+    needed = dt / (longest if substep is None else substep)
+    if not needed * STIFFNESS_MARGIN <= cap:
+        raise TooStiffError(
+            f"too stiff for a physics step of {dt:.3g} s: its stiffest rate {rate:.4g} "
+            f"1/s needs {needed:.4g} {method} sub-steps per step, above "
+            f"1/{STIFFNESS_MARGIN:g} of the cap of {cap} (max_substeps); "
+            "a shorter physics step (a higher rate) needs fewer"
+        )
+    return max(1, math.ceil(needed * (1 - 1e-12)))
 
 
 def substeps_needed(rate, t0, t1, used, cap, method, substep, fraction, guard, dt) -> int:

@@ -27,7 +27,9 @@ publishes. Stamps are ``t0 + simulated time``, so they follow the node clock wit
 
 The node owns its parts, each in its module: the command intake (:mod:`.intake`: commands
 are latest-wins), the publishers (:mod:`.publishers`), the effect record (:mod:`.effect_record`),
-the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the faults and the recordings.
+the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the faults, the recordings (what they
+record beside the publications: :mod:`.recorded_topics`) and the wait for ``/clock``
+(:mod:`.clock_wait`).
 """
 
 from __future__ import annotations
@@ -36,8 +38,6 @@ import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from rcl_interfaces.msg import ParameterEvent
-from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.service_introspection import ServiceIntrospectionState
@@ -50,10 +50,12 @@ from ..recording import cdr
 from ..recording.diagnostic_cdr import diagnostic_array_cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
 from ..timestamps import ns_from_seconds
+from .clock_wait import ClockWait
 from .effect_record import EffectRecord, diagnostics_values, error_text
 from .fault_parameters import NodeFaults, declare_fault_parameters
 from .intake import COMMANDS, CommandIntake
 from .parameters import (
+    TickSettings,
     declare_parameters,
     effective_parameters,
     model_params,
@@ -61,12 +63,10 @@ from .parameters import (
     tick_settings,
 )
 from .publishers import HYDRAULIC_TOPICS, StatePublishers
+from .recorded_topics import register_recorded_topics
 from .recordings import NodeRecordings
 from .rung_choice import RungChoice
 from .tick import SimulationClock, Tick, TickParts
-
-#: Without /clock for this long under use_sim_time, the node says so (wall time) [s].
-CLOCK_WAIT_WARNING_S = 2.0
 
 
 class DRSNode(Node):
@@ -87,7 +87,8 @@ class DRSNode(Node):
     Its parts: ``recordings`` and ``fault_parameters`` (built with the node), then, built by
     :meth:`configure`, ``rungs`` (the actuator's rung), ``outputs`` (the publishers),
     ``effects`` (the effect record and counters), ``stack`` (the vehicle stack) and ``intake``
-    (the commands), and ``tick_part`` (:mod:`.tick`: the simulation's clock and the tick).
+    (the commands), ``tick_part`` (:mod:`.tick`: the simulation's clock and the tick) and
+    ``clock_wait`` (:mod:`.clock_wait`).
     """
 
     def __init__(self, *, tick_timer: bool = True, managed: bool = False, **kwargs) -> None:
@@ -105,8 +106,7 @@ class DRSNode(Node):
         self.callback_errors = 0
         # the bag and the rerun recording, and their failures: opened at configure
         self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
-        self.fault_parameters = NodeFaults(self, self._lock, self._now_ns,
-                                           lambda: self.configured)  # fmt: skip
+        self.fault_parameters = NodeFaults(self, self._lock, self._now_ns, lambda: self.configured)
         #: The stop the node obeys within a tick (drs_ros.stop_request.StopRequest, set by
         #: drs_ros.node.runner): a long tick ends at the next physics step once it is requested.
         self.stop_request = None
@@ -120,6 +120,17 @@ class DRSNode(Node):
     # ---- life stages ---------------------------------------------------------------------------
     def configure(self) -> None:
         """Validate the parameters, build the actuator and the publishers, open the recorders."""
+        settings = self._read_parameters()
+        self._make_actuator()
+        self._make_outputs(settings)
+        self._make_command_parts()
+        self._make_tick()
+        self._open_recordings(settings)
+        self._announce(settings)
+
+    def _read_parameters(self) -> TickSettings:
+        """The model's parameters (served read-only as ``model.*`` and ``hydraulic.*``) and the
+        node's settings (:func:`~.parameters.tick_settings`, returned), validated."""
         self.params, self.hydraulic = model_params(self, self._given_parameters)
         serve_model_parameters(self, self.params, self.hydraulic)
         settings = tick_settings(self)
@@ -127,66 +138,143 @@ class DRSNode(Node):
         self.max_catch_up, self.fidelity = settings.max_catch_up, settings.fidelity
         self.markers_rate_hz, self.frame_id = settings.markers_rate_hz, settings.frame_id
         self.joint_names = list(settings.joint_names)
+        return settings
+
+    def _make_actuator(self) -> None:
+        """The actuator: the ``fidelity`` parameter's rung (``auto``: ``rigid`` until the
+        subscribers are seen, :class:`~.rung_choice.RungChoice`)."""
         gp = self.get_parameter
-        self.rungs = RungChoice(self.fidelity, (self.params, self.hydraulic), self.physics_dt, {
-            name: gp(name).value
-            for name in ("force_limit", "integrator", "force_method", "limit_moves")
-        }, gp("fidelity_tolerance").value, gp("fidelity_force_tolerance").value)  # fmt: skip
+        self.rungs = RungChoice(
+            self.fidelity,
+            (self.params, self.hydraulic),
+            self.physics_dt,
+            {
+                name: gp(name).value
+                for name in ("force_limit", "integrator", "force_method", "limit_moves")
+            },
+            gp("fidelity_tolerance").value,
+            gp("fidelity_force_tolerance").value,
+        )
         self.sim = self.rungs.first()
+
+    def _make_outputs(self, settings: TickSettings) -> None:
+        """The publishers, the effect record and the faults' start on the actuator."""
         self.outputs = StatePublishers(
-            self, joint_states_topic=self.get_parameter("joint_states_topic").value,
-            joint_names=self.joint_names, frame_id=self.frame_id, params=self.params,
-            s_min=self.sim.s_min, markers_period=settings.markers_period,
-            hydraulic=self.sim.has_fluid or self.fidelity == "auto")  # fmt: skip
+            self,
+            joint_states_topic=self.get_parameter("joint_states_topic").value,
+            joint_names=self.joint_names,
+            frame_id=self.frame_id,
+            params=self.params,
+            s_min=self.sim.s_min,
+            markers_period=settings.markers_period,
+            hydraulic=self.sim.has_fluid or self.fidelity == "auto",
+        )
         self.effects = EffectRecord(
-            self.outputs.events, self._record,
-            lambda: (self.sim.t, self.sim.steps, self.clock.t0_ns), self.get_logger(),
-            self.get_parameter("diagnostics_window").value)  # fmt: skip
-        self.fault_parameters.start(self.sim, self.effects, self._record,
-                                    lambda: self.recordings.bag is not None)  # fmt: skip
+            self.outputs.events,
+            self._record,
+            lambda: (self.sim.t, self.sim.steps, self.clock.t0_ns),
+            self.get_logger(),
+            self.get_parameter("diagnostics_window").value,
+        )
+        self.fault_parameters.start(
+            self.sim, self.effects, self._record, lambda: self.recordings.bag is not None
+        )
+
+    def _make_command_parts(self) -> None:
+        """The command topics and service as resolved, the vehicle-stack layer and the intake."""
         self.service_name = self.resolve_service_name("~/drs")
         self.command_topics = {key: self.resolve_topic_name(f"~/{key}") for key in COMMANDS}
         # in a vehicle stack (drs_ros.stack): description, TF, the action, JointState commands
-        self.stack = StackLayer(self, StackModel(self.params, tuple(self.joint_names),
-                                                 self.frame_id), NodeHooks(
-            event=lambda source, outcome, level, reason, values, now: self.effects.event(
-                source, outcome, level, reason, None, values, now),
-            record=self._record, receive=lambda key, data: self.intake.receive(key, data),
-            now_ns=self._now_ns,
-            actuator=lambda: self.sim))  # fmt: skip
+        self.stack = StackLayer(
+            self,
+            StackModel(self.params, tuple(self.joint_names), self.frame_id),
+            NodeHooks(
+                event=lambda source, outcome, level, reason, values, now: self.effects.event(
+                    source, outcome, level, reason, None, values, now
+                ),
+                record=self._record,
+                receive=lambda key, data: self.intake.receive(key, data),
+                now_ns=self._now_ns,
+                actuator=lambda: self.sim,
+            ),
+        )
         self.command_topics.update(self.stack.command_topics)
-        self.intake = CommandIntake(self.command_topics, self.service_name, self.joint_names[0],
-                                    self.effects, lambda: self.sim, self._lock, self._now_ns,
-                                    self._record)  # fmt: skip
+        self.intake = CommandIntake(
+            self.command_topics,
+            self.service_name,
+            self.joint_names[0],
+            self.effects,
+            lambda: self.sim,
+            self._lock,
+            self._now_ns,
+            self._record,
+        )
 
+    def _make_tick(self) -> None:
+        """The simulation's clock and the tick that steps the actuator and publishes."""
         self.clock = SimulationClock(self._wall_clock, ns_from_seconds(self.publish_period))
-        self.tick_part = Tick(TickParts(
-            actuator=lambda: self.sim, intake=self.intake, fault_parameters=self.fault_parameters,
-            effects=self.effects, now_ns=self._now_ns, publish=self._publish,
-            choose_fidelity=self._choose_fidelity, fidelity_deadline=lambda: self.rungs.deadline,
-            stop_request=lambda: self.stop_request, log_info=self.get_logger().info,
-            log_warning=self.get_logger().warning,
-        ), self.clock, self.physics_dt, self.max_catch_up)  # fmt: skip
-        self._started_wall = time.monotonic()
-        self._clock_warned = False
+        self.tick_part = Tick(
+            TickParts(
+                actuator=lambda: self.sim,
+                intake=self.intake,
+                fault_parameters=self.fault_parameters,
+                effects=self.effects,
+                now_ns=self._now_ns,
+                publish=self._publish,
+                choose_fidelity=self._choose_fidelity,
+                fidelity_deadline=lambda: self.rungs.deadline,
+                stop_request=lambda: self.stop_request,
+                log_info=self.get_logger().info,
+                log_warning=self.get_logger().warning,
+            ),
+            self.clock,
+            self.physics_dt,
+            self.max_catch_up,
+        )
+        self.clock_wait = ClockWait(self._now_ns, self.get_logger().warning)
 
+    def _open_recordings(self, settings: TickSettings) -> None:
+        """The bag and the rerun recording opened, the recorded topics registered."""
         # all paths are checked before any file is created; a failure removes what was made
         # the recordings of every cycle are one part: a managed node configured again records to
         # the next cycle's names, and the stop names what any cycle's recordings lack
         gp = self.get_parameter
-        self.recordings.open(gp("bag_path").value, gp("rrd_path").value,
-                             gp("rerun_connect").value, gp("flush_period").value, self.params,
-                             self.markers_rate_hz, settings.publish_hz)  # fmt: skip
+        self.recordings.open(
+            gp("bag_path").value,
+            gp("rrd_path").value,
+            gp("rerun_connect").value,
+            gp("flush_period").value,
+            self.params,
+            self.markers_rate_hz,
+            settings.publish_hz,
+        )
+        recorder = self.recordings.recorder
         try:
-            self._register_recorded_topics()
+            if recorder is not None:
+                register_recorded_topics(
+                    recorder,
+                    self.outputs.recorded_topics(),
+                    self.command_topics,
+                    self.service_event_topic,
+                    self.stack.recorded_topics(),
+                    self._parameter_event,
+                    self._now_ns,
+                )
         except Exception:
             self.recordings.discard()
             raise
+
+    def _parameter_event(self, now_ns: int):
+        """The node's parameters as a ParameterEvent message stamped ``now_ns`` [ns]."""
+        fqn = self.get_fully_qualified_name()
+        return parameter_event_msg(fqn, effective_parameters(self), now_ns)
+
+    def _announce(self, settings: TickSettings) -> None:
+        """The first record, the stack's description and static TF; configured from now."""
         # the first record: the node's name and its topics as resolved (remapping included), so
         # that the bag's tools find them whatever the node was called
-        self.effects.event(TOPICS, TOPICS, DiagnosticStatus.OK, "", None,
-                           {"node": self.get_fully_qualified_name(), **self.topic_names()},
-                           self._now_ns())  # fmt: skip
+        topics = {"node": self.get_fully_qualified_name(), **self.topic_names()}
+        self.effects.event(TOPICS, TOPICS, DiagnosticStatus.OK, "", None, topics, self._now_ns())
         self.stack.start(self._now_ns())  # the robot description and the static TF, once
         self.configured = True
         self.get_logger().info(
@@ -202,28 +290,32 @@ class DRSNode(Node):
         # that takes effect is ever deserialised
         self.sub_stroke, self.sub_force, self.sub_trajectory = (
             self.create_subscription(
-                COMMANDS[key], f"~/{key}", lambda b, key=key: self.intake.receive(key, b), cmd_qos,
+                COMMANDS[key],
+                f"~/{key}",
+                lambda b, key=key: self.intake.receive(key, b),
+                cmd_qos,
                 raw=True,
             )
             for key in ("stroke_cmd", "force_cmd", "trajectory_cmd")
-        )  # fmt: skip
+        )
         self.srv_drs = self.create_service(SetBool, "~/drs", self._on_drs)
         self.srv_drs.configure_introspection(
             self.get_clock(), QoSProfile(depth=100), ServiceIntrospectionState.CONTENTS
         )
         if self.recordings.recorder is not None:  # record the service calls as rosbag2 does
             self.sub_drs_events = self.create_subscription(
-                SetBool.Event, self.service_event_topic, self._on_service_event,
-                QoSProfile(depth=100), raw=True,
-            )  # fmt: skip
+                SetBool.Event,
+                self.service_event_topic,
+                self._on_service_event,
+                QoSProfile(depth=100),
+                raw=True,
+            )
         use_sim_time = self.get_parameter("use_sim_time").value
         if self._tick_timer or use_sim_time:
             self.timer = self.create_timer(self.publish_period, self.tick)
         self.diag_timer = self.create_timer(1.0, self._on_diagnostics)
         if use_sim_time:  # a steady-clock timer: it runs without /clock
-            self.clock_watch = self.create_timer(
-                0.5, self._watch_clock, clock=Clock(clock_type=ClockType.STEADY_TIME)
-            )
+            self.clock_watch = self.clock_wait.start(self)
         self.clock.pause()  # the time inactive is no missed deadline
         if self.fidelity == "auto" and self.sim.t == 0.0 and self.effects.ticks == 0:
             self.rungs.wait_for_subscribers(self.get_parameter("fidelity_auto_discovery_s").value)
@@ -270,15 +362,23 @@ class DRSNode(Node):
         names = self.outputs.topic_names()
         names.update(self.command_topics)
         names.update(self.stack.topic_names())
-        names.update(drs_service=self.service_name, drs_service_event=self.service_event_topic,
-                     parameter_events="/parameter_events")  # fmt: skip
+        names.update(
+            drs_service=self.service_name,
+            drs_service_event=self.service_event_topic,
+            parameter_events="/parameter_events",
+        )
         return names
 
     # ---- diagnostics ---------------------------------------------------------------------------
     def diagnostics_values(self) -> dict[str, object]:
         """The state, the counters, the faults, the recordings and the CPU spent, by name."""
-        return diagnostics_values(self.sim.state, self.effects, self.fault_parameters.text(),
-                                  self.callback_errors, self.recordings.status())
+        return diagnostics_values(
+            self.sim.state,
+            self.effects,
+            self.fault_parameters.text(),
+            self.callback_errors,
+            self.recordings.status(),
+        )
 
     def diagnostics_level(self, now_ns: int) -> tuple[bytes, str]:
         """OK, WARN or ERROR with the reason, from the troubles of the recent window only."""
@@ -323,25 +423,6 @@ class DRSNode(Node):
         incomplete, naming what it lacks (:meth:`NodeRecordings.close`)."""
         return self.recordings.close()
 
-    def _register_recorded_topics(self) -> None:
-        recorder = self.recordings.recorder
-        if recorder is None:
-            return
-        register = recorder.register_topic
-        for topic, msg_type, qos in self.outputs.recorded_topics():
-            register(topic, msg_type, qos=qos)
-        for key, topic in self.command_topics.items():
-            register(topic, COMMANDS[key], qos=QoSProfile(depth=commands.COMMAND_QOS_DEPTH))
-        register(self.service_event_topic, SetBool.Event, qos=QoSProfile(depth=100))
-        for topic, msg_type, qos in self.stack.recorded_topics():
-            register(topic, msg_type, qos=qos)
-        register("/parameter_events", ParameterEvent, qos=QoSProfile(depth=1000))
-        now = self._now_ns()
-        event = parameter_event_msg(
-            self.get_fully_qualified_name(), effective_parameters(self), now
-        )
-        recorder.write("/parameter_events", event, now)
-
     # ---- commands ------------------------------------------------------------------------------
     def _now_ns(self) -> int:
         if self._wall_clock:  # the ROS clock without /clock is the system clock; 30x cheaper
@@ -365,17 +446,6 @@ class DRSNode(Node):
         self._record(self.service_event_topic, data, self._now_ns())
 
     # ---- the loop ------------------------------------------------------------------------------
-    def _watch_clock(self) -> None:
-        if self._now_ns() != 0:
-            self.clock_watch.cancel()
-            return
-        if not self._clock_warned and time.monotonic() - self._started_wall > CLOCK_WAIT_WARNING_S:
-            self._clock_warned = True
-            self.get_logger().warning(
-                f"use_sim_time is set and no /clock message arrived in {CLOCK_WAIT_WARNING_S:g} s: "
-                "the simulation waits for /clock and publishes nothing"
-            )
-
     def tick(self) -> None:
         """Catch the simulation up with the node clock, apply the newest commands, publish
         (:class:`~drs_ros.node.tick.Tick`)."""
@@ -388,26 +458,27 @@ class DRSNode(Node):
         at configure for the node's parameters (:func:`drs_model.fidelity.auto.choose_rung`),
         chosen once, before the first step, and recorded (source ``fidelity``) so that a re-run
         takes the same rung."""
-        asked = {kind for pub, kind in self.outputs.asked_by_topic()
-                 if pub.get_subscription_count()}  # fmt: skip
+        asked = {
+            kind for pub, kind in self.outputs.asked_by_topic() if pub.get_subscription_count()
+        }
         rung = self.rungs.choose(asked)
         if rung != self.sim.name:
             self.sim = self.rungs.make(rung)
             self.fault_parameters.new_actuator(self.sim)  # none applied yet: they act at ticks
         self.get_logger().info(f"fidelity auto: {rung} for {sorted(asked) or 'nothing'} asked")
-        self.effects.event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None,
-                           {"rung": rung, "asked": ",".join(sorted(asked))}, now_ns)  # fmt: skip
+        chosen = {"rung": rung, "asked": ",".join(sorted(asked))}
+        self.effects.event(FIDELITY, FIDELITY, DiagnosticStatus.OK, "", None, chosen, now_ns)
 
     def _publish(self, now_ns: int) -> None:
         t = time.thread_time()  # this thread's own CPU: the executor's is not the tick's
         st = self.sim.state
         stamp = self.clock.t0_ns + ns_from_seconds(st.t)
         faults = self.fault_parameters.faults
-        sensed = (None if faults.sensor_healthy
-                  else faults.published_stroke(st.t, float(st.q[0])))  # fmt: skip
+        sensed = None if faults.sensor_healthy else faults.published_stroke(st.t, float(st.q[0]))
         recording = self.recordings.recorder is not None
-        out = self.outputs.state_messages(self.sim, st, stamp, sensed, self.effects.ticks,
-                                          recording=recording)  # fmt: skip
+        out = self.outputs.state_messages(
+            self.sim, st, stamp, sensed, self.effects.ticks, recording=recording
+        )
         listened = self.outputs.listened
         for pub, data in out:
             if listened[pub]:  # no subscriber: DDS would deliver it to no one
