@@ -127,6 +127,7 @@ class CommandedActuator:
         self.s_min, self.s_max = self.motion.s_min, self.motion.s_max
         self.s_dead = kin.dead_centre(p)
         self._statics = None  # FusedInverseDynamics, built for the first stretched move
+        self._last_peak = None  # (params, coefficients' and durations' bytes, PathPeak)
         self._force = math.nan
 
     def _refuse_unused_methods(self, **given: str) -> None:
@@ -262,9 +263,7 @@ class CommandedActuator:
             )
         if not self.limit_moves:
             return
-        from .inverse import path_peak_force
-
-        peak = path_peak_force(self.p, coeffs, durations)
+        peak = self._path_peak(coeffs, durations)
         if abs(peak.force) > self.force_limit:
             raise ForceLimitError(
                 f"the move needs a piston force of {peak.force:.6g} N (inverse dynamics, "
@@ -283,7 +282,7 @@ class CommandedActuator:
         peak."""
         if not self.limit_moves or not math.isfinite(target):
             return duration
-        from .inverse import FusedInverseDynamics, path_peak_force
+        from .inverse import FusedInverseDynamics
 
         if self._statics is None:
             self._statics = FusedInverseDynamics.from_params(self.p)
@@ -293,13 +292,30 @@ class CommandedActuator:
                 seg = quintic_move(self.p, target, duration, *start, limits=limits)
             except DRSError:
                 return duration  # the command refuses it, with the reason
-            peak = path_peak_force(self.p, [seg.coeffs], [seg.duration])
+            peak = self._path_peak([seg.coeffs], [seg.duration])
             static = abs(self._statics.force(peak.stroke, 0.0, 0.0))
             aim = (1.0 - 1e-3) * self.force_limit
             if abs(peak.force) <= self.force_limit or static >= aim:
                 return duration
             duration *= max(math.sqrt((abs(peak.force) - static) / (aim - static)), 1.01)
         return duration
+
+    def _path_peak(self, coeffs, durations):
+        """:func:`drs_model.inverse.path_peak_force` of this path, for these parameters. The last
+        result is kept: a stroke command's stretched duration is checked again on the very same
+        segment (bit for bit), and that second evaluation (~0.1 ms) would be the command's
+        largest cost in the node's tick."""
+        from .inverse import path_peak_force
+
+        c = np.ascontiguousarray(coeffs, dtype=float)
+        d = np.ascontiguousarray(durations, dtype=float)
+        key = (c.tobytes(), d.tobytes())
+        last = self._last_peak
+        if last is not None and last[0] is self.p and last[1] == key:
+            return last[2]
+        peak = path_peak_force(self.p, c, d)
+        self._last_peak = (self.p, key, peak)
+        return peak
 
     def _command_start(self) -> tuple[float, float, float]:
         """``(s, s', s'')`` a new command starts from: the present state."""

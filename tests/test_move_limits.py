@@ -204,3 +204,43 @@ def test_a_short_move_off_the_closed_stop_is_stretched_not_refused(params):
     assert seg.duration > 1.3 * seed
     free = RUNGS["rigid"](params, limit_moves=False).command_stroke(sim.s_min + 0.02)
     assert free.duration == pytest.approx(seed, rel=1e-12)
+
+
+def test_a_path_checked_again_is_not_evaluated_again_and_acts_the_same(params, monkeypatch):
+    """The actuator keeps its last peak: a stroke command's stretched segment is checked once,
+    and commands repeated at rest (a node's client at 100 Hz) cost no evaluation; the motion is
+    bit for bit that of an actuator that evaluates every time."""
+    import drs_model.inverse as inverse
+    from drs_model.actuator import ActuatorSim
+
+    calls = []
+    original = inverse.path_peak_force
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return original(*args, **kwargs)
+
+    s_min, s_max = kin.stroke_limits(params)
+    targets = [s_min + 0.2 * (s_max - s_min)] * 5 + [s_min + 0.7 * (s_max - s_min)] * 5
+
+    def run(fresh_every_time: bool):
+        sim = ActuatorSim(params, dt=1e-3)
+        out = []
+        for target in targets:
+            if fresh_every_time:
+                sim._last_peak = None
+            sim.command_stroke(target)
+            for _ in range(20):
+                sim.step()
+            out.append((sim.state.t, *sim.state.q, *sim.state.qd, sim.state.piston_force))
+        return np.array(out)
+
+    monkeypatch.setattr(inverse, "path_peak_force", counted)
+    kept = run(False)
+    kept_calls = len(calls)
+    calls.clear()
+    every = run(True)
+    # once per distinct segment (the moves, and each target first held at rest), not twice a
+    # command
+    assert 2 * kept_calls <= len(calls), (kept_calls, len(calls))
+    np.testing.assert_array_equal(kept, every)
