@@ -359,9 +359,10 @@ def test_trajectory_command_over_dds(harness, params):
             )
         return msg
 
-    # moves of 0.2 s: a tick late by tens of ms on a loaded machine still samples the peak
-    # within the tolerance (the path is flat at its turning point)
-    pub.publish(traj("drs_piston", [(0.2, 0.03), (0.4, 0.01)]))
+    # the top is held for 0.3 s: a tick stalled by a loaded machine catches the simulation up
+    # and publishes only its last state, so a peak passed at a point would be missed by the
+    # published samples (one run saw 0.0196 m); a held top is sampled by some tick
+    pub.publish(traj("drs_piston", [(0.2, 0.03), (0.5, 0.03), (0.7, 0.01)]))
     assert spin_until(harness.exec, lambda: harness.node.effects.accepted >= 1, 3.0)
     assert spin_until(harness.exec, lambda: abs(harness.joints[-1].position[0] - 0.01) < 1e-12, 3.0)
     assert max(m.position[0] for m in harness.joints) == pytest.approx(0.03, abs=2e-3)
