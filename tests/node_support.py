@@ -5,13 +5,14 @@ from __future__ import annotations
 import contextlib
 import os
 import subprocess
-import sys
 import time
 import zlib
 from collections.abc import Callable, Iterator, Sequence
 
 import pytest
 from ros_support import require_rclpy
+
+from drs_ros.node.command_line import PYTHON_M_DRS_ROS, node_command
 
 
 def domain_for(nodeid: str) -> int:
@@ -124,9 +125,9 @@ def start_node(
     ``-p`` for each of ``params`` (``name:=value``); its output (stdout and stderr) in ``stdout``
     as text."""
     require_rclpy()
-    args = list(argv or [sys.executable, "-m", "drs_ros"]) + ["--ros-args"]
-    for p in params:
-        args += ["-p", p]
+    args = node_command(
+        ros_args=[item for p in params for item in ("-p", p)], program=argv or PYTHON_M_DRS_ROS
+    )
     return subprocess.Popen(
         args, env=node_env(tmp_path, domain), stdout=stdout, stderr=subprocess.STDOUT, text=True
     )
