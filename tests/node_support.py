@@ -88,6 +88,51 @@ def node_with_client(
         rclpy.try_shutdown(context=ctx)
 
 
+class NodeAndClient:
+    """A :class:`~drs_ros.node.DRSNode` with ``overrides`` (rclpy Parameters) and a client node
+    ``client_name`` in the context ``ctx``, spun by one executor (``exec``). :meth:`close`
+    finishes the node's recordings, then shuts down the executor and both nodes."""
+
+    def __init__(self, ctx, overrides: Sequence, client_name: str) -> None:
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+
+        from drs_ros.node import DRSNode
+
+        self.node = DRSNode(context=ctx, parameter_overrides=list(overrides))
+        self.client = Node(client_name, context=ctx)
+        self.exec = SingleThreadedExecutor(context=ctx)
+        self.exec.add_node(self.node)
+        self.exec.add_node(self.client)
+
+    def close(self) -> None:
+        self.node.close_recordings()
+        self.exec.shutdown()
+        self.client.destroy_node()
+        self.node.destroy_node()
+
+
+@contextlib.contextmanager
+def hydraulic_node_in(out, fixture: str, client_name: str) -> Iterator[tuple]:
+    """:func:`node_with_client` for a module-scoped fixture (which has no ``monkeypatch``): a
+    hydraulic node recording into ``out/bag``, DDS on loopback and the ROS log in
+    ``out/ros-log`` while it runs, on the domain of ``fixture`` (its name, as a test id)."""
+    from rclpy.parameter import Parameter
+
+    overrides = [
+        Parameter("fidelity", value="hydraulic"),
+        Parameter("bag_path", value=str(out / "bag")),
+    ]
+    mp = pytest.MonkeyPatch()
+    mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
+    try:
+        with node_with_client(domain_for(fixture), overrides, client_name) as parts:
+            yield parts
+    finally:
+        mp.undo()
+
+
 def spin_until(executor, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
     """Spin ``executor`` until ``predicate()`` or ``timeout`` [s] of wall time."""
     end = time.monotonic() + timeout
