@@ -36,22 +36,13 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from drs_ros.node.command_line import PYTHON_M_DRS_ROS, node_command
+
 
 def start_node(bag: Path, env: dict) -> subprocess.Popen:
-    args = [
-        sys.executable,
-        "-m",
-        "drs_ros",
-        "--ros-args",
-        "-p",
-        f"bag_path:={bag}",
-        "-p",
-        f"rrd_path:={bag}.rrd",
-        "-p",
-        "publish_rate_hz:=500.0",
-        "-p",
-        "flush_period:=0.1",
-    ]
+    args = node_command(
+        {"bag_path": bag, "rrd_path": f"{bag}.rrd", "publish_rate_hz": 500.0, "flush_period": 0.1}
+    )
     return subprocess.Popen(
         args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
     )
@@ -140,17 +131,10 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
 #: tool -> (its command for output path OUT, its share of the signals)
 START_UP_TOOLS = {
     "drs-node": (
-        lambda out: [
-            "-m",
-            "drs_ros",
-            "--ros-args",
-            "-p",
-            f"bag_path:={out}",
-            "-p",
-            f"rrd_path:={out}.rrd",
-            "-p",
-            "flush_period:=0.1",
-        ],
+        lambda out: node_command(
+            {"bag_path": out, "rrd_path": f"{out}.rrd", "flush_period": 0.1},
+            program=PYTHON_M_DRS_ROS[1:],  # the interpreter is put first by start_up_signal
+        ),
         2,
     ),
     "drs-bag play": (lambda out: ["-m", "drs_ros.bag.cli", "play", str(EXAMPLE)], 2),

@@ -35,6 +35,7 @@ from drs_model.cli.start_signals import (
 )
 from drs_model.cli.strict_parser import StrictParser
 from drs_ros.errors import DRSRosError
+from drs_ros.node.command_line import node_command
 
 
 class DemoError(DRSRosError, ValueError):
@@ -205,20 +206,14 @@ def _demo(argv: list[str] | None, signals: bool) -> int:
         return EXIT_USAGE
     env = _env(args.domain, log_dir)
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_LOG_DIR")})
-    cmd = [
-        sys.executable,
-        "-m",
-        "drs_ros",
-        "--ros-args",
-        "-p",
-        f"bag_path:={bag}",
-        "-p",
-        f"rrd_path:={rrd}",
-        "-p",
-        f"publish_rate_hz:={args.publish_rate}",
-        "-p",
-        "flush_period:=0.2",
-    ]
+    cmd = node_command(
+        {
+            "bag_path": bag,
+            "rrd_path": rrd,
+            "publish_rate_hz": args.publish_rate,
+            "flush_period": 0.2,
+        }
+    )
     _say("starting drs-node: " + " ".join(cmd[1:]))
     if signals:
         interrupt_on_signal()

@@ -3,30 +3,15 @@ nanosec)``, seconds, steps), under the name the node and the bag tools import th
 
 from __future__ import annotations
 
-from drs_model.timebase import (
-    NS_PER_S,
-    T0_NS,
-    nearest_step,
-    nearest_steps,
-    ns_from_parts,
-    ns_from_seconds,
-    ns_of,
-    seconds_from_ns,
-    set_ns,
-    split_ns,
-    steps_within,
-)
-
-__all__ = [
-    "T0_NS",
-    "NS_PER_S",
-    "nearest_step",
-    "nearest_steps",
-    "ns_from_parts",
-    "ns_from_seconds",
-    "ns_of",
-    "seconds_from_ns",
-    "set_ns",
-    "split_ns",
-    "steps_within",
-]
+# ``NAME as NAME``: each name re-exported, listed once (PEP 484's explicit re-export)
+from drs_model.timebase import NS_PER_S as NS_PER_S
+from drs_model.timebase import T0_NS as T0_NS
+from drs_model.timebase import nearest_step as nearest_step
+from drs_model.timebase import nearest_steps as nearest_steps
+from drs_model.timebase import ns_from_parts as ns_from_parts
+from drs_model.timebase import ns_from_seconds as ns_from_seconds
+from drs_model.timebase import ns_of as ns_of
+from drs_model.timebase import seconds_from_ns as seconds_from_ns
+from drs_model.timebase import set_ns as set_ns
+from drs_model.timebase import split_ns as split_ns
+from drs_model.timebase import steps_within as steps_within

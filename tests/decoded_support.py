@@ -14,19 +14,9 @@ from pathlib import Path
 
 def read_bag(path: str | Path, topics: Sequence[str], recover: bool = False):
     """Verify a whole bag and keep every decoded message of ``topics``
-    (:func:`drs_ros.bag.read.decoded.stream_bag`): a :class:`~drs_ros.bag.read.decoded.BagData`
-    whose
-    ``messages`` maps each topic to its ``(log_time_ns, message)`` in file order.
-
-    Raises
-    ------
-    BagReadError
-        The bag is missing, unreadable, corrupt or inconsistent (with ``recover``: nothing of it
-        is readable).
-    MessageCallbackError
-        Decoding a message that passed the file's checks failed (its type is not installed):
-        not a fault of the bag.
-    """
+    (:func:`drs_ros.bag.read.decoded.stream_bag`, which says what it raises): a
+    :class:`~drs_ros.bag.read.decoded.BagData` whose ``messages`` maps each topic to its
+    ``(log_time_ns, message)`` in file order."""
     from drs_ros.bag.read.decoded import stream_bag
 
     messages: dict[str, list] = {t: [] for t in topics}

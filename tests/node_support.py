@@ -5,13 +5,14 @@ from __future__ import annotations
 import contextlib
 import os
 import subprocess
-import sys
 import time
 import zlib
 from collections.abc import Callable, Iterator, Sequence
 
 import pytest
 from ros_support import require_rclpy
+
+from drs_ros.node.command_line import PYTHON_M_DRS_ROS, node_command
 
 
 def domain_for(nodeid: str) -> int:
@@ -87,6 +88,51 @@ def node_with_client(
         rclpy.try_shutdown(context=ctx)
 
 
+class NodeAndClient:
+    """A :class:`~drs_ros.node.DRSNode` with ``overrides`` (rclpy Parameters) and a client node
+    ``client_name`` in the context ``ctx``, spun by one executor (``exec``). :meth:`close`
+    finishes the node's recordings, then shuts down the executor and both nodes."""
+
+    def __init__(self, ctx, overrides: Sequence, client_name: str) -> None:
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+
+        from drs_ros.node import DRSNode
+
+        self.node = DRSNode(context=ctx, parameter_overrides=list(overrides))
+        self.client = Node(client_name, context=ctx)
+        self.exec = SingleThreadedExecutor(context=ctx)
+        self.exec.add_node(self.node)
+        self.exec.add_node(self.client)
+
+    def close(self) -> None:
+        self.node.close_recordings()
+        self.exec.shutdown()
+        self.client.destroy_node()
+        self.node.destroy_node()
+
+
+@contextlib.contextmanager
+def hydraulic_node_in(out, fixture: str, client_name: str) -> Iterator[tuple]:
+    """:func:`node_with_client` for a module-scoped fixture (which has no ``monkeypatch``): a
+    hydraulic node recording into ``out/bag``, DDS on loopback and the ROS log in
+    ``out/ros-log`` while it runs, on the domain of ``fixture`` (its name, as a test id)."""
+    from rclpy.parameter import Parameter
+
+    overrides = [
+        Parameter("fidelity", value="hydraulic"),
+        Parameter("bag_path", value=str(out / "bag")),
+    ]
+    mp = pytest.MonkeyPatch()
+    mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
+    try:
+        with node_with_client(domain_for(fixture), overrides, client_name) as parts:
+            yield parts
+    finally:
+        mp.undo()
+
+
 def spin_until(executor, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
     """Spin ``executor`` until ``predicate()`` or ``timeout`` [s] of wall time."""
     end = time.monotonic() + timeout
@@ -124,9 +170,9 @@ def start_node(
     ``-p`` for each of ``params`` (``name:=value``); its output (stdout and stderr) in ``stdout``
     as text."""
     require_rclpy()
-    args = list(argv or [sys.executable, "-m", "drs_ros"]) + ["--ros-args"]
-    for p in params:
-        args += ["-p", p]
+    args = node_command(
+        ros_args=[item for p in params for item in ("-p", p)], program=argv or PYTHON_M_DRS_ROS
+    )
     return subprocess.Popen(
         args, env=node_env(tmp_path, domain), stdout=stdout, stderr=subprocess.STDOUT, text=True
     )

@@ -12,6 +12,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from launch_support import REAR_NAMING, REAR_TOPICS, remap_args
 from ros_support import require_rclpy
 
 from drs_model.params import DRSParams
@@ -247,17 +248,8 @@ def test_a_bag_without_the_joint_states_named_is_refused(bags):
 NODE_NAMES = {
     "default": (None, [], "/drs", "/joint_states", "/drs/pressure_piston_side"),
     "renamed": (
-        "/car7",
-        [
-            "-r",
-            "__node:=drs_rear",
-            "-r",
-            "/joint_states:=/car7/joint_states",
-            "-r",
-            "~/piston_force:=/car7/rear_force",
-            "-r",
-            "~/pressure_piston_side:=/car7/rear_pressure_a",
-        ],
+        REAR_NAMING["__ns"],
+        remap_args({"__node": REAR_NAMING["__node"], **REAR_TOPICS}),
         "/car7/drs_rear",
         "/car7/joint_states",
         "/car7/rear_pressure_a",

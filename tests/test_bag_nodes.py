@@ -21,8 +21,11 @@ from pathlib import Path
 
 import pytest
 from bag_support import copy_bags, message_editor
+from launch_support import REAR_NAMING, REAR_TOPICS, remap_args
 from node_support import domain_for, node_env, spin_for, spin_until, wait_for_file_growth
 from ros_support import require_rclpy
+
+from drs_ros.node.command_line import node_command
 
 pytestmark = pytest.mark.ros
 
@@ -39,25 +42,15 @@ class Launch:
     m_wing: float
 
 
-#: Node names as a stack gives them: the default, and a namespace with a renamed node and two
-#: remapped topics (an absolute one, the joint states, and a private one, the piston force).
+#: Node names as a stack gives them: the default, and a namespace with a renamed node and its
+#: remapped topics (an absolute one, the joint states, and private ones, the piston force read
+#: here and the piston-side pressure, which the rigid rung does not publish).
 LAUNCHES = {
     "default": Launch(
         ("-p", "model.m_wing:=3.0"), "/drs", "/joint_states", "/drs/piston_force", 3.0
     ),
     "renamed": Launch(
-        (
-            "-r",
-            "__ns:=/car7",
-            "-r",
-            "__node:=drs_rear",
-            "-r",
-            "/joint_states:=/car7/joint_states",
-            "-r",
-            "~/piston_force:=/car7/rear_force",
-            "-p",
-            "model.m_wing:=3.0",
-        ),
+        (*remap_args(REAR_NAMING | REAR_TOPICS), "-p", "model.m_wing:=3.0"),
         "/car7/drs_rear",
         "/car7/joint_states",
         "/car7/rear_force",
@@ -118,19 +111,9 @@ def record_runs(out: Path, launches: list[tuple[Launch, str]], domain: int) -> l
     try:
         for i, (launch, rung) in enumerate(launches):
             bag = out / f"bag{i}"
-            args = [
-                sys.executable,
-                "-m",
-                "drs_ros",
-                "--ros-args",
-                *launch.ros_args,
-                "-p",
-                f"fidelity:={rung}",
-                "-p",
-                f"bag_path:={bag}",
-                "-p",
-                "flush_period:=0.2",
-            ]
+            args = node_command(
+                {"fidelity": rung, "bag_path": bag, "flush_period": 0.2}, ros_args=launch.ros_args
+            )
             procs.append(
                 subprocess.Popen(
                     args,

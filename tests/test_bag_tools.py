@@ -27,6 +27,8 @@ import pytest
 from node_support import domain_for, node_env, wait_for_file_growth
 from ros_support import require_module, require_rclpy, write_drs_bag, write_split_bag
 
+from drs_ros.node.command_line import node_command
+
 pytestmark = pytest.mark.ros
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
@@ -185,18 +187,9 @@ def test_sigkill_then_recover_gives_a_bag_every_reader_reads(tmp_path, request):
     flush, publish_hz = 0.2, 250.0
     env = node_env(tmp_path, domain_for(request.node.nodeid))
     proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "drs_ros",
-            "--ros-args",
-            "-p",
-            f"bag_path:={tmp_path / 'bag'}",
-            "-p",
-            f"flush_period:={flush}",
-            "-p",
-            f"publish_rate_hz:={publish_hz}",
-        ],
+        node_command(
+            {"bag_path": tmp_path / "bag", "flush_period": flush, "publish_rate_hz": publish_hz}
+        ),
         env=env,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -247,16 +240,7 @@ def test_start_up_is_all_or_nothing(case, tmp_path, request):
         (bag / "bag_0.mcap").write_bytes(b"an earlier run")
     before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     res = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "drs_ros",
-            "--ros-args",
-            "-p",
-            f"bag_path:={bag}",
-            "-p",
-            f"rrd_path:={rrd}",
-        ],
+        node_command({"bag_path": bag, "rrd_path": rrd}),
         env=node_env(tmp_path / "log", domain_for(request.node.nodeid)),
         capture_output=True,
         text=True,

@@ -12,9 +12,9 @@ import json
 import math
 import signal
 import subprocess
-import sys
 
 import pytest
+from launch_support import REAR_NAMING, REAR_TOPICS, remap_args
 from node_support import domain_for, node_env, spin_for, spin_until
 from ros_support import require_rclpy, tampered_copy
 
@@ -24,25 +24,14 @@ require_rclpy()
 
 from rclpy.parameter import Parameter  # noqa: E402
 
+from drs_ros.node.command_line import node_command  # noqa: E402
+
 #: The node's launch arguments (extra ``--ros-args`` items): its name, namespace, remappings.
 #: ``renamed`` is a node named as a vehicle stack names it: a namespace, another node name, an
 #: absolute and a private topic remapped, and a model parameter of its own.
 LAUNCHES = {
     "default": [],
-    "renamed": [
-        "-r",
-        "__ns:=/car7",
-        "-r",
-        "__node:=drs_rear",
-        "-r",
-        "/joint_states:=/car7/joint_states",
-        "-r",
-        "~/piston_force:=/car7/rear_force",
-        "-r",
-        "~/pressure_piston_side:=/car7/rear_pressure_a",
-        "-p",
-        "model.m_wing:=3.0",
-    ],
+    "renamed": [*remap_args(REAR_NAMING | REAR_TOPICS), "-p", "model.m_wing:=3.0"],
 }
 
 RUNGS = ("kinematic", "quasi-static", "rigid", "hydraulic")
@@ -146,17 +135,7 @@ def run_node(tmp_path, domain: int, rung: str, script: list, launch: list[str]):
     from trajectory_msgs.msg import JointTrajectory
 
     bag = tmp_path / "bag"
-    args = [
-        sys.executable,
-        "-m",
-        "drs_ros",
-        "--ros-args",
-        "-p",
-        f"fidelity:={rung}",
-        "-p",
-        f"bag_path:={bag}",
-        *launch,
-    ]
+    args = node_command({"fidelity": rung, "bag_path": bag}, ros_args=launch)
     proc = subprocess.Popen(
         args,
         env=node_env(tmp_path, domain),

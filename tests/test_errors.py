@@ -22,6 +22,7 @@ from ros_support import require_rclpy
 from drs_model.cli import exit_status
 from drs_model.cli import main as drs_main
 from drs_model.errors import DRSError
+from drs_ros.node.command_line import node_command
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "bags" / "example"
@@ -395,16 +396,7 @@ pytest_ros = pytest.mark.ros
 def test_node_refusal_at_start_names_the_parameter(tmp_path, request):
     require_rclpy()
     res = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "drs_ros",
-            "--ros-args",
-            "-p",
-            "model.m_wing:=-2.0",
-            "-p",
-            f"bag_path:={tmp_path / 'bag'}",
-        ],
+        node_command({"model.m_wing": -2.0, "bag_path": tmp_path / "bag"}),
         env=node_env(tmp_path, domain_for(request.node.nodeid)),
         capture_output=True,
         text=True,

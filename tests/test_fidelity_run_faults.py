@@ -291,13 +291,9 @@ def test_a_fault_too_stiff_for_the_step_is_refused_with_the_rung_s_reason():
     run.apply("jam_friction_n", 500.0)  # a lighter jam is taken
 
 
-def test_no_step_takes_more_sub_steps_than_the_cap():
-    """Every step of a run with the stiffest faults in range counts its sub-steps (the rung's
-    sub-step calls; where a stop's contact is located within one, the bisection's trial steps
-    are not sub-steps: at most ``hydraulic_events.MAX_EVENTS`` per sub-step, each a bounded
-    search); none exceeds ``max_substeps``; a state too stiff for the cap (oil 1e10 times
-    stiffer) raises TooStiffError before any sub-step, leaving the state as it was."""
-    sim = make_rung("hydraulic", P, 1e-3)
+def counted_substeps(sim) -> list[int]:
+    """Count the sub-steps of the hydraulic rung ``sim`` from now on: ``calls[0]`` of the list
+    returned is the number of its sub-step calls (reset it to count afresh)."""
     calls = [0]
     substep = sim._substep
 
@@ -306,6 +302,17 @@ def test_no_step_takes_more_sub_steps_than_the_cap():
         return substep(*args)
 
     sim._substep = counted
+    return calls
+
+
+def test_no_step_takes_more_sub_steps_than_the_cap():
+    """Every step of a run with the stiffest faults in range counts its sub-steps (the rung's
+    sub-step calls; where a stop's contact is located within one, the bisection's trial steps
+    are not sub-steps: at most ``hydraulic_events.MAX_EVENTS`` per sub-step, each a bounded
+    search); none exceeds ``max_substeps``; a state too stiff for the cap (oil 1e10 times
+    stiffer) raises TooStiffError before any sub-step, leaving the state as it was."""
+    sim = make_rung("hydraulic", P, 1e-3)
+    calls = counted_substeps(sim)
     run = RunFaults(sim)
     sim.command_drs(True)
     worst = 0
@@ -331,14 +338,7 @@ def test_the_sub_step_cap_counts_whole_sub_steps():
     step's length ``t1 - t0`` rounds above 10 us late in the run (first at 62.5 ms): the cap
     compares counts, not lengths; 0.9 us sub-steps are refused (11 needed)."""
     sim = make_rung("hydraulic", P, 1e-5, substep=1e-6)
-    calls = [0]
-    substep = sim._substep
-
-    def counted(*args):
-        calls[0] += 1
-        return substep(*args)
-
-    sim._substep = counted
+    calls = counted_substeps(sim)
     sim.command_drs(True)
     lengths = []
     for _ in range(8000):

@@ -11,49 +11,25 @@ import time
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
-from mcap.writer import CompressionType, Writer
+from mcap.writer import CompressionType
+from mcap_support import MESSAGES, three_channel_writer, write_bag
 
 from drs_ros.recording.mcap_append import MessageAppender
 from drs_ros.recording.mcap_chunks import handoff_for
 
-MESSAGES = st.lists(
-    st.tuples(
-        st.integers(1, 3),
-        st.integers(0, 2**40),
-        st.binary(max_size=300),
-        st.integers(0, 2**32 - 1),
-        st.booleans(),
-    ),
-    max_size=60,
-)
 COMPRESSIONS = st.sampled_from([CompressionType.NONE, CompressionType.LZ4, CompressionType.ZSTD])
-
-
-def start(chunk_size: int, compression) -> tuple[io.BytesIO, Writer]:
-    out = io.BytesIO()
-    writer = Writer(out, chunk_size=chunk_size, compression=compression)
-    writer.start(profile="ros2", library="test")
-    schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
-    for k in (1, 2, 3):
-        assert writer.register_channel(f"/t{k}", "cdr", schema, {"k": str(k)}) == k
-    return out, writer
 
 
 def library_bag(messages, chunk_size: int, compression) -> bytes:
     """The reference: add_message, the writer closing its chunks (by size and at flushes)."""
-    out, writer = start(chunk_size, compression)
-    for channel, log_time, data, sequence, flush in messages:
-        writer.add_message(channel, log_time, data, log_time + 7, sequence)
-        if flush:
-            writer.flush()
-    writer.finish()
-    return out.getvalue()
+    return write_bag(messages, direct=False, chunk_size=chunk_size, compression=compression)
 
 
 def handoff_bag(messages, chunk_size: int, compression, concurrent: bool) -> bytes:
     """The same messages through MessageAppender and ChunkHandoff: chunks closed where they are
     written, written by ``drain`` (``concurrent``: by another thread, all along)."""
-    out, writer = start(chunk_size, compression)
+    out = io.BytesIO()
+    writer = three_channel_writer(out, chunk_size, compression)
     lock = threading.Lock()
     handoff = handoff_for(writer, lock, lambda n: None)
     append = MessageAppender(writer, handoff.close).append

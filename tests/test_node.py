@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from node_support import spin_for, spin_until
+from node_support import NodeAndClient, spin_for, spin_until
 from ros_support import require_rclpy
 
 pytestmark = pytest.mark.ros
@@ -25,17 +25,11 @@ from drs_model.inverse import inverse_dynamics  # noqa: E402
 from drs_ros.node import DRSNode  # noqa: E402
 
 
-class Harness:
-    """The node and a client node in one context and executor."""
+class Harness(NodeAndClient):
+    """The node and a client node of its own topics and service, in one context and executor."""
 
     def __init__(self, ctx, overrides=()):
-        from rclpy.node import Node
-
-        self.node = DRSNode(context=ctx, parameter_overrides=list(overrides))
-        self.client = Node("drs_test_client", context=ctx)
-        self.exec = SingleThreadedExecutor(context=ctx)
-        self.exec.add_node(self.node)
-        self.exec.add_node(self.client)
+        super().__init__(ctx, overrides, "drs_test_client")
         self.joints: list[JointState] = []
         self.forces: list[float] = []
         self.gaps: list[float] = []
@@ -66,12 +60,6 @@ class Harness:
         fut = self.drs.call_async(SetBool.Request(data=value))
         assert spin_until(self.exec, fut.done, 5.0)
         return fut.result()
-
-    def close(self):
-        self.node.close_recordings()
-        self.exec.shutdown()
-        self.client.destroy_node()
-        self.node.destroy_node()
 
 
 @pytest.fixture

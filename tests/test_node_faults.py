@@ -55,37 +55,26 @@ STEPS = (
 def faulty_bag(tmp_path_factory):
     """A hydraulic node opened through the service, then the faults of STEPS set through the
     parameter service (as ``ros2 param set`` does), 0.1 s apart; what the client saw."""
-    from node_support import domain_for, node_with_client
+    from node_support import hydraulic_node_in
 
     out = tmp_path_factory.mktemp("faults")
-    mp = pytest.MonkeyPatch()
-    mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
-    overrides = [
-        Parameter("fidelity", value="hydraulic"),
-        Parameter("bag_path", value=str(out / "bag")),
-    ]
     joints: list = []
     results = []
-    try:
-        with node_with_client(
-            int(domain_for("test_node_faults::faulty_bag")), overrides, "drs_faults_client"
-        ) as (node, client, ex):
-            client.create_subscription(JointState, "/joint_states", joints.append, 100)
-            params = AsyncParameterClient(client, "/drs")
-            drs = client.create_client(SetBool, "/drs/drs")
-            assert drs.wait_for_service(timeout_sec=10.0) and params.wait_for_services(10.0)
-            fut = drs.call_async(SetBool.Request(data=True))
-            assert spin_until(ex, fut.done, 5.0) and fut.result().success
+    fixture = "test_node_faults::faulty_bag"
+    with hydraulic_node_in(out, fixture, "drs_faults_client") as (node, client, ex):
+        client.create_subscription(JointState, "/joint_states", joints.append, 100)
+        params = AsyncParameterClient(client, "/drs")
+        drs = client.create_client(SetBool, "/drs/drs")
+        assert drs.wait_for_service(timeout_sec=10.0) and params.wait_for_services(10.0)
+        fut = drs.call_async(SetBool.Request(data=True))
+        assert spin_until(ex, fut.done, 5.0) and fut.result().success
+        spin_for(ex, 0.1)
+        for plist, _ in STEPS:
+            fut = params.set_parameters_atomically(plist)
+            assert spin_until(ex, fut.done, 5.0)
+            results.append(fut.result().result)
             spin_for(ex, 0.1)
-            for plist, _ in STEPS:
-                fut = params.set_parameters_atomically(plist)
-                assert spin_until(ex, fut.done, 5.0)
-                results.append(fut.result().result)
-                spin_for(ex, 0.1)
-            diagnostics = node.diagnostics_values()
-    finally:
-        mp.undo()
+        diagnostics = node.diagnostics_values()
     return out / "bag", results, diagnostics, joints
 
 

@@ -31,35 +31,24 @@ HYDRAULIC = (
 def hydraulic_bag(tmp_path_factory):
     """A hydraulic node's run: open through the service, 0.3 s, close, 0.3 s; the pressures it
     published as a subscriber saw them."""
-    from node_support import domain_for, node_with_client
+    from node_support import hydraulic_node_in
 
     out = tmp_path_factory.mktemp("hydraulic")
-    mp = pytest.MonkeyPatch()
-    mp.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    mp.setenv("ROS_LOG_DIR", str(out / "ros-log"))
-    overrides = [
-        Parameter("fidelity", value="hydraulic"),
-        Parameter("bag_path", value=str(out / "bag")),
-    ]
     seen = {"pa": [], "joints": []}
-    try:
-        with node_with_client(
-            int(domain_for("test_node_fidelity::hydraulic_bag")), overrides, "drs_fidelity_client"
-        ) as (node, client, ex):
-            client.create_subscription(FluidPressure, HYDRAULIC[0], seen["pa"].append, 100)
-            client.create_subscription(JointState, "/joint_states", seen["joints"].append, 100)
-            drs = client.create_client(SetBool, "/drs/drs")
-            assert drs.wait_for_service(timeout_sec=10.0)
-            assert spin_until(ex, lambda: len(seen["pa"]) > 3, 10.0), "no pressures published"
-            for value in (True, False):
-                fut = drs.call_async(SetBool.Request(data=value))
-                assert spin_until(ex, fut.done, 5.0) and fut.result().success
-                # 0.3 s of simulated time, however slowly a loaded machine runs it: the
-                # valve's swing each way takes tens of ms of it
-                t_end = node.sim.t + 0.3
-                assert spin_until(ex, lambda t_end=t_end: node.sim.t >= t_end, 60.0)
-    finally:
-        mp.undo()
+    fixture = "test_node_fidelity::hydraulic_bag"
+    with hydraulic_node_in(out, fixture, "drs_fidelity_client") as (node, client, ex):
+        client.create_subscription(FluidPressure, HYDRAULIC[0], seen["pa"].append, 100)
+        client.create_subscription(JointState, "/joint_states", seen["joints"].append, 100)
+        drs = client.create_client(SetBool, "/drs/drs")
+        assert drs.wait_for_service(timeout_sec=10.0)
+        assert spin_until(ex, lambda: len(seen["pa"]) > 3, 10.0), "no pressures published"
+        for value in (True, False):
+            fut = drs.call_async(SetBool.Request(data=value))
+            assert spin_until(ex, fut.done, 5.0) and fut.result().success
+            # 0.3 s of simulated time, however slowly a loaded machine runs it: the
+            # valve's swing each way takes tens of ms of it
+            t_end = node.sim.t + 0.3
+            assert spin_until(ex, lambda t_end=t_end: node.sim.t >= t_end, 60.0)
     return out / "bag", seen
 
 

@@ -5,13 +5,10 @@ where the piston is on cancel, on abort and on preemption, ``header.stamp`` on t
 from __future__ import annotations
 
 import itertools
-import json
-import subprocess
-import sys
 
 import pytest
 from node_support import spin_for, spin_until
-from ros_support import require_rclpy
+from ros_support import require_rclpy, resimulate_json
 
 pytestmark = pytest.mark.ros
 
@@ -174,12 +171,7 @@ def test_trajectory_cmd_starts_at_its_header_stamp(ros_context, tmp_path):
         spin_for(st.exec, 0.1)
     finally:
         st.close()
-    res = subprocess.run(
-        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag), "--json"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert res.returncode == 0, res.stderr
-    rows = {r["signal"]: r for r in json.loads(res.stdout)["signals"]}
+    status, report = resimulate_json(str(bag))
+    assert status == 0, report
+    rows = {r["signal"]: r for r in report["signals"]}
     assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows

@@ -16,13 +16,11 @@ effect record (``~/command_events``) says when each command took effect; checked
 from __future__ import annotations
 
 import signal
-import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
-from node_support import domain_for, node_env
+from node_support import domain_for, start_node
 from ros_support import require_rclpy
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -45,22 +43,7 @@ def test_a_flood_never_leaves_a_stale_command(tmp_path, request, params):
 
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "drs_ros",
-            "--ros-args",
-            "-p",
-            f"bag_path:={bag}",
-            "-p",
-            f"publish_rate_hz:={PUBLISH_HZ}",
-        ],
-        env=node_env(tmp_path, domain),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    proc = start_node(tmp_path, domain, f"bag_path:={bag}", f"publish_rate_hz:={PUBLISH_HZ}")
     ctx = Context()
     rclpy.init(context=ctx, domain_id=domain)
     client = Node("flooder", context=ctx)

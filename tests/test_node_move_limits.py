@@ -6,15 +6,12 @@ point is at 0 s and a deactivation behave as joint_trajectory_controller's."""
 
 from __future__ import annotations
 
-import json
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from node_support import spin_for, spin_until
-from ros_support import require_rclpy
+from ros_support import require_rclpy, resimulate_json
 
 pytestmark = pytest.mark.ros
 
@@ -32,14 +29,10 @@ from drs_model.inverse import inverse_dynamics  # noqa: E402
 
 
 def _resimulated(bag) -> dict:
-    res = subprocess.run(
-        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag), "--json"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert res.returncode == 0, res.stderr
-    return {r["signal"]: r for r in json.loads(res.stdout)["signals"]}
+    """``drs-bag resimulate`` of ``bag`` (asserted to exit 0): its rows by signal."""
+    status, report = resimulate_json(str(bag))
+    assert status == 0, report
+    return {r["signal"]: r for r in report["signals"]}
 
 
 def _newton_euler(params, s, sd, sdd) -> np.ndarray:

@@ -11,6 +11,8 @@ import time
 import pytest
 from node_support import domain_for, node_env, start_node, wait_for_file_growth
 
+from drs_ros.node.command_line import node_command
+
 pytestmark = pytest.mark.ros
 
 
@@ -111,18 +113,11 @@ def start_up_errors(tmp_path_factory) -> dict[str, tuple[int, str, list[str]]]:
             (where / "malformed.yaml").write_text("drs:\n  m_wing: [1, 2\n  Iz_wing: :\n")
             (where / "latin1.yaml").write_bytes("m_wing: 5 # 5 kg \xb1 1\n".encode("latin-1"))
             own, ros = START_UP_ERRORS[name]
-            args = [
-                sys.executable,
-                "-m",
-                "drs_ros",
-                *own,
-                "--ros-args",
-                *(a.format(dir=where) for a in ros),
-                "-p",
-                f"bag_path:={where}/bag",
-                "-p",
-                f"rrd_path:={where}/run.rrd",
-            ]
+            args = node_command(
+                {"bag_path": where / "bag", "rrd_path": where / "run.rrd"},
+                options=own,
+                ros_args=[a.format(dir=where) for a in ros],
+            )
             env = node_env(where / "log", domain_for(f"start-up {name}"))
             started[name] = (
                 where,

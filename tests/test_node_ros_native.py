@@ -30,6 +30,7 @@ from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
 from drs_model import kinematics as kin  # noqa: E402
 from drs_ros.node import DRSNode, ManagedDRSNode  # noqa: E402
+from drs_ros.node.command_line import node_command  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "drs.yaml"
 
@@ -253,7 +254,7 @@ def test_the_parameter_file_holds_every_parameter_at_its_default(ros_context):
 
 def _run_node(tmp_path, request, *ros_args, seconds=3.0):
     proc = subprocess.Popen(
-        [sys.executable, "-m", "drs_ros", "--ros-args", *ros_args],
+        node_command(ros_args=ros_args),
         env=node_env(tmp_path, domain_for(request.node.nodeid)),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

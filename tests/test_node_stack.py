@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 import pytest
-from node_support import spin_for, spin_until
-from ros_support import require_module, require_rclpy
+from node_support import NodeAndClient, spin_for, spin_until
+from ros_support import require_module, require_rclpy, resimulate_json
 
 pytestmark = pytest.mark.ros
 
@@ -21,7 +21,6 @@ from action_msgs.msg import GoalStatus  # noqa: E402
 from control_msgs.action import FollowJointTrajectory  # noqa: E402
 from control_msgs.msg import JointTolerance  # noqa: E402
 from rclpy.action import ActionClient  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import DurabilityPolicy, QoSProfile  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
@@ -30,23 +29,16 @@ from tf2_msgs.msg import TFMessage  # noqa: E402
 from trajectory_msgs.msg import JointTrajectoryPoint  # noqa: E402
 
 from drs_model import kinematics as kin  # noqa: E402
-from drs_ros.node import DRSNode  # noqa: E402
 
 Result = FollowJointTrajectory.Result
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-class Stack:
+class Stack(NodeAndClient):
     """The node and a client node that knows only standard interfaces, in one executor."""
 
     def __init__(self, ctx, overrides=()):
-        from rclpy.node import Node
-
-        self.node = DRSNode(context=ctx, parameter_overrides=list(overrides))
-        self.client = Node("vehicle_stack", context=ctx)
-        self.exec = SingleThreadedExecutor(context=ctx)
-        self.exec.add_node(self.node)
-        self.exec.add_node(self.client)
+        super().__init__(ctx, overrides, "vehicle_stack")
         c = self.client
         self.joints, self.tf, self.tf_static, self.description = [], [], [], []
         c.create_subscription(JointState, "/joint_states", self.joints.append, 100)
@@ -79,12 +71,6 @@ class Stack:
         fut = handle.get_result_async()
         assert spin_until(self.exec, fut.done, timeout), "no result"
         return fut.result()
-
-    def close(self):
-        self.node.close_recordings()
-        self.exec.shutdown()
-        self.client.destroy_node()
-        self.node.destroy_node()
 
 
 @pytest.fixture
@@ -388,7 +374,6 @@ def test_a_bag_of_the_action_tf_and_joint_commands_checks_and_re_runs(ros_contex
     """drs-bag check passes, rosbags and mcap_ros2 read every message byte-exact (/tf,
     /tf_static, /robot_description, the JointState commands), and the run re-runs exactly: the
     goals' moves and the holds are in the effect record."""
-    import json
     import subprocess
     import sys
 
@@ -428,14 +413,8 @@ def test_a_bag_of_the_action_tf_and_joint_commands_checks_and_re_runs(ros_contex
     assert by_rosbags["/robot_description"] == by_rosbags["/tf_static"] == 1
     assert by_rosbags["/tf"] == by_rosbags["/joint_states"]
     assert by_rosbags["/drs/joint_commands"] == 3
-    again = subprocess.run(
-        [sys.executable, "-m", "drs_ros.bag.cli", "resimulate", str(bag), "--json"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert again.returncode == 0, again.stdout + again.stderr
-    report = json.loads(again.stdout)
+    status, report = resimulate_json(str(bag))
+    assert status == 0, report
     assert all(r["max_deviation"] == 0.0 for r in report["signals"]), report["signals"]
     assert not report["notes"]
 

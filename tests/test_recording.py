@@ -20,22 +20,9 @@ from ros_support import JOINT_NAMES, require_module, require_rclpy, write_drs_ba
 pytestmark = pytest.mark.ros
 yaml = require_module("yaml")  # installed with the ros extra; skips (outside CI) without it
 
-PRIMITIVES = {
-    "bool",
-    "byte",
-    "char",
-    "float32",
-    "float64",
-    "int8",
-    "uint8",
-    "int16",
-    "uint16",
-    "int32",
-    "uint32",
-    "int64",
-    "uint64",
-    "string",
-}
+#: The field types that name no message, as rosbags' own .msg parser names its base types (not
+#: drs_ros.recording.msgdefs' table): the reference the full text is built from here.
+PRIMITIVES = frozenset(require_module("rosbags.typesys.msg").BASE_NAMES)
 
 
 def _share(pkg: str) -> Path:

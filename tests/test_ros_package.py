@@ -21,6 +21,8 @@ import pytest
 from node_support import domain_for, node_env, wait_for_file_growth
 from ros_support import require_module, require_rclpy
 
+from drs_ros.node.command_line import node_command
+
 REPO = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
 
@@ -245,16 +247,9 @@ def test_colcon_build_then_drs_node_from_the_install_space(tmp_path, request, sy
 
     bag, rrd = tmp_path / "bag", tmp_path / "run.rrd"
     node = subprocess.Popen(
-        [
-            str(lib / "drs-node"),
-            "--ros-args",
-            "-p",
-            f"bag_path:={bag}",
-            "-p",
-            f"rrd_path:={rrd}",
-            "-p",
-            "flush_period:=0.2",
-        ],
+        node_command(
+            {"bag_path": bag, "rrd_path": rrd, "flush_period": 0.2}, program=[str(lib / "drs-node")]
+        ),
         cwd=tmp_path,
         env=run_env,
         stdout=subprocess.PIPE,

@@ -18,6 +18,8 @@ from pathlib import Path
 import pytest
 from node_support import domain_for, node_env
 
+from drs_ros.node.command_line import node_command
+
 pytestmark = pytest.mark.ros
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "bags" / "example"
@@ -34,16 +36,7 @@ def _run_pair(work: Path, k: int, rng: random.Random, domain: int) -> list[dict]
     returns what happened to each."""
     bag = work / f"node{k}"
     commands = {
-        "drs-node": [
-            sys.executable,
-            "-m",
-            "drs_ros",
-            "--ros-args",
-            "-p",
-            f"bag_path:={bag}",
-            "-p",
-            "flush_period:=0.2",
-        ],
+        "drs-node": node_command({"bag_path": bag, "flush_period": 0.2}),
         "drs-bag play": [sys.executable, "-m", "drs_ros.bag.cli", "play", str(EXAMPLE)],
     }
     plan = {

@@ -53,7 +53,7 @@ def bag_messages(path: str | Path) -> Iterator[RecordedMessage]:
 
         channels = {c["id"]: ChannelInfo(**c) for c in sqlite.channels(bag)}
         for row, rec in enumerate(sqlite.iter_rows(bag), start=1):
-            yield _message(channels[rec.channel_id], rec, row)
+            yield RecordedMessage.of_record(channels[rec.channel_id], rec, row)
         return
     for file in bag.files:
         yield from _mcap_messages(file)
@@ -78,32 +78,10 @@ def _mcap_messages(file: Path) -> Iterator[RecordedMessage]:
                 if isinstance(rec, Schema):
                     schemas[rec.id] = rec
                 elif isinstance(rec, Channel):
-                    schema = schemas.get(rec.schema_id)
-                    channels[rec.id] = ChannelInfo(
-                        rec.id,
-                        rec.topic,
-                        schema.name if schema else "",
-                        schema.encoding if schema else "",
-                        bytes(schema.data) if schema else b"",
-                        rec.message_encoding,
-                        dict(rec.metadata),
-                    )
+                    channels[rec.id] = ChannelInfo.of_record(rec, schemas.get(rec.schema_id))
                 elif isinstance(rec, Message):
-                    yield _message(channels[rec.channel_id], rec, at)
+                    yield RecordedMessage.of_record(channels[rec.channel_id], rec, at)
             at = stream.count
-
-
-def _message(channel: ChannelInfo, rec, offset: int) -> RecordedMessage:
-    return RecordedMessage(
-        channel.topic,
-        channel.type_name,
-        rec.log_time,
-        rec.publish_time,
-        rec.sequence,
-        bytes(rec.data),
-        offset,
-        channel,
-    )
 
 
 def merged_messages(sources: Sequence[str | Path]) -> Iterator[RecordedMessage]:

@@ -205,15 +205,7 @@ def _add_channel(out: BagScan, schemas, record, fail) -> None:
     schema = schemas.get(record.schema_id)
     if schema is None and record.schema_id != 0:
         fail(f"channel {record.topic} names schema {record.schema_id}, never declared")
-    out.channels[record.id] = ChannelInfo(
-        record.id,
-        record.topic,
-        schema.name if schema else "",
-        schema.encoding if schema else "",
-        bytes(schema.data) if schema else b"",
-        record.message_encoding,
-        dict(record.metadata),
-    )
+    out.channels[record.id] = ChannelInfo.of_record(record, schema)
     out.counts.setdefault(record.topic, 0)
 
 

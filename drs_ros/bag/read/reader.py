@@ -267,16 +267,7 @@ def _take(
     out.start_ns = rec.log_time if out.start_ns is None else min(out.start_ns, rec.log_time)
     out.end_ns = rec.log_time if out.end_ns is None else max(out.end_ns, rec.log_time)
     if on_message is not None and (wanted is None or channel.topic in wanted):
-        message = RecordedMessage(
-            channel.topic,
-            channel.type_name,
-            rec.log_time,
-            rec.publish_time,
-            rec.sequence,
-            bytes(rec.data),
-            at,
-            channel,
-        )
+        message = RecordedMessage.of_record(channel, rec, at)
         try:
             on_message(message)
         except Exception as exc:  # the caller's failure, not the file's: never a verdict

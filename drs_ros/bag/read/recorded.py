@@ -49,6 +49,22 @@ class RecordedMessage:
     offset: int
     channel: ChannelInfo | None = field(default=None, compare=False, repr=False)
 
+    @classmethod
+    def of_record(cls, channel: ChannelInfo, record: Any, offset: int) -> RecordedMessage:
+        """The message ``record`` on ``channel`` (an ``mcap.records.Message``, or a row of
+        :func:`drs_ros.bag.read.sqlite.iter_rows`: the same fields), at ``offset`` (the file
+        offset [bytes]; for a sqlite3 row, its number)."""
+        return cls(
+            channel.topic,
+            channel.type_name,
+            record.log_time,
+            record.publish_time,
+            record.sequence,
+            bytes(record.data),
+            offset,
+            channel,
+        )
+
 
 @dataclass
 class ChannelInfo:
@@ -61,6 +77,20 @@ class ChannelInfo:
     schema_data: bytes
     message_encoding: str
     metadata: dict[str, str]
+
+    @classmethod
+    def of_record(cls, record: Any, schema: Any | None) -> ChannelInfo:
+        """The MCAP channel ``record`` (an ``mcap.records.Channel``) with its ``schema`` (an
+        ``mcap.records.Schema``; None: the channel has none, schema id 0)."""
+        return cls(
+            record.id,
+            record.topic,
+            schema.name if schema else "",
+            schema.encoding if schema else "",
+            bytes(schema.data) if schema else b"",
+            record.message_encoding,
+            dict(record.metadata),
+        )
 
 
 @dataclass
