@@ -342,7 +342,9 @@ def test_trajectory_command_over_dds(harness, params):
         for t, s in points:
             msg.points.append(
                 JointTrajectoryPoint(
-                    positions=[s, 0.0], time_from_start=Duration(sec=0, nanosec=int(t * 1e9))
+                    positions=[s, 0.0],
+                    velocities=[0.0, 0.0],  # at rest at each point: the held top is flat
+                    time_from_start=Duration(sec=0, nanosec=int(t * 1e9)),
                 )
             )
         return msg
