@@ -85,7 +85,9 @@ def test_drs_fidelity_json_and_plot(capsys, tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
     scenes = {r["scene"] for r in d["rows"]}
     assert scenes == set(SCENES) and set(d["needs"]) == scenes
-    assert d["needs"]["gap-stream"]["gap"] == "kinematic (batch)"
+    # the gap of a stream needs the kinematic rung; whether its batch or its step-by-step run
+    # is the cheaper is a measured cost (a loaded machine chose the step-by-step once)
+    assert d["needs"]["gap-stream"]["gap"] in {"kinematic (batch)", "kinematic"}
 
 
 def test_drs_fidelity_refuses_a_bad_tolerance(capsys):
