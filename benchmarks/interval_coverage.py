@@ -114,12 +114,18 @@ def _summary(scene, record, stage, rows, truth, started) -> dict:
     values = np.array([r[:4] for r in rows], dtype=float)
     ok = np.isfinite(values[:, 0])
     hit = ok & (values[:, 1] <= truth) & (truth <= values[:, 2])
-    out = {"scene": scene, "record": record, "stage": stage, "runs": len(rows),
-           "valued": int(ok.sum()), "covered": int(hit.sum()),
-           "inconsistent": int(sum(r[4] for r in rows)),
-           "min_width": float(np.min(values[ok, 2] - values[ok, 1])) if ok.any() else math.nan,
-           "seconds": time.perf_counter() - started,
-           "errors": sorted({r[5] for r in rows if r[5]})[:3]}  # fmt: skip
+    out = {
+        "scene": scene,
+        "record": record,
+        "stage": stage,
+        "runs": len(rows),
+        "valued": int(ok.sum()),
+        "covered": int(hit.sum()),
+        "inconsistent": int(sum(r[4] for r in rows)),
+        "min_width": float(np.min(values[ok, 2] - values[ok, 1])) if ok.any() else math.nan,
+        "seconds": time.perf_counter() - started,
+        "errors": sorted({r[5] for r in rows if r[5]})[:3],
+    }
     if ok.sum() >= 2:
         out["coverage"] = float(hit.sum() / ok.sum())
         out["coverage_se"] = math.sqrt(out["coverage"] * (1 - out["coverage"]) / ok.sum())
@@ -139,8 +145,9 @@ FOREIGN_DROPPED = {"piston_force": True, "spool": True, "supply_pressure": True}
 def hydraulic_cells(runs: int, p: DRSParams) -> list[dict]:
     """The hydraulic rung's equation-stage cells, one per record and parameter."""
     truth = HydraulicParams(**HYDRAULIC_TRUTH)
-    table = run_rung("hydraulic", p, moves=((0, True), (120, False)), steps=240, dt=5e-4,
-                     hydraulic=truth)  # fmt: skip
+    table = run_rung(
+        "hydraulic", p, moves=((0, True), (120, False)), steps=240, dt=5e-4, hydraulic=truth
+    )
     cells = []
     for record in RECORDS:
         n = 1 if record == "node" else runs
@@ -148,14 +155,22 @@ def hydraulic_cells(runs: int, p: DRSParams) -> list[dict]:
         rows = {name: [] for name in HYDRAULIC_TRUTH}
         started = time.perf_counter()
         for seed in range(n):
-            rec = noisy_record(table, 0.0 if record == "node" else NOISE, seed,
-                               stops_hold=record == "foreign", stroke_acceleration=True,
-                               **drop)  # fmt: skip
+            rec = noisy_record(
+                table,
+                0.0 if record == "node" else NOISE,
+                seed,
+                stops_hold=record == "foreign",
+                stroke_acceleration=True,
+                **drop,
+            )
             for name, row in _hydraulic_run(rec, p).items():
                 rows[name].append(row)
         for name, runs_of in rows.items():
-            cells.append(_summary(f"hydraulic:{name}", record, "equation", runs_of,
-                                  HYDRAULIC_TRUTH[name], started))  # fmt: skip
+            cells.append(
+                _summary(
+                    f"hydraulic:{name}", record, "equation", runs_of, HYDRAULIC_TRUTH[name], started
+                )
+            )
     return cells
 
 
@@ -171,14 +186,26 @@ def _hydraulic_run(rec, p) -> dict:
         names.remove("leak_to_outside")
         result = fit(rec, names, "hydraulic", p, HydraulicParams(), stage="equation")
     bad = bool(result.inconsistent)
-    rows = {n: (result.estimate(n).value, result.estimate(n).lower, result.estimate(n).upper,
-                result.estimate(n).std, bad, "") for n in names}  # fmt: skip
+    rows = {
+        n: (
+            result.estimate(n).value,
+            result.estimate(n).lower,
+            result.estimate(n).upper,
+            result.estimate(n).std,
+            bad,
+            "",
+        )
+        for n in names
+    }
     return rows | refused
 
 
 def table_md(cells) -> str:
-    lines = ["| scene | record | stage | runs | valued | coverage | stated std / scatter | "
-             "INCONSISTENT | min width |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| scene | record | stage | runs | valued | coverage | stated std / scatter | "
+        "INCONSISTENT | min width |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for c in cells:
         if "coverage" in c:
             cov = f"{100 * c['coverage']:.1f} % +- {100 * c['coverage_se']:.1f}"
@@ -186,26 +213,42 @@ def table_md(cells) -> str:
         else:
             cov = "holds" if c["covered"] else ("no value" if not c["valued"] else "misses")
             ratio = "-"
-        lines.append(f"| {c['scene']} | {c['record']} | {c['stage']} | {c['runs']} | "
-                     f"{c['valued']} | {cov} | {ratio} | {c['inconsistent']} | "
-                     f"{c['min_width']:.3g} |")  # fmt: skip
+        lines.append(
+            f"| {c['scene']} | {c['record']} | {c['stage']} | {c['runs']} | "
+            f"{c['valued']} | {cov} | {ratio} | {c['inconsistent']} | "
+            f"{c['min_width']:.3g} |"
+        )
     return "\n".join(lines)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=100, help="seeds per noisy equation cell")
-    ap.add_argument("--output-runs", type=int, default=100,
-                    help="seeds per noisy cell with an output-error stage")
+    ap.add_argument(
+        "--output-runs",
+        type=int,
+        default=100,
+        help="seeds per noisy cell with an output-error stage",
+    )
     ap.add_argument("--cells", default="", help="scene:record:stage,... (default: all)")
     ap.add_argument("--json", type=Path, default=None)
-    ap.add_argument("--hydraulic", type=int, default=0, metavar="RUNS",
-                    help="add the hydraulic rung's cells with RUNS seeds per noisy cell")
+    ap.add_argument(
+        "--hydraulic",
+        type=int,
+        default=0,
+        metavar="RUNS",
+        help="add the hydraulic rung's cells with RUNS seeds per noisy cell",
+    )
     args = ap.parse_args(argv)
     wanted = [tuple(c.split(":")) for c in args.cells.split(",") if c]
     if not wanted:
-        wanted = [(s, r, g) for s in SCENES for r in RECORDS for g in STAGES
-                  if not (r == "foreign" and g != "equation")]  # fmt: skip
+        wanted = [
+            (s, r, g)
+            for s in SCENES
+            for r in RECORDS
+            for g in STAGES
+            if not (r == "foreign" and g != "equation")
+        ]
     p = DRSParams()
     load = os.getloadavg()[0]
     cells = []
@@ -218,9 +261,15 @@ def main(argv=None) -> int:
     print(table_md(cells))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        doc = {"parameter": NAME, "truth": float(getattr(p, NAME)), "noise_m": NOISE,
-               "hydraulic_truth": HYDRAULIC_TRUTH if args.hydraulic else None,
-               "load_before": load, "load_after": os.getloadavg()[0], "cells": cells}
+        doc = {
+            "parameter": NAME,
+            "truth": float(getattr(p, NAME)),
+            "noise_m": NOISE,
+            "hydraulic_truth": HYDRAULIC_TRUTH if args.hydraulic else None,
+            "load_before": load,
+            "load_after": os.getloadavg()[0],
+            "cells": cells,
+        }
         args.json.write_text(json.dumps(doc, indent=1) + "\n")
     return 0
 

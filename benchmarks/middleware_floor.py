@@ -58,8 +58,12 @@ def node_messages() -> dict[str, bytes]:
 
     p = DRSParams()
     q = solve_position(stroke_limits(p)[0], p)
-    states = JointState(name=list(DEFAULT_JOINT_NAMES), position=[float(v) for v in q],
-                        velocity=[0.0, 0.0, 0.0], effort=[0.0, 0.0, 0.0])  # fmt: skip
+    states = JointState(
+        name=list(DEFAULT_JOINT_NAMES),
+        position=[float(v) for v in q],
+        velocity=[0.0, 0.0, 0.0],
+        effort=[0.0, 0.0, 0.0],
+    )
     states.header.frame_id = BASE_FRAME
     frames = description.Frames.of(DEFAULT_JOINT_NAMES, BASE_FRAME)
     moving = description.moving_transforms(q, description.JointOrigins.of(p), frames)
@@ -87,8 +91,9 @@ def publisher(
     messages = node_messages()
     made = {}
     if config != "loop":
-        made["/joint_states"] = create_publisher(node, JointState, "/joint_states",
-                                                 QoSProfile(depth=10))  # fmt: skip
+        made["/joint_states"] = create_publisher(
+            node, JointState, "/joint_states", QoSProfile(depth=10)
+        )
     if config == "joint_states + /tf":
         made["/tf"] = create_publisher(node, TFMessage, "/tf", QoSProfile(depth=100))
     pubs = [(pub, messages[topic]) for topic, pub in made.items()]
@@ -142,8 +147,7 @@ def subscriber(topics: list[str]) -> None:
 
     for topic in topics:
         msg_type, depth = types[topic]
-        node.create_subscription(msg_type, topic, counter(topic), QoSProfile(depth=depth),
-                                 raw=True)  # fmt: skip
+        node.create_subscription(msg_type, topic, counter(topic), QoSProfile(depth=depth), raw=True)
     # rclpy's own handlers (SIGINT and SIGTERM) end the spin
     try:
         rclpy.spin(node)
@@ -155,13 +159,28 @@ def subscriber(topics: list[str]) -> None:
 def run(config: str, rate_hz: float, duration_s: float, topics: list[str], env: dict) -> dict:
     """One publisher run beside its subscriber; the subscriber's counts are checked."""
     me = [sys.executable, __file__]
-    sub = subprocess.Popen([*me, "--role", "subscriber", "--topics", *topics], env=env,
-                           stdout=subprocess.PIPE, text=True)  # fmt: skip
+    sub = subprocess.Popen(
+        [*me, "--role", "subscriber", "--topics", *topics],
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
-        role = ["--role", "publisher", "--config", config, "--rates", str(rate_hz),
-                "--duration", str(duration_s), "--topics", *topics]  # fmt: skip
-        out = subprocess.run([*me, *role], env=env, capture_output=True, text=True, check=True,
-                             timeout=120)  # fmt: skip
+        role = [
+            "--role",
+            "publisher",
+            "--config",
+            config,
+            "--rates",
+            str(rate_hz),
+            "--duration",
+            str(duration_s),
+            "--topics",
+            *topics,
+        ]
+        out = subprocess.run(
+            [*me, *role], env=env, capture_output=True, text=True, check=True, timeout=120
+        )
         result = json.loads(out.stdout.strip().splitlines()[-1])
     finally:
         sub.send_signal(signal.SIGTERM)
@@ -181,8 +200,12 @@ def main() -> int:
     ap.add_argument("--tf-subscribed", action="store_true", help="the subscriber takes /tf too")
     ap.add_argument("--domain", type=int, default=93)
     ap.add_argument("--output", type=Path, default=RESULTS)
-    ap.add_argument("--role", choices=("main", "publisher", "subscriber"), default="main",
-                    help=argparse.SUPPRESS)  # fmt: skip
+    ap.add_argument(
+        "--role",
+        choices=("main", "publisher", "subscriber"),
+        default="main",
+        help=argparse.SUPPRESS,
+    )
     ap.add_argument("--config", choices=CONFIGS, help=argparse.SUPPRESS)
     ap.add_argument("--topics", nargs="*", default=[], help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -202,11 +225,13 @@ def main() -> int:
             for config in CONFIGS:
                 r = run(config, rate, args.duration, topics, env)
                 runs.append(r)
-                print(f"round {k + 1} {rate:6g} Hz {config:>18}: {100 * r['cpu_share']:5.1f} % "
-                      f"of a core, missed {100 * r['missed_share']:.2f} %, p99 "
-                      f"{r['lateness_p99_us']:.0f} us, received {r['received']}"
-                      f"{'' if r['delivered'] else ' (NOT all delivered)'}",
-                      flush=True)  # fmt: skip
+                print(
+                    f"round {k + 1} {rate:6g} Hz {config:>18}: {100 * r['cpu_share']:5.1f} % "
+                    f"of a core, missed {100 * r['missed_share']:.2f} %, p99 "
+                    f"{r['lateness_p99_us']:.0f} us, received {r['received']}"
+                    f"{'' if r['delivered'] else ' (NOT all delivered)'}",
+                    flush=True,
+                )
     summary = {}
     for rate in args.rates:
         for config in CONFIGS:

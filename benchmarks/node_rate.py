@@ -89,11 +89,25 @@ def measure(
     out = tmp / f"{executor}-{publish_hz:g}-{load}"
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "drs_ros", "--ros-args", "-p", f"executor:={executor}",
-         "-p", f"publish_rate_hz:={publish_hz}", "-p", f"bag_path:={out / 'bag'}",
-         "-p", f"rrd_path:={out / 'run.rrd'}", *[a for v in node_args for a in ("-p", v)]],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "drs_ros",
+            "--ros-args",
+            "-p",
+            f"executor:={executor}",
+            "-p",
+            f"publish_rate_hz:={publish_hz}",
+            "-p",
+            f"bag_path:={out / 'bag'}",
+            "-p",
+            f"rrd_path:={out / 'run.rrd'}",
+            *[a for v in node_args for a in ("-p", v)],
+        ],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     driver = DRSClient(domain, listen=("joint_states", "diagnostics"), client_name="bench_driver")
     big = big_trajectory() if load == "trajectory" else None
     try:
@@ -144,8 +158,10 @@ def measure(
         "exit_code": proc.returncode,
         # since the node's start (a histogram has no window); deadline executor only
         "tick_policy": last.get("tick_policy", "?"),
-        **{f"lateness_{q}_us": float(last.get(f"tick_lateness_{q}_us", "nan"))
-           for q in ("p50", "p99", "max")},  # fmt: skip
+        **{
+            f"lateness_{q}_us": float(last.get(f"tick_lateness_{q}_us", "nan"))
+            for q in ("p50", "p99", "max")
+        },
     }
     stats["missed_share"] = stats["missed_deadlines"] / ticks
     split = 0.0
@@ -187,27 +203,33 @@ def recorder_cost(n: int, repeats: int, tmp: Path) -> dict[str, float]:
         with open(tmp / f"bare{r}.mcap", "wb") as f:
             w = Writer(f)
             w.start(profile="ros2", library="bench")
-            sid = w.register_schema("sensor_msgs/msg/JointState", "ros2msg",
-                                    full_definition(JointState).encode())  # fmt: skip
+            sid = w.register_schema(
+                "sensor_msgs/msg/JointState", "ros2msg", full_definition(JointState).encode()
+            )
             cid = w.register_channel("/joint_states", "cdr", sid)
             t0 = time.process_time()
             for k in range(n):
                 w.add_message(cid, log_time=k, data=serialize_message(msg), publish_time=k)
             bare.append((time.process_time() - t0) / n)
             w.finish()
-    traj = JointTrajectory(joint_names=["drs_piston"], points=[
-        JointTrajectoryPoint(positions=[0.03], time_from_start=Duration(nanosec=20_000_000)),
-        JointTrajectoryPoint(positions=[0.01], time_from_start=Duration(nanosec=40_000_000)),
-    ])  # fmt: skip
+    traj = JointTrajectory(
+        joint_names=["drs_piston"],
+        points=[
+            JointTrajectoryPoint(positions=[0.03], time_from_start=Duration(nanosec=20_000_000)),
+            JointTrajectoryPoint(positions=[0.01], time_from_start=Duration(nanosec=40_000_000)),
+        ],
+    )
     reactions = JointState(name=list(REACTION_NAMES), effort=[1.0] * len(REACTION_NAMES))
     o, b = statistics.median(ours), statistics.median(bare)
     return {
-        "ours_us_per_msg": 1e6 * o, "bare_us_per_msg": 1e6 * b, "ratio": o / b,
+        "ours_us_per_msg": 1e6 * o,
+        "bare_us_per_msg": 1e6 * b,
+        "ratio": o / b,
         "trajectory_bytes_rclpy": len(serialize_message(traj)),
         "trajectory_bytes_exact": len(cdr.serializer(JointTrajectory)(traj)),
         "reactions_bytes_rclpy": len(serialize_message(reactions)),
         "reactions_bytes_exact": len(serialize(reactions)),
-    }  # fmt: skip
+    }
 
 
 FLOOD = """
@@ -242,8 +264,19 @@ def background(kind: str, domain: int) -> list[subprocess.Popen]:
 
         lo, hi = stroke_limits(DRSParams())
         env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
-        return [subprocess.Popen([sys.executable, "-c", FLOOD, "10000", str(0.2 * hi + 0.8 * lo),
-                                  str(0.8 * hi + 0.2 * lo)], env=env)]  # fmt: skip
+        return [
+            subprocess.Popen(
+                [
+                    sys.executable,
+                    "-c",
+                    FLOOD,
+                    "10000",
+                    str(0.2 * hi + 0.8 * lo),
+                    str(0.8 * hi + 0.2 * lo),
+                ],
+                env=env,
+            )
+        ]
     return []
 
 
@@ -298,11 +331,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.trajectory:
         plan = [("deadline", 250.0, "commands"), ("deadline", 250.0, "trajectory")] * rounds
     if args.tf_cost:
-        plan = [("deadline", 250.0, "commands", ("publish_tf:=true",)),
-                ("deadline", 250.0, "commands", ("publish_tf:=false",))] * rounds  # fmt: skip
+        plan = [
+            ("deadline", 250.0, "commands", ("publish_tf:=true",)),
+            ("deadline", 250.0, "commands", ("publish_tf:=false",)),
+        ] * rounds
     if args.stress:
-        plan = [("deadline", 1000.0, "commands", (), beside)
-                for beside in ("idle", "hogs", "flood")] * rounds  # fmt: skip
+        plan = [
+            ("deadline", 1000.0, "commands", (), beside) for beside in ("idle", "hogs", "flood")
+        ] * rounds
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         os.environ.setdefault("ROS_LOG_DIR", str(tmp / "log"))
@@ -318,22 +354,26 @@ def main(argv: list[str] | None = None) -> int:
                     proc.wait()
             r["node_args"], r["beside"] = list(node_args), beside
             by_config.setdefault((executor, hz, load, node_args, beside), []).append(r)
-            print(f"{executor:>8} {hz:6.0f} Hz, {load:>10} {' '.join(node_args)} ({beside}): CPU "
-                  f"{100 * r['cpu_share_of_core']:5.1f} % of a core, missed "
-                  f"{r['missed_deadlines']}/{r['ticks']} "
-                  f"({100 * r['missed_share']:.2f} %), per cycle: model "
-                  f"{r['us_per_cycle_model']:.0f} us, publish {r['us_per_cycle_publish']:.0f} us, "
-                  f"record {r['us_per_cycle_record']:.0f} us, rest {r['us_per_cycle_rest']:.0f} us;"
-                  f" lateness p50/p99/max {r['lateness_p50_us']:.0f}/{r['lateness_p99_us']:.0f}/"
-                  f"{r['lateness_max_us']:.0f} us ({r['tick_policy']})",
-                  flush=True)  # fmt: skip
+            print(
+                f"{executor:>8} {hz:6.0f} Hz, {load:>10} {' '.join(node_args)} ({beside}): CPU "
+                f"{100 * r['cpu_share_of_core']:5.1f} % of a core, missed "
+                f"{r['missed_deadlines']}/{r['ticks']} "
+                f"({100 * r['missed_share']:.2f} %), per cycle: model "
+                f"{r['us_per_cycle_model']:.0f} us, publish {r['us_per_cycle_publish']:.0f} us, "
+                f"record {r['us_per_cycle_record']:.0f} us, rest {r['us_per_cycle_rest']:.0f} us;"
+                f" lateness p50/p99/max {r['lateness_p50_us']:.0f}/{r['lateness_p99_us']:.0f}/"
+                f"{r['lateness_max_us']:.0f} us ({r['tick_policy']})",
+                flush=True,
+            )
         write = recorder_cost(20000, 5, tmp) if not args.stress else None
     rows = [median_run(runs) for runs in by_config.values()]
     if args.stress:
         for r in rows:
-            print(f"deadline 1 kHz {r['beside']:>5}: CPU {100 * r['cpu_share_of_core']:.1f} % of "
-                  f"a core, missed {100 * r['missed_share']:.2f} %, lateness p99 "
-                  f"{r['lateness_p99_us']:.0f} us, max {r['lateness_max_us']:.0f} us")  # fmt: skip
+            print(
+                f"deadline 1 kHz {r['beside']:>5}: CPU {100 * r['cpu_share_of_core']:.1f} % of "
+                f"a core, missed {100 * r['missed_share']:.2f} %, lateness p99 "
+                f"{r['lateness_p99_us']:.0f} us, max {r['lateness_max_us']:.0f} us"
+            )
         out = Path(args.json).with_name("node_rate_stress.json")
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps({"runs": rows}, indent=2))
@@ -343,9 +383,11 @@ def main(argv: list[str] | None = None) -> int:
         on, off = rows
         share_on, share_off = on["cpu_share_of_core"], off["cpu_share_of_core"]
         per_cycle_us = 1e6 * (share_on - share_off) / 250.0
-        print(f"deadline 250 Hz, medians of {rounds}: publish_tf true {100 * share_on:.1f} %, "
-              f"false {100 * share_off:.1f} % of a core: /tf costs {per_cycle_us:.0f} us of CPU "
-              "a publish cycle")  # fmt: skip
+        print(
+            f"deadline 250 Hz, medians of {rounds}: publish_tf true {100 * share_on:.1f} %, "
+            f"false {100 * share_off:.1f} % of a core: /tf costs {per_cycle_us:.0f} us of CPU "
+            "a publish cycle"
+        )
         out = Path(args.json).with_name("node_rate_tf.json")
         out.write_text(json.dumps({"runs": rows}, indent=2))
         print(f"wrote {out}")
@@ -363,11 +405,13 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     single, deadline = rows[0], rows[1]
     ratio = single["cpu_share_of_core"] / deadline["cpu_share_of_core"]
-    print(f"\nmedians of {rounds} interleaved runs at 250 Hz publish: single "
-          f"{100 * single['cpu_share_of_core']:.1f} %, deadline "
-          f"{100 * deadline['cpu_share_of_core']:.1f} % of a core (ratio {ratio:.2f}x); missed "
-          f"{100 * single['missed_share']:.2f} % and {100 * deadline['missed_share']:.2f} % "
-          f"(target: deadline <= 15 % of a core, <= 0.1 % missed)")  # fmt: skip
+    print(
+        f"\nmedians of {rounds} interleaved runs at 250 Hz publish: single "
+        f"{100 * single['cpu_share_of_core']:.1f} %, deadline "
+        f"{100 * deadline['cpu_share_of_core']:.1f} % of a core (ratio {ratio:.2f}x); missed "
+        f"{100 * single['missed_share']:.2f} % and {100 * deadline['missed_share']:.2f} % "
+        f"(target: deadline <= 15 % of a core, <= 0.1 % missed)"
+    )
     print(
         f"recorder: exact CDR + write {write['ours_us_per_msg']:.1f} us/msg, rclpy "
         f"serialize_message + bare mcap {write['bare_us_per_msg']:.1f} us/msg "
@@ -380,8 +424,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"runs": rows, "single_over_deadline": ratio, "recorder": write},
-                              indent=2))  # fmt: skip
+    out.write_text(
+        json.dumps({"runs": rows, "single_over_deadline": ratio, "recorder": write}, indent=2)
+    )
     print(f"wrote {out}")
     return 0
 

@@ -44,10 +44,14 @@ def joint_state_packer(names: Sequence[str]):
     (:class:`drs_ros.recording.cdr.Layout`) without building it."""
     from .recording import cdr
 
-    pack = cdr.Layout(JointState(
-        name=list(names), position=[0.0] * 3, velocity=[0.0] * 3, effort=[0.0] * 3,
-    )).packer(["header.stamp.sec", "header.stamp.nanosec", "position", "velocity",
-               "effort"])  # fmt: skip
+    pack = cdr.Layout(
+        JointState(
+            name=list(names),
+            position=[0.0] * 3,
+            velocity=[0.0] * 3,
+            effort=[0.0] * 3,
+        )
+    ).packer(["header.stamp.sec", "header.stamp.nanosec", "position", "velocity", "effort"])
 
     def pack_state(state: ActuatorState, stamp_ns: int, stroke: float | None = None) -> bytes:
         position, velocity, effort = joint_state_values(state, stroke)
@@ -146,11 +150,16 @@ def started_points(msg, joint: str, now_ns: int | None):
         return times, strokes, rates
     shift = seconds_from_ns(start_ns - now_ns)
     if times[-1] + shift < 0.0:
-        raise PastTrajectoryError(f"received a trajectory with non-zero start time that ends in "
-                                  f"the past ({-(times[-1] + shift):.6g} s ago)")  # fmt: skip
+        raise PastTrajectoryError(
+            f"received a trajectory with non-zero start time that ends in "
+            f"the past ({-(times[-1] + shift):.6g} s ago)"
+        )
     keep = [k for k, t in enumerate(times) if t + shift > 0.0]  # points still to come
-    return ([times[k] + shift for k in keep], [strokes[k] for k in keep],
-            None if rates is None else [rates[k] for k in keep])  # fmt: skip
+    return (
+        [times[k] + shift for k in keep],
+        [strokes[k] for k in keep],
+        None if rates is None else [rates[k] for k in keep],
+    )
 
 
 def float_msg(value: float) -> Float64:
@@ -167,8 +176,13 @@ def command_event_status(
     A record is a DiagnosticArray stamped at the simulated instant it speaks of, holding this
     status: :func:`diagnostic_array_msg`, or packed directly by
     :func:`drs_ros.recording.diagnostic_cdr.diagnostic_array_cdr`."""
-    return Status(level, source, f"{outcome}: {message}" if message else outcome, "drs",
-                  [("outcome", outcome), *_key_values(values)])  # fmt: skip
+    return Status(
+        level,
+        source,
+        f"{outcome}: {message}" if message else outcome,
+        "drs",
+        [("outcome", outcome), *_key_values(values)],
+    )
 
 
 def command_event_msg(
@@ -215,20 +229,30 @@ def diagnostic_array_msg(stamp_ns: int, statuses: Sequence[Status]) -> Diagnosti
     arr = DiagnosticArray()
     arr.header.stamp = time_msg(stamp_ns)
     arr.status = [
-        DiagnosticStatus(level=st.level, name=st.name, message=st.message,
-                         hardware_id=st.hardware_id,
-                         values=[KeyValue(key=k, value=v) for k, v in st.values])
+        DiagnosticStatus(
+            level=st.level,
+            name=st.name,
+            message=st.message,
+            hardware_id=st.hardware_id,
+            values=[KeyValue(key=k, value=v) for k, v in st.values],
+        )
         for st in statuses
-    ]  # fmt: skip
+    ]
     return arr
 
 
 #: Marker colours (r, g, b) by drawing, as in the rerun recording.
 MARKER_COLORS = {
-    "piston": (0.47, 0.47, 0.47), "link": (0.27, 0.27, 0.78), "flap": (0.84, 0.15, 0.16),
-    "gap": (0.17, 0.63, 0.17), "fia_box": (0.63, 0.63, 0.63), "main_wing": (0.16, 0.16, 0.16),
-    "pylon": (0.43, 0.43, 0.43), "pins": (0.0, 0.0, 0.0), "force": (1.0, 0.5, 0.05),
-}  # fmt: skip
+    "piston": (0.47, 0.47, 0.47),
+    "link": (0.27, 0.27, 0.78),
+    "flap": (0.84, 0.15, 0.16),
+    "gap": (0.17, 0.63, 0.17),
+    "fia_box": (0.63, 0.63, 0.63),
+    "main_wing": (0.16, 0.16, 0.16),
+    "pylon": (0.43, 0.43, 0.43),
+    "pins": (0.0, 0.0, 0.0),
+    "force": (1.0, 0.5, 0.05),
+}
 #: Length of the force arrow per newton [m/N]: 25 kN draws 0.25 m.
 FORCE_ARROW_M_PER_N = 1e-5
 
@@ -265,17 +289,22 @@ class MechanismMarkers:
     def __init__(self, still, moving_sizes: dict[str, int], n_pins: int, frame_id: str) -> None:
         from visualization_msgs.msg import Marker, MarkerArray
 
-        markers = [_marker(i, name, Marker.LINE_STRIP, pts, 0.002, frame_id)
-                   for i, (name, pts) in enumerate(still.items())]  # fmt: skip
+        markers = [
+            _marker(i, name, Marker.LINE_STRIP, pts, 0.002, frame_id)
+            for i, (name, pts) in enumerate(still.items())
+        ]
         self._lines = {}
         for name, size in moving_sizes.items():
-            self._lines[name] = _marker(len(markers), name, Marker.LINE_STRIP,
-                                        [(0.0, 0.0)] * size, 0.002, frame_id)  # fmt: skip
+            self._lines[name] = _marker(
+                len(markers), name, Marker.LINE_STRIP, [(0.0, 0.0)] * size, 0.002, frame_id
+            )
             markers.append(self._lines[name])
-        self._pins = _marker(len(markers), "pins", Marker.SPHERE_LIST, [(0.0, 0.0)] * n_pins,
-                             0.006, frame_id)  # fmt: skip
-        self._arrow = _marker(len(markers) + 1, "force", Marker.ARROW, [(0.0, 0.0)] * 2, 0.0,
-                              frame_id)  # fmt: skip
+        self._pins = _marker(
+            len(markers), "pins", Marker.SPHERE_LIST, [(0.0, 0.0)] * n_pins, 0.006, frame_id
+        )
+        self._arrow = _marker(
+            len(markers) + 1, "force", Marker.ARROW, [(0.0, 0.0)] * 2, 0.0, frame_id
+        )
         # shaft diameter, head diameter, head length [m]
         self._arrow.scale.x, self._arrow.scale.y, self._arrow.scale.z = 0.003, 0.008, 0.01
         markers += [self._pins, self._arrow]
@@ -284,15 +313,19 @@ class MechanismMarkers:
         #: the moving drawings, in the order of their markers (the pins and the arrow follow)
         self.line_names = tuple(moving_sizes)
 
-    def msg(self, lines, pins, force_origin, piston_force: float, stamp_ns: int,
-            with_still: bool = True):  # fmt: skip
+    def msg(
+        self, lines, pins, force_origin, piston_force: float, stamp_ns: int, with_still: bool = True
+    ):
         """The array for one configuration: ``lines`` name -> (k, 2), ``pins`` (n, 2) [m], the
         force [N] at ``force_origin`` (2,) [m]; every marker stamped ``stamp_ns``. Without
         ``with_still`` only the moving markers (markers live until replaced: the still ones
         drawn once stay)."""
         arrow = force_arrow(force_origin, piston_force)
-        for marker, pts in [*((self._lines[k], v) for k, v in lines.items()),
-                            (self._pins, pins), (self._arrow, arrow)]:  # fmt: skip
+        for marker, pts in [
+            *((self._lines[k], v) for k, v in lines.items()),
+            (self._pins, pins),
+            (self._arrow, arrow),
+        ]:
             for point, (px, py) in zip(marker.points, pts, strict=True):
                 point.x, point.y = float(px), float(py)
         stamp = time_msg(stamp_ns)
@@ -314,15 +347,20 @@ class MechanismMarkers:
         from .recording import cdr
 
         names, n_moving = self.line_names, len(self._moving.markers)
-        shapes = {with_still: _PackedArray(cdr.Layout(array), len(array.markers), n_moving)
-                  for with_still, array in ((True, self._all), (False, self._moving))}  # fmt: skip
+        shapes = {
+            with_still: _PackedArray(cdr.Layout(array), len(array.markers), n_moving)
+            for with_still, array in ((True, self._all), (False, self._moving))
+        }
 
-        def pack(lines, pins, force_origin, piston_force: float, stamp_ns: int,
-                 with_still: bool = True) -> bytes:  # fmt: skip
+        def pack(
+            lines, pins, force_origin, piston_force: float, stamp_ns: int, with_still: bool = True
+        ) -> bytes:
             sec, nanosec = split_ns(stamp_ns)
             if not -(2**31) <= sec < 2**31:
-                raise cdr.CdrError(f"stamp {stamp_ns!r} ns is beyond builtin_interfaces/Time's "
-                                   f"int32 seconds ({sec} s)")  # fmt: skip
+                raise cdr.CdrError(
+                    f"stamp {stamp_ns!r} ns is beyond builtin_interfaces/Time's "
+                    f"int32 seconds ({sec} s)"
+                )
             shape = shapes[with_still]
             shape.xy[shape.points] = np.concatenate(
                 [*(lines[k] for k in names), pins, force_arrow(force_origin, piston_force)]

@@ -268,7 +268,7 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
 
     from drs_ros.bag.read.files import BagReadError
     from drs_ros.bag.read.reader import scan
-    from drs_ros.recording import cdr
+    from drs_ros.recording import cdr, cdr_received
     from drs_ros.recording.mcap_recorder import McapRecorder
 
     event = SetBool.Event()
@@ -276,9 +276,9 @@ def test_transport_padding_is_told_apart_from_leaked_bytes(tmp_path):
     exact = serialize(event)
     assert len(exact) % 4 != 0  # a string at the end: the transport would pad it
     padded = exact + bytes(-len(exact) % 4)
-    assert cdr.exact_bytes(padded, SetBool.Event) == exact
+    assert cdr_received.exact_bytes(padded, SetBool.Event) == exact
     with pytest.raises(cdr.CdrError, match="plus at most 3 zero bytes"):
-        cdr.exact_bytes(exact + b"\x01", SetBool.Event)
+        cdr_received.exact_bytes(exact + b"\x01", SetBool.Event)
     for name, data, ok in (
         ("padded", padded, True),
         ("leaked", exact + b"\x7f\x00", False),

@@ -48,7 +48,7 @@ from visualization_msgs.msg import MarkerArray  # noqa: E402
 
 from drs_ros.conversions import joint_state_packer, reactions_packer, time_msg  # noqa: E402
 from drs_ros.node.trajectory_cdr import read_joint_trajectory  # noqa: E402
-from drs_ros.recording import cdr, msgdefs  # noqa: E402
+from drs_ros.recording import cdr, cdr_received, msgdefs  # noqa: E402
 from drs_ros.stack.tf_tree import MovingTransformsPacker  # noqa: E402
 from drs_ros.timestamps import split_ns  # noqa: E402
 
@@ -157,9 +157,9 @@ def assert_rclpy_agrees(packed: bytes, msg) -> None:
         deserialize_message(packed[:-1], cls)
     # the engine's decoder: the exact bytes again, from the transport-padded bytes and from
     # rclpy's (dirty padding)
-    decoded, exact = cdr.decode_exact(packed + bytes(-len(packed) % 4), cls)
+    decoded, exact = cdr_received.decode_exact(packed + bytes(-len(packed) % 4), cls)
     assert exact == packed and canonical(decoded) == want
-    assert cdr.decode_exact(wire[: len(packed)], cls)[1] == packed
+    assert cdr_received.decode_exact(wire[: len(packed)], cls)[1] == packed
 
 
 SLOW = settings(

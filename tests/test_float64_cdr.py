@@ -1,4 +1,4 @@
-"""The in-place Float64 reader against ``cdr.decode_exact`` (rclpy's decoder and the
+"""The in-place Float64 reader against ``cdr_received.decode_exact`` (rclpy's decoder and the
 serialiser): for any bytes, the same message and exact CDR, or the same refusal."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ require_rclpy()
 from std_msgs.msg import Float64  # noqa: E402
 
 from drs_ros.node.float64_cdr import EXACT_LEN, read_float64  # noqa: E402
-from drs_ros.recording import cdr  # noqa: E402
+from drs_ros.recording import cdr, cdr_received  # noqa: E402
 
 HEADERS = st.sampled_from(
     [cdr.CDR_LE_HEADER, b"\x00\x00\x00\x00", b"\x00\x01\x00\x03", b"\x00\x01", b""]
@@ -48,7 +48,7 @@ def _outcome(decode, data: bytes):
 @given(data=wires())
 def test_every_wire_reads_as_decode_exact_reads_it(data):
     ours = _outcome(read_float64, data)
-    assert ours == _outcome(lambda d: cdr.decode_exact(d, Float64), data)
+    assert ours == _outcome(lambda d: cdr_received.decode_exact(d, Float64), data)
     if ours[0] != "refused":
         assert len(ours[1]) == EXACT_LEN
 

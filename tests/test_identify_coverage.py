@@ -64,8 +64,10 @@ def test_both_stages_together_never_give_a_zero_width(params):
 @pytest.fixture(scope="module")
 def hydraulic_cells(params):
     """The hydraulic rung's equation-error cells at 20 seeds."""
-    return {(c["scene"].removeprefix("hydraulic:"), c["record"]): c
-            for c in coverage.hydraulic_cells(20, params)}  # fmt: skip
+    return {
+        (c["scene"].removeprefix("hydraulic:"), c["record"]): c
+        for c in coverage.hydraulic_cells(20, params)
+    }
 
 
 def test_hydraulic_leak_and_friction_hold_the_truth_from_a_node_bag(hydraulic_cells):

@@ -49,8 +49,7 @@ def test_rigid_intervals_cover_the_truth_at_their_nominal_rate(rigid_run, params
     hits = np.zeros(len(RIGID_SET))
     runs = 200
     for seed in range(runs):
-        stage = rigid_stage(noisy_record(rigid_run, 1e-5, seed), RIGID_SET, "rigid", params,
-                            0.95)  # fmt: skip
+        stage = rigid_stage(noisy_record(rigid_run, 1e-5, seed), RIGID_SET, "rigid", params, 0.95)
         hits += [e.contains(float(getattr(params, e.name))) for e in stage.estimates]
     coverage = hits / runs
     shown = dict(zip(RIGID_SET, coverage, strict=True))
@@ -85,8 +84,9 @@ def test_what_a_richer_motion_separates_is_told_so(params):
 
 def test_the_quasi_static_rung_determines_no_inertia(params):
     run = run_rung("quasi-static", params)
-    stage = rigid_stage(noisy_record(run, 1e-6, 1), ["Iz_wing", "F_drag_open"], "quasi-static",
-                        params, 0.95)  # fmt: skip
+    stage = rigid_stage(
+        noisy_record(run, 1e-6, 1), ["Iz_wing", "F_drag_open"], "quasi-static", params, 0.95
+    )
     iz, drag = stage.estimates
     assert not iz.determined and "zero sensitivity" in iz.reason
     assert "accelerate the flap" in iz.reason
@@ -97,8 +97,9 @@ def test_the_quasi_static_rung_determines_no_inertia(params):
 def hydraulic_run(params):
     """A hydraulic run sampled at 2 kHz with a leak to the outside of 2e-13 m^3/(s Pa)."""
     hp = HydraulicParams(leak_to_outside=2e-13)
-    return hp, run_rung("hydraulic", params, moves=((0, True), (120, False)), steps=240,
-                        dt=5e-4, hydraulic=hp)  # fmt: skip
+    return hp, run_rung(
+        "hydraulic", params, moves=((0, True), (120, False)), steps=240, dt=5e-4, hydraulic=hp
+    )
 
 
 def test_continuity_recovers_leak_bulk_modulus_and_valve_gain(hydraulic_run, params):
@@ -133,9 +134,15 @@ def test_a_stribeck_velocity_is_found_with_its_profile_interval(params):
     friction = np.array([hk.friction_force(v, h) for v in sd]) + rng.normal(0.0, 1.0, t.size)
     pb = np.full(t.size, 1e7)
     pa = (friction + 300.0 + pb * h[hk.AREA_B]) / h[hk.AREA_A]
-    record = Record(t=t, stroke=np.full(t.size, 0.02), stroke_rate=sd,
-                    stroke_acceleration=np.zeros_like(t), piston_force=np.full(t.size, 300.0),
-                    pressure_a=pa, pressure_b=pb)  # fmt: skip
+    record = Record(
+        t=t,
+        stroke=np.full(t.size, 0.02),
+        stroke_rate=sd,
+        stroke_acceleration=np.zeros_like(t),
+        piston_force=np.full(t.size, 300.0),
+        pressure_a=pa,
+        pressure_b=pb,
+    )
     names = ["viscous_friction", "coulomb_friction", "breakaway_friction", "stribeck_velocity"]
     stage = friction_stage(record, names, params, hp, 0.95)
     got = {e.name: e for e in stage.estimates}
@@ -145,8 +152,7 @@ def test_a_stribeck_velocity_is_found_with_its_profile_interval(params):
 
 
 def test_a_leak_on_the_rigid_rung_is_no_regression_of_it(rigid_run, params):
-    stages = equation_error(noisy_record(rigid_run), ["m_pist"], "rigid", params,
-                            HydraulicParams())  # fmt: skip
+    stages = equation_error(noisy_record(rigid_run), ["m_pist"], "rigid", params, HydraulicParams())
     assert [s.label for s in stages] == ["rigid force"]
 
 
@@ -158,8 +164,9 @@ def test_the_stroke_noise_does_not_bias_an_ill_conditioned_fit(rigid_run, params
     air = ("F_drag_open", "F_drag_closed", "F_down_open", "F_down_closed")
     z = {n: [] for n in air}
     for seed in range(100):
-        stage = rigid_stage(noisy_record(rigid_run, 1e-5, seed), RIGID_PARAMETERS, "rigid",
-                            params, 0.95)  # fmt: skip
+        stage = rigid_stage(
+            noisy_record(rigid_run, 1e-5, seed), RIGID_PARAMETERS, "rigid", params, 0.95
+        )
         for e in stage.estimates:
             if e.name in air and e.std > 0:
                 z[e.name].append((e.guess - float(getattr(params, e.name))) / e.std)
@@ -179,18 +186,24 @@ def test_force_commands_onto_the_stops_leave_the_contact_out(forced_run, params,
     those samples are left out and counted (with the derivative windows that reach them where
     the rates were differentiated), and the wing's mass is recovered within its interval,
     noise-free or with 10 um of stroke noise, with its rates recorded or derived."""
-    record = noisy_record(forced_run, noise, 1, stops_hold=True, stroke_rate=derived,
-                          stroke_acceleration=derived)  # fmt: skip
+    record = noisy_record(
+        forced_run, noise, 1, stops_hold=True, stroke_rate=derived, stroke_acceleration=derived
+    )
     stage = rigid_stage(record, ["m_wing"], "rigid", params, 0.95)
     (e,) = stage.estimates
     assert e.contains(params.m_wing), e
     assert e.upper > e.lower
-    contact = int(np.sum((forced_run[:, 1] <= forced_run[:, 1].min() + 1e-4)
-                         | (forced_run[:, 1] >= forced_run[:, 1].max() - 1e-4)))  # fmt: skip
+    contact = int(
+        np.sum(
+            (forced_run[:, 1] <= forced_run[:, 1].min() + 1e-4)
+            | (forced_run[:, 1] >= forced_run[:, 1].max() - 1e-4)
+        )
+    )
     assert f"{contact} end-stop contact" in stage.notes[0]
     assert ("derivative window" in stage.notes[0]) == derived
-    assert any("stroke_acceleration not recorded: Savitzky-Golay" in n
-               for n in stage.notes) == derived  # fmt: skip
+    assert (
+        any("stroke_acceleration not recorded: Savitzky-Golay" in n for n in stage.notes) == derived
+    )
 
 
 def test_a_derived_accelerations_error_is_estimated_not_assumed(forced_run, params):

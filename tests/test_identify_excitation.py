@@ -18,8 +18,10 @@ from drs_model.identify.excitation import (
     _FollowedPath,
     default_limits,
     design_excitation,
-    information,
     path_samples,
+)
+from drs_model.identify.information import (
+    information,
     rung_motion,
     seed_manoeuvre_information,
     standard_errors,
@@ -32,8 +34,9 @@ NAMES = ("m_pist", "Iz_wing", "F_drag_open", "F_down_closed")
 
 @pytest.fixture(scope="module")
 def design(params):
-    return design_excitation(NAMES, params, HydraulicParams(), rung="hydraulic", seed=1,
-                             starts=2, maxiter=150)  # fmt: skip
+    return design_excitation(
+        NAMES, params, HydraulicParams(), rung="hydraulic", seed=1, starts=2, maxiter=150
+    )
 
 
 def test_the_followed_path_keeps_the_limits(design, params):
@@ -60,16 +63,21 @@ def test_the_design_beats_random_multisines_within_the_same_limits(design, param
     local = np.arange(0.0, 0.3 + 1e-3, 2e-3)
     force = FusedInverseDynamics.from_params(params).force_array
     followed = _FollowedPath(params, wave, local, design.t, lim, force)
-    seed = standard_errors(seed_manoeuvre_information(NAMES, params, hp, "hydraulic",
-                                                      float(design.t[-1])), NAMES, params, hp)
+    seed = standard_errors(
+        seed_manoeuvre_information(NAMES, params, hp, "hydraulic", float(design.t[-1])),
+        NAMES,
+        params,
+        hp,
+    )
     rng = np.random.default_rng(11)
     best_random = np.inf
     for _ in range(20):
         c = rng.normal(size=20)
         _, path = followed.at_limits(c, _amplitude(wave, c, t, lim, force, stroke_limits(params)))
         if path is not None:
-            std = standard_errors(information(NAMES, *path, params, hp, "hydraulic"), NAMES,
-                                  params, hp)  # fmt: skip
+            std = standard_errors(
+                information(NAMES, *path, params, hp, "hydraulic"), NAMES, params, hp
+            )
             best_random = min(best_random, float(np.max(std / seed)))
     assert np.max(design.std / seed) < best_random
 
@@ -96,28 +104,52 @@ def test_drs_excite_writes_a_goal_whose_bag_and_run_fit_tighter(tmp_path, params
     from drs_ros.bag.cli import main as bag_main
 
     goal, bag = tmp_path / "goal.yaml", tmp_path / "excite"
-    assert drs_main(["excite", ",".join(NAMES), "--seed", "1", "--starts", "2", "-o", str(goal),
-                     "--json"]) == 0  # fmt: skip
+    assert (
+        drs_main(
+            ["excite", ",".join(NAMES), "--seed", "1", "--starts", "2", "-o", str(goal), "--json"]
+        )
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     assert bag_main(["from-goal", str(goal), "-o", str(bag)]) == 0
     assert "on /drs/trajectory_cmd" in capsys.readouterr().out
     trajectory = yaml.safe_load(goal.read_text())["trajectory"]
     (msg,) = [m for _, m in read_bag(bag, ["/drs/trajectory_cmd"]).messages["/drs/trajectory_cmd"]]
     assert list(msg.joint_names) == trajectory["joint_names"] == ["drs_piston"]
-    assert [(list(p.positions), list(p.velocities), p.time_from_start.sec,
-             p.time_from_start.nanosec) for p in msg.points] == [
-        (p["positions"], p["velocities"], p["time_from_start"]["sec"],
-         p["time_from_start"]["nanosec"]) for p in trajectory["points"]]  # fmt: skip
+    assert [
+        (list(p.positions), list(p.velocities), p.time_from_start.sec, p.time_from_start.nanosec)
+        for p in msg.points
+    ] == [
+        (
+            p["positions"],
+            p["velocities"],
+            p["time_from_start"]["sec"],
+            p["time_from_start"]["nanosec"],
+        )
+        for p in trajectory["points"]
+    ]
     steps = int(round(report["duration_s"] * 1000))
     noise = {"sensor.noise_std_m": 1e-5, "sensor.noise_seed": 2}
-    runs = {"excitation": record_run(tmp_path / "ex", steps, [Command(1, "trajectory_cmd",
-                                     trajectory)], fidelity="hydraulic", faults=noise),
-            "seed": record_run(tmp_path / "seed", steps, seed_commands(params),
-                               fidelity="hydraulic", faults=noise)}  # fmt: skip
+    runs = {
+        "excitation": record_run(
+            tmp_path / "ex",
+            steps,
+            [Command(1, "trajectory_cmd", trajectory)],
+            fidelity="hydraulic",
+            faults=noise,
+        ),
+        "seed": record_run(
+            tmp_path / "seed", steps, seed_commands(params), fidelity="hydraulic", faults=noise
+        ),
+    }
     widths = {}
     for label, run in runs.items():
-        assert bag_main(["fit", str(run), "--params", ",".join(NAMES), "--stage", "equation",
-                         "--json"]) == 0  # fmt: skip
+        assert (
+            bag_main(
+                ["fit", str(run), "--params", ",".join(NAMES), "--stage", "equation", "--json"]
+            )
+            == 0
+        )
         doc = json.loads(capsys.readouterr().out)
         widths[label] = {e["name"]: e["upper"] - e["lower"] for e in doc["estimates"]}
     for name in NAMES:
@@ -139,17 +171,31 @@ def test_no_parameter_asked_for_ends_looser_than_under_the_seeds_manoeuvre(param
     steps = int(round(length / 1e-3))
     ran = rung_motion(params, hp, "rigid", length, 1e-3, (ex.times, ex.strokes, ex.rates))
     predicted = standard_errors(information(NAMES, *ran, params, hp, "rigid"), NAMES, params, hp)
-    predicted_seed = standard_errors(seed_manoeuvre_information(NAMES, params, hp, "rigid",
-                                                                length), NAMES, params, hp)
+    predicted_seed = standard_errors(
+        seed_manoeuvre_information(NAMES, params, hp, "rigid", length), NAMES, params, hp
+    )
     close = int(round((params.T_opening + params.T_still) / 1e-3))
-    tables = {"excitation": run_rung("rigid", params, steps=steps,
-                                     trajectory=(ex.times, ex.strokes, ex.rates)),
-              "seed": run_rung("rigid", params, moves=((0, True), (close, False)),
-                               steps=steps)}  # fmt: skip
-    fitted = {label: np.mean([[e.std for e in rigid_stage(noisy_record(table, 1e-5, k), NAMES,
-                                                          "rigid", params, 0.95).estimates]
-                              for k in range(10)], axis=0)
-              for label, table in tables.items()}  # fmt: skip
+    tables = {
+        "excitation": run_rung(
+            "rigid", params, steps=steps, trajectory=(ex.times, ex.strokes, ex.rates)
+        ),
+        "seed": run_rung("rigid", params, moves=((0, True), (close, False)), steps=steps),
+    }
+    fitted = {
+        label: np.mean(
+            [
+                [
+                    e.std
+                    for e in rigid_stage(
+                        noisy_record(table, 1e-5, k), NAMES, "rigid", params, 0.95
+                    ).estimates
+                ]
+                for k in range(10)
+            ],
+            axis=0,
+        )
+        for label, table in tables.items()
+    }
     assert np.all(predicted < predicted_seed), (predicted, predicted_seed)
     assert np.all(fitted["excitation"] < fitted["seed"]), fitted
     assert np.allclose(predicted, fitted["excitation"], rtol=0.25)

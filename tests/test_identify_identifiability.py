@@ -75,8 +75,12 @@ def test_bad_shapes_are_refused():
 
 @pytest.mark.parametrize(
     ("value", "half", "scale", "wide"),
-    [(2.0, 1.0, 1.0, False), (2.0, 2.5, 1.0, True), (0.0, 5e-14, 1e-13, False),
-     (0.0, 2e-13, 1e-13, True)],
-)  # fmt: skip
+    [
+        (2.0, 1.0, 1.0, False),
+        (2.0, 2.5, 1.0, True),
+        (0.0, 5e-14, 1e-13, False),
+        (0.0, 2e-13, 1e-13, True),
+    ],
+)
 def test_an_interval_wider_than_the_value_is_no_determination(value, half, scale, wide):
     assert too_wide(value, half, scale) is wide

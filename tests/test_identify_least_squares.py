@@ -102,8 +102,11 @@ def test_errors_in_variables_takes_the_attenuation_off():
         X = np.column_stack([m])
         y = 3.0 * s
         plain.append(weighted_least_squares(X, y).estimate[0])
-        corrected.append(errors_in_variables(X, y, np.ones_like(s), np.ones_like(X),
-                                             np.zeros_like(s), sigma**2).estimate[0])  # fmt: skip
+        corrected.append(
+            errors_in_variables(
+                X, y, np.ones_like(s), np.ones_like(X), np.zeros_like(s), sigma**2
+            ).estimate[0]
+        )
     expected = np.sum(s * s) / (np.sum(s * s) + s.size * sigma**2)
     assert np.mean(plain) / 3.0 == pytest.approx(expected, abs=2e-3)
     assert np.mean(corrected) / 3.0 == pytest.approx(1.0, abs=2e-3)

@@ -23,8 +23,7 @@ MOVES = ((0, True), (60, False))
 def worn(params):
     """A hydraulic run with a leak to the outside (2e-13 m^3/(s Pa)) and a jam (30 N more
     Coulomb and breakaway friction), its stroke read with 10 um of noise."""
-    truth = HydraulicParams(leak_to_outside=2e-13, coulomb_friction=70.0,
-                            breakaway_friction=90.0)  # fmt: skip
+    truth = HydraulicParams(leak_to_outside=2e-13, coulomb_friction=70.0, breakaway_friction=90.0)
     table = run_rung("hydraulic", params, moves=MOVES, steps=120, hydraulic=truth)
     return truth, noisy_record(table, 1e-5, seed=3)
 
@@ -33,8 +32,12 @@ def _simulate(params):
     def simulate(values):
         p, hp = with_values(values, params, HydraulicParams())
         table = run_rung("hydraulic", p, moves=MOVES, steps=120, hydraulic=hp)
-        return {"stroke": table[:, 1], "piston_force": table[:, 4], "pressure_a": table[:, 5],
-                "pressure_b": table[:, 6]}  # fmt: skip
+        return {
+            "stroke": table[:, 1],
+            "piston_force": table[:, 4],
+            "pressure_a": table[:, 5],
+            "pressure_b": table[:, 6],
+        }
 
     return simulate
 
@@ -44,16 +47,14 @@ def test_output_error_recovers_a_leak_and_a_jam(worn, params):
     alone ends in a local minimum: benchmarks/fit_speed.py's anchor)."""
     truth, record = worn
     names = ["leak_to_outside", "coulomb_friction", "breakaway_friction"]
-    result = fit(record, names, "hydraulic", params, HydraulicParams(),
-                 simulate=_simulate(params))  # fmt: skip
+    result = fit(record, names, "hydraulic", params, HydraulicParams(), simulate=_simulate(params))
     for e in result.estimates:
         assert e.stage == "output" and e.determined, e
         assert e.contains(float(getattr(truth, e.name))), e
     leak = result.estimate("leak_to_outside")
     assert leak.upper - leak.lower < 0.1 * truth.leak_to_outside
     stage = result.stages[-1]
-    assert {s.name for s in stage.signals} == {"stroke", "piston_force", "pressure_a",
-                                               "pressure_b"}  # fmt: skip
+    assert {s.name for s in stage.signals} == {"stroke", "piston_force", "pressure_a", "pressure_b"}
     assert stage.signals[0].residual_rms < 3e-5  # the stroke's noise, no model error left
 
 
@@ -61,8 +62,7 @@ def test_a_parameter_nothing_depends_on_is_reported_as_such(worn, params):
     """The relief valves never open in this run: their flow gain is in no simulated signal."""
     _, record = worn
     names = ["relief_flow_gain", "leak_to_outside", "coulomb_friction", "breakaway_friction"]
-    result = fit(record, names, "hydraulic", params, HydraulicParams(),
-                 simulate=_simulate(params))  # fmt: skip
+    result = fit(record, names, "hydraulic", params, HydraulicParams(), simulate=_simulate(params))
     relief = result.estimate("relief_flow_gain")
     assert not relief.determined and "zero sensitivity" in relief.reason
     assert result.estimate("leak_to_outside").determined
@@ -72,9 +72,16 @@ def _decay_problem(noise=0.02, seed=0):
     """``y = exp(-k t)`` with ``k = 3``, sampled at 20 instants with Gaussian noise."""
     t = np.linspace(0.0, 1.0, 20)
     y = np.exp(-3.0 * t) + np.random.default_rng(seed).normal(0.0, noise, t.size)
-    return OutputErrorProblem(("k",), np.array([1.0]), np.array([0.0]), np.array([50.0]),
-                              np.array([1.0]), lambda v: {"y": np.exp(-v["k"] * t)},
-                              {"y": y}, {"y": noise})  # fmt: skip
+    return OutputErrorProblem(
+        ("k",),
+        np.array([1.0]),
+        np.array([0.0]),
+        np.array([50.0]),
+        np.array([1.0]),
+        lambda v: {"y": np.exp(-v["k"] * t)},
+        {"y": y},
+        {"y": noise},
+    )
 
 
 def test_the_profile_interval_is_where_the_brute_force_profile_crosses():
@@ -82,9 +89,14 @@ def test_the_profile_interval_is_where_the_brute_force_profile_crosses():
     result = fit_output_error(problem)
     q = iv.quantile(0.95, result.dof)
     threshold = q * q * result.s2
-    lo, hi = iv.profile_interval(profile_chi2(problem, result, 0), float(result.estimate[0]),
-                                 q * math.sqrt(result.covariance[0, 0]), threshold, (0.0, 50.0),
-                                 result.chi2)  # fmt: skip
+    lo, hi = iv.profile_interval(
+        profile_chi2(problem, result, 0),
+        float(result.estimate[0]),
+        q * math.sqrt(result.covariance[0, 0]),
+        threshold,
+        (0.0, 50.0),
+        result.chi2,
+    )
     grid = np.linspace(2.0, 4.0, 4001)
     inside = grid[[result.chi2_of(np.array([k])) - result.chi2 <= threshold for k in grid]]
     assert lo == pytest.approx(inside[0], abs=2e-3) and hi == pytest.approx(inside[-1], abs=2e-3)
@@ -97,16 +109,27 @@ def test_the_profile_interval_does_not_depend_on_the_parameters_unit(scale):
     interval onto its estimate)."""
     t = np.linspace(0.0, 1.0, 30)
     y = 2.0 * t + np.random.default_rng(1).normal(0.0, 0.1, t.size)
-    problem = OutputErrorProblem(("a",), np.array([scale]), np.array([-10.0 * scale]),
-                                 np.array([10.0 * scale]), np.array([scale]),
-                                 lambda v: {"y": v["a"] / scale * t}, {"y": y},
-                                 {"y": 0.1})  # fmt: skip
+    problem = OutputErrorProblem(
+        ("a",),
+        np.array([scale]),
+        np.array([-10.0 * scale]),
+        np.array([10.0 * scale]),
+        np.array([scale]),
+        lambda v: {"y": v["a"] / scale * t},
+        {"y": y},
+        {"y": 0.1},
+    )
     result = fit_output_error(problem)
     q = iv.quantile(0.95, result.dof)
     half = q * math.sqrt(result.covariance[0, 0])
-    lo, hi = iv.profile_interval(profile_chi2(problem, result, 0), float(result.estimate[0]),
-                                 half, q * q * result.s2, (-10.0 * scale, 10.0 * scale),
-                                 result.chi2)  # fmt: skip
+    lo, hi = iv.profile_interval(
+        profile_chi2(problem, result, 0),
+        float(result.estimate[0]),
+        half,
+        q * q * result.s2,
+        (-10.0 * scale, 10.0 * scale),
+        result.chi2,
+    )
     wald = iv.wald_interval(float(result.estimate[0]), half / q, q)
     assert lo == pytest.approx(wald[0], rel=1e-3) and hi == pytest.approx(wald[1], rel=1e-3)
     assert hi - lo == pytest.approx((wald[1] - wald[0]), rel=1e-2) and hi - lo > 0.1 * scale
@@ -115,12 +138,26 @@ def test_the_profile_interval_does_not_depend_on_the_parameters_unit(scale):
 def test_a_linear_model_agrees_with_its_linearisation():
     t = np.linspace(0.0, 1.0, 30)
     y = 2.0 * t + np.random.default_rng(1).normal(0.0, 0.1, t.size)
-    problem = OutputErrorProblem(("a",), np.array([1.0]), np.array([-10.0]), np.array([10.0]),
-                                 np.array([1.0]), lambda v: {"y": v["a"] * t}, {"y": y},
-                                 {"y": 0.1})  # fmt: skip
+    problem = OutputErrorProblem(
+        ("a",),
+        np.array([1.0]),
+        np.array([-10.0]),
+        np.array([10.0]),
+        np.array([1.0]),
+        lambda v: {"y": v["a"] * t},
+        {"y": y},
+        {"y": 0.1},
+    )
     result = fit_output_error(problem)
-    ratios = iv.linearity_ratios(result.chi2_of, result.estimate, result.covariance, 0,
-                                 iv.quantile(0.95, result.dof), result.s2, result.chi2)  # fmt: skip
+    ratios = iv.linearity_ratios(
+        result.chi2_of,
+        result.estimate,
+        result.covariance,
+        0,
+        iv.quantile(0.95, result.dof),
+        result.s2,
+        result.chi2,
+    )
     assert iv.agrees(ratios) and ratios == pytest.approx((1.0, 1.0), rel=1e-3)
 
 
@@ -165,8 +202,15 @@ def test_each_signals_noise_is_the_records_own(params):
 
     widths = []
     for noise in (1e-5, 0.0):
-        result = fit(noisy_record(table, noise, 1, stops_hold=True), ["m_wing"], "rigid",
-                     params, simulate=simulate, stage="output", signals=["stroke"])  # fmt: skip
+        result = fit(
+            noisy_record(table, noise, 1, stops_hold=True),
+            ["m_wing"],
+            "rigid",
+            params,
+            simulate=simulate,
+            stage="output",
+            signals=["stroke"],
+        )
         (e,) = result.estimates
         assert e.contains(params.m_wing) and e.upper > e.lower, e
         note = result.stages[-1].notes[0]
@@ -185,7 +229,8 @@ def test_a_records_resolution_is_its_floats_spacing():
 
     x = np.linspace(0.01, 0.04, 1000)
     assert recorded_resolution(x) == pytest.approx(
-        np.sqrt(np.mean(np.spacing(x) ** 2) / 12.0), rel=1e-12)  # fmt: skip
+        np.sqrt(np.mean(np.spacing(x) ** 2) / 12.0), rel=1e-12
+    )
     assert signal_noise(x, x.copy(), 1) == recorded_resolution(x) > 0.0
     rng = np.random.default_rng(0)
     assert signal_noise(x + rng.normal(0.0, 1e-5, x.size), x, 1) == pytest.approx(1e-5, rel=0.1)

@@ -39,8 +39,9 @@ def test_the_regressor_of_one_parameter_set_serves_another(factors):
     inertias and air loads scaled by the factors (each to 0.3..3x), as the inverse dynamics
     of those parameters gives it."""
     p0 = DRSParams()
-    p1 = p0.replace(**{n: f * float(getattr(p0, n)) for n, f in
-                       zip(RIGID_PARAMETERS, factors, strict=True)})  # fmt: skip
+    p1 = p0.replace(
+        **{n: f * float(getattr(p0, n)) for n, f in zip(RIGID_PARAMETERS, factors, strict=True)}
+    )
     s, v, a, state = _manoeuvre(p0, 101)
     force = inverse_dynamics((state.q, state.qd, state.qdd), p1).piston_force
     got = rigid_regressor(s, v, a, p0) @ rigid_values(p1)
@@ -65,8 +66,10 @@ def test_the_constants_map_is_exact(params):
     closed, opened = flap_angle_limits(params)
     D = constants_map(params)
     k = 1.0 / (closed - opened)
-    i_open, i_closed = RIGID_PARAMETERS.index("F_drag_open"), RIGID_PARAMETERS.index(
-        "F_drag_closed")  # fmt: skip
+    i_open, i_closed = (
+        RIGID_PARAMETERS.index("F_drag_open"),
+        RIGID_PARAMETERS.index("F_drag_closed"),
+    )
     assert D[6, i_closed] == pytest.approx(k, rel=1e-9)
     assert D[6, i_open] == pytest.approx(-k, rel=1e-9)
     assert np.allclose(D[:5, :5], np.eye(5))

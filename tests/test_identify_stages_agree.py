@@ -60,12 +60,15 @@ def _stage(stage, value, lower, upper):
     return StageFit(stage, stage, (e,), ident)
 
 
-@pytest.mark.parametrize(("out", "split"), [
-    ((2.2, 2.1, 2.3), False),  # 0.2 apart; allowed hypot(0.2, 0.1) = 0.224
-    ((2.35, 2.25, 2.45), True),  # 0.35 apart; allowed 0.224
-    ((1.75, 1.7, 1.8), True),  # 0.25 apart; allowed hypot(0.1, 0.05) = 0.112
-    ((2.6, 1.6, 2.7), False),  # 0.6 apart; allowed hypot(0.2, 1.0) = 1.02
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("out", "split"),
+    [
+        ((2.2, 2.1, 2.3), False),  # 0.2 apart; allowed hypot(0.2, 0.1) = 0.224
+        ((2.35, 2.25, 2.45), True),  # 0.35 apart; allowed 0.224
+        ((1.75, 1.7, 1.8), True),  # 0.25 apart; allowed hypot(0.1, 0.05) = 0.112
+        ((2.6, 1.6, 2.7), False),  # 0.6 apart; allowed hypot(0.2, 1.0) = 1.02
+    ],
+)
 def test_the_distance_allowed_is_both_half_intervals_facing_each_other(out, split):
     """Equation error 2.0 in [1.9, 2.2] (asymmetric): apart by more than sqrt(a^2 + b^2), ``a``
     and ``b`` the halves facing each other, is inconsistent."""

@@ -20,20 +20,26 @@ RUNS = 40
 
 
 def _leak_fit(table, params, seed):
-    (e,) = continuity_stage(noisy_record(table, 1e-5, seed), ["leak_to_outside"], params,
-                            HydraulicParams(), 0.95).estimates  # fmt: skip
+    (e,) = continuity_stage(
+        noisy_record(table, 1e-5, seed), ["leak_to_outside"], params, HydraulicParams(), 0.95
+    ).estimates
     return e.value, e.std
 
 
 def _opening(params, leak):
     """A short run (the opening, 60 ms at 2 kHz) with a leak to the outside."""
-    return run_rung("hydraulic", params, moves=((0, True),), steps=120, dt=5e-4,
-                    hydraulic=HydraulicParams(leak_to_outside=leak))  # fmt: skip
+    return run_rung(
+        "hydraulic",
+        params,
+        moves=((0, True),),
+        steps=120,
+        dt=5e-4,
+        hydraulic=HydraulicParams(leak_to_outside=leak),
+    )
 
 
 def test_a_leak_growing_5_percent_per_run_is_flagged(params):
-    fits = np.array([_leak_fit(_opening(params, 1e-13 * 1.05**k), params, k)
-                     for k in range(RUNS)])  # fmt: skip
+    fits = np.array([_leak_fit(_opening(params, 1e-13 * 1.05**k), params, k) for k in range(RUNS)])
     tr = trend("leak_to_outside", np.arange(RUNS) * DAY, fits[:, 0], fits[:, 1])
     assert tr.model == "exponential" and tr.direction == 1
     assert tr.detected is not None and tr.detected <= 12
@@ -45,8 +51,7 @@ def test_healthy_seasons_of_real_fits_raise_no_flag(params):
     table = _opening(params, 1e-13)
     flags = 0
     for season in range(10):
-        fits = np.array([_leak_fit(table, params, 1000 + RUNS * season + k)
-                         for k in range(RUNS)])  # fmt: skip
+        fits = np.array([_leak_fit(table, params, 1000 + RUNS * season + k) for k in range(RUNS)])
         flags += trend("leak", np.arange(RUNS) * DAY, fits[:, 0], fits[:, 1]).detected is not None
     assert flags == 0
 
@@ -57,15 +62,16 @@ def _season(rng, onset=None, step=2.0, runs=RUNS):
     first off its level)."""
     values = 100.0 + rng.normal(size=runs)
     if onset is not None:
-        values[onset - 1:] += step * np.arange(1, runs - onset + 2)
+        values[onset - 1 :] += step * np.arange(1, runs - onset + 2)
     return values
 
 
 def test_a_drift_from_run_28_is_flagged_by_run_31_with_its_onset():
     """2 standard deviations a run from run 28 of 40: the line's scatter would hide it for
     runs; the CUSUM names run 28 (+-1) as its onset and flags it by run 31."""
-    tr = trend("p", np.arange(RUNS) * DAY, _season(np.random.default_rng(28), 28), np.ones(RUNS),
-               "linear")  # fmt: skip
+    tr = trend(
+        "p", np.arange(RUNS) * DAY, _season(np.random.default_rng(28), 28), np.ones(RUNS), "linear"
+    )
     assert tr.direction == 1 and tr.onset is not None and tr.detected is not None
     assert 27 <= tr.onset + 1 <= 29 and 28 <= tr.detected + 1 <= 31
 
@@ -91,8 +97,9 @@ def test_drifts_of_two_standard_deviations_a_run_are_flagged_within_three_runs(s
     rng = np.random.default_rng(7 if sign > 0 else 8)
     delays = []
     for _ in range(200):
-        tr = trend("p", np.arange(RUNS) * DAY, _season(rng, 28, 2.0 * sign), np.ones(RUNS),
-                   "linear")  # fmt: skip
+        tr = trend(
+            "p", np.arange(RUNS) * DAY, _season(rng, 28, 2.0 * sign), np.ones(RUNS), "linear"
+        )
         assert tr.detected is not None and tr.direction == (1 if sign > 0 else -1)
         delays.append(tr.detected + 1 - 28)
     delays = np.array(delays)
@@ -119,8 +126,10 @@ def test_the_scale_is_the_runs_scatter_not_their_stated_errors():
     flags = 0
     for _ in range(100):
         values = 100.0 + rng.normal(size=RUNS)
-        flags += trend("p", np.arange(RUNS) * DAY, values, np.full(RUNS, 0.1),
-                       "linear").detected is not None  # fmt: skip
+        flags += (
+            trend("p", np.arange(RUNS) * DAY, values, np.full(RUNS, 0.1), "linear").detected
+            is not None
+        )
     assert flags <= 1
     tr = trend("p", np.arange(RUNS) * DAY, _season(rng, 28), np.full(RUNS, 0.1), "linear")
     assert 28 <= tr.detected + 1 <= 31
@@ -132,8 +141,9 @@ def test_the_standardised_residuals_of_drift_free_seasons_are_standard_normal():
     from drs_model.identify.change_point import cusum
 
     rng = np.random.default_rng(11)
-    z = np.concatenate([cusum(rng.normal(size=RUNS), np.ones(RUNS), decision=1e9).z[8:]
-                        for _ in range(300)])  # fmt: skip
+    z = np.concatenate(
+        [cusum(rng.normal(size=RUNS), np.ones(RUNS), decision=1e9).z[8:] for _ in range(300)]
+    )
     assert abs(z.mean()) < 0.05 and abs(z.std() - 1.0) < 0.05
     assert abs(np.mean(np.abs(z) > 1.96) - 0.05) < 0.015
 

@@ -43,10 +43,15 @@ def bag_check(bag) -> int:
 MALFORMED = [
     ("/drs/force_cmd", "std_msgs/msg/Float64", [b"\x00\x01\x00\x00\x07", b"\x00\x01\x00\x00"]),
     ("/drs/stroke_cmd", "std_msgs/msg/Float64", [b"\x00\x01\x00\x00\x01\x02\x03"]),
-    ("/drs/trajectory_cmd", "trajectory_msgs/msg/JointTrajectory",
-     [b"\x00\x01\x00\x00" + b"\x00" * 8 + b"\xff\xff\xff\x7f" + b"x" * 8,
-      b"\x00\x01\x00\x00\x01"]),
-]  # fmt: skip
+    (
+        "/drs/trajectory_cmd",
+        "trajectory_msgs/msg/JointTrajectory",
+        [
+            b"\x00\x01\x00\x00" + b"\x00" * 8 + b"\xff\xff\xff\x7f" + b"x" * 8,
+            b"\x00\x01\x00\x00\x01",
+        ],
+    ),
+]
 
 
 def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, request, params):
@@ -63,8 +68,10 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     from drs_model.kinematics import stroke_limits
     from drs_ros.bag.read.effects import effect_records
 
-    types = {"std_msgs/msg/Float64": Float64,
-             "trajectory_msgs/msg/JointTrajectory": JointTrajectory}  # fmt: skip
+    types = {
+        "std_msgs/msg/Float64": Float64,
+        "trajectory_msgs/msg/JointTrajectory": JointTrajectory,
+    }
     domain = domain_for(request.node.nodeid)
     bag = tmp_path / "bag"
     proc = start_node(tmp_path, domain, f"bag_path:={bag}", "publish_rate_hz:=250.0")
@@ -72,8 +79,9 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     lo, hi = stroke_limits(params)
     target = lo + 0.3 * (hi - lo)
     try:
-        pubs = {topic: client.node.create_publisher(types[t], topic, 10)
-                for topic, t, _ in MALFORMED}  # fmt: skip
+        pubs = {
+            topic: client.node.create_publisher(types[t], topic, 10) for topic, t, _ in MALFORMED
+        }
         evil_events = client.node.create_publisher(SetBool.Event, "/drs/drs/_service_event", 10)
         assert client.wait_for(
             lambda: (
@@ -103,8 +111,9 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     assert rate > 125, f"{rate} joint states in 1 s at 250 Hz"
 
     data = read_bag(bag, ["/drs/command_events", "/diagnostics", *pubs])
-    refused = [r for r in effect_records(data.messages["/drs/command_events"])
-               if r.outcome == "refused"]  # fmt: skip
+    refused = [
+        r for r in effect_records(data.messages["/drs/command_events"]) if r.outcome == "refused"
+    ]
     for topic, _type_name, payloads in MALFORMED:
         mine = [r for r in refused if r.source == topic and r.values.get("malformed") == "true"]
         assert len(mine) == len(payloads), (topic, refused)
@@ -121,12 +130,17 @@ def test_malformed_bytes_on_every_command_topic_are_refused_and_kept(tmp_path, r
     # the refusal names the topic and why: in the effect record, and in diagnostics
     records = [st.message for _, m in data.messages["/drs/command_events"] for st in m.status]
     for topic, type_name, _payloads in MALFORMED:
-        assert any(m.startswith(f"refused: {topic} '<") and f"not a valid {type_name}" in m
-                   for m in records), (topic, records)  # fmt: skip
+        assert any(
+            m.startswith(f"refused: {topic} '<") and f"not a valid {type_name}" in m
+            for m in records
+        ), (topic, records)
     diagnosed = [st.message for _, m in data.messages["/diagnostics"] for st in m.status]
-    assert any("refused" in m and "/drs/trajectory_cmd" in m
-               and "not a valid trajectory_msgs/msg/JointTrajectory" in m
-               for m in diagnosed), diagnosed  # fmt: skip
+    assert any(
+        "refused" in m
+        and "/drs/trajectory_cmd" in m
+        and "not a valid trajectory_msgs/msg/JointTrajectory" in m
+        for m in diagnosed
+    ), diagnosed
     assert bag_check(bag) == 0
     with AnyReader([bag]) as reader:  # every message of every typed topic decodes
         conns = [c for c in reader.connections if "/srv/" not in c.msgtype]
@@ -165,11 +179,18 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
     try:
         for k in range(batches):
             names = [f"b{k}_{i}" for i in range(per_batch)]
-            procs = {name: start_node(tmp_path, domain, f"bag_path:={tmp_path / name}",
-                                      f"rrd_path:={tmp_path / name}.rrd",
-                                      "publish_rate_hz:=500.0", "flush_period:=0.1",
-                                      "tick_scheduling:=other")
-                     for name in names}  # fmt: skip
+            procs = {
+                name: start_node(
+                    tmp_path,
+                    domain,
+                    f"bag_path:={tmp_path / name}",
+                    f"rrd_path:={tmp_path / name}.rrd",
+                    "publish_rate_hz:=500.0",
+                    "flush_period:=0.1",
+                    "tick_scheduling:=other",
+                )
+                for name in names
+            }
             stops = {}
             try:
                 for name in names:
@@ -221,8 +242,13 @@ def test_parameters_given_are_used_and_recorded_even_at_their_defaults(tmp_path,
     data = read_bag(bag, ["/parameter_events"])
     recorded = recorded_node_parameters(data.messages["/parameter_events"])
     assert model_params_from(recorded) == DRSParams(m_wing=3.0, Iz_wing=0.0096)
-    proc = start_node(tmp_path, domain, f"bag_path:={tmp_path / 'bag_given'}",
-                      f"model_params_file:={model_file}", "model.m_wing:=2.0")  # fmt: skip
+    proc = start_node(
+        tmp_path,
+        domain,
+        f"bag_path:={tmp_path / 'bag_given'}",
+        f"model_params_file:={model_file}",
+        "model.m_wing:=2.0",
+    )
     try:
         proc.wait(timeout=60)  # a refusal ends it
     finally:
@@ -286,8 +312,11 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
     stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in after])
     assert 1001.5 < stamps[-1] < 1002.6  # on the new clock
     data = read_bag(bag, ["/drs/command_events"])
-    jumps = [r for r in effect_records(data.messages["/drs/command_events"])
-             if r.outcome == "clock" and "jump_ns" in r.values]  # fmt: skip
+    jumps = [
+        r
+        for r in effect_records(data.messages["/drs/command_events"])
+        if r.outcome == "clock" and "jump_ns" in r.values
+    ]
     assert len(jumps) == 1 and "jumped back by" in out
     # from the last tick on the old clock (~1002 s) to the first on the new one (~1000.5 s)
     assert -2.5e9 < int(jumps[0].values["jump_ns"]) < -1.0e9
@@ -299,9 +328,25 @@ def test_a_clock_that_jumps_back_is_followed_not_frozen(tmp_path, request):
 
     run = read_run(bag)
     result = resimulate(run, run_params(run.node_parameters))
-    rows = compare(run, result, {"piston_force": 1e-6, **dict.fromkeys(
-        ("stroke", "link_angle", "flap_angle", "stroke_rate", "link_rate", "flap_rate", "gap"),
-        1e-9)})  # fmt: skip
+    rows = compare(
+        run,
+        result,
+        {
+            "piston_force": 1e-6,
+            **dict.fromkeys(
+                (
+                    "stroke",
+                    "link_angle",
+                    "flap_angle",
+                    "stroke_rate",
+                    "link_rate",
+                    "flap_rate",
+                    "gap",
+                ),
+                1e-9,
+            ),
+        },
+    )
     assert all(r["ok"] for r in rows) and not result["notes"], (rows, result["notes"])
     assert rows[0]["samples"] == run.counts["/joint_states"] > 100
 
@@ -320,11 +365,9 @@ def test_force_mode_at_100_hz_lands_on_the_stop_the_force_drives_to(tmp_path, re
     try:
         assert client.wait_for(lambda: client.joint_state_msgs and client.commands_matched())
         client.force(20000.0)
-        assert client.wait_for(lambda: client.stroke_now() == hi, timeout=5.0), (
-            client.stroke_now())  # fmt: skip
+        assert client.wait_for(lambda: client.stroke_now() == hi, timeout=5.0), client.stroke_now()
         client.force(-5000.0)
-        assert client.wait_for(lambda: client.stroke_now() == lo, timeout=5.0), (
-            client.stroke_now())  # fmt: skip
+        assert client.wait_for(lambda: client.stroke_now() == lo, timeout=5.0), client.stroke_now()
     finally:
         out = stop_node(proc)
         client.close()
@@ -365,8 +408,9 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
             )
         )
     try:
-        assert client.wait_for(lambda: len(client.joint_state_msgs) > 10
-                               and client.commands_matched())  # fmt: skip
+        assert client.wait_for(
+            lambda: len(client.joint_state_msgs) > 10 and client.commands_matched()
+        )
         # start at rest where the sine starts: a move there, then the trajectory
         client.stroke(mid)
         client.spin(0.5)
@@ -377,15 +421,20 @@ def test_a_10000_point_trajectory_is_taken_and_followed(tmp_path, request, param
         client.close()
     assert proc.returncode == 0, out[-2000:]
     data = read_bag(bag, ["/drs/command_events", "/joint_states"])
-    records = [r for r in effect_records(data.messages["/drs/command_events"])
-               if r.source == "/drs/trajectory_cmd"]  # fmt: skip
+    records = [
+        r
+        for r in effect_records(data.messages["/drs/command_events"])
+        if r.source == "/drs/trajectory_cmd"
+    ]
     assert [r.outcome for r in records] == ["accepted"], records
     start = int(records[0].values["step"]) * dt  # sim time the trajectory started [s]
     # a state's sim time is its stamp less the clock origin in force when it was logged (a
     # loaded machine drops steps, which moves the origin)
-    origins = [(r.log_time, int(r.values["t0_ns"]))
-               for r in effect_records(data.messages["/drs/command_events"])
-               if r.outcome == "clock"]  # fmt: skip
+    origins = [
+        (r.log_time, int(r.values["t0_ns"]))
+        for r in effect_records(data.messages["/drs/command_events"])
+        if r.outcome == "clock"
+    ]
     states = []
     for log, m in data.messages["/joint_states"]:
         t0 = [o for lg, o in origins if lg <= log][-1]

@@ -18,7 +18,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E
 from drs_model.errors import InputError  # noqa: E402
 from drs_ros.conversions import trajectory_points  # noqa: E402
 from drs_ros.node.trajectory_cdr import read_joint_trajectory  # noqa: E402
-from drs_ros.recording import cdr  # noqa: E402
+from drs_ros.recording import cdr, cdr_received  # noqa: E402
 
 NAMES = st.lists(
     st.sampled_from(["drs_piston", "drs_link", "drs_flap", "other", "é"]), min_size=0, max_size=4
@@ -101,7 +101,9 @@ def test_what_the_reader_accepts_rclpy_decodes_exactly(msg, data):
         view = read_joint_trajectory(bytes(raw))
     except cdr.CdrError:
         return
-    decoded, exact = cdr.decode_exact(bytes(raw), JointTrajectory)  # raises if rclpy cannot
+    decoded, exact = cdr_received.decode_exact(
+        bytes(raw), JointTrajectory
+    )  # raises if rclpy cannot
     assert view.exact == exact  # what the node records: the exact CDR of what rclpy decodes
     assert same(outcome(view), outcome(decoded))
 

@@ -155,9 +155,8 @@ def _plot(path: str, t, excitation, seed, rung: str) -> None:
 
 
 def run_excite(args: argparse.Namespace) -> Output:
-    from ..identify.excitation import (
-        default_limits,
-        design_excitation,
+    from ..identify.excitation import default_limits, design_excitation
+    from ..identify.information import (
         information,
         rung_motion,
         seed_manoeuvre_information,

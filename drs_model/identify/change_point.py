@@ -102,8 +102,9 @@ def _z(t: float, dof: int) -> float:
     return math.copysign(min(z, Z_CAP), t)
 
 
-def cusum(y, sy, allowance: float = ALLOWANCE, decision: float = DECISION,
-          min_runs: int = MIN_RUNS) -> ChangePoint:  # fmt: skip
+def cusum(
+    y, sy, allowance: float = ALLOWANCE, decision: float = DECISION, min_runs: int = MIN_RUNS
+) -> ChangePoint:
     """The two-sided CUSUM (module docstring) of the runs' values ``y`` with standard errors
     ``sy`` (in the same unit, in run order).
 

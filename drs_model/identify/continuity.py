@@ -41,9 +41,13 @@ from .record import Record
 #: The HydraulicParams fields the continuity equations are linear in (through the regression's
 #: own parameters).
 CONTINUITY_PARAMETERS = (
-    "valve_rated_flow", "leak_across_piston", "leak_to_outside", "bulk_modulus",
-    "dead_volume_piston_side", "dead_volume_rod_side",
-)  # fmt: skip
+    "valve_rated_flow",
+    "leak_across_piston",
+    "leak_to_outside",
+    "bulk_modulus",
+    "dead_volume_piston_side",
+    "dead_volume_rod_side",
+)
 
 
 def _trapezoid(x: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -54,8 +58,9 @@ def _flows(record: Record, h: tuple, rated_flow: float) -> tuple[np.ndarray, np.
     """The valve's net flows into A and B [m^3/s] per unit of rated flow at each sample."""
     qa = np.empty(len(record))
     qb = np.empty(len(record))
-    for i, (x, pa, pb, ps) in enumerate(zip(record.spool, record.pressure_a, record.pressure_b,
-                                            record.supply_pressure, strict=True)):  # fmt: skip
+    for i, (x, pa, pb, ps) in enumerate(
+        zip(record.spool, record.pressure_a, record.pressure_b, record.supply_pressure, strict=True)
+    ):
         q_pa, q_at, q_pb, q_bt = hk.valve_flows(x, pa, pb, ps, h)
         qa[i], qb[i] = q_pa - q_at, q_pb - q_bt
     return qa / rated_flow, qb / rated_flow
@@ -89,13 +94,16 @@ def _terms(record: Record, p: DRSParams, hp: HydraulicParams) -> dict[str, np.nd
         "compliance": both(swept_a, swept_b),  # times phi = 1 / beta
         "dead_volume_piston_side": both(-dpa, zeros),  # times phi V_A0
         "dead_volume_rod_side": both(zeros, -dpb),  # times phi V_B0
-        "known": both(-area_a * np.diff(s) - _trapezoid(relief_a, t),
-                      area_b * np.diff(s) - _trapezoid(relief_b, t)),  # fmt: skip
+        "known": both(
+            -area_a * np.diff(s) - _trapezoid(relief_a, t),
+            area_b * np.diff(s) - _trapezoid(relief_b, t),
+        ),
     }
 
 
-def continuity_regression(record: Record, names: Sequence[str], p: DRSParams,
-                          hp: HydraulicParams) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def continuity_regression(
+    record: Record, names: Sequence[str], p: DRSParams, hp: HydraulicParams
+) -> tuple[np.ndarray, np.ndarray]:
     """``(X, y)`` of ``y = X phi`` for the fields ``names`` (a subset of
     :data:`CONTINUITY_PARAMETERS`), the others held at their values in ``hp``; one row per
     sample interval and chamber (A's, then B's). ``phi``'s entries: ``k``, ``C_AB``,
@@ -109,13 +117,19 @@ def continuity_regression(record: Record, names: Sequence[str], p: DRSParams,
     """
     unknown = [n for n in names if n not in CONTINUITY_PARAMETERS]
     if unknown:
-        raise InputError(f"{unknown} are not in the continuity equations "
-                         f"({', '.join(CONTINUITY_PARAMETERS)} are)")  # fmt: skip
-    missing = [n for n in ("pressure_a", "pressure_b", "supply_pressure", "spool")
-               if getattr(record, n) is None]  # fmt: skip
+        raise InputError(
+            f"{unknown} are not in the continuity equations "
+            f"({', '.join(CONTINUITY_PARAMETERS)} are)"
+        )
+    missing = [
+        n
+        for n in ("pressure_a", "pressure_b", "supply_pressure", "spool")
+        if getattr(record, n) is None
+    ]
     if missing:
-        raise InputError(f"the continuity equations need the signals {missing}, which the "
-                         "run did not record")  # fmt: skip
+        raise InputError(
+            f"the continuity equations need the signals {missing}, which the run did not record"
+        )
     terms = _terms(record, p, hp)
     y = -terms["known"]
     columns = {}
@@ -138,8 +152,9 @@ def continuity_regression(record: Record, names: Sequence[str], p: DRSParams,
     return X, y
 
 
-def to_fields(phi: np.ndarray, cov: np.ndarray, names: Sequence[str],
-              hp: HydraulicParams) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def to_fields(
+    phi: np.ndarray, cov: np.ndarray, names: Sequence[str], hp: HydraulicParams
+) -> tuple[np.ndarray, np.ndarray]:
     """The fields' values and covariance from the regression's ``phi`` and its covariance
     (delta method): ``beta = 1/phi``, a dead volume ``(phi V_0) / phi`` (with ``phi`` fitted)
     or ``(phi V_0) beta`` (``beta`` held)."""

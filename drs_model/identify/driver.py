@@ -77,13 +77,24 @@ def check_names(names: Sequence[str], rung: str, p: DRSParams, hp: HydraulicPara
 
 def _withheld(name: str, p, hp, why: str) -> Estimate:
     fp = fit_parameter(name, p, hp)
-    return Estimate(name, fp.unit, math.nan, math.nan, math.nan, math.nan,
-                    current_value(name, p, hp), "equation", "", why)  # fmt: skip
+    return Estimate(
+        name,
+        fp.unit,
+        math.nan,
+        math.nan,
+        math.nan,
+        math.nan,
+        current_value(name, p, hp),
+        "equation",
+        "",
+        why,
+    )
 
 
 def _sensitivity(problem: OutputErrorProblem, noise: dict) -> np.ndarray:
     """Whitened residual sensitivities at the start (forward differences): the matrix the
     identifiability is judged on before the output error fits."""
+
     def whitened(theta):
         sim = problem.simulate(dict(zip(problem.names, map(float, theta), strict=True)))
         out = []
@@ -109,38 +120,76 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
         fp = fit_parameter(name, p, hp)
         start = current_value(name, p, hp)
         if name not in kept:
-            reason = f"{ident.undetermined.get(name, 'not determined')}; to determine it: " \
-                     f"{fp.motion}"  # fmt: skip
-            out.append(Estimate(name, fp.unit, math.nan, math.nan, math.nan, math.nan, start,
-                                "output", "", reason))  # fmt: skip
+            reason = (
+                f"{ident.undetermined.get(name, 'not determined')}; to determine it: {fp.motion}"
+            )
+            out.append(
+                Estimate(
+                    name,
+                    fp.unit,
+                    math.nan,
+                    math.nan,
+                    math.nan,
+                    math.nan,
+                    start,
+                    "output",
+                    "",
+                    reason,
+                )
+            )
             continue
         i = kept.index(name)
         value, std = float(fit.estimate[i]), math.sqrt(fit.covariance[i, i])
         (lo, hi), kind = iv.bounded_interval(value, std, q, fp.lower)
-        ratios = iv.linearity_ratios(fit.chi2_of, fit.estimate, fit.covariance, i, q, fit.s2,
-                                     fit.chi2)  # fmt: skip
+        ratios = iv.linearity_ratios(
+            fit.chi2_of, fit.estimate, fit.covariance, i, q, fit.s2, fit.chi2
+        )
         if not iv.agrees(ratios):
             profile = profile_chi2(problem, fit, i)
-            lo, hi = iv.profile_interval(profile, value, q * std, q * q * fit.s2,
-                                         (fp.lower, fp.upper), fit.chi2)  # fmt: skip
+            lo, hi = iv.profile_interval(
+                profile, value, q * std, q * q * fit.s2, (fp.lower, fp.upper), fit.chi2
+            )
             kind = "profile"
             if fit.floor_std is not None:  # a profile steeper than the optimiser's own stop
                 reach = q * float(fit.floor_std[i])
                 lo, hi = min(lo, max(value - reach, fp.lower)), max(hi, value + reach)
-        if not (math.isfinite(lo) and math.isfinite(hi)) or too_wide(value, 0.5 * (hi - lo),
-                                                                      fp.scale):  # fmt: skip
+        if not (math.isfinite(lo) and math.isfinite(hi)) or too_wide(
+            value, 0.5 * (hi - lo), fp.scale
+        ):
             reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)
-            out.append(Estimate(name, fp.unit, math.nan, math.nan, math.nan, std, start,
-                                "output", "", reason, value))  # fmt: skip
+            out.append(
+                Estimate(
+                    name,
+                    fp.unit,
+                    math.nan,
+                    math.nan,
+                    math.nan,
+                    std,
+                    start,
+                    "output",
+                    "",
+                    reason,
+                    value,
+                )
+            )
             continue
         out.append(Estimate(name, fp.unit, value, lo, hi, std, start, "output", kind, "", value))
     return out
 
 
-def output_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
-                 hp: HydraulicParams, simulate: Callable, starts: dict, level: float,
-                 noise: dict | None = None, signals: Sequence[str] | None = None,
-                 max_nfev: int | None = None) -> StageFit:  # fmt: skip
+def output_stage(
+    record: Record,
+    names: Sequence[str],
+    rung: str,
+    p: DRSParams,
+    hp: HydraulicParams,
+    simulate: Callable,
+    starts: dict,
+    level: float,
+    noise: dict | None = None,
+    signals: Sequence[str] | None = None,
+    max_nfev: int | None = None,
+) -> StageFit:
     """The output-error fit of ``names`` from ``starts`` (module docstring, step 3).
     ``simulate({name: value}) -> {signal: array}`` re-simulates the run at the record's
     samples."""
@@ -153,39 +202,73 @@ def output_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     lower, upper = np.array([f.lower for f in fps]), np.array([f.upper for f in fps])
     scale = np.array([max(abs(starts[n]), f.scale) for n, f in zip(names, fps, strict=True)])
     # a start outside the bounds (an equation-error guess of a negative leak) comes inside them
-    start = np.clip([starts[n] for n in names], lower + START_MARGIN * scale,
-                    upper - START_MARGIN * scale)  # fmt: skip
-    problem = OutputErrorProblem(tuple(names), start, lower, upper, scale, simulate, measured,
-                                 noise)  # fmt: skip
+    start = np.clip(
+        [starts[n] for n in names], lower + START_MARGIN * scale, upper - START_MARGIN * scale
+    )
+    problem = OutputErrorProblem(
+        tuple(names), start, lower, upper, scale, simulate, measured, noise
+    )
 
     floor = {k: (noise or {}).get(k, RESOLUTION.get(k, 1.0)) for k in measured}
     ident = assess(_sensitivity(problem, floor), names, problem.scale)
     keep = [i for i, n in enumerate(names) if n in ident.determined]
     held = {n: starts[n] for n in names if n not in ident.determined}
+
     def simulate_kept(values: dict) -> dict:
         return simulate({**held, **values})
 
     sub = OutputErrorProblem(
-        tuple(names[i] for i in keep), problem.start[keep], problem.lower[keep],
-        problem.upper[keep], problem.scale[keep], simulate_kept, measured, noise)  # fmt: skip
+        tuple(names[i] for i in keep),
+        problem.start[keep],
+        problem.lower[keep],
+        problem.upper[keep],
+        problem.scale[keep],
+        simulate_kept,
+        measured,
+        noise,
+    )
     fit = fit_output_error(sub, max_nfev)
     est = _output_estimates(sub, fit, names, p, hp, level, ident)
-    fitted = tuple(FittedSignal(k, SIGNALS[k], record.t, measured[k], np.asarray(fit.simulated[k]))
-                   for k in measured)  # fmt: skip
+    fitted = tuple(
+        FittedSignal(k, SIGNALS[k], record.t, measured[k], np.asarray(fit.simulated[k]))
+        for k in measured
+    )
     given = noise or {}
-    used = ", ".join(f"{k} {v:.3g} {SIGNALS[k]} ({'given' if k in given else 'from the record'})"
-                     for k, v in fit.noise.items())  # fmt: skip
-    notes = (f"{fit.nfev} re-simulations; noise: {used} (from the record: the residual's "
-             f"scatter, or the recorded values' resolution where less); {fit.message}",)
-    return StageFit("output", "output error", tuple(est), ident, fitted, fit.s2, fit.dof,
-                    time.perf_counter() - started, notes)  # fmt: skip
+    used = ", ".join(
+        f"{k} {v:.3g} {SIGNALS[k]} ({'given' if k in given else 'from the record'})"
+        for k, v in fit.noise.items()
+    )
+    notes = (
+        f"{fit.nfev} re-simulations; noise: {used} (from the record: the residual's "
+        f"scatter, or the recorded values' resolution where less); {fit.message}",
+    )
+    return StageFit(
+        "output",
+        "output error",
+        tuple(est),
+        ident,
+        fitted,
+        fit.s2,
+        fit.dof,
+        time.perf_counter() - started,
+        notes,
+    )
 
 
-def fit(record: Record, names: Sequence[str], rung: str, p: DRSParams,
-        hp: HydraulicParams | None = None, *, simulate: Callable | None = None,
-        stage: str = "both", level: float = 0.95, noise: dict | None = None,
-        signals: Sequence[str] | None = None,
-        max_nfev: int | None = None) -> FitResult:  # fmt: skip
+def fit(
+    record: Record,
+    names: Sequence[str],
+    rung: str,
+    p: DRSParams,
+    hp: HydraulicParams | None = None,
+    *,
+    simulate: Callable | None = None,
+    stage: str = "both",
+    level: float = 0.95,
+    noise: dict | None = None,
+    signals: Sequence[str] | None = None,
+    max_nfev: int | None = None,
+) -> FitResult:
     """Fit the parameters ``names`` of ``rung`` to ``record`` (module docstring).
 
     Parameters
@@ -212,38 +295,68 @@ def fit(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     """
     hp = HydraulicParams() if hp is None else hp
     names = list(names)
+    _check_request(names, rung, p, hp, stage, level)
+    stages: list[StageFit] = []
+    final: dict[str, Estimate] = {}
+    if stage in ("both", "equation"):
+        stages = equation_error(
+            record, [n for n in names if n in EQUATION_PARAMETERS], rung, p, hp, level
+        )
+        final = {e.name: e for s in stages for e in s.estimates}
+    notes = []
+    if stage in ("both", "output") and simulate is not None:
+        starts = _output_starts(final, names, p, hp)
+        out = output_stage(
+            record, names, rung, p, hp, simulate, starts, level, noise, signals, max_nfev
+        )
+        stages.append(out)
+        final.update({e.name: e for e in out.estimates})
+    elif stage != "equation":  # asked for, and there is nothing to re-simulate the run with
+        notes.append(NO_OUTPUT_ERROR)
+    _withhold_the_rest(final, names, p, hp, stage)
+    split = disagreements(stages)
+    notes += [f"INCONSISTENT: {d}" for d in split.values()]
+    return FitResult(
+        rung, level, tuple(final[n] for n in names), tuple(stages), tuple(notes), tuple(split)
+    )
+
+
+#: The note of a fit asked for its output error on a run that cannot be re-simulated.
+NO_OUTPUT_ERROR = (
+    "no output error: the run cannot be re-simulated (it holds no record of its commands)"
+)
+
+
+def _check_request(names, rung: str, p, hp, stage: str, level: float) -> None:
+    """Refuse an unknown parameter or stage, or a level outside [0.5, 1)."""
     check_names(names, rung, p, hp)
     if stage not in STAGES:
         raise InputError(f"stage must be one of {STAGES}, got {stage!r}")
     if not 0.5 <= level < 1.0:
         raise InputError(f"level must be in [0.5, 1), got {level!r}")
-    stages: list[StageFit] = []
-    final: dict[str, Estimate] = {}
-    if stage in ("both", "equation"):
-        stages = equation_error(record, [n for n in names if n in EQUATION_PARAMETERS], rung,
-                                p, hp, level)  # fmt: skip
-        final = {e.name: e for s in stages for e in s.estimates}
-    notes = []
-    if stage in ("both", "output") and simulate is not None:
-        # the equation error's numbers, withheld or not, are the best starts it has
-        starts = {n: (final[n].guess if n in final and math.isfinite(final[n].guess)
-                      else current_value(n, p, hp)) for n in names}  # fmt: skip
-        out = output_stage(record, names, rung, p, hp, simulate, starts, level, noise, signals,
-                           max_nfev)  # fmt: skip
-        stages.append(out)
-        final.update({e.name: e for e in out.estimates})
-    elif stage != "equation":
-        notes.append("no output error: the run cannot be re-simulated (it holds no record of "
-                     "its commands)" if simulate is None else "")  # fmt: skip
+
+
+def _output_starts(final: dict, names, p, hp) -> dict[str, float]:
+    """The output error's starts: the equation error's numbers, withheld or not, where it
+    gave a finite one (the best starts there are), else the parameters' current values."""
+    return {
+        n: (
+            final[n].guess
+            if n in final and math.isfinite(final[n].guess)
+            else current_value(n, p, hp)
+        )
+        for n in names
+    }
+
+
+def _withhold_the_rest(final: dict, names, p, hp, stage: str) -> None:
+    """Each parameter no stage determined, withheld in ``final`` with the reason."""
+    why = "--stage equation" if stage == "equation" else "the run cannot be re-simulated"
     for n in names:
         if n not in final:
-            final[n] = _withheld(n, p, hp, "only the output error determines it, and it did not "
-                                 "run (" + ("--stage equation" if stage == "equation" else
-                                 "the run cannot be re-simulated") + ")")  # fmt: skip
-    split = disagreements(stages)
-    notes += [f"INCONSISTENT: {d}" for d in split.values()]
-    return FitResult(rung, level, tuple(final[n] for n in names), tuple(stages),
-                     tuple(n for n in notes if n), tuple(split))  # fmt: skip
+            final[n] = _withheld(
+                n, p, hp, f"only the output error determines it, and it did not run ({why})"
+            )
 
 
 def disagreements(stages: Sequence[StageFit]) -> dict[str, str]:
@@ -267,13 +380,22 @@ def disagreements(stages: Sequence[StageFit]) -> dict[str, str]:
         allowed = math.hypot(a, b)
         gap = abs(oe.value - eq.value)
         if gap > allowed:
-            out[name] = (f"{name}: equation error {eq.value:.6g} [{eq.lower:.6g}, "
-                         f"{eq.upper:.6g}], output error {oe.value:.6g} [{oe.lower:.6g}, "
-                         f"{oe.upper:.6g}] {eq.unit}: {gap / allowed:.3g}x as far apart as "
-                         "their intervals allow; the model misses something in this run "
-                         "(a contact, a saturation, a signal's error): bet on neither")  # fmt: skip
+            out[name] = (
+                f"{name}: equation error {eq.value:.6g} [{eq.lower:.6g}, "
+                f"{eq.upper:.6g}], output error {oe.value:.6g} [{oe.lower:.6g}, "
+                f"{oe.upper:.6g}] {eq.unit}: {gap / allowed:.3g}x as far apart as "
+                "their intervals allow; the model misses something in this run "
+                "(a contact, a saturation, a signal's error): bet on neither"
+            )
     return out
 
 
-__all__ = ["FIT_RUNGS", "OUTPUT_SIGNALS", "STAGES", "check_names", "disagreements", "fit",
-           "output_stage"]
+__all__ = [
+    "FIT_RUNGS",
+    "OUTPUT_SIGNALS",
+    "STAGES",
+    "check_names",
+    "disagreements",
+    "fit",
+    "output_stage",
+]

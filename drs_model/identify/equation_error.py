@@ -40,8 +40,9 @@ from .regressor import rigid_regressor, rigid_values, rigid_weights
 from .results import Estimate, FittedSignal, StageFit
 
 
-def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, stage: str,
-               kinds=None) -> list[Estimate]:  # fmt: skip
+def _estimates(
+    names, values, cov, dof, level, p, hp, ident: Identifiability, stage: str, kinds=None
+) -> list[Estimate]:
     """One :class:`Estimate` per name; NaN value (with the reason) where undetermined or the
     interval is wider than the value's size."""
     q = quantile(level, dof)
@@ -55,8 +56,11 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
             reason = ident.undetermined[name]
             if STRUCTURAL not in reason:
                 reason += f"; to determine it: {fp.motion}"
-            out.append(Estimate(name, fp.unit, math.nan, math.nan, math.nan, math.nan, start,
-                                stage, "", reason))  # fmt: skip
+            out.append(
+                Estimate(
+                    name, fp.unit, math.nan, math.nan, math.nan, math.nan, start, stage, "", reason
+                )
+            )
             continue
         i = list(values).index(name)
         value, std = float(values[name]), math.sqrt(cov[i, i])
@@ -65,8 +69,21 @@ def _estimates(names, values, cov, dof, level, p, hp, ident: Identifiability, st
             (lo, hi), kind = kinds[name]
         if too_wide(value, 0.5 * (hi - lo), fp.scale) or not math.isfinite(hi - lo):
             reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)
-            out.append(Estimate(name, fp.unit, math.nan, math.nan, math.nan, std, start, stage,
-                                "", reason, value))  # fmt: skip
+            out.append(
+                Estimate(
+                    name,
+                    fp.unit,
+                    math.nan,
+                    math.nan,
+                    math.nan,
+                    std,
+                    start,
+                    stage,
+                    "",
+                    reason,
+                    value,
+                )
+            )
             continue
         out.append(Estimate(name, fp.unit, value, lo, hi, std, start, stage, kind, "", value))
     return out
@@ -84,13 +101,15 @@ def _solve(X, y, w, names, scales, starts, covariance):
     return ident, values, fit, X[:, keep] @ fit.estimate + (y - y_kept)
 
 
-def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
-                level: float) -> StageFit:  # fmt: skip
+def rigid_stage(
+    record: Record, names: Sequence[str], rung: str, p: DRSParams, level: float
+) -> StageFit:
     """The rigid force regression of the parameters ``names`` (of :data:`RIGID_PARAMETERS`)."""
     started = time.perf_counter()
     if record.piston_force is None:
-        raise InputError("the rigid parameters are fitted on the piston force, which the run "
-                         "did not record")  # fmt: skip
+        raise InputError(
+            "the rigid parameters are fitted on the piston force, which the run did not record"
+        )
     s = record.stroke
     # derived rates by the quintic: the cubic's truncation biased the wing's mass under force
     # commands by 1.4 of its scatter over seeded noise; the quintic's error is a seventieth of
@@ -107,26 +126,38 @@ def rigid_stage(record: Record, names: Sequence[str], rung: str, p: DRSParams,
     y = record.piston_force[ok] - Y[:, held_cols] @ theta[held_cols]
     w, derivative_force = _derivative_weights(record, ok, s, sd, sdd, p)
     scales = [fit_parameter(n, p).scale for n in names]
-    ident, values, fit, fitted = _solve(Y[:, cols], y, w, list(names), scales, theta[cols],
-                                        "classic")  # fmt: skip
+    ident, values, fit, fitted = _solve(
+        Y[:, cols], y, w, list(names), scales, theta[cols], "classic"
+    )
     kept = [n for n in names if n in values]
     try:
-        fit, fitted, X = _noise_corrected(record.piston_force[ok], s[ok], sd[ok], sdd[ok], p,
-                                          kept, fit.sigma2, w)  # fmt: skip
+        fit, fitted, X = _noise_corrected(
+            record.piston_force[ok], s[ok], sd[ok], sdd[ok], p, kept, fit.sigma2, w
+        )
     except ConvergenceError as exc:  # the residual is no stroke noise: nothing to bet on
-        ident = dataclasses.replace(ident, determined=(), undetermined={
-            n: f"{MISFIT} ({exc})" for n in names})  # fmt: skip
+        ident = dataclasses.replace(
+            ident, determined=(), undetermined={n: f"{MISFIT} ({exc})" for n in names}
+        )
         kept, values = [], {}
     else:
         fit = _with_derivative_error(fit, X, derivative_force, w)
         values = dict(zip(kept, map(float, fit.estimate), strict=True))
     ident = _structure(ident, names, p, scales, rung)
-    est = _estimates(names, values, fit.covariance, fit.dof, level, p, HydraulicParams(), ident,
-                     "equation")  # fmt: skip
+    est = _estimates(
+        names, values, fit.covariance, fit.dof, level, p, HydraulicParams(), ident, "equation"
+    )
     force = FittedSignal("piston_force", "N", record.t[ok], record.piston_force[ok], fitted)
-    return StageFit("equation", "rigid force", tuple(est), ident, (force,), fit.sigma2,
-                    fit.dof, time.perf_counter() - started,
-                    (_left_out_note(left_out, len(record)), *derivation_notes(record)))  # fmt: skip
+    return StageFit(
+        "equation",
+        "rigid force",
+        tuple(est),
+        ident,
+        (force,),
+        fit.sigma2,
+        fit.dof,
+        time.perf_counter() - started,
+        (_left_out_note(left_out, len(record)), *derivation_notes(record)),
+    )
 
 
 def _derivative_weights(record: Record, ok, s, sd, sdd, p: DRSParams) -> np.ndarray:
@@ -139,8 +170,9 @@ def _derivative_weights(record: Record, ok, s, sd, sdd, p: DRSParams) -> np.ndar
         return w, np.zeros_like(w)
     consts = tuple(model_constants(p))
     ones = np.ones(int(ok.sum()))
-    gain = (np.asarray(elementwise.fused_force(s[ok], sd[ok], ones, consts))
-            - np.asarray(elementwise.fused_force(s[ok], sd[ok], 0.0 * ones, consts)))  # fmt: skip
+    gain = np.asarray(elementwise.fused_force(s[ok], sd[ok], ones, consts)) - np.asarray(
+        elementwise.fused_force(s[ok], sd[ok], 0.0 * ones, consts)
+    )
     sigma_s = record.stroke_noise()
     force = gain * record.derivative_error()[ok]
     return 1.0 / (1.0 / w + (force / sigma_s) ** 2), force
@@ -191,15 +223,20 @@ def described_samples(record: Record, sd, sdd, p: DRSParams, rung: str):
         counts["acceleration kink"] = int(np.sum(kink))
         ok &= ~(window | kink)
     if ok.sum() <= 1:
-        raise InputError(f"no sample of the run is one the rigid force regression describes "
-                         f"({_left_out_note(counts, len(record))})")  # fmt: skip
+        raise InputError(
+            f"no sample of the run is one the rigid force regression describes "
+            f"({_left_out_note(counts, len(record))})"
+        )
     return ok, counts
 
 
 def _left_out_note(counts: dict, total: int) -> str:
     parts = [f"{n} {why}" for why, n in counts.items() if n]
-    return (f"samples left out of the regression: {', '.join(parts)} (of {total})" if parts
-            else f"every one of the {total} samples regressed")  # fmt: skip
+    return (
+        f"samples left out of the regression: {', '.join(parts)} (of {total})"
+        if parts
+        else f"every one of the {total} samples regressed"
+    )
 
 
 def derivation_notes(record: Record) -> tuple[str, ...]:
@@ -215,9 +252,11 @@ STOP_BAND = 1e-4
 _DERIVATIVE_STEP = 1e-8
 #: Why the rigid regression gives no value where its residual is more than the stroke noise
 #: the record shows can explain (the errors-in-variables correction exceeds the information).
-MISFIT = ("the rigid force regression's residual is more than the stroke's noise explains: some "
-          "samples are ones its model does not describe (a stop holding the rod, a saturation) "
-          "and the record does not say which")  # fmt: skip
+MISFIT = (
+    "the rigid force regression's residual is more than the stroke's noise explains: some "
+    "samples are ones its model does not describe (a stop holding the rod, a saturation) "
+    "and the record does not say which"
+)
 #: How a reason says that no motion determines a parameter.
 STRUCTURAL = "no motion of the mechanism separates it"
 
@@ -234,8 +273,15 @@ def _noise_corrected(force, s, sd, sdd, p, kept, sigma2, w):
     k = [RIGID_PARAMETERS.index(n) for n in kept]
     j = [i for i in range(len(RIGID_PARAMETERS)) if i not in k]
     rest = Y[:, j] @ theta[j]
-    fit = errors_in_variables(Y[:, k], force - rest, w, dY[:, k], -dY[:, j] @ theta[j], sigma2,
-                              np.abs(force) + np.abs(Y[:, j]) @ np.abs(theta[j]))  # fmt: skip
+    fit = errors_in_variables(
+        Y[:, k],
+        force - rest,
+        w,
+        dY[:, k],
+        -dY[:, j] @ theta[j],
+        sigma2,
+        np.abs(force) + np.abs(Y[:, j]) @ np.abs(theta[j]),
+    )
     return fit, Y[:, k] @ fit.estimate + rest, Y[:, k]
 
 
@@ -256,16 +302,19 @@ def _structure(ident: Identifiability, names, p: DRSParams, scales, rung: str):
     for n in lacking:
         if n in structural:
             partners = sorted({m for g in ident.groups if n in g for m in g} - {n})
-            why[n] = (f"{STRUCTURAL} from {', '.join(partners)} (its effect is a combination "
-                      "of theirs): hold one of them at a value from another source, a weighing "
-                      "or a CAD inertia")  # fmt: skip
+            why[n] = (
+                f"{STRUCTURAL} from {', '.join(partners)} (its effect is a combination "
+                "of theirs): hold one of them at a value from another source, a weighing "
+                "or a CAD inertia"
+            )
         else:
             why[n] += f" (a richer motion does: drs excite --params {','.join(names)})"
     return dataclasses.replace(ident, undetermined=why)
 
 
-def continuity_stage(record: Record, names: Sequence[str], p: DRSParams, hp: HydraulicParams,
-                     level: float) -> StageFit:  # fmt: skip
+def continuity_stage(
+    record: Record, names: Sequence[str], p: DRSParams, hp: HydraulicParams, level: float
+) -> StageFit:
     """The chambers' continuity regression of ``names`` (of
     :data:`~.continuity.CONTINUITY_PARAMETERS`)."""
     started = time.perf_counter()
@@ -276,11 +325,11 @@ def continuity_stage(record: Record, names: Sequence[str], p: DRSParams, hp: Hyd
     X, y = continuity.continuity_regression(record, list(names), p, hp)
     X, y = X[np.concatenate([rows, rows])], y[np.concatenate([rows, rows])]
     starts = {n: current_value(n, p, hp) for n in names}
-    phi0 = continuity.from_fields(
-        {**starts, "bulk_modulus": hp.bulk_modulus}, list(names))  # fmt: skip
+    phi0 = continuity.from_fields({**starts, "bulk_modulus": hp.bulk_modulus}, list(names))
     scales = {n: fit_parameter(n, p, hp).scale for n in names}
-    phi_scales = np.abs(continuity.from_fields({**scales, "bulk_modulus": hp.bulk_modulus},
-                                               list(names)))  # fmt: skip
+    phi_scales = np.abs(
+        continuity.from_fields({**scales, "bulk_modulus": hp.bulk_modulus}, list(names))
+    )
     w = np.ones_like(y)
     ident, values, fit, fitted = _solve(X, y, w, list(names), phi_scales, phi0, "hac")
     kept = [n for n in names if n in values]
@@ -292,21 +341,41 @@ def continuity_stage(record: Record, names: Sequence[str], p: DRSParams, hp: Hyd
         lo, hi = wald_interval(phi[i], fit.std[i], quantile(level, fit.dof))
         if lo > 0.0:
             kinds["bulk_modulus"] = ((1.0 / hi, 1.0 / lo), "profile")
-    est = _estimates(names, dict(zip(kept, field_values, strict=True)), cov, fit.dof, level, p,
-                     hp, ident, "equation", kinds)  # fmt: skip
+    est = _estimates(
+        names,
+        dict(zip(kept, field_values, strict=True)),
+        cov,
+        fit.dof,
+        level,
+        p,
+        hp,
+        ident,
+        "equation",
+        kinds,
+    )
     t_mid = 0.5 * (record.t[1:] + record.t[:-1])[rows]
     n = t_mid.size
     signals = tuple(
-        FittedSignal(f"continuity_{side}", "m^3", t_mid, y[k * n : (k + 1) * n],
-                     fitted[k * n : (k + 1) * n])
+        FittedSignal(
+            f"continuity_{side}", "m^3", t_mid, y[k * n : (k + 1) * n], fitted[k * n : (k + 1) * n]
+        )
         for k, side in enumerate("ab")
-    )  # fmt: skip
-    return StageFit("equation", "chamber continuity", tuple(est), ident, signals, fit.sigma2,
-                    fit.dof, time.perf_counter() - started)  # fmt: skip
+    )
+    return StageFit(
+        "equation",
+        "chamber continuity",
+        tuple(est),
+        ident,
+        signals,
+        fit.sigma2,
+        fit.dof,
+        time.perf_counter() - started,
+    )
 
 
-def friction_stage(record: Record, names: Sequence[str], p: DRSParams, hp: HydraulicParams,
-                   level: float) -> StageFit:  # fmt: skip
+def friction_stage(
+    record: Record, names: Sequence[str], p: DRSParams, hp: HydraulicParams, level: float
+) -> StageFit:
     """The rod balance's friction regression of ``names`` (of
     :data:`~.friction.FRICTION_PARAMETERS`)."""
     started = time.perf_counter()
@@ -329,17 +398,24 @@ def friction_stage(record: Record, names: Sequence[str], p: DRSParams, hp: Hydra
         X = X[:, [order.index(n) for n in names]]
         y = y + X[:, list(names).index("stribeck_velocity")] * vs  # linearised about vs
     scales = [fit_parameter(n, p, hp).scale for n in names]
-    ident, values, fit, fitted = _solve(X, y, np.ones_like(y), list(names), scales, starts,
-                                        "classic")  # fmt: skip
+    ident, values, fit, fitted = _solve(
+        X, y, np.ones_like(y), list(names), scales, starts, "classic"
+    )
     kinds = {}
     if "stribeck_velocity" in values:
-        kinds["stribeck_velocity"] = _stribeck_profile(sd, fr, linear, hp, h, values, fit,
-                                                       level)  # fmt: skip
-    est = _estimates(names, values, fit.covariance, fit.dof, level, p, hp, ident, "equation",
-                     kinds)  # fmt: skip
+        kinds["stribeck_velocity"] = _stribeck_profile(sd, fr, linear, hp, h, values, fit, level)
+    est = _estimates(names, values, fit.covariance, fit.dof, level, p, hp, ident, "equation", kinds)
     signal = FittedSignal("friction", "N", record.t[mask], fr, fitted + (fr - y))
-    return StageFit("equation", "rod friction", tuple(est), ident, (signal,), fit.sigma2,
-                    fit.dof, time.perf_counter() - started)  # fmt: skip
+    return StageFit(
+        "equation",
+        "rod friction",
+        tuple(est),
+        ident,
+        (signal,),
+        fit.sigma2,
+        fit.dof,
+        time.perf_counter() - started,
+    )
 
 
 def _stribeck_profile(sd, fr, linear, hp, h, values, fit, level):
@@ -357,13 +433,18 @@ def _stribeck_profile(sd, fr, linear, hp, h, values, fit, level):
         return float(y @ y) / fit.sigma2
 
     vs = values["stribeck_velocity"]
-    interval = profile_interval(rss, vs, q * fit.std[i], q * q, friction.STRIBECK_RANGE,
-                                rss(vs))  # fmt: skip
+    interval = profile_interval(rss, vs, q * fit.std[i], q * q, friction.STRIBECK_RANGE, rss(vs))
     return interval, "profile"
 
 
-def equation_error(record: Record, names: Sequence[str], rung: str, p: DRSParams,
-                   hp: HydraulicParams, level: float = 0.95) -> list[StageFit]:  # fmt: skip
+def equation_error(
+    record: Record,
+    names: Sequence[str],
+    rung: str,
+    p: DRSParams,
+    hp: HydraulicParams,
+    level: float = 0.95,
+) -> list[StageFit]:
     """Every regression of ``rung`` that covers some of ``names``; the names no regression
     covers are left to the output error."""
     out = []
@@ -381,8 +462,16 @@ def equation_error(record: Record, names: Sequence[str], rung: str, p: DRSParams
 
 
 #: The parameters some regression of the hydraulic rung covers.
-EQUATION_PARAMETERS = (*RIGID_PARAMETERS, *continuity.CONTINUITY_PARAMETERS,
-                       *friction.FRICTION_PARAMETERS)  # fmt: skip
+EQUATION_PARAMETERS = (
+    *RIGID_PARAMETERS,
+    *continuity.CONTINUITY_PARAMETERS,
+    *friction.FRICTION_PARAMETERS,
+)
 
-__all__ = ["EQUATION_PARAMETERS", "continuity_stage", "equation_error", "friction_stage",
-           "rigid_stage"]  # fmt: skip
+__all__ = [
+    "EQUATION_PARAMETERS",
+    "continuity_stage",
+    "equation_error",
+    "friction_stage",
+    "rigid_stage",
+]

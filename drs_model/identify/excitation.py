@@ -42,17 +42,15 @@ import numpy as np
 from scipy.optimize import minimize
 
 from ..errors import InputError, StrokeRangeError
-from ..fidelity.hydraulic import hydraulic_constants
 from ..fidelity.hydraulic_params import HydraulicParams
 from ..inverse import FusedInverseDynamics
 from ..kinematics import stroke_limits
 from ..params import FORCE_LIMIT_DEFAULT_N, DRSParams
 from ..profile import QuinticPath, plan_trajectory
 from ..timebase import ns_from_seconds, split_ns
-from .friction import FRICTION_PARAMETERS, friction_columns
-from .output_error import RESOLUTION
-from .parameters import RIGID_PARAMETERS, fit_parameter
-from .regressor import rigid_regressor, rigid_weights
+from .friction import FRICTION_PARAMETERS
+from .information import information, log_det, seed_manoeuvre_information, standard_errors
+from .parameters import RIGID_PARAMETERS
 
 #: Time [s] the trajectory takes to rise from the closed stop to where the design starts (its
 #: margin above the stop), before the design's first point.
@@ -77,8 +75,9 @@ class Limits:
     force: float
 
 
-def default_limits(p: DRSParams, hp: HydraulicParams | None = None,
-                   force_limit: float = FORCE_LIMIT_DEFAULT_N) -> Limits:  # fmt: skip
+def default_limits(
+    p: DRSParams, hp: HydraulicParams | None = None, force_limit: float = FORCE_LIMIT_DEFAULT_N
+) -> Limits:
     """0.5 mm from each stop; 80 % of the valve's no-load speed (its rated flow over the piston
     area); 80 % of the smaller of the node's force limit and the supply's force (supply less
     return pressure, times the piston area)."""
@@ -127,34 +126,6 @@ class Waveform:
         return self.start + amplitude * m, amplitude * dm, amplitude * ddm
 
 
-def information(names: Sequence[str], s, sd, sdd, p: DRSParams, hp: HydraulicParams,
-                rung: str = "rigid", stroke_noise: float = 1e-5) -> np.ndarray:  # fmt: skip
-    """The Fisher information of the equation-error regressions for ``names`` at the samples
-    ``(s, sd, sdd)``, the parameters in their typical sizes (block-diagonal: rigid, friction)."""
-    scales = np.array([fit_parameter(n, p, hp).scale for n in names])
-    info = np.zeros((len(names), len(names)))
-    rigid = [i for i, n in enumerate(names) if n in RIGID_PARAMETERS]
-    if rigid:
-        if rung == "quasi-static":
-            sd, sdd = np.zeros_like(sd), np.zeros_like(sdd)
-        Y = rigid_regressor(s, sd, sdd, p, [names[i] for i in rigid]) * scales[rigid]
-        w = rigid_weights(s, sd, sdd, p) / stroke_noise**2
-        info[np.ix_(rigid, rigid)] = Y.T @ (Y * w[:, None])
-    rod = [i for i, n in enumerate(names) if n in FRICTION_PARAMETERS]
-    if rod:
-        cols = friction_columns(sd, hydraulic_constants(hp, p), hp.stribeck_velocity)
-        X = np.column_stack([cols[names[i]] for i in rod]) * scales[rod]
-        sigma = RESOLUTION["pressure_a"] * math.hypot(hp.piston_area, hp.rod_side_area)
-        info[np.ix_(rod, rod)] = X.T @ X / sigma**2
-    return info
-
-
-def log_det(info: np.ndarray) -> float:
-    """``log det`` of an information matrix (``-inf`` where singular)."""
-    sign, value = np.linalg.slogdet(info)
-    return float(value) if sign > 0 else -math.inf
-
-
 def check_designable(names: Sequence[str], rung: str) -> None:
     """Refuse a parameter whose information the motion alone does not give."""
     if not names:
@@ -199,8 +170,13 @@ class Excitation:
         points = []
         for t, s, v in zip(self.times, self.strokes, self.rates, strict=True):
             sec, nanosec = split_ns(ns_from_seconds(float(t)))
-            points.append({"positions": [float(s)], "velocities": [float(v)],
-                           "time_from_start": {"sec": sec, "nanosec": nanosec}})  # fmt: skip
+            points.append(
+                {
+                    "positions": [float(s)],
+                    "velocities": [float(v)],
+                    "time_from_start": {"sec": sec, "nanosec": nanosec},
+                }
+            )
         return {"trajectory": {"joint_names": [joint], "points": points}}
 
 
@@ -213,17 +189,6 @@ def path_samples(p: DRSParams, times, strokes, rates, t) -> tuple[np.ndarray, ..
     return out[:, 0], out[:, 1], out[:, 2]
 
 
-def standard_errors(info: np.ndarray, names, p, hp) -> np.ndarray:
-    """Standard errors [units] an information matrix predicts (inf where singular)."""
-    scales = np.array([fit_parameter(n, p, hp).scale for n in names])
-    try:
-        cov = np.linalg.inv(info)
-    except np.linalg.LinAlgError:
-        return np.full(len(names), math.inf)
-    return np.sqrt(np.maximum(np.diag(cov), 0.0)) * scales
-
-
-
 def largest_within_force(over, lam: float) -> float:
     """``lam`` if ``over(lam)`` (the force limit exceeded at that amplitude) is false, else the
     largest amplitude in ``[0, lam]`` within it, by 14 bisections (to ``lam / 16384``)."""
@@ -234,6 +199,7 @@ def largest_within_force(over, lam: float) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (lo, mid) if over(mid) else (mid, hi)
     return lo
+
 
 def _amplitude(wave: Waveform, coeffs, t, limits: Limits, force_of, s_range) -> float:
     """The largest amplitude within the stroke, rate and force limits (stroke and rate are
@@ -256,12 +222,23 @@ def _amplitude(wave: Waveform, coeffs, t, limits: Limits, force_of, s_range) -> 
     return largest_within_force(over, lam)
 
 
-def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | None = None,
-                      *, rung: str = "rigid", duration: float = 0.3, harmonics: int = 10,
-                      sample_period: float = 1e-3, point_spacing: float = 2e-3,
-                      limits: Limits | None = None, stroke_noise: float = 1e-5, seed: int = 0,
-                      starts: int = 12, maxiter: int = 600,
-                      criterion: str = "worst-ratio") -> Excitation:  # fmt: skip
+def design_excitation(
+    names: Sequence[str],
+    p: DRSParams,
+    hp: HydraulicParams | None = None,
+    *,
+    rung: str = "rigid",
+    duration: float = 0.3,
+    harmonics: int = 10,
+    sample_period: float = 1e-3,
+    point_spacing: float = 2e-3,
+    limits: Limits | None = None,
+    stroke_noise: float = 1e-5,
+    seed: int = 0,
+    starts: int = 12,
+    maxiter: int = 600,
+    criterion: str = "worst-ratio",
+) -> Excitation:
     """The excitation of ``names`` on ``rung`` optimal by ``criterion`` (module docstring)."""
     hp = HydraulicParams() if hp is None else hp
     names = tuple(names)
@@ -269,9 +246,11 @@ def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | 
     if criterion not in CRITERIA:
         raise InputError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
     if not (duration >= 0.02 and 0 < sample_period <= point_spacing < duration / 8):
-        raise InputError(f"duration must be >= 0.02 s and 0 < sample_period <= point_spacing < "
-                         f"duration / 8, got {duration!r}, {sample_period!r}, "
-                         f"{point_spacing!r}")  # fmt: skip
+        raise InputError(
+            f"duration must be >= 0.02 s and 0 < sample_period <= point_spacing < "
+            f"duration / 8, got {duration!r}, {sample_period!r}, "
+            f"{point_spacing!r}"
+        )
     limits = default_limits(p, hp) if limits is None else limits
     s_min, s_max = stroke_limits(p)
     # from and to rest a margin above the closed stop (a quintic to the stop itself could
@@ -280,8 +259,9 @@ def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | 
     t = np.arange(0.0, duration + 0.5 * sample_period, sample_period)
     fused = FusedInverseDynamics.from_params(p)
 
-    smooth, exact = _criterion(criterion, names, p, hp, rung, LEAD_IN + duration,
-                               sample_period, stroke_noise)  # fmt: skip
+    smooth, exact = _criterion(
+        criterion, names, p, hp, rung, LEAD_IN + duration, sample_period, stroke_noise
+    )
 
     local = np.arange(0.0, duration + 0.5 * point_spacing, point_spacing)
     path_t = np.arange(0.0, LEAD_IN + duration + 0.5 * sample_period, sample_period)
@@ -295,21 +275,27 @@ def design_excitation(names: Sequence[str], p: DRSParams, hp: HydraulicParams | 
         # acceleration at each), at the largest amplitude that path keeps the limits at: the
         # series between the points has other accelerations, and information orders apart
         lam, path = followed.at_limits(c, amplitude(c))
-        return math.inf if path is None else score(information(names, *path, p, hp, rung,
-                                                               stroke_noise))  # fmt: skip
+        return (
+            math.inf
+            if path is None
+            else score(information(names, *path, p, hp, rung, stroke_noise))
+        )
 
     rng = np.random.default_rng(seed)
     options = {"maxiter": maxiter, "xatol": 1e-3, "fatol": 1e-4}
-    ends = [minimize(cost, rng.normal(size=2 * harmonics), method="Nelder-Mead",
-                     options=options).x for _ in range(starts)]  # fmt: skip
+    ends = [
+        minimize(cost, rng.normal(size=2 * harmonics), method="Nelder-Mead", options=options).x
+        for _ in range(starts)
+    ]
     best = min(ends, key=lambda c: cost(c, exact))
     # Nelder-Mead's simplex collapses in many dimensions: a fresh one about the best point, on
     # the exact criterion
     polished = minimize(cost, best, args=(exact,), method="Nelder-Mead", options=options).x
     best = polished if cost(polished, exact) < cost(best, exact) else best
     lam = followed.at_limits(best, amplitude(best))[0]
-    return _realised(names, rung, wave, best, lam, t, point_spacing, p, hp, limits,
-                     stroke_noise, fused)  # fmt: skip
+    return _realised(
+        names, rung, wave, best, lam, t, point_spacing, p, hp, limits, stroke_noise, fused
+    )
 
 
 class _FollowedPath:
@@ -339,10 +325,13 @@ class _FollowedPath:
         base, lim = self.base, self.limits
         low, high = self.range[0] + 0.5 * lim.margin, self.range[1] - lim.margin
         with np.errstate(divide="ignore", invalid="ignore"):
-            bounds = [np.where(unit[0] > 0, (high - base[0]) / unit[0], np.inf),
-                      np.where(unit[0] < 0, (low - base[0]) / unit[0], np.inf),
-                      np.where(unit[1] != 0, (lim.rate - np.sign(unit[1]) * base[1])
-                               / np.abs(unit[1]), np.inf)]  # fmt: skip
+            bounds = [
+                np.where(unit[0] > 0, (high - base[0]) / unit[0], np.inf),
+                np.where(unit[0] < 0, (low - base[0]) / unit[0], np.inf),
+                np.where(
+                    unit[1] != 0, (lim.rate - np.sign(unit[1]) * base[1]) / np.abs(unit[1]), np.inf
+                ),
+            ]
         lam = max(0.0, 0.999 * min(float(np.min(b)) for b in bounds))
 
         def over(a):
@@ -359,8 +348,9 @@ def _criterion(criterion, names, p, hp, rung, duration, sample_period, noise):
     smooth enough for the simplex) and ``max r + TIE_BREAK mean r``."""
     if criterion == "D":
         return (lambda info: -log_det(info),) * 2
-    seed_std = standard_errors(seed_manoeuvre_information(names, p, hp, rung, duration,
-                                                          sample_period, noise), names, p, hp)
+    seed_std = standard_errors(
+        seed_manoeuvre_information(names, p, hp, rung, duration, sample_period, noise), names, p, hp
+    )
     if not np.all(np.isfinite(seed_std) & (seed_std > 0.0)):  # nothing to weigh against: D
         return (lambda info: -log_det(info),) * 2
 
@@ -402,40 +392,22 @@ def _realised(names, rung, wave, coeffs, lam, t, spacing, p, hp, limits, noise, 
     else:
         raise InputError("no amplitude keeps the followed path within the limits")
     info = information(names, s, sd, sdd, p, hp, rung, noise)
-    return Excitation(names, rung, times, strokes, rates, t, s, sd, sdd, force, info,
-                      log_det(info), standard_errors(info, names, p, hp), limits)  # fmt: skip
-
-
-def rung_motion(p: DRSParams, hp: HydraulicParams, rung: str, duration: float,
-                sample_period: float = 1e-3, trajectory=None) -> tuple[np.ndarray, ...]:
-    """``(s, s', s'')`` [m, m/s, m/s^2] every ``sample_period`` over ``duration`` [s] of the
-    rung running the seed's manoeuvre as the node's service commands it (open, hold, close),
-    or ``trajectory = (times, strokes, rates)`` commanded at the start."""
-    from ..fidelity import make_rung
-
-    options = {"hydraulic": hp} if rung == "hydraulic" else {}
-    sim = make_rung(rung, p, sample_period, **options)
-    close = int(round((p.T_opening + p.T_still) / sample_period))
-    if trajectory is not None:
-        sim.command_trajectory(*trajectory)
-    rows = []
-    for k in range(int(round(duration / sample_period)) + 1):
-        if trajectory is None and k in (0, close):
-            sim.command_drs(k == 0)
-        st = sim.state
-        rows.append((st.q[0], st.qd[0], st.qdd[0]))
-        sim.step()
-    out = np.array(rows)
-    return out[:, 0], out[:, 1], out[:, 2]
-
-
-def seed_manoeuvre_information(names: Sequence[str], p: DRSParams, hp: HydraulicParams,
-                               rung: str, duration: float, sample_period: float = 1e-3,
-                               stroke_noise: float = 1e-5) -> np.ndarray:  # fmt: skip
-    """The information of the seed's manoeuvre as the rung runs it, sampled over
-    ``duration``, for comparison with a design of the same length."""
-    motion = rung_motion(p, hp, rung, duration, sample_period)
-    return information(names, *motion, p, hp, rung, stroke_noise)
+    return Excitation(
+        names,
+        rung,
+        times,
+        strokes,
+        rates,
+        t,
+        s,
+        sd,
+        sdd,
+        force,
+        info,
+        log_det(info),
+        standard_errors(info, names, p, hp),
+        limits,
+    )
 
 
 def reference_motion(p: DRSParams, duration: float = 0.2, seed: int = 1):
@@ -461,11 +433,6 @@ __all__ = [
     "check_designable",
     "default_limits",
     "design_excitation",
-    "information",
-    "log_det",
     "path_samples",
     "reference_motion",
-    "rung_motion",
-    "seed_manoeuvre_information",
-    "standard_errors",
 ]

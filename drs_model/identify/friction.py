@@ -36,10 +36,16 @@ from .regressor import rigid_regressor, rigid_values
 
 #: The HydraulicParams fields of the friction law a rod balance determines.
 FRICTION_PARAMETERS = (
-    "viscous_friction", "coulomb_friction", "breakaway_friction", "stribeck_velocity",
-)  # fmt: skip
-_LINEAR = {"viscous_friction": hk.C_VISCOUS, "coulomb_friction": hk.F_COULOMB,
-           "breakaway_friction": hk.F_BREAKAWAY}  # fmt: skip
+    "viscous_friction",
+    "coulomb_friction",
+    "breakaway_friction",
+    "stribeck_velocity",
+)
+_LINEAR = {
+    "viscous_friction": hk.C_VISCOUS,
+    "coulomb_friction": hk.F_COULOMB,
+    "breakaway_friction": hk.F_BREAKAWAY,
+}
 #: Range [m/s] of the Stribeck velocity's search.
 STRIBECK_RANGE = (1e-5, 1.0)
 
@@ -62,8 +68,9 @@ def rod_balance(record: Record, p: DRSParams, hp: HydraulicParams) -> tuple[np.n
     """``(mask, sd, friction)``: the samples used, their rates [m/s] and the friction [N] the
     rod balance says acted there."""
     if not record.has("pressure_a", "pressure_b"):
-        raise InputError("the rod balance needs the chamber pressures, which the run did not "
-                         "record")  # fmt: skip
+        raise InputError(
+            "the rod balance needs the chamber pressures, which the run did not record"
+        )
     h = hydraulic_constants(hp, p)
     sd, sdd = record.rates(5)  # the quintic, as the rigid regression's (equation_error)
     push = record.pressure_a * h[hk.AREA_A] - record.pressure_b * h[hk.AREA_B]
@@ -81,9 +88,14 @@ def rod_balance(record: Record, p: DRSParams, hp: HydraulicParams) -> tuple[np.n
     return mask, sd[mask], friction[mask]
 
 
-def friction_regression(sd: np.ndarray, friction: np.ndarray, names: Sequence[str],
-                        hp: HydraulicParams, h: tuple,
-                        stribeck_velocity: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def friction_regression(
+    sd: np.ndarray,
+    friction: np.ndarray,
+    names: Sequence[str],
+    hp: HydraulicParams,
+    h: tuple,
+    stribeck_velocity: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """``(X, y)`` of ``y = X theta`` for the linear coefficients among ``names`` at a given
     Stribeck velocity; the coefficients not asked for at their values in ``hp``."""
     cols = friction_columns(sd, h, stribeck_velocity)

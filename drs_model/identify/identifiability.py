@@ -141,8 +141,9 @@ def assess(J, names: Sequence[str], scales, rtol: float = RANK_RTOL) -> Identifi
             undetermined[names[i]] = f"this run cannot separate it from {with_whom}"
     determined = tuple(names[i] for i in keep)
     pairs = _pairs(Jn[:, keep], determined) if keep else []
-    return Identifiability(names, rank, cond, sv, determined, undetermined, tuple(groups),
-                           tuple(pairs))  # fmt: skip
+    return Identifiability(
+        names, rank, cond, sv, determined, undetermined, tuple(groups), tuple(pairs)
+    )
 
 
 def trades_with(name: str, ident: Identifiability) -> list[str]:
@@ -150,15 +151,23 @@ def trades_with(name: str, ident: Identifiability) -> list[str]:
     return [b if a == name else a for a, b, _ in ident.pairs if name in (a, b)]
 
 
-def wide_reason(name: str, interval: tuple[float, float], unit: str, level: float,
-                ident: Identifiability, motion: str) -> str:  # fmt: skip
+def wide_reason(
+    name: str,
+    interval: tuple[float, float],
+    unit: str,
+    level: float,
+    ident: Identifiability,
+    motion: str,
+) -> str:
     """Why an estimate whose interval is too wide (:func:`too_wide`) is not reported: the
     interval, what it trades off with, the motion that would determine it."""
     partners = trades_with(name, ident)
     trade = f"; it trades off with {', '.join(partners)}" if partners else ""
-    return (f"its {100 * level:g} % interval [{interval[0]:.4g}, {interval[1]:.4g}] {unit} is "
-            f"wider than its size: the data do not determine it{trade}; to determine it: "
-            f"{motion}")  # fmt: skip
+    return (
+        f"its {100 * level:g} % interval [{interval[0]:.4g}, {interval[1]:.4g}] {unit} is "
+        f"wider than its size: the data do not determine it{trade}; to determine it: "
+        f"{motion}"
+    )
 
 
 def too_wide(estimate: float, half_width: float, scale: float) -> bool:

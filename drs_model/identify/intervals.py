@@ -51,8 +51,9 @@ def wald_interval(estimate: float, std: float, q: float) -> tuple[float, float]:
     return estimate - q * std, estimate + q * std
 
 
-def bounded_interval(estimate: float, std: float, q: float,
-                     lower_bound: float) -> tuple[tuple[float, float], str]:  # fmt: skip
+def bounded_interval(
+    estimate: float, std: float, q: float, lower_bound: float
+) -> tuple[tuple[float, float], str]:
     """The Wald interval, or where it would cross ``lower_bound`` of a positive parameter
     (``lower_bound >= 0``), the log-scale one (module docstring): ``((lo, hi), kind)`` with
     ``kind`` ``"jacobian"`` or ``"log"``; ``(nan, nan)`` for an estimate at or below the
@@ -67,9 +68,15 @@ def bounded_interval(estimate: float, std: float, q: float,
     return (lower_bound + room * math.exp(-spread), lower_bound + room * math.exp(spread)), "log"
 
 
-def linearity_ratios(chi2: Callable[[np.ndarray], float], estimate: np.ndarray,
-                     covariance: np.ndarray, i: int, q: float, s2: float,
-                     chi2_min: float) -> tuple[float, float]:  # fmt: skip
+def linearity_ratios(
+    chi2: Callable[[np.ndarray], float],
+    estimate: np.ndarray,
+    covariance: np.ndarray,
+    i: int,
+    q: float,
+    s2: float,
+    chi2_min: float,
+) -> tuple[float, float]:
     """Actual over predicted rise of ``chi2`` at the two ends of parameter ``i``'s Wald
     interval, along the linearised profile (module docstring). NaN where ``chi2`` failed."""
     ci = covariance[:, i] / covariance[i, i]
@@ -90,8 +97,9 @@ def agrees(ratios: tuple[float, float]) -> bool:
     return all(AGREEMENT[0] <= r <= AGREEMENT[1] for r in ratios)
 
 
-def _end(excess: Callable[[float], float], start: float, step: float, bound: float,
-         rtol: float) -> float:  # fmt: skip
+def _end(
+    excess: Callable[[float], float], start: float, step: float, bound: float, rtol: float
+) -> float:
     """Where ``excess`` (negative at ``start``) crosses zero going by ``step``, found by
     bracket expansion then Brent; ``bound`` if it does not before it; NaN if never."""
     a, fa = start, excess(start)
@@ -110,9 +118,15 @@ def _end(excess: Callable[[float], float], start: float, step: float, bound: flo
     return math.nan
 
 
-def profile_interval(profile_chi2: Callable[[float], float], estimate: float,
-                     half_width: float, threshold: float, bounds: tuple[float, float],
-                     chi2_min: float, rtol: float = 0.02) -> tuple[float, float]:  # fmt: skip
+def profile_interval(
+    profile_chi2: Callable[[float], float],
+    estimate: float,
+    half_width: float,
+    threshold: float,
+    bounds: tuple[float, float],
+    chi2_min: float,
+    rtol: float = 0.02,
+) -> tuple[float, float]:
     """The profile-likelihood interval of one parameter: where ``profile_chi2(v) - chi2_min``
     (the others re-fitted at ``v``) reaches ``threshold`` (``q^2 s^2``) on each side of
     ``estimate``, searched from the Wald ``half_width`` outwards; an end is the bound where the

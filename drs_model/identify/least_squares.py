@@ -79,8 +79,9 @@ UNIT_ROUNDOFF = float(np.finfo(float).eps) / 2.0
 ROUNDOFF_FACTOR = 32.0
 
 
-def arithmetic_covariance(A: np.ndarray, estimate: np.ndarray, bread: np.ndarray,
-                          b_size: np.ndarray) -> np.ndarray:  # fmt: skip
+def arithmetic_covariance(
+    A: np.ndarray, estimate: np.ndarray, bread: np.ndarray, b_size: np.ndarray
+) -> np.ndarray:
     """The covariance of the rounding error of a least-squares solve of ``A x = b`` (``A``
     whitened and column-scaled, ``estimate`` in the same units, ``bread = (A^T A)^{-1}``,
     ``b_size`` the per-row size of the terms ``b`` was summed from): the solve's
@@ -125,8 +126,9 @@ def hac_lag(n: int) -> int:
     return max(1, math.ceil(4.0 * (n / 100.0) ** (2.0 / 9.0)))
 
 
-def weighted_least_squares(X, y, weights=None, covariance: str = "classic",
-                           y_size=None) -> LinearFit:  # fmt: skip
+def weighted_least_squares(
+    X, y, weights=None, covariance: str = "classic", y_size=None
+) -> LinearFit:
     """Solve ``min sum w_i (y_i - X_i theta)^2`` and give the estimates' covariance (module
     docstring).
 
@@ -216,6 +218,14 @@ def errors_in_variables(X, y, w, dX, dy, sigma2: float, y_size=None) -> LinearFi
     return LinearFit(estimate, cov, residuals, s2, dof)
 
 
-__all__ = ["COVARIANCES", "ROUNDOFF_FACTOR", "UNIT_ROUNDOFF", "LinearFit",
-           "arithmetic_covariance", "checked_covariance", "errors_in_variables", "hac_lag",
-           "weighted_least_squares"]
+__all__ = [
+    "COVARIANCES",
+    "ROUNDOFF_FACTOR",
+    "UNIT_ROUNDOFF",
+    "LinearFit",
+    "arithmetic_covariance",
+    "checked_covariance",
+    "errors_in_variables",
+    "hac_lag",
+    "weighted_least_squares",
+]

@@ -36,9 +36,14 @@ from .least_squares import checked_covariance
 #: is known, and the identifiability's scale (stroke: a good LVDT's 1 um; pressures: 0.1 bar,
 #: 0.025 % of a 400 bar transducer; force: 1 N; spool 0.1 %).
 RESOLUTION = {
-    "stroke": 1e-6, "stroke_rate": 1e-4, "piston_force": 1.0, "pressure_a": 1e4,
-    "pressure_b": 1e4, "supply_pressure": 1e4, "spool": 1e-3,
-}  # fmt: skip
+    "stroke": 1e-6,
+    "stroke_rate": 1e-4,
+    "piston_force": 1.0,
+    "pressure_a": 1e4,
+    "pressure_b": 1e4,
+    "supply_pressure": 1e4,
+    "spool": 1e-3,
+}
 
 #: The optimiser's stopping tolerance on the scaled parameters (``xtol``: a step below
 #: ``xtol * ||x||`` ends it), counted in each interval as a standard error of 3x it.
@@ -120,8 +125,7 @@ class _Residuals:
 
     def signals(self, theta: np.ndarray) -> dict:
         self.nfev += 1
-        return self.problem.simulate(dict(zip(self.problem.names, map(float, theta),
-                                              strict=True)))  # fmt: skip
+        return self.problem.simulate(dict(zip(self.problem.names, map(float, theta), strict=True)))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         from ..errors import DRSError
@@ -145,8 +149,16 @@ def _solve(problem, noise, x0, max_nfev):
     # strictly inside: the trust-region-reflective scaling holds a variable that starts on a
     # bound there (a leak started at 0 never moved)
     x0 = np.clip(x0, lb + START_MARGIN, ub - START_MARGIN)
-    res = least_squares(res_fn, x0, bounds=(lb, ub), method="trf", diff_step=DIFF_STEP,
-                        x_scale=1.0, max_nfev=max_nfev, xtol=STOP_TOLERANCE)  # fmt: skip
+    res = least_squares(
+        res_fn,
+        x0,
+        bounds=(lb, ub),
+        method="trf",
+        diff_step=DIFF_STEP,
+        x_scale=1.0,
+        max_nfev=max_nfev,
+        xtol=STOP_TOLERANCE,
+    )
     return res, res_fn
 
 
@@ -192,8 +204,9 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     # inverted in the scaled units (the parameters may differ by 15 orders of magnitude)
     stop = 3.0 * STOP_TOLERANCE * max(float(np.linalg.norm(res.x)), 1.0)
     information = np.linalg.pinv(res.jac.T @ res.jac)
-    cov = checked_covariance((s2 * information + stop * stop * np.eye(p))
-                             * np.outer(scale, scale), "output-error")  # fmt: skip
+    cov = checked_covariance(
+        (s2 * information + stop * stop * np.eye(p)) * np.outer(scale, scale), "output-error"
+    )
     estimate = res.x * scale
     simulated = fn.signals(estimate)
 
@@ -201,8 +214,20 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
         r = fn(np.asarray(theta) / scale)
         return float(r @ r)
 
-    return NonlinearFit(estimate, cov, J, chi2, dof, s2, noise, simulated, fn.nfev, res.message,
-                        chi2_of, stop * scale)  # fmt: skip
+    return NonlinearFit(
+        estimate,
+        cov,
+        J,
+        chi2,
+        dof,
+        s2,
+        noise,
+        simulated,
+        fn.nfev,
+        res.message,
+        chi2_of,
+        stop * scale,
+    )
 
 
 def recorded_resolution(values: np.ndarray) -> float:
@@ -224,8 +249,9 @@ def signal_noise(simulated: np.ndarray, measured: np.ndarray, p: int) -> float:
     return max(float(np.sqrt(np.sum(r * r) / (r.size - p))), floor)
 
 
-def profile_chi2(problem: OutputErrorProblem, fit: NonlinearFit, i: int,
-                 max_nfev: int | None = None) -> Callable[[float], float]:  # fmt: skip
+def profile_chi2(
+    problem: OutputErrorProblem, fit: NonlinearFit, i: int, max_nfev: int | None = None
+) -> Callable[[float], float]:
     """``v -> min chi2`` with parameter ``i`` held at ``v`` and the others re-fitted from the
     estimate (the profile likelihood's objective), at the noise of ``fit``."""
     others = [k for k in range(len(problem.names)) if k != i]
@@ -242,13 +268,23 @@ def profile_chi2(problem: OutputErrorProblem, fit: NonlinearFit, i: int,
             return dict(zip(problem.names, map(float, full), strict=True))
 
         reduced = OutputErrorProblem(
-            tuple(problem.names[k] for k in others), fit.estimate[others],
-            problem.lower[others], problem.upper[others], problem.scale[others],
-            lambda values: problem.simulate(sub(np.array([values[problem.names[k]]
-                                                          for k in others]))),
-            problem.measured, fit.noise)  # fmt: skip
-        res, fn = _solve(reduced, fit.noise, fit.estimate[others] / problem.scale[others],
-                         max_nfev or PROFILE_ITERATIONS)  # fmt: skip
+            tuple(problem.names[k] for k in others),
+            fit.estimate[others],
+            problem.lower[others],
+            problem.upper[others],
+            problem.scale[others],
+            lambda values: problem.simulate(
+                sub(np.array([values[problem.names[k]] for k in others]))
+            ),
+            problem.measured,
+            fit.noise,
+        )
+        res, fn = _solve(
+            reduced,
+            fit.noise,
+            fit.estimate[others] / problem.scale[others],
+            max_nfev or PROFILE_ITERATIONS,
+        )
         return float(2.0 * res.cost)
 
     return at

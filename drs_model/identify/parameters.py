@@ -29,9 +29,16 @@ from ..params import DRSParams
 #: The DRSParams fields the rigid piston force is linear in (:mod:`.regressor`), in the order of
 #: the regressor's columns.
 RIGID_PARAMETERS = (
-    "m_pist", "m_link", "m_wing", "Iz_link", "Iz_wing",
-    "F_drag_open", "F_drag_closed", "F_down_open", "F_down_closed",
-)  # fmt: skip
+    "m_pist",
+    "m_link",
+    "m_wing",
+    "Iz_link",
+    "Iz_wing",
+    "F_drag_open",
+    "F_drag_closed",
+    "F_down_open",
+    "F_down_closed",
+)
 
 #: The motion that determines each parameter (what ``drs-bag fit`` says when the data do not).
 MOTION = {
@@ -65,12 +72,24 @@ _ZERO_DEFAULT_SCALES = {"leak_to_outside": 1e-13}
 
 #: Units of the hydraulic fields, by suffix of meaning (HydraulicParams' docstring: SI).
 _HYDRAULIC_UNITS = {
-    "pressure": "Pa", "bulk_modulus": "Pa", "diameter": "m",
-    "volume": "m^3", "rated_flow": "m^3/s", "time_constant": "s", "flow_gain": "m^3/(s Pa)",
-    "leak": "m^3/(s Pa)", "viscous_friction": "N s/m", "friction": "N", "velocity": "m/s",
-    "stop_stiffness": "N/m", "stop_damping": "N s/m", "position_gain": "1/m",
-    "force_gain": "1/N", "velocity_feedforward": "1", "port_ratio": "1",
-}  # fmt: skip
+    "pressure": "Pa",
+    "bulk_modulus": "Pa",
+    "diameter": "m",
+    "volume": "m^3",
+    "rated_flow": "m^3/s",
+    "time_constant": "s",
+    "flow_gain": "m^3/(s Pa)",
+    "leak": "m^3/(s Pa)",
+    "viscous_friction": "N s/m",
+    "friction": "N",
+    "velocity": "m/s",
+    "stop_stiffness": "N/m",
+    "stop_damping": "N s/m",
+    "position_gain": "1/m",
+    "force_gain": "1/N",
+    "velocity_feedforward": "1",
+    "port_ratio": "1",
+}
 
 
 @dataclass(frozen=True)
@@ -111,8 +130,9 @@ def _unit(name: str) -> str:
 def _rigid_parameter(name: str, p: DRSParams) -> FitParameter:
     value = float(getattr(p, name))
     if name.startswith("F_"):
-        return FitParameter(name, "model", "N", max(abs(value), 1.0), -math.inf, math.inf,
-                            MOTION[name])  # fmt: skip
+        return FitParameter(
+            name, "model", "N", max(abs(value), 1.0), -math.inf, math.inf, MOTION[name]
+        )
     unit = "kg" if name.startswith("m_") else "kg m^2"
     # masses must stay > 0 (DRSParams refuses 0); inertias may be 0
     lower = 1e-6 * value if name.startswith("m_") else 0.0
@@ -131,13 +151,17 @@ def _hydraulic_parameter(name: str, hp: HydraulicParams) -> FitParameter:
 def hydraulic_field_names(hp: HydraulicParams | None = None) -> tuple[str, ...]:
     """The numeric fields of HydraulicParams (found by name: a field added later is in)."""
     hp = HydraulicParams() if hp is None else hp
-    return tuple(f.name for f in dataclasses.fields(hp)
-                 if isinstance(getattr(hp, f.name), (int, float))
-                 and not isinstance(getattr(hp, f.name), bool))  # fmt: skip
+    return tuple(
+        f.name
+        for f in dataclasses.fields(hp)
+        if isinstance(getattr(hp, f.name), (int, float))
+        and not isinstance(getattr(hp, f.name), bool)
+    )
 
 
-def fit_parameter(name: str, p: DRSParams | None = None,
-                  hp: HydraulicParams | None = None) -> FitParameter:  # fmt: skip
+def fit_parameter(
+    name: str, p: DRSParams | None = None, hp: HydraulicParams | None = None
+) -> FitParameter:
     """The :class:`FitParameter` of ``name``, sized from ``p`` and ``hp`` (defaults: the seed's
     and HydraulicParams' defaults).
 
@@ -168,8 +192,9 @@ def current_value(name: str, p: DRSParams, hp: HydraulicParams) -> float:
     return float(getattr(p if fit_parameter(name, p, hp).owner == "model" else hp, name))
 
 
-def with_values(values: dict[str, float], p: DRSParams,
-                hp: HydraulicParams) -> tuple[DRSParams, HydraulicParams]:  # fmt: skip
+def with_values(
+    values: dict[str, float], p: DRSParams, hp: HydraulicParams
+) -> tuple[DRSParams, HydraulicParams]:
     """``p`` and ``hp`` with ``values`` (name -> value) set, validated by their dataclasses.
 
     The inertias of ``p`` are passed as they are, so that a fitted mass never drags a derived

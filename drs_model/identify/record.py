@@ -39,9 +39,15 @@ from ..errors import InputError
 
 #: The signals a record may hold, with their units.
 SIGNALS = {
-    "stroke": "m", "stroke_rate": "m/s", "stroke_acceleration": "m/s^2", "piston_force": "N",
-    "pressure_a": "Pa", "pressure_b": "Pa", "supply_pressure": "Pa", "spool": "1",
-}  # fmt: skip
+    "stroke": "m",
+    "stroke_rate": "m/s",
+    "stroke_acceleration": "m/s^2",
+    "piston_force": "N",
+    "pressure_a": "Pa",
+    "pressure_b": "Pa",
+    "supply_pressure": "Pa",
+    "spool": "1",
+}
 
 #: Savitzky-Golay window [samples] of the derivatives of a stroke with no recorded rates.
 DERIVATIVE_WINDOW = 7
@@ -117,8 +123,7 @@ class Record:
         """``{signal: how}`` for each rate :meth:`rates` (of that ``order``) derives instead of
         reading."""
         degree = {3: "cubic", 5: "quintic"}.get(order, f"degree {order}")
-        how = (f"Savitzky-Golay derivative ({degree}, {DERIVATIVE_WINDOW} samples) of the "
-               "stroke")  # fmt: skip
+        how = f"Savitzky-Golay derivative ({degree}, {DERIVATIVE_WINDOW} samples) of the stroke"
         out = {}
         if self.stroke_rate is None:
             out["stroke_rate"] = how

@@ -37,9 +37,16 @@ from .parameters import RIGID_PARAMETERS
 
 #: The constants of :mod:`drs_model.kernels` the fused force is linear in.
 LINEAR_CONSTANTS = (
-    kernels.M1, kernels.M2, kernels.M3, kernels.I2, kernels.I3,
-    kernels.DRAG_OPEN, kernels.DRAG_SLOPE, kernels.DOWN_OPEN, kernels.DOWN_SLOPE,
-)  # fmt: skip
+    kernels.M1,
+    kernels.M2,
+    kernels.M3,
+    kernels.I2,
+    kernels.I3,
+    kernels.DRAG_OPEN,
+    kernels.DRAG_SLOPE,
+    kernels.DOWN_OPEN,
+    kernels.DOWN_SLOPE,
+)
 
 
 def constants_map(p: DRSParams) -> np.ndarray:
@@ -79,8 +86,9 @@ def constant_columns(s, sd, sdd, p: DRSParams) -> np.ndarray:
     return out
 
 
-def rigid_regressor(s, sd, sdd, p: DRSParams,
-                    names: Sequence[str] = RIGID_PARAMETERS) -> np.ndarray:  # fmt: skip
+def rigid_regressor(
+    s, sd, sdd, p: DRSParams, names: Sequence[str] = RIGID_PARAMETERS
+) -> np.ndarray:
     """``Y``, shape ``(n, len(names))``: the piston force [N] per unit of each parameter of
     ``names`` (a subset of :data:`RIGID_PARAMETERS`) at the samples ``(s, sd, sdd)``, so that
     ``Y @ theta`` is the rigid inverse-dynamics force. NaN rows where the loop cannot close.
@@ -123,5 +131,11 @@ def rigid_weights(s, sd, sdd, p: DRSParams) -> np.ndarray:
     return 1.0 / (g * g + floor * floor)
 
 
-__all__ = ["LINEAR_CONSTANTS", "constant_columns", "constants_map", "rigid_regressor",
-           "rigid_values", "rigid_weights"]  # fmt: skip
+__all__ = [
+    "LINEAR_CONSTANTS",
+    "constant_columns",
+    "constants_map",
+    "rigid_regressor",
+    "rigid_values",
+    "rigid_weights",
+]

@@ -59,10 +59,19 @@ class Estimate:
         return self.determined and self.lower <= truth <= self.upper
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "unit": self.unit, "value": self.value,
-                "lower": self.lower, "upper": self.upper, "std": self.std,
-                "start": self.start, "stage": self.stage, "interval": self.interval,
-                "determined": self.determined, "reason": self.reason}  # fmt: skip
+        return {
+            "name": self.name,
+            "unit": self.unit,
+            "value": self.value,
+            "lower": self.lower,
+            "upper": self.upper,
+            "std": self.std,
+            "start": self.start,
+            "stage": self.stage,
+            "interval": self.interval,
+            "determined": self.determined,
+            "reason": self.reason,
+        }
 
 
 @dataclass(frozen=True)
@@ -84,9 +93,13 @@ class FittedSignal:
     def summary(self) -> dict:
         r = self.measured - self.fitted
         r = r[np.isfinite(r)]
-        return {"signal": self.name, "unit": self.unit, "samples": int(r.size),
-                "residual_rms": self.residual_rms,
-                "residual_max": float(np.max(np.abs(r))) if r.size else math.nan}  # fmt: skip
+        return {
+            "signal": self.name,
+            "unit": self.unit,
+            "samples": int(r.size),
+            "residual_rms": self.residual_rms,
+            "residual_max": float(np.max(np.abs(r))) if r.size else math.nan,
+        }
 
 
 @dataclass(frozen=True)
@@ -136,12 +149,20 @@ class FitResult:
             "rung": self.rung,
             "level": self.level,
             "estimates": [e.to_dict() for e in self.estimates],
-            "stages": [{"stage": s.stage, "label": s.label, "seconds": s.seconds,
-                        "sigma2": s.sigma2, "dof": s.dof,
-                        "identifiability": s.identifiability.to_dict(),
-                        "estimates": [e.to_dict() for e in s.estimates],
-                        "residuals": [sig.summary() for sig in s.signals],
-                        "notes": list(s.notes)} for s in self.stages],  # fmt: skip
+            "stages": [
+                {
+                    "stage": s.stage,
+                    "label": s.label,
+                    "seconds": s.seconds,
+                    "sigma2": s.sigma2,
+                    "dof": s.dof,
+                    "identifiability": s.identifiability.to_dict(),
+                    "estimates": [e.to_dict() for e in s.estimates],
+                    "residuals": [sig.summary() for sig in s.signals],
+                    "notes": list(s.notes),
+                }
+                for s in self.stages
+            ],
             "notes": list(self.notes),
             "inconsistent": list(self.inconsistent),
         }

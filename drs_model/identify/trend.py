@@ -144,8 +144,11 @@ def sequential_rise_probability(tau, y, sy) -> np.ndarray:
         rss = np.maximum(syy - a * sy_ - b * sxy, 0.0)
         var_b = rss / (n - 2) * s0 / d
         t = b / np.sqrt(var_b)
-    out = np.where(var_b > 0.0, student_t.cdf(t, np.maximum(n - 2, 1)),
-                   np.where(b > 0, 1.0, np.where(b < 0, 0.0, 0.5)))  # fmt: skip
+    out = np.where(
+        var_b > 0.0,
+        student_t.cdf(t, np.maximum(n - 2, 1)),
+        np.where(b > 0, 1.0, np.where(b < 0, 0.0, 0.5)),
+    )
     out[n < 3] = math.nan
     return out
 
@@ -164,9 +167,17 @@ def _crossing(g_threshold, coef, cov, dof, seed) -> tuple[float, float, float]:
     return float(lo), float(mid), float(hi)
 
 
-def trend(name: str, tau: Sequence[float], values: Sequence[float], std: Sequence[float],
-          model: str = "auto", threshold: float | None = None, decision: float = DECISION,
-          min_runs: int = MIN_RUNS, seed: int = 0) -> Trend:  # fmt: skip
+def trend(
+    name: str,
+    tau: Sequence[float],
+    values: Sequence[float],
+    std: Sequence[float],
+    model: str = "auto",
+    threshold: float | None = None,
+    decision: float = DECISION,
+    min_runs: int = MIN_RUNS,
+    seed: int = 0,
+) -> Trend:
     """The trend of one parameter (module docstring) over the runs at times ``tau`` [s] with
     fitted ``values`` and standard errors ``std``; runs without a value (NaN) are left out.
 
@@ -203,10 +214,35 @@ def trend(name: str, tau: Sequence[float], values: Sequence[float], std: Sequenc
     if threshold is not None:
         g_thr = _g(model, np.array([threshold]), np.array([1.0]))[0][0]
         crossing = _crossing(g_thr, coef, cov, dof, seed)
-    return Trend(name, model, origin, tau, values, std, float(coef[1]), math.sqrt(cov[1, 1]),
-                 float(coef[0]), dof, s2, cov, prob, change.detected, change.direction,
-                 change.onset, crossing, threshold)  # fmt: skip
+    return Trend(
+        name,
+        model,
+        origin,
+        tau,
+        values,
+        std,
+        float(coef[1]),
+        math.sqrt(cov[1, 1]),
+        float(coef[0]),
+        dof,
+        s2,
+        cov,
+        prob,
+        change.detected,
+        change.direction,
+        change.onset,
+        crossing,
+        threshold,
+    )
 
 
-__all__ = ["DECISION", "DRAWS", "MIN_RUNS", "MODELS", "Trend", "drift_probability",
-           "sequential_rise_probability", "trend"]
+__all__ = [
+    "DECISION",
+    "DRAWS",
+    "MIN_RUNS",
+    "MODELS",
+    "Trend",
+    "drift_probability",
+    "sequential_rise_probability",
+    "trend",
+]

@@ -46,7 +46,7 @@ from std_srvs.srv import SetBool
 from .. import commands
 from ..conversions import diagnostics_status, parameter_event_msg
 from ..names import FIDELITY, TOPICS
-from ..recording import cdr
+from ..recording import cdr, cdr_received
 from ..recording.diagnostic_cdr import diagnostic_array_cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
 from ..timestamps import ns_from_seconds
@@ -437,9 +437,9 @@ class DRSNode(Node):
             return self.intake.on_drs(request, response, now)
 
     def _on_service_event(self, data: bytes) -> None:
-        # an event ends in a string, so the transport may have padded it (cdr.exact_bytes)
+        # an event ends in a string, so the transport may have padded it (cdr_received.exact_bytes)
         try:
-            data = cdr.exact_bytes(data, SetBool.Event)
+            data = cdr_received.exact_bytes(data, SetBool.Event)
         except cdr.CdrError as exc:
             self.get_logger().error(f"service event not recorded: {exc}")
             return

@@ -25,7 +25,7 @@ from .. import commands
 from ..conversions import command_event_status
 from ..errors import DRSRosError
 from ..names import CLOCK, REFUSED
-from ..recording.cdr import without_source_location
+from ..recording.cdr_received import without_source_location
 from ..recording.diagnostic_cdr import diagnostic_array_cdr
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .tick_schedule import LatenessHistogram

@@ -19,7 +19,7 @@ from std_msgs.msg import Float64
 
 from .. import commands
 from ..names import ACCEPTED, REFUSED, SUPERSEDED
-from ..recording import cdr, msgdefs
+from ..recording import cdr_received, msgdefs
 from .effect_record import EffectRecord, PendingCommand, refusal_reason
 from .float64_cdr import read_float64
 from .trajectory_cdr import read_joint_trajectory
@@ -35,7 +35,8 @@ def command_decoders() -> dict:
     would hold the GIL for ~100 ms on 10,000 points, a stall of the real-time tick), and so is a
     Float64 (~2 us against ~13)."""
     decode = {
-        key: functools.partial(cdr.decode_exact, msg_class=cls) for key, cls in COMMANDS.items()
+        key: functools.partial(cdr_received.decode_exact, msg_class=cls)
+        for key, cls in COMMANDS.items()
     }
     decode.update({key: read_float64 for key, cls in COMMANDS.items() if cls is Float64})
     decode["trajectory_cmd"] = lambda data: (v := read_joint_trajectory(data), v.exact)

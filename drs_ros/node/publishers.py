@@ -65,9 +65,20 @@ class StatePublishers:
         Create the hydraulic rung's topics (its rung, or ``fidelity: auto``).
     """
 
-    def __init__(self, node, *, joint_states_topic: str, joint_names, frame_id: str, params,
-                 s_min: float, markers_period: float, hydraulic: bool) -> None:  # fmt: skip
+    def __init__(
+        self,
+        node,
+        *,
+        joint_states_topic: str,
+        joint_names,
+        frame_id: str,
+        params,
+        s_min: float,
+        markers_period: float,
+        hydraulic: bool,
+    ) -> None:
         qos = QoSProfile(depth=QOS_DEPTH)
+
         def make(msg_type, topic, qos):
             return create_publisher(node, msg_type, topic, qos)
 
@@ -83,10 +94,20 @@ class StatePublishers:
         # the hydraulic rung's chamber pressures, supply pressure and valve spool
         self.hydraulic = ()
         if hydraulic:
-            self.hydraulic = tuple(make(msg_type, f"~/{name}", qos)
-                                   for name, msg_type in HYDRAULIC_TOPICS)  # fmt: skip
-        self.all = (self.joints, self.force, self.gap, self.accel, self.reactions, self.markers,
-                    self.diagnostics, self.events, *self.hydraulic)  # fmt: skip
+            self.hydraulic = tuple(
+                make(msg_type, f"~/{name}", qos) for name, msg_type in HYDRAULIC_TOPICS
+            )
+        self.all = (
+            self.joints,
+            self.force,
+            self.gap,
+            self.accel,
+            self.reactions,
+            self.markers,
+            self.diagnostics,
+            self.events,
+            *self.hydraulic,
+        )
         # resolved names (e.g. /drs/piston_force), fixed for the node's life: the recording keys
         self.topics = {pub: pub.topic_name for pub in self.all}
         self.frame_id, self.params, self.markers_period = frame_id, params, markers_period
@@ -97,17 +118,28 @@ class StatePublishers:
         pressure = FluidPressure()
         pressure.header.frame_id = frame_id
         self._pack_pressure = cdr.Layout(pressure).packer(
-            ["header.stamp.sec", "header.stamp.nanosec", "fluid_pressure"])
+            ["header.stamp.sec", "header.stamp.nanosec", "fluid_pressure"]
+        )
         lines, pins, _ = moving_drawings(np.array([[s_min, 0.0, 0.0]]), params)
-        self._scene = MechanismMarkers(still_drawings(params),
-                                       {k: v.shape[1] for k, v in lines.items()}, pins.shape[1],
-                                       frame_id)  # fmt: skip
+        self._scene = MechanismMarkers(
+            still_drawings(params),
+            {k: v.shape[1] for k, v in lines.items()},
+            pins.shape[1],
+            frame_id,
+        )
         # the markers' numbers packed into the layouts of the array's two shapes
         self._pack_markers = self._scene.packer()
         #: The publishers of the states, and whether each had a subscriber at the last check
         #: (a message no one would receive is not handed to DDS: ~5-10 us each).
-        self.state_publishers = (self.joints, self.force, self.gap, self.accel, self.reactions,
-                                 self.markers, *self.hydraulic)  # fmt: skip
+        self.state_publishers = (
+            self.joints,
+            self.force,
+            self.gap,
+            self.accel,
+            self.reactions,
+            self.markers,
+            *self.hydraulic,
+        )
         self.listened = dict.fromkeys(self.state_publishers, False)
         #: Simulated time [s] of the last ~/markers drawn (None: never drawn).
         self.last_markers_t: float | None = None
@@ -116,30 +148,50 @@ class StatePublishers:
     # ---- what the node asks --------------------------------------------------------------------
     def topic_names(self) -> dict[str, str]:
         """Role (of :data:`drs_ros.names.NODE_TOPICS`) -> the name it resolved to."""
-        publishers = {"joint_states": self.joints, "piston_force": self.force,
-                      "flap_gap": self.gap, "piston_acceleration": self.accel,
-                      "joint_reactions": self.reactions, "markers": self.markers,
-                      "diagnostics": self.diagnostics, "command_events": self.events}  # fmt: skip
+        publishers = {
+            "joint_states": self.joints,
+            "piston_force": self.force,
+            "flap_gap": self.gap,
+            "piston_acceleration": self.accel,
+            "joint_reactions": self.reactions,
+            "markers": self.markers,
+            "diagnostics": self.diagnostics,
+            "command_events": self.events,
+        }
         names = {role: pub.topic_name for role, pub in publishers.items()}
-        names.update((role, pub.topic_name) for (role, _type), pub
-                     in zip(HYDRAULIC_TOPICS, self.hydraulic, strict=False))  # fmt: skip
+        names.update(
+            (role, pub.topic_name)
+            for (role, _type), pub in zip(HYDRAULIC_TOPICS, self.hydraulic, strict=False)
+        )
         return names
 
     def recorded_topics(self) -> list[tuple[str, type, QoSProfile]]:
         """Every topic with its type and offered QoS, as the recorder registers them."""
-        return [(topic, pub.msg_type, QoSProfile(depth=EVENTS_QOS_DEPTH if pub is self.events
-                                                 else QOS_DEPTH))
-                for pub, topic in self.topics.items()]  # fmt: skip
+        return [
+            (
+                topic,
+                pub.msg_type,
+                QoSProfile(depth=EVENTS_QOS_DEPTH if pub is self.events else QOS_DEPTH),
+            )
+            for pub, topic in self.topics.items()
+        ]
 
     def asked_by_topic(self) -> list[tuple]:
         """What a subscriber of each publisher asks of the model (drs_model.fidelity.auto)."""
-        out = [(self.joints, "gap"), (self.gap, "gap"), (self.markers, "gap"),
-               (self.force, "force"), (self.accel, "force"), (self.reactions, "force")]  # fmt: skip
+        out = [
+            (self.joints, "gap"),
+            (self.gap, "gap"),
+            (self.markers, "gap"),
+            (self.force, "force"),
+            (self.accel, "force"),
+            (self.reactions, "force"),
+        ]
         return out + [(pub, "hydraulics") for pub in self.hydraulic]
 
     # ---- each published state ------------------------------------------------------------------
-    def state_messages(self, sim, st, stamp: int, published_stroke, tick: int,
-                       recording: bool) -> list[tuple]:  # fmt: skip
+    def state_messages(
+        self, sim, st, stamp: int, published_stroke, tick: int, recording: bool
+    ) -> list[tuple]:
         """``(publisher, bytes)`` of state ``st`` of actuator ``sim``, stamped ``stamp`` [ns]:
         ``published_stroke``: the stroke the sensor reports (None: the true one); ``tick``: the
         tick's number (the listeners are asked every :data:`LISTENER_CHECK_TICKS`);
@@ -152,17 +204,15 @@ class StatePublishers:
             (self.force, pack(st.piston_force)),
             (self.gap, pack(st.gap)),
             (self.accel, pack(st.qdd[0])),
-        ]  # fmt: skip
+        ]
         if self.hydraulic and sim.has_fluid:
             out += self._hydraulic_messages(st, stamp)
         if tick % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
-            self.listened = {pub: pub.get_subscription_count() > 0
-                             for pub in self.state_publishers}  # fmt: skip
+            self.listened = {pub: pub.get_subscription_count() > 0 for pub in self.state_publishers}
         if self.listened[self.reactions]:
             out.append((self.reactions, self._pack_reactions(sim.reactions(), stamp)))
         if (recording or self.listened[self.markers]) and (
-            self.last_markers_t is None
-            or st.t - self.last_markers_t >= self.markers_period - 1e-9
+            self.last_markers_t is None or st.t - self.last_markers_t >= self.markers_period - 1e-9
         ):
             self.last_markers_t = st.t
             out.append((self.markers, self._markers(st, stamp)))

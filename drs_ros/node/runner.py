@@ -25,7 +25,7 @@ from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_
 from drs_model.errors import DRSError
 
 from ..errors import DRSRosError
-from ..recording.cdr import without_source_location
+from ..recording.cdr_received import without_source_location
 from ..stop_request import StopRequest
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
@@ -45,6 +45,7 @@ GIL_SWITCH_INTERVAL_S = 0.0002
 
 #: The longest a loop waits before it looks at the stop flag again [s].
 STOP_POLL_S = 0.05
+
 
 def spin_until_stopped(
     node: Node, executor, stop: StopRequest, tick_gate: threading.Lock | None = None
@@ -99,8 +100,9 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     )
     thread.start()
     # after the executor thread started: SCHED_FIFO (when asked and allowed) is this thread's only
-    policy = apply_tick_policy(node.get_parameter("tick_scheduling").value,
-                               node.get_parameter("tick_fifo_priority").value)  # fmt: skip
+    policy = apply_tick_policy(
+        node.get_parameter("tick_scheduling").value, node.get_parameter("tick_fifo_priority").value
+    )
     report_tick_policy(node, policy)
     lateness = node.effects.lateness
     period_ns = ns_from_seconds(node.publish_period)
@@ -138,9 +140,15 @@ def report_tick_policy(node: DRSNode, policy: TickPolicy) -> None:
     else:
         node.get_logger().info(f"tick thread: {text}")
     level = DiagnosticStatus.WARN if policy.note else DiagnosticStatus.OK
-    node.effects.event("scheduling", "scheduling", level, policy.note, None,
-                       {"policy": policy.name, "priority": policy.priority},
-                       node.get_clock().now().nanoseconds)  # fmt: skip
+    node.effects.event(
+        "scheduling",
+        "scheduling",
+        level,
+        policy.note,
+        None,
+        {"policy": policy.name, "priority": policy.priority},
+        node.get_clock().now().nanoseconds,
+    )
 
 
 def run() -> None:
@@ -162,9 +170,12 @@ def refuse_unknown_options(own: list[str]) -> bool:
     option drs-node does not take: a typo (``--managd``) must not start another kind of node."""
     unknown = [a for a in own if a.startswith("-")]
     if unknown:
-        print(f"drs-node: refused to start: unrecognized arguments: {' '.join(unknown)} "
-              "(drs-node takes "
-              "--managed, --help and ROS arguments after --ros-args)", file=sys.stderr)  # fmt: skip
+        print(
+            f"drs-node: refused to start: unrecognized arguments: {' '.join(unknown)} "
+            "(drs-node takes "
+            "--managed, --help and ROS arguments after --ros-args)",
+            file=sys.stderr,
+        )
     return bool(unknown)
 
 
@@ -177,8 +188,10 @@ def start_rclpy(args: list[str], stop: StopRequest) -> int | None:
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     except RCLError as exc:
-        print(f"drs-node: refused to start: the ROS arguments: "
-              f"{without_source_location(str(exc))}", file=sys.stderr)  # fmt: skip
+        print(
+            f"drs-node: refused to start: the ROS arguments: {without_source_location(str(exc))}",
+            file=sys.stderr,
+        )
         return EXIT_REFUSED
     if stop.requested:
         rclpy.try_shutdown()
@@ -188,8 +201,11 @@ def start_rclpy(args: list[str], stop: StopRequest) -> int | None:
 
 def stopped_before_start(stop: StopRequest) -> int:
     """A SIGINT or SIGTERM before the node was made: one line, status 0, nothing created."""
-    print(f"drs-node: stopped by {stop.signal_name or 'a stop request'} while starting, "
-          "nothing created", file=sys.stderr)  # fmt: skip
+    print(
+        f"drs-node: stopped by {stop.signal_name or 'a stop request'} while starting, "
+        "nothing created",
+        file=sys.stderr,
+    )
     return EXIT_OK
 
 
@@ -251,8 +267,10 @@ def main(argv: list[str] | None = None) -> int:
             spin_until_stopped(node, executor, stop)
             executor.shutdown(timeout_sec=1.0)
     except (DRSError, DRSRosError) as exc:  # the node's own failure while it ran: no refusal
-        print(f"drs-node: stopped by an error while running: {type(exc).__name__}: {exc}",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"drs-node: stopped by an error while running: {type(exc).__name__}: {exc}",
+            file=sys.stderr,
+        )
         rc = EXIT_INTERNAL
     finally:
         incomplete, refused = [], []
@@ -287,6 +305,11 @@ def report_stop(rc: int, incomplete: list[str], refused: list[str], stop: StopRe
 
 
 __all__ = [
-    "StopRequest", "main", "report_stop", "report_tick_policy", "run", "run_deadline_loop",
+    "StopRequest",
+    "main",
+    "report_stop",
+    "report_tick_policy",
+    "run",
+    "run_deadline_loop",
     "spin_until_stopped",
 ]

@@ -25,7 +25,9 @@ FIFO_PRIORITY_RANGE = (1, 98)
 #: 100 us to 10 ms, then 10 ms to 1 s; a lateness beyond lands in one more bin, reported as the
 #: largest lateness seen. 380 bins: the memory does not grow with the ticks.
 _EDGES_US = (
-    list(range(1, 101)) + list(range(110, 1001, 10)) + list(range(1100, 10001, 100))
+    list(range(1, 101))
+    + list(range(110, 1001, 10))
+    + list(range(1100, 10001, 100))
     + list(range(20000, 1000001, 10000))
 )
 
@@ -60,8 +62,12 @@ def apply_tick_policy(requested: str, priority: int) -> TickPolicy:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except PermissionError as exc:
         why = exc.strerror or str(exc)
-        return TickPolicy("SCHED_OTHER", 0, f"SCHED_FIFO asked for, refused ({why}): it needs "
-                          "root, CAP_SYS_NICE or an rtprio limit")  # fmt: skip
+        return TickPolicy(
+            "SCHED_OTHER",
+            0,
+            f"SCHED_FIFO asked for, refused ({why}): it needs "
+            "root, CAP_SYS_NICE or an rtprio limit",
+        )
     except OSError as exc:
         return TickPolicy("SCHED_OTHER", 0, f"SCHED_FIFO asked for, refused: {exc}")
     return TickPolicy("SCHED_FIFO", priority)

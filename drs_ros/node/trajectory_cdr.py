@@ -7,12 +7,13 @@ with the attributes it reads (``joint_names``, ``points[k].positions``, ``.veloc
 ``.accelerations``, ``.effort``, ``.time_from_start.sec/.nanosec``), so the trajectory is
 validated by the same code whichever way it was decoded.
 
-It accepts what :func:`drs_ros.recording.cdr.decode_exact` accepts: little-endian plain CDR with
-valid UTF-8 strings ending in NUL, followed by at most 3 zero bytes of transport padding; anything
-else raises :class:`drs_ros.recording.cdr.CdrError`. The bytes are walked by the CDR engine's
-:class:`drs_ros.recording.cdr.Reader` (its alignment and padding rules); alignment padding may hold
-any bytes (Fast DDS leaves it uninitialised in messages an rclpy publisher sends): the view's
-``exact`` is the message's exact CDR, the bytes with their padding zeroed, which the node records.
+It accepts what :func:`drs_ros.recording.cdr_received.decode_exact` accepts: little-endian plain CDR
+with valid UTF-8 strings ending in NUL, followed by at most 3 zero bytes of transport padding;
+anything else raises :class:`drs_ros.recording.cdr.CdrError`. The bytes are walked by the CDR
+engine's :class:`drs_ros.recording.cdr_received.Reader` (its alignment and padding rules); alignment
+padding may hold any bytes (Fast DDS leaves it uninitialised in messages an rclpy publisher sends):
+the view's ``exact`` is the message's exact CDR, the bytes with their padding zeroed, which the node
+records.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import struct
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from ..recording.cdr import Reader
+from ..recording.cdr_received import Reader
 
 _TIME = struct.Struct("<iI")
 _F64 = struct.Struct("<d")
@@ -89,9 +90,15 @@ def read_joint_trajectory(data: bytes) -> JointTrajectoryView:
     points = []
     for k in range(count):
         where = f"points[{k}]"
-        points.append(Point(_doubles(r, f"{where}.positions"), _doubles(r, f"{where}.velocities"),
-                            _doubles(r, f"{where}.accelerations"), _doubles(r, f"{where}.effort"),
-                            Duration(*r.read(_TIME, 4, f"{where}.time_from_start"))))  # fmt: skip
+        points.append(
+            Point(
+                _doubles(r, f"{where}.positions"),
+                _doubles(r, f"{where}.velocities"),
+                _doubles(r, f"{where}.accelerations"),
+                _doubles(r, f"{where}.effort"),
+                Duration(*r.read(_TIME, 4, f"{where}.time_from_start")),
+            )
+        )
     return JointTrajectoryView(stamp, frame_id, names, points, r.finish("JointTrajectory"))
 
 

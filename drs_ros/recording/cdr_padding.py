@@ -4,7 +4,7 @@ Why: CDR leaves the content of alignment padding unspecified (Fast DDS sends uni
 memory there, rclpy decodes such a message as any other), so recorded bytes may differ from
 the exact CDR that :func:`drs_ros.recording.cdr.serializer` writes (padding zero) at padding
 bytes only, and that is no corruption. :func:`zero_padding` walks the bytes field by field with
-:class:`drs_ros.recording.cdr.Reader` (the serialisers' alignment rule, from the message
+:class:`drs_ros.recording.cdr_received.Reader` (the serialisers' alignment rule, from the message
 class's rosidl introspection, ``SLOT_TYPES``), and gives them back with every padding byte
 zeroed: equal to the exact CDR of what they decode to if and only if they differ from it in
 padding alone (or the transport's trailing zero bytes).
@@ -16,7 +16,8 @@ import functools
 import importlib
 import struct
 
-from .cdr import BASIC_TYPES, CdrError, Reader
+from .cdr import BASIC_TYPES, CdrError
+from .cdr_received import Reader
 
 
 def _message_class(typ) -> type:

@@ -60,10 +60,12 @@ class MovingTransformsPacker:
     serialise it field by field, at every published joint state)."""
 
     def __init__(self, frame_pairs: Sequence[tuple[str, str]]) -> None:
-        prototype = TFMessage(transforms=[
-            transform_msg((parent, child, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)), 0)
-            for parent, child in frame_pairs
-        ])  # fmt: skip
+        prototype = TFMessage(
+            transforms=[
+                transform_msg((parent, child, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)), 0)
+                for parent, child in frame_pairs
+            ]
+        )
         layout = cdr.Layout(prototype)
         self._count = len(frame_pairs)
         self._gaps, fmt = [], "<"
@@ -93,8 +95,9 @@ class MovingTransformsPacker:
                 return self._head + self._struct.pack(*numbers) + self._tail
             except struct.error:
                 pass
-        raise ValueError(f"{self._count} transforms of 7 numbers each are packed, got "
-                         f"{[len(v) for v in values]}")
+        raise ValueError(
+            f"{self._count} transforms of 7 numbers each are packed, got {[len(v) for v in values]}"
+        )
 
 
 class TfPublisher:
@@ -119,14 +122,23 @@ class TfPublisher:
         and the static transforms (the moving ones go back to the caller: :meth:`publish`).
     """
 
-    def __init__(self, node, params: DRSParams, joint_names: Sequence[str], base_frame: str,
-                 force_limit: float, mount, ros2_control: str,
-                 record: Callable[[str, bytes, int], object]) -> None:  # fmt: skip
+    def __init__(
+        self,
+        node,
+        params: DRSParams,
+        joint_names: Sequence[str],
+        base_frame: str,
+        force_limit: float,
+        mount,
+        ros2_control: str,
+        record: Callable[[str, bytes, int], object],
+    ) -> None:
         self.params = params
         self.frames = description.Frames.of(joint_names, base_frame)
         self.origins = description.JointOrigins.of(params)
-        self.urdf = description.robot_description(params, joint_names, base_frame, force_limit,
-                                                  ros2_control)  # fmt: skip
+        self.urdf = description.robot_description(
+            params, joint_names, base_frame, force_limit, ros2_control
+        )
         self.static = description.fixed_transforms(params, self.frames)
         if mount is not None:
             self.static.insert(0, description.mount_transform(mount[0], base_frame, *mount[1:]))
@@ -146,16 +158,20 @@ class TfPublisher:
         return self.pub_description, self.pub_static, self.pub_tf
 
     def recorded_topics(self) -> list[tuple[str, type, QoSProfile]]:
-        return [(pub.topic_name, pub.msg_type, LATCHED_QOS if pub is not self.pub_tf else TF_QOS)
-                for pub in self.publishers]  # fmt: skip
+        return [
+            (pub.topic_name, pub.msg_type, LATCHED_QOS if pub is not self.pub_tf else TF_QOS)
+            for pub in self.publishers
+        ]
 
     def start(self, stamp_ns: int, now_ns: int) -> None:
         """Publish (and record) the description and the static transforms, once."""
         out = [
             (self.pub_description, cdr.serializer(String)(String(data=self.urdf))),
-            (self.pub_static, self._tf(TFMessage(transforms=[transform_msg(t, stamp_ns)
-                                                             for t in self.static]))),
-        ]  # fmt: skip
+            (
+                self.pub_static,
+                self._tf(TFMessage(transforms=[transform_msg(t, stamp_ns) for t in self.static])),
+            ),
+        ]
         for pub, data in out:
             pub.publish(data)
             self._record(pub.topic_name, data, now_ns)

@@ -53,17 +53,17 @@ def _exact_checker(
     padded: dict[str, int], filled: dict[str, int]
 ) -> Callable[[str, str, bytes], str | None]:
     """``check(topic, type_name, data) -> problem, '' (exact) or None (type not installed)``:
-    decode with the installed type support and serialise again exactly. Up to 3 zero bytes
-    after the exact CDR are the DDS transport's padding
-    (:func:`drs_ros.recording.cdr.exact_bytes`): rosbag2 records them as they arrive; they are
-    counted in ``padded`` per type, not refused. Non-zero alignment padding (its content is
-    unspecified, rclpy decodes the message) is counted in ``filled`` per topic, not refused: the
-    bytes with their padding zeroed (:func:`~drs_ros.recording.cdr_padding.zero_padding`) must
-    be the exact CDR; any other difference is a problem."""
+    decode with the installed type support and serialise again exactly. Up to 3 zero bytes after the
+    exact CDR are the DDS transport's padding (:func:`drs_ros.recording.cdr_received.exact_bytes`):
+    rosbag2 records them as they arrive; they are counted in ``padded`` per type, not refused.
+    Non-zero alignment padding (its content is unspecified, rclpy decodes the message) is counted in
+    ``filled`` per topic, not refused: the bytes with their padding zeroed
+    (:func:`~drs_ros.recording.cdr_padding.zero_padding`) must be the exact CDR; any other
+    difference is a problem."""
     from rclpy.serialization import deserialize_message
 
     from drs_model.cli.start_signals import signal_received
-    from drs_ros.recording import cdr, msgdefs
+    from drs_ros.recording import cdr, cdr_received, msgdefs
     from drs_ros.recording.cdr_padding import zero_padding
 
     classes: dict[str, Any] = {}
@@ -87,7 +87,7 @@ def _exact_checker(
         if again == data:
             return ""
         tail = data[len(again) :]
-        if data.startswith(again) and cdr.is_transport_padding(tail):
+        if data.startswith(again) and cdr_received.is_transport_padding(tail):
             padded[type_name] = padded.get(type_name, 0) + 1  # DDS's padding, not a leak
             return ""
         try:

@@ -14,9 +14,12 @@ from drs_ros.bag.read.nodes import node_note
 
 def _node_line(node) -> str:
     if node is None:  # a bag another tool wrote: its topics come from --topic-map
-        return ("node: none named by the bag (no node parameters, no topics record): topics by "
-                "their default names or --topic-map")  # fmt: skip
+        return (
+            "node: none named by the bag (no node parameters, no topics record): topics by "
+            "their default names or --topic-map"
+        )
     return node_note(node)
+
 
 STAGE_TEXT = {"equation": "equation error", "output": "output error"}
 
@@ -29,15 +32,22 @@ def format_text(bag: str, result: FitResult, measured) -> str:
     """The printed report of one bag's fit."""
     stages = " then ".join(dict.fromkeys(STAGE_TEXT[s.stage] for s in result.stages)) or "none"
     level = f"{100 * result.level:g} %"
-    lines = [f"fit of {bag} on the {result.rung} rung ({stages}; {level} intervals)",
-             _node_line(measured.node), f"model parameters: {measured.params_source}"]  # fmt: skip
-    head = (f"{'parameter':<24} {'unit':<11} {'start':>12} {'estimate':>13} "
-            f"{level + ' interval':>29}  {'stage':<8} interval")  # fmt: skip
+    lines = [
+        f"fit of {bag} on the {result.rung} rung ({stages}; {level} intervals)",
+        _node_line(measured.node),
+        f"model parameters: {measured.params_source}",
+    ]
+    head = (
+        f"{'parameter':<24} {'unit':<11} {'start':>12} {'estimate':>13} "
+        f"{level + ' interval':>29}  {'stage':<8} interval"
+    )
     lines += [head, "-" * len(head)]
     for e in result.estimates:
         interval = f"[{_num(e.lower)}, {_num(e.upper)}]" if e.determined else "not determined"
-        lines.append(f"{e.name:<24} {e.unit:<11} {_num(e.start):>12} {_num(e.value):>13} "
-                     f"{interval:>29}  {e.stage:<8} {e.interval}")  # fmt: skip
+        lines.append(
+            f"{e.name:<24} {e.unit:<11} {_num(e.start):>12} {_num(e.value):>13} "
+            f"{interval:>29}  {e.stage:<8} {e.interval}"
+        )
     refused = [e for e in result.estimates if not e.determined]
     if refused:
         lines.append("not determined (no value reported):")
@@ -45,17 +55,21 @@ def format_text(bag: str, result: FitResult, measured) -> str:
     for s in result.stages:
         ident = s.identifiability
         what = s.label if s.label == STAGE_TEXT[s.stage] else f"{s.label} ({STAGE_TEXT[s.stage]})"
-        lines.append(f"{what}, {s.seconds:.2f} s: rank "
-                     f"{ident.rank} of {len(ident.names)}, condition number of the "
-                     f"information {ident.condition_number:.3g}")  # fmt: skip
+        lines.append(
+            f"{what}, {s.seconds:.2f} s: rank "
+            f"{ident.rank} of {len(ident.names)}, condition number of the "
+            f"information {ident.condition_number:.3g}"
+        )
         for group in ident.groups:
             lines.append(f"  cannot be separated: {', '.join(group)}")
         for a, b, c in ident.pairs:
             lines.append(f"  trade off: {a} and {b} (correlation {c:+.4f})")
         for sig in s.signals:
             d = sig.summary()
-            lines.append(f"  residual {d['signal']}: rms {d['residual_rms']:.4g} {d['unit']}, "
-                         f"max {d['residual_max']:.4g} {d['unit']} ({d['samples']} samples)")
+            lines.append(
+                f"  residual {d['signal']}: rms {d['residual_rms']:.4g} {d['unit']}, "
+                f"max {d['residual_max']:.4g} {d['unit']} ({d['samples']} samples)"
+            )
         lines += [f"  note: {n}" for n in s.notes]
     lines += [f"note: {n}" for n in (*measured.notes, *result.notes)]
     return "\n".join(lines)
@@ -63,9 +77,14 @@ def format_text(bag: str, result: FitResult, measured) -> str:
 
 def document(bag: str, result: FitResult, measured) -> dict:
     """The JSON document of one bag's fit."""
-    doc = {"bag": str(bag), "node": None if measured.node is None else measured.node.name,
-           "model_parameters": measured.params_source,
-           "topics": measured.topics, "start_ns": measured.start_ns, **result.to_dict()}
+    doc = {
+        "bag": str(bag),
+        "node": None if measured.node is None else measured.node.name,
+        "model_parameters": measured.params_source,
+        "topics": measured.topics,
+        "start_ns": measured.start_ns,
+        **result.to_dict(),
+    }
     doc["notes"] = [*measured.notes, *doc["notes"]]
     return doc
 
@@ -111,8 +130,13 @@ def plot(result: FitResult, path: str | Path, title: str = "") -> Path:
     signals = result.signals
     if not signals:
         raise ValueError("the fit has no signals to plot")
-    fig, axes = plt.subplots(len(signals), 2, figsize=(11, 2.4 * len(signals) + 0.6),
-                             squeeze=False, gridspec_kw={"width_ratios": [3, 1.4]})  # fmt: skip
+    fig, axes = plt.subplots(
+        len(signals),
+        2,
+        figsize=(11, 2.4 * len(signals) + 0.6),
+        squeeze=False,
+        gridspec_kw={"width_ratios": [3, 1.4]},
+    )
     for (ax, res), sig in zip(axes, signals, strict=True):
         ax.plot(sig.t, sig.measured, ".", ms=2.5, color="0.45", label="measured")
         ax.plot(sig.t, sig.fitted, "-", lw=1.2, color="C0", label="fitted")

@@ -29,8 +29,14 @@ class RunResimulation:
     """``simulate({name: value}) -> {signal: array}`` of a recorded run (module docstring) at
     the physics steps ``steps`` of the measured samples."""
 
-    def __init__(self, run: RecordedRun, model: DRSParams, hydraulic: HydraulicParams,
-                 rung: str, steps: np.ndarray) -> None:  # fmt: skip
+    def __init__(
+        self,
+        run: RecordedRun,
+        model: DRSParams,
+        hydraulic: HydraulicParams,
+        rung: str,
+        steps: np.ndarray,
+    ) -> None:
         self.run, self.model, self.hydraulic, self.rung = run, model, hydraulic, rung
         self.steps = np.asarray(steps, dtype=np.int64)
 
@@ -38,8 +44,7 @@ class RunResimulation:
         p, hp = with_values(values, self.model, self.hydraulic)
         # the moves the node carried out, whatever force the candidate's model needs for them
         options = {"limit_moves": False, **({"hydraulic": hp} if self.rung == "hydraulic" else {})}
-        result = resimulate(self.run, p, self.rung, rung_options=options,
-                            replay_faults=False)
+        result = resimulate(self.run, p, self.rung, rung_options=options, replay_faults=False)
         n = self.steps.size
         kept = SIMULATED_SIGNALS if self.rung == "hydraulic" else SIMULATED_SIGNALS[:3]
         out = {k: np.full(n, math.nan) for k in kept}
