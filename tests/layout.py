@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import ast
 import re
+import subprocess
 import sys
 from pathlib import Path
 
@@ -216,6 +217,41 @@ def process_words(root: Path = ROOT) -> list[str]:
         for i, line in enumerate(text.splitlines(), 1):
             if PROCESS_WORDS.search(line):
                 out.append(f"{path.relative_to(root)}:{i}: {line.strip()}")
+    return out
+
+
+#: What ``ruff format`` keeps formatted (the configuration is pyproject.toml's ``[tool.ruff]``).
+FORMATTED = ("drs_model", "drs_ros", "tests", "benchmarks", "interfaces")
+#: How many ``# fmt: skip`` the tree may hold: only a table that reads better aligned.
+FMT_SKIP_LIMIT = 5
+FMT_SKIP = re.compile(r"#\s*fmt:\s*(skip|off)\b")
+
+
+def unformatted(root: Path = ROOT) -> list[str]:
+    """The files ``ruff format --check`` would change (the venv's ruff, beside this Python)."""
+    ruff = Path(sys.executable).with_name("ruff")
+    paths = [d for d in FORMATTED if (root / d).is_dir()]
+    done = subprocess.run(
+        [str(ruff), "format", "--check", "--output-format", "concise", *paths],
+        cwd=root,
+        capture_output=True,
+        text=True,
+    )
+    if done.returncode not in (0, 1):  # 2: ruff itself failed (a syntax error, a bad config)
+        raise RuntimeError(f"ruff format --check failed ({done.returncode}): {done.stderr}")
+    # one line a file: "path:line:column: unformatted: File would be reformatted"
+    said = (line.split(":", 1)[0] for line in done.stdout.splitlines() if ": unformatted:" in line)
+    return sorted(set(said))
+
+
+def format_skips(root: Path = ROOT) -> list[str]:
+    """``file:line`` of every ``# fmt: skip`` (or ``off``) in the formatted trees."""
+    out = []
+    for d in FORMATTED:
+        for path in sorted((root / d).rglob("*.py")):
+            for i, line in enumerate(path.read_text().splitlines(), 1):
+                if FMT_SKIP.search(line):
+                    out.append(f"{path.relative_to(root)}:{i}")
     return out
 
 

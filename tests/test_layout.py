@@ -2,7 +2,8 @@
 drs_model or drs_ros over 80 lines, no module over 500, and no line of the product's code, tests,
 docs or benchmarks that speaks of the work that built it (an issue by number, its rounds, its
 sittings and workers, the builds of the past) instead of the product; and a README whose
-layout table names every module. Each check is also run on a planted case, so a pass means
+layout table names every module; the tree as ``ruff format`` writes it, with at most
+five ``# fmt: skip``. Each check is also run on a planted case, so a pass means
 something."""
 
 from __future__ import annotations
@@ -20,6 +21,24 @@ def test_no_module_over_the_limit():
 
 def test_the_product_speaks_of_the_product():
     assert layout.process_words() == []
+
+
+def test_the_tree_is_formatted():
+    assert layout.unformatted() == []
+
+
+def test_a_table_that_reads_better_aligned_is_the_only_fmt_skip():
+    skips = layout.format_skips()
+    assert len(skips) <= layout.FMT_SKIP_LIMIT, skips
+
+
+def test_an_unformatted_file_and_a_skip_would_be_found(tmp_path):
+    root = _planted(tmp_path, "x = [1,2 ,3]  # fmt: skip\ny = {'a':1}\n")
+    assert layout.unformatted(root) == ["drs_model/planted.py"]
+    assert layout.format_skips(root) == ["drs_model/planted.py:1"]
+    (root / "drs_model" / "planted.py").write_text('y = {"a": 1}\n')
+    assert layout.unformatted(root) == []
+    assert layout.format_skips(root) == []
 
 
 def test_the_readme_names_every_module():
