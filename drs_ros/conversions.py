@@ -336,11 +336,10 @@ class MechanismMarkers:
 
     def packer(self):
         """``pack(lines, pins, force_origin, piston_force, stamp_ns, with_still=True) -> bytes``:
-        the exact CDR of :meth:`msg`'s array for the same arguments, without moving a Point. Each
-        shape's bytes are laid out once (:class:`~drs_ros.recording.cdr.Layout`); a call writes
-        the moving points' x and y and every marker's stamp into them through numpy views (the
-        still outlines and every z = 0 stay the template's). Raises
-        :class:`~drs_ros.recording.cdr.CdrError` for a stamp beyond the int32 seconds of
+        the exact CDR of :meth:`msg`'s array for the same arguments, without moving a Point: each
+        shape's numbers (every marker's stamp, the moving markers' points) packed into its layout
+        (:meth:`drs_ros.recording.cdr.Layout.packer`; the still outlines stay the template's).
+        Raises :class:`~drs_ros.recording.cdr.CdrError` for a stamp beyond the int32 seconds of
         builtin_interfaces/Time, as the serialiser does."""
         import numpy as np
 
@@ -348,60 +347,53 @@ class MechanismMarkers:
 
         names, n_moving = self.line_names, len(self._moving.markers)
         shapes = {
-            with_still: _PackedArray(cdr.Layout(array), len(array.markers), n_moving)
+            with_still: _MarkersLayout(cdr.Layout(array), len(array.markers), n_moving)
             for with_still, array in ((True, self._all), (False, self._moving))
         }
 
         def pack(
             lines, pins, force_origin, piston_force: float, stamp_ns: int, with_still: bool = True
         ) -> bytes:
-            sec, nanosec = split_ns(stamp_ns)
-            if not -(2**31) <= sec < 2**31:
+            stamp = split_ns(stamp_ns)
+            if not -(2**31) <= stamp[0] < 2**31:
                 raise cdr.CdrError(
                     f"stamp {stamp_ns!r} ns is beyond builtin_interfaces/Time's "
-                    f"int32 seconds ({sec} s)"
+                    f"int32 seconds ({stamp[0]} s)"
                 )
-            shape = shapes[with_still]
-            shape.xy[shape.points] = np.concatenate(
+            xy = np.concatenate(
                 [*(lines[k] for k in names), pins, force_arrow(force_origin, piston_force)]
-            ).ravel()
-            shape.sec[shape.secs] = sec
-            shape.nanosec[shape.nanosecs] = nanosec
-            return bytes(shape.buf)
+            )
+            xyz = np.zeros((len(xy), 3))  # the drawing's plane: z = 0
+            xyz[:, :2] = xy
+            return shapes[with_still].pack(stamp, xyz.ravel().tolist())
 
         return pack
 
 
-class _PackedArray:
-    """One shape of :class:`MechanismMarkers`' array: its CDR (``buf``, from ``layout``'s
-    template) seen as float64 ``xy`` (from byte 4: CDR aligns a double to 8 counted from the end
-    of the 4-byte header) and as int32 ``sec`` / uint32 ``nanosec``; ``points`` the indices in
-    ``xy`` of the x and y of the last ``n_moving`` of its ``n`` markers' points, in order;
-    ``secs`` / ``nanosecs`` the indices in ``sec`` / ``nanosec`` of each marker's stamp."""
+class _MarkersLayout:
+    """One shape of :class:`MechanismMarkers`' array (``n`` markers, the last ``n_moving`` of
+    them moving): its layout's packer of every marker's stamp and the moving markers' points."""
 
     def __init__(self, layout, n: int, n_moving: int) -> None:
-        import numpy as np
+        paths, self.counts = [], []
+        for i in range(n):
+            paths += [f"markers.{i}.header.stamp.sec", f"markers.{i}.header.stamp.nanosec"]
+            count = 0
+            if i >= n - n_moving:
+                paths.append(f"markers.{i}.points")
+                count = layout.fields[paths[-1]][2]  # x, y, z of each point
+            self.counts.append(count)
+        self._pack = layout.packer(paths)
 
-        from .recording import cdr
-
-        self.buf = bytearray(layout.template)
-        n_words = len(self.buf) // 4
-        self.xy = np.ndarray(((len(self.buf) - 4) // 8,), "<f8", self.buf, 4)
-        self.sec = np.ndarray((n_words,), "<i4", self.buf)
-        self.nanosec = np.ndarray((n_words,), "<u4", self.buf)
-        fields = layout.fields
-        points = []
-        for i in range(n - n_moving, n):
-            offset, code, count = fields[f"markers.{i}.points"]
-            if code != "d" or cdr.padding(offset, 8):
-                raise cdr.CdrError(f"markers.{i}.points at byte {offset} is not aligned doubles")
-            first = (offset - 4) // 8
-            points += [first + k for k in range(count) if k % 3 != 2]  # x, y; z stays 0
-        self.points = np.array(points)
-        self.secs, self.nanosecs = (
-            np.array([fields[f"markers.{i}.header.stamp.{part}"][0] // 4 for i in range(n)])
-            for part in ("sec", "nanosec")
-        )
+    def pack(self, stamp: tuple[int, int], xyz: list[float]) -> bytes:
+        """The bytes for every marker stamped ``stamp`` (sec, nanosec), the moving markers'
+        points ``xyz`` (x, y, z of each, in marker order)."""
+        values, j = [], 0
+        for count in self.counts:
+            values += stamp
+            values += xyz[j : j + count]
+            j += count
+        return self._pack(*values)
 
 
 def force_arrow(force_origin, piston_force: float) -> tuple[tuple[float, float], ...]:
