@@ -17,6 +17,7 @@ import ast
 import re
 import subprocess
 import sys
+import tokenize
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -224,7 +225,7 @@ def process_words(root: Path = ROOT) -> list[str]:
 FORMATTED = ("drs_model", "drs_ros", "tests", "benchmarks", "interfaces")
 #: How many ``# fmt: skip`` the tree may hold: only a table that reads better aligned.
 FMT_SKIP_LIMIT = 5
-FMT_SKIP = re.compile(r"#\s*fmt:\s*(skip|off)\b")
+FMT_SKIP = re.compile(r"(?:^|\s)#\s*fmt:\s*(?:skip|off)\s*$")  # a pragma ends its comment
 
 
 def unformatted(root: Path = ROOT) -> list[str]:
@@ -245,13 +246,16 @@ def unformatted(root: Path = ROOT) -> list[str]:
 
 
 def format_skips(root: Path = ROOT) -> list[str]:
-    """``file:line`` of every ``# fmt: skip`` (or ``off``) in the formatted trees."""
+    """``file:line`` of every ``# fmt: skip`` (or ``off``) comment in the formatted trees (a
+    comment: the words inside a string do not count)."""
     out = []
     for d in FORMATTED:
         for path in sorted((root / d).rglob("*.py")):
-            for i, line in enumerate(path.read_text().splitlines(), 1):
-                if FMT_SKIP.search(line):
-                    out.append(f"{path.relative_to(root)}:{i}")
+            with path.open("rb") as f:
+                tokens = tokenize.tokenize(f.readline)
+                for tok in tokens:
+                    if tok.type == tokenize.COMMENT and FMT_SKIP.search(tok.string):
+                        out.append(f"{path.relative_to(root)}:{tok.start[0]}")
     return out
 
 
