@@ -77,18 +77,7 @@ def check_names(names: Sequence[str], rung: str, p: DRSParams, hp: HydraulicPara
 
 def _withheld(name: str, p, hp, why: str) -> Estimate:
     fp = fit_parameter(name, p, hp)
-    return Estimate(
-        name,
-        fp.unit,
-        math.nan,
-        math.nan,
-        math.nan,
-        math.nan,
-        current_value(name, p, hp),
-        "equation",
-        "",
-        why,
-    )
+    return Estimate.withheld(name, fp.unit, current_value(name, p, hp), "equation", why)
 
 
 def _sensitivity(problem: OutputErrorProblem, noise: dict) -> np.ndarray:
@@ -123,20 +112,7 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
             reason = (
                 f"{ident.undetermined.get(name, 'not determined')}; to determine it: {fp.motion}"
             )
-            out.append(
-                Estimate(
-                    name,
-                    fp.unit,
-                    math.nan,
-                    math.nan,
-                    math.nan,
-                    math.nan,
-                    start,
-                    "output",
-                    "",
-                    reason,
-                )
-            )
+            out.append(Estimate.withheld(name, fp.unit, start, "output", reason))
             continue
         i = kept.index(name)
         value, std = float(fit.estimate[i]), math.sqrt(fit.covariance[i, i])
@@ -157,21 +133,7 @@ def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate
             value, 0.5 * (hi - lo), fp.scale
         ):
             reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)
-            out.append(
-                Estimate(
-                    name,
-                    fp.unit,
-                    math.nan,
-                    math.nan,
-                    math.nan,
-                    std,
-                    start,
-                    "output",
-                    "",
-                    reason,
-                    value,
-                )
-            )
+            out.append(Estimate.withheld(name, fp.unit, start, "output", reason, std, value))
             continue
         out.append(Estimate(name, fp.unit, value, lo, hi, std, start, "output", kind, "", value))
     return out

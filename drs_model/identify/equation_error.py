@@ -56,11 +56,7 @@ def _estimates(
             reason = ident.undetermined[name]
             if STRUCTURAL not in reason:
                 reason += f"; to determine it: {fp.motion}"
-            out.append(
-                Estimate(
-                    name, fp.unit, math.nan, math.nan, math.nan, math.nan, start, stage, "", reason
-                )
-            )
+            out.append(Estimate.withheld(name, fp.unit, start, stage, reason))
             continue
         i = list(values).index(name)
         value, std = float(values[name]), math.sqrt(cov[i, i])
@@ -69,21 +65,7 @@ def _estimates(
             (lo, hi), kind = kinds[name]
         if too_wide(value, 0.5 * (hi - lo), fp.scale) or not math.isfinite(hi - lo):
             reason = wide_reason(name, (lo, hi), fp.unit, level, ident, fp.motion)
-            out.append(
-                Estimate(
-                    name,
-                    fp.unit,
-                    math.nan,
-                    math.nan,
-                    math.nan,
-                    std,
-                    start,
-                    stage,
-                    "",
-                    reason,
-                    value,
-                )
-            )
+            out.append(Estimate.withheld(name, fp.unit, start, stage, reason, std, value))
             continue
         out.append(Estimate(name, fp.unit, value, lo, hi, std, start, stage, kind, "", value))
     return out

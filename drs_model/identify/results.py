@@ -50,6 +50,22 @@ class Estimate:
     reason: str = ""
     guess: float = math.nan
 
+    @classmethod
+    def withheld(
+        cls,
+        name: str,
+        unit: str,
+        start: float,
+        stage: str,
+        reason: str,
+        std: float = math.nan,
+        guess: float = math.nan,
+    ) -> Estimate:
+        """A parameter given no value, no interval, and the ``reason`` (the standard error and
+        the number the stage computed kept where there are some)."""
+        nan = math.nan
+        return cls(name, unit, nan, nan, nan, std, start, stage, "", reason, guess)
+
     @property
     def determined(self) -> bool:
         return not math.isnan(self.value)

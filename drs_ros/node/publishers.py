@@ -131,14 +131,8 @@ class StatePublishers:
         self._pack_markers = self._scene.packer()
         #: The publishers of the states, and whether each had a subscriber at the last check
         #: (a message no one would receive is not handed to DDS: ~5-10 us each).
-        self.state_publishers = (
-            self.joints,
-            self.force,
-            self.gap,
-            self.accel,
-            self.reactions,
-            self.markers,
-            *self.hydraulic,
+        self.state_publishers = tuple(
+            pub for pub in self.all if pub not in (self.diagnostics, self.events)
         )
         self.listened = dict.fromkeys(self.state_publishers, False)
         #: Simulated time [s] of the last ~/markers drawn (None: never drawn).
