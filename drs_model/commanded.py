@@ -45,6 +45,10 @@ def check_methods(integrator: str, force_method: str) -> None:
         raise InputError(f"method must be one of {sorted(FIXED_STEP_METHODS)}, got {integrator!r}")
 
 
+#: How many path peaks an actuator keeps (:meth:`CommandedActuator._path_peak`).
+KEPT_PEAKS = 8
+
+
 @dataclass(frozen=True)
 class ActuatorState:
     """A snapshot of the actuator at simulated time ``t`` [s].
@@ -127,7 +131,8 @@ class CommandedActuator:
         self.s_min, self.s_max = self.motion.s_min, self.motion.s_max
         self.s_dead = kin.dead_centre(p)
         self._statics = None  # FusedInverseDynamics, built for the first stretched move
-        self._last_peak = None  # (params, coefficients' and durations' bytes, PathPeak)
+        # the last paths' peaks: {(params, coefficients' and durations' bytes): PathPeak}
+        self._peaks: dict = {}
         self._force = math.nan
 
     def _refuse_unused_methods(self, **given: str) -> None:
@@ -301,20 +306,23 @@ class CommandedActuator:
         return duration
 
     def _path_peak(self, coeffs, durations):
-        """:func:`drs_model.inverse.path_peak_force` of this path, for these parameters. The last
-        result is kept: a stroke command's stretched duration is checked again on the very same
-        segment (bit for bit), and that second evaluation (~0.1 ms) would be the command's
-        largest cost in the node's tick."""
+        """:func:`drs_model.inverse.path_peak_force` of this path, for these parameters. The
+        last :data:`KEPT_PEAKS` results are kept: a stroke command's stretched duration is
+        checked again on the very same segment (bit for bit), an opening and a closing from rest
+        are the same segments each time, and a caller may evaluate a command's path ahead of it
+        (:meth:`drs_duration`); each evaluation costs ~0.1-0.2 ms."""
         from .inverse import path_peak_force
 
         c = np.ascontiguousarray(coeffs, dtype=float)
         d = np.ascontiguousarray(durations, dtype=float)
-        key = (c.tobytes(), d.tobytes())
-        last = self._last_peak
-        if last is not None and last[0] is self.p and last[1] == key:
-            return last[2]
+        key = (id(self.p), c.tobytes(), d.tobytes())
+        kept = self._peaks.get(key)
+        if kept is not None and kept[0] is self.p:
+            return kept[1]
         peak = path_peak_force(self.p, c, d)
-        self._last_peak = (self.p, key, peak)
+        if len(self._peaks) >= KEPT_PEAKS:
+            self._peaks.pop(next(iter(self._peaks)))  # the oldest
+        self._peaks[key] = (self.p, peak)
         return peak
 
     def _command_start(self) -> tuple[float, float, float]:
@@ -374,10 +382,15 @@ class CommandedActuator:
         """Open (True) or close (False) with the seed's manoeuvre times or, with
         :attr:`limit_moves`, longer where the move needs more than ``force_limit`` in them (a
         heavier flap): the times are the seed's, not the caller's, as a stroke command's."""
+        target, _ = self.motion.drs_move(open_flap)
+        return self.command_stroke(target, self.drs_duration(open_flap))
+
+    def drs_duration(self, open_flap: bool) -> float:
+        """The duration [s] :meth:`command_drs` takes from the present state: the seed's, or
+        longer under :attr:`limit_moves`. Changes nothing but the kept peaks, so a caller may
+        ask it ahead of the command, outside a lock the simulation's steps take."""
         target, duration = self.motion.drs_move(open_flap)
-        return self.command_stroke(
-            target, self._fit_duration(target, duration, self._command_start())
-        )
+        return self._fit_duration(target, duration, self._command_start())
 
     def _checked_force(self, force: float) -> float:
         """``force`` [N] as a float; refuse NaN or |F| > force_limit."""

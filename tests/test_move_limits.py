@@ -228,7 +228,7 @@ def test_a_path_checked_again_is_not_evaluated_again_and_acts_the_same(params, m
         out = []
         for target in targets:
             if fresh_every_time:
-                sim._last_peak = None
+                sim._peaks.clear()
             sim.command_stroke(target)
             for _ in range(20):
                 sim.step()
@@ -244,3 +244,30 @@ def test_a_path_checked_again_is_not_evaluated_again_and_acts_the_same(params, m
     # command
     assert 2 * kept_calls <= len(calls), (kept_calls, len(calls))
     np.testing.assert_array_equal(kept, every)
+
+
+def test_a_drs_move_asked_ahead_is_not_evaluated_again(params, monkeypatch):
+    """``drs_duration`` (what the node asks before its lock) keeps the move's peak: the
+    ``command_drs`` that follows from the same state evaluates none, and takes that duration."""
+    import drs_model.inverse as inverse
+    from drs_model.actuator import ActuatorSim
+
+    calls = []
+    original = inverse.path_peak_force
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(inverse, "path_peak_force", counted)
+    for open_flap in (True, False):
+        sim = ActuatorSim(params, dt=1e-3)
+        if not open_flap:  # closing from the open stop, at rest
+            sim.command_drs(True)
+            for _ in range(60):
+                sim.step()
+        duration = sim.drs_duration(open_flap)
+        before = len(calls)
+        seg = sim.command_drs(open_flap)
+        assert len(calls) == before
+        assert seg.duration == duration

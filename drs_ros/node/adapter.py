@@ -430,6 +430,7 @@ class DRSNode(Node):
         return self.get_clock().now().nanoseconds
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self.intake.before_drs(request)  # outside the lock the tick takes
         with self._lock:
             now = self._now_ns()
             if self.rungs.deadline is not None:  # a call before auto chose: choose now
