@@ -19,7 +19,7 @@ import json
 import sys
 import time
 
-from deadline_floor import DeadlineLoop  # the tick thread's loop, counted as the node counts
+from deadline_floor import publish_on_deadlines  # the node's loop, counted as the node counts
 
 #: The node's name (its ``~/`` topics resolve under it) and the state roles a listener may take.
 NODE_NAME = "drs"
@@ -82,8 +82,6 @@ def floor(rate_hz: float, duration_s: float, roles: list[str], warm_s: float = 1
     the listener matched the topics of ``roles``) and its deadlines."""
     import rclpy
 
-    from drs_ros.node.tick_schedule import apply_tick_policy, leave_tick_policy
-
     rclpy.init()
     node = rclpy.create_node(NODE_NAME)
     outputs, sim = state_publishers(node)
@@ -97,25 +95,13 @@ def floor(rate_hz: float, duration_s: float, roles: list[str], warm_s: float = 1
     # tick 1: the node's own listener check; the messages the node would hand DDS this tick
     out = outputs.state_messages(sim, sim.state, time.time_ns(), None, 1, recording=False)
     pubs = [(pub, data) for pub, data in out if outputs.listened[pub]]
-    policy = apply_tick_policy("fifo", 10)  # the node's default priority
-    try:
-        for _ in DeadlineLoop(rate_hz).ticks(warm_s):  # not counted
-            for pub, data in pubs:
-                pub.publish(data)
-        loop = DeadlineLoop(rate_hz)
-        cpu0, wall0 = time.process_time(), time.monotonic()
-        for _ in loop.ticks(duration_s):
-            for pub, data in pubs:
-                pub.publish(data)
-        cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
-    finally:
-        leave_tick_policy(policy)
+    cpu, wall, loop, policy = publish_on_deadlines(pubs, rate_hz, warm_s, duration_s)
     published = {pub.topic_name: len(data) for pub, data in pubs}
     outputs.destroy(node)
     node.destroy_node()
     rclpy.shutdown()
     return {
-        "policy": policy.text(),
+        "policy": policy,
         "cpu_share": cpu / wall,
         "published_bytes": published,
         **loop.counts(),

@@ -34,7 +34,7 @@ import sys
 import time
 from pathlib import Path
 
-from deadline_floor import DeadlineLoop  # the tick thread's loop, counted as the node counts
+from deadline_floor import publish_on_deadlines  # the node's loop, counted as the node counts
 
 RESULTS = Path(__file__).with_name("results") / "middleware_floor.json"
 CONFIGS = ("loop", "joint_states", "joint_states + /tf")
@@ -83,7 +83,6 @@ def publisher(
     from sensor_msgs.msg import JointState
     from tf2_msgs.msg import TFMessage
 
-    from drs_ros.node.tick_schedule import apply_tick_policy, leave_tick_policy
     from drs_ros.publishing import create_publisher
 
     rclpy.init()
@@ -101,25 +100,13 @@ def publisher(
     for topic in set(made) & set(subscribed):  # the subscriber in the other process matched
         while made[topic].get_subscription_count() < 1 and time.monotonic() < give_up:
             time.sleep(0.05)
-    policy = apply_tick_policy("fifo", 10)  # the node's default priority
-    try:
-        for _ in DeadlineLoop(rate_hz).ticks(warm_s):  # not counted
-            for pub, data in pubs:
-                pub.publish(data)
-        loop = DeadlineLoop(rate_hz)
-        cpu0, wall0 = time.process_time(), time.monotonic()
-        for _ in loop.ticks(duration_s):
-            for pub, data in pubs:
-                pub.publish(data)
-        cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
-    finally:
-        leave_tick_policy(policy)
+    cpu, wall, loop, policy = publish_on_deadlines(pubs, rate_hz, warm_s, duration_s)
     node.destroy_node()
     rclpy.shutdown()
     return {
         "config": config,
         "rate_hz": rate_hz,
-        "policy": policy.text(),
+        "policy": policy,
         "cpu_share": cpu / wall,
         **loop.counts(),
         "published": loop.lateness.count if pubs else 0,  # a message a tick of the window

@@ -44,6 +44,16 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / CLK_TCK
 
 
+def stop_node(proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
+    """SIGINT to a node (it finishes its recordings), killed if it has not ended in
+    ``timeout_s`` [s]."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
 def big_trajectory(n: int = 10_000, span_s: float = 5.0):
     """The largest trajectory the node takes: ``n`` points of a 2 Hz sine of the stroke over
     ``span_s`` [s], ending at rest at its start (mid-stroke)."""
@@ -135,11 +145,7 @@ def measure(
         wall, cpu = time.monotonic() - wall0, cpu_seconds(proc.pid) - cpu0
         last = dict(driver.seen["diag"] or {})
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        stop_node(proc)
         driver.close()
 
     def delta(key: str, cast=float) -> float:

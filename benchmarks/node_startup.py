@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from node_rate import stop_node
 
 #: What ``drs-node`` imports before it makes the node (its entry, then the runner's modules).
 ENTRY_IMPORTS = (
@@ -53,11 +54,7 @@ def startup_times(runs: int, domain: int, env: dict, tmp: Path) -> dict:
                 seen = client.wait_for(lambda b=before: client.seen["joint_states"] > b, 60.0)
                 times.append(time.monotonic() - t0 if seen else float("nan"))
             finally:
-                node.send_signal(signal.SIGINT)
-                try:
-                    node.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    node.kill()
+                stop_node(node)
             client.spin(0.5)  # the last messages of this node drain before the next
             print(f"start-up {k + 1}: exec to first /joint_states {times[-1]:.3f} s", flush=True)
     median = statistics.median(times)

@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 
 from floor_process import STATE_ROLES
-from node_rate import FLOOD, cpu_seconds
+from node_rate import FLOOD, cpu_seconds, stop_node
 from node_startup import import_summary, node_command, startup_times
 
 HERE = Path(__file__).resolve().parent
@@ -158,11 +158,7 @@ def node_run(
         client.spin(1.1)  # one more diagnostics message
         last = dict(client.seen["diag"] or {})
     finally:
-        node.send_signal(signal.SIGINT)
-        try:
-            node.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            node.kill()
+        stop_node(node)
         client.close()
         if flood is not None:
             flood.kill()
