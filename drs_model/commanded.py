@@ -11,6 +11,7 @@ models (:meth:`models`, :meth:`check_fault`, :meth:`apply_fault`).
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -132,7 +133,9 @@ class CommandedActuator:
         self.s_dead = kin.dead_centre(p)
         self._statics = None  # FusedInverseDynamics, built for the first stretched move
         # the last paths' peaks: {(params, coefficients' and durations' bytes): PathPeak}
-        self._peaks: dict = {}
+        # (an OrderedDict: its popitem is one step, so a caller on another thread,
+        # drs_duration, cannot break an eviction)
+        self._peaks: OrderedDict = OrderedDict()
         self._force = math.nan
 
     def _refuse_unused_methods(self, **given: str) -> None:
@@ -321,7 +324,7 @@ class CommandedActuator:
             return kept[1]
         peak = path_peak_force(self.p, c, d)
         if len(self._peaks) >= KEPT_PEAKS:
-            self._peaks.pop(next(iter(self._peaks)))  # the oldest
+            self._peaks.popitem(last=False)  # the oldest
         self._peaks[key] = (self.p, peak)
         return peak
 
