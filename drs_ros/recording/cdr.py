@@ -346,26 +346,23 @@ class Layout:
         missing = [p for p in paths if p not in self.fields]
         if missing:
             raise CdrError(f"no numeric field {missing} in the layout; known: {list(self.fields)}")
-        fmt, gaps, counts, end = "<", [], [], None
+        fmt, blocks, end = "<", [], None  # blocks: (the template's bytes before, count)
         for path in paths:
             offset, code, count = self.fields[path]
             if end is not None and offset < end:
                 raise CdrError(f"{path} at byte {offset} is not after the field before it")
             gap = self.template[end:offset] if end is not None else b""
             fmt += (f"{len(gap)}s" if gap else "") + f"{count}{code}"
-            gaps.append(gap)
-            counts.append(count)
+            blocks.append((gap, count))
             end = offset + struct.calcsize(f"<{count}{code}")
         start = self.fields[paths[0]][0] if paths else len(self.template)
         head, tail = self.template[:start], self.template[end or start :]
         whole = struct.Struct(fmt).pack
-        n_values = sum(counts)
-        plan = list(zip(gaps, counts, strict=True))
-
+        n_values = sum(count for _gap, count in blocks)
         # the struct's arguments picked from (values..., gaps...) in one C call
-        fixed = tuple(gap for gap in gaps if gap)
+        fixed = tuple(gap for gap, _count in blocks if gap)
         order, i, k = [], 0, n_values
-        for gap, count in plan:
+        for gap, count in blocks:
             if gap:
                 order.append(k)
                 k += 1
