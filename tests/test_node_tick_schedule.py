@@ -7,6 +7,7 @@ from __future__ import annotations
 import signal
 import sys
 import textwrap
+import threading
 import time
 
 import numpy as np
@@ -174,15 +175,26 @@ def test_a_tick_late_by_several_periods_is_counted_in_diagnostics(ros_context): 
 
 
 @pytest.mark.ros
-def test_the_executor_thread_ends_within_a_stop_poll(ros_context):  # noqa: F811
-    """The deadline loop's executor (rclpy's EventsExecutor) waits for work at most a stop poll
-    at a time: the loop's stop ends its thread within a few polls, with no wake-up of its own
-    (the diagnostics' timer, which would wake it once a second, is cancelled)."""
+def test_the_executor_thread_waits_for_work_and_the_stop_wakes_it(ros_context, monkeypatch):  # noqa: F811
+    """The deadline loop's executor thread does not poll: over a second of ticks an idle node's
+    executor wakes a few times (start-up), not every 50 ms, and the loop's stop wakes it at once
+    instead of at the end of its idle wait (20 s here; the diagnostics' timer, which would end
+    it within a second, is cancelled)."""
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
     from drs_ros.node import DRSNode, runner
     from drs_ros.stop_request import StopRequest
 
+    monkeypatch.setattr(runner, "EXECUTOR_IDLE_WAIT_S", 20.0)
+    spins = []
+    wait = SingleThreadedExecutor.wait_for_ready_callbacks
+
+    def counted(self, *args, **kwargs):
+        spins.append(args[0] if args else kwargs.get("timeout_sec"))
+        return wait(self, *args, **kwargs)
+
+    monkeypatch.setattr(SingleThreadedExecutor, "wait_for_ready_callbacks", counted)
     node = DRSNode(
         context=ros_context,
         tick_timer=False,
@@ -202,15 +214,60 @@ def test_the_executor_thread_ends_within_a_stop_poll(ros_context):  # noqa: F811
         tick()
 
     node.tick = counting_tick
-    node.diag_timer.cancel()
+    node.diag_timer.cancel()  # its once a second would end the idle wait too
     try:
         runner.run_deadline_loop(node, stop, ros_context)
         returned_at = time.monotonic()
     finally:
         node.close_recordings()
         node.destroy_node()
-    # a stop poll is 50 ms; a loaded machine may add a second, never the 20 s of no poll
-    assert returned_at - stopped_at[0] < 5.0
+    assert set(spins) == {20.0}
+    assert len(spins) < 10, spins  # polling every 50 ms: >= 20
+    assert returned_at - stopped_at[0] < 10.0  # not the idle wait's 20 s
+
+
+@pytest.mark.ros
+def test_the_executor_thread_leaves_nothing_behind_on_its_stop_future(ros_context):  # noqa: F811
+    """Each wait of the executor's thread is ended by the stop's future (completed, then the
+    executor woken) without adding a callback to it: rclpy's ``spin_once_until_future_complete``
+    adds one at every call, and over a node's life (a wake-up for every command) they pile up
+    until the stop. Here a 1 ms timer wakes the executor ~200 times."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.task import Future
+
+    from drs_ros.node import runner
+    from drs_ros.stop_request import StopRequest
+
+    class CountingFuture(Future):
+        added = 0
+
+        def add_done_callback(self, callback):
+            CountingFuture.added += 1
+            super().add_done_callback(callback)
+
+    node = rclpy.create_node("executor_wakes", context=ros_context)
+    fired = []
+    node.create_timer(0.001, lambda: fired.append(1))
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    stop, stopped = StopRequest(), CountingFuture()
+    thread = threading.Thread(
+        target=runner.spin_until_stopped, args=(node, executor, stop, None, 5.0, stopped)
+    )
+    thread.start()
+    try:
+        time.sleep(0.2)
+        stop()
+        stopped.set_result(True)
+        executor.wake()
+        thread.join(timeout=10.0)
+        assert not thread.is_alive(), "the stop did not end the executor's wait"
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        node.destroy_node()
+    assert len(fired) > 20  # the executor did wake up, many times
+    assert CountingFuture.added == 0
 
 
 REFUSED_FIFO = textwrap.dedent(
