@@ -6,8 +6,10 @@ is the signal's noise: given, or estimated from the record in two passes (the fi
 sensors' typical resolutions :data:`RESOLUTION` as weights, the second with each signal's
 residual RMS from the first, ``sqrt(n / (n - p))``-corrected for what the fit took, never below
 the recorded values' own resolution: a float64's spacing over sqrt 12, what a noise-free record
-holds). A noise-free record so gets intervals as narrow as its re-simulation's agreement with
-it allows, and the stage's note says which noise each signal was given and from where.
+holds). A record the re-simulation reproduces to its last bits at most of its samples is
+noise-free, and its noise is that resolution (:func:`holds_exactly`). A noise-free record so
+gets intervals as narrow as its re-simulation's agreement with it allows, and the stage's note
+says which noise each signal was given and from where.
 
 Parameters are fitted in units of their typical size (``x = theta / scale``), each within its
 physical bounds; the start is the equation error's estimate where it has one. Each evaluation
@@ -16,9 +18,10 @@ forward differences, one re-simulation per parameter.
 
 The covariance is ``s^2 (J^T J)^{-1}`` (in the parameters' units) with ``s^2 = max(1, chi2 /
 dof)``: the noise as estimated, inflated where the fit is worse than it (Birge's ratio), plus
-the optimiser's own stopping error (:data:`STOP_TOLERANCE` of the scaled parameters' norm,
-which a noise-free record's interval would otherwise be narrower than); its intervals are
-checked against the profile likelihood (:mod:`.intervals`).
+the optimiser's own stopping error (:func:`stopping_error`: the Gauss-Newton step left from
+where it stopped, and the estimate's rounding, which a noise-free record's interval would
+otherwise be narrower than); its intervals are checked against the profile likelihood
+(:mod:`.intervals`).
 """
 
 from __future__ import annotations
@@ -46,8 +49,12 @@ RESOLUTION = {
 }
 
 #: The optimiser's stopping tolerance on the scaled parameters (``xtol``: a step below
-#: ``xtol * ||x||`` ends it), counted in each interval as a standard error of 3x it.
+#: ``xtol * ||x||`` ends it). What is left to go when it stops is estimated, not assumed
+#: (:func:`stopping_error`).
 STOP_TOLERANCE = 1e-10
+#: Unit roundoffs of a scaled parameter counted as its estimate's rounding (as the equation
+#: error's 32: the re-simulation's chain of operations); no interval is narrower.
+ROUNDING_ULPS = 32.0
 #: Passes at most of the noise's estimate: a pass whose noise is within 2x of the one before
 #: ends them (a first fit weighted by a sensor's resolution may stop short of the minimum that
 #: a noise-free record's own weights find).
@@ -121,7 +128,6 @@ class _Residuals:
         self.masks = {k: np.isfinite(v) for k, v in problem.measured.items()}
         self.size = sum(int(m.sum()) for m in self.masks.values())
         self.nfev = 0
-        self.last: dict = {}
 
     def signals(self, theta: np.ndarray) -> dict:
         self.nfev += 1
@@ -139,7 +145,6 @@ class _Residuals:
             m = self.masks[name]
             r = (np.asarray(sim[name])[m] - measured[m]) / self.noise[name]
             out.append(np.where(np.isfinite(r), r, 1e6))
-        self.last = sim
         return np.concatenate(out)
 
 
@@ -185,9 +190,11 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
         if given.keys() >= problem.measured.keys():
             break
         before = dict(noise)
+        # at the estimate: the optimiser's last evaluation may be a Jacobian's trial step
+        at_estimate = fn.signals(res.x * scale)
         for k, measured in problem.measured.items():
-            if k not in given and k in fn.last:
-                noise[k] = signal_noise(np.asarray(fn.last[k]), measured, p)
+            if k not in given:
+                noise[k] = signal_noise(np.asarray(at_estimate[k]), measured, p)
         res, fn = _solve(problem, noise, res.x, max_nfev)
         nfev += fn.nfev
         if all(0.5 < noise[k] / before[k] < 2.0 for k in noise):
@@ -202,10 +209,10 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     dof = fn.size - p
     s2 = max(1.0, chi2 / dof)
     # inverted in the scaled units (the parameters may differ by 15 orders of magnitude)
-    stop = 3.0 * STOP_TOLERANCE * max(float(np.linalg.norm(res.x)), 1.0)
+    stop = stopping_error(res.jac, res.fun, res.x)
     information = np.linalg.pinv(res.jac.T @ res.jac)
     cov = checked_covariance(
-        (s2 * information + stop * stop * np.eye(p)) * np.outer(scale, scale), "output-error"
+        (s2 * information + np.diag(stop * stop)) * np.outer(scale, scale), "output-error"
     )
     estimate = res.x * scale
     simulated = fn.signals(estimate)
@@ -230,6 +237,16 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     )
 
 
+def stopping_error(jacobian: np.ndarray, residuals: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Each scaled parameter's error from where the optimiser stopped: the Gauss-Newton step
+    still to go from there (what the linearised problem says is left to the minimum; 0 at an
+    exact one), with the estimate's own rounding (:data:`ROUNDING_ULPS` unit roundoffs of each
+    value, the residual's chain of operations) in quadrature."""
+    remaining = np.linalg.lstsq(jacobian, residuals, rcond=None)[0]
+    rounding = ROUNDING_ULPS * np.finfo(float).eps * np.maximum(np.abs(x), 1.0)
+    return np.hypot(remaining, rounding)
+
+
 def recorded_resolution(values: np.ndarray) -> float:
     """The resolution of recorded float64 values [their unit]: the RMS of their spacing over
     sqrt 12 (a rounding's standard deviation)."""
@@ -240,13 +257,39 @@ def recorded_resolution(values: np.ndarray) -> float:
 
 def signal_noise(simulated: np.ndarray, measured: np.ndarray, p: int) -> float:
     """A signal's noise [its unit] from a first fit: the residual RMS, corrected for the ``p``
-    parameters fitted, never below the record's resolution (:func:`recorded_resolution`)."""
+    parameters fitted, never below the record's resolution (:func:`recorded_resolution`).
+
+    A record the re-simulation reproduces to its last bits at most of its samples
+    (:func:`holds_exactly`) is noise-free: its noise is its resolution. Its few other samples'
+    residuals are the fit's own misfit, and over the exact ones their RMS would stand for a
+    sensor's scatter that is not there (a force recorded exactly, whose rest sample alone
+    depends on the parameters, got a noise of 1e-4 N and intervals 16x its estimates' scatter).
+    A sensor's noise, or a quantised sensor's rounding, never lands on a float simulation's bits.
+    """
     r = simulated - measured
-    r = r[np.isfinite(r)]
+    finite = np.isfinite(r)
     floor = recorded_resolution(measured)
+    if holds_exactly(simulated[finite], measured[finite]):
+        return floor
+    r = r[finite]
     if r.size <= p:
         return max(floor, float(np.sqrt(np.mean(r * r))) if r.size else floor)
     return max(float(np.sqrt(np.sum(r * r) / (r.size - p))), floor)
+
+
+#: Unit roundoffs within which a re-simulated sample equals its record (the record and the
+#: re-simulation may take the same value by differently ordered operations).
+EXACT_ULPS = 4.0
+
+
+def holds_exactly(simulated: np.ndarray, measured: np.ndarray) -> bool:
+    """Whether the re-simulation reproduces more than half of the record's samples to
+    :data:`EXACT_ULPS` of their spacing: the record is the model's own arithmetic, not a
+    sensor's reading."""
+    if measured.size == 0:
+        return False
+    close = np.abs(simulated - measured) <= EXACT_ULPS * np.spacing(np.abs(measured))
+    return bool(np.count_nonzero(close) * 2 > measured.size)
 
 
 def profile_chi2(
@@ -298,5 +341,6 @@ __all__ = [
     "fit_output_error",
     "profile_chi2",
     "recorded_resolution",
+    "holds_exactly",
     "signal_noise",
 ]
