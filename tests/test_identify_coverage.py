@@ -44,12 +44,13 @@ def test_equation_error_covers_over_seeded_noise(scene, record, params):
     assert c["covered"] >= 34, c
 
 
-@pytest.mark.parametrize("scene", ["stroke", "trajectory"])
+@pytest.mark.parametrize("scene", coverage.SCENES)
 def test_the_stated_error_is_the_scatter_where_the_noise_drives_it(scene, params):
-    """Stroke commands or a trajectory through mid-stroke points, 10 um of noise, the
-    acceleration differentiated (the samples whose window holds a stop's impact or a segment's
-    switch left out): the stated standard error within 1.5x of the estimates' scatter over the
-    seeds."""
+    """Stroke commands, force commands onto the stops or a trajectory through mid-stroke
+    points, 10 um of noise, the acceleration differentiated (the samples whose window holds a
+    stop's impact or a segment's switch left out; the quintic's own error counted, not its
+    correction of the cubic): the stated standard error within 1.5x of the estimates' scatter
+    over the seeds."""
     c = coverage.cell(scene, "node+noise", "equation", RUNS, params)
     assert 1 / 1.5 < c["std_over_scatter"] < 1.5, c
 

@@ -51,6 +51,8 @@ SIGNALS = {
 
 #: Savitzky-Golay window [samples] of the derivatives of a stroke with no recorded rates.
 DERIVATIVE_WINDOW = 7
+#: Savitzky-Golay window [samples] of the septic that checks the quintic's derivatives.
+CHECK_WINDOW = DERIVATIVE_WINDOW + 2
 #: How many robust scales of a derived acceleration's stated error mark a kink in its window.
 KINK_SCALES = 5.0
 
@@ -103,15 +105,17 @@ class Record:
         """The signals recorded."""
         return tuple(n for n in SIGNALS if getattr(self, n) is not None)
 
-    def rates(self, order: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    def rates(
+        self, order: int = 3, window: int = DERIVATIVE_WINDOW
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(s', s'')`` [m/s, m/s^2]: as recorded, else Savitzky-Golay derivatives of the
         stroke of the polynomial ``order`` (cubic by default; at most the window's less one)
-        over :data:`DERIVATIVE_WINDOW` samples (uniform sampling assumed)."""
+        over ``window`` samples (:data:`DERIVATIVE_WINDOW`; uniform sampling assumed)."""
         sd, sdd = self.stroke_rate, self.stroke_acceleration
         if sd is not None and sdd is not None:
             return sd, sdd
         dt = float(np.median(np.diff(self.t)))
-        window = min(DERIVATIVE_WINDOW, len(self) - (1 - len(self) % 2))
+        window = min(window, len(self) - (1 - len(self) % 2))
         order = min(order, window - 1)
         if sd is None:
             sd = savgol_filter(self.stroke, window, order, deriv=1, delta=dt)
@@ -160,6 +164,18 @@ class Record:
         if self.stroke_acceleration is not None:
             return np.zeros_like(self.t)
         return self.rates()[1] - self.rates(5)[1]
+
+    def acceleration_error(self) -> np.ndarray:
+        """Per sample, the quintic's derived acceleration's own error [m/s^2], signed: its
+        difference from a septic's over :data:`CHECK_WINDOW` samples (the next order that
+        truncates less; its window reaches one sample farther on each side, so next to a
+        stop's kink it overstates the error, never hides it); zeros where the acceleration was
+        recorded. On a smooth motion it is the quintic's true error within 1 %, where
+        :meth:`derivative_error`, the quintic's correction of the cubic, is thousands of times
+        it: what the quintic leaves, not what it corrected, biases a fit on it."""
+        if self.stroke_acceleration is not None:
+            return np.zeros_like(self.t)
+        return self.rates(5)[1] - self.rates(7, CHECK_WINDOW)[1]
 
     def derivative_exclusions(self, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(window, kink)``, boolean per sample, for a regression of the samples ``ok`` on
