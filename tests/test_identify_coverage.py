@@ -55,6 +55,15 @@ def test_the_stated_error_is_the_scatter_where_the_noise_drives_it(scene, params
     assert 1 / 1.5 < c["std_over_scatter"] < 1.5, c
 
 
+def test_the_output_errors_interval_is_its_scatter_where_the_stroke_noise_drives_it(params):
+    """Force commands, the output error fitted on the stroke alone (10 um of noise), 40 seeds:
+    at least 34 intervals hold the truth and the stated standard error is within 1.5x of the
+    estimates' scatter (the noise taken from the record's residual at the estimate)."""
+    c = coverage.cell("force", "node+noise", coverage.STROKE_ONLY, RUNS, params)
+    assert c["valued"] == RUNS and c["covered"] >= 34, c
+    assert 1 / 1.5 < c["std_over_scatter"] < 1.5, c
+
+
 def test_both_stages_together_never_give_a_zero_width(params):
     """16 seeds (seed 14's profile, on an exact force, was steeper than the optimiser's stop)."""
     c = coverage.cell("stroke", "node+noise", "both", 16, params)

@@ -305,3 +305,27 @@ def test_an_exactly_recorded_force_gives_intervals_as_narrow_as_its_arithmetic(s
         values.append(e.value)
         stds.append(e.std)
     assert np.std(values, ddof=1) <= np.mean(stds)
+
+
+def test_an_output_error_on_signals_that_hold_no_parameter_withholds_them(params):
+    """Stroke commands on the rigid rung: the flap follows the commanded path whatever its
+    mass, so a fit on the stroke alone has nothing to fit. The output stage gives no value
+    and says why (it raised 'needs at least one parameter' before); with both stages, the
+    equation error's value and interval stand, and still hold the truth."""
+    import interval_coverage as coverage  # noqa: PLC0415 - on the path set above
+
+    table = coverage.scene_table("stroke", params)
+    record = coverage.record_of(table, "stroke", "node+noise", 0)
+    simulate = coverage.simulator("stroke", params)
+    alone = fit(
+        record, ["m_wing"], "rigid", params, simulate=simulate, stage="output", signals=["stroke"]
+    )
+    (e,) = alone.estimates
+    assert not e.determined and "zero sensitivity" in e.reason, e
+    assert alone.stages[-1].notes[0].startswith("no fit: the signals ['stroke']")
+    both = fit(
+        record, ["m_wing"], "rigid", params, simulate=simulate, stage="both", signals=["stroke"]
+    )
+    (e,) = both.estimates
+    assert e.stage == "equation" and e.contains(params.m_wing), e
+    assert not both.stages[-1].estimates[0].determined

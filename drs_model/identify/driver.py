@@ -102,7 +102,7 @@ def _sensitivity(problem: OutputErrorProblem, noise: dict) -> np.ndarray:
 
 
 def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate]:
-    q = iv.quantile(level, fit.dof)
+    q = iv.quantile(level, fit.dof) if fit is not None else math.nan
     out = []
     kept = list(problem.names)
     for name in names:
@@ -175,6 +175,8 @@ def output_stage(
     ident = assess(_sensitivity(problem, floor), names, problem.scale)
     keep = [i for i, n in enumerate(names) if n in ident.determined]
     held = {n: starts[n] for n in names if n not in ident.determined}
+    if not keep:  # nothing the recorded signals depend on: each withheld, saying why
+        return _nothing_determined(names, p, hp, level, ident, measured, started)
 
     def simulate_kept(values: dict) -> dict:
         return simulate({**held, **values})
@@ -214,6 +216,33 @@ def output_stage(
         fit.dof,
         time.perf_counter() - started,
         notes,
+    )
+
+
+def _nothing_determined(names, p, hp, level, ident, measured, started) -> StageFit:
+    """The output stage of a run whose recorded signals depend on none of ``names`` (the
+    rigid rung follows stroke commands exactly: its stroke holds no mass): no fit, each
+    parameter withheld with the identifiability's reason."""
+    est = _output_estimates(
+        OutputErrorProblem((), *([np.empty(0)] * 4), None, measured),
+        None,
+        names,
+        p,
+        hp,
+        level,
+        ident,
+    )
+    note = f"no fit: the signals {sorted(measured)} depend on none of {list(names)}"
+    return StageFit(
+        "output",
+        "output error",
+        tuple(est),
+        ident,
+        (),
+        math.nan,
+        0,
+        time.perf_counter() - started,
+        (note,),
     )
 
 
@@ -272,7 +301,11 @@ def fit(
             record, names, rung, p, hp, simulate, starts, level, noise, signals, max_nfev
         )
         stages.append(out)
-        final.update({e.name: e for e in out.estimates})
+        # the output error's where it determined them; an equation error's value stands
+        # where the re-simulated signals do not depend on the parameter (its stage says why)
+        final.update(
+            {e.name: e for e in out.estimates if e.determined or not _determined(final, e.name)}
+        )
     elif stage != "equation":  # asked for, and there is nothing to re-simulate the run with
         notes.append(NO_OUTPUT_ERROR)
     _withhold_the_rest(final, names, p, hp, stage)
@@ -281,6 +314,10 @@ def fit(
     return FitResult(
         rung, level, tuple(final[n] for n in names), tuple(stages), tuple(notes), tuple(split)
     )
+
+
+def _determined(final: dict, name: str) -> bool:
+    return name in final and final[name].determined
 
 
 #: The note of a fit asked for its output error on a run that cannot be re-simulated.
