@@ -12,8 +12,8 @@
 4. Where both stages determined a parameter and their values lie farther apart than their
    intervals allow, the fit is inconsistent (:func:`disagreements`): it names them.
 
-The result holds each parameter's final estimate (the output error's where it ran), every
-stage, and the signals as measured and as fitted.
+The result holds each parameter's final estimate (the output error's where it ran and
+determined it, else the equation error's), every stage, and the signals as measured and as fitted.
 """
 
 from __future__ import annotations

@@ -136,7 +136,7 @@ class StageFit:
 @dataclass(frozen=True)
 class FitResult:
     """A whole fit: the final estimate of each parameter asked for (the output error's where it
-    ran, else the equation error's), every stage, and the parameters on which the stages
+    ran and determined it, else the equation error's), every stage, and the parameters on which the stages
     disagree by more than their intervals allow (``inconsistent``)."""
 
     rung: str
