@@ -195,8 +195,8 @@ def test_each_signals_noise_is_the_records_own(params):
     """A force-commanded rigid run, its stroke read with 10 um of noise, fitted on its stroke:
     the noise the fit used is the record's (within 10 % of 10 um, not a sensor's assumed
     resolution), and the stage says it came from the record; on the same run read exactly the
-    noise is the re-simulation's agreement with the record, far below 10 um, and the interval
-    still holds the truth."""
+    noise is the record's resolution, far below 10 um, the stage says it is noise-free, and the
+    interval still holds the truth."""
     from identify_support import force_run
 
     table = force_run(params)
@@ -220,11 +220,12 @@ def test_each_signals_noise_is_the_records_own(params):
         assert e.contains(params.m_wing) and e.upper > e.lower, e
         note = result.stages[-1].notes[0]
         used = float(note.split("noise: stroke ")[1].split(" m")[0])
-        assert "(from the record)" in note
         if noise:
             assert used == pytest.approx(noise, rel=0.1)
+            assert "m (from the record)" in note
         else:
             assert 0.0 < used < 0.1 * 1e-5
+            assert "m (noise-free)" in note
         widths.append(e.upper - e.lower)
     assert widths[1] < 0.2 * widths[0]
 
@@ -300,7 +301,8 @@ def test_an_exactly_recorded_force_gives_intervals_as_narrow_as_its_arithmetic(s
         (e,) = result.estimates
         note = result.stages[-1].notes[0]
         force_noise = float(note.split("piston_force ")[1].split(" N")[0])
-        assert force_noise < 1e-9, note
+        assert force_noise < 1e-9 and "N (noise-free)" in note, note
+        assert "m (from the record)" in note, note
         assert e.contains(params.m_wing) and 0.0 < e.upper - e.lower < 1e-12, e
         values.append(e.value)
         stds.append(e.std)

@@ -199,12 +199,13 @@ def output_stage(
     )
     given = noise or {}
     used = ", ".join(
-        f"{k} {v:.3g} {SIGNALS[k]} ({'given' if k in given else 'from the record'})"
+        f"{k} {v:.3g} {SIGNALS[k]} ({_noise_source(k, given, fit.exact)})"
         for k, v in fit.noise.items()
     )
     notes = (
         f"{fit.nfev} re-simulations; noise: {used} (from the record: the residual's "
-        f"scatter, or the recorded values' resolution where less); {fit.message}",
+        "scatter, or the recorded values' resolution where less; noise-free: the "
+        f"re-simulation gives the record's own bits, so its resolution); {fit.message}",
     )
     return StageFit(
         "output",
@@ -217,6 +218,12 @@ def output_stage(
         time.perf_counter() - started,
         notes,
     )
+
+
+def _noise_source(signal: str, given: dict, exact: tuple[str, ...]) -> str:
+    if signal in given:
+        return "given"
+    return "noise-free" if signal in exact else "from the record"
 
 
 def _nothing_determined(names, p, hp, level, ident, measured, started) -> StageFit:

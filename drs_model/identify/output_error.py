@@ -103,7 +103,9 @@ class NonlinearFit:
     residuals in the parameters' units, ``chi2``, degrees of freedom, the noise used, the
     simulated signals at the estimate, evaluations, the optimiser's message, ``chi2`` as a
     function of the parameters, and each parameter's standard error from the optimiser's
-    stopping alone (``floor_std``: no interval is narrower)."""
+    stopping alone (``floor_std``: no interval is narrower), and the signals whose noise was
+    estimated that the re-simulation reproduces to their last bits (``exact``:
+    :func:`holds_exactly`; their noise is their resolution)."""
 
     estimate: np.ndarray
     covariance: np.ndarray
@@ -117,6 +119,7 @@ class NonlinearFit:
     message: str
     chi2_of: Callable[[np.ndarray], float]
     floor_std: np.ndarray | None = None
+    exact: tuple[str, ...] = ()
 
 
 class _Residuals:
@@ -216,6 +219,11 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
     )
     estimate = res.x * scale
     simulated = fn.signals(estimate)
+    exact = tuple(
+        k
+        for k, measured in problem.measured.items()
+        if k not in given and _holds_exactly_where_finite(np.asarray(simulated[k]), measured)
+    )
 
     def chi2_of(theta: np.ndarray) -> float:
         r = fn(np.asarray(theta) / scale)
@@ -234,7 +242,13 @@ def fit_output_error(problem: OutputErrorProblem, max_nfev: int | None = None) -
         res.message,
         chi2_of,
         stop * scale,
+        exact,
     )
+
+
+def _holds_exactly_where_finite(simulated: np.ndarray, measured: np.ndarray) -> bool:
+    finite = np.isfinite(simulated) & np.isfinite(measured)
+    return holds_exactly(simulated[finite], measured[finite])
 
 
 def stopping_error(jacobian: np.ndarray, residuals: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -266,12 +280,11 @@ def signal_noise(simulated: np.ndarray, measured: np.ndarray, p: int) -> float:
     depends on the parameters, got a noise of 1e-4 N and intervals 16x its estimates' scatter).
     A sensor's noise, or a quantised sensor's rounding, never lands on a float simulation's bits.
     """
-    r = simulated - measured
-    finite = np.isfinite(r)
     floor = recorded_resolution(measured)
-    if holds_exactly(simulated[finite], measured[finite]):
+    if _holds_exactly_where_finite(simulated, measured):
         return floor
-    r = r[finite]
+    r = simulated - measured
+    r = r[np.isfinite(r)]
     if r.size <= p:
         return max(floor, float(np.sqrt(np.mean(r * r))) if r.size else floor)
     return max(float(np.sqrt(np.sum(r * r) / (r.size - p))), floor)

@@ -136,8 +136,8 @@ class StageFit:
 @dataclass(frozen=True)
 class FitResult:
     """A whole fit: the final estimate of each parameter asked for (the output error's where it
-    ran and determined it, else the equation error's), every stage, and the parameters on which the stages
-    disagree by more than their intervals allow (``inconsistent``)."""
+    ran and determined it, else the equation error's), every stage, and the parameters on which
+    the stages disagree by more than their intervals allow (``inconsistent``)."""
 
     rung: str
     level: float
