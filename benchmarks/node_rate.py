@@ -44,6 +44,23 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / CLK_TCK
 
 
+def thread_cpu_seconds(pid: int) -> dict[str, float]:
+    """User + system CPU so far [s] of each of a process's threads, summed by the thread's
+    name as the kernel knows it (``/proc/<pid>/task/<tid>/comm``; the node's own threads are
+    named, ``drs_ros.threads``), the main thread (the node's ticks) as ``main``. A thread that
+    ended meanwhile is not counted."""
+    out: dict[str, float] = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            name = (task / "comm").read_text().strip()
+            fields = (task / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:  # the thread ended between the listing and the read
+            continue
+        name = "main" if task.name == str(pid) else name
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / CLK_TCK
+    return out
+
+
 def stop_node(proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
     """SIGINT to a node (it finishes its recordings), killed if it has not ended in
     ``timeout_s`` [s]."""

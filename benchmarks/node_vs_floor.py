@@ -8,7 +8,8 @@ another process. The node: ``drs-node`` at 1 kHz physics publishing at the rate,
 recordings on (MCAP bag and rerun file), the same listener beside it and a command client in
 this process at ~100 Hz (open, close, a stroke, a force and none, in turn). Rounds alternate
 floor and node (``--rounds``, medians quoted). The CPU share of a core of each process is its
-user + system time from ``/proc/<pid>/stat`` over the measured window; the node's missed
+user + system time from ``/proc/<pid>/stat`` over the measured window, and the node's, thread
+by thread (``/proc/<pid>/task``, by the names ``drs_ros.threads`` gives them); the node's missed
 deadlines come from its diagnostics (a tick later than 1.5 periods; the lateness quantiles are
 its histogram's since the start, ``drs_ros.node.tick_schedule``).
 
@@ -38,7 +39,7 @@ import time
 from pathlib import Path
 
 from floor_process import STATE_ROLES
-from node_rate import FLOOD, cpu_seconds, stop_node
+from node_rate import FLOOD, cpu_seconds, stop_node, thread_cpu_seconds
 from node_startup import import_summary, node_command, startup_times
 
 HERE = Path(__file__).resolve().parent
@@ -153,8 +154,10 @@ def node_run(
         client.spin(1.0)  # warm-up: the listener matched, the first moves planned
         first = dict(client.seen["diag"] or {})
         wall0, cpu0 = time.monotonic(), cpu_seconds(node.pid)
+        threads0 = thread_cpu_seconds(node.pid)
         sent = drive(client, duration_s)
         wall, cpu = time.monotonic() - wall0, cpu_seconds(node.pid) - cpu0
+        threads = thread_cpu_seconds(node.pid)
         client.spin(1.1)  # one more diagnostics message
         last = dict(client.seen["diag"] or {})
     finally:
@@ -171,6 +174,11 @@ def node_run(
         "rate_hz": rate_hz,
         "flood_hz": flood_hz or 0,
         "cpu_share": cpu / wall,
+        "thread_shares": {
+            name: (seconds - threads0.get(name, 0.0)) / wall
+            for name, seconds in sorted(threads.items())
+            if seconds - threads0.get(name, 0.0) > 0.0
+        },
         "ticks": ticks,
         "missed": missed,
         "missed_share": missed / ticks,
@@ -221,12 +229,19 @@ def summarise(runs: list[dict], rates: list[float], variants: list[str]) -> list
                 "goal_points": points,
                 "goal_missed_share": missed,
             }
+            row["node_thread_shares"] = median_thread_shares(node)
             row["difference_points"] = row["node_cpu_share"] - row["floor_cpu_share"]
             row["meets_goal"] = row["difference_points"] <= points and (
                 row["node_missed_share"] <= missed
             )
             rows.append(row)
     return rows
+
+
+def median_thread_shares(runs: list[dict]) -> dict[str, float]:
+    """Each thread name's median share of a core over ``runs`` (0 in a run without it)."""
+    names = sorted({n for r in runs for n in r.get("thread_shares", {})})
+    return {n: statistics.median(r["thread_shares"].get(n, 0.0) for r in runs) for n in names}
 
 
 def print_table(rows: list[dict], rounds: int) -> None:
@@ -240,6 +255,10 @@ def print_table(rows: list[dict], rounds: int) -> None:
             f"<= {100 * r['goal_points']:g} | {100 * r['node_missed_share']:.2f} % | "
             f"<= {100 * r['goal_missed_share']:g} % |"
         )
+    for r in rows:
+        threads = sorted(r["node_thread_shares"].items(), key=lambda kv: -kv[1])
+        listed = ", ".join(f"{name} {100 * share:.1f}" for name, share in threads)
+        print(f"node at {r['rate_hz']:g} Hz, {r['variant']}, by thread (% of a core): {listed}")
 
 
 def print_run(r: dict) -> None:

@@ -33,6 +33,7 @@ from drs_model.errors import DRSError
 from ..errors import DRSRosError
 from ..recording.cdr_received import without_source_location
 from ..stop_request import StopRequest
+from ..threads import NamedThread
 from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
@@ -133,7 +134,7 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     executor.add_node(node)
     tick_gate = threading.Lock()  # held while a tick runs: the executor's callbacks wait
     stopped = Future()  # completed when this loop ends: the executor thread's wait ends too
-    thread = threading.Thread(
+    thread = NamedThread(
         target=spin_until_stopped,
         args=(node, executor, stop, tick_gate, EXECUTOR_IDLE_WAIT_S, stopped),
         name="drs-executor",

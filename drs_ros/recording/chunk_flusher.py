@@ -17,6 +17,7 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
+from ..threads import NamedThread
 from .flush_schedule import FlushSchedule
 from .mcap_chunks import handoff_for
 
@@ -47,9 +48,7 @@ class ChunkFlusher:
         self._wake = threading.Event()  # a chunk closed: the flush thread writes it
         self._thread: threading.Thread | None = None
         if flush_thread:
-            self._thread = threading.Thread(
-                target=self._loop, name="mcap-recorder-flush", daemon=True
-            )
+            self._thread = NamedThread(target=self._loop, name="mcap-recorder-flush", daemon=True)
             self._thread.start()
 
     def on_full(self) -> Callable[[], None] | None:

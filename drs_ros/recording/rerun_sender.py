@@ -27,6 +27,8 @@ from collections import deque
 from collections.abc import Callable
 from typing import NamedTuple
 
+from ..threads import NamedThread
+
 #: How often [s] a waiting :meth:`BatchSender.drain` checks that the thread still runs.
 ALIVE_CHECK_S = 0.1
 
@@ -60,7 +62,7 @@ class BatchSender:
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._failures: deque[SendFailure] = deque()
         self._abandoned = False
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread = NamedThread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
     def put(self, *batch) -> None:

@@ -19,6 +19,7 @@ import shutil
 import threading
 from pathlib import Path
 
+from ..threads import NamedThread
 from .errors import RecordingError
 
 #: How often [s] the watch checks that the file sink still writes.
@@ -46,7 +47,7 @@ class FileSinkWatch:
         self.failure: str | None = None
         self._identity = _identity(self.path)
         self._stop = threading.Event()
-        self._thread = threading.Thread(
+        self._thread = NamedThread(
             target=self._run, args=(period,), name="rerun-sink-watch", daemon=True
         )
         self._thread.start()

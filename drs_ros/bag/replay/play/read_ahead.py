@@ -9,6 +9,7 @@ import threading
 from collections.abc import Iterator
 
 from drs_ros.stop_request import StopRequest
+from drs_ros.threads import NamedThread
 
 _END = object()
 
@@ -23,7 +24,7 @@ class ReadAhead:
         self._queue: queue.Queue = queue.Queue(maxsize=size)
         self._stop = stop if stop is not None else StopRequest()
         self._closed = threading.Event()
-        self._thread = threading.Thread(
+        self._thread = NamedThread(
             target=self._fill, args=(source,), name="drs-bag-read-ahead", daemon=True
         )
         self._thread.start()
