@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from drs_model.fidelity import make_rung
+from drs_model.fidelity.faults import RunFaults
 from drs_model.fidelity.sensor_faults import SensorFaults, StrokeSensor
 from drs_model.identify.record import Record
 
@@ -32,20 +33,33 @@ def run_rung(
     dt: float = 1e-3,
     hydraulic=None,
     trajectory=None,
+    supply=(),
+    faults=(),
 ) -> np.ndarray:
     """Rows of :data:`COLUMNS` at every physics step of ``rung``: the flap opened and closed
     through ``command_drs`` at the steps of ``moves`` (or ``trajectory = (times, strokes,
-    rates)`` commanded at step 0)."""
+    rates)`` commanded at step 0); ``supply``: ``(step, pressure [Pa], ramp [s])``, the supply
+    pressure set then (``set_supply_pressure``); ``faults``: ``(step, name, value)``, a fault
+    applied then as the node applies its ``fault.*`` parameters
+    (:class:`~drs_model.fidelity.faults.RunFaults`)."""
     options = {"hydraulic": hydraulic} if rung == "hydraulic" else {}
     sim = make_rung(rung, p, dt, **options)
     if trajectory is not None:
         sim.command_trajectory(*trajectory)
-    return _sampled(sim, steps, {} if trajectory is not None else dict(moves), sim.command_drs)
+    actions: dict[int, list] = {}
+    for k, open_flap in () if trajectory is not None else moves:
+        actions.setdefault(k, []).append(lambda o=open_flap: sim.command_drs(o))
+    for k, pressure, ramp in supply:
+        actions.setdefault(k, []).append(lambda a=pressure, r=ramp: sim.set_supply_pressure(a, r))
+    run_faults = RunFaults(sim)
+    for k, name, value in faults:
+        actions.setdefault(k, []).append(lambda n=name, v=value: run_faults.apply(n, v))
+    return _sampled(sim, steps, actions)
 
 
-def _sampled(sim, steps: int, commands: dict, command) -> np.ndarray:
+def _sampled(sim, steps: int, actions: dict) -> np.ndarray:
     """Rows of :data:`COLUMNS` of ``sim`` at rest and after each of ``steps`` physics steps,
-    ``command(commands[k])`` given before step ``k``; a pressure the rung lacks is NaN."""
+    each of ``actions[k]`` called before step ``k``; a pressure the rung lacks is NaN."""
 
     def row():
         st = sim.state
@@ -63,8 +77,8 @@ def _sampled(sim, steps: int, commands: dict, command) -> np.ndarray:
 
     rows = [row()]
     for k in range(steps):
-        if k in commands:
-            command(commands[k])
+        for act in actions.get(k, ()):
+            act()
         sim.step()
         rows.append(row())
     return np.array(rows)
@@ -101,4 +115,5 @@ def force_run(
     steps of ``forces``: 1500 N drives the flap onto its open stop, 0 N lets the air load close
     it onto the closed one (inelastic stops: the rod rests on them, held by the stop)."""
     sim = make_rung("rigid", p, dt)
-    return _sampled(sim, steps, dict(forces), sim.command_force)
+    actions = {k: [lambda f=force: sim.command_force(f)] for k, force in forces}
+    return _sampled(sim, steps, actions)

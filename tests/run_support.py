@@ -40,7 +40,9 @@ class Command:
     """A command taking effect at the physics step ``step``: ``key`` ``"drs"`` (the service;
     ``value`` open or close), ``"stroke_cmd"``, ``"force_cmd"`` (a float) or
     ``"trajectory_cmd"`` (``value``: a FollowJointTrajectory goal's ``trajectory`` mapping, as
-    ``drs excite -o`` writes it and ``drs-bag from-goal`` reads it)."""
+    ``drs excite -o`` writes it and ``drs-bag from-goal`` reads it), or ``"fault"`` (``value``:
+    ``(name, value)`` of :data:`~drs_model.fidelity.faults.FAULTS`, set as the node sets its
+    ``fault.*`` parameters while it runs)."""
 
     step: int
     key: str
@@ -118,6 +120,11 @@ class _Writer:
         from std_msgs.msg import Float64
 
         tp = DEFAULT_TOPICS
+        if c.key == "fault":  # a fault parameter set while the node runs
+            name, value = c.value
+            self.faults.apply(name, value)
+            self.event(now, f"fault.{name}", ACCEPTED, {"value": repr(value)})
+            return
         if c.key == "drs":
             cmds.apply(self.sim, cmds.SERVICE_KEY, _Data(bool(c.value)), self.names[0])
             self.event(now, tp["drs_service"], ACCEPTED, {"value": repr(bool(c.value))})

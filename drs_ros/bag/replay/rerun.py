@@ -13,6 +13,7 @@ from drs_model.fidelity.faults import RunFaults
 from drs_model.params import DRSParams
 from drs_ros import commands
 from drs_ros.bag.read.effects import (
+    FAULT_PREFIX,
     apply_fault_record,
     is_fault_record,
 )
@@ -39,8 +40,11 @@ class Rerun:
     first as the node did; memory holds the last :data:`STATE_WINDOW` steps. ``notes`` says
     where the re-run differs from the run (a step or a command its model refuses)."""
 
-    def __init__(self, run: RecordedRun, sim, dt: float, replay_faults: bool = True):
-        self.run, self.sim, self.dt, self.replay_faults = run, sim, dt, replay_faults
+    def __init__(
+        self, run: RecordedRun, sim, dt: float, faults_left_out: frozenset[str] = frozenset()
+    ):
+        self.run, self.sim, self.dt = run, sim, dt
+        self.faults_left_out = faults_left_out
         self.piston = list(run.node_parameters["joint_names"])[0]
         self.faults = RunFaults(sim)  # the faults set at run time, and the stroke as published
         self.states: dict[int, tuple] = {}
@@ -104,7 +108,7 @@ class Rerun:
         self.keep()
 
     def _fault(self, r) -> None:
-        if not self.replay_faults:
+        if r.source.removeprefix(FAULT_PREFIX) in self.faults_left_out:
             return
         try:
             apply_fault_record(self.faults, r)
@@ -170,7 +174,7 @@ def resimulate(
     fidelity: str | None = None,
     *,
     rung_options: dict | None = None,
-    replay_faults: bool = True,
+    faults_left_out: frozenset[str] = frozenset(),
 ) -> dict:
     """The re-run of the recorded commands on the recorded rung (``rigid`` for a bag recorded
     before the ``fidelity`` parameter), or on ``fidelity``, step by step as
@@ -178,8 +182,9 @@ def resimulate(
     memory holds the last :data:`STATE_WINDOW` steps (a :class:`Rerun`). The rung takes the
     recorded ``force_limit``, ``integrator``, ``force_method`` and ``limit_moves`` (off for a
     bag without it); ``rung_options`` go to the rung over them (``hydraulic=`` its
-    HydraulicParams); without ``faults`` the recorded fault
-    records are not applied (a fit treats the actuator's faults as what it estimates).
+    HydraulicParams); the recorded faults named in ``faults_left_out`` (names of
+    :data:`~drs_model.fidelity.faults.FAULTS`) are not applied (a fit estimates what a leak or
+    a jam changed, and reads a sensor's faults as the record's noise).
 
     Returns a dict: ``sim`` (the rung), ``states`` (step -> state kept), ``dt`` [s],
     ``notes``, and the :class:`Rerun`'s ``advance_to``, ``state_at`` and ``finish``."""
@@ -195,7 +200,7 @@ def resimulate(
         **(rung_options or {}),
     }
     sim = make_rung(fidelity or run.rung(), model, dt, **options)
-    rerun = Rerun(run, sim, dt, replay_faults)
+    rerun = Rerun(run, sim, dt, faults_left_out)
     if np_["force_method"] == "virtual-work":
         rerun.notes.append(VIRTUAL_WORK_NOTE)
     return {
