@@ -238,3 +238,37 @@ def test_the_quintics_own_error_is_estimated_by_the_septic(rate_recorded):
 
     assert rms(record.acceleration_error()) == pytest.approx(rms(true), rel=0.01)
     assert rms(record.derivative_error()) > 100.0 * rms(true)
+
+
+def test_a_rod_balance_on_the_mechanisms_need_leaves_the_stops_out(params):
+    """A JointState-and-pressures run whose supply was lost (the air load closes the flap onto
+    its stop, the hydraulic rung's stop compliant): the rod balance on the mechanism's need
+    keeps no sample within STOP_BAND of a stop (there the stop's force is in no signal; taken
+    as friction it made the breakaway 41 kN), the Coulomb friction holds its truth, and the
+    breakaway, which no slow motion determines, is withheld saying why."""
+    import sys
+    from pathlib import Path
+
+    from drs_model.identify import friction
+    from drs_model.identify.record import STOP_BAND
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import interval_coverage as coverage  # noqa: PLC0415
+
+    table = coverage.hydraulic_table("faults", params)
+    record = noisy_record(
+        table, 1e-5, 2, stops_hold=True, stroke_acceleration=True, **coverage.FOREIGN_DROPPED
+    )
+    h = hydraulic_constants(HydraulicParams(), params)
+    mask, _, _ = friction.rod_balance(record, params, HydraulicParams())
+    kept = record.stroke[mask]
+    assert np.all((kept > h[hk.S_MIN] + STOP_BAND) & (kept < h[hk.S_MAX] - STOP_BAND))
+    on_stop = (record.stroke <= h[hk.S_MIN] + STOP_BAND) | (
+        record.stroke >= h[hk.S_MAX] - STOP_BAND
+    )
+    assert on_stop.sum() >= 10  # the run does rest on its stops
+    names = ["coulomb_friction", "breakaway_friction"]
+    stage = friction_stage(record, names, params, HydraulicParams(), 0.95)
+    coulomb, breakaway = stage.estimates
+    assert coulomb.contains(coverage.HYDRAULIC_TRUTH["coulomb_friction"]), coulomb
+    assert not breakaway.determined and "start and stop the rod slowly" in breakaway.reason

@@ -35,7 +35,7 @@ from .identifiability import Identifiability, assess, too_wide, wide_reason
 from .intervals import bounded_interval, profile_interval, quantile, wald_interval
 from .least_squares import checked_covariance, errors_in_variables, weighted_least_squares
 from .parameters import RIGID_PARAMETERS, current_value, fit_parameter
-from .record import Record
+from .record import STOP_BAND, Record
 from .regressor import rigid_regressor, rigid_values, rigid_weights
 from .results import Estimate, FittedSignal, StageFit
 
@@ -229,10 +229,6 @@ def derivation_notes(record: Record) -> tuple[str, ...]:
     return tuple(f"{name} not recorded: {how}" for name, how in record.derived(5).items())
 
 
-#: Samples measured within this distance [m] of a stop are left out of the hydraulic rung's
-#: rigid regression: a rod on a compliant stop sits micrometres past it, and the stroke sensor's
-#: noise moves it about (the stop's force is in no recorded signal).
-STOP_BAND = 1e-4
 #: Step [m] of the regressor's stroke derivative in the noise correction.
 _DERIVATIVE_STEP = 1e-8
 #: Why the rigid regression gives no value where its residual is more than the stroke noise

@@ -31,7 +31,7 @@ from ..fidelity import hydraulic_kernels as hk
 from ..fidelity.hydraulic import hydraulic_constants
 from ..fidelity.hydraulic_params import HydraulicParams
 from ..params import DRSParams
-from .record import Record
+from .record import STOP_BAND, Record
 from .regressor import rigid_regressor, rigid_values
 
 #: The HydraulicParams fields of the friction law a rod balance determines.
@@ -79,7 +79,11 @@ def rod_balance(record: Record, p: DRSParams, hp: HydraulicParams) -> tuple[np.n
         mask = np.ones(len(record), dtype=bool)
     else:  # the mechanism's need, off the stops and where its derived acceleration holds
         force = rigid_regressor(record.stroke, sd, sdd, p) @ rigid_values(p)
-        mask = (record.stroke > h[hk.S_MIN]) & (record.stroke < h[hk.S_MAX])
+        # a rod measured within the band of a stop may rest on it: the stop's force is not in
+        # the mechanism's need (taken as friction, a flap closed onto its stop by the air load
+        # made the breakaway 41 kN)
+        free = (h[hk.S_MIN] + STOP_BAND, h[hk.S_MAX] - STOP_BAND)
+        mask = (record.stroke > free[0]) & (record.stroke < free[1])
         mask &= np.isfinite(force)
         window, kink = record.derivative_exclusions(mask)
         mask &= ~(window | kink)

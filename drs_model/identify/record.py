@@ -49,6 +49,11 @@ SIGNALS = {
     "spool": "1",
 }
 
+#: Samples measured within this distance [m] of a stop are taken as on it, where a regression
+#: reads a force the stop's is not in (the rigid regression on the hydraulic rung or where a
+#: stop may have held the rod, the rod balance on the mechanism's need): a rod on a compliant
+#: stop sits micrometres past it, and the stroke sensor's noise moves it about.
+STOP_BAND = 1e-4
 #: Savitzky-Golay window [samples] of the derivatives of a stroke with no recorded rates.
 DERIVATIVE_WINDOW = 7
 #: Savitzky-Golay window [samples] of the septic that checks the quintic's derivatives.
@@ -217,4 +222,4 @@ class Record:
         return Record(**out)
 
 
-__all__ = ["DERIVATIVE_WINDOW", "KINK_SCALES", "SIGNALS", "Record"]
+__all__ = ["CHECK_WINDOW", "DERIVATIVE_WINDOW", "KINK_SCALES", "SIGNALS", "STOP_BAND", "Record"]
