@@ -80,7 +80,14 @@ def test_bad_shapes_are_refused():
         (2.0, 2.5, 1.0, True),
         (0.0, 5e-14, 1e-13, False),
         (0.0, 2e-13, 1e-13, True),
+        (9e20, 5e20, 60.0, True),  # within itself, but 1e19 times its typical size wide
+        (5e4, 5.9e4, 60.0, True),
+        (5e4, 5e4, 60.0, True),
+        (5e4, 5.9e3, 60.0, False),  # a value far from its default, known to 12 %
     ],
 )
 def test_an_interval_wider_than_the_value_is_no_determination(value, half, scale, wide):
+    """Wider than the value itself, or than a thousand typical sizes: a column of near-zeros
+    (no slow motion for the breakaway friction) gives a huge value with a huge interval that
+    is "within itself" and says nothing."""
     assert too_wide(value, half, scale) is wide

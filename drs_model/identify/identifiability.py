@@ -165,22 +165,29 @@ def wide_reason(
     trade = f"; it trades off with {', '.join(partners)}" if partners else ""
     return (
         f"its {100 * level:g} % interval [{interval[0]:.4g}, {interval[1]:.4g}] {unit} is "
-        f"wider than its size: the data do not determine it{trade}; to determine it: "
-        f"{motion}"
+        f"wider than its size (or a thousand times its typical size): the data do not "
+        f"determine it{trade}; to determine it: {motion}"
     )
+
+
+#: Typical sizes an interval's half-width may reach before it says nothing of the parameter,
+#: however large the estimate (a column of near-zeros gave a breakaway friction of 9e20 N
+#: +- 5e20 from a bag without slow motion, its truth 90 N).
+WIDTH_IN_SCALES = 1e3
 
 
 def too_wide(estimate: float, half_width: float, scale: float) -> bool:
     """Whether an interval of ``half_width`` says the data do not determine a parameter of
     ``estimate`` and typical size ``scale``: wider than ``max(|estimate|, scale)`` (the value
-    is not even known to within itself)."""
-    return not half_width < max(abs(estimate), scale)
+    is not even known to within itself), or than :data:`WIDTH_IN_SCALES` typical sizes."""
+    return not half_width < min(max(abs(estimate), scale), WIDTH_IN_SCALES * scale)
 
 
 __all__ = [
     "GROUP_COMPONENT",
     "PAIR_CORRELATION",
     "RANK_RTOL",
+    "WIDTH_IN_SCALES",
     "Identifiability",
     "assess",
     "too_wide",
