@@ -152,49 +152,122 @@ HYDRAULIC_TRUTH = {"leak_to_outside": 2e-13, "coulomb_friction": 70.0, "breakawa
 FOREIGN_DROPPED = {"piston_force": True, "spool": True, "supply_pressure": True}
 
 
-def hydraulic_cells(runs: int, p: DRSParams) -> list[dict]:
-    """The hydraulic rung's equation-stage cells, one per record and parameter."""
-    truth = HydraulicParams(**HYDRAULIC_TRUTH)
-    table = run_rung(
-        "hydraulic", p, moves=((0, True), (120, False)), steps=240, dt=5e-4, hydraulic=truth
+#: The hydraulic scenes (2 kHz physics, 240 steps), each with its table's options of
+#: ``run_rung`` on top of the flap opened and closed: ``open-close`` with the truth as the
+#: actuator's parameters; ``supply-step`` the same with the supply stepped from 21 to 12 MPa
+#: over 2.5 ms 20 ms into the hold and back 25 ms later; ``faults`` a healthy actuator given a
+#: leak and a jam as the node's ``fault.*`` parameters at the start (the same run to the bit),
+#: whose supply is lost 20 ms into the hold (the servo commanded closed, the air load closes
+#: the flap) and back 30 ms later, the flap opened again and closed.
+HYDRAULIC_SCENES = {
+    "open-close": {"moves": ((0, True), (120, False)), "truth_as": "params"},
+    "supply-step": {
+        "moves": ((0, True), (120, False)),
+        "supply": ((40, 12e6, 0.0025), (90, 21e6, 0.0025)),
+        "truth_as": "params",
+    },
+    "faults": {
+        "moves": ((0, True), (150, True), (200, False)),
+        "faults": (
+            (40, "supply_loss_ramp_s", 0.0025),
+            (40, "supply_loss", True),
+            (100, "supply_loss", False),
+        ),
+        "truth_as": "faults",
+    },
+}
+#: The faults that give the truth on a healthy actuator (``truth_as: faults``), at the start.
+TRUTH_FAULTS = (
+    (0, "leak_m3_per_s_per_pa", HYDRAULIC_TRUTH["leak_to_outside"]),
+    (0, "jam_friction_n", HYDRAULIC_TRUTH["coulomb_friction"] - 40.0),
+)
+#: The faults a fit's re-run leaves out (``drs_ros.bag.season.fit_rerun.FAULTS_LEFT_OUT``).
+FIT_LEAVES_OUT = ("leak_m3_per_s_per_pa", "jam_friction_n")
+
+
+def hydraulic_table(scene: str, p: DRSParams, values: dict | None = None) -> np.ndarray:
+    """The run of hydraulic ``scene``: the truth (``values`` None), or a fit's re-run with the
+    trial ``values`` on HydraulicParams' defaults (the faults it estimates left out)."""
+    s = HYDRAULIC_SCENES[scene]
+    faults = tuple(s.get("faults", ()))
+    if values is None and s["truth_as"] == "faults":
+        q, hp, faults = p, HydraulicParams(), TRUTH_FAULTS + faults
+    elif values is None:
+        q, hp = p, HydraulicParams(**HYDRAULIC_TRUTH)
+    else:
+        q, hp = with_values(values, p, HydraulicParams())
+        faults = tuple(f for f in faults if f[1] not in FIT_LEAVES_OUT)
+    return run_rung(
+        "hydraulic",
+        q,
+        moves=s["moves"],
+        steps=240,
+        dt=5e-4,
+        hydraulic=hp,
+        supply=s.get("supply", ()),
+        faults=faults,
     )
+
+
+def hydraulic_simulator(scene: str, p: DRSParams):
+    def simulate(values):
+        t = hydraulic_table(scene, p, values)
+        return {
+            "stroke": t[:, 1],
+            "piston_force": t[:, 4],
+            "pressure_a": t[:, 5],
+            "pressure_b": t[:, 6],
+        }
+
+    return simulate
+
+
+def hydraulic_cells(
+    runs: int, p: DRSParams, output_runs: int = 0, scenes=("open-close",)
+) -> list[dict]:
+    """The hydraulic rung's cells, one per scene, record, stage and parameter: the equation
+    stage with ``runs`` seeds per noisy cell, the output error and both with ``output_runs``
+    (none: 0)."""
     cells = []
-    for record in RECORDS:
-        n = 1 if record == "node" else runs
-        drop = FOREIGN_DROPPED if record == "foreign" else {}
-        rows = {name: [] for name in HYDRAULIC_TRUTH}
-        started = time.perf_counter()
-        for seed in range(n):
-            rec = noisy_record(
-                table,
-                0.0 if record == "node" else NOISE,
-                seed,
-                stops_hold=record == "foreign",
-                stroke_acceleration=True,
-                **drop,
-            )
-            for name, row in _hydraulic_run(rec, p).items():
-                rows[name].append(row)
-        for name, runs_of in rows.items():
-            cells.append(
-                _summary(
-                    f"hydraulic:{name}", record, "equation", runs_of, HYDRAULIC_TRUTH[name], started
-                )
-            )
+    for scene in scenes:
+        table = hydraulic_table(scene, p)
+        for record in RECORDS:
+            stages = ("equation",) if record == "foreign" or not output_runs else STAGES
+            for stage in stages:
+                n = 1 if record == "node" else (runs if stage == "equation" else output_runs)
+                cells += _hydraulic_cell(table, scene, record, stage, n, p)
     return cells
 
 
-def _hydraulic_run(rec, p) -> dict:
+def _hydraulic_cell(table, scene, record, stage, n, p) -> list[dict]:
+    drop = FOREIGN_DROPPED if record == "foreign" else {}
+    simulate = None if stage == "equation" else hydraulic_simulator(scene, p)
+    rows = {name: [] for name in HYDRAULIC_TRUTH}
+    started = time.perf_counter()
+    for seed in range(n):
+        noise = 0.0 if record == "node" else NOISE
+        held = record == "foreign"
+        rec = noisy_record(table, noise, seed, stops_hold=held, stroke_acceleration=True, **drop)
+        for name, row in _hydraulic_run(rec, p, stage, simulate).items():
+            rows[name].append(row)
+    return [
+        _summary(f"{scene}:{name}", record, stage, runs_of, HYDRAULIC_TRUTH[name], started)
+        for name, runs_of in rows.items()
+    ]
+
+
+def _hydraulic_run(rec, p, stage="equation", simulate=None) -> dict:
     """Each parameter's run: all three fitted together; where the record cannot give the leak
     (the continuity equations need the spool), the friction pair alone, the leak's refusal
     counted as its run with no value (the continuity equations also need the supply)."""
     names, refused = list(HYDRAULIC_TRUTH), {}
+    hp = HydraulicParams()
     try:
-        result = fit(rec, names, "hydraulic", p, HydraulicParams(), stage="equation")
+        result = fit(rec, names, "hydraulic", p, hp, simulate=simulate, stage=stage)
     except Exception as exc:  # noqa: BLE001 - a refusal is a run with no value, counted
         refused["leak_to_outside"] = (math.nan,) * 4 + (False, f"{type(exc).__name__}: {exc}")
         names.remove("leak_to_outside")
-        result = fit(rec, names, "hydraulic", p, HydraulicParams(), stage="equation")
+        result = fit(rec, names, "hydraulic", p, hp, simulate=simulate, stage=stage)
     bad = bool(result.inconsistent)
     rows = {
         n: (
@@ -248,7 +321,19 @@ def main(argv=None) -> int:
         type=int,
         default=0,
         metavar="RUNS",
-        help="add the hydraulic rung's cells with RUNS seeds per noisy cell",
+        help="add the hydraulic rung's cells with RUNS seeds per noisy equation cell",
+    )
+    ap.add_argument(
+        "--hydraulic-output",
+        type=int,
+        default=0,
+        metavar="RUNS",
+        help="and its output-error and both-stage cells with RUNS seeds per noisy cell",
+    )
+    ap.add_argument(
+        "--hydraulic-scenes",
+        default=",".join(HYDRAULIC_SCENES),
+        help=f"the hydraulic scenes, of {','.join(HYDRAULIC_SCENES)}",
     )
     args = ap.parse_args(argv)
     wanted = [tuple(c.split(":")) for c in args.cells.split(",") if c]
@@ -268,7 +353,13 @@ def main(argv=None) -> int:
         cells.append(cell(scene, record, stage, runs, p))
         print(table_md(cells[-1:]).splitlines()[-1], flush=True)
     if args.hydraulic:
-        cells += hydraulic_cells(args.hydraulic, p)
+        scenes = [x for x in args.hydraulic_scenes.split(",") if x]
+        unknown = sorted(set(scenes) - set(HYDRAULIC_SCENES))
+        if unknown:
+            ap.error(f"unknown hydraulic scenes {unknown}: the scenes are {list(HYDRAULIC_SCENES)}")
+        hydraulic = hydraulic_cells(args.hydraulic, p, args.hydraulic_output, scenes)
+        print(table_md(hydraulic), flush=True)
+        cells += hydraulic
     print(table_md(cells))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -75,7 +75,7 @@ def test_both_stages_together_never_give_a_zero_width(params):
 def hydraulic_cells(params):
     """The hydraulic rung's equation-error cells at 20 seeds."""
     return {
-        (c["scene"].removeprefix("hydraulic:"), c["record"]): c
+        (c["scene"].removeprefix("open-close:"), c["record"]): c
         for c in coverage.hydraulic_cells(20, params)
     }
 
