@@ -26,12 +26,16 @@ verdict. The target: 90-98 % coverage.
 Usage: ``python benchmarks/interval_coverage.py [--runs 100] [--output-runs 30]
 [--cells stroke:node+noise:equation,...] [--json benchmarks/results/interval_coverage.json]``
 
-``--hydraulic RUNS`` adds the hydraulic rung's cells (equation stage only): the flap opened
-and closed at 2 kHz with a leak to the outside of 2e-13 m^3/(s Pa), a Coulomb friction of
-70 N and a breakaway of 90 N (HydraulicParams' defaults otherwise), the three fitted
-together from HydraulicParams' defaults on the records ``node``, ``node+noise`` and ``foreign``
-(JointState and FluidPressure only: the stroke with 10 um of noise, its rate, the chamber
-pressures; no spool, force or supply). The supply-step and fault scenes are not in it.
+``--hydraulic RUNS`` adds the hydraulic rung's cells (2 kHz, ``leak_to_outside``,
+``coulomb_friction`` and ``breakaway_friction`` fitted together from HydraulicParams' defaults,
+the truth a leak to the outside of 2e-13 m^3/(s Pa), Coulomb 70 N, breakaway 90 N), by scene
+(:data:`HYDRAULIC_SCENES`: the flap opened and closed; the same with a supply step; a healthy
+actuator given the leak and a jam as fault parameters, whose supply is lost and back) and
+record (``foreign``: JointState and FluidPressure only: the stroke with 10 um of noise, its
+rate, the chamber pressures; no spool, force or supply): the equation stage with RUNS seeds
+per noisy cell, and with ``--hydraulic-output RUNS`` the output error and both stages (the
+output error re-running the scene as ``drs-bag fit`` does: the faults it estimates left out,
+the supply's loss replayed). ``--hydraulic-scenes`` picks scenes.
 """
 
 from __future__ import annotations
