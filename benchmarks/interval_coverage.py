@@ -53,7 +53,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from identify_support import force_run, noisy_record, run_rung  # noqa: E402
+from identify_support import (  # noqa: E402
+    force_run,
+    hydraulic_signals,
+    noisy_record,
+    run_rung,
+)
 
 from drs_model.fidelity import HydraulicParams  # noqa: E402
 from drs_model.identify.driver import fit  # noqa: E402
@@ -215,13 +220,7 @@ def hydraulic_table(scene: str, p: DRSParams, values: dict | None = None) -> np.
 
 def hydraulic_simulator(scene: str, p: DRSParams):
     def simulate(values):
-        t = hydraulic_table(scene, p, values)
-        return {
-            "stroke": t[:, 1],
-            "piston_force": t[:, 4],
-            "pressure_a": t[:, 5],
-            "pressure_b": t[:, 6],
-        }
+        return hydraulic_signals(hydraulic_table(scene, p, values))
 
     return simulate
 

@@ -84,6 +84,12 @@ def _sampled(sim, steps: int, actions: dict) -> np.ndarray:
     return np.array(rows)
 
 
+def hydraulic_signals(table: np.ndarray) -> dict:
+    """The signals the hydraulic rung's output error compares, of a :func:`run_rung` table."""
+    cols = dict(zip(COLUMNS, table.T, strict=True))
+    return {k: cols[k] for k in ("stroke", "piston_force", "pressure_a", "pressure_b")}
+
+
 def noisy_record(
     table: np.ndarray, noise: float = 0.0, seed: int = 0, stops_hold: bool = False, **drop
 ) -> Record:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from identify_support import noisy_record, run_rung
+from identify_support import hydraulic_signals, noisy_record, run_rung
 
 from drs_model.errors import InputError, ParameterError
 from drs_model.fidelity import HydraulicParams
@@ -36,13 +36,7 @@ def worn(params):
 def _simulate(params):
     def simulate(values):
         p, hp = with_values(values, params, HydraulicParams())
-        table = run_rung("hydraulic", p, moves=MOVES, steps=120, hydraulic=hp)
-        return {
-            "stroke": table[:, 1],
-            "piston_force": table[:, 4],
-            "pressure_a": table[:, 5],
-            "pressure_b": table[:, 6],
-        }
+        return hydraulic_signals(run_rung("hydraulic", p, moves=MOVES, steps=120, hydraulic=hp))
 
     return simulate
 
