@@ -101,18 +101,22 @@ def _sensitivity(problem: OutputErrorProblem, noise: dict) -> np.ndarray:
     return J
 
 
+def _not_determined(name: str, p, hp, ident) -> Estimate:
+    """The output stage's estimate of a parameter its identifiability left out, and why."""
+    fp = fit_parameter(name, p, hp)
+    reason = f"{ident.undetermined.get(name, 'not determined')}; to determine it: {fp.motion}"
+    return Estimate.withheld(name, fp.unit, current_value(name, p, hp), "output", reason)
+
+
 def _output_estimates(problem, fit, names, p, hp, level, ident) -> list[Estimate]:
-    q = iv.quantile(level, fit.dof) if fit is not None else math.nan
+    q = iv.quantile(level, fit.dof)
     out = []
     kept = list(problem.names)
     for name in names:
         fp = fit_parameter(name, p, hp)
         start = current_value(name, p, hp)
         if name not in kept:
-            reason = (
-                f"{ident.undetermined.get(name, 'not determined')}; to determine it: {fp.motion}"
-            )
-            out.append(Estimate.withheld(name, fp.unit, start, "output", reason))
+            out.append(_not_determined(name, p, hp, ident))
             continue
         i = kept.index(name)
         value, std = float(fit.estimate[i]), math.sqrt(fit.covariance[i, i])
@@ -176,7 +180,7 @@ def output_stage(
     keep = [i for i, n in enumerate(names) if n in ident.determined]
     held = {n: starts[n] for n in names if n not in ident.determined}
     if not keep:  # nothing the recorded signals depend on: each withheld, saying why
-        return _nothing_determined(names, p, hp, level, ident, measured, started)
+        return _nothing_determined(names, p, hp, ident, measured, started)
 
     def simulate_kept(values: dict) -> dict:
         return simulate({**held, **values})
@@ -226,19 +230,11 @@ def _noise_source(signal: str, given: dict, exact: tuple[str, ...]) -> str:
     return "noise-free" if signal in exact else "from the record"
 
 
-def _nothing_determined(names, p, hp, level, ident, measured, started) -> StageFit:
+def _nothing_determined(names, p, hp, ident, measured, started) -> StageFit:
     """The output stage of a run whose recorded signals depend on none of ``names`` (the
     rigid rung follows stroke commands exactly: its stroke holds no mass): no fit, each
     parameter withheld with the identifiability's reason."""
-    est = _output_estimates(
-        OutputErrorProblem((), *([np.empty(0)] * 4), None, measured),
-        None,
-        names,
-        p,
-        hp,
-        level,
-        ident,
-    )
+    est = [_not_determined(name, p, hp, ident) for name in names]
     note = f"no fit: the signals {sorted(measured)} depend on none of {list(names)}"
     return StageFit(
         "output",
