@@ -26,11 +26,11 @@ FIFO_PRIORITY_RANGE = (1, 98)
 #: Under SCHED_FIFO the tick thread rests, after each tick, at least this many times the CPU
 #: time that tick took before it starts the next one, even when the next deadline has passed:
 #: its share of a core stays <= 1 / (1 + this) = 1/2 however long its ticks grow. Why: a FIFO
-#: thread that does not sleep is preempted by nothing of ordinary priority; ticks that overran
-#: their period (commands planned in the tick under load) ran back to back, three nodes' tick
-#: threads held both cores but the kernel's 5 % (``sched_rt_runtime_us``), and a stopped node,
-#: back under SCHED_OTHER for its shutdown, once took over 60 s to finish its recordings. A tick
-#: shorter than the time to its deadline never waits for this rest: the deadlines are unchanged.
+#: thread that does not sleep yields to nothing of ordinary priority. Ticks that overran their
+#: period ran back to back: three nodes at 1 kHz with 20 hydraulic steps a tick held both cores
+#: (88-99 % a tick thread) and left every ordinary thread (the nodes' executors, a stopped node's
+#: shutdown, other processes) the kernel's real-time remainder, 5 % (``sched_rt_runtime_us``).
+#: A tick shorter than the time to its deadline never waits for this rest: its deadlines stay.
 FIFO_REST_PER_TICK_CPU = 1.0
 
 #: Upper edges [us] of the lateness bins: 1 us wide up to 100 us, then 10 us to 1 ms, then
