@@ -28,7 +28,7 @@ FIFO_PRIORITY_RANGE = (1, 98)
 #: its share of a core stays <= 1 / (1 + this) = 1/2 however long its ticks grow. Why: a FIFO
 #: thread that does not sleep yields to nothing of ordinary priority. Ticks that overran their
 #: period ran back to back: three nodes at 1 kHz with 20 hydraulic steps a tick held both cores
-#: (88-99 % a tick thread) and left every ordinary thread (the nodes' executors, a stopped node's
+#: (51-99 % a tick thread) and left every ordinary thread (the nodes' executors, a stopped node's
 #: shutdown, other processes) the kernel's real-time remainder, 5 % (``sched_rt_runtime_us``).
 #: A tick shorter than the time to its deadline never waits for this rest: its deadlines stay.
 FIFO_REST_PER_TICK_CPU = 1.0
