@@ -10,6 +10,7 @@ import gc
 import os
 import sys
 import threading
+import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -33,17 +34,11 @@ from ..errors import DRSRosError
 from ..recording.cdr_received import without_source_location
 from ..stop_request import StopRequest
 from ..threads import NamedThread
-from ..timestamps import ns_from_seconds
+from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
 from .parameters import usage_text
-from .tick_schedule import (
-    TickPolicy,
-    apply_tick_policy,
-    leave_tick_policy,
-    rest_per_tick_cpu,
-    tick_at_deadlines,
-)
+from .tick_schedule import TickPolicy, apply_tick_policy, leave_tick_policy
 
 RCLError = _rclpy.RCLError
 
@@ -128,8 +123,7 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     in this thread, everything else in a SingleThreadedExecutor in a second thread, which is
     joined before this returns. A late tick is counted by the node; the deadlines then resume
     from now, so a stall does not cause a burst of catch-up ticks (the simulation catches up
-    within one tick). Under SCHED_FIFO a tick that overran rests before the next one (
-    :func:`~.tick_schedule.tick_at_deadlines`): the tick thread takes at most half a core.
+    within one tick).
 
     Why: one rclpy timer at 250 Hz in a SingleThreadedExecutor rebuilds its wait set at every
     wake-up, which cost more than the physics, the publishing and the recording together
@@ -151,20 +145,24 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
         node.get_parameter("tick_scheduling").value, node.get_parameter("tick_fifo_priority").value
     )
     report_tick_policy(node, policy)
-
-    def tick() -> None:
-        with tick_gate:
-            node.tick()
-
+    lateness = node.effects.lateness
+    period_ns = ns_from_seconds(node.publish_period)
+    deadline = time.monotonic_ns()
     try:
-        tick_at_deadlines(
-            tick,
-            ns_from_seconds(node.publish_period),
-            node.effects.lateness,
-            lambda: stop.requested or not context.ok(),
-            rest_per_tick_cpu(policy),
-            STOP_POLL_S,
-        )
+        while not stop.requested and context.ok():
+            deadline += period_ns
+            wait = deadline - time.monotonic_ns()
+            while wait > 0 and not stop.requested:  # a long period still sees a stop soon
+                time.sleep(min(seconds_from_ns(wait), STOP_POLL_S))
+                wait = deadline - time.monotonic_ns()
+            if stop.requested or not context.ok():
+                break
+            lateness.add(-wait)
+            if wait < -period_ns:  # late by more than a period: the deadlines between are skipped
+                lateness.skipped += -wait // period_ns
+                deadline = time.monotonic_ns()  # resume from now
+            with tick_gate:
+                node.tick()
     finally:
         leave_tick_policy(policy)  # the loop is real-time; the shutdown is not
         stop()  # the executor thread ends too, whatever ended this loop

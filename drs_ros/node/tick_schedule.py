@@ -11,8 +11,6 @@ node runs as before and says why.
 from __future__ import annotations
 
 import os
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 
 #: The ``tick_scheduling`` choices: ``fifo`` asks for SCHED_FIFO (the ordinary policy when the
@@ -22,16 +20,6 @@ TICK_SCHEDULING = ("fifo", "other")
 #: The ``tick_fifo_priority`` range (Linux's SCHED_FIFO priorities are 1..99; 99 is left to
 #: the kernel's own threads).
 FIFO_PRIORITY_RANGE = (1, 98)
-
-#: Under SCHED_FIFO the tick thread rests, after each tick, at least this many times the CPU
-#: time that tick took before it starts the next one, even when the next deadline has passed:
-#: its share of a core stays <= 1 / (1 + this) = 1/2 however long its ticks grow. Why: a FIFO
-#: thread that does not sleep yields to nothing of ordinary priority. Ticks that overran their
-#: period ran back to back: three nodes at 1 kHz with 20 hydraulic steps a tick held both cores
-#: (51-99 % a tick thread) and left every ordinary thread (the nodes' executors, a stopped node's
-#: shutdown, other processes) the kernel's real-time remainder, 5 % (``sched_rt_runtime_us``).
-#: A tick shorter than the time to its deadline never waits for this rest: its deadlines stay.
-FIFO_REST_PER_TICK_CPU = 1.0
 
 #: Upper edges [us] of the lateness bins: 1 us wide up to 100 us, then 10 us to 1 ms, then
 #: 100 us to 10 ms, then 10 ms to 1 s; a lateness beyond lands in one more bin, reported as the
@@ -95,48 +83,6 @@ def leave_tick_policy(policy: TickPolicy) -> None:
         os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
 
-def rest_per_tick_cpu(policy: TickPolicy) -> float:
-    """The rest after a tick, in units of the tick's own CPU time: :data:`FIFO_REST_PER_TICK_CPU`
-    under SCHED_FIFO; 0 under SCHED_OTHER, where the kernel shares the core anyway."""
-    return FIFO_REST_PER_TICK_CPU if policy.name == "SCHED_FIFO" else 0.0
-
-
-def tick_at_deadlines(
-    tick: Callable[[], None],
-    period_ns: int,
-    lateness: LatenessHistogram,
-    should_stop: Callable[[], bool],
-    rest_per_cpu: float = 0.0,
-    poll_s: float = 0.05,
-) -> None:
-    """Call ``tick`` at absolute deadlines ``period_ns`` apart (steady clock) in the calling
-    thread until ``should_stop()``, which is read at least every ``poll_s`` [s] of a wait and
-    before each tick. Each tick's lateness goes to ``lateness``; a tick late by more than a
-    period skips the deadlines between (counted) and the deadlines resume from now. After each
-    tick the thread sleeps at least ``rest_per_cpu`` times the CPU time [s] the tick took
-    (:func:`rest_per_tick_cpu`), so its share of a core is <= 1 / (1 + ``rest_per_cpu``)."""
-    deadline = time.monotonic_ns()
-    rested_at = deadline  # the earliest the next tick may start [ns, steady clock]
-    while not should_stop():
-        deadline += period_ns
-        wake = max(deadline, rested_at)
-        now = time.monotonic_ns()
-        while now < wake and not should_stop():  # a long period still sees a stop soon
-            time.sleep(min((wake - now) / 1e9, poll_s))
-            now = time.monotonic_ns()
-        if should_stop():
-            break
-        late = now - deadline
-        lateness.add(late)
-        if late > period_ns:  # late by more than a period: the deadlines between are skipped
-            lateness.skipped += late // period_ns
-            deadline = now  # resume from now
-        cpu = time.thread_time_ns()
-        tick()
-        cpu = time.thread_time_ns() - cpu
-        rested_at = time.monotonic_ns() + int(rest_per_cpu * cpu)
-
-
 class LatenessHistogram:
     """Lateness [ns] of each tick against its absolute deadline, in fixed bins (
     :data:`_EDGES_US`): adding one costs a bisection and an increment, nothing is allocated per
@@ -190,11 +136,8 @@ class LatenessHistogram:
 __all__ = [
     "FIFO_PRIORITY_RANGE",
     "TICK_SCHEDULING",
-    "FIFO_REST_PER_TICK_CPU",
     "LatenessHistogram",
     "TickPolicy",
     "apply_tick_policy",
     "leave_tick_policy",
-    "rest_per_tick_cpu",
-    "tick_at_deadlines",
 ]
