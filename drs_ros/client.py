@@ -21,6 +21,9 @@ class ClientError(DRSRosError, RuntimeError):
     """The node did not answer, or did not appear, within the client's timeout."""
 
 
+#: How long [s] :meth:`DRSClient.call_drs` waits for an answer before it sends the call again.
+RESEND_S = 2.0
+
 #: What a client can listen to: the node's joint states, its gap and the diagnostics.
 LISTENS = ("joint_states", "flap_gap", "diagnostics")
 
@@ -160,9 +163,19 @@ class DRSClient:
         return self._service.call_async(self._set_bool.Request(data=value))
 
     def call_drs(self, value: bool) -> str:
-        """``~/drs`` with ``value`` (true opens); the answer in words."""
+        """``~/drs`` with ``value`` (true opens); the answer in words. A call unanswered for
+        :data:`RESEND_S` is sent again (its first future dropped), until the client's timeout:
+        a node that received the request before it had discovered this client's reply reader
+        answers into the void (a ROS 2 service is two topics discovered apart; rcl#1048), and
+        the client would wait for nothing (one fresh-clone suite run in five, the first call
+        after a node started). Opening or closing twice is the same request."""
+        end = time.monotonic() + self.timeout
         fut = self.request_drs(value)
-        self._until(fut.done, "the ~/drs service did not answer")
+        while not self.wait_for(fut.done, min(RESEND_S, max(end - time.monotonic(), 0.0))):
+            if time.monotonic() >= end:
+                raise ClientError(f"the ~/drs service did not answer within {self.timeout:g} s")
+            self._service.remove_pending_request(fut)
+            fut = self.request_drs(value)
         res = fut.result()
         return f"{'ok' if res.success else 'refused'}: {res.message}"
 
