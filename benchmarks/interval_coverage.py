@@ -64,6 +64,7 @@ from drs_model.fidelity import HydraulicParams  # noqa: E402
 from drs_model.identify.driver import fit  # noqa: E402
 from drs_model.identify.parameters import with_values  # noqa: E402
 from drs_model.params import DRSParams  # noqa: E402
+from drs_ros.bag.season.fit_rerun import FAULTS_LEFT_OUT  # noqa: E402
 
 SCENES = ("stroke", "force", "trajectory")
 RECORDS = ("node", "node+noise", "foreign")
@@ -188,10 +189,8 @@ HYDRAULIC_SCENES = {
 #: The faults that give the truth on a healthy actuator (``truth_as: faults``), at the start.
 TRUTH_FAULTS = (
     (0, "leak_m3_per_s_per_pa", HYDRAULIC_TRUTH["leak_to_outside"]),
-    (0, "jam_friction_n", HYDRAULIC_TRUTH["coulomb_friction"] - 40.0),
+    (0, "jam_friction_n", HYDRAULIC_TRUTH["coulomb_friction"] - HydraulicParams().coulomb_friction),
 )
-#: The faults a fit's re-run leaves out (``drs_ros.bag.season.fit_rerun.FAULTS_LEFT_OUT``).
-FIT_LEAVES_OUT = ("leak_m3_per_s_per_pa", "jam_friction_n")
 
 
 def hydraulic_table(scene: str, p: DRSParams, values: dict | None = None) -> np.ndarray:
@@ -205,7 +204,7 @@ def hydraulic_table(scene: str, p: DRSParams, values: dict | None = None) -> np.
         q, hp = p, HydraulicParams(**HYDRAULIC_TRUTH)
     else:
         q, hp = with_values(values, p, HydraulicParams())
-        faults = tuple(f for f in faults if f[1] not in FIT_LEAVES_OUT)
+        faults = tuple(f for f in faults if f[1] not in FAULTS_LEFT_OUT)
     return run_rung(
         "hydraulic",
         q,
