@@ -174,27 +174,44 @@ def test_a_tick_late_by_several_periods_is_counted_in_diagnostics(ros_context): 
     assert node.effects.lateness.count >= 59
 
 
+class CountingExecutor:
+    """rclpy's EventsExecutor (C++, its methods cannot be patched) with the timeouts of its
+    ``spin_once`` calls counted."""
+
+    def __init__(self, context):
+        from rclpy.experimental import EventsExecutor
+
+        self._executor = EventsExecutor(context=context)
+        self.context = context
+        self.spins: list[float] = []
+
+    def spin_once(self, timeout_sec=None):
+        self.spins.append(timeout_sec)
+        self._executor.spin_once(timeout_sec=timeout_sec)
+
+    def __getattr__(self, name):
+        return getattr(self._executor, name)
+
+
 @pytest.mark.ros
 def test_the_executor_thread_waits_for_work_and_the_stop_wakes_it(ros_context, monkeypatch):  # noqa: F811
     """The deadline loop's executor thread does not poll: over a second of ticks an idle node's
-    executor wakes a few times (start-up), not every 50 ms, and the loop's stop wakes it at once
-    instead of at the end of its idle wait (20 s here; the diagnostics' timer, which would end
-    it within a second, is cancelled)."""
-    from rclpy.executors import SingleThreadedExecutor
+    executor wakes a few times (start-up), not every 50 ms, and the loop's stop ends its wait at
+    once instead of at the end of its idle wait (20 s here; the diagnostics' timer, which would
+    end it within a second, is cancelled)."""
     from rclpy.parameter import Parameter
 
     from drs_ros.node import DRSNode, runner
     from drs_ros.stop_request import StopRequest
 
     monkeypatch.setattr(runner, "EXECUTOR_IDLE_WAIT_S", 20.0)
-    spins = []
-    wait = SingleThreadedExecutor.wait_for_ready_callbacks
+    made = []
 
-    def counted(self, *args, **kwargs):
-        spins.append(args[0] if args else kwargs.get("timeout_sec"))
-        return wait(self, *args, **kwargs)
+    def counting(*, context):
+        made.append(CountingExecutor(context))
+        return made[-1]
 
-    monkeypatch.setattr(SingleThreadedExecutor, "wait_for_ready_callbacks", counted)
+    monkeypatch.setattr(runner, "EventsExecutor", counting)
     node = DRSNode(
         context=ros_context,
         tick_timer=False,
@@ -221,53 +238,44 @@ def test_the_executor_thread_waits_for_work_and_the_stop_wakes_it(ros_context, m
     finally:
         node.close_recordings()
         node.destroy_node()
+    spins = made[0].spins
     assert set(spins) == {20.0}
     assert len(spins) < 10, spins  # polling every 50 ms: >= 20
     assert returned_at - stopped_at[0] < 10.0  # not the idle wait's 20 s
 
 
 @pytest.mark.ros
-def test_the_executor_thread_leaves_nothing_behind_on_its_stop_future(ros_context):  # noqa: F811
-    """Each wait of the executor's thread is ended by the stop's future (completed, then the
-    executor woken) without adding a callback to it: rclpy's ``spin_once_until_future_complete``
-    adds one at every call, and over a node's life (a wake-up for every command) they pile up
-    until the stop. Here a 1 ms timer wakes the executor ~200 times."""
+def test_end_idle_wait_ends_a_wait_at_once_and_leaves_no_timer_running(ros_context):  # noqa: F811
+    """:func:`runner.end_idle_wait` ends a ``spin_once`` that waits 20 s in another thread
+    within a second, where the EventsExecutor's own ``wake()`` does not (it waits out its
+    timeout), and its one-shot timer fires once."""
     import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.task import Future
+    from rclpy.experimental import EventsExecutor
 
     from drs_ros.node import runner
     from drs_ros.stop_request import StopRequest
 
-    class CountingFuture(Future):
-        added = 0
-
-        def add_done_callback(self, callback):
-            CountingFuture.added += 1
-            super().add_done_callback(callback)
-
     node = rclpy.create_node("executor_wakes", context=ros_context)
-    fired = []
-    node.create_timer(0.001, lambda: fired.append(1))
-    executor = SingleThreadedExecutor(context=ros_context)
+    executor = EventsExecutor(context=ros_context)
     executor.add_node(node)
-    stop, stopped = StopRequest(), CountingFuture()
+    stop = StopRequest()
     thread = threading.Thread(
-        target=runner.spin_until_stopped, args=(node, executor, stop, None, 5.0, stopped)
+        target=runner.spin_until_stopped, args=(node, executor, stop, None, 20.0)
     )
     thread.start()
     try:
         time.sleep(0.2)
         stop()
-        stopped.set_result(True)
-        executor.wake()
+        asked = time.monotonic()
+        runner.end_idle_wait(node)
         thread.join(timeout=10.0)
         assert not thread.is_alive(), "the stop did not end the executor's wait"
+        assert time.monotonic() - asked < 5.0
+        timers = list(node.timers)
+        assert len(timers) == 1 and timers[0].is_canceled()
     finally:
         executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
-    assert len(fired) > 20  # the executor did wake up, many times
-    assert CountingFuture.added == 0
 
 
 REFUSED_FIFO = textwrap.dedent(

@@ -35,11 +35,11 @@ from ..stack.layer import STACK_PARAMETERS
 from .tick_schedule import FIFO_PRIORITY_RANGE, TICK_SCHEDULING
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
-#: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and a
-#: SingleThreadedExecutor in a second thread serves subscriptions, the service and diagnostics
+#: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and rclpy's
+#: EventsExecutor in a second thread serves subscriptions, the service and diagnostics
 #: (under ``use_sim_time`` the ticks follow ``/clock`` through a timer, as ``single`` does);
 #: ``single``: one SingleThreadedExecutor runs everything, the tick being an rclpy timer.
-#: rclpy's EventsExecutor is not offered: with the Jazzy wheels its timers never fired and it
+#: rclpy's EventsExecutor is not offered for the whole node: with the Jazzy wheels its ``spin``
 #: ignored SIGINT and SIGTERM (docs/ros.md, "Rate").
 EXECUTORS = ("deadline", "single")
 

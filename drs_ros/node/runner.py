@@ -15,17 +15,11 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.exceptions import ParameterException
-from rclpy.executors import (
-    ConditionReachedException,
-    ExternalShutdownException,
-    ShutdownException,
-    SingleThreadedExecutor,
-    TimeoutException,
-)
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
-from rclpy.task import Future
 
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_REFUSED
 from drs_model.errors import DRSError
@@ -55,10 +49,9 @@ STOP_POLL_S = 0.05
 
 
 #: The longest the deadline loop's executor thread waits for work [s]: it needs no poll to see a
-#: stop (the loop wakes it, :func:`run_deadline_loop`; rclpy's shutdown wakes it too), and each
-#: wake of an idle ``spin_once`` cost ~1 ms of CPU (its wait set rebuilt, cold): at 20 a second,
-#: a point of a core (benchmarks/results/node_rate.md, "the cold tick"). The bound is a safety
-#: net only.
+#: stop (the loop ends its wait, :func:`end_idle_wait`), and each idle wake of the EventsExecutor
+#: costs ~130 us of CPU: polled every 50 ms, a quarter of a point of a core. The bound is a
+#: safety net only.
 EXECUTOR_IDLE_WAIT_S = 1.0
 
 
@@ -68,16 +61,13 @@ def spin_until_stopped(
     stop: StopRequest,
     tick_gate: threading.Lock | None = None,
     idle_wait_s: float = STOP_POLL_S,
-    stopped: Future | None = None,
 ) -> None:
     """Run ``executor``'s callbacks until ``stop`` is requested or the context ends. A callback
     that raises is logged and counted, and the executor goes on: nothing a participant sends
     (a message the middleware cannot take, say) ends the node's service of the others.
 
     ``idle_wait_s``: the longest one ``spin_once`` waits for work [s], so the longest before a
-    stop is seen, unless ``stopped`` is given: a future that whoever stops completes before
-    calling ``executor.wake()``, which ends the wait at once (an idle executor's wait goes on
-    after a wake until there is work, the future completes or the time is up).
+    stop is seen unless whoever stops ends the wait (:func:`end_idle_wait`).
 
     ``tick_gate``: held by the real-time tick while it runs; each callback waits for it to be
     free (a tick that starts meanwhile shares the GIL with that one callback only). Why: under a
@@ -87,10 +77,7 @@ def spin_until_stopped(
         if tick_gate is not None and tick_gate.acquire(timeout=STOP_POLL_S):
             tick_gate.release()  # the tick is over: one callback's turn
         try:
-            if stopped is None:
-                executor.spin_once(timeout_sec=idle_wait_s)
-            else:
-                spin_once_until_done(executor, stopped, idle_wait_s)
+            executor.spin_once(timeout_sec=idle_wait_s)
         except ExternalShutdownException:
             return
         except Exception as exc:  # noqa: BLE001
@@ -103,40 +90,46 @@ def spin_until_stopped(
                 node.get_logger().error(f"callback failed: {type(exc).__name__}: {exc}")
 
 
-def spin_once_until_done(executor, stopped: Future, timeout_s: float) -> None:
-    """Run one ready callback of ``executor``, waiting at most ``timeout_s`` [s] for one, or
-    none once ``stopped`` is done. It is rclpy's ``spin_once_until_future_complete`` without
-    the done callback that one adds to the future at every call: those pile up on a future
-    that stays pending for the node's whole life (one per wake-up: 2 million an hour under a
-    command flood). Whoever completes ``stopped`` wakes the executor itself."""
-    try:
-        handler, _entity, _node = executor.wait_for_ready_callbacks(timeout_s, None, stopped.done)
-    except (ShutdownException, TimeoutException, ConditionReachedException):
+def end_idle_wait(node: Node) -> None:
+    """End the wait of an executor spinning ``node`` in another thread, now: a one-shot timer
+    due at once. Why a timer: the EventsExecutor's ``wake()`` does not end a ``spin_once``
+    that waits (it waits out its timeout), and it takes no guard condition; a timer added
+    meanwhile is an event it serves at once. A node whose context is already shut down needs
+    none (the shutdown ends the wait)."""
+    if not node.context.ok():
         return
-    handler()
-    if handler.exception() is not None:
-        raise handler.exception()
+    timer = None
+
+    def once() -> None:
+        timer.cancel()
+
+    try:
+        timer = node.create_timer(0.0, once)
+    except Exception:  # noqa: BLE001 - a context shut down meanwhile: the wait ends anyway
+        return
 
 
 def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     """Drive ``node`` until ``stop`` is requested: ticks at absolute deadlines of the wall clock
-    in this thread, everything else in a SingleThreadedExecutor in a second thread, which is
+    in this thread, everything else in rclpy's EventsExecutor in a second thread, which is
     joined before this returns. A late tick is counted by the node; the deadlines then resume
     from now, so a stall does not cause a burst of catch-up ticks (the simulation catches up
     within one tick).
 
     Why: one rclpy timer at 250 Hz in a SingleThreadedExecutor rebuilds its wait set at every
     wake-up, which cost more than the physics, the publishing and the recording together
-    (docs/ros.md, "Rate").
+    (docs/ros.md, "Rate"). The executor thread is the EventsExecutor (rclpy.experimental, C++):
+    the SingleThreadedExecutor rebuilds its wait set in Python at every wake, ~650 us of CPU a
+    command at 100 Hz, and under a 10 kHz command flood it held the GIL so long that half the
+    ticks missed their deadline (benchmarks/results/node_rate.md).
     """
     context = context or node.context
-    executor = SingleThreadedExecutor(context=context)
+    executor = EventsExecutor(context=context)
     executor.add_node(node)
     tick_gate = threading.Lock()  # held while a tick runs: the executor's callbacks wait
-    stopped = Future()  # completed when this loop ends: the executor thread's wait ends too
     thread = NamedThread(
         target=spin_until_stopped,
-        args=(node, executor, stop, tick_gate, EXECUTOR_IDLE_WAIT_S, stopped),
+        args=(node, executor, stop, tick_gate, EXECUTOR_IDLE_WAIT_S),
         name="drs-executor",
     )
     thread.start()
@@ -166,8 +159,7 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     finally:
         leave_tick_policy(policy)  # the loop is real-time; the shutdown is not
         stop()  # the executor thread ends too, whatever ended this loop
-        stopped.set_result(True)
-        executor.wake()  # now, not at the end of its idle wait
+        end_idle_wait(node)  # now, not at the end of its idle wait
         thread.join()
         executor.shutdown(timeout_sec=1.0)
 
@@ -349,6 +341,7 @@ def report_stop(rc: int, incomplete: list[str], refused: list[str], stop: StopRe
 
 __all__ = [
     "StopRequest",
+    "end_idle_wait",
     "main",
     "report_stop",
     "report_tick_policy",
