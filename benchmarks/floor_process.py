@@ -82,6 +82,9 @@ def floor(rate_hz: float, duration_s: float, roles: list[str], warm_s: float = 1
     the listener matched the topics of ``roles``) and its deadlines."""
     import rclpy
 
+    from drs_ros.dds_profile import use_discovery_profile
+
+    use_discovery_profile()  # the node's own participant settings
     rclpy.init()
     node = rclpy.create_node(NODE_NAME)
     outputs, sim = state_publishers(node)

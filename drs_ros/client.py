@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 
+from .dds_profile import use_discovery_profile
 from .errors import DRSRosError
 from .timestamps import ns_from_seconds, set_ns
 
@@ -60,6 +61,7 @@ class DRSClient:
         from trajectory_msgs.msg import JointTrajectory
 
         self.timeout, self.name = timeout, node_name
+        use_discovery_profile()  # a node started after this client is found within 0.5 s
         self._ctx = Context()
         rclpy.init(context=self._ctx, domain_id=domain)
         self.node = Node(client_name, context=self._ctx)

@@ -27,6 +27,7 @@ from drs_ros.bag.replay.play.options import (
     warn,
 )
 from drs_ros.bag.replay.play.read_ahead import ReadAhead
+from drs_ros.dds_profile import use_discovery_profile
 from drs_ros.errors import UsageError
 from drs_ros.stop_request import StopRequest
 from drs_ros.timestamps import ns_from_seconds, seconds_from_ns, set_ns
@@ -260,6 +261,7 @@ def _play(prepared: tuple[PlayOptions, BagIndex, dict], stop: StopRequest) -> in
     if stop.requested:
         return EXIT_OK
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    use_discovery_profile()  # subscribers started after the player find it within 0.5 s
     import rclpy
     from rclpy.context import Context
     from rclpy.executors import ExternalShutdownException
