@@ -113,11 +113,17 @@ def floor(rate_hz: float, duration_s: float, roles: list[str], warm_s: float = 1
 
 def listener(roles: list[str]) -> None:
     """Subscribe to the node's state ``roles`` at the node's QoS and count what arrives until
-    SIGTERM or SIGINT; print the counts as JSON."""
+    SIGTERM or SIGINT; print the counts as JSON. With drs's Fast DDS profile (announced every
+    0.5 s): started before the node, with Fast DDS's 3 s the node matched it up to 3 s after
+    its start, past the 2 s warm-up, in about 4 runs of 10, and the measured window began with
+    the node handing its joint states to no one (2,533 of ~3,250 received in such a run)."""
     import rclpy
     from rclpy.executors import ExternalShutdownException
     from rclpy.qos import QoSProfile
 
+    from drs_ros.dds_profile import use_discovery_profile
+
+    use_discovery_profile()  # before state_topics' context: the first participant of the process
     topics = state_topics(roles)
     counts = {topic: 0 for topic, *_ in topics}
     rclpy.init()
