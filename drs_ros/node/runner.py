@@ -24,7 +24,6 @@ from rclpy.signals import SignalHandlerOptions
 from drs_model.cli.exit_status import EXIT_FAILED, EXIT_INTERNAL, EXIT_OK, EXIT_REFUSED
 from drs_model.errors import DRSError
 
-from ..dds_profile import use_discovery_profile
 from ..errors import DRSRosError
 from ..recording.cdr_received import without_source_location
 from ..stop_request import StopRequest
@@ -43,17 +42,6 @@ RCLError = _rclpy.RCLError
 #: of 0.6 ms, 0.2 ms 0.5 % and 0.34 ms, 0.1 ms no better for 1 point more of a core
 #: (benchmarks/node_rate.py, docs/ros.md).
 GIL_SWITCH_INTERVAL_S = 0.0002
-
-
-#: The switch interval [s] while a tick runs: a thread that wants the GIL meanwhile (the
-#: executor's next callback under a command flood, the bag's flush) waits for the tick's end
-#: instead of taking the GIL from it every :data:`GIL_SWITCH_INTERVAL_S`. CPython reads the
-#: interval at each turn of a waiting thread's wait, so the tick sets it on entry and restores
-#: it on exit; a tick is bounded (``max_catch_up_steps``), and the longest it keeps the others
-#: waiting is its own length. Under a 10 kHz stroke-command flood at 1 kHz, with the short
-#: interval throughout, a ~0.5 ms tick was cut two or three times for ~0.2 ms each (lateness
-#: p99 0.9 ms; benchmarks/results/node_rate.md).
-TICK_SWITCH_INTERVAL_S = 0.02
 
 
 #: The longest a loop waits before it looks at the stop flag again [s].
@@ -167,11 +155,7 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
                 lateness.skipped += -wait // period_ns
                 deadline = time.monotonic_ns()  # resume from now
             with tick_gate:
-                sys.setswitchinterval(TICK_SWITCH_INTERVAL_S)
-                try:
-                    node.tick()
-                finally:
-                    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
+                node.tick()
     finally:
         leave_tick_policy(policy)  # the loop is real-time; the shutdown is not
         stop()  # the executor thread ends too, whatever ended this loop
@@ -288,7 +272,6 @@ def main(argv: list[str] | None = None) -> int:
     # batch) hands the GIL to the real-time tick within this [s] when the tick wakes up
     # (CPython's default: 5 ms, more than a publish period at 250 Hz)
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
-    use_discovery_profile()  # before rclpy makes the participant: announced every 0.5 s
     refused = start_rclpy(args, stop)
     if refused is not None:
         return refused
