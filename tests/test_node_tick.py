@@ -16,6 +16,9 @@ def test_origin_makes_stamps_follow_simulated_time():
     assert clock.t0_ns == 9_750 * MS
     assert clock.steps_due(10_000 * MS + 4 * MS, 0.25, 1e-3) == 4
     assert clock.steps_due(10_000 * MS + 4 * MS - 1, 0.25, 1e-3) == 3
+    # a state's stamp is the origin plus its simulated time; none before an origin
+    assert clock.stamp_ns(0.254) == 10_004 * MS
+    assert SimulationClock(wall_clock=True, publish_period_ns=4 * MS).stamp_ns(0.25) is None
 
 
 def test_a_tick_more_than_a_period_and_a_half_late_on_the_steady_clock_is_a_missed_deadline():
@@ -78,6 +81,7 @@ def test_a_pause_forgets_the_origin_and_the_last_tick():
     clock.ticked(0, 0)
     clock.pause()
     assert clock.t0_ns is None
+    assert clock.stamp_ns(1.0) is None
     assert clock.since_last_if_late(60_000 * MS) is None
     assert clock.jump(60_000 * MS, 5) == 0
 

@@ -207,6 +207,7 @@ class DRSNode(Node):
             lambda: self.sim,
             self._lock,
             self._now_ns,
+            self._command_instant_ns,
             self._record,
         )
 
@@ -429,6 +430,14 @@ class DRSNode(Node):
             return time.time_ns()
         return self.get_clock().now().nanoseconds
 
+    def _command_instant_ns(self) -> int:
+        """The node time [ns] a command received now acts at: the stamp of the state the next
+        tick applies it to (the simulated instant before that tick's steps, which lags the
+        node clock by up to a publish period); the node clock before the first tick. A stamped
+        trajectory's times are read against it, so it reaches its points at their stamps."""
+        stamp = self.clock.stamp_ns(self.sim.t)
+        return self._now_ns() if stamp is None else stamp
+
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         self.intake.before_drs(request)  # outside the lock the tick takes
         with self._lock:
@@ -473,7 +482,7 @@ class DRSNode(Node):
     def _publish(self, now_ns: int) -> None:
         t = time.thread_time()  # this thread's own CPU: the executor's is not the tick's
         st = self.sim.state
-        stamp = self.clock.t0_ns + ns_from_seconds(st.t)
+        stamp = self.clock.stamp_ns(st.t)
         faults = self.fault_parameters.faults
         sensed = None if faults.sensor_healthy else faults.published_stroke(st.t, float(st.q[0]))
         recording = self.recordings.recorder is not None

@@ -44,7 +44,7 @@ class PendingCommand:
     sequence: int | None
     received_ns: int
     prepared: object = None  # commands.prepare's result (a trajectory's plan)
-    #: the node clock [ns] its times were read on (a trajectory with a ``header.stamp``)
+    #: the node time [ns] its times were read against (a trajectory with a ``header.stamp``)
     planned_ns: int | None = None
     #: sequence numbers of the older commands of the topic this one replaced before a step
     superseded: list = dataclasses.field(default_factory=list)

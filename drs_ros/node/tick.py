@@ -55,6 +55,12 @@ class SimulationClock:
         """A new origin: node time ``now_ns`` is simulated time ``simulated_s`` [s]."""
         self.t0_ns = now_ns - ns_from_seconds(simulated_s)
 
+    def stamp_ns(self, simulated_s: float) -> int | None:
+        """The node time [ns] of simulated time ``simulated_s`` [s] (a state's stamp); None
+        before the first tick and after a pause (no origin)."""
+        t0 = self.t0_ns
+        return None if t0 is None else t0 + ns_from_seconds(simulated_s)
+
     def jump(self, now_ns: int, mono_ns: int) -> int:
         """The node clock's jump [ns] since the last tick (0: none), the origin moved by it."""
         if self._last_ns is None:
