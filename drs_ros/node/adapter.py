@@ -207,7 +207,7 @@ class DRSNode(Node):
             lambda: self.sim,
             self._lock,
             self._now_ns,
-            self._command_instant_ns,
+            lambda: self.clock.stamp_ns(self.sim.t),  # the state the next tick acts on
             self._record,
         )
 
@@ -429,14 +429,6 @@ class DRSNode(Node):
         if self._wall_clock:  # the ROS clock without /clock is the system clock; 30x cheaper
             return time.time_ns()
         return self.get_clock().now().nanoseconds
-
-    def _command_instant_ns(self) -> int:
-        """The node time [ns] a command received now acts at: the stamp of the state the next
-        tick applies it to (the simulated instant before that tick's steps, which lags the
-        node clock by up to a publish period); the node clock before the first tick. A stamped
-        trajectory's times are read against it, so it reaches its points at their stamps."""
-        stamp = self.clock.stamp_ns(self.sim.t)
-        return self._now_ns() if stamp is None else stamp
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         self.intake.before_drs(request)  # outside the lock the tick takes

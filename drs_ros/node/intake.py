@@ -60,10 +60,10 @@ class CommandIntake:
         ``actuator()``: the actuator the node runs now.
     lock : threading.Lock
         The node's lock, held by the tick: the callbacks take it to touch the pending commands.
-    now_ns, command_instant_ns, record : callable
-        The node clock [ns]; the node time [ns] a command received now acts at (the stamp of
-        the state the next tick applies it to: a stamped trajectory's times are read against
-        it); ``record(topic, data, now_ns)``, the bytes into the bag.
+    now_ns, state_stamp_ns, record : callable
+        The node clock [ns]; the stamp [ns] of the actuator's state, which the next tick
+        applies a command to (None before the first tick); ``record(topic, data, now_ns)``,
+        the bytes into the bag.
     """
 
     def __init__(
@@ -75,13 +75,13 @@ class CommandIntake:
         actuator: Callable[[], object],
         lock,
         now_ns: Callable[[], int],
-        command_instant_ns: Callable[[], int],
+        state_stamp_ns: Callable[[], int | None],
         record: Callable,
     ) -> None:
         self.topics, self.service_name, self.piston_joint = topics, service_name, piston_joint
         self._effects, self._actuator, self._lock = effects, actuator, lock
         self._now_ns, self._record = now_ns, record
-        self._command_instant_ns = command_instant_ns
+        self._state_stamp_ns = state_stamp_ns
         self._decode = command_decoders()
         self._pending: dict[str, PendingCommand] = {}
 
@@ -107,9 +107,12 @@ class CommandIntake:
                 fx.received += 1
                 fx.refuse_malformed(topic, COMMANDS[key], data, exc, self._now_ns())
             return
-        # not the node clock: the tick applies it at the state before its steps, up to a publish
-        # period earlier, and a stamped trajectory read against the clock would arrive that early
-        planned_ns = self._command_instant_ns()
+        # a stamped trajectory's times are read against the stamp of the state it will act on,
+        # not the node clock: the tick applies it before its steps, at a state up to a publish
+        # period (and a late tick's lateness) older, and it would arrive that much early
+        planned_ns = self._state_stamp_ns()
+        if planned_ns is None:  # before the first tick: the tick's origin will be about now
+            planned_ns = self._now_ns()
         try:
             prepared = commands.prepare(self._actuator(), key, msg, self.piston_joint, planned_ns)
             refusal = None
