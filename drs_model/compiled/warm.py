@@ -11,7 +11,7 @@ import numpy as np
 from ..bodies import model_constants
 from ..forward.fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator
 from ..forward.forces import ManoeuvreForce
-from ..inverse import FusedInverseDynamics
+from ..inverse import FusedInverseDynamics, path_peak_force
 from ..kinematics import flap_angle_limits
 from ..params import DRSParams
 from ..study.crossing import crossing_times
@@ -44,8 +44,8 @@ def _rk_driver(p: DRSParams) -> None:
 
 
 def _one_sample_and_arrays(p: DRSParams) -> None:
-    """The inverse force, every fixed-step method, the gufuncs, the study's batch of forward runs
-    and the hydraulic rung's compiled steps."""
+    """The inverse force, every fixed-step method, the gufuncs, a commanded path's peak, the
+    study's batch of forward runs and the hydraulic rung's compiled steps."""
     inverse = FusedInverseDynamics.from_params(p)
     inverse.force(0.02, 0.1, 1.0)
     inverse.force_at(0.001)
@@ -56,6 +56,7 @@ def _one_sample_and_arrays(p: DRSParams) -> None:
     integ.form.accel(1.0, 0.0, 0.0)
     for fn in ufuncs.SIGNATURES:
         ufuncs.gufunc(fn)
+    path_peak_force(p, [[0.02, 0.1, 0.0, 0.0, 0.0, 0.0]], [0.01])  # a commanded path's scan
     # the study's batch of forward runs (drs study): one opening run of the nominal flap
     psi3_closed, psi3_open = flap_angle_limits(p)
     crossing_times(

@@ -24,19 +24,17 @@ from .formulations import (
 )
 from .fused import FusedInverseDynamics
 from .manoeuvre import (
-    PATH_FORCE_SAMPLES,
     Extremum,
-    PathPeak,
     PeakForce,
     air_load_magnitude,
     force_ratio,
     manoeuvre_force,
     manoeuvre_state,
-    path_peak_force,
     peak_force,
     refine_extremum,
     static_force_ratio,
 )
+from .path_peak import PATH_FORCE_SAMPLES, PathPeak, path_peak_force
 
 __all__ = [
     "PATH_FORCE_SAMPLES",

@@ -77,7 +77,7 @@ class FusedInverseDynamics:
             raise InputError(f"s, sd, sdd must be finite, got {(s, sd, sdd)!r}")
         force = self._force(s, sd, sdd)
         if math.isnan(force):
-            self._diagnose(np.array([s]))
+            self.diagnose(np.array([s]))
         return force
 
     def force_at(self, t: float) -> float:
@@ -98,7 +98,7 @@ class FusedInverseDynamics:
                 raise InputError(f"{name} must be finite, got {bad!r}")
         out = np.asarray(elementwise.fused_force(s, sd, sdd, self.consts), dtype=float)
         if np.any(np.isnan(out)):
-            self._diagnose(s.ravel())
+            self.diagnose(s.ravel())
         return out
 
     def force_at_times(self, t) -> np.ndarray:
@@ -110,7 +110,7 @@ class FusedInverseDynamics:
             elementwise.fused_manoeuvre_force_series(t, self.consts, self.profile), dtype=float
         )
 
-    def _diagnose(self, s: np.ndarray) -> None:
+    def diagnose(self, s: np.ndarray) -> None:
         """Raise the typed error of the first stroke [m] of ``s`` where the kernel gave NaN."""
         *angles, h2 = elementwise.stroke_position(s, self.consts, 1.0)
         if np.any(h2 < -kernels.ASSEMBLY_TOL):

@@ -4,7 +4,6 @@ force by any formulation, its peak and its ratio to the air load."""
 from __future__ import annotations
 
 import functools
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -189,69 +188,3 @@ def peak_force(
     _, state = manoeuvre_state(np.array([best.x]), p, s_limits)
     f = float(inverse_dynamics(state, p, method, flap_limits).piston_force[0])
     return PeakForce(f, best.x, float(state.q[0, S]), float(state.q[0, PSI3]))
-
-
-#: Instants per segment (both ends included) at which :func:`path_peak_force` evaluates a path.
-PATH_FORCE_SAMPLES = 33
-
-
-class PathPeak(NamedTuple):
-    """Largest ``|F|`` along a commanded path: the signed force [N], the segment it lies in, the
-    time [s] into that segment and the stroke [m] there."""
-
-    force: float
-    segment: int
-    time: float
-    stroke: float
-
-
-def _quintic_forces(fused: FusedInverseDynamics, c: np.ndarray, tau: np.ndarray):
-    """Force [N] and stroke [m] of quintics ``c`` (shape ``(n, 6)``, local time) at ``tau``
-    (shape ``(n, m)`` [s])."""
-    poly = np.polynomial.polynomial
-    dc = c[:, 1:] * np.arange(1, 6)
-    s = poly.polyval(tau, c.T[:, :, None], tensor=False)
-    v = poly.polyval(tau, dc.T[:, :, None], tensor=False)
-    acc = poly.polyval(tau, (dc[:, 1:] * np.arange(1, 5)).T[:, :, None], tensor=False)
-    return fused.force_array(s, v, acc), s
-
-
-def path_peak_force(
-    p: DRSParams, coeffs, durations, samples: int = PATH_FORCE_SAMPLES, chunk: int = 1024
-) -> PathPeak:
-    """The inverse-dynamics peak ``|F|`` along quintic segments (a commanded move or
-    trajectory): ``coeffs[k]`` the local-time coefficients ``a_0..a_5`` of segment ``k`` on ``[0,
-    durations[k]]`` [s], sampled at ``samples`` equally spaced instants each, the force by the
-    fused closed form (:class:`FusedInverseDynamics`, as for the manoeuvre). In chunks of
-    ``chunk`` segments (bounded memory: 10,000 segments in ~30 ms).
-
-    Raises
-    ------
-    InputError
-        No segment, fewer than 2 samples, a non-finite coefficient or duration.
-    """
-    c_all = np.asarray(coeffs, dtype=float).reshape(-1, 6)
-    d_all = np.asarray(durations, dtype=float).ravel()
-    if not c_all.shape[0] or c_all.shape[0] != d_all.size or int(samples) < 2:
-        raise InputError(
-            f"need one duration per segment and >= 2 samples, got {c_all.shape[0]} "
-            f"segments, {d_all.size} durations, {samples!r} samples"
-        )
-    fused = _fused(p, None, None)
-    u = np.linspace(0.0, 1.0, int(samples))
-    best = PathPeak(0.0, 0, 0.0, math.nan)
-    for a in range(0, d_all.size, chunk):
-        tau = d_all[a : a + chunk, None] * u
-        force, s = _quintic_forces(fused, c_all[a : a + chunk], tau)
-        i, j = divmod(int(np.argmax(np.abs(force))), force.shape[1])
-        if abs(force[i, j]) > abs(best.force):
-            best = PathPeak(float(force[i, j]), a + i, float(tau[i, j]), float(s[i, j]))
-    # the best sample's neighbourhood on a fine grid: a sampled peak lies below the true one
-    # by ~(spacing)^2, 0.7 % with 33 samples; 65 more between the neighbours leave ~1e-5
-    k, h = best.segment, d_all[best.segment] / (int(samples) - 1)
-    tau = np.linspace(max(best.time - h, 0.0), min(best.time + h, d_all[k]), 65)[None]
-    force, s = _quintic_forces(fused, c_all[k : k + 1], tau)
-    j = int(np.argmax(np.abs(force[0])))
-    if abs(force[0, j]) > abs(best.force):
-        best = PathPeak(float(force[0, j]), k, float(tau[0, j]), float(s[0, j]))
-    return best
