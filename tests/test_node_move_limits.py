@@ -7,10 +7,12 @@ point is at 0 s and a deactivation behave as joint_trajectory_controller's."""
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
-from node_support import spin_for, spin_until
+from node_support import domain_for, node_env, spin_for, spin_until
 from ros_support import require_rclpy, resimulate_json
 
 pytestmark = pytest.mark.ros
@@ -183,3 +185,39 @@ def test_deactivation_holds_the_piston_where_it_is(ros_context, params, tmp_path
         st.close()
     rows = _resimulated(bag)
     assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows
+
+
+#: In a fresh interpreter: a configured node, then whether the compiled path scan a command's
+#: force check runs is already loaded (a signature loaded from numba's cache). ``auto`` is left
+#: out: its choice measures the rungs at configure, which loads the scan anyway.
+_FIRST_COMMAND = """
+import sys
+import rclpy
+from rclpy.parameter import Parameter
+from drs_ros.node import DRSNode
+from drs_model.inverse import path_peak
+ctx = rclpy.Context()
+rclpy.init(context=ctx)
+node = DRSNode(context=ctx, tick_timer=False, parameter_overrides=[
+    Parameter("bag_path", value=sys.argv[1]), Parameter("fidelity", value=sys.argv[2])])
+loaded = path_peak._scan.cache_info().currsize == 1 and len(path_peak._scan().signatures) == 1
+print(loaded)
+node.destroy_node()
+rclpy.shutdown(context=ctx)
+"""
+
+
+@pytest.mark.parametrize("fidelity", ["rigid", "hydraulic"])
+def test_the_force_check_a_command_runs_is_loaded_at_configure(tmp_path, request, fidelity):
+    """The first command's tick would load it from numba's cache (~5 ms: a missed deadline at
+    1 kHz or 250 Hz); configure loads it (the ``~/drs`` moves' check from rest)."""
+    env = node_env(tmp_path, domain_for(request.node.nodeid))
+    out = subprocess.run(
+        [sys.executable, "-c", _FIRST_COMMAND, str(tmp_path / "bag"), fidelity],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[-1] == "True", out.stdout + out.stderr

@@ -55,9 +55,14 @@ class RungChoice:
 
     def first(self):
         """The actuator the node starts with (a model too stiff for the physics rate raises
-        :class:`~drs_model.errors.TooStiffError` now, not a refusal at every tick)."""
+        :class:`~drs_model.errors.TooStiffError` now, not a refusal at every tick). Its moves'
+        force check is run once now, on the ``~/drs`` moves from rest: it loads the compiled
+        path scan (:mod:`drs_model.inverse.path_peak`, ~5 ms from numba's cache), which the
+        first command's tick paid before (a missed deadline), and keeps those moves' peaks."""
         sim = self.make("rigid" if self.auto else self.fidelity)
         sim.check_stiffness()
+        for open_flap in (True, False):
+            sim.drs_duration(open_flap)  # changes nothing but the kept peaks
         return sim
 
     def wait_for_subscribers(self, seconds: float) -> None:
