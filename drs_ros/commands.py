@@ -142,9 +142,10 @@ def prepare(sim, key: str, msg, piston_joint: str, now_ns: int | None = None):
     """The part of applying ``msg`` that does not depend on the actuator's state, done before
     the physics step that applies it (in the node, outside its real-time tick): a trajectory's
     plan (:meth:`~drs_model.actuator.ActuatorSim.plan_trajectory`, bounded work, refusals
-    raised here), its times from ``header.stamp`` when ``now_ns`` [ns] gives the clock it
-    is read on (:func:`drs_ros.conversions.started_points`; None: from the step that applies
-    it); a :class:`PointNow` for a single point at 0 s. None for the other commands."""
+    raised here), its times from ``header.stamp`` when ``now_ns`` [ns] gives the node time
+    it is read against (the node: the stamp of the state the next tick applies it to;
+    :func:`drs_ros.conversions.started_points`; None: from the step that applies it); a
+    :class:`PointNow` for a single point at 0 s. None for the other commands."""
     if key == "trajectory_cmd":
         move = trajectory_move(*started_points(msg, piston_joint, now_ns))
         return move if isinstance(move, PointNow) else move.plan(sim)
@@ -153,7 +154,7 @@ def prepare(sim, key: str, msg, piston_joint: str, now_ns: int | None = None):
 
 def reads_stamp(key: str, msg) -> bool:
     """Whether the command's times start at its ``header.stamp`` (a stamped trajectory): its
-    effect record then holds the clock it was planned on (``planned_ns``)."""
+    effect record then holds the node time it was read against (``planned_ns``)."""
     return key == "trajectory_cmd" and stamp_of(msg) != 0
 
 
@@ -161,7 +162,7 @@ def apply(sim, key: str, msg, piston_joint: str, prepared=None, planned_ns: int 
     """Apply command ``msg`` of kind ``key`` to ``sim`` (an ActuatorSim); returns what the
     actuator returns (the move's segments, or None for a force). ``prepared``: what
     :func:`prepare` returned for it, if it was called (the result is the same to the bit);
-    else ``planned_ns``: the node clock [ns] a stamped trajectory's times are read on (its
+    else ``planned_ns``: the node time [ns] a stamped trajectory's times are read against (its
     effect record's), None to ignore the stamp."""
     if key == "stroke_cmd":
         return sim.command_stroke(msg.data)

@@ -141,9 +141,9 @@ def stamp_of(msg) -> int:
 def started_points(msg, joint: str, now_ns: int | None):
     """:func:`trajectory_points` with joint_trajectory_controller's start time: a non-zero
     ``header.stamp`` starts the trajectory then, a zero one now (``now_ns`` [ns], the node
-    clock; None: the stamp is not read); times are returned from now, the points at or before
-    now left out. Raises
-    :class:`PastTrajectoryError` when its last point lies in the past (JTC refuses it)."""
+    time the stamp is read against; None: the stamp is not read); times are returned from
+    now, the points at or before now left out. Raises :class:`PastTrajectoryError` when its
+    last point lies in the past (JTC refuses it)."""
     times, strokes, rates = trajectory_points(msg, joint)
     start_ns = 0 if now_ns is None else stamp_of(msg)
     if start_ns == 0:

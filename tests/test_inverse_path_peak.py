@@ -6,6 +6,9 @@ mechanism cannot follow and for non-finite input."""
 
 from __future__ import annotations
 
+import importlib.util
+import os
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -14,11 +17,16 @@ from hypothesis import strategies as st
 from drs_model import DRSParams
 from drs_model import kinematics as kin
 from drs_model.errors import AssemblyError, InputError
-from drs_model.inverse import PATH_FORCE_SAMPLES, inverse_dynamics, path_peak_force
+from drs_model.inverse import PATH_FORCE_SAMPLES, inverse_dynamics, path_peak, path_peak_force
 from drs_model.inverse.path_peak import REFINE_SAMPLES, scan_path
 from drs_model.inverse.path_peak import _fused_of as fused_of
 from drs_model.profile import quintic_move
 
+#: The compiled scan needs numba (CI installs it: there a missing numba fails).
+NEEDS_NUMBA = pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None and not os.environ.get("CI"),
+    reason="numba is not installed (pip install drs[fast])",
+)
 P = DRSParams()
 S_MIN, S_MAX = kin.stroke_limits(P)
 
@@ -66,11 +74,13 @@ def test_the_peak_is_newton_eulers_largest_force_along_the_path(moves):
     assert peak.stroke == pytest.approx(float(seg.evaluate(seg.t0 + peak.time)[0]), abs=1e-12)
 
 
+@NEEDS_NUMBA
 @settings(max_examples=20, deadline=None)
 @given(moves=paths)
 def test_the_compiled_scan_is_its_plain_source(moves):
     """numba's build of scan_path against the same function run by Python (1e-12: the math
     library's last bits)."""
+    assert path_peak._scan() is not scan_path  # compiled: else this compares Python with itself
     segs = _segments(moves)
     c = np.array([g.coeffs for g in segs], dtype=float)
     d = np.array([g.duration for g in segs], dtype=float)
@@ -97,6 +107,7 @@ def test_a_path_beyond_where_the_loop_closes_raises_the_assembly_error():
         ([[0.02, np.nan, 0, 0, 0, 0]], [0.01], "coefficient must be finite, got nan"),
         ([[0.02, 0, 0, 0, 0, 0]], [np.inf], "duration must be finite, got inf"),
         ([[0.02, 0, 0, 0, 0, 0]], [0.01, 0.02], "one duration per segment"),
+        ([[0.02, 1e300, 0, 0, 0, 0]], [1e10], r"not finite at 0\.0 s into segment 0.*overflow"),
     ],
 )
 def test_bad_paths_are_refused_by_name(coeffs, durations, match):

@@ -220,3 +220,5 @@ def test_a_stamped_trajectory_arriving_while_the_tick_is_late_is_not_early(ros_c
         st.close()
     status, report = resimulate_json(str(bag))
     assert status == 0, report
+    rows = {r["signal"]: r for r in report["signals"]}
+    assert all(r["max_deviation"] == 0.0 for r in rows.values()), rows

@@ -6,6 +6,8 @@ point is at 0 s and a deactivation behave as joint_trajectory_controller's."""
 
 from __future__ import annotations
 
+import importlib.util
+import os
 import re
 import subprocess
 import sys
@@ -207,6 +209,10 @@ rclpy.shutdown(context=ctx)
 """
 
 
+@pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None and not os.environ.get("CI"),
+    reason="numba is not installed (pip install drs[fast]): nothing is compiled to load",
+)
 @pytest.mark.parametrize("fidelity", ["rigid", "hydraulic"])
 def test_the_force_check_a_command_runs_is_loaded_at_configure(tmp_path, request, fidelity):
     """The first command's tick would load it from numba's cache (~5 ms: a missed deadline at

@@ -49,15 +49,16 @@ def scan_path(c, d, u, w, consts):
     (shape ``(n, 6)``, local-time coefficients) on ``[0, d[k]]`` [s]: sampled at ``d[k] * u``
     (``u`` from 0 to 1), then across the best sample's neighbours at ``lo + (hi - lo) * w``
     (``w`` from 0 to 1). The first sample of the largest ``|F|`` wins; with none above 0 the
-    peak is ``(0, 0, 0, nan)``. ``failed``: a sample's force was NaN (the loop cannot close
-    there, or a dead centre), and the peak is that sample."""
+    peak is ``(0, 0, 0, nan)``. ``failed``: a sample's force was not finite (the loop cannot
+    close there, a dead centre, or a path whose numbers overflow), and the peak is that
+    sample."""
     best_f, best_k, best_t, best_s = 0.0, 0, 0.0, math.nan
     for k in range(d.shape[0]):
         for j in range(u.shape[0]):
             tau = d[k] * u[j]
             s, v, a = quintic(tau, c[k], 0)
             f = fused_force(s, v, a, consts)
-            if f != f:
+            if not math.isfinite(f):
                 return f, k, tau, s, True
             if abs(f) > abs(best_f):
                 best_f, best_k, best_t, best_s = f, k, tau, s
@@ -67,7 +68,7 @@ def scan_path(c, d, u, w, consts):
         tau = lo + (hi - lo) * w[j]
         s, v, a = quintic(tau, c[k], 0)
         f = fused_force(s, v, a, consts)
-        if f != f:
+        if not math.isfinite(f):
             return f, k, tau, s, True
         if abs(f) > abs(best_f):
             best_f, best_t, best_s = f, tau, s
@@ -102,7 +103,8 @@ def path_peak_force(p: DRSParams, coeffs, durations, samples: int = PATH_FORCE_S
     Raises
     ------
     InputError
-        No segment, fewer than 2 samples, a non-finite coefficient or duration.
+        No segment, fewer than 2 samples, a non-finite coefficient or duration, or a path
+        whose stroke, rate or acceleration overflows.
     AssemblyError, SingularConfigurationError
         The path passes a stroke where the loop cannot close, or a dead centre.
     """
@@ -120,7 +122,13 @@ def path_peak_force(p: DRSParams, coeffs, durations, samples: int = PATH_FORCE_S
     u, w = _unit_grid(int(samples)), _unit_grid(REFINE_SAMPLES)
     force, k, t, s, failed = _scan()(c_all, d_all, u, w, fused.consts)
     if failed:
-        fused.diagnose(np.array([s]))  # raises the typed error of that stroke
+        # the mechanism fails at that stroke (the typed error raised here), or the numbers overflow
+        fused.force_array(np.array([s]), 0.0, 0.0)
+        motion = quintic(float(t), [float(x) for x in c_all[k]], 0)
+        raise InputError(
+            f"the force along the path is not finite at {t!r} s into segment {k}, where "
+            f"(s, s', s'') = {motion!r}: its coefficients and durations overflow"
+        )
     return PathPeak(float(force), int(k), float(t), float(s))
 
 

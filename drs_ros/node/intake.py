@@ -62,8 +62,8 @@ class CommandIntake:
         The node's lock, held by the tick: the callbacks take it to touch the pending commands.
     now_ns, state_stamp_ns, record : callable
         The node clock [ns]; the stamp [ns] of the actuator's state, which the next tick
-        applies a command to (None before the first tick); ``record(topic, data, now_ns)``,
-        the bytes into the bag.
+        applies a command to (None before the first tick after an activation);
+        ``record(topic, data, now_ns)``, the bytes into the bag.
     """
 
     def __init__(
@@ -107,11 +107,13 @@ class CommandIntake:
                 fx.received += 1
                 fx.refuse_malformed(topic, COMMANDS[key], data, exc, self._now_ns())
             return
-        # a stamped trajectory's times are read against the stamp of the state it will act on,
-        # not the node clock: the tick applies it before its steps, at a state up to a publish
-        # period (and a late tick's lateness) older, and it would arrive that much early
+        # a stamped trajectory's times are read against the stamp of the state the next tick
+        # applies it to, not the node clock: the tick applies it before its steps, at a state
+        # up to a publish period (and a late tick's lateness) older, and it would arrive that
+        # much early. Read without the lock, before the plan: a tick that comes in between
+        # applies it one tick later (it arrives a tick late, never early).
         planned_ns = self._state_stamp_ns()
-        if planned_ns is None:  # before the first tick: the tick's origin will be about now
+        if planned_ns is None:  # no tick since the activation: its origin will be the clock
             planned_ns = self._now_ns()
         try:
             prepared = commands.prepare(self._actuator(), key, msg, self.piston_joint, planned_ns)
@@ -174,7 +176,7 @@ class CommandIntake:
         """A ``~/drs`` call's move evaluated before the node's lock (executor thread): its force
         check's path peak is then kept by the actuator, and :meth:`on_drs`, under the lock,
         finds it (a flap at rest: always; a moving one, unless a step came between), so the
-        tick does not wait ~0.3 ms for it (a missed deadline at 1 kHz). Changes nothing else."""
+        tick does not wait for it (~20 us compiled, ~0.3 ms before). Changes nothing else."""
         try:
             self._actuator().drs_duration(bool(request.data))
         except Exception:  # noqa: BLE001 - the call itself, under the lock, says what is wrong

@@ -133,7 +133,7 @@ class Rerun:
                     f"the effect record names {r.source} message {r.values['sequence']}, which "
                     "the bag does not hold"
                 )
-        planned = r.values.get("planned_ns")  # a stamped trajectory: the clock it was read on
+        planned = r.values.get("planned_ns")  # a stamped trajectory: the time it was read against
         try:
             commands.apply(
                 self.sim, key, msg, self.piston, None, None if planned is None else int(planned)
