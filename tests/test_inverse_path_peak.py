@@ -17,9 +17,14 @@ from hypothesis import strategies as st
 from drs_model import DRSParams
 from drs_model import kinematics as kin
 from drs_model.errors import AssemblyError, InputError
-from drs_model.inverse import PATH_FORCE_SAMPLES, inverse_dynamics, path_peak, path_peak_force
+from drs_model.inverse import (
+    PATH_FORCE_SAMPLES,
+    FusedInverseDynamics,
+    inverse_dynamics,
+    path_peak,
+    path_peak_force,
+)
 from drs_model.inverse.path_peak import REFINE_SAMPLES, scan_path
-from drs_model.inverse.path_peak import _fused_of as fused_of
 from drs_model.profile import quintic_move
 
 #: The compiled scan needs numba (CI installs it: there a missing numba fails).
@@ -85,7 +90,7 @@ def test_the_compiled_scan_is_its_plain_source(moves):
     c = np.array([g.coeffs for g in segs], dtype=float)
     d = np.array([g.duration for g in segs], dtype=float)
     u, w = np.linspace(0, 1, PATH_FORCE_SAMPLES), np.linspace(0, 1, REFINE_SAMPLES)
-    plain = scan_path(c, d, u, w, fused_of(P).consts)
+    plain = scan_path(c, d, u, w, FusedInverseDynamics.from_params(P).consts)
     peak = path_peak_force(P, c, d)
     assert not plain[4]
     assert peak.segment == plain[1]

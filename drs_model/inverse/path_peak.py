@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import InputError
 from ..kernels import fused_force, quintic
 from ..params import DRSParams
-from .fused import FusedInverseDynamics
+from .manoeuvre import _fused
 
 #: Instants per segment (both ends included) at which :func:`path_peak_force` evaluates a path.
 PATH_FORCE_SAMPLES = 33
@@ -83,12 +83,6 @@ def _scan():
     return compiled_or_plain(scan_path)
 
 
-@functools.lru_cache(maxsize=32)
-def _fused_of(p: DRSParams) -> FusedInverseDynamics:
-    """The fused inverse dynamics of ``p`` (its constants), built once per parameter set."""
-    return FusedInverseDynamics.from_params(p)
-
-
 @functools.cache
 def _unit_grid(samples: int) -> np.ndarray:
     return np.linspace(0.0, 1.0, samples)
@@ -118,7 +112,7 @@ def path_peak_force(p: DRSParams, coeffs, durations, samples: int = PATH_FORCE_S
     for name, x in (("coefficient", c_all), ("duration", d_all)):
         if not np.all(np.isfinite(x)):
             raise InputError(f"a {name} must be finite, got {float(x[~np.isfinite(x)][0])!r}")
-    fused = _fused_of(p)
+    fused = _fused(p, None, None)  # built once per parameter set
     u, w = _unit_grid(int(samples)), _unit_grid(REFINE_SAMPLES)
     force, k, t, s, failed = _scan()(c_all, d_all, u, w, fused.consts)
     if failed:
