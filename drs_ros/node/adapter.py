@@ -45,6 +45,7 @@ from std_srvs.srv import SetBool
 
 from .. import commands
 from ..conversions import diagnostics_status, parameter_event_msg
+from ..log_throttle import LogThrottle
 from ..names import FIDELITY, TOPICS
 from ..recording import cdr, cdr_received
 from ..recording.diagnostic_cdr import diagnostic_array_cdr
@@ -104,6 +105,7 @@ class DRSNode(Node):
         self._tick_timer = tick_timer
         self.configured = self.active = False
         self.callback_errors = 0
+        self._log_callback_error = LogThrottle(self.get_logger().error)  # one line a second
         # the bag and the rerun recording, and their failures: opened at configure
         self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
         self.fault_parameters = NodeFaults(self, self._lock, self._now_ns, lambda: self.configured)
@@ -393,9 +395,7 @@ class DRSNode(Node):
             self.callback_errors += 1
             if self.configured:
                 self.effects.troubles.add(self._now_ns(), "callback_error", reason)
-        self.get_logger().error(
-            f"a callback failed, the node goes on: {reason}", throttle_duration_sec=1.0
-        )
+        self._log_callback_error(f"a callback failed, the node goes on: {reason}")
 
     def _on_diagnostics(self) -> None:
         now = self._now_ns()

@@ -24,6 +24,7 @@ from drs_model.errors import DRSError
 from .. import commands
 from ..conversions import command_event_status
 from ..errors import DRSRosError
+from ..log_throttle import LogThrottle
 from ..names import CLOCK, REFUSED
 from ..recording.cdr_received import without_source_location
 from ..recording.diagnostic_cdr import diagnostic_array_cdr
@@ -104,6 +105,9 @@ class EffectRecord:
         self._publisher, self._topic = publisher, publisher.topic_name
         self._record, self._instant = record, instant
         self._logger = logger
+        # a refusal is logged at most once a second, decided before rclpy is asked (a flood
+        # of refused commands would otherwise cost the tick ~0.5 ms each: drs_ros.log_throttle)
+        self._log_refusal = LogThrottle(logger.warning)
         # diagnostics (cumulative) and the window of recent troubles, from zero
         self.refused = 0
         self.accepted = 0
@@ -161,7 +165,7 @@ class EffectRecord:
         self.last_refusal = f"{what} {value!r} refused: {reason}"
         self.refusals.append(self.last_refusal)
         self.troubles.add(now_ns, REFUSED, self.last_refusal)
-        self._logger.warning(self.last_refusal, throttle_duration_sec=1.0)
+        self._log_refusal(self.last_refusal)
         return self.last_refusal
 
     def event(

@@ -34,6 +34,7 @@ from pathlib import Path
 from drs_model.errors import DRSError
 
 from ..errors import DRSRosError
+from ..log_throttle import LogThrottle
 from .effect_record import error_text
 
 #: The fewest states sent to rerun at a time. A ``send_columns`` batch costs ~4 ms whatever its
@@ -72,6 +73,7 @@ class RecordingHealth:
         self.errors = 0
         self.last_error = ""
         self._logger = logger
+        self._log_error = LogThrottle(logger.error)  # after the first: one line a second
 
     def run(self, action, *args, **kwargs):
         """``action(*args, **kwargs)``, or None when it stopped or the action failed (module
@@ -100,9 +102,8 @@ class RecordingHealth:
                 f"{self.name}: {items} items were not recorded (the recording goes on): {where}"
             )
         else:
-            self._logger.error(
-                f"{self.name}: {self.errors} items not recorded, last: {self.last_error}",
-                throttle_duration_sec=1.0,
+            self._log_error(
+                f"{self.name}: {self.errors} items not recorded, last: {self.last_error}"
             )
 
     def fail(self, reason: str) -> None:
