@@ -112,10 +112,14 @@ def _basic_writer(typename: str) -> tuple[Writer, int]:
     return write, size
 
 
+#: A string's length (uint32) after the padding that aligns it, by the padding's size [bytes]:
+#: one pack for both (a record of the effect log holds ~16 strings).
+_PADDED_LENGTH = tuple(struct.Struct(f"<{pad}xI").pack for pad in range(4))
+
+
 def write_string(buf: bytearray, value: str) -> None:
     data = value.encode("utf-8")
-    _align(buf, 4)
-    buf += _U32.pack(len(data) + 1)
+    buf += _PADDED_LENGTH[padding(len(buf), 4)](len(data) + 1)
     buf += data
     buf += b"\x00"
 
