@@ -1,12 +1,17 @@
 """A log line written at most once per period, decided before rclpy is asked.
 
 rclpy's own throttle (``logger.warning(text, throttle_duration_sec=1.0)``) decides after it
-has identified its caller: ``inspect.getframeinfo`` and ``os.path.realpath`` on the calling
-frames, two or three times per call, suppressed or not. That is ~160 us of CPU a call in a warm
-loop and 0.4-0.75 ms on the node's tick under a flood of refused commands (measured
-2026-11-29, benchmarks/results/node_rate.md), a missed deadline each time. :class:`LogThrottle`
-keeps the decision to itself: a suppressed line costs a clock read and a comparison, and the
-next line written says how many were left out.
+has identified its caller: ``inspect.getframeinfo`` and ``os.path.realpath`` on each calling
+frame (four or five a call), suppressed or not. That is ~160 us of CPU a call in a warm loop,
+and 0.4-0.75 ms on the node's tick under a flood of refused commands, where such ticks were
+among those that missed their deadline (measured 2026-11-29, benchmarks/results/node_rate.md).
+:class:`LogThrottle` keeps the decision to itself: a suppressed line costs a clock read and a
+comparison, and the next line written says how many were left out.
+
+rclpy keys a logger's state on the calling location and refuses one location logging at two
+severities; this module is therefore skipped when rclpy identifies a line's caller
+(:func:`drs_ros.rclpy_private.log_for_callers`): a line comes from where the throttle was
+called, as it did before.
 """
 
 from __future__ import annotations
@@ -14,6 +19,10 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+
+from .rclpy_private import log_for_callers
+
+log_for_callers(__file__)
 
 
 class LogThrottle:

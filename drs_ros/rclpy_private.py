@@ -14,12 +14,18 @@ module, and ``tests/test_rclpy_private.py`` says which:
   task waits in the executor (a Jazzy executor resumes every pending task at every spin).
 * :func:`schedule_result`: schedule the execute callback of a goal already EXECUTING (it sets
   the terminal state and returns the result), what ``execute()`` does after the transition.
+* :func:`log_for_callers`: a module that calls rclpy's logger on behalf of its callers
+  (:mod:`drs_ros.log_throttle`) is skipped when rclpy identifies a line's caller. rclpy keys
+  each logger's state on the calling location and refuses one location logging at two
+  severities (``ValueError``); every line would otherwise come from the same place.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 
+from rclpy.impl import rcutils_logger as _rcutils_logger
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
 
@@ -40,4 +46,13 @@ def schedule_result(server, handle, callback: Callable) -> None:
     server.notify_execute(handle, callback)
 
 
-__all__ = ["mark_executing", "parameter_overrides", "schedule_result"]
+def log_for_callers(path: str) -> None:
+    """Skip the module at ``path`` when rclpy's logger identifies the caller of a line: the
+    caller is the frame that called into it, as for rclpy's own logging modules (rclpy keeps
+    their names in ``_internal_callers``, a list it says third parties may extend)."""
+    real = os.path.realpath(path)
+    if real not in _rcutils_logger._internal_callers:
+        _rcutils_logger._internal_callers.append(real)
+
+
+__all__ = ["log_for_callers", "mark_executing", "parameter_overrides", "schedule_result"]

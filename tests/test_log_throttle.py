@@ -4,14 +4,20 @@ refusals logged through it, so that a flood of refused commands never reaches rc
 
 from __future__ import annotations
 
+import sys
 import threading
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from ros_support import require_rclpy
 
-from drs_ros.log_throttle import LogThrottle
-from drs_ros.node.effect_record import EffectRecord
+require_rclpy()
+
+import rclpy.logging  # noqa: E402
+
+from drs_ros.log_throttle import LogThrottle  # noqa: E402
+from drs_ros.node.effect_record import EffectRecord  # noqa: E402
 
 
 class FakeClock:
@@ -54,17 +60,26 @@ def test_one_left_out_line_is_named_in_the_singular():
     st.floats(min_value=0.0, max_value=10.0),
     st.lists(st.floats(min_value=0.0, max_value=3.0), min_size=1, max_size=60),
 )
-def test_written_lines_are_a_period_apart_and_every_call_is_accounted_for(period, steps):
+def test_a_line_is_written_exactly_when_a_period_has_passed_since_the_last_written(period, steps):
     clock, lines = FakeClock(), []
     throttle = LogThrottle(lambda text: lines.append((clock.now, text)), period, clock)
+    expected, last, left_out = [], None, 0  # the rule, stated apart from the code
     for step in steps:
         clock.now += step
+        if last is None or clock.now - last >= period:
+            expected.append((clock.now, left_out))
+            last, left_out = clock.now, 0
+        else:
+            left_out += 1
         throttle("x")
-    times = [t for t, _text in lines]
-    assert times[0] == 100.0 + steps[0]  # the first call always writes
-    assert all(b - a >= period for a, b in zip(times, times[1:], strict=False))
-    left_out = sum(int(text.split("(")[1].split()[0]) for _t, text in lines if "not logged" in text)
-    assert len(lines) + left_out + throttle.suppressed == len(steps)
+    assert [t for t, _text in lines] == [t for t, _n in expected]
+    for (_t, text), (_t2, n) in zip(lines, expected, strict=True):
+        assert text == (
+            "x"
+            if n == 0
+            else f"x ({n} more line{'s' if n > 1 else ''} like it not logged since the last)"
+        )
+    assert throttle.suppressed == left_out
 
 
 def test_period_zero_writes_every_line_and_a_bad_period_is_refused():
@@ -85,16 +100,36 @@ def test_threads_calling_at_once_write_one_line_and_count_the_rest():
 
     def hammer() -> None:
         start.wait()
-        for _ in range(2000):
+        for _ in range(20_000):
             throttle("x")
 
     threads = [threading.Thread(target=hammer) for _ in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # threads switch between any two bytecodes, as under load
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(interval)
     assert lines == ["x"]
-    assert throttle.suppressed == 4 * 2000 - 1
+    assert throttle.suppressed == 4 * 20_000 - 1  # no count lost between threads
+
+
+def test_throttles_of_two_severities_on_one_rclpy_logger_both_write_from_their_callers():
+    """rclpy keys a logger's state on the calling location and raises ValueError when one
+    location logs at two severities: the throttle's own line must not be that location."""
+    logger = rclpy.logging.get_logger("drs_test_log_throttle")
+    warn, error = LogThrottle(logger.warning), LogThrottle(logger.error)
+    assert warn("a refusal (logged by the test on purpose)")
+    assert error("a failed callback (logged by the test on purpose)")  # no ValueError
+    callers = {(c.file_path, c.function_name) for c in logger.contexts}
+    here = __file__.replace(".pyc", ".py")
+    assert callers == {
+        (here, "test_throttles_of_two_severities_on_one_rclpy_logger_both_write_from_their_callers")
+    }
+    assert len(logger.contexts) == 2  # one per calling line
 
 
 class CountingLogger:

@@ -95,3 +95,28 @@ def test_a_goal_marked_executing_ends_through_the_scheduled_result(ros_context):
         ex.shutdown()
         server_node.destroy_node()
         client_node.destroy_node()
+
+
+def test_log_for_callers_makes_rclpy_name_the_frame_that_called_into_the_module(tmp_path):
+    """A line logged through a registered module is rclpy's caller's, not the module's: rclpy
+    identifies the caller by file (``CallerId``) and keys its logger's state on it."""
+    import importlib.util
+
+    import rclpy.logging
+
+    helper = tmp_path / "drs_log_helper.py"
+    helper.write_text("def log(logger, text):\n    logger.info(text)\n")
+    spec = importlib.util.spec_from_file_location("drs_log_helper", helper)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    logger = rclpy.logging.get_logger("drs_test_log_for_callers")
+    module.log(logger, "before (logged by the test on purpose)")
+    assert {c.function_name for c in logger.contexts} == {"log"}  # the helper's own line
+    rclpy_private.log_for_callers(str(helper))
+    rclpy_private.log_for_callers(str(helper))  # registered once, not twice
+    from rclpy.impl.rcutils_logger import _internal_callers
+
+    assert _internal_callers.count(str(helper.resolve())) == 1
+    module.log(logger, "after (logged by the test on purpose)")
+    names = {c.function_name for c in logger.contexts}
+    assert names == {"log", inspect.currentframe().f_code.co_name}
