@@ -137,6 +137,8 @@ class StatePublishers:
         self.listened = dict.fromkeys(self.state_publishers, False)
         #: Simulated time [s] of the last ~/markers drawn (None: never drawn).
         self.last_markers_t: float | None = None
+        #: The last configuration drawn (its bytes) and its drawing (None: none yet).
+        self._drawn: tuple | None = None
         self._last_still_t: float | None = None
 
     # ---- what the node asks --------------------------------------------------------------------
@@ -228,8 +230,14 @@ class StatePublishers:
 
     def _markers(self, st, stamp: int) -> bytes:
         """The CDR of the mechanism at state ``st`` as RViz and Foxglove draw it
-        (drs_ros.drawing), packed (:meth:`~drs_ros.conversions.MechanismMarkers.packer`)."""
-        lines, pins, force_at = moving_drawings(st.q[None, :], self.params)
+        (drs_ros.drawing), packed (:meth:`~drs_ros.conversions.MechanismMarkers.packer`). A
+        flap that has not moved since the last drawing (held open or closed) is not drawn
+        again: the drawing of a configuration costs ~40 us of CPU warm and ~90 us on a tick
+        after 4 ms idle, and depends on the configuration alone."""
+        key = st.q.tobytes()
+        if self._drawn is None or self._drawn[0] != key:
+            self._drawn = (key, *moving_drawings(st.q[None, :], self.params))
+        _key, lines, pins, force_at = self._drawn
         # the outlines that never move go out once a second (a marker lives until replaced)
         still = self._last_still_t is None or st.t - self._last_still_t >= STILL_MARKERS_PERIOD_S
         if still:
