@@ -129,8 +129,12 @@ class ActuatorSim(CommandedActuator):
         """Apply ``force`` [N] from now on (forward dynamics); refuse NaN or |F| > force_limit."""
         force = self._checked_force(force)
         m = self.motion
-        if m.mode != "force" or m.at_stop is None:
+        if m.mode != "force":
             self._stepper.reset(psi3=m.q[2], psi3_dot=m.qd[2], t=m.t)
+        elif m.at_stop is None:
+            # already stepping this very state: put it back as it is, without reset's
+            # constraint checks (~0.1 ms of numpy a command; the same integrator state)
+            self._stepper.restore(m.t, (m.q[2], m.qd[2]))
         self._force_cmd = force
         self._force = force
         m.hold_force_mode()

@@ -396,6 +396,43 @@ def test_force_mode_is_deterministic_through_contacts(params):
     assert run() == run()
 
 
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(min_value=0.05, max_value=0.95),
+    st.lists(
+        st.tuples(st.floats(min_value=-4000.0, max_value=4000.0), st.integers(1, 6)),
+        min_size=2,
+        max_size=6,
+    ),
+)
+def test_a_force_command_in_force_mode_goes_on_from_the_integrator_s_state(params, frac, cmds):
+    """A new force while the flap moves under an earlier one takes the integrator's state as it
+    is (``restore``); the reference re-initialises the integrator from the flap's state each
+    time (``reset``, with its constraint checks), as every force command did before: the same
+    bits, contacts included."""
+    s_min, s_max = kin.stroke_limits(params)
+
+    def run(reinitialise: bool):
+        a = ActuatorSim(params, dt=1e-3)
+        a.reset(s=s_min + frac * (s_max - s_min))
+        out = []
+        for force, steps in cmds:
+            m = a.motion
+            if reinitialise and m.mode == "force" and m.at_stop is None:
+                # the command as it was: the integrator re-initialised, then the new force
+                a._stepper.reset(psi3=m.q[2], psi3_dot=m.qd[2], t=m.t)
+                a._force_cmd = a._force = force
+                m.hold_force_mode()
+            else:
+                a.command_force(force)
+            for _ in range(steps):
+                st_ = a.step()
+                out.append((st_.t, *st_.q, *st_.qd, *st_.qdd, st_.piston_force, st_.at_stop))
+        return out
+
+    assert run(False) == run(True)
+
+
 # ---- trajectories: planned outside the tick, followed by bisection -------------------------------
 def _wave(params, n, dt=1e-3, period=0.5):
     s_min, s_max = kin.stroke_limits(params)
