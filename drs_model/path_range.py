@@ -9,6 +9,7 @@ here.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -51,26 +52,71 @@ def path_extremes(coeffs: np.ndarray, durations: np.ndarray, chunk: int = 2048):
 _TO_BERNSTEIN = np.array(
     [[math.comb(j, k) / math.comb(5, k) if k <= j else 0.0 for k in range(6)] for j in range(6)]
 )
+_TO_BERNSTEIN.flags.writeable = False
+
+
+def bernstein_hull(c, d, to_bernstein, lo: float, hi: float, out) -> int:
+    """``out[k]``: whether a Bernstein control point of the quintic ``c[k]`` (local-time
+    coefficients, shape ``(n, 6)``) on ``[0, d[k]]`` [s] lies outside ``[lo, hi]`` [m]; returns
+    how many do. The control points are ``b_j = sum_k to_bernstein[j, k] c_k d^k``, the power
+    coefficients in ``u = tau / d`` taken to the Bernstein basis (:data:`_TO_BERNSTEIN`); the
+    path lies within their hull. One plain loop, compiled by numba where it is installed
+    (:func:`hull_leaves`): a stroke command checks its one segment inside the node's tick, where
+    the same sum on numpy arrays cost ~8 us, almost all numpy's cost per call."""
+    leaving = 0
+    for k in range(d.shape[0]):
+        b_min, b_max = math.inf, -math.inf
+        for j in range(6):
+            b, power = 0.0, 1.0
+            for i in range(j + 1):
+                b += (c[k, i] * power) * to_bernstein[j, i]
+                power *= d[k]
+            b_min, b_max = min(b_min, b), max(b_max, b)
+        out[k] = b_min < lo or b_max > hi
+        leaving += out[k]
+    return leaving
+
+
+@functools.cache
+def _hull():
+    """:func:`bernstein_hull` compiled (or plain, without numba), built at its first use."""
+    from .compiled.scalar import compiled_or_plain
+
+    return compiled_or_plain(bernstein_hull)
+
+
+def _segments(coeffs, durations) -> tuple[np.ndarray, np.ndarray]:
+    return (
+        np.ascontiguousarray(coeffs, dtype=float).reshape(-1, 6),
+        np.ascontiguousarray(durations, dtype=float).ravel(),
+    )
 
 
 def hull_leaves(coeffs, durations, limits: tuple[float, float]) -> np.ndarray:
     """Whether the Bernstein control points of each quintic ``coeffs[k]`` (local time, on ``[0,
-    durations[k]]``) leave ``limits`` [m], shape ``(n,)``; if not, the path lies inside them."""
-    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
-    durations = np.asarray(durations, dtype=float).ravel()
-    bern = (coeffs * np.vander(durations, 6, increasing=True)) @ _TO_BERNSTEIN.T
-    return (bern.min(axis=1) < limits[0]) | (bern.max(axis=1) > limits[1])
+    durations[k]]``) leave ``limits`` [m], shape ``(n,)``; if not, the path lies inside them
+    (:func:`bernstein_hull`)."""
+    coeffs, durations = _segments(coeffs, durations)
+    out = np.empty(durations.size, dtype=np.bool_)
+    _hull()(coeffs, durations, _TO_BERNSTEIN, float(limits[0]), float(limits[1]), out)
+    return out
+
+
+def load_compiled() -> None:
+    """Load the compiled hull check now (from numba's cache, a few ms the first time in a
+    process), so that a real-time caller's first command does not pay it."""
+    hull_leaves(np.zeros((1, 6)), np.ones(1), (0.0, 1.0))
 
 
 def leaving_paths(coeffs, durations, limits: tuple[float, float]):
     """``(k, lo, hi)``: the quintics ``coeffs[k]`` (local time) whose path leaves ``limits`` [m]
     by more than :data:`PATH_TOL` at one of :data:`PATH_SAMPLES` instants, and their lowest and
     highest samples [m]; sampled only where the control points leave (:func:`hull_leaves`)."""
-    coeffs = np.asarray(coeffs, dtype=float).reshape(-1, 6)
-    durations = np.asarray(durations, dtype=float).ravel()
-    k = np.flatnonzero(hull_leaves(coeffs, durations, limits))
-    if not k.size:
-        return k, np.empty(0), np.empty(0)
+    coeffs, durations = _segments(coeffs, durations)
+    leaves = np.empty(durations.size, dtype=np.bool_)
+    if not _hull()(coeffs, durations, _TO_BERNSTEIN, float(limits[0]), float(limits[1]), leaves):
+        return np.empty(0, dtype=np.intp), np.empty(0), np.empty(0)
+    k = np.flatnonzero(leaves)
     lo, hi = path_extremes(coeffs[k], durations[k])
     bad = (lo < limits[0] - PATH_TOL) | (hi > limits[1] + PATH_TOL)
     return k[bad], lo[bad], hi[bad]

@@ -190,19 +190,22 @@ def test_deactivation_holds_the_piston_where_it_is(ros_context, params, tmp_path
 
 
 #: In a fresh interpreter: a configured node, then whether the compiled path scan a command's
-#: force check runs is already loaded (a signature loaded from numba's cache). ``auto`` is left
-#: out: its choice measures the rungs at configure, which loads the scan anyway.
+#: force check runs, and its path's hull check, are already loaded (a signature loaded from
+#: numba's cache). ``auto`` is left out: its choice measures the rungs at configure, which
+#: loads the scan anyway.
 _FIRST_COMMAND = """
 import sys
 import rclpy
 from rclpy.parameter import Parameter
 from drs_ros.node import DRSNode
 from drs_model.inverse import path_peak
+from drs_model import path_range
 ctx = rclpy.Context()
 rclpy.init(context=ctx)
 node = DRSNode(context=ctx, tick_timer=False, parameter_overrides=[
     Parameter("bag_path", value=sys.argv[1]), Parameter("fidelity", value=sys.argv[2])])
 loaded = path_peak._scan.cache_info().currsize == 1 and len(path_peak._scan().signatures) == 1
+loaded &= path_range._hull.cache_info().currsize == 1 and len(path_range._hull().signatures) == 1
 print(loaded)
 node.destroy_node()
 rclpy.shutdown(context=ctx)

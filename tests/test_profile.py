@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
+import os
 
 import numpy as np
 import pytest
@@ -248,6 +250,39 @@ def test_a_path_whose_hull_stays_inside_is_sampled_inside(coeffs, duration, widt
             lo, hi = path_extremes(c, duration)
             assert limits[0] - 1e-12 <= lo[0] and hi[0] <= limits[1] + 1e-12
             assert limits[0] - 1e-12 <= path.min() and path.max() <= limits[1] + 1e-12
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None and not os.environ.get("CI"),
+    reason="numba is not installed (pip install drs[fast]): nothing is compiled to compare",
+)
+@given(
+    coeffs=st.lists(st.floats(-1.0, 1.0), min_size=6, max_size=6),
+    duration=st.floats(1e-3, 0.5),
+    lo=st.floats(-2.0, 0.0),
+    width=st.floats(0.0, 3.0),
+)
+@settings(max_examples=200, deadline=None)
+def test_the_compiled_hull_check_is_its_plain_source(coeffs, duration, lo, width):
+    """The hull check runs compiled (numba) in the node; its plain source gives the same
+    answer, and a control point is outside exactly where the numpy basis change puts it."""
+    from drs_model import path_range
+
+    c = np.array([coeffs], dtype=float)
+    d = np.array([duration])
+    limits = (lo, lo + width)
+    plain, compiled = np.empty(1, dtype=bool), np.empty(1, dtype=bool)
+    m = path_range._TO_BERNSTEIN
+    n_plain = path_range.bernstein_hull(c, d, m, *limits, plain)
+    n_compiled = path_range._hull()(c, d, m, *limits, compiled)
+    assert (n_plain, bool(plain[0])) == (n_compiled, bool(compiled[0]))
+    # the control points by numpy: coefficients in u = tau / T, to the Bernstein basis
+    bern = (c[0] * duration ** np.arange(6)) @ m.T
+    margin = 1e-12 * max(1.0, np.abs(bern).max())
+    if bern.min() < limits[0] - margin or bern.max() > limits[1] + margin:
+        assert plain[0]
+    elif bern.min() > limits[0] + margin and bern.max() < limits[1] - margin:
+        assert not plain[0]
 
 
 @given(

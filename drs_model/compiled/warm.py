@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from .. import path_range
 from ..bodies import model_constants
 from ..forward.fixed_step import FIXED_STEP_METHODS, FixedStepIntegrator
 from ..forward.forces import ManoeuvreForce
@@ -57,6 +58,7 @@ def _one_sample_and_arrays(p: DRSParams) -> None:
     for fn in ufuncs.SIGNATURES:
         ufuncs.gufunc(fn)
     path_peak_force(p, [[0.02, 0.1, 0.0, 0.0, 0.0, 0.0]], [0.01])  # a commanded path's scan
+    path_range.load_compiled()  # a commanded path's hull check
     # the study's batch of forward runs (drs study): one opening run of the nominal flap
     psi3_closed, psi3_open = flap_angle_limits(p)
     crossing_times(

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 
+from drs_model import path_range
 from drs_model.fidelity import RUNGS, make_rung
 from drs_model.fidelity.auto import choose_rung, ladder_errors
 
@@ -58,11 +59,13 @@ class RungChoice:
         :class:`~drs_model.errors.TooStiffError` now, not a refusal at every tick). Its moves'
         force check is run once now, on the ``~/drs`` moves from rest: it loads the compiled
         path scan (:mod:`drs_model.inverse.path_peak`, ~5 ms from numba's cache), which the
-        first command's tick paid before (a missed deadline), and keeps those moves' peaks."""
+        first command's tick paid before (a missed deadline), and keeps those moves' peaks; the
+        compiled hull check of a move's path (:mod:`drs_model.path_range`) is loaded too."""
         sim = self.make("rigid" if self.auto else self.fidelity)
         sim.check_stiffness()
         for open_flap in (True, False):
             sim.drs_duration(open_flap)  # changes nothing but the kept peaks
+        path_range.load_compiled()
         return sim
 
     def wait_for_subscribers(self, seconds: float) -> None:
