@@ -92,14 +92,18 @@ def _segments(coeffs, durations) -> tuple[np.ndarray, np.ndarray]:
     )
 
 
+def _hull_check(coeffs: np.ndarray, durations: np.ndarray, limits) -> tuple[np.ndarray, int]:
+    """:func:`bernstein_hull` of segments as :func:`_segments` gives them: ``(leaves, count)``."""
+    out = np.empty(durations.size, dtype=np.bool_)
+    count = _hull()(coeffs, durations, _TO_BERNSTEIN, float(limits[0]), float(limits[1]), out)
+    return out, count
+
+
 def hull_leaves(coeffs, durations, limits: tuple[float, float]) -> np.ndarray:
     """Whether the Bernstein control points of each quintic ``coeffs[k]`` (local time, on ``[0,
     durations[k]]``) leave ``limits`` [m], shape ``(n,)``; if not, the path lies inside them
     (:func:`bernstein_hull`)."""
-    coeffs, durations = _segments(coeffs, durations)
-    out = np.empty(durations.size, dtype=np.bool_)
-    _hull()(coeffs, durations, _TO_BERNSTEIN, float(limits[0]), float(limits[1]), out)
-    return out
+    return _hull_check(*_segments(coeffs, durations), limits)[0]
 
 
 def load_compiled() -> None:
@@ -113,8 +117,8 @@ def leaving_paths(coeffs, durations, limits: tuple[float, float]):
     by more than :data:`PATH_TOL` at one of :data:`PATH_SAMPLES` instants, and their lowest and
     highest samples [m]; sampled only where the control points leave (:func:`hull_leaves`)."""
     coeffs, durations = _segments(coeffs, durations)
-    leaves = np.empty(durations.size, dtype=np.bool_)
-    if not _hull()(coeffs, durations, _TO_BERNSTEIN, float(limits[0]), float(limits[1]), leaves):
+    leaves, count = _hull_check(coeffs, durations, limits)
+    if not count:
         return np.empty(0, dtype=np.intp), np.empty(0), np.empty(0)
     k = np.flatnonzero(leaves)
     lo, hi = path_extremes(coeffs[k], durations[k])

@@ -105,7 +105,7 @@ def test_threads_calling_at_once_write_one_line_and_count_the_rest():
 
     threads = [threading.Thread(target=hammer) for _ in range(4)]
     interval = sys.getswitchinterval()
-    sys.setswitchinterval(1e-6)  # threads switch between any two bytecodes, as under load
+    sys.setswitchinterval(1e-6)  # threads switch at every chance the interpreter gives
     try:
         for t in threads:
             t.start()

@@ -236,20 +236,14 @@ class StatePublishers:
         after 4 ms idle, and depends on the configuration alone."""
         key = st.q.tobytes()
         if self._drawn is None or self._drawn[0] != key:
-            self._drawn = (key, *moving_drawings(st.q[None, :], self.params))
+            lines, pins, force_at = moving_drawings(st.q[None, :], self.params)
+            self._drawn = (key, {k: v[0] for k, v in lines.items()}, pins[0], force_at[0])
         _key, lines, pins, force_at = self._drawn
         # the outlines that never move go out once a second (a marker lives until replaced)
         still = self._last_still_t is None or st.t - self._last_still_t >= STILL_MARKERS_PERIOD_S
         if still:
             self._last_still_t = st.t
-        return self._pack_markers(
-            {k: v[0] for k, v in lines.items()},
-            pins[0],
-            force_at[0],
-            st.piston_force,
-            stamp,
-            with_still=still,
-        )
+        return self._pack_markers(lines, pins, force_at, st.piston_force, stamp, with_still=still)
 
     def destroy(self, node) -> None:
         for pub in self.all:
