@@ -47,7 +47,7 @@ from .. import commands
 from ..conversions import diagnostics_status, parameter_event_msg
 from ..log_throttle import LogThrottle
 from ..names import FIDELITY, TOPICS
-from ..recording import cdr, cdr_received
+from ..recording import cdr
 from ..recording.diagnostic_cdr import diagnostic_array_cdr
 from ..stack.layer import NodeHooks, StackLayer, StackModel
 from ..timestamps import ns_from_seconds
@@ -67,6 +67,7 @@ from .publishers import HYDRAULIC_TOPICS, StatePublishers
 from .recorded_topics import register_recorded_topics
 from .recordings import NodeRecordings
 from .rung_choice import RungChoice
+from .service_event_cdr import exact_set_bool_event
 from .tick import SimulationClock, Tick, TickParts
 
 
@@ -106,15 +107,15 @@ class DRSNode(Node):
         self.configured = self.active = False
         self.callback_errors = 0
         self._log_callback_error = LogThrottle(self.get_logger().error)  # one line a second
+        self._log_bad_service_event = LogThrottle(self.get_logger().error)
         # the bag and the rerun recording, and their failures: opened at configure
         self.recordings = NodeRecordings(self.get_logger(), self._recording_lost)
         self.fault_parameters = NodeFaults(self, self._lock, self._now_ns, lambda: self.configured)
         #: The stop the node obeys within a tick (drs_ros.stop_request.StopRequest, set by
         #: drs_ros.node.runner): a long tick ends at the next physics step once it is requested.
         self.stop_request = None
-        self.timer = self.diag_timer = self.clock_watch = None
+        self.timer = self.diag_timer = self.clock_watch = self.sub_drs_events = None
         self.sub_stroke = self.sub_force = self.sub_trajectory = self.srv_drs = None
-        self.sub_drs_events = None
         if not managed:
             self.configure()
             self.activate()
@@ -439,11 +440,11 @@ class DRSNode(Node):
             return self.intake.on_drs(request, response, now)
 
     def _on_service_event(self, data: bytes) -> None:
-        # an event ends in a string, so the transport may have padded it (cdr_received.exact_bytes)
+        # an event ends in a string, so the transport may have padded it (service_event_cdr)
         try:
-            data = cdr_received.exact_bytes(data, SetBool.Event)
+            data = exact_set_bool_event(data)
         except cdr.CdrError as exc:
-            self.get_logger().error(f"service event not recorded: {exc}")
+            self._log_bad_service_event(f"service event not recorded: {exc}")
             return
         self._record(self.service_event_topic, data, self._now_ns())
 

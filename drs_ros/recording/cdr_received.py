@@ -87,6 +87,11 @@ class Reader:
         offset, self.pos = self.pos, self.pos + size * n
         return offset, n
 
+    @property
+    def padding_is_zero(self) -> bool:
+        """Whether every alignment padding byte read so far is zero (the exact CDR's own)."""
+        return not self._dirty
+
     def finish(self, what: str) -> bytes:
         """The exact CDR of what was read: the bytes up to here, padding zeroed; refused if more
         than the transport's padding follows."""
