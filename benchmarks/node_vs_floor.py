@@ -13,15 +13,19 @@ by thread (``/proc/<pid>/task``, by the names ``drs_ros.threads`` gives them); t
 deadlines come from its diagnostics (a tick later than 1.5 periods; the lateness quantiles are
 its histogram's since the start, ``drs_ros.node.tick_schedule``).
 
-``--flood HZ``: also the node at 1 kHz with and without a stroke-command flood at ``HZ`` from
-another process, interleaved; the missed deadlines of each. ``--startup N``: exec of
+``--loads``: also the node under other command loads, in the same rounds (``none``: no command;
+``drs``, ``stroke``, ``force``: one kind of command at ~100 Hz), to split the node's share
+between its ticks and the commands it takes. ``--flood HZ``: also the node at 1 kHz with and
+without a stroke-command flood at ``HZ`` from another process, interleaved; the missed
+deadlines of each. ``--startup N``: exec of
 ``drs-node`` to its first ``/joint_states`` (median of ``N``), and where the imports' time goes
 (``python -X importtime``, summed by top-level package). ``--env NAME=VALUE``: a variable for
 the floor and the node of the ``profiled`` rounds, measured interleaved with the defaults (e.g.
 a Fast DDS XML profile).
 
 Usage: ``python benchmarks/node_vs_floor.py [--rates 1000 250] [--duration 10] [--rounds 3]
-[--listen joint_states ...] [--flood 10000] [--startup 5] [--env NAME=VALUE ...]
+[--listen joint_states ...] [--loads mix none drs stroke force] [--flood 10000] [--startup 5]
+[--env NAME=VALUE ...]
 [--domain 97] [--output benchmarks/results/node_vs_floor.json]``
 """
 
@@ -93,19 +97,35 @@ def floor_run(rate_hz: float, duration_s: float, roles: list[str], env: dict) ->
     return result
 
 
-def drive(client, duration_s: float) -> int:
-    """Commands at ~100 Hz for ``duration_s`` [s]: open, close, a stroke, a force, none, in
-    turn; how many were sent."""
+#: The command client's commands (a ``~/drs`` call's answer is not awaited).
+COMMANDS = {
+    "open": lambda client: client.request_drs(True),
+    "close": lambda client: client.request_drs(False),
+    "stroke 20 mm": lambda client: client.stroke(0.02),
+    "stroke 30 mm": lambda client: client.stroke(0.03),
+    "force 1500 N": lambda client: client.force(1500.0),
+    "force 0 N": lambda client: client.force(0.0),
+}
+#: What the client sends in turn, one command each ~10 ms (``--loads``): ``mix`` is the goal's
+#: load; the others split its cost by kind of command (``none``: the client only listens).
+LOADS = {
+    "mix": ("open", "close", "stroke 20 mm", "force 1500 N", "force 0 N"),
+    "none": (),
+    "drs": ("open", "close"),
+    "stroke": ("stroke 20 mm", "stroke 30 mm"),
+    "force": ("force 1500 N", "force 0 N"),
+}
+
+
+def drive(client, duration_s: float, load: str = "mix") -> int:
+    """The commands of ``load`` (:data:`LOADS`) in turn at ~100 Hz for ``duration_s`` [s]; how
+    many were sent."""
+    cycle = LOADS[load]
     k, t0 = 0, time.monotonic()
     while time.monotonic() - t0 < duration_s:
-        step = k % 5
-        if step in (0, 1):
-            client.request_drs(step == 0)  # the answer is not awaited
-        elif step == 2:
-            client.stroke(0.02)
-        else:
-            client.force(1500.0 if step == 3 else 0.0)
-        k += 1
+        if cycle:
+            COMMANDS[cycle[k % len(cycle)]](client)
+            k += 1
         client.spin(COMMAND_PERIOD_S)
     return k
 
@@ -122,8 +142,10 @@ def node_run(
     out: Path,
     domain: int,
     flood_hz: float | None = None,
+    load: str = "mix",
 ) -> dict:
-    """One run of the node beside the listener and the command client (and the flood)."""
+    """One run of the node beside the listener and the command client sending ``load`` (and
+    the flood)."""
     from drs_ros.client import DRSClient
 
     listener = start_listener(roles, env)
@@ -155,7 +177,7 @@ def node_run(
         first = dict(client.seen["diag"] or {})
         wall0, cpu0 = time.monotonic(), cpu_seconds(node.pid)
         threads0 = thread_cpu_seconds(node.pid)
-        sent = drive(client, duration_s)
+        sent = drive(client, duration_s, load)
         wall, cpu = time.monotonic() - wall0, cpu_seconds(node.pid) - cpu0
         threads = thread_cpu_seconds(node.pid)
         client.spin(1.1)  # one more diagnostics message
@@ -172,6 +194,7 @@ def node_run(
     return {
         "kind": "node",
         "rate_hz": rate_hz,
+        "load": load,
         "flood_hz": flood_hz or 0,
         "cpu_share": cpu / wall,
         "thread_shares": {
@@ -215,7 +238,10 @@ def summarise(runs: list[dict], rates: list[float], variants: list[str]) -> list
             mine = [
                 r
                 for r in runs
-                if r["rate_hz"] == rate and r["variant"] == variant and not r.get("flood_hz")
+                if r["rate_hz"] == rate
+                and r["variant"] == variant
+                and not r.get("flood_hz")
+                and r.get("load", "mix") == "mix"
             ]
             floor = [r for r in mine if r["kind"] == "floor"]
             node = [r for r in mine if r["kind"] == "node"]
@@ -263,6 +289,8 @@ def print_table(rows: list[dict], rounds: int) -> None:
 
 def print_run(r: dict) -> None:
     what = f"{r['kind']:>5} {r['rate_hz']:6g} Hz {r['variant']:>8}"
+    if r.get("load", "mix") != "mix":
+        what += f" load {r['load']}"
     if r.get("flood_hz"):
         what += f" flood {r['flood_hz']:g} Hz"
     print(
@@ -274,18 +302,61 @@ def print_run(r: dict) -> None:
 
 
 def plan_runs(args, variants: list[str]) -> list[tuple]:
-    """(kind, rate, variant, flood Hz) in the order they run: floor and node alternate."""
+    """(kind, rate, variant, flood Hz, load) in the order they run: floor and node alternate,
+    then the node under each other load of ``--loads`` (the default variant)."""
     plan = []
     for _ in range(args.rounds):
         for rate in args.rates:
             for variant in variants:
-                plan += [("floor", rate, variant, 0), ("node", rate, variant, 0)]
+                plan += [("floor", rate, variant, 0, "mix"), ("node", rate, variant, 0, "mix")]
+            plan += [("node", rate, "default", 0, load) for load in args.loads if load != "mix"]
         if args.flood:
             plan += [
-                ("node", PHYSICS_HZ, "default", 0),
-                ("node", PHYSICS_HZ, "default", args.flood),
+                ("node", PHYSICS_HZ, "default", 0, "mix"),
+                ("node", PHYSICS_HZ, "default", args.flood, "mix"),
             ]
     return plan
+
+
+def loads_summary(runs: list[dict], rows: list[dict], loads: list[str]) -> list[dict]:
+    """Per rate and load (the default variant): the node's median share, by thread, its missed
+    deadlines, and its difference with the floor of the same rounds."""
+    out = []
+    for row in (r for r in rows if r["variant"] == "default"):
+        for load in loads:
+            mine = [
+                r
+                for r in runs
+                if r["kind"] == "node"
+                and r["variant"] == "default"
+                and r["rate_hz"] == row["rate_hz"]
+                and r.get("load", "mix") == load
+                and not r.get("flood_hz")
+            ]
+            share = median_of(mine, "cpu_share")
+            out.append(
+                {
+                    "rate_hz": row["rate_hz"],
+                    "load": load,
+                    "runs": len(mine),
+                    "node_cpu_share": share,
+                    "node_thread_shares": median_thread_shares(mine),
+                    "node_missed_share": median_of(mine, "missed_share"),
+                    "difference_points": share - row["floor_cpu_share"],
+                }
+            )
+    print("\nthe node by command load (medians; the floor of the same rounds):")
+    print("| rate | load | node | node - floor | main | executor | missed |")
+    print("|---|---|---|---|---|---|---|")
+    for r in out:
+        threads = r["node_thread_shares"]
+        print(
+            f"| {r['rate_hz']:g} Hz | {r['load']} | {100 * r['node_cpu_share']:.1f} % | "
+            f"{100 * r['difference_points']:+.1f} | {100 * threads.get('main', 0.0):.1f} | "
+            f"{100 * threads.get('drs-executor', 0.0):.1f} | "
+            f"{100 * r['node_missed_share']:.2f} % |"
+        )
+    return out
 
 
 def flood_summary(runs: list[dict], flood_hz: float) -> dict:
@@ -324,6 +395,13 @@ def arguments(argv):
         default=["joint_states"],
         help="the state topics the listener takes (default: the joint states)",
     )
+    ap.add_argument(
+        "--loads",
+        nargs="+",
+        choices=list(LOADS),
+        default=["mix"],
+        help="the command client's loads the node runs under (the goal: mix)",
+    )
     ap.add_argument("--flood", type=float, default=0.0, help="command flood [Hz] (0: none)")
     ap.add_argument("--startup", type=int, default=0, help="start-ups to time (0: none)")
     ap.add_argument("--env", nargs="*", default=[], help="NAME=VALUE of the profiled variant")
@@ -342,13 +420,20 @@ def main(argv: list[str] | None = None) -> int:
         envs["profiled"] = dict(base, **parse_env(args.env))
     runs = []
     with tempfile.TemporaryDirectory() as d:
-        for k, (kind, rate, variant, flood) in enumerate(plan_runs(args, list(envs))):
+        for k, (kind, rate, variant, flood, load) in enumerate(plan_runs(args, list(envs))):
             env = envs[variant]
             if kind == "floor":
                 r = floor_run(rate, args.duration, args.listen, env)
             else:
                 r = node_run(
-                    rate, args.duration, args.listen, env, Path(d) / str(k), args.domain, flood
+                    rate,
+                    args.duration,
+                    args.listen,
+                    env,
+                    Path(d) / str(k),
+                    args.domain,
+                    flood,
+                    load,
                 )
             r.update(variant=variant, flood_hz=flood)
             print_run(r)
@@ -364,6 +449,8 @@ def main(argv: list[str] | None = None) -> int:
         "summary": rows,
         "runs": runs,
     }
+    if args.loads != ["mix"]:
+        result["loads"] = loads_summary(runs, rows, ["mix", *(x for x in args.loads if x != "mix")])
     if args.flood:
         result["flood"] = flood_summary(runs, args.flood)
     if startup is not None:
