@@ -363,7 +363,10 @@ def flood_summary(runs: list[dict], flood_hz: float) -> dict:
     at = [
         r
         for r in runs
-        if r["kind"] == "node" and r["rate_hz"] == PHYSICS_HZ and r["variant"] == "default"
+        if r["kind"] == "node"
+        and r["rate_hz"] == PHYSICS_HZ
+        and r["variant"] == "default"
+        and r.get("load", "mix") == "mix"
     ]
     quiet = [r for r in at if not r["flood_hz"]]
     flooded = [r for r in at if r["flood_hz"]]
