@@ -410,7 +410,9 @@ def arguments(argv):
     ap.add_argument("--env", nargs="*", default=[], help="NAME=VALUE of the profiled variant")
     ap.add_argument("--domain", type=int, default=97)
     ap.add_argument("--output", type=Path, default=RESULTS)
-    return ap.parse_args(argv)
+    args = ap.parse_args(argv)
+    args.loads = list(dict.fromkeys(args.loads))  # each load once a round
+    return args
 
 
 def main(argv: list[str] | None = None) -> int:

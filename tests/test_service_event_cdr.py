@@ -5,7 +5,7 @@ events as rcl and the serialiser write them taken in place, without the decoder.
 from __future__ import annotations
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from ros_support import require_rclpy
 
@@ -63,6 +63,34 @@ def wires(draw) -> bytes:
     return bytes(data)
 
 
+def _event(request: bool, message: str | None) -> bytes:
+    ev = SetBool.Event()
+    ev.info.sequence_number = 3
+    if request:
+        ev.request.append(SetBool.Request(data=True))
+    if message is not None:
+        ev.response.append(SetBool.Response(success=True, message=message))
+    return SERIALIZE(ev)
+
+
+def _two_requests() -> bytes:
+    """Two requests (the bound is one), each a valid boolean, then no response."""
+    one = _event(True, None)  # ... the request count at byte 44, its boolean at 48
+    return one[:44] + (2).to_bytes(4, "little") + b"\x01\x00" + bytes(2) + bytes(4)
+
+
+def _nul_inside() -> bytes:
+    data = bytearray(_event(False, "abxc"))
+    data[data.index(b"abxc") + 2] = 0
+    return bytes(data)
+
+
+def _empty_string() -> bytes:
+    """A message string of length 0 (no NUL): the serialiser writes "" as length 1 and a NUL."""
+    data = _event(False, "")
+    return data[:-5] + bytes(4)
+
+
 def _outcome(check, data: bytes):
     try:
         return "taken", check(data)
@@ -72,6 +100,9 @@ def _outcome(check, data: bytes):
 
 @settings(max_examples=600, deadline=None)
 @given(data=wires())
+@example(data=_two_requests())
+@example(data=_nul_inside())
+@example(data=_empty_string())
 def test_every_wire_is_taken_or_refused_as_exact_bytes_does(data):
     ours = _outcome(exact_set_bool_event, data)
     assert ours == _outcome(lambda d: cdr_received.exact_bytes(d, SetBool.Event), data)
@@ -90,13 +121,21 @@ def test_an_exact_event_is_taken_in_place_without_the_decoder(ev, padding):
         assert exact_set_bool_event(exact + bytes(padding)) == exact
 
 
-def test_padding_that_is_not_zero_goes_to_the_decoder_and_is_refused():
+def test_padding_that_is_not_zero_goes_to_the_decoder_and_is_refused(monkeypatch):
     ev = SetBool.Event()
     ev.request.append(SetBool.Request(data=True))
     data = bytearray(SERIALIZE(ev))
     data[5] = 0x7F  # between info.event_type (byte 4) and info.stamp (aligned to 4 from byte 4)
-    with pytest.raises(cdr.CdrError, match="SetBool_Event"):
+    asked, exact_bytes = [], cdr_received.exact_bytes
+
+    def decoder(data, msg_class):
+        asked.append(data)
+        return exact_bytes(data, msg_class)
+
+    monkeypatch.setattr(service_event_cdr.cdr_received, "exact_bytes", decoder)
+    with pytest.raises(cdr.CdrError, match="plus at most 3 zero bytes"):
         exact_set_bool_event(bytes(data))
+    assert asked == [bytes(data)]
 
 
 def test_an_event_rclpy_serialised_is_judged_as_exact_bytes_judges_it():

@@ -3,9 +3,9 @@ subscription to ``~/drs/_service_event`` receives it, checked in place before th
 
 Why: the node records each event as its exact CDR,
 :func:`drs_ros.recording.cdr_received.exact_bytes` (rclpy's decoder, the serialiser, a
-comparison). On the executor thread, which wakes cold for each call, that cost ~150 us an event
-in the node, two events a call: a third of a ``~/drs`` call's CPU (~30 us back to back;
-benchmarks/results/node_rate.md, 2026-11-29). An event is read here in place, field by field,
+comparison). On the executor thread, which wakes cold for each call, that took ~150 us of an
+event's ~190 us, two events a call: nearly half of a ``~/drs`` call's CPU there (~30 us back to
+back; benchmarks/results/node_rate.md, 2026-11-29). An event is read here in place, field by field,
 by the serialisers' own rules (:class:`~drs_ros.recording.cdr_received.Reader`). Only bytes
 that are already exact are taken this way: every alignment padding byte zero, each boolean 0 or
 1, at most one request and one response (the sequences' bound), a UTF-8 message ending in its
