@@ -96,6 +96,7 @@ def test_no_callback_starts_while_the_tick_holds_the_gate():
     import threading
 
     from drs_ros.node.runner import STOP_POLL_S, spin_until_stopped
+    from drs_ros.node.tick_gate import TickGate
     from drs_ros.stop_request import StopRequest
 
     class Context:
@@ -110,19 +111,29 @@ def test_no_callback_starts_while_the_tick_holds_the_gate():
             self.calls += 1
             time.sleep(0.0005)
 
-    executor, stop, gate = Executor(), StopRequest(), threading.Lock()
-    gate.acquire()  # a tick in progress
+    executor, stop, gate = Executor(), StopRequest(), TickGate()
+    tick_over, tick_started = threading.Event(), threading.Event()
+
+    def tick():
+        tick_started.set()
+        tick_over.wait(10.0)
+
+    ticking = threading.Thread(target=gate.run, args=(tick, time.monotonic_ns()))
+    ticking.start()  # a tick in progress
+    assert tick_started.wait(5.0)
     thread = threading.Thread(target=spin_until_stopped, args=(None, executor, stop, gate))
     thread.start()
     try:
         time.sleep(0.2)  # four of the loop's stop polls: one callback after each
         held = executor.calls
-        gate.release()  # the tick is over
+        tick_over.set()  # the tick is over
         time.sleep(0.4)
         free = executor.calls - held
     finally:
+        tick_over.set()
         stop()
         thread.join(timeout=5.0)
+        ticking.join(timeout=5.0)
     assert held <= 0.2 / STOP_POLL_S + 1
     assert free >= 20  # 0.5 ms each (~800), nothing to wait for; a busy machine is slower
     assert not thread.is_alive()

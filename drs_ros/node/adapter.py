@@ -25,11 +25,10 @@ The physics runs on a fixed simulated step (``physics_rate_hz``); one timer at `
 catches the simulation up with the node clock (wall or ``/clock`` with ``use_sim_time``) and
 publishes. Stamps are ``t0 + simulated time``, so they follow the node clock without its jitter.
 
-The node owns its parts, each in its module: the command intake (:mod:`.intake`: commands
-are latest-wins), the publishers (:mod:`.publishers`), the effect record (:mod:`.effect_record`),
-the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the faults, the recordings (what they
-record beside the publications: :mod:`.recorded_topics`) and the wait for ``/clock``
-(:mod:`.clock_wait`).
+The node owns its parts, each in its module: the command intake (:mod:`.intake`, latest-wins),
+the publishers, the effect record, the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the
+faults, the recordings (and :mod:`.recorded_topics`), the wait for ``/clock``
+(:mod:`.clock_wait`) and the tick gate (:mod:`.tick_gate`: the ticks and the long callbacks).
 """
 
 from __future__ import annotations
@@ -69,6 +68,7 @@ from .recordings import NodeRecordings
 from .rung_choice import RungChoice
 from .service_event_cdr import exact_set_bool_event
 from .tick import SimulationClock, Tick, TickParts
+from .tick_gate import TickGate
 
 
 class DRSNode(Node):
@@ -98,14 +98,13 @@ class DRSNode(Node):
         :func:`drs_ros.node.runner.run_deadline_loop`);
         ``managed=True``: stay unconfigured until :meth:`configure` is called."""
         super().__init__("drs", **kwargs)
-        # callbacks may run in an executor thread while the main thread ticks
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # the executor thread's callbacks and the ticks share it
+        self.tick_gate = TickGate()  # the deadline loop's ticks run through it
         declare_fault_parameters(self)  # writable: the only parameters that change at run time
         self._given_parameters = declare_parameters(self)
         self._wall_clock = not self.get_parameter("use_sim_time").value
         self._tick_timer = tick_timer
-        self.configured = self.active = False
-        self.callback_errors = 0
+        self.configured, self.active, self.callback_errors = False, False, 0
         self._log_callback_error = LogThrottle(self.get_logger().error)  # one line a second
         self._log_bad_service_event = LogThrottle(self.get_logger().error)
         # the bag and the rerun recording, and their failures: opened at configure
@@ -399,12 +398,12 @@ class DRSNode(Node):
         self._log_callback_error(f"a callback failed, the node goes on: {reason}")
 
     def _on_diagnostics(self) -> None:
+        self.tick_gate.clear_of_ticks()  # ~0.35 ms of Python: after a tick, not over one
         now = self._now_ns()
         with self._lock:  # the main thread may be stepping the actuator (deadline executor)
             level, message = self.diagnostics_level(now)
             values = self.diagnostics_values()
-        # packed straight into CDR: no rclpy message built in the executor thread, which holds
-        # the GIL against the real-time tick
+        # packed straight into CDR: no rclpy message built on the executor thread (its GIL)
         status = diagnostics_status(self.get_name(), level, message, values)
         data = diagnostic_array_cdr(now, [status])
         pubs = self.outputs
@@ -432,6 +431,7 @@ class DRSNode(Node):
         return self.get_clock().now().nanoseconds
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self.tick_gate.clear_of_ticks()  # its callbacks (0.3-0.8 ms) after a tick, not over one
         self.intake.before_drs(request)  # outside the lock the tick takes
         with self._lock:
             now = self._now_ns()

@@ -5,7 +5,8 @@ Commands are latest-wins: a subscription callback only decodes the bytes that ar
 state-free part of the command's work (a trajectory's plan) and keeps the newest command per
 topic; the next tick applies it before stepping (:meth:`CommandIntake.apply_pending`), so no
 queued, stale setpoint is ever executed. A ``~/drs`` service call acts at once
-(:meth:`CommandIntake.on_drs`). Every command is recorded as its exact CDR bytes as it arrives;
+(:meth:`CommandIntake.on_drs`; under the deadline loop just after a tick due within 1 ms:
+:mod:`.tick_gate`). Every command is recorded as its exact CDR bytes as it arrives;
 what became of it goes into the effect record.
 """
 

@@ -9,7 +9,6 @@ import atexit
 import gc
 import os
 import sys
-import threading
 import time
 
 import rclpy
@@ -32,6 +31,7 @@ from ..timestamps import ns_from_seconds, seconds_from_ns
 from .adapter import DRSNode
 from .managed import ManagedDRSNode
 from .parameters import usage_text
+from .tick_gate import TickGate
 from .tick_schedule import TickPolicy, apply_tick_policy, leave_tick_policy
 
 RCLError = _rclpy.RCLError
@@ -59,7 +59,7 @@ def spin_until_stopped(
     node: Node,
     executor,
     stop: StopRequest,
-    tick_gate: threading.Lock | None = None,
+    tick_gate: TickGate | None = None,
     idle_wait_s: float = STOP_POLL_S,
 ) -> None:
     """Run ``executor``'s callbacks until ``stop`` is requested or the context ends. A callback
@@ -74,8 +74,8 @@ def spin_until_stopped(
     command flood the executor runs Python without pause, and every 0.2 ms (the GIL switch
     interval) it would take the GIL from the tick, doubling the tick's time."""
     while not stop.requested and executor.context.ok():
-        if tick_gate is not None and tick_gate.acquire(timeout=STOP_POLL_S):
-            tick_gate.release()  # the tick is over: one callback's turn
+        if tick_gate is not None:
+            tick_gate.wait_for_tick_end(STOP_POLL_S)  # the tick is over: one callback's turn
         try:
             executor.spin_once(timeout_sec=idle_wait_s)
         except ExternalShutdownException:
@@ -126,7 +126,7 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     context = context or node.context
     executor = EventsExecutor(context=context)
     executor.add_node(node)
-    tick_gate = threading.Lock()  # held while a tick runs: the executor's callbacks wait
+    tick_gate = node.tick_gate  # a tick runs through it: the executor's callbacks wait
     thread = NamedThread(
         target=spin_until_stopped,
         args=(node, executor, stop, tick_gate, EXECUTOR_IDLE_WAIT_S),
@@ -154,9 +154,9 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
             if wait < -period_ns:  # late by more than a period: the deadlines between are skipped
                 lateness.skipped += -wait // period_ns
                 deadline = time.monotonic_ns()  # resume from now
-            with tick_gate:
-                node.tick()
+            tick_gate.run(node.tick, deadline + period_ns)
     finally:
+        tick_gate.stopped()
         leave_tick_policy(policy)  # the loop is real-time; the shutdown is not
         stop()  # the executor thread ends too, whatever ended this loop
         end_idle_wait(node)  # now, not at the end of its idle wait
