@@ -155,17 +155,18 @@ def _burn(seconds: float) -> list[subprocess.Popen]:
 
 
 def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, request, params):
-    """SIGINT or SIGTERM at random moments while recording at 500 Hz with a command stream, both
-    cores busy: every stop exits 0, every bag passes ``drs-bag check`` (metadata.yaml counts what
-    the file holds) and every recording passes ``rerun rrd verify``. Before the designed stop,
-    1 stop in 40 ended in a segmentation fault and 1 demo in 12 had a miscounted bag; the 12
-    stops here catch a regression of that size with probability ~0.3 only: the benchmark
-    ``benchmarks/shutdown_stress.py`` runs the count that proves it (60 stops,
-    ``benchmarks/results/shutdown_stress.txt``). Three nodes run at once (one domain, one command
-    stream for all), each stopped at its own random moment. The tick threads run under
-    SCHED_OTHER here: under SCHED_FIFO, three nodes' tick threads beside two burners once kept a
-    node's main thread (where the signal is handled) from ending it within 60 s in a fresh-clone
-    run; that starvation is an open problem of the FIFO tick, not what this test is about."""
+    """SIGINT or SIGTERM at random moments while recording at 500 Hz with a command stream
+    (stroke commands and ``~/drs`` calls), both cores busy: every stop exits 0, every bag passes
+    ``drs-bag check`` (metadata.yaml counts what the file holds) and every recording passes
+    ``rerun rrd verify``. Before the designed stop, 1 stop in 40 ended in a segmentation fault
+    and 1 demo in 12 had a miscounted bag; the 12 stops here catch a regression of that size
+    with probability ~0.3 only: the benchmark ``benchmarks/shutdown_stress.py`` runs the count
+    that proves it (60 stops, ``benchmarks/results/shutdown_stress.txt``). Three nodes run at
+    once (one domain, one command stream for all), each stopped at its own random moment. The
+    tick threads run under SCHED_OTHER here: under SCHED_FIFO, three nodes' tick threads beside
+    two burners once kept a node's main thread (where the signal is handled) from ending it
+    within 60 s in a fresh-clone run; that starvation is an open problem of the FIFO tick, not
+    what this test is about."""
 
     from drs_model.kinematics import stroke_limits
     from drs_ros.recording.rerun_cli import run_rerun_cli
@@ -198,7 +199,10 @@ def test_a_stop_at_any_moment_under_load_finishes_both_recordings(tmp_path, requ
                 start = time.monotonic()
                 at = {name: start + 0.1 + 1.5 * rng.random() for name in names}
                 while len(stops) < per_batch:  # a command stream until the last stop
-                    client.stroke(lo + (hi - lo) * rng.random())
+                    if rng.random() < 0.25:  # a ~/drs call: its callbacks wait at the tick gate
+                        client.request_drs(rng.random() < 0.5)
+                    else:
+                        client.stroke(lo + (hi - lo) * rng.random())
                     client.spin(0.005)
                     for name in names:
                         if name not in stops and time.monotonic() >= at[name]:
