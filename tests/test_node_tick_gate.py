@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import threading
 import time
+import types
 
 import pytest
 from node_support import ros_context  # noqa: F401
@@ -25,6 +26,13 @@ def _tick_later(gate: TickGate, after_s: float, next_deadline_ns: int) -> thread
     thread = threading.Thread(target=run)
     thread.start()
     return thread
+
+
+def _until(condition, timeout_s: float = 30.0) -> None:
+    give_up = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < give_up, "the condition never held"
+        time.sleep(0.001)
 
 
 def test_no_tick_scheduled_or_one_due_later_than_the_room_asked_means_no_wait():
@@ -64,7 +72,7 @@ def test_a_running_tick_is_waited_for():
         target=lambda: seen.append((gate.clear_of_ticks(0.001, 30.0), gate.ticks))
     )
     waiter.start()
-    time.sleep(0.05)
+    _until(lambda: gate.waiting)
     assert not seen  # still waiting: the tick runs
     release.set()
     waiter.join(timeout=30.0)
@@ -80,7 +88,7 @@ def test_a_wait_ends_at_the_timeout_when_no_tick_comes_and_at_once_when_the_loop
     done = []
     waiter = threading.Thread(target=lambda: done.append(gate.clear_of_ticks(0.001, 30.0)))
     waiter.start()
-    time.sleep(0.05)
+    _until(lambda: gate.waiting)
     gate.stopped()  # the loop ended: nothing will tick
     waiter.join(timeout=30.0)
     assert done == [True]
@@ -89,10 +97,10 @@ def test_a_wait_ends_at_the_timeout_when_no_tick_comes_and_at_once_when_the_loop
 
 
 @pytest.mark.parametrize("period_ms", [1.0, 0.1])
-def test_no_tick_end_is_missed_by_a_waiter(period_ms):
+def test_every_wait_ends_after_a_tick_that_ran_since_it_began(period_ms):
     """Ticks every ``period_ms`` from one thread, a waiter asking for more room than a period
-    from another, 2,000 times: each wait ends with a tick after it began, long before its
-    generous timeout (a lost wake-up would wait the whole timeout, while ticks went on)."""
+    from another, 2,000 times: each waits (a tick is always due within two periods) and ends
+    once a tick has run since it began, well within its timeout."""
     gate, stop = TickGate(), threading.Event()
     period_ns = int(period_ms * MS)
 
@@ -117,11 +125,35 @@ def test_no_tick_end_is_missed_by_a_waiter(period_ms):
                 waited += 1
                 assert gate.ticks > before
             longest = max(longest, time.monotonic() - t0)
-            assert longest < 10.0, f"a wait lasted {longest:.3f} s: a tick's end was missed"
+            assert longest < 10.0, f"a wait lasted {longest:.3f} s"
     finally:
         stop.set()
         ticker.join(timeout=30.0)
     assert waited == 2000  # the next tick is always due within two periods
+
+
+def test_a_tick_that_ends_while_the_waiter_gets_ready_is_not_waited_past(monkeypatch):
+    """A tick that ends between the waiter's reading of the gate and its waiting (here: while
+    its Event is made) is seen: the callback goes on at once instead of waiting for a tick that
+    already ran (until the next one, or its timeout)."""
+    from drs_ros.node import tick_gate
+
+    gate = TickGate()
+    gate.run(lambda: None, time.monotonic_ns())  # due now
+    real_event = threading.Event
+
+    def event_after_a_tick():
+        gate.run(lambda: None, time.monotonic_ns() + 10_000 * MS)  # the next due in 10 s
+        return real_event()
+
+    # the gate module's own name only: threading.Thread makes Events of its own
+    monkeypatch.setattr(
+        tick_gate, "threading", types.SimpleNamespace(Event=event_after_a_tick, Lock=threading.Lock)
+    )
+    t0 = time.monotonic()
+    assert gate.clear_of_ticks(1.0, timeout_s=30.0) is True
+    assert time.monotonic() - t0 < 10.0, "it waited for a tick after the one that had run"
+    assert gate.ticks == 2
 
 
 @pytest.mark.ros

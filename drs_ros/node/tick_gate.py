@@ -2,15 +2,21 @@
 :class:`drs_ros.node.adapter.DRSNode` that the deadline loop (:func:`drs_ros.node.runner.
 run_deadline_loop`) runs each tick through and that the executor asks.
 
-Both threads run Python under one GIL. The executor waits for a running tick to end before each
-callback (:meth:`TickGate.wait_for_tick_end`): a flood of callbacks does not share the GIL with
-the whole tick. A callback that starts between two ticks still runs on over the next deadline
-if it is long: the tick then waits for the GIL (0.2-0.9 ms) and for the node's lock. A ``~/drs``
-call is such a callback (0.3-0.8 ms of Python, woken cold: the move planned, the effect
-record): under the goal's command load at 1 kHz, 38 of 39 missed deadlines in a run came while
-one ran over the deadline (benchmarks/results/node_rate.md, 2026-11-29). Such a callback first
-asks :meth:`TickGate.clear_of_ticks`: when the next tick is due sooner than it needs, it runs
-just after that tick instead.
+Both threads run Python under one GIL. The executor waits for a running tick to end before it
+takes the next event (:meth:`TickGate.wait_for_tick_end`): a flood of callbacks does not share
+the GIL with the whole tick (an event taken while it waited for work may still start during a
+tick). A callback that starts between two ticks runs on over the next deadline if it is long:
+the tick then waits for the GIL (0.2-0.9 ms) and for the node's lock. A ``~/drs`` call is such
+a callback (0.3-0.8 ms of Python, woken cold: the move planned, the effect record): under the
+goal's command load at 1 kHz, 38 of 39 missed deadlines in a run came while one ran over the
+deadline (benchmarks/results/node_rate.md, 2026-11-29). Such a callback first asks
+:meth:`TickGate.clear_of_ticks`: when the next tick is due sooner than it needs, it runs just
+after that tick instead (at 1 kHz always: a tick is always due within 1 ms).
+
+The handshake between the two threads takes no lock: the tick's thread publishes its count and
+the next deadline as one tuple, then reads the waiter; the waiter publishes itself, then reads
+the count again. Each of these is one attribute read or write, atomic under the GIL; a Python
+without one would need a lock around both.
 """
 
 from __future__ import annotations
@@ -33,11 +39,24 @@ class TickGate:
         #: The room [s] :meth:`clear_of_ticks` asks for, and the longest it waits [s].
         self.long_callback_s, self.max_wait_s = long_callback_s, max_wait_s
         self._running = threading.Lock()  # held while a tick runs
-        #: Ticks run so far.
-        self.ticks = 0
-        #: Steady time [ns] the next tick is due (None: no tick is scheduled).
-        self.next_deadline_ns: int | None = None
+        # (ticks run so far, steady time [ns] the next one is due or None): one tuple, read once
+        self._state: tuple[int, int | None] = (0, None)
         self._waiter: threading.Event | None = None
+
+    @property
+    def ticks(self) -> int:
+        """Ticks run so far."""
+        return self._state[0]
+
+    @property
+    def next_deadline_ns(self) -> int | None:
+        """Steady time [ns] the next tick is due (None: no tick is scheduled)."""
+        return self._state[1]
+
+    @property
+    def waiting(self) -> bool:
+        """Whether a callback waits for a tick now."""
+        return self._waiter is not None
 
     def run(self, tick, next_deadline_ns: int) -> None:
         """Run ``tick()`` holding the gate; the next tick is due at ``next_deadline_ns`` [ns of
@@ -46,17 +65,14 @@ class TickGate:
             with self._running:
                 tick()
         finally:
-            self._ended(next_deadline_ns)
+            self._publish(self._state[0] + 1, next_deadline_ns)
 
     def stopped(self) -> None:
         """No tick is due any more (the loop ended): nothing waits for one."""
-        self._ended(None)
+        self._publish(self._state[0], None)
 
-    def _ended(self, next_deadline_ns: int | None) -> None:
-        # the count before the waiter is read: clear_of_ticks checks it after publishing its
-        # waiter, so a tick that ends in between is seen one way or the other (GIL-atomic ops)
-        self.next_deadline_ns = next_deadline_ns
-        self.ticks += 1
+    def _publish(self, ticks: int, next_deadline_ns: int | None) -> None:
+        self._state = (ticks, next_deadline_ns)  # before the waiter is read (module docstring)
         waiter = self._waiter
         if waiter is not None:
             waiter.set()
@@ -69,17 +85,18 @@ class TickGate:
 
     def clear_of_ticks(self, needed_s: float | None = None, timeout_s: float | None = None) -> bool:
         """Make room for ``needed_s`` [s] of work: return at once if the next tick is due later
-        than that (or none is scheduled), else once that tick has run, or after ``timeout_s``
-        [s] (by default the gate's :attr:`long_callback_s` and :attr:`max_wait_s`). Whether it
-        waited."""
+        than that (or none is scheduled), else once that tick has run (or the loop stopped), or
+        after ``timeout_s`` [s] (by default the gate's :attr:`long_callback_s` and
+        :attr:`max_wait_s`). Whether it waited. One thread asks (the executor's)."""
         needed_s = self.long_callback_s if needed_s is None else needed_s
         timeout_s = self.max_wait_s if timeout_s is None else timeout_s
-        due = self.next_deadline_ns
+        state = self._state
+        due = state[1]
         if due is None or due - time.monotonic_ns() >= needed_s * 1e9:
             return False
-        ticks, ended = self.ticks, threading.Event()
-        self._waiter = ended
-        if self.ticks == ticks:
+        ended = threading.Event()
+        self._waiter = ended  # published before the state is read again (module docstring)
+        if self._state is state:
             ended.wait(timeout_s)
         self._waiter = None
         return True
