@@ -69,10 +69,11 @@ def spin_until_stopped(
     ``idle_wait_s``: the longest one ``spin_once`` waits for work [s], so the longest before a
     stop is seen unless whoever stops ends the wait (:func:`end_idle_wait`).
 
-    ``tick_gate``: held by the real-time tick while it runs; each callback waits for it to be
-    free (a tick that starts meanwhile shares the GIL with that one callback only). Why: under a
-    command flood the executor runs Python without pause, and every 0.2 ms (the GIL switch
-    interval) it would take the GIL from the tick, doubling the tick's time."""
+    ``tick_gate``: the deadline loop's :class:`~drs_ros.node.tick_gate.TickGate`; before taking
+    each event the executor waits for a running tick to end (a tick that starts meanwhile
+    shares the GIL with that one callback only). Why: under a command flood the executor runs
+    Python without pause, and every 0.2 ms (the GIL switch interval) it would take the GIL from
+    the tick, doubling the tick's time."""
     while not stop.requested and executor.context.ok():
         if tick_gate is not None:
             tick_gate.wait_for_tick_end(STOP_POLL_S)  # the tick is over: one callback's turn
