@@ -72,13 +72,14 @@ class DeadlineLoop:
                 time.sleep(wait / 1e9)
             now = time.monotonic_ns()
             self.lateness.add(now - deadline)
+            if now - deadline > self.period_ns:  # late by more than a period: resume from now
+                # before the tick's work, as the node's loop does (run_deadline_loop)
+                self.lateness.skipped += (now - deadline) // self.period_ns
+                deadline = time.monotonic_ns()
             if self.clock.since_last_if_late(now) is not None:
                 self.missed += 1
             self.clock.ticked(now, now)
             yield now
-            if now - deadline > self.period_ns:  # late by more than a period: resume from now
-                self.lateness.skipped += (now - deadline) // self.period_ns
-                deadline = time.monotonic_ns()
 
     def counts(self) -> dict:
         """Ticks, missed deadlines and lateness quantiles [us] so far."""
@@ -155,7 +156,11 @@ def main() -> int:
             for work in args.work_us:
                 policy = apply_tick_policy(requested, 10)  # the node's default priority
                 try:
-                    r = {"policy": policy.text(), **run(args.rate, args.duration, work)}
+                    r = {
+                        "policy_requested": requested,
+                        "policy": policy.text(),
+                        **run(args.rate, args.duration, work),
+                    }
                 finally:
                     leave_tick_policy(policy)
                 runs.append(r)

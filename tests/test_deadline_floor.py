@@ -15,6 +15,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
+import deadline_floor  # noqa: E402
 from deadline_floor import DeadlineLoop  # noqa: E402
 
 RATE_HZ = 1000.0
@@ -35,17 +36,41 @@ def test_a_stall_in_the_loop_is_a_missed_deadline() -> None:
     assert counts["lateness_max_us"] >= 1e6 * STALL_S - 1e6 / RATE_HZ
 
 
-def test_the_stall_resumes_from_now() -> None:
-    """After a tick late by more than a period the loop resumes from now (as the node's does):
-    the deadlines it skipped are counted as skipped, not run as a burst of late ticks."""
+class FakeClock:
+    """``time.monotonic_ns`` and ``time.sleep`` on a clock that moves only when slept on or
+    told to (:meth:`work`): the loop's deadlines, exactly."""
+
+    def __init__(self) -> None:
+        self.now_ns = 10**12
+
+    def monotonic_ns(self) -> int:
+        return self.now_ns
+
+    def sleep(self, seconds: float) -> None:
+        self.now_ns += round(seconds * 1e9)
+
+    def work(self, seconds: float) -> None:
+        self.now_ns += round(seconds * 1e9)
+
+
+def test_the_loop_resumes_from_now_before_the_ticks_work(monkeypatch) -> None:
+    """Tick 10's work stalls 5 periods; tick 11 comes 4 periods late and works 0.6 of one. The
+    loop resumes from tick 11's wake, before its work, as the node's loop does: tick 12 comes a
+    period after tick 11 (not 1.6 periods, which would count a second miss), and the 4 deadlines
+    passed are counted as skipped."""
+    clock = FakeClock()
+    monkeypatch.setattr(deadline_floor, "time", clock)
+    period_ns = round(1e9 / RATE_HZ)
     loop = DeadlineLoop(RATE_HZ)
-    late_wakes = []
-    previous = None
-    for k, now in enumerate(loop.ticks(0.05)):
-        if previous is not None and now - previous < 0.2e9 / RATE_HZ:
-            late_wakes.append(now)  # two ticks within 0.2 periods: a catch-up burst
-        previous = now
+    wakes = []
+    for k, now in enumerate(loop.ticks(0.02)):
+        wakes.append(now)
         if k == 10:
-            time.sleep(STALL_S)
-    assert loop.counts()["skipped_deadlines"] >= 3
-    assert len(late_wakes) <= 1  # the one tick just after the stall may come early
+            clock.work(5 / RATE_HZ)
+        elif k == 11:
+            clock.work(0.6 / RATE_HZ)
+    assert wakes[11] - wakes[10] == 5 * period_ns
+    assert wakes[12] - wakes[11] == period_ns
+    counts = loop.counts()
+    assert counts["missed"] == 1
+    assert counts["skipped_deadlines"] == 4
