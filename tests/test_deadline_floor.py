@@ -3,8 +3,8 @@ runs (``DeadlineLoop``) counts a missed deadline as the node's diagnostics do.
 
 Why a test of a benchmark: the loop built its clock for ``/clock`` time (460e1db), which since
 2026-11-28 (4df3268) counts no missed deadline at all, and every floor then reported 0 missed
-beside lateness maxima of 8-11 ms (benchmarks/results/node_vs_floor.json of 2026-11-29 11:02). The floor is the reference the
-node's misses are read against: it must be able to show a miss.
+beside lateness maxima of 8-11 ms (benchmarks/results/node_vs_floor.json of 2026-11-29 11:02).
+The floor is the reference the node's misses are read against: it must be able to show a miss.
 """
 
 from __future__ import annotations
