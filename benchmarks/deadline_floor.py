@@ -178,7 +178,8 @@ def main() -> int:
                 f"{name}, work {work:5g} us: median missed "
                 f"{100 * statistics.median(r['missed_share'] for r in mine):.2f} %, p99 "
                 f"{statistics.median(r['lateness_p99_us'] for r in mine):.0f} us, max "
-                f"{statistics.median(r['lateness_max_us'] for r in mine):.0f} us"
+                f"{statistics.median(r['lateness_max_us'] for r in mine):.0f} us (medians "
+                "of the runs')"
             )
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps({"rate_hz": args.rate, "runs": runs}, indent=2) + "\n")
