@@ -54,6 +54,7 @@ REASONS = {
     "__futex_abstimed_wait_common": "timed wait (GIL, a lock, a Fast DDS wait)",
     "lll_lock_wait": "mutex (the GIL's, a Fast DDS lock)",
 }
+#: The reason of a block the kernel took the thread off while it could run (``prev_state`` R).
 PREEMPTED = "preempted while running"
 #: perf's ring buffer per core [pages]: with call chains on every switch, the default loses
 #: events under a command flood.
