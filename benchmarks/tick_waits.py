@@ -39,7 +39,6 @@ import argparse
 import os
 import re
 import shutil
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -247,7 +246,7 @@ def report(blocks: list[Block], node_pid: int, period_s: float) -> str:
     delays = [b.delay for b in blocks if b.delay is not None]
     if delays:
         lines.append(
-            f"scheduling delay (woken to running): p50 {1e6 * statistics.median(delays):.0f} us, "
+            f"scheduling delay (woken to running): p50 {1e6 * quantile(delays, 0.5):.0f} us, "
             f"p99 {1e6 * quantile(delays, 0.99):.0f} us, max {1e6 * max(delays):.0f} us, "
             f"{sum(d > half_period_s for d in delays)} over half a period"
         )
