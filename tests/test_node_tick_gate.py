@@ -1,6 +1,6 @@
 """The tick gate (``drs_ros.node.tick_gate``): a long callback waits for a tick that is due
-sooner than the room it asks for, and only then; no tick's end is missed by a waiter. (A
-``~/drs`` call is answered by the next tick itself: tests/test_node_intake.py.)"""
+sooner than the room it asks for, and only then; no tick's end is missed by a waiter; the
+node's ``~/drs`` call asks for room before its work."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import time
 import types
 
 import pytest
+from node_support import ros_context  # noqa: F401
 
 from drs_ros.node.tick_gate import TickGate
 
@@ -153,3 +154,39 @@ def test_a_tick_that_ends_while_the_waiter_gets_ready_is_not_waited_past(monkeyp
     assert gate.clear_of_ticks(1.0, timeout_s=30.0) is True
     assert time.monotonic() - t0 < 10.0, "it waited for a tick after the one that had run"
     assert gate.ticks == 2
+
+
+@pytest.mark.ros
+def test_a_drs_call_made_just_before_a_tick_does_its_work_after_that_tick(ros_context):  # noqa: F811
+    """The node's ``~/drs`` callback asks the gate for room first: with the next tick due now,
+    the call's move is planned and applied once that tick has run, not over it."""
+    from std_srvs.srv import SetBool
+
+    from drs_ros.node import DRSNode
+
+    node = DRSNode(context=ros_context, tick_timer=False)
+    try:
+        gate = node.tick_gate
+        gate.max_wait_s = 30.0  # the next tick below comes 50 ms on: wait for it, however late
+        gate.run(node.tick, time.monotonic_ns())  # the first tick; the next one due now
+        seen, on_drs = [], node.intake.on_drs
+
+        def watched(request, response, now_ns):
+            seen.append(gate.ticks)
+            return on_drs(request, response, now_ns)
+
+        node.intake.on_drs = watched
+
+        def next_tick():
+            time.sleep(0.05)
+            gate.run(node.tick, time.monotonic_ns() + 10_000 * MS)
+
+        thread = threading.Thread(target=next_tick)
+        thread.start()
+        response = node._on_drs(SetBool.Request(data=True), SetBool.Response())
+        thread.join(timeout=30.0)
+    finally:
+        node.close_recordings()
+        node.destroy_node()
+    assert response.success, response.message
+    assert seen == [2]

@@ -12,7 +12,8 @@ Topics (``~`` is the node namespace, ``/drs/...`` by default):
   where they need more than ``force_limit``); its calls are published as introspection events
   on ``~/drs/_service_event``;
 * ``/joint_states`` (sensor_msgs/JointState): piston [m, m/s, N], link and flap [rad, rad/s];
-* ``~/piston_force``, ``~/flap_gap``, ``~/piston_acceleration`` (Float64): [N], [m], [m/s^2];
+* ``~/piston_force``, ``~/flap_gap``, ``~/piston_acceleration`` (std_msgs/Float64): [N], [m],
+  [m/s^2];
 * ``~/joint_reactions`` (sensor_msgs/JointState): reactions by name, only while subscribed;
 * ``~/command_events`` (diagnostic_msgs/DiagnosticArray): the effect record, one message per
   command (accepted, refused or superseded, at which simulated instant) and per clock origin or
@@ -24,10 +25,10 @@ The physics runs on a fixed simulated step (``physics_rate_hz``); one timer at `
 catches the simulation up with the node clock (wall or ``/clock`` with ``use_sim_time``) and
 publishes. Stamps are ``t0 + simulated time``, so they follow the node clock without its jitter.
 
-The node owns its parts, each in its module: the command intake (:mod:`.intake`, latest-wins;
-the ticks answer ``~/drs`` calls), the publishers, the effect record, the vehicle-stack layer
-(:mod:`drs_ros.stack.layer`), the faults, the recordings (and :mod:`.recorded_topics`), the wait
-for ``/clock`` (:mod:`.clock_wait`) and the tick gate (:mod:`.tick_gate`).
+The node owns its parts, each in its module: the command intake (:mod:`.intake`, latest-wins),
+the publishers, the effect record, the vehicle-stack layer (:mod:`drs_ros.stack.layer`), the
+faults, the recordings (and :mod:`.recorded_topics`), the wait for ``/clock``
+(:mod:`.clock_wait`) and the tick gate (:mod:`.tick_gate`: the ticks and the long callbacks).
 """
 
 from __future__ import annotations
@@ -430,14 +431,13 @@ class DRSNode(Node):
         return self.get_clock().now().nanoseconds
 
     def _on_drs(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
-        return self.intake.call_drs(request, response, self.tick_gate, self._answer_drs_here)
-
-    def _answer_drs_here(self, request, response) -> SetBool.Response:
-        """A ``~/drs`` call answered on the executor thread (the node's lock held)."""
-        now = self._now_ns()
-        if self.rungs.deadline is not None:  # a call before auto chose: choose now
-            self._choose_fidelity(now)
-        return self.intake.on_drs(request, response, now)
+        self.tick_gate.clear_of_ticks()  # its callbacks (0.3-0.8 ms) after a tick, not over one
+        self.intake.before_drs(request)  # outside the lock the tick takes
+        with self._lock:
+            now = self._now_ns()
+            if self.rungs.deadline is not None:  # a call before auto chose: choose now
+                self._choose_fidelity(now)
+            return self.intake.on_drs(request, response, now)
 
     def _on_service_event(self, data: bytes) -> None:
         # an event ends in a string, so the transport may have padded it (service_event_cdr)

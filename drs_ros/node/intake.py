@@ -4,23 +4,15 @@ commands received and not yet applied.
 Commands are latest-wins: a subscription callback only decodes the bytes that arrived, does the
 state-free part of the command's work (a trajectory's plan) and keeps the newest command per
 topic; the next tick applies it before stepping (:meth:`CommandIntake.apply_pending`), so no
-queued, stale setpoint is ever executed. A ``~/drs`` service call is answered by the next
-tick too when one is due within :data:`TICK_ANSWERS_WITHIN_S` (:meth:`CommandIntake.call_drs`,
-under the deadline loop), else at once on the executor thread (:meth:`CommandIntake.on_drs`).
-Either way it acts between the same two physics steps, after the commands that arrived before
-it: the tick applies the pending commands before it steps. Why the tick: the executor thread
-wakes cold for each call (its planning, its effect record: ~0.4-0.5 ms of CPU), the tick's
-thread, warm from the tick before, does the same work in about half that
-(benchmarks/results/node_rate.md, 2026-11-29). Every command is recorded as its exact CDR
-bytes as it arrives; what became of it goes into the effect record.
+queued, stale setpoint is ever executed. A ``~/drs`` service call acts at once
+(:meth:`CommandIntake.on_drs`; under the deadline loop just after a tick due within 1 ms:
+:mod:`.tick_gate`). Every command is recorded as its exact CDR bytes as it arrives;
+what became of it goes into the effect record.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import functools
-import threading
-import time
 from collections.abc import Callable
 
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -32,13 +24,6 @@ from ..recording import cdr_received, msgdefs
 from .effect_record import EffectRecord, PendingCommand, refusal_reason
 from .float64_cdr import read_float64
 from .trajectory_cdr import read_joint_trajectory
-
-#: A ``~/drs`` call is handed to the next tick when that tick is due within this [s] (at 250 Hz
-#: and faster, always), and answered at once on the executor thread otherwise: a client waits
-#: at most about this much longer for its answer.
-TICK_ANSWERS_WITHIN_S = 0.005
-#: How often [s] a call handed to the ticks looks whether the ticks stopped (the loop ended).
-CALL_POLL_S = 0.05
 
 #: The command topics (``~/<key>``) and their message classes, as commands.COMMAND_TYPES names them.
 COMMANDS = {key: msgdefs.message_class(name) for key, name in commands.COMMAND_TYPES.items()}
@@ -57,18 +42,6 @@ def command_decoders() -> dict:
     decode.update({key: read_float64 for key, cls in COMMANDS.items() if cls is Float64})
     decode["trajectory_cmd"] = lambda data: (v := read_joint_trajectory(data), v.exact)
     return decode
-
-
-@dataclasses.dataclass
-class DrsCall:
-    """A ``~/drs`` call handed to the next tick: its request, the response the tick fills, the
-    node time [ns] it was received (its place among the commands), and the event set once the
-    tick has answered it."""
-
-    request: object
-    response: object
-    received_ns: int = 0
-    answered: threading.Event = dataclasses.field(default_factory=threading.Event)
 
 
 class CommandIntake:
@@ -112,17 +85,11 @@ class CommandIntake:
         self._state_stamp_ns = state_stamp_ns
         self._decode = command_decoders()
         self._pending: dict[str, PendingCommand] = {}
-        self._call: DrsCall | None = None  # a ~/drs call the next tick answers
 
     @property
     def waiting(self) -> bool:
-        """A command or a ``~/drs`` call waits for the next physics step."""
-        return bool(self._pending) or self._call is not None
-
-    @property
-    def call_waiting(self) -> bool:
-        """A ``~/drs`` call waits for the next tick."""
-        return self._call is not None
+        """A command waits for the next physics step."""
+        return bool(self._pending)
 
     def clear(self) -> None:
         """Forget the commands not yet applied (a node deactivated: they never act)."""
@@ -172,50 +139,39 @@ class CommandIntake:
             self._pending[key] = cmd
 
     def apply_pending(self, now_ns: int) -> None:
-        """Apply the newest command of each topic and the ``~/drs`` call handed to the ticks,
-        if any, at the present physics step, oldest first."""
+        """Apply the newest command of each topic at the present physics step, oldest first."""
         pending = sorted(self._pending.values(), key=lambda c: c.received_ns)
         self._pending.clear()
-        call, self._call = self._call, None
-        for cmd in pending:
-            if call is not None and call.received_ns < cmd.received_ns:
-                self._answer(call, now_ns)
-                call = None
-            self._apply(cmd, now_ns)
-        if call is not None:
-            self._answer(call, now_ns)
-
-    def _apply(self, cmd: PendingCommand, now_ns: int) -> None:
-        """One pending command applied (or refused), and its effect recorded."""
         fx, sim = self._effects, self._actuator()
-        if cmd.superseded:
-            n = len(cmd.superseded)
-            fx.superseded += n
-            reason = f"{n} {cmd.key} replaced by a newer one before the next physics step"
-            fx.troubles.add(now_ns, SUPERSEDED, reason)
-            known = [q for q in cmd.superseded if q is not None]
-            fx.event(
-                cmd.topic,
-                SUPERSEDED,
-                DiagnosticStatus.STALE,
-                reason,
-                None,
-                {
-                    "count": n,
-                    "sequences": f"{known[0]}..{known[-1]}" if known else "",
-                },
-                now_ns,
-            )
-        try:
-            commands.apply(sim, cmd.key, cmd.msg, self.piston_joint, cmd.prepared)
-        except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
-            fx.refuse_command(cmd, exc, now_ns)
-            return
-        fx.accepted += 1
-        values = {"value": repr(commands.describe(cmd.key, cmd.msg))}
-        if commands.reads_stamp(cmd.key, cmd.msg):  # a re-run starts it where the node did
-            values["planned_ns"] = str(cmd.planned_ns)
-        fx.event(cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, values, now_ns)
+        for cmd in pending:
+            if cmd.superseded:
+                n = len(cmd.superseded)
+                fx.superseded += n
+                reason = f"{n} {cmd.key} replaced by a newer one before the next physics step"
+                fx.troubles.add(now_ns, SUPERSEDED, reason)
+                known = [q for q in cmd.superseded if q is not None]
+                fx.event(
+                    cmd.topic,
+                    SUPERSEDED,
+                    DiagnosticStatus.STALE,
+                    reason,
+                    None,
+                    {
+                        "count": n,
+                        "sequences": f"{known[0]}..{known[-1]}" if known else "",
+                    },
+                    now_ns,
+                )
+            try:
+                commands.apply(sim, cmd.key, cmd.msg, self.piston_joint, cmd.prepared)
+            except Exception as exc:  # noqa: BLE001 - what a command carries never stops the node
+                fx.refuse_command(cmd, exc, now_ns)
+                continue
+            fx.accepted += 1
+            values = {"value": repr(commands.describe(cmd.key, cmd.msg))}
+            if commands.reads_stamp(cmd.key, cmd.msg):  # a re-run starts it where the node did
+                values["planned_ns"] = str(cmd.planned_ns)
+            fx.event(cmd.topic, ACCEPTED, DiagnosticStatus.OK, "", cmd, values, now_ns)
 
     def before_drs(self, request) -> None:
         """A ``~/drs`` call's move evaluated before the node's lock (executor thread): its force
@@ -227,49 +183,10 @@ class CommandIntake:
         except Exception:  # noqa: BLE001 - the call itself, under the lock, says what is wrong
             pass
 
-    def call_drs(self, request, response, ticks, answer_here: Callable):
-        """A ``~/drs`` call (executor thread): handed to the next tick when one is due within
-        :data:`TICK_ANSWERS_WITHIN_S` (``ticks.next_deadline_ns``: steady time [ns] the next
-        tick is due, None when none is scheduled: the :class:`~.tick_gate.TickGate`), and
-        answered once that tick has applied it; else, or when the ticks stop before one takes
-        it, ``answer_here(request, response)`` under the node's lock (which applies it with
-        :meth:`on_drs`). Returns the response."""
-        call, due = None, ticks.next_deadline_ns
-        if due is not None and due - time.monotonic_ns() < TICK_ANSWERS_WITHIN_S * 1e9:
-            call = DrsCall(request, response)
-            with self._lock:
-                call.received_ns = self._now_ns()
-                self._call = call
-            # a tick answers it; the loop may end first (a stop): then no tick will
-            while not call.answered.wait(CALL_POLL_S):
-                if ticks.next_deadline_ns is None:
-                    break
-        else:
-            self.before_drs(request)  # outside the lock the tick takes
-        with self._lock:
-            if call is not None:
-                if call.answered.is_set():  # a tick took it (before the lock was ours)
-                    return response
-                self._call = None  # no tick will: answered here, as if none had been due
-            return answer_here(request, response)
-
-    def _answer(self, call: DrsCall, now_ns: int) -> None:
-        """A ``~/drs`` call handed to the ticks, applied now (the tick's thread, under the
-        node's lock), then released to its caller whatever happened."""
-        try:
-            self._apply_drs(call.request, call.response, now_ns)
-        finally:
-            call.answered.set()
-
     def on_drs(self, request, response, now_ns: int):
         """A ``~/drs`` call (under the node's lock): it takes effect at once, the simulation
         being between two physics steps, after the commands that arrived before it."""
         self.apply_pending(now_ns)  # commands that arrived earlier act first, as they would have
-        return self._apply_drs(request, response, now_ns)
-
-    def _apply_drs(self, request, response, now_ns: int):
-        """A ``~/drs`` call's move applied at the present physics step (under the node's lock):
-        the response filled, the effect recorded."""
         fx = self._effects
         value = commands.describe(commands.SERVICE_KEY, request)
         try:
@@ -305,4 +222,4 @@ class CommandIntake:
         return response
 
 
-__all__ = ["COMMANDS", "TICK_ANSWERS_WITHIN_S", "CommandIntake", "DrsCall", "command_decoders"]
+__all__ = ["COMMANDS", "CommandIntake", "command_decoders"]

@@ -142,10 +142,8 @@ class Tick:
             return
         deadline = parts.fidelity_deadline()
         if deadline is not None:
-            # auto: the subscribers are still being discovered, unless a ~/drs call waits (it
-            # chooses now, as one answered on the executor thread does)
-            if time.monotonic() < deadline and not parts.intake.call_waiting:
-                return
+            if time.monotonic() < deadline:
+                return  # auto: the subscribers are still being discovered
             parts.choose_fidelity(now)
         sim = parts.actuator()
         mono = time.monotonic_ns()

@@ -6,13 +6,12 @@ Both threads run Python under one GIL. The executor waits for a running tick to 
 takes the next event (:meth:`TickGate.wait_for_tick_end`): a flood of callbacks does not share
 the GIL with the whole tick (an event taken while it waited for work may still start during a
 tick). A callback that starts between two ticks runs on over the next deadline if it is long:
-the tick then waits for the GIL (0.2-0.9 ms) and for the node's lock. A ``~/drs`` call was such
+the tick then waits for the GIL (0.2-0.9 ms) and for the node's lock. A ``~/drs`` call is such
 a callback (0.3-0.8 ms of Python, woken cold: the move planned, the effect record): under the
 goal's command load at 1 kHz, 38 of 39 missed deadlines in a run came while one ran over the
-deadline (benchmarks/results/node_rate.md, 2026-11-29); the next tick now answers it itself
-(:meth:`drs_ros.node.intake.CommandIntake.call_drs`). A long callback (the diagnostics) first
-asks :meth:`TickGate.clear_of_ticks`: when the next tick is due sooner than it needs, it runs
-just after that tick instead (at 1 kHz always: a tick is always due within 1 ms).
+deadline (benchmarks/results/node_rate.md, 2026-11-29). Such a callback first asks
+:meth:`TickGate.clear_of_ticks`: when the next tick is due sooner than it needs, it runs just
+after that tick instead (at 1 kHz always: a tick is always due within 1 ms).
 
 The handshake between the two threads takes no lock: the tick's thread publishes its count and
 the next deadline as one tuple, then reads the waiter; the waiter publishes itself, then reads
@@ -25,7 +24,7 @@ from __future__ import annotations
 import threading
 import time
 
-#: The room [s] a long callback asks for: the diagnostics take ~0.35 ms woken cold.
+#: The room [s] a long callback asks for: a ``~/drs`` call's callbacks take 0.3-0.8 ms woken cold.
 LONG_CALLBACK_S = 0.001
 #: The longest a callback waits for the tick it makes room for [s] (a tick that stalls, a loop
 #: that ends meanwhile).
