@@ -70,11 +70,26 @@ def start_listener(roles: list[str], env: dict) -> subprocess.Popen:
     return proc
 
 
+#: How long [s] the listener is given after each SIGINT before it is sent another, then killed.
+LISTENER_STOP_WAITS_S = (10.0, 20.0)
+
+
 def stop_listener(proc: subprocess.Popen) -> dict[str, int]:
-    """SIGINT the listener; what it received by topic."""
-    proc.send_signal(signal.SIGINT)
-    out = proc.communicate(timeout=30)[0].strip().splitlines()
-    return json.loads(out[-1])["received"] if out else {}
+    """SIGINT the listener; what it received by topic. A listener still spinning 10 s after
+    its SIGINT gets another (rclpy's spin once missed the first, 2026-11-29, and the run
+    stopped on the timeout); one still there after 20 s more is killed, its counts lost
+    (``{}``)."""
+    for wait_s in LISTENER_STOP_WAITS_S:
+        proc.send_signal(signal.SIGINT)
+        try:
+            out = proc.communicate(timeout=wait_s)[0].strip().splitlines()
+        except subprocess.TimeoutExpired:
+            continue
+        return json.loads(out[-1])["received"] if out else {}
+    proc.kill()
+    proc.communicate()
+    print("the listener did not stop on SIGINT: killed, its counts lost", file=sys.stderr)
+    return {}
 
 
 def floor_run(rate_hz: float, duration_s: float, roles: list[str], env: dict) -> dict:
