@@ -4,6 +4,7 @@ SCHED_FIFO starting, saying why and running."""
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import textwrap
@@ -28,6 +29,7 @@ from drs_ros.node.tick_schedule import (
     TickPolicy,
     apply_tick_policy,
     leave_tick_policy,
+    usable_cpus,
 )
 
 
@@ -401,3 +403,82 @@ def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(tmp_
         deadlines = (log_ns - states[0]) / period_ns
         assert ticks + skipped <= deadlines + 2, (ticks, skipped, deadlines)
         assert ticks + 2 * skipped >= deadlines - 2, (ticks, skipped, deadlines)
+
+
+def _in_a_thread(fn):
+    """``fn()`` in a thread of its own (what it does to its thread stays there); its result."""
+    out: list = []
+    thread = threading.Thread(target=lambda: out.append(fn()))
+    thread.start()
+    thread.join(timeout=60.0)
+    assert out, "the thread did not finish"
+    return out[0]
+
+
+def test_tick_cpu_keeps_the_thread_on_that_cpu_and_leaving_gives_the_others_back():
+    cpus = set(usable_cpus())
+    cpu = max(cpus)
+
+    def pinned():
+        policy = apply_tick_policy("other", 10, cpu)
+        during = os.sched_getaffinity(0)
+        leave_tick_policy(policy)
+        return policy, during, os.sched_getaffinity(0)
+
+    policy, during, after = _in_a_thread(pinned)
+    assert during == {cpu}
+    assert after == cpus
+    assert policy.text() == f"SCHED_OTHER on CPU {cpu}"
+    assert os.sched_getaffinity(0) == cpus  # the calling thread only
+
+
+def test_a_cpu_the_system_refuses_leaves_the_thread_where_it_was_and_says_why():
+    cpus = set(usable_cpus())
+    policy, after = _in_a_thread(
+        lambda: (apply_tick_policy("other", 10, 1023), os.sched_getaffinity(0))
+    )
+    assert policy.cpu == -1 and "CPU 1023 asked for, refused" in policy.note
+    assert after == cpus
+
+
+@pytest.mark.ros
+def test_the_deadline_loop_keeps_its_ticks_on_tick_cpu(ros_context):  # noqa: F811
+    from rclpy.parameter import Parameter
+
+    from drs_ros.node import DRSNode
+    from drs_ros.node.runner import run_deadline_loop
+    from drs_ros.stop_request import StopRequest
+
+    cpus = set(usable_cpus())
+    cpu = max(cpus)
+    node = DRSNode(
+        context=ros_context,
+        tick_timer=False,
+        parameter_overrides=[
+            Parameter("tick_scheduling", value="other"),
+            Parameter("tick_cpu", value=cpu),
+        ],
+    )
+    stop, seen, tick = StopRequest(), [], node.tick
+
+    def watched_tick():
+        seen.append(frozenset(os.sched_getaffinity(0)))
+        if len(seen) == 5:
+            stop()
+        tick()
+
+    node.tick = watched_tick
+
+    def loop():
+        run_deadline_loop(node, stop, ros_context)
+        return os.sched_getaffinity(0)
+
+    try:
+        after = _in_a_thread(loop)
+        values = node.diagnostics_values()
+    finally:
+        node.close_recordings()
+        node.destroy_node()
+    assert seen and set(seen) == {frozenset({cpu})}
+    assert after == cpus  # given back as the loop ended
+    assert values["tick_policy"] == f"SCHED_OTHER on CPU {cpu}"

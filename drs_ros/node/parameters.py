@@ -32,7 +32,7 @@ from ..model_parameters import MODEL_PARAMETERS, served_value
 from ..names import DEFAULT_JOINT_NAMES
 from ..rclpy_private import parameter_overrides
 from ..stack.layer import STACK_PARAMETERS
-from .tick_schedule import FIFO_PRIORITY_RANGE, TICK_SCHEDULING
+from .tick_schedule import FIFO_PRIORITY_RANGE, TICK_CPU_RANGE, TICK_SCHEDULING, usable_cpus
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
 #: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and rclpy's
@@ -141,6 +141,12 @@ NODE_PARAMETERS = (
         TICK_SCHEDULING,
     ),
     ("tick_fifo_priority", 10, "SCHED_FIFO priority of the tick thread", FIFO_PRIORITY_RANGE),
+    (
+        "tick_cpu",
+        -1,
+        "the one CPU the deadline loop's tick thread is kept on (-1: any the process may use)",
+        TICK_CPU_RANGE,
+    ),
     (
         "bag_path",
         "",
@@ -350,6 +356,12 @@ def tick_settings(node: Node) -> TickSettings:
         raise ParameterException(
             f"joint_names must hold 3 names (piston, link, flap), got {joint_names}",
             ["joint_names"],
+        )
+    tick_cpu, cpus = gp("tick_cpu").value, usable_cpus()
+    if tick_cpu >= 0 and tick_cpu not in cpus:
+        raise StartupError(
+            f"tick_cpu {tick_cpu} is not a CPU this process may run on (it may use "
+            f"{', '.join(map(str, sorted(cpus)))}); give one of them, or -1 for any"
         )
     max_catch_up = int(gp("max_catch_up_steps").value)
     # a tick late by one period must still catch up, or every tick would drop steps

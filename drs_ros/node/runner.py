@@ -135,8 +135,9 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
     )
     thread.start()
     # after the executor thread started: SCHED_FIFO (when asked and allowed) is this thread's only
+    gp = node.get_parameter
     policy = apply_tick_policy(
-        node.get_parameter("tick_scheduling").value, node.get_parameter("tick_fifo_priority").value
+        gp("tick_scheduling").value, gp("tick_fifo_priority").value, gp("tick_cpu").value
     )
     report_tick_policy(node, policy)
     lateness = node.effects.lateness
@@ -182,7 +183,7 @@ def report_tick_policy(node: DRSNode, policy: TickPolicy) -> None:
         level,
         policy.note,
         None,
-        {"policy": policy.name, "priority": policy.priority},
+        {"policy": policy.name, "priority": policy.priority, "cpu": policy.cpu},
         node.get_clock().now().nanoseconds,
     )
 

@@ -5,7 +5,8 @@ against their absolute deadlines, kept in a fixed histogram.
 Why ``SCHED_FIFO``: a tick thread sleeping to absolute deadlines under it held 1 kHz with two
 busy processes beside it (p99 period 1.04 ms), against a p99 period of 4.7-9.3 ms without it
 (docs/ros.md, "Rate"). It needs root, ``CAP_SYS_NICE`` or an rtprio limit; without them the
-node runs as before and says why.
+node runs as before and says why. The thread may also be kept on one CPU (``tick_cpu``,
+:func:`pin_to_cpu`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,10 @@ TICK_SCHEDULING = ("fifo", "other")
 #: The ``tick_fifo_priority`` range (Linux's SCHED_FIFO priorities are 1..99; 99 is left to
 #: the kernel's own threads).
 FIFO_PRIORITY_RANGE = (1, 98)
+
+#: The ``tick_cpu`` range: -1 leaves the tick thread on every CPU the process may use; 0 and up
+#: name the one CPU it is kept on (one the process may use: checked at configure).
+TICK_CPU_RANGE = (-1, 1023)
 
 #: Upper edges [us] of the lateness bins: 1 us wide up to 100 us, then 10 us to 1 ms, then
 #: 100 us to 10 ms, then 10 ms to 1 s; a lateness beyond lands in one more bin, reported as the
@@ -36,24 +41,58 @@ _EDGES_US = (
 class TickPolicy:
     """The policy the tick thread runs under: ``name`` (``SCHED_FIFO`` or ``SCHED_OTHER``),
     ``priority`` (0 for SCHED_OTHER) and ``note``: why it is not the one asked for ('' when
-    it is)."""
+    it is); ``cpu``: the one CPU it is kept on (-1: none), and ``cpus_before`` the CPUs it
+    could use before (given back when the loop ends)."""
 
     name: str
     priority: int
     note: str = ""
+    cpu: int = -1
+    cpus_before: tuple[int, ...] = ()
 
     def text(self) -> str:
         """One line for the log and diagnostics."""
         prio = f" priority {self.priority}" if self.name == "SCHED_FIFO" else ""
-        return f"{self.name}{prio}" + (f" ({self.note})" if self.note else "")
+        on = f" on CPU {self.cpu}" if self.cpu >= 0 else ""
+        return f"{self.name}{prio}{on}" + (f" ({self.note})" if self.note else "")
 
 
-def apply_tick_policy(requested: str, priority: int) -> TickPolicy:
+def usable_cpus() -> frozenset[int]:
+    """The CPUs this process may run on (all of them where the system cannot say)."""
+    if hasattr(os, "sched_getaffinity"):
+        return frozenset(os.sched_getaffinity(0))
+    return frozenset(range(os.cpu_count() or 1))
+
+
+def apply_tick_policy(requested: str, priority: int, cpu: int = -1) -> TickPolicy:
     """Put the calling thread under the ``requested`` policy (of :data:`TICK_SCHEDULING`);
-    ``priority`` is the SCHED_FIFO priority. On Linux ``sched_setscheduler(0, ...)`` changes the
-    calling thread only: threads started before keep theirs. When the process may not have
-    SCHED_FIFO (EPERM: no root, no CAP_SYS_NICE, no rtprio limit; or no such call on this
-    system) the thread keeps SCHED_OTHER and the returned policy's note says why."""
+    ``priority`` is the SCHED_FIFO priority; ``cpu`` >= 0 keeps the thread on that one CPU
+    (:func:`pin_to_cpu`). On Linux ``sched_setscheduler(0, ...)`` and ``sched_setaffinity(0,
+    ...)`` change the calling thread only: threads started before keep theirs. When the process
+    may not have SCHED_FIFO (EPERM: no root, no CAP_SYS_NICE, no rtprio limit; or no such call
+    on this system) the thread keeps SCHED_OTHER and the returned policy's note says why."""
+    return pin_to_cpu(_scheduling(requested, priority), cpu)
+
+
+def pin_to_cpu(policy: TickPolicy, cpu: int) -> TickPolicy:
+    """``policy`` with the calling thread kept on CPU ``cpu`` (-1: left as it is). Why: at 1 kHz
+    the node's tick thread, woken on whichever CPU was free, took 1.4 points of a core more
+    (median of 14 interleaved pairs, each lower when kept on one CPU: benchmarks/results/
+    node_rate.md, 2026-11-29): its caches stay warm on one CPU. A CPU the system refuses
+    (offline since the node was configured) leaves the thread where it was, and the note says
+    so."""
+    if cpu < 0:
+        return policy
+    before = tuple(sorted(usable_cpus()))
+    try:
+        os.sched_setaffinity(0, {cpu})
+    except (OSError, AttributeError) as exc:
+        note = "; ".join(filter(None, (policy.note, f"CPU {cpu} asked for, refused: {exc}")))
+        return TickPolicy(policy.name, policy.priority, note)
+    return TickPolicy(policy.name, policy.priority, policy.note, cpu, before)
+
+
+def _scheduling(requested: str, priority: int) -> TickPolicy:
     if requested != "fifo":
         return TickPolicy("SCHED_OTHER", 0)
     if not hasattr(os, "sched_setscheduler"):
@@ -81,6 +120,8 @@ def leave_tick_policy(policy: TickPolicy) -> None:
     a heap abort after the recordings had finished (``benchmarks/shutdown_stress.py``)."""
     if policy.name == "SCHED_FIFO":
         os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    if policy.cpu >= 0:  # and back on the CPUs it could use before
+        os.sched_setaffinity(0, policy.cpus_before)
 
 
 class LatenessHistogram:
@@ -138,6 +179,9 @@ __all__ = [
     "TICK_SCHEDULING",
     "LatenessHistogram",
     "TickPolicy",
+    "TICK_CPU_RANGE",
     "apply_tick_policy",
     "leave_tick_policy",
+    "pin_to_cpu",
+    "usable_cpus",
 ]
