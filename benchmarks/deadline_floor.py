@@ -95,13 +95,15 @@ class DeadlineLoop:
         }
 
 
-def publish_on_deadlines(pubs, rate_hz: float, warm_s: float, duration_s: float):
+def publish_on_deadlines(pubs, rate_hz: float, warm_s: float, duration_s: float, tick_cpu=-1):
     """Publish ``pubs`` (``(publisher, bytes)``) at each deadline of a :class:`DeadlineLoop` at
-    ``rate_hz``, under the node's default tick policy (SCHED_FIFO 10 where allowed): ``warm_s``
-    not counted, then ``duration_s``; returns ``(process CPU [s], wall [s], the loop, the
-    policy's text)``."""
-    policy = apply_tick_policy("fifo", 10)  # the node's default priority
+    ``rate_hz``, under the node's default tick policy (SCHED_FIFO 10 where allowed; on CPU
+    ``tick_cpu`` as the node's ``tick_cpu``, -1: any): ``warm_s`` not counted, then
+    ``duration_s``; returns ``(process CPU [s], wall [s], the loop, the policy's text)``."""
+    policy = apply_tick_policy("fifo", 10, tick_cpu)  # the node's default priority
     try:
+        if tick_cpu >= 0 and policy.cpu != tick_cpu:  # a floor measured elsewhere is no floor
+            raise SystemExit(f"the floor's loop could not be kept on CPU {tick_cpu}: {policy.note}")
         for _ in DeadlineLoop(rate_hz).ticks(warm_s):  # not counted
             for pub, data in pubs:
                 pub.publish(data)

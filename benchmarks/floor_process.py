@@ -77,9 +77,12 @@ def state_topics(roles: list[str]) -> list[tuple[str, type, int]]:
     return out
 
 
-def floor(rate_hz: float, duration_s: float, roles: list[str], warm_s: float = 1.0) -> dict:
+def floor(
+    rate_hz: float, duration_s: float, roles: list[str], warm_s: float = 1.0, tick_cpu: int = -1
+) -> dict:
     """The floor's loop: its CPU share over ``duration_s`` [s] (after ``warm_s`` of warm-up, once
-    the listener matched the topics of ``roles``) and its deadlines."""
+    the listener matched the topics of ``roles``) and its deadlines; its thread on CPU
+    ``tick_cpu`` (-1: any), as the node's with ``tick_cpu``."""
     import rclpy
 
     from drs_ros.dds_profile import use_discovery_profile
@@ -98,7 +101,7 @@ def floor(rate_hz: float, duration_s: float, roles: list[str], warm_s: float = 1
     # tick 1: the node's own listener check; the messages the node would hand DDS this tick
     out = outputs.state_messages(sim, sim.state, time.time_ns(), None, 1, recording=False)
     pubs = [(pub, data) for pub, data in out if outputs.listened[pub]]
-    cpu, wall, loop, policy = publish_on_deadlines(pubs, rate_hz, warm_s, duration_s)
+    cpu, wall, loop, policy = publish_on_deadlines(pubs, rate_hz, warm_s, duration_s, tick_cpu)
     published = {pub.topic_name: len(data) for pub, data in pubs}
     outputs.destroy(node)
     node.destroy_node()
@@ -146,8 +149,12 @@ def listener(roles: list[str]) -> None:
 
 
 def main(argv: list[str]) -> int:
-    if argv[0] == "floor":
-        print(json.dumps(floor(float(argv[1]), float(argv[2]), argv[3:])), flush=True)
+    if argv[0] == "floor":  # floor RATE DURATION [--tick-cpu N] ROLE...
+        roles, tick_cpu = argv[3:], -1
+        if roles[:1] == ["--tick-cpu"]:
+            roles, tick_cpu = roles[2:], int(roles[1])
+        result = floor(float(argv[1]), float(argv[2]), roles, tick_cpu=tick_cpu)
+        print(json.dumps(result), flush=True)
     elif argv[0] == "listener":
         listener(argv[1:])
     else:

@@ -21,11 +21,12 @@ deadlines of each. ``--startup N``: exec of
 ``drs-node`` to its first ``/joint_states`` (median of ``N``), and where the imports' time goes
 (``python -X importtime``, summed by top-level package). ``--env NAME=VALUE``: a variable for
 the floor and the node of the ``profiled`` rounds, measured interleaved with the defaults (e.g.
-a Fast DDS XML profile).
+a Fast DDS XML profile). ``--tick-cpu N``: the ``profiled`` rounds' node with ``tick_cpu:=N`` and
+their floor's loop on CPU N.
 
 Usage: ``python benchmarks/node_vs_floor.py [--rates 1000 250] [--duration 10] [--rounds 3]
 [--listen joint_states ...] [--loads mix none drs stroke force] [--flood 10000] [--startup 5]
-[--env NAME=VALUE ...]
+[--env NAME=VALUE ...] [--tick-cpu N]
 [--domain 97] [--output benchmarks/results/node_vs_floor.json]``
 """
 
@@ -92,8 +93,10 @@ def stop_listener(proc: subprocess.Popen) -> dict[str, int]:
     return {}
 
 
-def floor_run(rate_hz: float, duration_s: float, roles: list[str], env: dict) -> dict:
-    """One floor run beside the listener."""
+def floor_run(
+    rate_hz: float, duration_s: float, roles: list[str], env: dict, tick_cpu: int = -1
+) -> dict:
+    """One floor run beside the listener (its thread on CPU ``tick_cpu``, -1: any)."""
     listener = start_listener(roles, env)
     try:
         cmd = [
@@ -102,6 +105,7 @@ def floor_run(rate_hz: float, duration_s: float, roles: list[str], env: dict) ->
             "floor",
             str(rate_hz),
             str(duration_s),
+            *(["--tick-cpu", str(tick_cpu)] if tick_cpu >= 0 else []),
             *roles,
         ]
         out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True, timeout=120)
@@ -158,9 +162,10 @@ def node_run(
     domain: int,
     flood_hz: float | None = None,
     load: str = "mix",
+    tick_cpu: int = -1,
 ) -> dict:
     """One run of the node beside the listener and the command client sending ``load`` (and
-    the flood)."""
+    the flood); ``tick_cpu`` >= 0: the node's ``tick_cpu``."""
     from drs_ros.client import DRSClient
 
     listener = start_listener(roles, env)
@@ -178,6 +183,8 @@ def node_run(
         "bag_path": out / "bag",
         "rrd_path": out / "run.rrd",
     }
+    if tick_cpu >= 0:
+        params["tick_cpu"] = tick_cpu
     args = [a for k, v in params.items() for a in ("-p", f"{k}:={v}")]
     node = subprocess.Popen(
         [*node_command(), "--ros-args", *args],
@@ -427,6 +434,12 @@ def arguments(argv):
     ap.add_argument("--flood", type=float, default=0.0, help="command flood [Hz] (0: none)")
     ap.add_argument("--startup", type=int, default=0, help="start-ups to time (0: none)")
     ap.add_argument("--env", nargs="*", default=[], help="NAME=VALUE of the profiled variant")
+    ap.add_argument(
+        "--tick-cpu",
+        type=int,
+        default=-1,
+        help="the profiled variant: the node's tick_cpu and the floor's thread on this CPU",
+    )
     ap.add_argument("--domain", type=int, default=97)
     ap.add_argument("--output", type=Path, default=RESULTS)
     args = ap.parse_args(argv)
@@ -439,15 +452,16 @@ def main(argv: list[str] | None = None) -> int:
     base = dict(
         os.environ, ROS_DOMAIN_ID=str(args.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"
     )
-    envs = {"default": base}
-    if args.env:
+    envs, tick_cpus = {"default": base}, {"default": -1}
+    if args.env or args.tick_cpu >= 0:
         envs["profiled"] = dict(base, **parse_env(args.env))
+        tick_cpus["profiled"] = args.tick_cpu
     runs = []
     with tempfile.TemporaryDirectory() as d:
         for k, (kind, rate, variant, flood, load) in enumerate(plan_runs(args, list(envs))):
             env = envs[variant]
             if kind == "floor":
-                r = floor_run(rate, args.duration, args.listen, env)
+                r = floor_run(rate, args.duration, args.listen, env, tick_cpus[variant])
             else:
                 r = node_run(
                     rate,
@@ -458,8 +472,11 @@ def main(argv: list[str] | None = None) -> int:
                     args.domain,
                     flood,
                     load,
+                    tick_cpus[variant],
                 )
-            r.update(variant=variant, flood_hz=flood)
+            r.update(variant=variant, flood_hz=flood, tick_cpu=tick_cpus[variant])
+            if tick_cpus[variant] >= 0 and f"on CPU {tick_cpus[variant]}" not in r["policy"]:
+                raise SystemExit(f"the {kind} did not keep its tick on CPU: {r['policy']!r}")
             print_run(r)
             runs.append(r)
         startup = startup_times(args.startup, args.domain, base, Path(d)) if args.startup else None
@@ -470,6 +487,7 @@ def main(argv: list[str] | None = None) -> int:
         "duration_s": args.duration,
         "rounds": args.rounds,
         "env": parse_env(args.env),
+        "tick_cpu": tick_cpus,
         "summary": rows,
         "runs": runs,
     }

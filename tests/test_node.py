@@ -488,7 +488,7 @@ def test_an_integer_for_a_double_parameter_is_accepted(ros_context):
             r"physics_rate_hz 1000",
         ),
         ([Parameter("executor", value="events")], r"executor must be one of"),
-        ([Parameter("tick_cpu", value=1023)], r"tick_cpu 1023 is not a CPU this process may run"),
+        ([Parameter("tick_cpu", value=1023)], r"tick_cpu 1023 refused by the system"),
     ],
 )
 def test_parameters_that_would_run_the_actuator_wrongly_are_refused(ros_context, overrides, match):

@@ -28,6 +28,7 @@ from drs_ros.node.tick_schedule import (
     LatenessHistogram,
     TickPolicy,
     apply_tick_policy,
+    cpu_refusal,
     leave_tick_policy,
     usable_cpus,
 )
@@ -406,17 +407,35 @@ def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(tmp_
 
 
 def _in_a_thread(fn):
-    """``fn()`` in a thread of its own (what it does to its thread stays there); its result."""
+    """``fn()`` in a thread of its own (what it does to its thread stays there); its result, or
+    what it raised, raised again."""
     out: list = []
-    thread = threading.Thread(target=lambda: out.append(fn()))
+
+    def run():
+        try:
+            out.append(("ok", fn()))
+        except BaseException as exc:  # noqa: BLE001 - raised again in the test's thread
+            out.append(("raised", exc))
+
+    thread = threading.Thread(target=run)
     thread.start()
     thread.join(timeout=60.0)
     assert out, "the thread did not finish"
-    return out[0]
+    kind, value = out[0]
+    if kind == "raised":
+        raise value
+    return value
+
+
+def _two_cpus() -> set[int]:
+    cpus = set(usable_cpus())
+    if len(cpus) < 2:  # a machine fact, not a dependency: one CPU cannot show a thread kept
+        pytest.skip(f"keeping a thread on one CPU shows nothing with one CPU usable ({cpus})")
+    return cpus
 
 
 def test_tick_cpu_keeps_the_thread_on_that_cpu_and_leaving_gives_the_others_back():
-    cpus = set(usable_cpus())
+    cpus = _two_cpus()
     cpu = max(cpus)
 
     def pinned():
@@ -449,7 +468,7 @@ def test_the_deadline_loop_keeps_its_ticks_on_tick_cpu(ros_context):  # noqa: F8
     from drs_ros.node.runner import run_deadline_loop
     from drs_ros.stop_request import StopRequest
 
-    cpus = set(usable_cpus())
+    cpus = _two_cpus()
     cpu = max(cpus)
     node = DRSNode(
         context=ros_context,
@@ -482,3 +501,35 @@ def test_the_deadline_loop_keeps_its_ticks_on_tick_cpu(ros_context):  # noqa: F8
     assert seen and set(seen) == {frozenset({cpu})}
     assert after == cpus  # given back as the loop ended
     assert values["tick_policy"] == f"SCHED_OTHER on CPU {cpu}"
+
+
+def test_a_cpu_outside_the_processs_own_is_still_one_a_thread_may_take():
+    """``isolcpus`` leaves a real-time CPU out of every process's CPUs; the kernel still lets
+    a thread take it: configure asks the kernel, not the process's own CPUs."""
+    cpus = _two_cpus()
+    low, high = min(cpus), max(cpus)
+
+    def confined():
+        os.sched_setaffinity(0, {low})  # this thread (and those it starts) on one CPU
+        return usable_cpus(), cpu_refusal(high)
+
+    own, refusal = _in_a_thread(confined)
+    assert high not in own
+    assert refusal is None
+    assert cpu_refusal(1023) is not None  # no such CPU here
+
+
+@pytest.mark.parametrize("tick_cpu, warned", [(0, True), (-1, False)])
+def test_a_tick_cpu_given_where_no_deadline_loop_runs_is_said_to_be_ignored(tick_cpu, warned):
+    import types
+
+    from drs_ros.node.runner import warn_tick_cpu_unused
+
+    seen: list[str] = []
+    node = types.SimpleNamespace(
+        get_parameter=lambda name: types.SimpleNamespace(value={"tick_cpu": tick_cpu}[name]),
+        get_logger=lambda: types.SimpleNamespace(warning=seen.append),
+    )
+    warn_tick_cpu_unused(node)
+    assert bool(seen) is warned
+    assert all("tick_cpu is ignored" in line for line in seen)

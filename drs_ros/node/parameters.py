@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 from dataclasses import dataclass
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
@@ -32,7 +33,7 @@ from ..model_parameters import MODEL_PARAMETERS, served_value
 from ..names import DEFAULT_JOINT_NAMES
 from ..rclpy_private import parameter_overrides
 from ..stack.layer import STACK_PARAMETERS
-from .tick_schedule import FIFO_PRIORITY_RANGE, TICK_CPU_RANGE, TICK_SCHEDULING, usable_cpus
+from .tick_schedule import FIFO_PRIORITY_RANGE, TICK_CPU_RANGE, TICK_SCHEDULING, cpu_refusal
 
 #: How the node is driven (the ``executor`` parameter, read by ``main``):
 #: ``deadline``: the main thread ticks at absolute deadlines of the wall clock and rclpy's
@@ -357,11 +358,12 @@ def tick_settings(node: Node) -> TickSettings:
             f"joint_names must hold 3 names (piston, link, flap), got {joint_names}",
             ["joint_names"],
         )
-    tick_cpu, cpus = gp("tick_cpu").value, usable_cpus()
-    if tick_cpu >= 0 and tick_cpu not in cpus:
+    tick_cpu = gp("tick_cpu").value
+    refusal = cpu_refusal(tick_cpu) if tick_cpu >= 0 else None
+    if refusal is not None:
         raise StartupError(
-            f"tick_cpu {tick_cpu} is not a CPU this process may run on (it may use "
-            f"{', '.join(map(str, sorted(cpus)))}); give one of them, or -1 for any"
+            f"tick_cpu {tick_cpu} refused by the system ({refusal}; the CPUs are 0.."
+            f"{(os.cpu_count() or 1) - 1}): give one a thread may run on, or -1 for any"
         )
     max_catch_up = int(gp("max_catch_up_steps").value)
     # a tick late by one period must still catch up, or every tick would drop steps

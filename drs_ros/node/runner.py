@@ -134,16 +134,18 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
         name="drs-executor",
     )
     thread.start()
-    # after the executor thread started: SCHED_FIFO (when asked and allowed) is this thread's only
     gp = node.get_parameter
-    policy = apply_tick_policy(
-        gp("tick_scheduling").value, gp("tick_fifo_priority").value, gp("tick_cpu").value
-    )
-    report_tick_policy(node, policy)
-    lateness = node.effects.lateness
-    period_ns = ns_from_seconds(node.publish_period)
-    deadline = time.monotonic_ns()
+    policy = TickPolicy("SCHED_OTHER", 0)  # until applied: what the finally gives back
     try:
+        # after the executor thread started: SCHED_FIFO (when asked and allowed) and the CPU
+        # (tick_cpu) are this thread's only
+        policy = apply_tick_policy(
+            gp("tick_scheduling").value, gp("tick_fifo_priority").value, gp("tick_cpu").value
+        )
+        report_tick_policy(node, policy)
+        lateness = node.effects.lateness
+        period_ns = ns_from_seconds(node.publish_period)
+        deadline = time.monotonic_ns()
         while not stop.requested and context.ok():
             deadline += period_ns
             wait = deadline - time.monotonic_ns()
@@ -164,6 +166,16 @@ def run_deadline_loop(node: DRSNode, stop: StopRequest, context=None) -> None:
         end_idle_wait(node)  # now, not at the end of its idle wait
         thread.join()
         executor.shutdown(timeout_sec=1.0)
+
+
+def warn_tick_cpu_unused(node: DRSNode) -> None:
+    """``tick_cpu`` keeps the deadline loop's tick thread on one CPU: where the ticks run on the
+    executor's thread instead, a ``tick_cpu`` given is ignored, and the node says so."""
+    if node.get_parameter("tick_cpu").value >= 0:
+        node.get_logger().warning(
+            "tick_cpu is ignored: the ticks run on the executor's thread here "
+            "(--managed, executor single or use_sim_time), not on the deadline loop's"
+        )
 
 
 def report_tick_policy(node: DRSNode, policy: TickPolicy) -> None:
@@ -299,6 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             if not managed and node.timer is None:  # executor 'single': the tick is a timer
                 node.timer = node.create_timer(node.publish_period, node.tick)
+            warn_tick_cpu_unused(node)
             executor = SingleThreadedExecutor()
             executor.add_node(node)
             spin_until_stopped(node, executor, stop)

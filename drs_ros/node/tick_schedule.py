@@ -12,6 +12,7 @@ node runs as before and says why. The thread may also be kept on one CPU (``tick
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass
 
 #: The ``tick_scheduling`` choices: ``fifo`` asks for SCHED_FIFO (the ordinary policy when the
@@ -58,36 +59,63 @@ class TickPolicy:
 
 
 def usable_cpus() -> frozenset[int]:
-    """The CPUs this process may run on (all of them where the system cannot say)."""
+    """The CPUs the calling thread may run on now (all of them where the system cannot say)."""
     if hasattr(os, "sched_getaffinity"):
         return frozenset(os.sched_getaffinity(0))
     return frozenset(range(os.cpu_count() or 1))
+
+
+def cpu_refusal(cpu: int) -> str | None:
+    """Why the system would not keep a thread on CPU ``cpu`` (None: it would), asked of the
+    system itself from a short-lived thread: a CPU left out of the process's own CPUs (an
+    ``isolcpus`` one, the usual home of a real-time thread) is still one a thread may take."""
+    if not hasattr(os, "sched_setaffinity"):
+        return "keeping a thread on one CPU is not offered on this system"
+    refused: list[str] = []
+
+    def ask() -> None:
+        try:
+            os.sched_setaffinity(0, {cpu})
+        except (OSError, ValueError, OverflowError) as exc:
+            refused.append(str(exc))
+
+    thread = threading.Thread(target=ask, name="tick-cpu-check")
+    thread.start()
+    thread.join()
+    return refused[0] if refused else None
 
 
 def apply_tick_policy(requested: str, priority: int, cpu: int = -1) -> TickPolicy:
     """Put the calling thread under the ``requested`` policy (of :data:`TICK_SCHEDULING`);
     ``priority`` is the SCHED_FIFO priority; ``cpu`` >= 0 keeps the thread on that one CPU
     (:func:`pin_to_cpu`). On Linux ``sched_setscheduler(0, ...)`` and ``sched_setaffinity(0,
-    ...)`` change the calling thread only: threads started before keep theirs. When the process
+    ...)`` change the calling thread only: threads started before keep theirs, threads it
+    starts later inherit both (the node's tick thread starts none). When the process
     may not have SCHED_FIFO (EPERM: no root, no CAP_SYS_NICE, no rtprio limit; or no such call
     on this system) the thread keeps SCHED_OTHER and the returned policy's note says why."""
     return pin_to_cpu(_scheduling(requested, priority), cpu)
 
 
 def pin_to_cpu(policy: TickPolicy, cpu: int) -> TickPolicy:
-    """``policy`` with the calling thread kept on CPU ``cpu`` (-1: left as it is). Why: at 1 kHz
-    the node's tick thread, woken on whichever CPU was free, took 1.4 points of a core more
-    (median of 14 interleaved pairs, each lower when kept on one CPU: benchmarks/results/
-    node_rate.md, 2026-11-29): its caches stay warm on one CPU. A CPU the system refuses
-    (offline since the node was configured) leaves the thread where it was, and the note says
-    so."""
+    """``policy`` with the calling thread kept on CPU ``cpu`` (-1: left as it is). Why: at 1 kHz,
+    on a machine of 2 CPUs with the tick under SCHED_FIFO, the node took 1.4 points of a core
+    less with its tick thread kept on one CPU (median of 14 interleaved pairs, each lower:
+    benchmarks/results/node_rate.md, 2026-11-29); likely its caches, which a thread woken on
+    whichever CPU is free leaves behind. A CPU the system refuses (offline since the node was
+    configured) leaves the thread where it was, and the note says so. The kernel may drop the
+    pin later (the CPU taken offline, the cpuset rewritten) without a word."""
     if cpu < 0:
         return policy
-    before = tuple(sorted(usable_cpus()))
-    try:
-        os.sched_setaffinity(0, {cpu})
-    except (OSError, AttributeError) as exc:
-        note = "; ".join(filter(None, (policy.note, f"CPU {cpu} asked for, refused: {exc}")))
+    before, refusal = tuple(sorted(usable_cpus())), None
+    if not hasattr(os, "sched_setaffinity"):
+        refusal = "keeping a thread on one CPU is not offered on this system"
+    else:
+        try:
+            os.sched_setaffinity(0, {cpu})
+        except (OSError, ValueError, OverflowError) as exc:
+            refusal = str(exc)
+    if refusal is not None:
+        note = "; ".join(filter(None, (policy.note, f"CPU {cpu} asked for, refused: {refusal}")))
         return TickPolicy(policy.name, policy.priority, note)
     return TickPolicy(policy.name, policy.priority, policy.note, cpu, before)
 
@@ -118,10 +146,17 @@ def leave_tick_policy(policy: TickPolicy) -> None:
     exit) runs as any thread does. Under SCHED_FIFO the exit was not preempted by the
     middleware's and the recorders' own threads still winding down, and 1 stop in ~30 ended in
     a heap abort after the recordings had finished (``benchmarks/shutdown_stress.py``)."""
+    # each step on its own: a failing one must not keep the next, nor the loop's shutdown after
     if policy.name == "SCHED_FIFO":
-        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-    if policy.cpu >= 0:  # and back on the CPUs it could use before
-        os.sched_setaffinity(0, policy.cpus_before)
+        try:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        except OSError:
+            pass  # the shutdown then runs real-time: it still runs
+    if policy.cpu >= 0 and policy.cpus_before:  # and back on the CPUs it could use before
+        try:
+            os.sched_setaffinity(0, policy.cpus_before)
+        except OSError:
+            pass  # none of them usable any more (a cpuset shrunk meanwhile): it stays pinned
 
 
 class LatenessHistogram:
@@ -181,6 +216,7 @@ __all__ = [
     "TickPolicy",
     "TICK_CPU_RANGE",
     "apply_tick_policy",
+    "cpu_refusal",
     "leave_tick_policy",
     "pin_to_cpu",
     "usable_cpus",
