@@ -101,9 +101,10 @@ def pin_to_cpu(policy: TickPolicy, cpu: int) -> TickPolicy:
     on a machine of 2 CPUs with the tick under SCHED_FIFO, the node took 1.3 points of a core
     less with its tick thread kept on one CPU (median of 17 interleaved pairs, 15 lower; at
     250 Hz no gain: benchmarks/results/node_rate.md, 2026-11-29); likely its caches, which a
-    thread woken on whichever CPU is free leaves behind. A CPU the system refuses (offline since the node was
-    configured) leaves the thread where it was, and the note says so. The kernel may drop the
-    pin later (the CPU taken offline, the cpuset rewritten) without a word."""
+    thread woken on whichever CPU is free leaves behind. A CPU the system refuses (offline
+    since the node was configured) leaves the thread where it was, and the note says so. The
+    kernel may drop the pin later (the CPU taken offline, the cpuset rewritten) without a
+    word."""
     if cpu < 0:
         return policy
     before, refusal = tuple(sorted(usable_cpus())), None
