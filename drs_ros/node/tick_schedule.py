@@ -24,7 +24,7 @@ TICK_SCHEDULING = ("fifo", "other")
 FIFO_PRIORITY_RANGE = (1, 98)
 
 #: The ``tick_cpu`` range: -1 leaves the tick thread on every CPU the process may use; 0 and up
-#: name the one CPU it is kept on (one the process may use: checked at configure).
+#: name the one CPU it is kept on (one the system lets a thread take: checked at configure).
 TICK_CPU_RANGE = (-1, 1023)
 
 #: Upper edges [us] of the lateness bins: 1 us wide up to 100 us, then 10 us to 1 ms, then
@@ -65,24 +65,26 @@ def usable_cpus() -> frozenset[int]:
     return frozenset(range(os.cpu_count() or 1))
 
 
+def _keep_on(cpu: int) -> str | None:
+    """Keep the calling thread on CPU ``cpu``; why the system refused (None: done)."""
+    if not hasattr(os, "sched_setaffinity"):
+        return "keeping a thread on one CPU is not offered on this system"
+    try:
+        os.sched_setaffinity(0, {cpu})
+    except (OSError, ValueError, OverflowError) as exc:
+        return str(exc)
+    return None
+
+
 def cpu_refusal(cpu: int) -> str | None:
     """Why the system would not keep a thread on CPU ``cpu`` (None: it would), asked of the
     system itself from a short-lived thread: a CPU left out of the process's own CPUs (an
     ``isolcpus`` one, the usual home of a real-time thread) is still one a thread may take."""
-    if not hasattr(os, "sched_setaffinity"):
-        return "keeping a thread on one CPU is not offered on this system"
-    refused: list[str] = []
-
-    def ask() -> None:
-        try:
-            os.sched_setaffinity(0, {cpu})
-        except (OSError, ValueError, OverflowError) as exc:
-            refused.append(str(exc))
-
-    thread = threading.Thread(target=ask, name="tick-cpu-check")
+    refused: list[str | None] = []
+    thread = threading.Thread(target=lambda: refused.append(_keep_on(cpu)), name="tick-cpu-check")
     thread.start()
     thread.join()
-    return refused[0] if refused else None
+    return refused[0]
 
 
 def apply_tick_policy(requested: str, priority: int, cpu: int = -1) -> TickPolicy:
@@ -107,14 +109,8 @@ def pin_to_cpu(policy: TickPolicy, cpu: int) -> TickPolicy:
     word."""
     if cpu < 0:
         return policy
-    before, refusal = tuple(sorted(usable_cpus())), None
-    if not hasattr(os, "sched_setaffinity"):
-        refusal = "keeping a thread on one CPU is not offered on this system"
-    else:
-        try:
-            os.sched_setaffinity(0, {cpu})
-        except (OSError, ValueError, OverflowError) as exc:
-            refusal = str(exc)
+    before = tuple(sorted(usable_cpus()))
+    refusal = _keep_on(cpu)
     if refusal is not None:
         note = "; ".join(filter(None, (policy.note, f"CPU {cpu} asked for, refused: {refusal}")))
         return TickPolicy(policy.name, policy.priority, note)
