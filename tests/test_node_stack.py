@@ -411,7 +411,8 @@ def test_a_bag_of_the_action_tf_and_joint_commands_checks_and_re_runs(ros_contex
     by_rosbags, by_mcap = judge_with_rosbags(bag), judge_with_mcap_ros2(bag)
     assert by_rosbags == by_mcap
     assert by_rosbags["/robot_description"] == by_rosbags["/tf_static"] == 1
-    assert by_rosbags["/tf"] == by_rosbags["/joint_states"]
+    # /tf at tf_rate_hz (100) of the joint states at publish_rate_hz (250): 2 in 5
+    assert abs(by_rosbags["/tf"] - 0.4 * by_rosbags["/joint_states"]) <= 2
     assert by_rosbags["/drs/joint_commands"] == 3
     status, report = resimulate_json(str(bag))
     assert status == 0, report

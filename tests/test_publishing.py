@@ -1,9 +1,11 @@
-"""The node's publishers add no QoS-event waitables to the executor, and /tf is computed only
-while someone subscribes to it or a bag records it."""
+"""The node's publishers add no QoS-event waitables to the executor; /tf is computed only
+while someone subscribes to it or a bag records it, and at ``tf_rate_hz`` of the published
+joint states."""
 
 from __future__ import annotations
 
 import time
+from itertools import pairwise
 
 import pytest
 from node_support import ros_context  # noqa: F401
@@ -45,9 +47,10 @@ def test_tf_is_computed_only_while_listened_to_or_recorded(ros_context, tmp_path
     from drs_ros.publishing import LISTENER_CHECK_TICKS
 
     packed = {}
+    every_state = ("tf_rate_hz", 2000.0)  # above the publish rate: /tf at each joint state
     nodes = {
-        "quiet": _node(ros_context),
-        "bag": _node(ros_context, ("bag_path", str(tmp_path / "bag"))),
+        "quiet": _node(ros_context, every_state),
+        "bag": _node(ros_context, every_state, ("bag_path", str(tmp_path / "bag"))),
     }
     listener = None
     try:
@@ -78,3 +81,37 @@ def test_tf_is_computed_only_while_listened_to_or_recorded(ros_context, tmp_path
         for node in nodes.values():
             node.close_recordings()
             node.destroy_node()
+
+
+def test_tf_goes_out_at_tf_rate_hz_with_published_joint_states(ros_context, tmp_path):  # noqa: F811
+    """1 kHz joint states, /tf at 100 Hz: each /tf is stamped like a published joint state, one
+    every 10 ms of the states' time on average (a state later at most)."""
+    node = _node(
+        ros_context,
+        ("publish_rate_hz", 1000.0),
+        ("tf_rate_hz", 100.0),
+        ("bag_path", str(tmp_path / "bag")),
+    )
+    tf_stamps, state_stamps = [], []
+    try:
+        packer = node.stack.tf._moving
+        pack_tf = packer.pack
+        packer.pack = lambda stamp, v: tf_stamps.append(stamp) or pack_tf(stamp, v)
+        pack_state = node.outputs._pack_joint_state
+        node.outputs._pack_joint_state = lambda st, stamp, s=None: (
+            state_stamps.append(stamp) or pack_state(st, stamp, s)
+        )
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end:
+            time.sleep(0.001)
+            node.tick()
+    finally:
+        node.close_recordings()
+        node.destroy_node()
+    assert len(state_stamps) > 100
+    assert set(tf_stamps) <= set(state_stamps)
+    span_s = (state_stamps[-1] - state_stamps[0]) * 1e-9
+    assert abs(len(tf_stamps) - (span_s / 0.01 + 1)) <= 1.5
+    state_gap = max(b - a for a, b in pairwise(state_stamps))
+    gaps = [b - a for a, b in pairwise(tf_stamps)]
+    assert all(10_000_000 - state_gap <= g <= 10_000_000 + state_gap for g in gaps), gaps

@@ -37,6 +37,13 @@ STACK_PARAMETERS = (
         "robot_state_publisher does it from ros2_control's joint states)",
         None,
     ),
+    (
+        "tf_rate_hz",
+        100.0,
+        "/tf rate [Hz] (robot_state_publisher's publish_frequency): the joints' transforms of "
+        "a published joint state, at most one per joint state",
+        (0.1, 2000.0),
+    ),
     ("mount_frame", "base_link", "parent frame of frame_id on the car (REP 105); '' = none", None),
     ("mount_xyz", (0.0, 0.0, 0.0), "position of frame_id in mount_frame [m]", None),
     (
@@ -151,6 +158,7 @@ class StackLayer:
                 mount,
                 control,
                 hooks.record,
+                1.0 / gp("tf_rate_hz").value,
             )
         self.defaults = Tolerances(
             path_position=gp("path_tolerance").value,
@@ -226,12 +234,12 @@ class StackLayer:
             self.tf.destroy()
 
     def transforms(self, state, stamp_ns: int, recording: bool = True) -> list[tuple[str, bytes]]:
-        """At every published joint state: TF (while listened to or ``recording`` in a bag),
-        published; its record for the bag returned (``[]``: none), written by the caller with
-        the tick's other states."""
+        """At every published joint state: TF at ``tf_rate_hz`` (while listened to or
+        ``recording`` in a bag), published; its record for the bag returned (``[]``: none),
+        written by the caller with the tick's other states."""
         if self.tf is None:
             return []
-        return self.tf.publish(state.q, stamp_ns, recording)
+        return self.tf.publish(state.q, state.t, stamp_ns, recording)
 
     def update_action(self, stamp_ns: int, now_ns: int) -> None:
         """After the states of a tick are out: the action's goals and feedback."""

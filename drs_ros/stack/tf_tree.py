@@ -5,8 +5,9 @@
 * ``/tf_static`` (tf2_msgs/TFMessage, transient local, depth 1): the fixed frames, once: the base
   frame on the car (``mount_frame``, ``mount_xyz``, ``mount_rpy``; none when ``mount_frame`` is
   ``""``) and the fixed frames of the description (the two halves of the cut pin, the flap tip);
-* ``/tf`` (tf2_msgs/TFMessage, depth 100): the three joints' transforms at every published joint
-  state, stamped with the joint state's stamp.
+* ``/tf`` (tf2_msgs/TFMessage, depth 100): the three joints' transforms at ``tf_rate_hz``
+  (robot_state_publisher's ``publish_frequency``), each stamped with the joint state it is taken
+  from: at most one per published joint state.
 
 Messages are serialised once by :mod:`drs_ros.recording.cdr`, published as those bytes and
 handed to the caller's recorder as the same bytes.
@@ -25,6 +26,7 @@ from drs_model.params import DRSParams
 
 from ..conversions import time_msg
 from ..publishing import LISTENER_CHECK_TICKS, create_publisher
+from ..rate_schedule import RateSchedule
 from ..recording import cdr
 from ..timestamps import split_ns
 from . import description
@@ -100,6 +102,8 @@ class TfPublisher:
     record : callable
         ``record(topic, data, now_ns)``: the node's recorder (exact bytes), for the description
         and the static transforms (the moving ones go back to the caller: :meth:`publish`).
+    period_s : float
+        Least simulated time [s] between two ``/tf`` messages, on average (1 / ``tf_rate_hz``).
     """
 
     def __init__(
@@ -112,8 +116,10 @@ class TfPublisher:
         mount,
         ros2_control: str,
         record: Callable[[str, bytes, int], object],
+        period_s: float,
     ) -> None:
         self.params = params
+        self.schedule = RateSchedule(period_s)
         self.frames = description.Frames.of(joint_names, base_frame)
         self.origins = description.JointOrigins.of(params)
         self.urdf = description.robot_description(
@@ -156,16 +162,19 @@ class TfPublisher:
             pub.publish(data)
             self._record(pub.topic_name, data, now_ns)
 
-    def publish(self, q, stamp_ns: int, recording: bool = True) -> list[tuple[str, bytes]]:
-        """Publish the joints' transforms at configuration ``q`` and return their record for the
-        bag, ``[(topic, bytes)]``, which the caller writes with the tick's other states (one
-        write for them all); nothing is computed while no one subscribes to /tf and no bag is
-        ``recording`` (``[]``), and nothing is published while no one subscribes (asked every
-        :data:`LISTENER_CHECK_TICKS` calls)."""
+    def publish(
+        self, q, t: float, stamp_ns: int, recording: bool = True
+    ) -> list[tuple[str, bytes]]:
+        """Publish the joints' transforms at configuration ``q``, the state at simulated time
+        ``t`` [s] stamped ``stamp_ns``, when one is due (:attr:`schedule`), and return their record
+        for the bag, ``[(topic, bytes)]``, which the caller writes with the tick's other states
+        (one write for them all); nothing is computed while no one subscribes to /tf and no bag
+        is ``recording``, nor between two due states (``[]``), and nothing is published while no
+        one subscribes (asked every :data:`LISTENER_CHECK_TICKS` calls)."""
         if self._calls % LISTENER_CHECK_TICKS == 0:  # asking DDS costs ~25 us: not every tick
             self._listened = self.pub_tf.get_subscription_count() > 0
         self._calls += 1
-        if not (recording or self._listened):
+        if not (recording or self._listened) or not self.schedule.due(t):
             return []
         moving = description.moving_transforms(q, self.origins, self.frames)
         data = self._moving.pack(stamp_ns, [(*xyz, *quat) for _p, _c, xyz, quat in moving])
