@@ -13,7 +13,8 @@ the warm-up, before its side of the match) is marked so.
 
 Configurations, interleaved over ``--rounds`` and quoted as medians: ``loop`` (the deadline loop
 alone), ``joint_states`` (one JointState a tick), ``joint_states + /tf`` (and one TFMessage of
-the three moving transforms, as the node publishes with ``publish_tf`` true). The CPU share is
+the three moving transforms, as the node published with ``publish_tf`` true before ``tf_rate_hz``
+gave /tf its own rate, 100 Hz by default). The CPU share is
 the publisher process's (all its threads: ``time.process_time``) over the measured window. The
 rate goals for the whole node (1 kHz within 15 % of a core, 250 Hz within 6 %) are printed
 beside: whatever this floor takes, the node's Python, recordings and executor add to it.

@@ -1,13 +1,14 @@
 """What one tick of the drs node costs in CPU, part by part (1 kHz physics, 1 kHz publish).
 
 A real :class:`~drs_ros.node.DRSNode` is built in this process (``tick_timer=False``, the MCAP
-bag and the rerun ``.rrd`` recorded into a temporary directory, /tf on) and its :meth:`tick` is
-called ``--ticks`` times, the node clock advancing one publish period per call (a clock of
-this benchmark, so that the machine's load cannot make ticks late or catch up). A listener in
-another process subscribes to ``/joint_states`` and ``/tf`` (``--listener none``: no one), so
-that each publish pays DDS's delivery as it does beside a real consumer. Every 100 ticks a
-stroke command arrives through the node's intake (the executor thread's work, timed apart), and
-every 1000 ticks the node publishes its diagnostics (timed apart): both per tick, amortised.
+bag and the rerun ``.rrd`` recorded into a temporary directory, /tf on at ``tf_rate_hz``) and
+its :meth:`tick` is called ``--ticks`` times, the node clock advancing one publish period per
+call (a clock of this benchmark, so that the machine's load cannot make ticks late or catch
+up). A listener in another process subscribes to ``/joint_states`` and ``/tf`` (``--listener
+none``: no one), so that each publish pays DDS's delivery as it does beside a real consumer.
+Every 100 ticks a stroke command arrives through the node's intake (the executor thread's work,
+timed apart), and every 1000 ticks the node publishes its diagnostics (timed apart): both per
+tick, amortised.
 
 Measured on this thread's CPU clock (``time.thread_time_ns``), which the machine's load
 barely moves, in two interleaved kinds of blocks of ticks:

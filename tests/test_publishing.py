@@ -85,33 +85,36 @@ def test_tf_is_computed_only_while_listened_to_or_recorded(ros_context, tmp_path
 
 def test_tf_goes_out_at_tf_rate_hz_with_published_joint_states(ros_context, tmp_path):  # noqa: F811
     """1 kHz joint states, /tf at 100 Hz: each /tf is stamped like a published joint state, one
-    every 10 ms of the states' time on average (a state later at most)."""
-    node = _node(
-        ros_context,
-        ("publish_rate_hz", 1000.0),
-        ("tf_rate_hz", 100.0),
-        ("bag_path", str(tmp_path / "bag")),
-    )
-    tf_stamps, state_stamps = [], []
-    try:
-        packer = node.stack.tf._moving
-        pack_tf = packer.pack
-        packer.pack = lambda stamp, v: tf_stamps.append(stamp) or pack_tf(stamp, v)
-        pack_state = node.outputs._pack_joint_state
-        node.outputs._pack_joint_state = lambda st, stamp, s=None: (
-            state_stamps.append(stamp) or pack_state(st, stamp, s)
+    every 10 ms of the states' time; with tf_rate_hz at the publish rate, each joint state.
+    The node's clock advances one period a tick (a clock of the test's: no late tick)."""
+    stamps = {}
+    for tf_hz in (100.0, 1000.0):
+        node = _node(
+            ros_context,
+            ("publish_rate_hz", 1000.0),
+            ("tf_rate_hz", tf_hz),
+            ("bag_path", str(tmp_path / f"bag{tf_hz:g}")),
         )
-        end = time.monotonic() + 0.5
-        while time.monotonic() < end:
-            time.sleep(0.001)
-            node.tick()
-    finally:
-        node.close_recordings()
-        node.destroy_node()
-    assert len(state_stamps) > 100
+        tf_stamps, state_stamps = [], []
+        stamps[tf_hz] = tf_stamps, state_stamps
+        try:
+            now = [time.time_ns()]
+            object.__setattr__(node.tick_part.parts, "now_ns", lambda now=now: now[0])
+            packer = node.stack.tf._moving
+            pack_tf = packer.pack
+            packer.pack = lambda t, v, _p=pack_tf, _s=tf_stamps: _s.append(t) or _p(t, v)
+            pack_state = node.outputs._pack_joint_state
+            node.outputs._pack_joint_state = lambda st, t, s=None, _p=pack_state, _s=state_stamps: (
+                _s.append(t) or _p(st, t, s)
+            )
+            for _ in range(501):
+                now[0] += 1_000_000
+                node.tick()
+        finally:
+            node.close_recordings()
+            node.destroy_node()
+    tf_stamps, state_stamps = stamps[100.0]
+    assert len(state_stamps) == 501
     assert set(tf_stamps) <= set(state_stamps)
-    span_s = (state_stamps[-1] - state_stamps[0]) * 1e-9
-    assert abs(len(tf_stamps) - (span_s / 0.01 + 1)) <= 1.5
-    state_gap = max(b - a for a, b in pairwise(state_stamps))
-    gaps = [b - a for a, b in pairwise(tf_stamps)]
-    assert all(10_000_000 - state_gap <= g <= 10_000_000 + state_gap for g in gaps), gaps
+    assert [b - a for a, b in pairwise(tf_stamps)] == [10_000_000] * 50
+    assert stamps[1000.0][0] == stamps[1000.0][1]  # at the publish rate: every joint state

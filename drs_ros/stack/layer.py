@@ -41,8 +41,8 @@ STACK_PARAMETERS = (
         "tf_rate_hz",
         100.0,
         "/tf rate [Hz] (robot_state_publisher's publish_frequency): the joints' transforms of "
-        "a published joint state, at most one per joint state",
-        (0.1, 2000.0),
+        "one published joint state a period; at or above publish_rate_hz, of each",
+        (1.0, 2000.0),
     ),
     ("mount_frame", "base_link", "parent frame of frame_id on the car (REP 105); '' = none", None),
     ("mount_xyz", (0.0, 0.0, 0.0), "position of frame_id in mount_frame [m]", None),
@@ -159,6 +159,7 @@ class StackLayer:
                 control,
                 hooks.record,
                 1.0 / gp("tf_rate_hz").value,
+                1.0 / gp("publish_rate_hz").value,
             )
         self.defaults = Tolerances(
             path_position=gp("path_tolerance").value,

@@ -103,7 +103,10 @@ class TfPublisher:
         ``record(topic, data, now_ns)``: the node's recorder (exact bytes), for the description
         and the static transforms (the moving ones go back to the caller: :meth:`publish`).
     period_s : float
-        Least simulated time [s] between two ``/tf`` messages, on average (1 / ``tf_rate_hz``).
+        Simulated time [s] between two ``/tf`` messages, on average (1 / ``tf_rate_hz``).
+    states_period_s : float
+        The published joint states' period [s] (1 / ``publish_rate_hz``): /tf takes one of
+        them each ``period_s``, every one when ``period_s`` is no longer.
     """
 
     def __init__(
@@ -117,9 +120,10 @@ class TfPublisher:
         ros2_control: str,
         record: Callable[[str, bytes, int], object],
         period_s: float,
+        states_period_s: float,
     ) -> None:
         self.params = params
-        self.schedule = RateSchedule(period_s)
+        self.schedule = RateSchedule(period_s, states_period_s)
         self.frames = description.Frames.of(joint_names, base_frame)
         self.origins = description.JointOrigins.of(params)
         self.urdf = description.robot_description(
