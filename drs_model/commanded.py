@@ -136,6 +136,9 @@ class CommandedActuator:
         # (an OrderedDict: its popitem is one step, so a caller on another thread,
         # drs_duration, cannot break an eviction)
         self._peaks: OrderedDict = OrderedDict()
+        # the last drs_duration: ((open_flap, start, limit_moves, force_limit), duration), one
+        # tuple (read and replaced whole: drs_duration may run on another thread)
+        self._drs_duration_kept: tuple | None = None
         self._force = math.nan
 
     def _refuse_unused_methods(self, **given: str) -> None:
@@ -391,10 +394,18 @@ class CommandedActuator:
 
     def drs_duration(self, open_flap: bool) -> float:
         """The duration [s] :meth:`command_drs` takes from the present state: the seed's, or
-        longer under :attr:`limit_moves`. Changes nothing but the kept peaks, so a caller may
-        ask it ahead of the command, outside a lock the simulation's steps take."""
+        longer under :attr:`limit_moves`. Changes nothing but the kept peaks and the last
+        answer, so a caller may ask it ahead of the command, outside a lock the simulation's
+        steps take; the command, from the same state, then takes that answer."""
+        start = tuple(float(x) for x in self._command_start())
+        key = (bool(open_flap), start, self._limit_moves, self.force_limit)
+        kept = self._drs_duration_kept
+        if kept is not None and kept[0] == key:  # asked ahead of the command, from this state
+            return kept[1]
         target, duration = self.motion.drs_move(open_flap)
-        return self._fit_duration(target, duration, self._command_start())
+        duration = self._fit_duration(target, duration, start)
+        self._drs_duration_kept = (key, duration)
+        return duration
 
     def _checked_force(self, force: float) -> float:
         """``force`` [N] as a float; refuse NaN or |F| > force_limit."""

@@ -115,9 +115,13 @@ def load_compiled() -> None:
 def leaving_paths(coeffs, durations, limits: tuple[float, float]):
     """``(k, lo, hi)``: the quintics ``coeffs[k]`` (local time) whose path leaves ``limits`` [m]
     by more than :data:`PATH_TOL` at one of :data:`PATH_SAMPLES` instants, and their lowest and
-    highest samples [m]; sampled only where the control points leave (:func:`hull_leaves`)."""
+    highest samples [m]; sampled only where the control points leave ``limits`` by more than
+    :data:`PATH_TOL` (:func:`hull_leaves`)."""
     coeffs, durations = _segments(coeffs, durations)
-    leaves, count = _hull_check(coeffs, durations, limits)
+    # the hull against the limits widened by the samples' own tolerance: a move that ends on a
+    # stop has its last control point there, a rounding error beyond it, and inside the widened
+    # limits the path cannot leave by more than PATH_TOL (nothing to sample: ~20 us a command)
+    leaves, count = _hull_check(coeffs, durations, (limits[0] - PATH_TOL, limits[1] + PATH_TOL))
     if not count:
         return np.empty(0, dtype=np.intp), np.empty(0), np.empty(0)
     k = np.flatnonzero(leaves)

@@ -271,3 +271,25 @@ def test_a_drs_move_asked_ahead_is_not_evaluated_again(params, monkeypatch):
         seg = sim.command_drs(open_flap)
         assert len(calls) == before
         assert seg.duration == duration
+
+
+def test_a_drs_duration_asked_ahead_is_not_reused_from_another_state(params):
+    """The duration kept for the command that follows is the one of the same state: asked at
+    rest, then the flap moves, the answer is that of an actuator never asked ahead (the
+    reference: the same commands and steps); and under another rule (limit_moves off) the
+    seed's time, not the stretched one kept."""
+    from drs_model.actuator import ActuatorSim
+
+    asked, fresh = ActuatorSim(params, dt=1e-3), ActuatorSim(params, dt=1e-3)
+    asked.drs_duration(False)  # kept: closing from rest at the closed stop
+    for sim in (asked, fresh):
+        sim.command_drs(True)
+        for _ in range(5):
+            sim.step()
+    assert asked.drs_duration(False) == fresh.drs_duration(False)  # closing mid-opening
+
+    weak = ActuatorSim(params, dt=1e-3, force_limit=20_000.0)  # the seed's 10 ms needs 25.4 kN
+    stretched = weak.drs_duration(True)
+    assert stretched > params.T_opening
+    weak.limit_moves = False
+    assert weak.drs_duration(True) == params.T_opening

@@ -318,3 +318,60 @@ def test_a_move_is_refused_exactly_when_its_samples_leave_the_range(
     except StrokeRangeError:
         refused = True
     assert refused == leaves, (path.min() - lo, hi - path.max())
+
+
+@given(
+    t0=st.floats(0.0, 100.0),
+    duration=st.floats(1e-4, 1.0),
+    s0=st.floats(0.0, 0.05),
+    s1=st.floats(0.0, 0.05),
+    v0=st.floats(-5.0, 5.0),
+    a0=st.floats(-1e4, 1e4),
+)
+def test_a_segments_end_stroke_is_where_its_evaluation_ends(t0, duration, s0, s1, v0, a0):
+    """``end_stroke`` (the scalar kernel at the local end) against the array evaluation at and
+    after ``t1`` (the same quintic by numpy), and against the target of a move to rest."""
+    from drs_model.profile import QuinticSegment
+
+    seg = QuinticSegment.between(t0, duration, s0, s1, v0, 0.0, a0, 0.0)
+    tol = 1e-12 * (1.0 + abs(s1) + abs(v0) * duration + abs(a0) * duration**2)
+    assert abs(seg.end_stroke - float(seg.evaluate(seg.t1 + 1.0)[0])) <= tol
+    assert abs(seg.end_stroke - s1) <= tol
+
+
+@given(
+    coeffs=st.lists(st.floats(-1.0, 1.0), min_size=6, max_size=6),
+    duration=st.floats(1e-3, 0.5),
+    margin=st.sampled_from([-1e-9, -1e-12, -1e-13, 0.0, 1e-13, 1e-12, 1e-9]),
+)
+@settings(max_examples=300, deadline=None)
+def test_leaving_paths_says_what_sampling_says(coeffs, duration, margin):
+    """The hull only spares the sampling: ``leaving_paths`` names a segment exactly when its
+    samples leave the limits by more than PATH_TOL (the reference: the samples themselves),
+    with limits at the samples' own extremes give or take ``margin``."""
+    from drs_model.path_range import PATH_TOL, leaving_paths, path_extremes
+
+    c = np.array(coeffs)
+    lo, hi = (float(x[0]) for x in path_extremes(c, duration))
+    limits = (lo - margin, hi + margin)
+    sampled = lo < limits[0] - PATH_TOL or hi > limits[1] + PATH_TOL
+    assert bool(leaving_paths(c, duration, limits)[0].size) == sampled
+
+
+def test_a_move_to_a_stop_from_rest_is_decided_without_sampling(params, monkeypatch):
+    """A move ends on the stop exactly, its last control point a rounding error beyond: the
+    hull, widened by the samples' tolerance, decides it (no sampling on the node's tick)."""
+    from drs_model import path_range
+    from drs_model.actuator import ActuatorSim
+
+    calls = []
+    original = path_range.path_extremes
+    monkeypatch.setattr(
+        path_range, "path_extremes", lambda *a, **k: calls.append(1) or original(*a, **k)
+    )
+    sim = ActuatorSim(params, dt=1e-3)
+    for open_flap in (True, False, True):
+        sim.command_drs(open_flap)
+        for _ in range(40):
+            sim.step()  # to rest on the stop
+    assert calls == []

@@ -207,8 +207,7 @@ class CommandIntake:
         fx.accepted += 1
         response.success = True
         response.message = (
-            f"{'opening' if value else 'closing'} to {seg.evaluate(seg.t1)[0]:.6g} m "
-            f"in {seg.duration:g} s"
+            f"{'opening' if value else 'closing'} to {seg.end_stroke:.6g} m in {seg.duration:g} s"
         )
         fx.event(
             self.service_name,
