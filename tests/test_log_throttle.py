@@ -146,6 +146,9 @@ class CountingLogger:
 class Publisher:
     topic_name = "/drs/command_events"
 
+    def get_subscription_count(self) -> int:
+        return 1
+
     def publish(self, data: bytes) -> None:
         pass
 

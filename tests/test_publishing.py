@@ -118,3 +118,54 @@ def test_tf_goes_out_at_tf_rate_hz_with_published_joint_states(ros_context, tmp_
     assert set(tf_stamps) <= set(state_stamps)
     assert [b - a for a, b in pairwise(tf_stamps)] == [10_000_000] * 50
     assert stamps[1000.0][0] == stamps[1000.0][1]  # at the publish rate: every joint state
+
+
+def test_the_effect_record_goes_to_subscribers_only_and_always_to_the_bag(ros_context, tmp_path):  # noqa: F811
+    """No one subscribed: a record is not published (DDS keeps nothing of the volatile topic
+    for later) but is recorded; a subscriber then receives the next one, as recorded."""
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+    from std_srvs.srv import SetBool
+
+    bag = tmp_path / "bag"
+    node = _node(ros_context, ("bag_path", str(bag)))
+    listener = rclpy.create_node("events_listener", context=ros_context)
+    received = []
+    try:
+        published = []
+        pub = node.effects._publisher
+        publish = pub.publish
+        pub.publish = lambda data: published.append(data) or publish(data)
+        node.tick()  # the clock's record
+        assert published == []
+        listener.create_subscription(
+            DiagnosticArray, "/drs/command_events", received.append, 100, raw=True
+        )
+        end = time.monotonic() + 30
+        while pub.get_subscription_count() == 0 and time.monotonic() < end:
+            time.sleep(0.01)  # discovery, within this process
+        node._on_drs(SetBool.Request(data=True), SetBool.Response())
+        assert len(published) == 1
+        executor = rclpy.executors.SingleThreadedExecutor(context=ros_context)
+        executor.add_node(listener)
+        end = time.monotonic() + 10
+        while not received and time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+        executor.shutdown()
+        assert received == published
+    finally:
+        listener.destroy_node()
+        node.close_recordings()
+        node.destroy_node()
+    recorded = []
+    for file in sorted(bag.glob("*.mcap")):
+        with open(file, "rb") as f:
+            reader = make_reader(f)
+            for _s, _c, message in reader.iter_messages(topics=["/drs/command_events"]):
+                recorded.append(message.data)
+    # the clock's record (published to no one) and the call's, each as recorded
+    names = [deserialize_message(d, DiagnosticArray).status[0].name for d in recorded]
+    clock = recorded[names.index("clock")]
+    assert clock not in published and recorded[-1] == published[0]

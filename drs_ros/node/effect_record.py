@@ -181,7 +181,7 @@ class EffectRecord:
         """One record of the effect log: what happened, at which simulated instant. ``now_ns``
         is the node time of the tick or callback it happens in (its log time in the bag). Packed
         once, straight into CDR (no rclpy message on the tick): the bytes published and recorded
-        are the same."""
+        are the same. Published while someone subscribes; recorded always."""
         sim_t, steps, t0_ns = self._instant()
         record = {"sim_time": repr(sim_t), "step": steps}
         if cmd is not None:
@@ -191,7 +191,10 @@ class EffectRecord:
         stamp = now_ns if t0_ns is None else t0_ns + ns_from_seconds(sim_t)
         status = command_event_status(source, outcome, level, reason, record)
         data = diagnostic_array_cdr(stamp, [status])
-        self._publisher.publish(data)
+        # DDS keeps nothing of a volatile topic for a later subscriber: with none matched now,
+        # publishing would deliver to no one and costs ~25 us; asking costs ~1 us
+        if self._publisher.get_subscription_count():
+            self._publisher.publish(data)
         self._record(self._topic, data, now_ns)
 
     def clock_origin(
