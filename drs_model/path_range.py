@@ -116,12 +116,14 @@ def leaving_paths(coeffs, durations, limits: tuple[float, float]):
     """``(k, lo, hi)``: the quintics ``coeffs[k]`` (local time) whose path leaves ``limits`` [m]
     by more than :data:`PATH_TOL` at one of :data:`PATH_SAMPLES` instants, and their lowest and
     highest samples [m]; sampled only where the control points leave ``limits`` by more than
-    :data:`PATH_TOL` (:func:`hull_leaves`)."""
+    half :data:`PATH_TOL` (:func:`hull_leaves`)."""
     coeffs, durations = _segments(coeffs, durations)
-    # the hull against the limits widened by the samples' own tolerance: a move that ends on a
-    # stop has its last control point there, a rounding error beyond it, and inside the widened
-    # limits the path cannot leave by more than PATH_TOL (nothing to sample: ~20 us a command)
-    leaves, count = _hull_check(coeffs, durations, (limits[0] - PATH_TOL, limits[1] + PATH_TOL))
+    # the hull against the limits widened by half the samples' tolerance: a move that ends on a
+    # stop has its last control point there, a rounding error (~1e-17 m) beyond it, and a path
+    # inside the widened limits cannot leave by more than PATH_TOL, the control points' and the
+    # samples' rounding (a few ulps) included (nothing to sample: ~20 us a command)
+    margin = PATH_TOL / 2
+    leaves, count = _hull_check(coeffs, durations, (limits[0] - margin, limits[1] + margin))
     if not count:
         return np.empty(0, dtype=np.intp), np.empty(0), np.empty(0)
     k = np.flatnonzero(leaves)

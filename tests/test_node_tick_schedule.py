@@ -381,7 +381,7 @@ def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(tmp_
         out, _ = proc.communicate(timeout=60)
     assert proc.returncode == 0, out[-2000:]
     store = get_typestore(Stores.ROS2_JAZZY)
-    states, diagnostics, checked = [], [], 0
+    states, diagnostics, checked, tf = [], [], 0, 0
     with open(bag / "bag_0.mcap", "rb") as f:
         for schema, channel, message in make_reader(f).iter_messages():
             if schema.name not in store.types:  # the bag's own definition of the type
@@ -394,7 +394,12 @@ def test_at_1_khz_every_recorded_message_is_exact_and_every_tick_is_counted(tmp_
                 states.append(message.log_time)
             elif channel.topic == "/diagnostics":
                 diagnostics.append((message.log_time, decoded))
-    assert len(states) > 3000 and checked > 5 * len(states)
+            elif channel.topic == "/tf":
+                tf += 1
+    # each tick: the joint states and the three Float64 states; /tf at tf_rate_hz (100 Hz)
+    assert len(states) > 3000 and checked > 4 * len(states)
+    expected_tf = (states[-1] - states[0]) / 10_000_000  # a stall of > 10 ms may skip one
+    assert 0.9 * expected_tf <= tf <= expected_tf + 2
     period_ns = 1_000_000
     after_start = [(log_ns, msg) for log_ns, msg in diagnostics if log_ns > states[0]]
     assert len(after_start) >= 5

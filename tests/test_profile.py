@@ -358,6 +358,22 @@ def test_leaving_paths_says_what_sampling_says(coeffs, duration, margin):
     assert bool(leaving_paths(c, duration, limits)[0].size) == sampled
 
 
+def test_a_path_beyond_the_tolerance_by_a_rounding_error_is_still_sampled_and_named():
+    """The hull's margin is half the samples' tolerance: a path whose highest sample lies an
+    ulp beyond ``limits + PATH_TOL`` (a case a review found) is sampled and named, as the
+    samples say (the reference: the samples themselves)."""
+    from drs_model.path_range import PATH_TOL, leaving_paths, path_extremes
+
+    c = np.array(
+        [0.4376478481316062, 0.7576256005109634, 0.4282589672224051]
+        + [0.842197335167749, -0.21007319199851215, 0.6018175419704566]
+    )
+    duration, limits = 0.22286590696932956, (-0.5623521518683938, 0.6369034486996445)
+    hi = float(path_extremes(c, duration)[1][0])
+    assert 0.0 < hi - (limits[1] + PATH_TOL) < 1e-15
+    assert leaving_paths(c, duration, limits)[0].tolist() == [0]
+
+
 def test_a_move_to_a_stop_from_rest_is_decided_without_sampling(params, monkeypatch):
     """A move ends on the stop exactly, its last control point a rounding error beyond: the
     hull, widened by the samples' tolerance, decides it (no sampling on the node's tick)."""

@@ -64,7 +64,7 @@ class RungChoice:
         sim = self.make("rigid" if self.auto else self.fidelity)
         sim.check_stiffness()
         for open_flap in (True, False):
-            sim.drs_duration(open_flap)  # changes nothing but the kept peaks
+            sim.drs_duration(open_flap)  # changes nothing but the kept peaks and answer
         path_range.load_compiled()
         return sim
 
