@@ -203,7 +203,7 @@ class StatePublishers:
         ]
         if self.hydraulic and sim.has_fluid:
             out += self._hydraulic_messages(st, stamp)
-        if tick % LISTENER_CHECK_TICKS == 1:  # asking DDS costs ~25 us: not every tick
+        if tick % LISTENER_CHECK_TICKS == 1:  # asking DDS: not every tick
             self.listened = {pub: pub.get_subscription_count() > 0 for pub in self.state_publishers}
         if self.listened[self.reactions]:
             out.append((self.reactions, self._pack_reactions(sim.reactions(), stamp)))
