@@ -15,6 +15,7 @@ import sys
 import time
 import tracemalloc
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from node_support import domain_for, node_env, spin_for, spin_until
@@ -368,6 +369,50 @@ def test_clock_drives_a_sim_time_node(ros_context, tmp_path, request):
         assert len(sub.received[topic]) == len(messages[topic])
     finally:
         sub.close()
+
+
+@pytest.mark.parametrize("delay_s", [0.0, 0.2])
+def test_the_clock_holds_the_bags_start_until_play_begins_and_never_goes_back(
+    ros_context, monkeypatch, delay_s
+):
+    """A stall of 0.3 s between the play's start and its first /clock (a busy machine; it made
+    ``test_clock_drives_a_sim_time_node`` see /clock 0.34 s on, then the start again): every
+    /clock the player publishes is at or after the one before, and the first is the bag's start
+    (the reference: the bag's own start time), held until play begins."""
+    import rclpy
+
+    from drs_ros.bag.replay.play import player as player_module
+    from drs_ros.bag.replay.play.index import index_bag
+    from drs_ros.bag.replay.play.options import PlayOptions
+    from drs_ros.stop_request import StopRequest
+
+    index = index_bag(str(EXAMPLE))
+    topic = "/drs/stroke_cmd"
+    options = PlayOptions(bag=str(EXAMPLE), topics=(topic,), clock_hz=50.0, delay_s=delay_s)
+    node = rclpy.create_node("clock_player", context=ros_context)
+    try:
+        player = player_module.Player(node, index, options, StopRequest())
+        clocks, first_message = [], []
+        publish_clock = player._publish_clock
+        player._publish_clock = lambda ns: clocks.append(ns) or publish_clock(ns)
+        play_pub = player.publishers[topic]
+        publish = play_pub.publish
+        play_pub.publish = lambda data: first_message.append(len(clocks)) or publish(data)
+        real, calls = time.monotonic, []
+
+        def monotonic() -> float:  # off its core for 0.3 s once play has read the time twice
+            calls.append(1)  # (the clock's first tick, then the play's start)
+            return real() + (0.3 if len(calls) > 2 else 0.0)
+
+        clock = SimpleNamespace(monotonic=monotonic, sleep=time.sleep)
+        monkeypatch.setattr(player_module, "time", clock)
+        assert player.play()
+    finally:
+        node.destroy_node()
+    assert len(clocks) > 20
+    assert clocks == sorted(clocks)
+    assert clocks[0] == index.start_ns  # held there until play began, not 0.3 s on
+    assert first_message  # it played
 
 
 def test_sigint_mid_play_stops_cleanly(ros_context, tmp_path, request):

@@ -172,16 +172,22 @@ class Player:
     def _play_once(self, loop_no: int) -> bool:
         opts = self.options
         start_ns = self.index.start_ns + ns_from_seconds(opts.start_offset_s)
-        wall0 = time.monotonic() + opts.delay_s
+        # the wall time [s, monotonic] play began: until then (--delay, the wait for
+        # subscribers) /clock holds the bag's start; it never runs ahead of the play and goes
+        # back (a stall before the first message: a /clock 0.3 s on, then the start again)
+        began: list[float] = []
 
         def bag_of_wall(now: float) -> int:
-            return start_ns + ns_from_seconds(max(now - wall0, 0.0) * opts.rate)
+            if not began:
+                return start_ns
+            return start_ns + ns_from_seconds(max(now - began[0], 0.0) * opts.rate)
 
-        if not self._wait_until(wall0, bag_of_wall, loop_no):
+        if not self._wait_until(time.monotonic() + opts.delay_s, bag_of_wall, loop_no):
             return False
         if opts.wait_for_subscribers and not self._wait_for_subscribers():
             return False
         wall0 = time.monotonic()
+        began.append(wall0)
         source = iter_bag(self.index, list(self.publishers), starting_at=start_ns)
         reader = ReadAhead(source, opts.read_ahead, self.stop)
         try:
