@@ -143,6 +143,24 @@ def spin_until(executor, predicate: Callable[[], bool], timeout: float = 5.0) ->
     return predicate()
 
 
+def call_answered(executor, client, request, timeout: float):
+    """The answer of an idempotent service call (``~/drs``: opening twice is opening), sent
+    again each ``drs_ros.client.RESEND_S`` unanswered, as ``DRSClient.call_drs`` does: a node
+    process that took the request before it had discovered this client's reply reader answers
+    into the void (a service is two topics discovered apart; rcl#1048). None after ``timeout``
+    [s] of wall time."""
+    from drs_ros.client import RESEND_S
+
+    end = time.monotonic() + timeout
+    while True:
+        fut = client.call_async(request)
+        if spin_until(executor, fut.done, min(RESEND_S, max(end - time.monotonic(), 0.0))):
+            return fut.result()
+        client.remove_pending_request(fut)
+        if time.monotonic() >= end:
+            return None
+
+
 def spin_for(executor, seconds: float) -> None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:

@@ -15,7 +15,7 @@ import subprocess
 
 import pytest
 from launch_support import REAR_NAMING, REAR_TOPICS, remap_args
-from node_support import domain_for, node_env, spin_for, spin_until
+from node_support import call_answered, domain_for, node_env, spin_for, spin_until
 from ros_support import require_rclpy, tampered_copy
 
 pytestmark = pytest.mark.ros
@@ -162,8 +162,8 @@ def run_node(tmp_path, domain: int, rung: str, script: list, launch: list[str]):
                 moves.publish(slow_move())
                 spin_for(ex, SLOW_S)
             elif isinstance(step, str):
-                fut = drs.call_async(SetBool.Request(data=step == "open"))
-                assert spin_until(ex, fut.done, ANSWER_S) and fut.result().success
+                answer = call_answered(ex, drs, SetBool.Request(data=step == "open"), ANSWER_S)
+                assert answer is not None and answer.success, answer
             else:
                 fut = params.set_parameters_atomically(step)
                 assert spin_until(ex, fut.done, ANSWER_S)
